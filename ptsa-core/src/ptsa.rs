@@ -1,0 +1,438 @@
+//! The per-tick loop: compensator, ramp, forced-binary quantizer and pulse counter.
+
+use core::num::Wrapping;
+
+use crate::counter::Gate;
+use crate::{
+    COEF_FRAC, Config, ConfigError, INTEGRATOR_LIMIT, LEAD_LIMIT, Level, POLE_FRAC, RAMP_AMPLITUDE,
+};
+
+/// Sense of the torquer current for one clock tick.
+///
+/// `Positive` is the polarity whose ticks are data pulses. Its torque rebalances a positive
+/// acceleration along IA: it drives the pendulum angle, and so the pickoff, negative.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub enum Polarity {
+    /// Data-pulse polarity (H-bridge leg A high, leg B low).
+    Positive,
+    /// The other polarity (leg A low, leg B high).
+    Negative,
+}
+
+impl Polarity {
+    /// `+1` or `-1`.
+    #[must_use]
+    pub const fn sign(self) -> i32 {
+        match self {
+            Self::Positive => 1,
+            Self::Negative => -1,
+        }
+    }
+}
+
+/// Saturation events, each counted once per tick in which the clamp acted. The counters
+/// stick at `u32::MAX` rather than wrap.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Saturations {
+    /// Lead output clamped to `±LEAD_LIMIT`. Stays 0 for every validated configuration.
+    pub lead: u32,
+    /// Integrator clamped to `±1.0` full scale (anti-windup acted).
+    pub integrator: u32,
+    /// Summing junction clamped to `±1.0` full scale.
+    pub output: u32,
+    /// Noise-shaping carry clamped to `±h` (only with `noise_shaping`).
+    pub carry: u32,
+}
+
+/// Everything one tick decides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Tick {
+    /// Torquer polarity for the next clock interval.
+    pub polarity: Polarity,
+    /// When this tick decided the last interval of a limit cycle: that cycle's count of
+    /// positive ticks (data pulses), `0..=N`.
+    pub cycle_pulses: Option<u16>,
+    /// When this tick closed a gate: its pulse and tick counts.
+    pub gate: Option<Gate>,
+}
+
+/// The loop's mutable state. Plain data: `Clone`, `Eq`, and a documented [`State::digest`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct State {
+    /// Previous compensator input `e[n-1]` (pickoff LSB).
+    e_prev: i32,
+    /// Lead output `lead[n-1]`, comparator LSB.
+    lead: i32,
+    /// Integrator, comparator LSB with `COEF_FRAC` extra fraction bits.
+    integ: i64,
+    /// Noise-shaping carry, comparator LSB, `|carry| <= h`.
+    carry: i32,
+    /// Index `k` of the interval the next tick decides, `0..N`.
+    phase: u16,
+    /// Whether this cycle's current has switched to negative.
+    switched: bool,
+    /// Quantizer level `v = u + carry` latched at the switching tick.
+    latched: i32,
+    /// Positive ticks so far in this cycle.
+    cycle_pulses: u16,
+    /// Ticks so far in the open gate.
+    gate_ticks: u32,
+    /// Pulses so far in the open gate.
+    gate_pulses: u32,
+    /// Free-running tick count (wraps; read as differences).
+    total_ticks: Wrapping<u32>,
+    /// Free-running pulse count (wraps; read as differences).
+    total_pulses: Wrapping<u32>,
+    /// Saturation events.
+    sat: Saturations,
+    /// Polarity most recently decided.
+    polarity: Polarity,
+}
+
+impl State {
+    /// The state after reset: filters at zero, at the start of a cycle and of a gate.
+    pub const INITIAL: State = State {
+        e_prev: 0,
+        lead: 0,
+        integ: 0,
+        carry: 0,
+        phase: 0,
+        switched: false,
+        latched: 0,
+        cycle_pulses: 0,
+        gate_ticks: 0,
+        gate_pulses: 0,
+        total_ticks: Wrapping(0),
+        total_pulses: Wrapping(0),
+        sat: Saturations {
+            lead: 0,
+            integrator: 0,
+            output: 0,
+            carry: 0,
+        },
+        polarity: Polarity::Positive,
+    };
+
+    /// Return to [`State::INITIAL`].
+    pub fn reset(&mut self) {
+        *self = Self::INITIAL;
+    }
+
+    /// Saturation counters.
+    #[must_use]
+    pub fn saturations(&self) -> Saturations {
+        self.sat
+    }
+
+    /// Free-running tick count since reset, modulo 2^32.
+    #[must_use]
+    pub fn total_ticks(&self) -> Wrapping<u32> {
+        self.total_ticks
+    }
+
+    /// Free-running pulse count since reset, modulo 2^32. Read it as a difference of two
+    /// readings less than 2^32 ticks apart: the wrap is then harmless.
+    #[must_use]
+    pub fn total_pulses(&self) -> Wrapping<u32> {
+        self.total_pulses
+    }
+
+    /// Index of the interval the next tick decides within the limit cycle.
+    #[must_use]
+    pub fn phase(&self) -> u16 {
+        self.phase
+    }
+
+    /// Integrator value as a fraction of full scale.
+    #[must_use]
+    pub fn integrator(&self) -> Level {
+        // |integ| <= INTEGRATOR_LIMIT, so the shifted value fits in i32.
+        Level::from_bits(i32::try_from(self.integ >> COEF_FRAC).unwrap_or(0))
+    }
+
+    /// The polarity most recently decided.
+    #[must_use]
+    pub fn polarity(&self) -> Polarity {
+        self.polarity
+    }
+
+    /// FNV-1a (64-bit) digest of the whole state, fields in declaration order, each as its
+    /// little-endian bytes (`bool` and `Polarity` as one byte: 1 = true / Positive).
+    #[must_use]
+    pub fn digest(&self) -> u64 {
+        let mut h = Fnv::new();
+        h.bytes(&self.e_prev.to_le_bytes());
+        h.bytes(&self.lead.to_le_bytes());
+        h.bytes(&self.integ.to_le_bytes());
+        h.bytes(&self.carry.to_le_bytes());
+        h.bytes(&self.phase.to_le_bytes());
+        h.bytes(&[u8::from(self.switched)]);
+        h.bytes(&self.latched.to_le_bytes());
+        h.bytes(&self.cycle_pulses.to_le_bytes());
+        h.bytes(&self.gate_ticks.to_le_bytes());
+        h.bytes(&self.gate_pulses.to_le_bytes());
+        h.bytes(&self.total_ticks.0.to_le_bytes());
+        h.bytes(&self.total_pulses.0.to_le_bytes());
+        h.bytes(&self.sat.lead.to_le_bytes());
+        h.bytes(&self.sat.integrator.to_le_bytes());
+        h.bytes(&self.sat.output.to_le_bytes());
+        h.bytes(&self.sat.carry.to_le_bytes());
+        h.bytes(&[u8::from(self.polarity == Polarity::Positive)]);
+        h.0
+    }
+}
+
+impl Default for State {
+    fn default() -> Self {
+        Self::INITIAL
+    }
+}
+
+struct Fnv(u64);
+
+impl Fnv {
+    const fn new() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+    fn bytes(&mut self, b: &[u8]) {
+        for &x in b {
+            self.0 ^= u64::from(x);
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+}
+
+/// A validated loop configuration with its derived constants. Immutable; the mutable part
+/// is a [`State`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct Ptsa {
+    config: Config,
+    n: u16,
+    /// `h = R / N`: half a ramp step, comparator LSB.
+    h: i32,
+    b0: i32,
+    b1: i32,
+    a1: i32,
+    ki: i32,
+}
+
+impl Ptsa {
+    /// Validate `config` and derive the tick's constants.
+    ///
+    /// # Errors
+    /// See [`ConfigError`].
+    pub fn new(config: Config) -> Result<Self, ConfigError> {
+        config.validate()?;
+        Ok(Self {
+            config,
+            n: config.ticks_per_cycle,
+            h: config.half_step(),
+            b0: config.b0.to_bits(),
+            b1: config.b1.to_bits(),
+            a1: config.a1.to_bits(),
+            ki: config.ki.to_bits(),
+        })
+    }
+
+    /// The configuration this loop was built from.
+    #[must_use]
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+
+    /// The reset state.
+    #[must_use]
+    pub fn initial_state(&self) -> State {
+        State::INITIAL
+    }
+
+    /// Ramp value for interval `k` of the cycle: `r[k] = h·(N − 1 − 2k)`, from `R − h` down
+    /// to `−R + h`, comparator LSB.
+    #[must_use]
+    pub fn ramp(&self, k: u16) -> i32 {
+        self.h * (i32::from(self.n) - 1 - 2 * i32::from(k))
+    }
+
+    /// Compensator: lead section plus integrator, summed and clamped. Returns `u`.
+    #[inline(always)]
+    fn compensate(&self, s: &mut State, x: i16) -> i32 {
+        let e = i32::from(x);
+        // Lead: acc (Q46) = (b0·e + b1·e')·2^30/2^16 + a1·lead'; lead = round(acc / 2^30).
+        let fir = i64::from(self.b0) * i64::from(e) + i64::from(self.b1) * i64::from(s.e_prev);
+        let acc = (fir << (POLE_FRAC - COEF_FRAC)) + i64::from(self.a1) * i64::from(s.lead);
+        let lead = (acc + (1 << (POLE_FRAC - 1))) >> POLE_FRAC;
+        let lead = if lead > i64::from(LEAD_LIMIT) {
+            s.sat.lead = s.sat.lead.saturating_add(1);
+            LEAD_LIMIT
+        } else if lead < -i64::from(LEAD_LIMIT) {
+            s.sat.lead = s.sat.lead.saturating_add(1);
+            -LEAD_LIMIT
+        } else {
+            // In range by the branches above.
+            #[allow(clippy::cast_possible_truncation)]
+            let lead = lead as i32;
+            lead
+        };
+        s.lead = lead;
+        s.e_prev = e;
+        // Integrator with clamp (anti-windup).
+        let integ = s.integ + i64::from(self.ki) * i64::from(e);
+        s.integ = if integ > INTEGRATOR_LIMIT {
+            s.sat.integrator = s.sat.integrator.saturating_add(1);
+            INTEGRATOR_LIMIT
+        } else if integ < -INTEGRATOR_LIMIT {
+            s.sat.integrator = s.sat.integrator.saturating_add(1);
+            -INTEGRATOR_LIMIT
+        } else {
+            integ
+        };
+        // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, so no i32 overflow.
+        #[allow(clippy::cast_possible_truncation)]
+        let u = lead + (s.integ >> COEF_FRAC) as i32;
+        if u > RAMP_AMPLITUDE {
+            s.sat.output = s.sat.output.saturating_add(1);
+            RAMP_AMPLITUDE
+        } else if u < -RAMP_AMPLITUDE {
+            s.sat.output = s.sat.output.saturating_add(1);
+            -RAMP_AMPLITUDE
+        } else {
+            u
+        }
+    }
+
+    /// End of a limit cycle: update the carry from the latched level and the count achieved.
+    #[inline(always)]
+    fn close_cycle(&self, s: &mut State) -> u16 {
+        let n = s.cycle_pulses;
+        if self.config.noise_shaping {
+            // Level whose ideal duty is n/N: y = h·(2n − N).
+            let y = self.h * (2 * i32::from(n) - i32::from(self.n));
+            let c = s.latched - y;
+            s.carry = if c > self.h {
+                s.sat.carry = s.sat.carry.saturating_add(1);
+                self.h
+            } else if c < -self.h {
+                s.sat.carry = s.sat.carry.saturating_add(1);
+                -self.h
+            } else {
+                c
+            };
+        }
+        s.phase = 0;
+        s.switched = false;
+        s.cycle_pulses = 0;
+        n
+    }
+
+    /// One 64 kHz clock tick: take the newest pickoff sample `x` (ADC LSB) and decide the
+    /// torquer polarity for the next clock interval.
+    ///
+    /// The order of operations is ARITHMETIC.md's "Tick order"; it never panics and never
+    /// overflows for any `x` and any valid configuration.
+    #[inline]
+    pub fn tick(&self, s: &mut State, x: i16) -> Tick {
+        let u = self.compensate(s, x);
+        let k = s.phase;
+        let v = u + s.carry;
+        if !s.switched && v + self.ramp(k) < 0 {
+            s.switched = true;
+            s.latched = v;
+        }
+        let polarity = if s.switched {
+            Polarity::Negative
+        } else {
+            Polarity::Positive
+        };
+        let pulse = u32::from(!s.switched);
+        s.cycle_pulses += u16::from(!s.switched);
+        s.polarity = polarity;
+        s.total_ticks += 1;
+        s.total_pulses += pulse;
+        s.gate_ticks += 1;
+        s.gate_pulses += pulse;
+        s.phase = k + 1;
+        let cycle_pulses = if s.phase == self.n {
+            if !s.switched {
+                s.latched = v;
+            }
+            Some(self.close_cycle(s))
+        } else {
+            None
+        };
+        let gate = if s.gate_ticks == self.config.gate_ticks {
+            let g = Gate {
+                pulses: s.gate_pulses,
+                ticks: s.gate_ticks,
+            };
+            s.gate_ticks = 0;
+            s.gate_pulses = 0;
+            Some(g)
+        } else {
+            None
+        };
+        Tick {
+            polarity,
+            cycle_pulses,
+            gate,
+        }
+    }
+
+    /// Block form: run `input` through the loop and write one [`Tick`] per sample to `out`
+    /// (`out.len()` must be at least `input.len()`; extra entries are left untouched).
+    ///
+    /// A second formulation of [`Ptsa::tick`], kept bit-identical by test: it steps the ramp
+    /// by `−2h` instead of recomputing it, and takes the cycle count from the switching index
+    /// instead of counting positive ticks.
+    pub fn process_block(&self, s: &mut State, input: &[i16], out: &mut [Tick]) {
+        let mut ramp = self.ramp(s.phase);
+        for (&x, o) in input.iter().zip(out.iter_mut()) {
+            let u = self.compensate(s, x);
+            let v = u + s.carry;
+            if !s.switched && v + ramp < 0 {
+                s.switched = true;
+                s.latched = v;
+                // All earlier intervals of this cycle were positive.
+                s.cycle_pulses = s.phase;
+            }
+            s.phase += 1;
+            ramp -= 2 * self.h;
+            let positive = !s.switched;
+            let pulse = u32::from(positive);
+            s.polarity = if positive {
+                Polarity::Positive
+            } else {
+                Polarity::Negative
+            };
+            s.total_ticks += 1;
+            s.total_pulses += pulse;
+            s.gate_ticks += 1;
+            s.gate_pulses += pulse;
+            o.polarity = s.polarity;
+            o.cycle_pulses = None;
+            if s.phase == self.n {
+                if positive {
+                    s.latched = v;
+                    s.cycle_pulses = self.n;
+                }
+                o.cycle_pulses = Some(self.close_cycle(s));
+                ramp = self.ramp(0);
+            } else if positive {
+                s.cycle_pulses = s.phase;
+            }
+            o.gate = None;
+            if s.gate_ticks == self.config.gate_ticks {
+                o.gate = Some(Gate {
+                    pulses: s.gate_pulses,
+                    ticks: s.gate_ticks,
+                });
+                s.gate_ticks = 0;
+                s.gate_pulses = 0;
+            }
+        }
+    }
+}
