@@ -36,6 +36,8 @@
 #![no_std]
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
+// Every narrowing or widening conversion on the tick path must be visible and justified.
+#![warn(clippy::cast_possible_truncation, clippy::cast_lossless)]
 
 mod bridge;
 mod config;

@@ -1,6 +1,103 @@
-//! `cargo xtask ci`.
+//! `cargo xtask ci`: everything CI runs, in order, stopping at the first failure.
+
+use std::process::Command;
+use std::time::Instant;
+
+use crate::{firmware, golden, util};
+
+/// The embedded target of the firmware and of the ptsa-core cross build.
+pub const THUMB: &str = "thumbv7em-none-eabihf";
+
+/// Add the thumbv7em target with rustup if it is missing.
+pub fn ensure_thumb_target() -> Result<(), String> {
+    let out = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map_err(|e| format!("cannot run rustup to check for the {THUMB} target: {e}"))?;
+    if String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .any(|l| l.trim() == THUMB)
+    {
+        return Ok(());
+    }
+    util::run(&util::root(), "rustup", &["target", "add", THUMB])
+}
 
 /// Run everything CI runs.
-pub fn run(_args: &[String]) -> Result<(), String> {
-    Err("not yet".to_string())
+pub fn run(args: &[String]) -> Result<(), String> {
+    let skip_firmware = match args {
+        [] => false,
+        [a] if a == "--no-firmware" => true,
+        _ => return Err("usage: cargo xtask ci [--no-firmware]".into()),
+    };
+    let root = util::root();
+    let cargo = util::cargo();
+    let t0 = Instant::now();
+    let step = |name: &str| eprintln!("\n== {name} ({:.0} s)", t0.elapsed().as_secs_f64());
+
+    step("rustfmt");
+    util::run(&root, &cargo, &["fmt", "--all", "--", "--check"])?;
+
+    step("clippy (all targets, warnings denied)");
+    util::run(
+        &root,
+        &cargo,
+        &[
+            "clippy",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "-D",
+            "warnings",
+        ],
+    )?;
+
+    step("rustdoc (warnings denied)");
+    let status = Command::new(&cargo)
+        .args(["doc", "--workspace", "--no-deps"])
+        .env("RUSTDOCFLAGS", "-D warnings")
+        .current_dir(&root)
+        .status()
+        .map_err(|e| format!("cannot run cargo doc: {e}"))?;
+    if !status.success() {
+        return Err(format!("cargo doc failed ({status})"));
+    }
+
+    step("golden vectors are what the generator makes");
+    golden::run(&[])?;
+
+    step("host tests (optimised test profile, overflow checks on)");
+    util::run(&root, &cargo, &["test", "--workspace", "--all-targets"])?;
+    util::run(&root, &cargo, &["test", "--workspace", "--doc"])?;
+
+    step("ptsa-core for the Cortex-M4F, with and without defmt");
+    ensure_thumb_target()?;
+    util::run(
+        &root,
+        &cargo,
+        &["build", "-p", "ptsa-core", "--target", THUMB],
+    )?;
+    util::run(
+        &root,
+        &cargo,
+        &[
+            "build",
+            "-p",
+            "ptsa-core",
+            "--target",
+            THUMB,
+            "--features",
+            "defmt",
+        ],
+    )?;
+
+    if skip_firmware {
+        eprintln!("\n(firmware checks skipped by --no-firmware)");
+    } else {
+        step("firmware on the emulated STM32F405 (QEMU)");
+        firmware::ci()?;
+    }
+
+    eprintln!("\nci passed in {:.0} s", t0.elapsed().as_secs_f64());
+    Ok(())
 }

@@ -27,7 +27,9 @@ fn main() -> ExitCode {
         "golden" => golden::run(rest),
         "firmware" => firmware::run(rest),
         "hidden" => hidden::run(rest),
-        other => Err(format!("unknown command `{other}`; expected ci, golden, firmware or hidden")),
+        other => Err(format!(
+            "unknown command `{other}`; expected ci, golden, firmware or hidden"
+        )),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
