@@ -18,7 +18,9 @@ fn main() {
         .nth(1)
         .and_then(|a| a.parse().ok())
         .unwrap_or(1_000_000);
-    let ptsa = Config::DEFAULT.build().expect("default configuration is valid");
+    let ptsa = Config::DEFAULT
+        .build()
+        .expect("default configuration is valid");
     let mut s = ptsa.initial_state();
     let mut theta: i64 = 0;
     let mut pol = Polarity::Positive;

@@ -31,13 +31,11 @@ impl Polarity {
     }
 }
 
-/// Saturation events, each counted once per tick in which the clamp acted. The counters
-/// stick at `u32::MAX` rather than wrap.
+/// Saturation events, each counted once per tick in which the clamp acted. Like the
+/// free-running counts they wrap modulo 2^32; read them as differences.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Saturations {
-    /// Lead output clamped to `±LEAD_LIMIT`. Stays 0 for every validated configuration.
-    pub lead: u32,
     /// Integrator clamped to `±1.0` full scale (anti-windup acted).
     pub integrator: u32,
     /// Summing junction clamped to `±1.0` full scale.
@@ -60,6 +58,9 @@ pub struct Tick {
 }
 
 /// The loop's mutable state. Plain data: `Clone`, `Eq`, and a documented [`State::digest`].
+///
+/// One free-running tick count serves as clock, cycle phase (`ticks mod N`, N a power of
+/// two) and gate timer, so a tick updates as few fields as possible.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct State {
@@ -71,26 +72,24 @@ pub struct State {
     integ: i64,
     /// Noise-shaping carry, comparator LSB, `|carry| <= h`.
     carry: i32,
-    /// Index `k` of the interval the next tick decides, `0..N`.
-    phase: u16,
+    /// Free-running tick count (wraps; read as differences). `ticks mod N` is the index of
+    /// the interval the next tick decides.
+    ticks: Wrapping<u32>,
+    /// Free-running pulse count (wraps; read as differences).
+    pulses: Wrapping<u32>,
     /// Whether this cycle's current has switched to negative.
     switched: bool,
     /// Quantizer level `v = u + carry` latched at the switching tick.
     latched: i32,
-    /// Positive ticks so far in this cycle.
+    /// Positive ticks of the current cycle (set when it switches), or of the last closed
+    /// cycle once it closes.
     cycle_pulses: u16,
-    /// Ticks so far in the open gate.
-    gate_ticks: u32,
-    /// Pulses so far in the open gate.
-    gate_pulses: u32,
-    /// Free-running tick count (wraps; read as differences).
-    total_ticks: Wrapping<u32>,
-    /// Free-running pulse count (wraps; read as differences).
-    total_pulses: Wrapping<u32>,
+    /// Value of `ticks` when the open gate opened.
+    gate_open: Wrapping<u32>,
+    /// Value of `pulses` when the open gate opened.
+    gate_start: Wrapping<u32>,
     /// Saturation events.
     sat: Saturations,
-    /// Polarity most recently decided.
-    polarity: Polarity,
 }
 
 impl State {
@@ -100,21 +99,18 @@ impl State {
         lead: 0,
         integ: 0,
         carry: 0,
-        phase: 0,
+        ticks: Wrapping(0),
+        pulses: Wrapping(0),
         switched: false,
         latched: 0,
         cycle_pulses: 0,
-        gate_ticks: 0,
-        gate_pulses: 0,
-        total_ticks: Wrapping(0),
-        total_pulses: Wrapping(0),
+        gate_open: Wrapping(0),
+        gate_start: Wrapping(0),
         sat: Saturations {
-            lead: 0,
             integrator: 0,
             output: 0,
             carry: 0,
         },
-        polarity: Polarity::Positive,
     };
 
     /// Return to [`State::INITIAL`].
@@ -131,20 +127,14 @@ impl State {
     /// Free-running tick count since reset, modulo 2^32.
     #[must_use]
     pub fn total_ticks(&self) -> Wrapping<u32> {
-        self.total_ticks
+        self.ticks
     }
 
     /// Free-running pulse count since reset, modulo 2^32. Read it as a difference of two
     /// readings less than 2^32 ticks apart: the wrap is then harmless.
     #[must_use]
     pub fn total_pulses(&self) -> Wrapping<u32> {
-        self.total_pulses
-    }
-
-    /// Index of the interval the next tick decides within the limit cycle.
-    #[must_use]
-    pub fn phase(&self) -> u16 {
-        self.phase
+        self.pulses
     }
 
     /// Integrator value as a fraction of full scale.
@@ -154,14 +144,8 @@ impl State {
         Level::from_bits(i32::try_from(self.integ >> COEF_FRAC).unwrap_or(0))
     }
 
-    /// The polarity most recently decided.
-    #[must_use]
-    pub fn polarity(&self) -> Polarity {
-        self.polarity
-    }
-
     /// FNV-1a (64-bit) digest of the whole state, fields in declaration order, each as its
-    /// little-endian bytes (`bool` and `Polarity` as one byte: 1 = true / Positive).
+    /// little-endian bytes (`switched` as one byte, 1 = true).
     #[must_use]
     pub fn digest(&self) -> u64 {
         let mut h = Fnv::new();
@@ -169,19 +153,16 @@ impl State {
         h.bytes(&self.lead.to_le_bytes());
         h.bytes(&self.integ.to_le_bytes());
         h.bytes(&self.carry.to_le_bytes());
-        h.bytes(&self.phase.to_le_bytes());
+        h.bytes(&self.ticks.0.to_le_bytes());
+        h.bytes(&self.pulses.0.to_le_bytes());
         h.bytes(&[u8::from(self.switched)]);
         h.bytes(&self.latched.to_le_bytes());
         h.bytes(&self.cycle_pulses.to_le_bytes());
-        h.bytes(&self.gate_ticks.to_le_bytes());
-        h.bytes(&self.gate_pulses.to_le_bytes());
-        h.bytes(&self.total_ticks.0.to_le_bytes());
-        h.bytes(&self.total_pulses.0.to_le_bytes());
-        h.bytes(&self.sat.lead.to_le_bytes());
+        h.bytes(&self.gate_open.0.to_le_bytes());
+        h.bytes(&self.gate_start.0.to_le_bytes());
         h.bytes(&self.sat.integrator.to_le_bytes());
         h.bytes(&self.sat.output.to_le_bytes());
         h.bytes(&self.sat.carry.to_le_bytes());
-        h.bytes(&[u8::from(self.polarity == Polarity::Positive)]);
         h.0
     }
 }
@@ -213,6 +194,8 @@ impl Fnv {
 pub struct Ptsa {
     config: Config,
     n: u16,
+    /// `N − 1`: `ticks & mask` is the interval index within the cycle.
+    mask: u32,
     /// `h = R / N`: half a ramp step, comparator LSB.
     h: i32,
     b0: i32,
@@ -231,6 +214,7 @@ impl Ptsa {
         Ok(Self {
             config,
             n: config.ticks_per_cycle,
+            mask: u32::from(config.ticks_per_cycle) - 1,
             h: config.half_step(),
             b0: config.b0.to_bits(),
             b1: config.b1.to_bits(),
@@ -251,6 +235,31 @@ impl Ptsa {
         State::INITIAL
     }
 
+    /// Index of the interval the next tick of `s` decides within the limit cycle, `0..N`.
+    #[must_use]
+    pub fn phase(&self, s: &State) -> u16 {
+        // mask < 4096.
+        #[allow(clippy::cast_possible_truncation)]
+        let k = (s.ticks.0 & self.mask) as u16;
+        k
+    }
+
+    /// The polarity most recently decided for `s` (`Positive` before the first tick).
+    #[must_use]
+    pub fn polarity(&self, s: &State) -> Polarity {
+        let last_positive = if s.ticks.0 & self.mask == 0 {
+            // The last interval closed a cycle: positive only if the whole cycle was.
+            s.ticks.0 == 0 || s.cycle_pulses == self.n
+        } else {
+            !s.switched
+        };
+        if last_positive {
+            Polarity::Positive
+        } else {
+            Polarity::Negative
+        }
+    }
+
     /// Ramp value for interval `k` of the cycle: `r[k] = h·(N − 1 − 2k)`, from `R − h` down
     /// to `−R + h`, comparator LSB.
     #[must_use]
@@ -262,71 +271,60 @@ impl Ptsa {
     #[inline(always)]
     fn compensate(&self, s: &mut State, x: i16) -> i32 {
         let e = i32::from(x);
-        // Lead: acc (Q46) = (b0·e + b1·e')·2^30/2^16 + a1·lead'; lead = round(acc / 2^30).
+        // Lead: acc (2^-30 LSB) = (b0·e + b1·e')·2^14 + a1·lead'; lead = round(acc / 2^30).
         let fir = i64::from(self.b0) * i64::from(e) + i64::from(self.b1) * i64::from(s.e_prev);
         let acc = (fir << (POLE_FRAC - COEF_FRAC)) + i64::from(self.a1) * i64::from(s.lead);
         let lead = (acc + (1 << (POLE_FRAC - 1))) >> POLE_FRAC;
-        let lead = if lead > i64::from(LEAD_LIMIT) {
-            s.sat.lead = s.sat.lead.saturating_add(1);
-            LEAD_LIMIT
-        } else if lead < -i64::from(LEAD_LIMIT) {
-            s.sat.lead = s.sat.lead.saturating_add(1);
-            -LEAD_LIMIT
-        } else {
-            // In range by the branches above.
-            #[allow(clippy::cast_possible_truncation)]
-            let lead = lead as i32;
-            lead
-        };
+        // |lead| <= LEAD_LIMIT = 2^30 is proven for every configuration `Ptsa::new` accepts
+        // (ARITHMETIC.md, "Bounds"); the property tests run with this assertion enabled.
+        debug_assert!(
+            lead.abs() <= i64::from(LEAD_LIMIT),
+            "lead bound violated: {lead}"
+        );
+        #[allow(clippy::cast_possible_truncation)]
+        let lead = lead as i32;
         s.lead = lead;
         s.e_prev = e;
         // Integrator with clamp (anti-windup).
         let integ = s.integ + i64::from(self.ki) * i64::from(e);
-        s.integ = if integ > INTEGRATOR_LIMIT {
-            s.sat.integrator = s.sat.integrator.saturating_add(1);
-            INTEGRATOR_LIMIT
-        } else if integ < -INTEGRATOR_LIMIT {
-            s.sat.integrator = s.sat.integrator.saturating_add(1);
-            -INTEGRATOR_LIMIT
-        } else {
-            integ
-        };
+        s.integ = integ.clamp(-INTEGRATOR_LIMIT, INTEGRATOR_LIMIT);
+        s.sat.integrator = s.sat.integrator.wrapping_add(u32::from(s.integ != integ));
         // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, so no i32 overflow.
         #[allow(clippy::cast_possible_truncation)]
-        let u = lead + (s.integ >> COEF_FRAC) as i32;
-        if u > RAMP_AMPLITUDE {
-            s.sat.output = s.sat.output.saturating_add(1);
-            RAMP_AMPLITUDE
-        } else if u < -RAMP_AMPLITUDE {
-            s.sat.output = s.sat.output.saturating_add(1);
-            -RAMP_AMPLITUDE
-        } else {
-            u
-        }
+        let sum = lead + (s.integ >> COEF_FRAC) as i32;
+        let u = sum.clamp(-RAMP_AMPLITUDE, RAMP_AMPLITUDE);
+        s.sat.output = s.sat.output.wrapping_add(u32::from(u != sum));
+        u
     }
 
-    /// End of a limit cycle: update the carry from the latched level and the count achieved.
+    /// End of a limit cycle with `n` positive ticks: update the carry from the latched level.
     #[inline(always)]
-    fn close_cycle(&self, s: &mut State) -> u16 {
-        let n = s.cycle_pulses;
+    fn close_cycle(&self, s: &mut State, n: u16) -> u16 {
         if self.config.noise_shaping {
             // Level whose ideal duty is n/N: y = h·(2n − N).
             let y = self.h * (2 * i32::from(n) - i32::from(self.n));
             let c = s.latched - y;
-            s.carry = if c > self.h {
-                s.sat.carry = s.sat.carry.saturating_add(1);
-                self.h
-            } else if c < -self.h {
-                s.sat.carry = s.sat.carry.saturating_add(1);
-                -self.h
-            } else {
-                c
-            };
+            s.carry = c.clamp(-self.h, self.h);
+            s.sat.carry = s.sat.carry.wrapping_add(u32::from(s.carry != c));
         }
-        s.phase = 0;
         s.switched = false;
-        s.cycle_pulses = 0;
+        s.cycle_pulses = n;
         n
+    }
+
+    /// After `ticks` has advanced: the gate's counts if this tick closed it.
+    #[inline(always)]
+    fn close_gate(&self, s: &mut State) -> Option<Gate> {
+        if (s.ticks - s.gate_open).0 != self.config.gate_ticks {
+            return None;
+        }
+        let g = Gate {
+            pulses: (s.pulses - s.gate_start).0,
+            ticks: self.config.gate_ticks,
+        };
+        s.gate_open = s.ticks;
+        s.gate_start = s.pulses;
+        Some(g)
     }
 
     /// One 64 kHz clock tick: take the newest pickoff sample `x` (ADC LSB) and decide the
@@ -337,48 +335,35 @@ impl Ptsa {
     #[inline]
     pub fn tick(&self, s: &mut State, x: i16) -> Tick {
         let u = self.compensate(s, x);
-        let k = s.phase;
+        let k = self.phase(s);
         let v = u + s.carry;
         if !s.switched && v + self.ramp(k) < 0 {
             s.switched = true;
             s.latched = v;
+            s.cycle_pulses = k;
         }
-        let polarity = if s.switched {
-            Polarity::Negative
-        } else {
-            Polarity::Positive
-        };
-        let pulse = u32::from(!s.switched);
-        s.cycle_pulses += u16::from(!s.switched);
-        s.polarity = polarity;
-        s.total_ticks += 1;
-        s.total_pulses += pulse;
-        s.gate_ticks += 1;
-        s.gate_pulses += pulse;
-        s.phase = k + 1;
-        let cycle_pulses = if s.phase == self.n {
-            if !s.switched {
+        let positive = !s.switched;
+        s.ticks += 1;
+        s.pulses += u32::from(positive);
+        let cycle_pulses = if s.ticks.0 & self.mask == 0 {
+            let n = if positive {
                 s.latched = v;
-            }
-            Some(self.close_cycle(s))
-        } else {
-            None
-        };
-        let gate = if s.gate_ticks == self.config.gate_ticks {
-            let g = Gate {
-                pulses: s.gate_pulses,
-                ticks: s.gate_ticks,
+                self.n
+            } else {
+                s.cycle_pulses
             };
-            s.gate_ticks = 0;
-            s.gate_pulses = 0;
-            Some(g)
+            Some(self.close_cycle(s, n))
         } else {
             None
         };
         Tick {
-            polarity,
+            polarity: if positive {
+                Polarity::Positive
+            } else {
+                Polarity::Negative
+            },
             cycle_pulses,
-            gate,
+            gate: self.close_gate(s),
         }
     }
 
@@ -386,53 +371,43 @@ impl Ptsa {
     /// (`out.len()` must be at least `input.len()`; extra entries are left untouched).
     ///
     /// A second formulation of [`Ptsa::tick`], kept bit-identical by test: it steps the ramp
-    /// by `−2h` instead of recomputing it, and takes the cycle count from the switching index
-    /// instead of counting positive ticks.
+    /// by `−2h` instead of computing `h·(N − 1 − 2k)`, and counts the cycle's positive ticks
+    /// one by one instead of taking them from the switching index.
     pub fn process_block(&self, s: &mut State, input: &[i16], out: &mut [Tick]) {
-        let mut ramp = self.ramp(s.phase);
+        let mut k = self.phase(s);
+        let mut ramp = self.ramp(k);
+        // Positive ticks of the current cycle so far.
+        let mut positive_ticks = if s.switched { s.cycle_pulses } else { k };
         for (&x, o) in input.iter().zip(out.iter_mut()) {
             let u = self.compensate(s, x);
             let v = u + s.carry;
             if !s.switched && v + ramp < 0 {
                 s.switched = true;
                 s.latched = v;
-                // All earlier intervals of this cycle were positive.
-                s.cycle_pulses = s.phase;
+                s.cycle_pulses = positive_ticks;
             }
-            s.phase += 1;
-            ramp -= 2 * self.h;
             let positive = !s.switched;
-            let pulse = u32::from(positive);
-            s.polarity = if positive {
+            positive_ticks += u16::from(positive);
+            o.polarity = if positive {
                 Polarity::Positive
             } else {
                 Polarity::Negative
             };
-            s.total_ticks += 1;
-            s.total_pulses += pulse;
-            s.gate_ticks += 1;
-            s.gate_pulses += pulse;
-            o.polarity = s.polarity;
+            s.ticks += 1;
+            s.pulses += u32::from(positive);
+            k += 1;
+            ramp -= 2 * self.h;
             o.cycle_pulses = None;
-            if s.phase == self.n {
+            if k == self.n {
                 if positive {
                     s.latched = v;
-                    s.cycle_pulses = self.n;
                 }
-                o.cycle_pulses = Some(self.close_cycle(s));
+                o.cycle_pulses = Some(self.close_cycle(s, positive_ticks));
+                k = 0;
                 ramp = self.ramp(0);
-            } else if positive {
-                s.cycle_pulses = s.phase;
+                positive_ticks = 0;
             }
-            o.gate = None;
-            if s.gate_ticks == self.config.gate_ticks {
-                o.gate = Some(Gate {
-                    pulses: s.gate_pulses,
-                    ticks: s.gate_ticks,
-                });
-                s.gate_ticks = 0;
-                s.gate_pulses = 0;
-            }
+            o.gate = self.close_gate(s);
         }
     }
 }

@@ -16,7 +16,7 @@
 //! ` g<P>/<T>` when it closed a gate. After each run (before a new `config`, and at the end):
 //!
 //! ```text
-//! end ticks=<T> pulses=<P> sat=<lead>,<integrator>,<output>,<carry> digest=<16 hex digits>
+//! end ticks=<T> pulses=<P> sat=<integrator>,<output>,<carry> digest=<16 hex digits>
 //! ```
 //!
 //! [`GoldenRunner`] turns an input byte stream into the output text; the host test and the
@@ -204,10 +204,9 @@ pub fn write_end<W: Write>(w: &mut W, s: &State) -> fmt::Result {
     let sat = s.saturations();
     writeln!(
         w,
-        "end ticks={} pulses={} sat={},{},{},{} digest={:016x}",
+        "end ticks={} pulses={} sat={},{},{} digest={:016x}",
         s.total_ticks(),
         s.total_pulses(),
-        sat.lead,
         sat.integrator,
         sat.output,
         sat.carry,

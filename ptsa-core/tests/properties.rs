@@ -145,8 +145,8 @@ proptest! {
         prop_assert!((total - ideal_total).abs() < 2.0, "drift {}", total - ideal_total);
     }
 
-    /// Any valid configuration, any input stream: no panic (overflow checks are on in
-    /// tests), the lead section never needs its clamp, the same input gives the same output,
+    /// Any valid configuration, any input stream: no panic (overflow checks and debug
+    /// assertions are on in tests, so the lead section's proven bound is asserted every tick), the same input gives the same output,
     /// and reset returns the initial state.
     #[test]
     fn no_panic_no_overflow_deterministic(
@@ -162,7 +162,6 @@ proptest! {
         let (b, s2) = run();
         prop_assert_eq!(&a, &b);
         prop_assert_eq!(s, s2);
-        prop_assert_eq!(s.saturations().lead, 0);
         s.reset();
         prop_assert_eq!(s, p.initial_state());
         prop_assert_eq!(s.digest(), State::INITIAL.digest());
@@ -389,7 +388,10 @@ fn recovers_after_over_range() {
                 }
             }
         }
-        assert!(s.saturations().integrator > 0, "over-range must hit the clamp");
+        assert!(
+            s.saturations().integrator > 0,
+            "over-range must hit the clamp"
+        );
         assert!(
             last_bad_cycle <= 50,
             "{over} -> {after}: pickoff still out of band {last_bad_cycle} cycles after"

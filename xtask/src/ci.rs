@@ -66,6 +66,9 @@ pub fn run(args: &[String]) -> Result<(), String> {
     step("golden vectors are what the generator makes");
     golden::run(&[])?;
 
+    step("C twin written from ARITHMETIC.md agrees with every golden vector");
+    golden::check_c_twin()?;
+
     step("host tests (optimised test profile, overflow checks on)");
     util::run(&root, &cargo, &["test", "--workspace", "--all-targets"])?;
     util::run(&root, &cargo, &["test", "--workspace", "--doc"])?;

@@ -1,4 +1,4 @@
-//! Golden vectors: `cargo xtask golden [--overwrite]`.
+//! Golden vectors: `cargo xtask golden [--overwrite | --c-twin]`.
 //!
 //! Every case is an input stream made here by deterministic code (integer arithmetic and a
 //! seeded xorshift generator, so it is the same on every machine) and written to
@@ -305,7 +305,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
     let overwrite = match args {
         [] => false,
         [a] if a == "--overwrite" => true,
-        _ => return Err("usage: cargo xtask golden [--overwrite]".into()),
+        [a] if a == "--c-twin" => return check_c_twin(),
+        _ => return Err("usage: cargo xtask golden [--overwrite | --c-twin]".into()),
     };
     let dir = util::root().join("tests").join("golden");
     fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -347,4 +348,65 @@ fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
     let tmp = path.with_extension("tmp");
     fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
     fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Build the independent C twin (`ptsa-core/c-twin/ptsa_twin.c`, written from ARITHMETIC.md)
+/// with the system C compiler and check it against every golden vector.
+pub fn check_c_twin() -> Result<(), String> {
+    use std::process::{Command, Stdio};
+    let root = util::root();
+    let src = root.join("ptsa-core").join("c-twin").join("ptsa_twin.c");
+    let exe = root.join("target").join("ptsa_twin");
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    util::run(
+        &root,
+        &cc,
+        &[
+            "-O2",
+            "-std=c11",
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-o",
+            &exe.to_string_lossy(),
+            &src.to_string_lossy(),
+        ],
+    )?;
+    let dir = root.join("tests").join("golden");
+    let mut names: Vec<_> = fs::read_dir(&dir)
+        .map_err(|e| format!("{}: {e}", dir.display()))?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "in"))
+        .collect();
+    names.sort();
+    let mut failed = Vec::new();
+    for input in &names {
+        let expected = fs::read_to_string(input.with_extension("out"))
+            .map_err(|e| format!("{}: {e}", input.display()))?;
+        let out = Command::new(&exe)
+            .stdin(fs::File::open(input).map_err(|e| format!("{}: {e}", input.display()))?)
+            .stderr(Stdio::inherit())
+            .output()
+            .map_err(|e| format!("cannot run the C twin: {e}"))?;
+        let got = String::from_utf8_lossy(&out.stdout);
+        if !out.status.success() || got != expected {
+            let line = expected
+                .lines()
+                .zip(got.lines())
+                .position(|(a, b)| a != b)
+                .map_or_else(|| "length".to_string(), |i| format!("line {}", i + 1));
+            failed.push(format!("{} (first difference: {line})", input.display()));
+        }
+    }
+    eprintln!(
+        "C twin: {} passed, {} failed",
+        names.len() - failed.len(),
+        failed.len()
+    );
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("C twin disagrees with:\n  {}", failed.join("\n  ")))
+    }
 }
