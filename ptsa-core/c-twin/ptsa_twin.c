@@ -51,9 +51,8 @@ static int tick(const config_t *c, state_t *s, int16_t x, int *cycle, int64_t *g
     int32_t h = R / c->n;
     int64_t e = x;
     /* 2. lead */
-    int64_t fir = (int64_t)c->b0 * e + (int64_t)c->b1 * s->e_prev;
-    int64_t acc = fir * ((int64_t)1 << 14) + (int64_t)c->a1 * s->lead;
-    int64_t lead = asr(acc + ((int64_t)1 << 29), 30);
+    int64_t acc = (int64_t)c->b0 * e + (int64_t)c->b1 * s->e_prev + (int64_t)c->a1 * s->lead;
+    int64_t lead = asr(acc + ((int64_t)1 << 15), 16);
     s->lead = (int32_t)lead;
     s->e_prev = (int32_t)e;
     /* 3. integrator */

@@ -1,6 +1,6 @@
 //! Loop configuration and its validation.
 
-use fixed::types::extra::{U16, U24, U30};
+use fixed::types::extra::{U16, U24};
 use fixed::{FixedI32, FixedU32};
 
 use crate::{LEAD_LIMIT, MAX_TICKS_PER_CYCLE, POLE_FRAC, Ptsa, RAMP_AMPLITUDE};
@@ -8,8 +8,9 @@ use crate::{LEAD_LIMIT, MAX_TICKS_PER_CYCLE, POLE_FRAC, Ptsa, RAMP_AMPLITUDE};
 /// Per-sample gain, Q15.16: comparator LSBs per pickoff LSB (`b0`, `b1`, `ki`).
 pub type Coef = FixedI32<U16>;
 
-/// Lead pole, Q1.30: dimensionless, `|a1| < 1` for a stable section.
-pub type Pole = FixedI32<U30>;
+/// Lead pole, Q15.16: dimensionless, `|a1| < 1` for a stable section (resolution 2^-16,
+/// i.e. a pole frequency resolved to 0.1% at 200 Hz on a 64 kHz clock).
+pub type Pole = FixedI32<U16>;
 
 /// A comparator-domain value, Q7.24: `1.0` is the ramp amplitude, i.e. the loop's full scale.
 pub type Level = FixedI32<U24>;
@@ -127,12 +128,12 @@ impl Config {
         }
         let b0 = i128::from(self.b0.to_bits());
         let b1 = i128::from(self.b1.to_bits());
-        // All terms in units of 2^-(COEF_FRAC + POLE_FRAC) comparator LSB per pickoff LSB.
-        let tail = (b0 * a + (b1 << POLE_FRAC)).unsigned_abs(); // |b0·a1 + b1|, Q46
-        let d = (one - a.abs()).unsigned_abs(); // 1 - |a1|, Q30
-        let b0 = b0.unsigned_abs(); // |b0|, Q16
-        // bound = 2^15·(b0/2^16 + tail/2^46 / (d/2^30)) + 2^-1 / (d/2^30)
-        //       = (b0·d + tail + 2^30) / (2·d)
+        // F = POLE_FRAC = COEF_FRAC = 16.
+        let tail = (b0 * a + (b1 << POLE_FRAC)).unsigned_abs(); // |b0·a1 + b1|, Q2F
+        let d = (one - a.abs()).unsigned_abs(); // 1 - |a1|, QF
+        let b0 = b0.unsigned_abs(); // |b0|, QF
+        // bound = 2^15·(b0/2^F + tail/2^2F / (d/2^F)) + 2^-1 / (d/2^F)
+        //       = (b0·d + tail + 2^F) / (2·d)      (with F = 16, 2^15 = 2^(F-1))
         let num = b0 * d + tail + (1u128 << POLE_FRAC);
         let bound = num.div_ceil(2 * d);
         Some(u64::try_from(bound).unwrap_or(u64::MAX))
@@ -196,9 +197,9 @@ impl Default for Config {
     }
 }
 
-// Default compensator, Q15.16 / Q1.30 bits. Recomputed and checked by `ptsa-host-sim`'s
+// Default compensator, Q15.16 bits. Recomputed and checked by `ptsa-host-sim`'s
 // design test; do not edit by hand (run `ptsa design --print-core-constants`).
 const DEFAULT_B0_BITS: i32 = 362_602_752;
 const DEFAULT_B1_BITS: i32 = -360_827_191;
-const DEFAULT_A1_BITS: i32 = 1_052_864_585;
+const DEFAULT_A1_BITS: i32 = 64_262;
 const DEFAULT_KI_BITS: i32 = 224_131;

@@ -60,8 +60,9 @@ pub const RAMP_AMPLITUDE: i32 = 1 << LEVEL_FRAC;
 /// Fraction bits of the per-sample gains `b0`, `b1`, `ki` ([`Coef`]).
 pub const COEF_FRAC: u32 = 16;
 
-/// Fraction bits of the lead pole `a1` ([`Pole`]).
-pub const POLE_FRAC: u32 = 30;
+/// Fraction bits of the lead pole `a1` ([`Pole`]); equal to [`COEF_FRAC`] so that the three
+/// products of the lead section accumulate in one format.
+pub const POLE_FRAC: u32 = 16;
 
 /// Bound on the lead section's output, in comparator LSBs: the configuration is refused unless
 /// it provably keeps `|lead| <= LEAD_LIMIT` for every input stream.
@@ -79,5 +80,6 @@ const _: () = {
     assert!(LEVEL_FRAC + 2 <= 31);
     assert!(RAMP_AMPLITUDE % MAX_TICKS_PER_CYCLE as i32 == 0);
     assert!((LEAD_LIMIT as i64) + (INTEGRATOR_LIMIT >> COEF_FRAC) <= i32::MAX as i64);
-    assert!(POLE_FRAC > COEF_FRAC);
+    // One accumulator format for the whole lead section: no shifts between products.
+    assert!(POLE_FRAC == COEF_FRAC);
 };

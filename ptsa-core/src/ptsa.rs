@@ -271,9 +271,10 @@ impl Ptsa {
     #[inline(always)]
     fn compensate(&self, s: &mut State, x: i16) -> i32 {
         let e = i32::from(x);
-        // Lead: acc (2^-30 LSB) = (b0·e + b1·e')·2^14 + a1·lead'; lead = round(acc / 2^30).
-        let fir = i64::from(self.b0) * i64::from(e) + i64::from(self.b1) * i64::from(s.e_prev);
-        let acc = (fir << (POLE_FRAC - COEF_FRAC)) + i64::from(self.a1) * i64::from(s.lead);
+        // Lead: acc (2^-16 LSB) = b0·e + b1·e' + a1·lead'; lead = round(acc / 2^16).
+        let acc = i64::from(self.b0) * i64::from(e)
+            + i64::from(self.b1) * i64::from(s.e_prev)
+            + i64::from(self.a1) * i64::from(s.lead);
         let lead = (acc + (1 << (POLE_FRAC - 1))) >> POLE_FRAC;
         // |lead| <= LEAD_LIMIT = 2^30 is proven for every configuration `Ptsa::new` accepts
         // (ARITHMETIC.md, "Bounds"); the property tests run with this assertion enabled.

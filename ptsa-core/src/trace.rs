@@ -4,10 +4,10 @@
 //! are ignored. One `config` line comes before the first sample:
 //!
 //! ```text
-//! config n=64 b0=362602752 b1=-360827191 a1=1052864585 ki=224131 gate=640 shaping=0
+//! config n=64 b0=362602752 b1=-360827191 a1=64262 ki=224131 gate=640 shaping=0
 //! ```
 //!
-//! (`b0`, `b1`, `ki` are the raw bits of Q15.16 values, `a1` of a Q1.30 value, `gate` the
+//! (`b0`, `b1`, `ki` are the raw bits of Q15.16 values, `a1` of a Q15.16 value too, `gate` the
 //! preset in ticks, `shaping` 0 or 1). Every other line is one pickoff sample, a decimal
 //! `i16`. A later `config` line rebuilds the loop and resets the state.
 //!

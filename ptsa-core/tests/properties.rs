@@ -37,7 +37,7 @@ fn valid_config() -> impl Strategy<Value = Config> {
         ticks_per_cycle(),
         any::<i32>(),
         any::<i32>(),
-        any::<i32>(),
+        -(1i32 << 16) - 8..(1 << 16) + 8,
         0..i32::MAX,
         1u32..5000,
         any::<bool>(),
@@ -254,7 +254,7 @@ fn bad_configurations_are_refused_not_panicked() {
         ),
         (
             Config {
-                a1: Pole::from_bits(1 << 30),
+                a1: Pole::from_bits(1 << 16),
                 ..d
             },
             "UnstableLead",
