@@ -399,3 +399,36 @@ fn recovers_after_over_range() {
         println!("{over} -> {after}: back in band within {last_bad_cycle} limit cycles");
     }
 }
+
+proptest! {
+    /// The gate FIFO never loses a count: for any interleaving of pushes (from the tick
+    /// interrupt) and pops (from the reporting loop), what was pushed equals what was
+    /// popped plus what is still queued, gate for gate and pulse for pulse, in order.
+    #[test]
+    fn gate_fifo_loses_no_count(ops in proptest::collection::vec((any::<bool>(), 0u32..1000), 0..400)) {
+        use ptsa_core::{Gate, GateFifo};
+        let mut q: GateFifo<4> = GateFifo::new();
+        let (mut pushed_p, mut pushed_t, mut pushed_g) = (0u64, 0u64, 0u64);
+        let (mut popped_p, mut popped_t, mut popped_g) = (0u64, 0u64, 0u64);
+        for (push, p) in ops {
+            if push {
+                q.push(Gate { pulses: p, ticks: 1000 });
+                pushed_p += u64::from(p);
+                pushed_t += 1000;
+                pushed_g += 1;
+            } else if let Some(c) = q.pop() {
+                prop_assert_eq!(c.ticks, 1000 * u64::from(c.gates));
+                popped_p += c.pulses;
+                popped_t += c.ticks;
+                popped_g += u64::from(c.gates);
+            }
+            prop_assert!(q.len() <= 4);
+        }
+        while let Some(c) = q.pop() {
+            popped_p += c.pulses;
+            popped_t += c.ticks;
+            popped_g += u64::from(c.gates);
+        }
+        prop_assert_eq!((pushed_p, pushed_t, pushed_g), (popped_p, popped_t, popped_g));
+    }
+}
