@@ -1,6 +1,595 @@
-//! Firmware build and QEMU checks (filled in by the firmware work).
+//! Firmware build and QEMU checks: `cargo xtask firmware`, and the firmware part of
+//! `cargo xtask ci` ([`ci`]).
+//!
+//! What is checked (each is one "check" in the closing `N passed, M failed` line):
+//!
+//! 1. every golden vector `tests/golden/*.in` run by the test image `golden` on QEMU's
+//!    `netduinoplus2` (an STM32F405, Cortex-M4F) gives exactly `tests/golden/*.out`;
+//! 2. the worst-case instruction count of the whole tick interrupt over all vectors, measured
+//!    by the test image under `-icount shift=0`, is at most [`MAX_TICK_INSTRUCTIONS`];
+//! 3. flash and static RAM of the production image `ptsa` (board build, defmt included),
+//!    read from its ELF section headers, are at most [`MAX_FLASH`] and [`MAX_RAM`] bytes;
+//! 4. the production image built for QEMU (`--features qemu`) runs its timer interrupt,
+//!    reports [`PRODUCTION_GATES`] gates of [`PRODUCTION_GATE_TICKS`] ticks and exits 0.
 
-/// `cargo xtask firmware [--overwrite]`.
-pub fn run(_args: &[String]) -> Result<(), String> {
-    Err("the firmware checks are not implemented yet".to_string())
+use std::fmt::Write as _;
+use std::io::Read as _;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use crate::util;
+
+/// Rust target of the firmware.
+pub const TARGET: &str = "thumbv7em-none-eabihf";
+/// Budget: instructions per tick of the whole interrupt handler, worst case.
+pub const MAX_TICK_INSTRUCTIONS: u32 = 150;
+/// Budget: flash of the production image, bytes (`.vector_table`, `.text`, `.rodata`,
+/// `.data` initialisers).
+pub const MAX_FLASH: u64 = 16 * 1024;
+/// Budget: static RAM of the production image, bytes (`.data`, `.bss`, `.uninit`).
+pub const MAX_RAM: u64 = 2 * 1024;
+/// Gates the production image reports under QEMU before it exits.
+pub const PRODUCTION_GATES: usize = 3;
+/// Gate length of the production image under QEMU, ticks.
+pub const PRODUCTION_GATE_TICKS: u64 = 6_400;
+/// Wall-clock limit for one QEMU run.
+const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
+/// Start of RAM in `memory.x`.
+const RAM_START: u64 = 0x2000_0000;
+
+/// `cargo xtask firmware [--vector NAME]...`: set up, build, run the checks (all vectors,
+/// or only the named ones).
+pub fn run(args: &[String]) -> Result<(), String> {
+    let mut only = Vec::new();
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--vector" => only.push(
+                it.next()
+                    .ok_or("--vector needs a vector name (e.g. zero)")?
+                    .clone(),
+            ),
+            other => {
+                return Err(format!(
+                    "unknown argument `{other}`; usage: cargo xtask firmware [--vector NAME]..."
+                ));
+            }
+        }
+    }
+    check(&only)
+}
+
+/// The firmware part of `cargo xtask ci`: set-up, builds, every golden vector on the
+/// emulated MCU, budgets, the production image under QEMU. Prints `N passed, M failed`.
+pub fn ci() -> Result<(), String> {
+    check(&[])
+}
+
+fn check(only: &[String]) -> Result<(), String> {
+    let root = util::root();
+    let fw = root.join("firmware");
+    let t0 = Instant::now();
+    ensure_target()?;
+    let qemu = ensure_qemu()?;
+    eprintln!("firmware: using {qemu}");
+
+    // The board build: production image for the size budget, test image for the vectors.
+    cargo_firmware(&fw, &["build", "--release", "--bins"])?;
+    let elf_dir = fw.join("target").join(TARGET).join("release");
+    let mut report = Report::default();
+    size_checks(&elf_dir.join("ptsa"), &mut report)?;
+
+    let vectors = golden_vectors(&root, only)?;
+    if vectors.is_empty() {
+        return Err("no golden vectors in tests/golden/*.in".into());
+    }
+    let out_dir = fw.join("target").join("golden-out");
+    std::fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+    let golden_elf = elf_dir.join("golden");
+    let mut worst: Option<(u32, String)> = None;
+    let mut worst_plain: u32 = 0;
+    let mut means = Vec::new();
+    for name in &vectors {
+        match run_vector(&root, &golden_elf, &out_dir, name) {
+            Ok(b) => {
+                report.pass(&format!("golden {name}: bit-exact ({} ticks)", b.ticks));
+                if worst.as_ref().is_none_or(|(w, _)| b.max > *w) {
+                    worst = Some((b.max, name.clone()));
+                }
+                worst_plain = worst_plain.max(b.max_plain);
+                means.push(b.mean);
+            }
+            Err(e) => report.fail(&format!("golden {name}: {e}")),
+        }
+    }
+    match worst {
+        Some((max, name)) => {
+            let msg = format!(
+                "tick interrupt: worst case {max} instructions (vector {name}; {worst_plain} on \
+                 ticks that close no gate; limit {MAX_TICK_INSTRUCTIONS}); means per vector \
+                 {}..{}",
+                means.iter().copied().fold(f64::INFINITY, f64::min),
+                means.iter().copied().fold(0.0, f64::max),
+            );
+            if max <= MAX_TICK_INSTRUCTIONS {
+                report.pass(&msg);
+            } else {
+                report.fail(&msg);
+            }
+        }
+        None => report.fail("tick interrupt: no vector ran, nothing measured"),
+    }
+
+    // The production image on the emulated board.
+    match production_under_qemu(&root, &fw, &elf_dir.join("ptsa")) {
+        Ok(msg) => report.pass(&msg),
+        Err(e) => report.fail(&format!("production image under QEMU: {e}")),
+    }
+
+    eprintln!("firmware checks took {:.0} s", t0.elapsed().as_secs_f64());
+    println!("{} passed, {} failed", report.passed, report.failed);
+    if report.failed == 0 {
+        Ok(())
+    } else {
+        Err(format!("{} firmware check(s) failed", report.failed))
+    }
+}
+
+#[derive(Default)]
+struct Report {
+    passed: usize,
+    failed: usize,
+}
+
+impl Report {
+    fn pass(&mut self, msg: &str) {
+        self.passed += 1;
+        println!("ok   {msg}");
+    }
+    fn fail(&mut self, msg: &str) {
+        self.failed += 1;
+        println!("FAIL {msg}");
+    }
+}
+
+/// Add the Rust target with rustup if it is missing.
+fn ensure_target() -> Result<(), String> {
+    let out = Command::new("rustup")
+        .args(["target", "list", "--installed"])
+        .output()
+        .map_err(|e| format!("cannot run rustup to check for the {TARGET} target: {e}"))?;
+    if String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .any(|l| l.trim() == TARGET)
+    {
+        return Ok(());
+    }
+    util::run(&util::root(), "rustup", &["target", "add", TARGET])
+}
+
+/// Make sure `qemu-system-arm` runs: install Debian's package when missing and root,
+/// otherwise fail saying what to install. Returns its version line.
+fn ensure_qemu() -> Result<String, String> {
+    if let Some(v) = qemu_version() {
+        return Ok(v);
+    }
+    let uid = Command::new("id")
+        .arg("-u")
+        .output()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        .unwrap_or_default();
+    if uid != "0" {
+        return Err(
+            "qemu-system-arm is missing: install Debian's `qemu-system-arm` package \
+             (`sudo apt-get install qemu-system-arm`) and rerun"
+                .into(),
+        );
+    }
+    let apt = |args: &[&str]| -> Result<(), String> {
+        eprintln!("+ apt-get {}", args.join(" "));
+        let status = Command::new("apt-get")
+            .args(args)
+            .env("DEBIAN_FRONTEND", "noninteractive")
+            .status()
+            .map_err(|e| format!("cannot run apt-get: {e}"))?;
+        if status.success() {
+            Ok(())
+        } else {
+            Err(format!("`apt-get {}` failed ({status})", args.join(" ")))
+        }
+    };
+    apt(&["update", "-qq"])?;
+    apt(&["install", "-y", "-qq", "qemu-system-arm"])?;
+    qemu_version().ok_or_else(|| {
+        "qemu-system-arm still does not run after installing Debian's qemu-system-arm".into()
+    })
+}
+
+fn qemu_version() -> Option<String> {
+    let out = Command::new("qemu-system-arm")
+        .arg("--version")
+        .output()
+        .ok()?;
+    if !out.status.success() {
+        return None;
+    }
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .next()
+        .map(str::to_string)
+}
+
+/// Run cargo in the firmware crate (its own `.cargo/config.toml` sets the target) with its
+/// own target directory, whatever the caller's `CARGO_TARGET_DIR`.
+fn cargo_firmware(fw: &Path, args: &[&str]) -> Result<(), String> {
+    let cargo = util::cargo();
+    eprintln!("+ (cd firmware && cargo {})", args.join(" "));
+    let status = Command::new(&cargo)
+        .args(args)
+        .current_dir(fw)
+        .env("CARGO_TARGET_DIR", fw.join("target"))
+        .env_remove("RUSTFLAGS")
+        .env_remove("CARGO_BUILD_TARGET")
+        .status()
+        .map_err(|e| format!("cannot start `{cargo}`: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!(
+            "firmware `cargo {}` failed ({status})",
+            args.join(" ")
+        ))
+    }
+}
+
+/// Names (file stems) of the golden vectors, sorted; `only` filters when not empty.
+fn golden_vectors(root: &Path, only: &[String]) -> Result<Vec<String>, String> {
+    let dir = root.join("tests").join("golden");
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .map_err(|e| format!("cannot list {}: {e}", dir.display()))?
+        .filter_map(Result::ok)
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "in"))
+        .filter_map(|p| p.file_stem().map(|s| s.to_string_lossy().into_owned()))
+        .collect();
+    names.sort();
+    if !only.is_empty() {
+        for o in only {
+            if !names.contains(o) {
+                return Err(format!("no golden vector `{o}` in {}", dir.display()));
+            }
+        }
+        names.retain(|n| only.contains(n));
+    }
+    Ok(names)
+}
+
+/// Instruction counts of one vector, as the test image printed them.
+struct Budget {
+    ticks: u64,
+    max: u32,
+    max_plain: u32,
+    mean: f64,
+}
+
+/// Run one vector on QEMU and compare its output.
+fn run_vector(root: &Path, elf: &Path, out_dir: &Path, name: &str) -> Result<Budget, String> {
+    let input = format!("tests/golden/{name}.in");
+    let out_path = out_dir.join(format!("{name}.out"));
+    let out_rel = out_path
+        .strip_prefix(root)
+        .map(Path::to_path_buf)
+        .unwrap_or_else(|_| out_path.clone());
+    let _ = std::fs::remove_file(&out_path);
+    for p in [&input, &out_rel.display().to_string()] {
+        if p.contains(char::is_whitespace) {
+            return Err(format!(
+                "path `{p}` contains white space (semihosting splits on it)"
+            ));
+        }
+    }
+    let semihosting = format!(
+        "enable=on,target=native,arg=golden,arg={input},arg={}",
+        out_rel.display()
+    );
+    let run = qemu(root, elf, &["-semihosting-config", &semihosting])?;
+    if !run.status_ok {
+        return Err(format!(
+            "the test image failed ({}): {}",
+            run.status,
+            run.stderr.trim()
+        ));
+    }
+    let got =
+        std::fs::read(&out_path).map_err(|e| format!("no output {}: {e}", out_path.display()))?;
+    let expected_path = root
+        .join("tests")
+        .join("golden")
+        .join(format!("{name}.out"));
+    let expected = std::fs::read(&expected_path)
+        .map_err(|e| format!("cannot read {}: {e}", expected_path.display()))?;
+    if got != expected {
+        return Err(first_difference(&expected, &got, &expected_path, &out_path));
+    }
+    parse_budget(&run.stdout)
+}
+
+/// Describe the first differing line: its number, the tick it belongs to, both texts.
+fn first_difference(expected: &[u8], got: &[u8], exp_path: &Path, got_path: &Path) -> String {
+    let e = String::from_utf8_lossy(expected);
+    let g = String::from_utf8_lossy(got);
+    let mut el = e.split_inclusive('\n');
+    let mut gl = g.split_inclusive('\n');
+    let mut tick = 0u64;
+    let mut line = 0u64;
+    loop {
+        line += 1;
+        let (a, b) = (el.next(), gl.next());
+        if a == b {
+            match a {
+                Some(a) if !a.starts_with("end ") => tick += 1,
+                Some(_) => tick = 0,
+                None => break,
+            }
+            continue;
+        }
+        let show = |s: Option<&str>| {
+            s.map_or("<end of file>".to_string(), |s| {
+                format!("`{}`", s.trim_end_matches('\n'))
+            })
+        };
+        let what = if a.is_some_and(|a| a.starts_with("end ")) {
+            "the run's `end` line".to_string()
+        } else {
+            format!("tick {} of its run", tick + 1)
+        };
+        return format!(
+            "output differs at line {line} ({what}): expected {}, got {} (expected {}, got {})",
+            show(a),
+            show(b),
+            exp_path.display(),
+            got_path.display()
+        );
+    }
+    "outputs differ".to_string()
+}
+
+/// Parse `budget ticks=.. max=.. max_plain=.. max_gate=.. mean=.. overhead=..`.
+fn parse_budget(stdout: &str) -> Result<Budget, String> {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("budget "))
+        .ok_or_else(|| format!("no `budget` line in the test image's output: {stdout:?}"))?;
+    let field = |k: &str| -> Result<&str, String> {
+        line.split_whitespace()
+            .find_map(|w| w.strip_prefix(k).and_then(|r| r.strip_prefix('=')))
+            .ok_or_else(|| format!("no `{k}` in `{line}`"))
+    };
+    let num = |k: &str| -> Result<u64, String> {
+        field(k)?
+            .parse()
+            .map_err(|_| format!("bad `{k}` in `{line}`"))
+    };
+    let to32 = |v: u64| u32::try_from(v).unwrap_or(u32::MAX);
+    Ok(Budget {
+        ticks: num("ticks")?,
+        max: to32(num("max")?),
+        max_plain: to32(num("max_plain")?),
+        mean: field("mean")?
+            .parse()
+            .map_err(|_| format!("bad `mean` in `{line}`"))?,
+    })
+}
+
+/// What a QEMU run gave.
+struct QemuRun {
+    status_ok: bool,
+    status: String,
+    stdout: String,
+    stderr: String,
+}
+
+/// Run `elf` on `netduinoplus2` with `-icount shift=0` (one nanosecond of virtual time per
+/// instruction, so QEMU's 1 GHz timers count instructions), in `dir`.
+fn qemu(dir: &Path, elf: &Path, extra: &[&str]) -> Result<QemuRun, String> {
+    let mut cmd = Command::new("qemu-system-arm");
+    cmd.args([
+        "-M",
+        "netduinoplus2",
+        "-display",
+        "none",
+        "-monitor",
+        "none",
+        "-serial",
+        "none",
+        "-icount",
+        "shift=0,sleep=off",
+        "-kernel",
+    ])
+    .arg(elf)
+    .args(extra)
+    .current_dir(dir)
+    .stdin(Stdio::null())
+    .stdout(Stdio::piped())
+    .stderr(Stdio::piped());
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| format!("cannot start qemu-system-arm: {e}"))?;
+    let mut so = child.stdout.take().ok_or("no stdout pipe")?;
+    let mut se = child.stderr.take().ok_or("no stderr pipe")?;
+    let ho = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = so.read_to_string(&mut s);
+        s
+    });
+    let he = std::thread::spawn(move || {
+        let mut s = String::new();
+        let _ = se.read_to_string(&mut s);
+        s
+    });
+    let start = Instant::now();
+    let status = loop {
+        if let Some(st) = child
+            .try_wait()
+            .map_err(|e| format!("waiting for qemu: {e}"))?
+        {
+            break st;
+        }
+        if start.elapsed() > QEMU_TIMEOUT {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(format!(
+                "QEMU did not finish within {} s (killed)",
+                QEMU_TIMEOUT.as_secs()
+            ));
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    };
+    Ok(QemuRun {
+        status_ok: status.success(),
+        status: status.to_string(),
+        stdout: ho.join().unwrap_or_default(),
+        stderr: he.join().unwrap_or_default(),
+    })
+}
+
+/// Flash and static RAM of an ELF, from its section headers.
+fn size_checks(elf: &Path, report: &mut Report) -> Result<(), String> {
+    let bytes = std::fs::read(elf).map_err(|e| format!("cannot read {}: {e}", elf.display()))?;
+    let sections = elf32_sections(&bytes).map_err(|e| format!("{}: {e}", elf.display()))?;
+    let mut flash = 0u64;
+    let mut ram = 0u64;
+    let mut detail = String::new();
+    for s in sections.iter().filter(|s| s.alloc && s.size > 0) {
+        let in_ram = s.addr >= RAM_START;
+        if in_ram {
+            ram += s.size;
+        }
+        if s.progbits {
+            flash += s.size; // RAM sections with contents (.data) are loaded from flash
+        }
+        let _ = write!(detail, " {}={}", s.name, s.size);
+    }
+    let line = |what: &str, v: u64, max: u64| {
+        format!("production image {what}: {v} bytes (limit {max}; sections:{detail})")
+    };
+    if flash <= MAX_FLASH {
+        report.pass(&line("flash", flash, MAX_FLASH));
+    } else {
+        report.fail(&line("flash", flash, MAX_FLASH));
+    }
+    if ram <= MAX_RAM {
+        report.pass(&line("static RAM", ram, MAX_RAM));
+    } else {
+        report.fail(&line("static RAM", ram, MAX_RAM));
+    }
+    Ok(())
+}
+
+struct Section {
+    name: String,
+    addr: u64,
+    size: u64,
+    alloc: bool,
+    progbits: bool,
+}
+
+/// Section headers of a little-endian ELF32 file.
+fn elf32_sections(b: &[u8]) -> Result<Vec<Section>, String> {
+    let u16_at = |o: usize| -> Result<u64, String> {
+        b.get(o..o + 2)
+            .map(|s| u64::from(u16::from_le_bytes([s[0], s[1]])))
+            .ok_or_else(|| "truncated ELF".to_string())
+    };
+    let u32_at = |o: usize| -> Result<u64, String> {
+        b.get(o..o + 4)
+            .map(|s| u64::from(u32::from_le_bytes([s[0], s[1], s[2], s[3]])))
+            .ok_or_else(|| "truncated ELF".to_string())
+    };
+    if b.get(..6) != Some(&[0x7f, b'E', b'L', b'F', 1, 1][..]) {
+        return Err("not a little-endian ELF32 file".into());
+    }
+    let idx = |v: u64| usize::try_from(v).map_err(|_| "ELF offset too large".to_string());
+    let shoff = idx(u32_at(0x20)?)?;
+    let shentsize = idx(u16_at(0x2e)?)?;
+    let shnum = idx(u16_at(0x30)?)?;
+    let shstrndx = idx(u16_at(0x32)?)?;
+    let header = |i: usize| shoff + i * shentsize;
+    let strtab = idx(u32_at(header(shstrndx) + 16)?)?;
+    let mut out = Vec::with_capacity(shnum);
+    for i in 0..shnum {
+        let h = header(i);
+        let name_off = strtab + idx(u32_at(h)?)?;
+        let name_end = b
+            .get(name_off..)
+            .and_then(|s| s.iter().position(|&c| c == 0))
+            .ok_or("bad section name")?;
+        let sh_type = u32_at(h + 4)?;
+        let flags = u32_at(h + 8)?;
+        out.push(Section {
+            name: String::from_utf8_lossy(&b[name_off..name_off + name_end]).into_owned(),
+            addr: u32_at(h + 12)?,
+            size: u32_at(h + 20)?,
+            alloc: flags & 2 != 0,
+            progbits: sh_type != 8, // SHT_NOBITS
+        });
+    }
+    Ok(out)
+}
+
+/// Build the production image for QEMU and run it: TIM2 at 64 kHz of virtual time, the loop
+/// on QEMU's (synthetic) ADC samples, gates reported through semihosting.
+fn production_under_qemu(root: &Path, fw: &Path, elf: &Path) -> Result<String, String> {
+    cargo_firmware(
+        fw,
+        &["build", "--release", "--bin", "ptsa", "--features", "qemu"],
+    )?;
+    let run = qemu(
+        root,
+        elf,
+        &["-semihosting-config", "enable=on,target=native"],
+    )?;
+    if !run.status_ok {
+        return Err(format!(
+            "exited with {}; stdout: {:?}; stderr: {:?}",
+            run.status,
+            run.stdout.trim(),
+            run.stderr.trim()
+        ));
+    }
+    let gates: Vec<&str> = run
+        .stdout
+        .lines()
+        .filter(|l| l.starts_with("gate "))
+        .collect();
+    if gates.len() != PRODUCTION_GATES {
+        return Err(format!(
+            "expected {PRODUCTION_GATES} gate reports, got {}: {:?}",
+            gates.len(),
+            run.stdout
+        ));
+    }
+    let mut summary = Vec::new();
+    for g in &gates {
+        let field = |k: &str| -> Option<u64> {
+            g.split_whitespace()
+                .find_map(|w| w.strip_prefix(k)?.strip_prefix('=')?.parse().ok())
+        };
+        let (Some(p), Some(t), Some(n)) = (field("P"), field("T"), field("gates")) else {
+            return Err(format!("malformed gate report `{g}`"));
+        };
+        if t != PRODUCTION_GATE_TICKS || n != 1 || p > t {
+            return Err(format!(
+                "gate report `{g}`: expected T={PRODUCTION_GATE_TICKS}, gates=1, P<=T"
+            ));
+        }
+        summary.push(format!("{p}/{t}"));
+    }
+    Ok(format!(
+        "production image under QEMU: 64 kHz TIM2 interrupt ran, {} gates reported (P/T: {})",
+        gates.len(),
+        summary.join(", ")
+    ))
 }

@@ -1,0 +1,101 @@
+//! Production image: the PTSA loop at 64 kHz, gated counts reported over defmt (RTT).
+//!
+//! `TIM2` fires at 64 kHz and runs [`ptsa_firmware::on_tick`]; the main loop pops closed
+//! gates from [`ptsa_firmware::GATES`] and logs `P` (data pulses) over `T` (clock ticks).
+//!
+//! With the `qemu` feature (QEMU `netduinoplus2`, see docs/firmware.md) the clock set-up is
+//! skipped, each count is also printed as text through semihosting
+//! (`gate <n>: P=<pulses> T=<ticks> gates=<merged>`), and after [`QEMU_GATES`] gates the
+//! image exits QEMU with status 0.
+#![no_std]
+#![no_main]
+#![deny(unsafe_code)]
+
+use cortex_m_rt::{ExceptionFrame, entry, exception};
+use defmt_rtt as _;
+use panic_probe as _;
+use ptsa_core::Config;
+use ptsa_firmware::{Board, GATES, TICK, TickContext, on_tick, pac, pac::interrupt, unmask_tick};
+
+/// Gates to report before exiting QEMU (`qemu` feature only). The test configuration uses a
+/// 6400-tick (100 ms) gate so that this takes 0.3 s of virtual time.
+#[cfg(feature = "qemu")]
+const QEMU_GATES: u32 = 3;
+
+#[entry]
+fn main() -> ! {
+    #[cfg(not(feature = "qemu"))]
+    let config = Config::DEFAULT;
+    #[cfg(feature = "qemu")]
+    let config = Config {
+        gate_ticks: 6_400,
+        ..Config::DEFAULT
+    };
+    let ptsa = match config.build() {
+        Ok(p) => p,
+        Err(e) => defmt::panic!("configuration refused: {}", e),
+    };
+    let Some(dp) = pac::Peripherals::take() else {
+        defmt::panic!("peripherals already taken");
+    };
+    #[cfg(not(feature = "qemu"))]
+    ptsa_firmware::clocks_160mhz(&dp.RCC, &dp.FLASH);
+    let board = Board::new(dp, ptsa);
+    board.tick.start();
+    critical_section::with(|cs| TICK.borrow(cs).replace(Some(board.tick)));
+    unmask_tick();
+    defmt::info!(
+        "PTSA loop running: {} Hz tick, gate {} ticks",
+        ptsa_firmware::TICK_HZ,
+        config.gate_ticks
+    );
+
+    #[cfg(feature = "qemu")]
+    let mut reported = 0u32;
+    loop {
+        let Some(count) = critical_section::with(|cs| GATES.borrow_ref_mut(cs).pop()) else {
+            cortex_m::asm::wfi();
+            continue;
+        };
+        defmt::info!(
+            "gate P={=u64} T={=u64} ({=u32} gate(s))",
+            count.pulses,
+            count.ticks,
+            count.gates
+        );
+        #[cfg(feature = "qemu")]
+        {
+            reported += 1;
+            semihosting::println!(
+                "gate {}: P={} T={} gates={}",
+                reported,
+                count.pulses,
+                count.ticks,
+                count.gates
+            );
+            if reported == QEMU_GATES {
+                semihosting::process::exit(0);
+            }
+        }
+    }
+}
+
+#[interrupt]
+fn TIM2() {
+    static mut CONTEXT: Option<TickContext> = None;
+    on_tick::<false>(CONTEXT);
+}
+
+// cortex-m-rt requires the HardFault handler to be an `unsafe fn`.
+#[allow(unsafe_code)]
+#[exception]
+unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    defmt::error!("HardFault: pc={=u32:#x} lr={=u32:#x}", ef.pc(), ef.lr());
+    #[cfg(feature = "qemu")]
+    semihosting::process::exit(70);
+    #[cfg(not(feature = "qemu"))]
+    loop {
+        // Halt for the debugger (probe-rs reports the breakpoint and the log above).
+        cortex_m::asm::bkpt();
+    }
+}

@@ -1,0 +1,345 @@
+//! Board glue for running [`ptsa_core`] on an STM32F405/407 (thumbv7em-none-eabihf).
+//!
+//! Everything the loop decides lives in `ptsa-core`; this crate only
+//!
+//! * sets up the clocks ([`clocks_160mhz`]), the pickoff ADC, the two H-bridge legs and the
+//!   64 kHz tick timer ([`Board::take`]),
+//! * holds the interrupt's context ([`TICK`]) and the gate queue ([`GATES`]) shared with the
+//!   main loop, and
+//! * services one tick ([`on_tick`]): read the ADC, call [`ptsa_core::Ptsa::tick`], drive the
+//!   legs through [`ptsa_core::HBridge`], queue a closed gate.
+//!
+//! Both images, the production `ptsa` and the QEMU test image `golden`, call [`on_tick`]
+//! from the same `TIM2` handler code, so what the test image measures is what runs on the
+//! board.
+//!
+//! # Pins and units
+//!
+//! | signal | pin | detail |
+//! |---|---|---|
+//! | pickoff | PA1 = ADC1 channel 1 | 12 bit, left-aligned; 0 V = code −32768, mid-scale (V_REF/2) = 0, V_REF = +32752 (steps of 16 LSB of the `i16` sample) |
+//! | H-bridge leg A | PD12 (green LED on the STM32F4DISCOVERY) | high while the polarity is `Positive` |
+//! | H-bridge leg B | PD14 (red LED on the STM32F4DISCOVERY) | high while the polarity is `Negative` |
+//!
+//! The tick timer is TIM2, update interrupt at [`TICK_HZ`] = 64 000 Hz. On the board the
+//! core runs at [`SYSCLK_HZ`] = 160 MHz from the 8 MHz HSE crystal (168 MHz is not usable:
+//! TIM2's 84 MHz kernel clock is not a multiple of 64 kHz), so TIM2 counts at 80 MHz and a
+//! tick is 1250 timer counts = 2500 core cycles. Under QEMU (`qemu` feature) the timer
+//! kernel clock is QEMU's fixed 1 GHz ([`TIMER_CLOCK_HZ`]).
+//!
+//! The ADC conversion for tick `n + 1` is started by software at the end of the tick-`n`
+//! interrupt (one conversion, 15 + 12 ADC clocks = 1.35 µs at 20 MHz), so each tick reads a
+//! sample taken one tick period (15.6 µs) earlier: a fixed one-tick transport delay.
+#![no_std]
+#![deny(unsafe_code)]
+#![deny(missing_docs)]
+
+use core::cell::{Cell, RefCell};
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use critical_section::Mutex;
+use embedded_hal::digital::{ErrorType, OutputPin};
+use ptsa_core::{GateFifo, HBridge, Ptsa, State};
+
+pub use stm32f4::stm32f405 as pac;
+
+/// Tick (clock) frequency of the PTSA loop, in hertz.
+pub const TICK_HZ: u32 = 64_000;
+
+/// Core clock on the board, in hertz.
+pub const SYSCLK_HZ: u32 = 160_000_000;
+
+/// TIM2's kernel clock, in hertz: `2 × PCLK1` = 80 MHz on the board; QEMU's timers count at
+/// a fixed 1 GHz of virtual time.
+#[cfg(not(feature = "qemu"))]
+pub const TIMER_CLOCK_HZ: u32 = SYSCLK_HZ / 2;
+/// TIM2's kernel clock, in hertz: `2 × PCLK1` = 80 MHz on the board; QEMU's timers count at
+/// a fixed 1 GHz of virtual time.
+#[cfg(feature = "qemu")]
+pub const TIMER_CLOCK_HZ: u32 = 1_000_000_000;
+
+/// TIM2 auto-reload value: timer counts per tick minus one.
+pub const TICK_RELOAD: u32 = TIMER_CLOCK_HZ / TICK_HZ - 1;
+const _: () = assert!(
+    TIMER_CLOCK_HZ.is_multiple_of(TICK_HZ),
+    "the tick must be an exact division"
+);
+
+/// Entries of the gate queue between the interrupt and the main loop. At the default 1 s
+/// gate the main loop may fall 8 s behind before consecutive gates are merged (never lost).
+pub const GATE_QUEUE: usize = 8;
+
+/// Gate queue: the tick interrupt pushes, the main loop pops.
+pub static GATES: Mutex<RefCell<GateFifo<GATE_QUEUE>>> = Mutex::new(RefCell::new(GateFifo::new()));
+
+/// The tick interrupt's context, installed by `main` before the interrupt is unmasked; the
+/// first tick moves it into the handler (see [`on_tick`]).
+pub static TICK: Mutex<RefCell<Option<TickContext>>> = Mutex::new(RefCell::new(None));
+
+/// One H-bridge leg: a push-pull output of port D, written through the atomic BSRR register.
+pub struct Leg<const PIN: u8> {
+    port: pac::GPIOD,
+}
+
+impl<const PIN: u8> ErrorType for Leg<PIN> {
+    type Error = core::convert::Infallible;
+}
+
+impl<const PIN: u8> OutputPin for Leg<PIN> {
+    #[inline(always)]
+    fn set_low(&mut self) -> Result<(), Self::Error> {
+        self.port.bsrr().write(|w| w.br(PIN).set_bit());
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn set_high(&mut self) -> Result<(), Self::Error> {
+        self.port.bsrr().write(|w| w.bs(PIN).set_bit());
+        Ok(())
+    }
+}
+
+/// Leg A of the H-bridge (PD12).
+pub type LegA = Leg<12>;
+/// Leg B of the H-bridge (PD14).
+pub type LegB = Leg<14>;
+
+/// Everything the tick interrupt owns.
+pub struct TickContext {
+    /// The validated loop.
+    pub ptsa: Ptsa,
+    /// Its state.
+    pub state: State,
+    /// The torquer's H-bridge.
+    pub bridge: HBridge<LegA, LegB>,
+    adc: pac::ADC1,
+    timer: pac::TIM2,
+}
+
+impl TickContext {
+    /// Restart the loop with a new configuration (state reset, bridge untouched).
+    pub fn restart(&mut self, ptsa: Ptsa) {
+        self.ptsa = ptsa;
+        self.state = ptsa.initial_state();
+    }
+}
+
+/// The peripherals the firmware uses, set up.
+pub struct Board {
+    /// The tick interrupt's context (install it in [`TICK`]).
+    pub tick: TickContext,
+    /// A free-running 32-bit counter at [`TIMER_CLOCK_HZ`] (TIM5), for measurements. Under
+    /// QEMU with `-icount shift=0` one count is one guest instruction.
+    pub stopwatch: pac::TIM5,
+}
+
+impl Board {
+    /// Set up GPIO, ADC, TIM2 (stopped) and TIM5 (running). Call [`clocks_160mhz`] first on
+    /// the board; nothing here waits on a flag, so it also runs under QEMU.
+    ///
+    pub fn new(dp: pac::Peripherals, ptsa: Ptsa) -> Self {
+        let rcc = &dp.RCC;
+        rcc.ahb1enr()
+            .modify(|_, w| w.gpioaen().enabled().gpioden().enabled());
+        rcc.apb1enr()
+            .modify(|_, w| w.tim2en().enabled().tim5en().enabled());
+        rcc.apb2enr().modify(|_, w| w.adc1en().enabled());
+
+        // PA1 analog; PD12, PD14 push-pull outputs, low.
+        dp.GPIOA.moder().modify(|_, w| w.moder1().analog());
+        dp.GPIOD
+            .moder()
+            .modify(|_, w| w.moder12().output().moder14().output());
+        let b: LegB = Leg {
+            port: second_gpiod_handle(),
+        };
+        let a: LegA = Leg { port: dp.GPIOD };
+        let Ok(bridge) = HBridge::new(a, b);
+
+        // ADC1: ADCCLK = PCLK2 / 4 = 20 MHz, channel 1, 15-cycle sampling, left-aligned.
+        dp.ADC_COMMON.ccr().modify(|_, w| w.adcpre().div4());
+        dp.ADC1.smpr2().modify(|_, w| w.smp1().cycles15());
+        select_channel_1(&dp.ADC1);
+        dp.ADC1.cr2().write(|w| w.adon().enabled().align().left());
+        dp.ADC1
+            .cr2()
+            .write(|w| w.adon().enabled().align().left().swstart().start());
+
+        // TIM2: update event every tick; interrupt enabled; counter not started yet.
+        let tim = dp.TIM2;
+        tim.psc().write(|w| w.psc().set(0));
+        tim.arr().write(|w| w.arr().set(TICK_RELOAD));
+        tim.egr().write(|w| w.ug().update());
+        tim.sr().write(|w| w.uif().clear_bit());
+        tim.dier().write(|w| w.uie().enabled());
+
+        // TIM5: free-running stopwatch.
+        let sw = dp.TIM5;
+        sw.psc().write(|w| w.psc().set(0));
+        sw.arr().write(|w| w.arr().set(u32::MAX));
+        sw.egr().write(|w| w.ug().update());
+        sw.cr1().write(|w| w.cen().enabled());
+
+        Self {
+            tick: TickContext {
+                ptsa,
+                state: ptsa.initial_state(),
+                bridge,
+                adc: dp.ADC1,
+                timer: tim,
+            },
+            stopwatch: sw,
+        }
+    }
+}
+
+impl TickContext {
+    /// Start the tick timer (the interrupt fires once [`unmask_tick`] has run).
+    pub fn start(&self) {
+        self.timer.cr1().write(|w| w.cen().enabled());
+    }
+}
+
+/// Read the stopwatch (TIM5 counter).
+#[inline(always)]
+#[must_use]
+pub fn stopwatch(tim5: &pac::TIM5) -> u32 {
+    tim5.cnt().read().bits()
+}
+
+/// A second handle on port D for leg B.
+#[allow(unsafe_code)]
+fn second_gpiod_handle() -> pac::GPIOD {
+    // SAFETY: the two legs only write BSRR, whose writes are atomic and touch only the bits
+    // written as 1 (leg A bits 12 and 28, leg B bits 14 and 30); nothing else in the firmware
+    // uses port D after `Board::new` has configured MODER.
+    unsafe { pac::GPIOD::steal() }
+}
+
+#[allow(unsafe_code)]
+fn select_channel_1(adc: &pac::ADC1) {
+    // SAFETY: SQ1 is a 5-bit channel number; 1 is a valid regular channel (ADC123_IN1).
+    adc.sqr3().write(|w| unsafe { w.sq1().bits(1) });
+}
+
+/// Unmask an interrupt in the NVIC.
+///
+/// `cortex_m::peripheral::NVIC::unmask` is `unsafe` because unmasking can break a
+/// mask-based critical section; this firmware uses only `critical-section`'s PRIMASK-based
+/// one, so unmasking is sound.
+#[allow(unsafe_code)]
+pub fn unmask(irq: pac::Interrupt) {
+    // SAFETY: no mask-based critical section exists in this firmware (see above).
+    unsafe { cortex_m::peripheral::NVIC::unmask(irq) }
+}
+
+/// Unmask the tick interrupt (TIM2).
+pub fn unmask_tick() {
+    unmask(pac::Interrupt::TIM2);
+}
+
+/// Switch the core to 160 MHz from the 8 MHz HSE crystal: PLL M = 8, N = 320, P = 2
+/// (VCO 320 MHz), Q = 7; AHB = 160 MHz, APB1 = 40 MHz (timers 80 MHz), APB2 = 80 MHz;
+/// 5 flash wait states with prefetch and caches.
+///
+/// Waits on the RCC's ready flags: **do not call under QEMU**, whose RCC is unimplemented
+/// (reads as zero). The `qemu` feature leaves the chip on its reset clock instead.
+#[allow(unsafe_code)]
+pub fn clocks_160mhz(rcc: &pac::RCC, flash: &pac::FLASH) {
+    rcc.cr().modify(|_, w| w.hseon().on());
+    while rcc.cr().read().hserdy().is_not_ready() {}
+    rcc.pllcfgr().write(|w| {
+        // SAFETY: PLLM = 8 (valid 2..=63) gives a 1 MHz PLL input; PLLN = 320 (valid
+        // 50..=432) a 320 MHz VCO (valid 100..=432 MHz).
+        unsafe { w.pllm().bits(8).plln().bits(320) };
+        // SAFETY: PLLQ = 7 is in its valid range 2..=15.
+        unsafe { w.pllq().bits(7) };
+        w.pllp().div2().pllsrc().hse()
+    });
+    rcc.cr().modify(|_, w| w.pllon().on());
+    while rcc.cr().read().pllrdy().is_not_ready() {}
+    flash.acr().write(|w| {
+        w.latency()
+            .ws5()
+            .prften()
+            .enabled()
+            .icen()
+            .enabled()
+            .dcen()
+            .enabled()
+    });
+    rcc.cfgr()
+        .modify(|_, w| w.hpre().div1().ppre1().div4().ppre2().div2().sw().pll());
+    while !rcc.cfgr().read().sws().is_pll() {}
+}
+
+/// Test images only: the sample [`on_tick`] uses instead of the ADC's when `INJECT` is set
+/// (bits 15..0, an `i16`), and [`RELOAD`].
+pub static INJECTED: AtomicU32 = AtomicU32::new(0);
+
+/// Flag in [`INJECTED`]: instead of a tick, restart the loop with the [`Ptsa`] in
+/// [`RESTART`].
+pub const RELOAD: u32 = 1 << 16;
+
+/// Test images only: the configuration for the next [`RELOAD`].
+pub static RESTART: Mutex<Cell<Option<Ptsa>>> = Mutex::new(Cell::new(None));
+
+/// Service one tick (the body of the `TIM2` interrupt): acknowledge the timer, read the
+/// pickoff sample and start the next conversion, run the loop, drive the bridge, queue a
+/// closed gate.
+///
+/// `ctx` is the handler's own `static mut` (cortex-m-rt hands it out as `&mut`); on the
+/// first tick it is moved in from [`TICK`], where `main` installed it.
+///
+/// With `INJECT = true` (test images only) the ADC is read and restarted all the same, but
+/// the loop gets the sample in [`INJECTED`] instead of the ADC's, and a [`RELOAD`] request
+/// restarts the loop instead of ticking.
+#[inline(always)]
+pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
+    let injected = if INJECT {
+        INJECTED.load(Ordering::Relaxed)
+    } else {
+        0
+    };
+    if ctx.is_none() || (INJECT && injected & RELOAD != 0) {
+        install(ctx);
+        if INJECT && injected & RELOAD != 0 {
+            return;
+        }
+    }
+    let Some(c) = ctx.as_mut() else {
+        return;
+    };
+    c.timer.sr().write(|w| w.uif().clear_bit());
+    let raw = c.adc.dr().read().bits();
+    c.adc
+        .cr2()
+        .write(|w| w.adon().enabled().align().left().swstart().start());
+    // Left-aligned 12-bit code in bits 15..4: flip the top bit for a signed sample.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+    let x = if INJECT {
+        core::hint::black_box(raw);
+        injected as u16 as i16
+    } else {
+        (raw as u16 ^ 0x8000) as i16
+    };
+    let t = c.ptsa.tick(&mut c.state, x);
+    let Ok(()) = c.bridge.set(t.polarity);
+    if let Some(g) = t.gate {
+        critical_section::with(|cs| GATES.borrow_ref_mut(cs).push(g));
+    }
+}
+
+/// Move the context in from [`TICK`], or apply a [`RESTART`].
+#[cold]
+#[inline(never)]
+fn install(ctx: &mut Option<TickContext>) {
+    critical_section::with(|cs| {
+        if let Some(c) = TICK.borrow_ref_mut(cs).take() {
+            *ctx = Some(c);
+        }
+        if let (Some(c), Some(p)) = (ctx.as_mut(), RESTART.borrow(cs).take()) {
+            c.restart(p);
+        }
+    });
+}
