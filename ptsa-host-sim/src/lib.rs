@@ -4,3 +4,4 @@
 //! an `f64` model of the pendulum, and reproduces the test programme of Draper report R-890.
 
 pub mod condition;
+pub mod discovery;

@@ -1,0 +1,138 @@
+//! Small dense weighted least squares and the tail probabilities the tests use.
+
+use nalgebra::{DMatrix, DVector};
+use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor};
+
+/// A least-squares fit of `z ≈ Σ_j β_j u_j` (columns already divided by the row sigmas).
+#[derive(Clone, Debug)]
+pub struct LsqFit {
+    /// Coefficients, one per column, in the columns' units.
+    pub beta: Vec<f64>,
+    /// Covariance of `beta` for unit-variance `z` (i.e. trusting the stated sigmas).
+    pub cov: DMatrix<f64>,
+    /// Residual sum of squares (χ² against the stated sigmas).
+    pub chi2: f64,
+    /// Residuals `z − Σ β u`.
+    pub resid: Vec<f64>,
+}
+
+/// Relative singular-value tolerance below which a design is treated as rank deficient.
+pub const RANK_TOL: f64 = 1e-9;
+
+/// Least squares of `z` on `cols` (each a column of length `z.len()`), by SVD.
+/// With no columns, the fit is zero and `chi2 = Σ z²`. Returns `None` if the columns are
+/// linearly dependent (smallest singular value below [`RANK_TOL`] × largest).
+#[must_use]
+pub fn lsq(z: &[f64], cols: &[&[f64]]) -> Option<LsqFit> {
+    let n = z.len();
+    let p = cols.len();
+    if p == 0 {
+        return Some(LsqFit {
+            beta: vec![],
+            cov: DMatrix::zeros(0, 0),
+            chi2: z.iter().map(|v| v * v).sum(),
+            resid: z.to_vec(),
+        });
+    }
+    if n < p {
+        return None;
+    }
+    let a = DMatrix::from_fn(n, p, |i, j| cols[j][i]);
+    let svd = a.clone().svd(true, true);
+    let smax = svd.singular_values.max();
+    let smin = svd.singular_values.min();
+    if smax <= 0.0 || smin <= RANK_TOL * smax {
+        return None;
+    }
+    let u = svd.u.as_ref()?;
+    let vt = svd.v_t.as_ref()?;
+    let zb = DVector::from_column_slice(z);
+    let uz = u.transpose() * &zb;
+    let mut w = uz.clone();
+    for k in 0..p {
+        w[k] /= svd.singular_values[k];
+    }
+    let beta = vt.transpose() * w;
+    let mut cov = DMatrix::zeros(p, p);
+    for k in 0..p {
+        let s2 = svd.singular_values[k] * svd.singular_values[k];
+        let v = vt.row(k).transpose();
+        cov += (&v * v.transpose()) / s2;
+    }
+    let fitted = &a * &beta;
+    let resid: Vec<f64> = (0..n).map(|i| z[i] - fitted[i]).collect();
+    let chi2 = resid.iter().map(|v| v * v).sum();
+    Some(LsqFit {
+        beta: beta.iter().copied().collect(),
+        cov,
+        chi2,
+        resid,
+    })
+}
+
+/// The part of `v` orthogonal to the span of `basis` (all of `v` if `basis` is empty or
+/// dependent columns make the projection ill-posed).
+#[must_use]
+pub fn residualize(v: &[f64], basis: &[&[f64]]) -> Vec<f64> {
+    lsq(v, basis).map_or_else(|| v.to_vec(), |f| f.resid)
+}
+
+/// Euclidean norm.
+#[must_use]
+pub fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// `|cos|` of the angle between two vectors (0 if either is zero).
+#[must_use]
+pub fn abs_cos(a: &[f64], b: &[f64]) -> f64 {
+    let na = norm(a);
+    let nb = norm(b);
+    if na == 0.0 || nb == 0.0 {
+        return 0.0;
+    }
+    (a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>() / (na * nb)).abs()
+}
+
+/// Upper tail `P(χ²_k > x)`.
+#[must_use]
+pub fn chi2_sf(x: f64, k: f64) -> f64 {
+    if k <= 0.0 {
+        return if x > 0.0 { 0.0 } else { 1.0 };
+    }
+    ChiSquared::new(k).map_or(f64::NAN, |d| d.sf(x.max(0.0)))
+}
+
+/// Upper tail `P(F(d1, d2) > x)`.
+#[must_use]
+pub fn f_sf(x: f64, d1: f64, d2: f64) -> f64 {
+    if d2 <= 0.0 {
+        return 1.0;
+    }
+    FisherSnedecor::new(d1, d2).map_or(f64::NAN, |d| d.sf(x.max(0.0)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn lsq_recovers_an_exact_line_and_its_covariance() {
+        let x1 = [1.0, 2.0, 3.0, 4.0];
+        let x2 = [1.0, 0.0, 1.0, 0.0];
+        let z: Vec<f64> = (0..4).map(|i| 2.0 * x1[i] - 3.0 * x2[i]).collect();
+        let f = lsq(&z, &[&x1, &x2]).unwrap();
+        assert!((f.beta[0] - 2.0).abs() < 1e-12 && (f.beta[1] + 3.0).abs() < 1e-12);
+        assert!(f.chi2 < 1e-20);
+        // single column: var = 1/Σx².
+        let g = lsq(&z, &[&x1]).unwrap();
+        assert!((g.cov[(0, 0)] - 1.0 / 30.0).abs() < 1e-12);
+        assert!(lsq(&z, &[&x1, &x1]).is_none());
+    }
+
+    #[test]
+    fn tails() {
+        assert!((chi2_sf(3.841_458_820_694_124, 1.0) - 0.05).abs() < 1e-9);
+        assert!((f_sf(5.987_377_607_273_44, 1.0, 6.0) - 0.05).abs() < 1e-6);
+    }
+}
