@@ -35,13 +35,15 @@
 #![deny(missing_docs)]
 
 use core::cell::{Cell, RefCell};
-use core::sync::atomic::{AtomicU32, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use critical_section::Mutex;
 use embedded_hal::digital::{ErrorType, OutputPin};
-use ptsa_core::{GateFifo, HBridge, Ptsa, State};
+use ptsa_core::{Gate, GateFifo, HBridge, Ptsa, State};
 
 pub use stm32f4::stm32f405 as pac;
+
+pub mod testimage;
 
 /// Tick (clock) frequency of the PTSA loop, in hertz.
 pub const TICK_HZ: u32 = 64_000;
@@ -160,10 +162,19 @@ impl Board {
         dp.ADC_COMMON.ccr().modify(|_, w| w.adcpre().div4());
         dp.ADC1.smpr2().modify(|_, w| w.smp1().cycles15());
         select_channel_1(&dp.ADC1);
-        dp.ADC1.cr2().write(|w| w.adon().enabled().align().left());
         dp.ADC1
             .cr2()
-            .write(|w| w.adon().enabled().align().left().swstart().start());
+            .write(|w| w.adon().enabled().align().left().cont().continuous());
+        dp.ADC1.cr2().write(|w| {
+            w.adon()
+                .enabled()
+                .align()
+                .left()
+                .cont()
+                .continuous()
+                .swstart()
+                .start()
+        });
 
         // TIM2: update event every tick; interrupt enabled; counter not started yet.
         let tim = dp.TIM2;
@@ -233,8 +244,9 @@ pub fn unmask(irq: pac::Interrupt) {
     unsafe { cortex_m::peripheral::NVIC::unmask(irq) }
 }
 
-/// Unmask the tick interrupt (TIM2).
+/// Unmask the tick interrupt (TIM2) and its bottom half ([`GATE_IRQ`]).
 pub fn unmask_tick() {
+    unmask(GATE_IRQ);
     unmask(pac::Interrupt::TIM2);
 }
 
@@ -273,59 +285,98 @@ pub fn clocks_160mhz(rcc: &pac::RCC, flash: &pac::FLASH) {
     while !rcc.cfgr().read().sws().is_pll() {}
 }
 
-/// Test images only: the sample [`on_tick`] uses instead of the ADC's when `INJECT` is set
-/// (bits 15..0, an `i16`), and [`RELOAD`].
+/// Test images only: the pickoff word [`on_tick`] reads instead of the ADC's data register
+/// when `INJECT` is set: bits 15..0 as the ADC would deliver them (left-aligned, offset
+/// binary: the `i16` sample XOR `0x8000`), or [`RELOAD`].
 pub static INJECTED: AtomicU32 = AtomicU32::new(0);
 
-/// Flag in [`INJECTED`]: instead of a tick, restart the loop with the [`Ptsa`] in
-/// [`RESTART`].
+/// Flag in the pickoff word: instead of a tick, restart the loop with the [`Ptsa`] in
+/// [`RESTART`]. The ADC's data register has bits 31..16 reserved (read as 0), so on the
+/// board the flag never appears; the test images use it through [`INJECTED`]. Production and
+/// test handlers therefore run the same instructions, except for the address of the word
+/// they read.
 pub const RELOAD: u32 = 1 << 16;
 
 /// Test images only: the configuration for the next [`RELOAD`].
 pub static RESTART: Mutex<Cell<Option<Ptsa>>> = Mutex::new(Cell::new(None));
 
+/// A gate closed by the tick interrupt, waiting for [`on_gate`] to queue it: pulses,
+/// ticks, and whether the slot is full. Written only by `TIM2`, read only by the bottom half,
+/// which have the same priority and so never preempt each other.
+static CLOSED_PULSES: AtomicU32 = AtomicU32::new(0);
+static CLOSED_TICKS: AtomicU32 = AtomicU32::new(0);
+static CLOSED_FULL: AtomicBool = AtomicBool::new(false);
+
+/// Interrupt that queues closed gates (the tick interrupt's bottom half): an otherwise
+/// unused vector, pended by software. It has the same (default) priority as `TIM2`, so it
+/// tail-chains right after the tick that closed the gate, and neither preempts the other.
+pub const GATE_IRQ: pac::Interrupt = pac::Interrupt::EXTI0;
+
 /// Service one tick (the body of the `TIM2` interrupt): acknowledge the timer, read the
-/// pickoff sample and start the next conversion, run the loop, drive the bridge, queue a
-/// closed gate.
+/// newest pickoff sample, run the loop, drive the bridge, hand a
+/// closed gate to [`on_gate`].
 ///
-/// `ctx` is the handler's own `static mut` (cortex-m-rt hands it out as `&mut`); on the
-/// first tick it is moved in from [`TICK`], where `main` installed it.
+/// `ctx` is the handler's own `static mut` (cortex-m-rt hands it out as `&mut`). The first
+/// interrupt moves the context in from [`TICK`], where `main` installed it, and returns.
 ///
-/// With `INJECT = true` (test images only) the ADC is read and restarted all the same, but
-/// the loop gets the sample in [`INJECTED`] instead of the ADC's, and a [`RELOAD`] request
-/// restarts the loop instead of ticking.
+/// With `INJECT = true` (test images only) the pickoff word comes from [`INJECTED`] instead
+/// of the ADC's data register, and a [`RELOAD`] request is served instead of a tick (two
+/// more instructions than the production handler: the measured count is an upper bound).
 #[inline(always)]
 pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
-    let injected = if INJECT {
-        INJECTED.load(Ordering::Relaxed)
-    } else {
-        0
-    };
-    if ctx.is_none() || (INJECT && injected & RELOAD != 0) {
-        install(ctx);
-        if INJECT && injected & RELOAD != 0 {
-            return;
-        }
-    }
     let Some(c) = ctx.as_mut() else {
+        install(ctx);
         return;
     };
     c.timer.sr().write(|w| w.uif().clear_bit());
-    let raw = c.adc.dr().read().bits();
-    c.adc
-        .cr2()
-        .write(|w| w.adon().enabled().align().left().swstart().start());
-    // Left-aligned 12-bit code in bits 15..4: flip the top bit for a signed sample.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
-    let x = if INJECT {
-        core::hint::black_box(raw);
-        injected as u16 as i16
+    let raw = if INJECT {
+        INJECTED.load(Ordering::Relaxed)
     } else {
-        (raw as u16 ^ 0x8000) as i16
+        c.adc.dr().read().bits()
     };
+    if INJECT && raw & RELOAD != 0 {
+        install(ctx);
+        return;
+    }
+    // Left-aligned 12-bit code in bits 15..4, offset binary: flip the top bit.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+    let x = (raw as u16 ^ 0x8000) as i16;
     let t = c.ptsa.tick(&mut c.state, x);
     let Ok(()) = c.bridge.set(t.polarity);
     if let Some(g) = t.gate {
+        close_gate(g);
+    }
+}
+
+/// Hand a closed gate to the bottom half and pend it.
+#[inline(always)]
+fn close_gate(g: Gate) {
+    if CLOSED_FULL.load(Ordering::Relaxed) {
+        // Cannot happen: the pended bottom half (lower vector number, same priority) runs
+        // before the next tick. Should it not have, queue the gate here: nothing is lost.
+        queue_directly(g);
+    } else {
+        CLOSED_PULSES.store(g.pulses, Ordering::Relaxed);
+        CLOSED_TICKS.store(g.ticks, Ordering::Relaxed);
+        CLOSED_FULL.store(true, Ordering::Relaxed);
+    }
+    cortex_m::peripheral::NVIC::pend(GATE_IRQ);
+}
+
+#[cold]
+#[inline(never)]
+fn queue_directly(g: Gate) {
+    critical_section::with(|cs| GATES.borrow_ref_mut(cs).push(g));
+}
+
+/// The bottom half (body of the [`GATE_IRQ`] handler): move a closed gate into [`GATES`].
+pub fn on_gate() {
+    if CLOSED_FULL.load(Ordering::Relaxed) {
+        let g = Gate {
+            pulses: CLOSED_PULSES.load(Ordering::Relaxed),
+            ticks: CLOSED_TICKS.load(Ordering::Relaxed),
+        };
+        CLOSED_FULL.store(false, Ordering::Relaxed);
         critical_section::with(|cs| GATES.borrow_ref_mut(cs).push(g));
     }
 }

@@ -80,6 +80,12 @@ fn main() -> ! {
     }
 }
 
+/// The tick's bottom half: queue a closed gate.
+#[interrupt]
+fn EXTI0() {
+    ptsa_firmware::on_gate();
+}
+
 #[interrupt]
 fn TIM2() {
     static mut CONTEXT: Option<TickContext> = None;

@@ -1,0 +1,91 @@
+//! Test image for QEMU (`netduinoplus2`): instructions per tick of the production tick
+//! interrupt, over one golden vector.
+//!
+//! Semihosting command line: `budget <input>`. For every sample of `<input>` the image pends
+//! the real `TIM2` interrupt, whose handler is the production one
+//! ([`ptsa_firmware::on_tick`]; the pickoff word comes from RAM instead of the ADC's data
+//! register), between two reads of the TIM5 stopwatch. Under `-icount shift=0` one
+//! stopwatch count is one guest instruction, so the difference, minus the bracket's own cost
+//! (measured the same way around an empty handler), is the number of instructions of the
+//! whole handler, prologue and return included. The gate bottom half (`EXTI0`) is run and
+//! counted separately. This image links no `GoldenRunner`, so, as in the production image,
+//! the loop's `tick` has a single caller and is inlined into the handler. Prints
+//!
+//! `budget ticks=<n> max=<instr> max_plain=<instr> max_gate=<instr> bottom_half=<instr> mean=<instr> overhead=<instr>`
+//!
+//! and exits QEMU with status 0, or 1 with a message on standard error.
+#![no_std]
+#![no_main]
+#![deny(unsafe_code)]
+
+use cortex_m_rt::{ExceptionFrame, entry, exception};
+use ptsa_core::Config;
+use ptsa_firmware::testimage::{Failure, PATH, budget_pass, next_path};
+use ptsa_firmware::{Board, TICK, TickContext, on_tick, pac, pac::interrupt, unmask};
+use semihosting::eprintln;
+
+const NAME: &str = "budget";
+
+#[entry]
+fn main() -> ! {
+    match run() {
+        Ok(()) => semihosting::process::exit(0),
+        Err(Failure) => semihosting::process::exit(1),
+    }
+}
+
+fn run() -> Result<(), Failure> {
+    let Ok(args) = semihosting::experimental::env::args::<{ 2 * PATH }>() else {
+        eprintln!("budget: cannot read the semihosting command line");
+        return Err(Failure);
+    };
+    let mut it = (&args).into_iter();
+    let _program = it.next();
+    let input = next_path(&mut it, "input")?;
+    let Some(dp) = pac::Peripherals::take() else {
+        eprintln!("budget: peripherals already taken");
+        return Err(Failure);
+    };
+    let Ok(ptsa) = Config::DEFAULT.build() else {
+        eprintln!("budget: default configuration refused");
+        return Err(Failure);
+    };
+    let board = Board::new(dp, ptsa);
+    let watch = board.stopwatch;
+    critical_section::with(|cs| TICK.borrow(cs).replace(Some(board.tick)));
+    // The bottom half stays masked: `budget_pass` runs and counts it separately.
+    unmask(pac::Interrupt::TIM2);
+    unmask(pac::Interrupt::TIM3);
+    budget_pass(input.as_cstr(), &watch)
+}
+
+/// The tick's bottom half: queue a closed gate.
+#[interrupt]
+fn EXTI0() {
+    ptsa_firmware::on_gate();
+}
+
+/// The production tick handler, fed from RAM.
+#[interrupt]
+fn TIM2() {
+    static mut CONTEXT: Option<TickContext> = None;
+    on_tick::<true>(CONTEXT);
+}
+
+/// The empty handler that calibrates the measurement bracket.
+#[interrupt]
+fn TIM3() {}
+
+// cortex-m-rt requires the HardFault handler to be an `unsafe fn`.
+#[allow(unsafe_code)]
+#[exception]
+unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
+    eprintln!("{}: HardFault at pc={:#010x}", NAME, ef.pc());
+    semihosting::process::exit(70)
+}
+
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
+    eprintln!("{}: panic: {}", NAME, info);
+    semihosting::process::exit(101)
+}
