@@ -86,35 +86,105 @@ impl Condition {
     /// gravity-fixed axis (a rate table), so they do not rotate gravity in the case frame.
     #[must_use]
     pub fn inputs_at(&self, t: f64) -> CaseInputs {
+        let p = self.prepare();
+        let (s, c) = (p.omega * t).sin_cos();
+        p.inputs(s, c)
+    }
+
+    /// The condition reduced to per-axis sine and cosine coefficients of the common phase
+    /// `ωt`, so that [`Prepared::inputs`] needs no trigonometry (the simulator's hot path).
+    #[must_use]
+    pub fn prepare(&self) -> Prepared {
         let omega = TAU * self.freq_hz;
-        let g = self.g.map(|x| x * G_CM_S2);
-        let mut a = g;
-        let mut phi = [0.0; 3];
-        let mut w = self.w_rad_s;
-        let mut dw = [0.0; 3];
+        let mut p = Prepared {
+            omega,
+            g: self.g.map(|x| x * G_CM_S2),
+            w0: self.w_rad_s,
+            ..Prepared::default()
+        };
         if self.freq_hz != 0.0 {
             for j in 0..3 {
                 if self.lin_cm_s2[j] != 0.0 {
-                    a[j] += self.lin_cm_s2[j] * (omega * t + self.lin_deg[j].to_radians()).sin();
+                    let (sp, cp) = self.lin_deg[j].to_radians().sin_cos();
+                    p.lin_s[j] = self.lin_cm_s2[j] * cp;
+                    p.lin_c[j] = self.lin_cm_s2[j] * sp;
                 }
                 if self.ang_mrad[j] != 0.0 {
                     let amp = self.ang_mrad[j] * 1e-3;
-                    let (s, c) = (omega * t + self.ang_deg[j].to_radians()).sin_cos();
-                    phi[j] = amp * s;
-                    w[j] += amp * omega * c;
-                    dw[j] = -amp * omega * omega * s;
+                    let (sp, cp) = self.ang_deg[j].to_radians().sin_cos();
+                    p.phi_s[j] = amp * cp;
+                    p.phi_c[j] = amp * sp;
                 }
             }
         }
-        let phi_x_g = cross(phi, g);
+        p
+    }
+}
+
+/// A [`Condition`] prepared for fast evaluation: every oscillation written as
+/// `x_s·sin(ωt) + x_c·cos(ωt)` (`sin(ωt + p) = sin ωt·cos p + cos ωt·sin p`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Prepared {
+    /// Angular frequency of every oscillation, rad/s.
+    pub omega: f64,
+    /// Gravity's specific force along IA, PA, OA, cm/s².
+    pub g: [f64; 3],
+    /// Constant rates, rad/s.
+    pub w0: [f64; 3],
+    /// Linear vibration, sine coefficient, cm/s².
+    pub lin_s: [f64; 3],
+    /// Linear vibration, cosine coefficient, cm/s².
+    pub lin_c: [f64; 3],
+    /// Angular oscillation, sine coefficient, rad.
+    pub phi_s: [f64; 3],
+    /// Angular oscillation, cosine coefficient, rad.
+    pub phi_c: [f64; 3],
+}
+
+impl Prepared {
+    /// Case-frame inputs given `s = sin(ωt)`, `c = cos(ωt)` (same model as
+    /// [`Condition::inputs_at`]).
+    #[inline]
+    #[must_use]
+    pub fn inputs(&self, s: f64, c: f64) -> CaseInputs {
+        let w = self.omega;
+        let mut a = self.g;
+        let mut phi = [0.0; 3];
+        let mut rate = self.w0;
+        let mut dw = [0.0; 3];
+        for j in 0..3 {
+            a[j] += self.lin_s[j] * s + self.lin_c[j] * c;
+            phi[j] = self.phi_s[j] * s + self.phi_c[j] * c;
+            rate[j] += w * (self.phi_s[j] * c - self.phi_c[j] * s);
+            dw[j] = -w * w * phi[j];
+        }
+        let phi_x_g = cross(phi, self.g);
         for j in 0..3 {
             a[j] -= phi_x_g[j];
         }
         CaseInputs {
             a_cm_s2: a,
-            w_rad_s: w,
+            w_rad_s: rate,
             dw_rad_s2: dw,
         }
+    }
+
+    /// The time-invariant part: gravity and the constant rates.
+    #[must_use]
+    pub fn mean_inputs(&self) -> CaseInputs {
+        CaseInputs {
+            a_cm_s2: self.g,
+            w_rad_s: self.w0,
+            dw_rad_s2: [0.0; 3],
+        }
+    }
+
+    /// Whether anything varies with time.
+    #[must_use]
+    pub fn is_dynamic(&self) -> bool {
+        self.omega != 0.0
+            && (self.lin_s.iter().chain(&self.lin_c).chain(&self.phi_s).chain(&self.phi_c))
+                .any(|&x| x != 0.0)
     }
 }
 

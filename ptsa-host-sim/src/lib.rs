@@ -2,6 +2,23 @@
 //!
 //! It closes the loop tick by tick: [`ptsa_core`] (the very code the firmware runs) against
 //! an `f64` model of the pendulum, and reproduces the test programme of Draper report R-890.
+//!
+//! * [`instrument`]: the instrument file (Table 2.1 with tolerances), validated on load.
+//! * [`plant`]: eq. 4.2 with spring, stops, torquer current rise, pickoff and demodulator,
+//!   discretised exactly (zero-order hold).
+//! * [`sim`]: the closed loop and the charge-balance estimator; [`simulate_condition`] and
+//!   [`simulate_difference`] are the entry points.
+//! * [`design`]: the default compensator (`Config::DEFAULT`) and the loop's margins.
 
 pub mod condition;
+pub mod design;
+pub mod fixtures;
+pub mod output;
 pub mod discovery;
+pub mod instrument;
+pub mod plant;
+pub mod sim;
+
+pub use condition::{CaseInputs, Condition, Effects};
+pub use instrument::{Instrument, InstrumentError};
+pub use sim::{SimDifference, SimOptions, SimResult, simulate_condition, simulate_difference};

@@ -1,0 +1,2 @@
+//! Placeholder (criterion benchmark follows).
+fn main() {}

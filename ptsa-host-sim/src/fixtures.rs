@@ -1,0 +1,172 @@
+//! Test fixtures of R-890 and their kinematics: each produces [`Condition`]s (case-frame
+//! rows) and, where the proof mass sits off the centre of rotation, a lever arm.
+//!
+//! Case axes IA, PA, OA are right-handed. Specific force is "up" positive: IA up gives
+//! `g_ia = +1`. A lever arm `r` (cm, case axes) is the proof mass's offset from the centre of
+//! rotation: it feels `dw × r + w × (w × r)` (the `lever_arm` effect of [`Effects`]), which
+//! the simulator adds through [`Effects::r_cm`].
+
+use crate::condition::{Condition, Effects, IA, OA, PA, cross};
+
+/// A condition and the lever arm of the fixture (cm, case axes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Setup {
+    /// The case-frame row.
+    pub cond: Condition,
+    /// Proof-mass offset from the centre of rotation, cm.
+    pub lever_cm: [f64; 3],
+}
+
+impl Setup {
+    /// `effects` plus this fixture's lever arm.
+    #[must_use]
+    pub fn effects(&self, effects: &Effects) -> Effects {
+        let mut e = *effects;
+        for j in 0..3 {
+            e.r_cm[j] += self.lever_cm[j];
+        }
+        e
+    }
+}
+
+/// Gravity with IA at `ia_deg` above the horizontal in the vertical IA–PA plane (the
+/// dividing head of Figs. 6.1–6.2; OA horizontal): `g_ia = sin φ`, `g_pa = cos φ`.
+#[must_use]
+pub fn dividing_head(ia_deg: f64) -> Condition {
+    let (s, c) = ia_deg.to_radians().sin_cos();
+    Condition {
+        label: format!("IA {ia_deg} deg"),
+        g: [clean(s), clean(c), 0.0],
+        ..Condition::default()
+    }
+}
+
+/// Round `1e-16`-ish values of `sin`/`cos` at multiples of 90° to zero.
+fn clean(x: f64) -> f64 {
+    if x.abs() < 1e-12 { 0.0 } else { x }
+}
+
+/// The dividing head on the rate table (Fig. 6.1): IA at `ia_deg` above horizontal, table
+/// rate `rate_rad_s` about the vertical, so `w_ia = ω sin φ`, `w_pa = ω cos φ`; the
+/// reference is the same position at `ref_rate_rad_s` (the report's 0.05 rad/s). `lever_cm`
+/// is the CG's offset from the table axis (0 in the report's revised set-up).
+#[must_use]
+pub fn rate_table(ia_deg: f64, rate_rad_s: f64, ref_rate_rad_s: f64, lever_cm: [f64; 3]) -> Setup {
+    let mut cond = dividing_head(ia_deg);
+    let [s, c, _] = cond.g;
+    cond.label = format!("IA {ia_deg} deg, {rate_rad_s} rad/s");
+    cond.w_rad_s = [rate_rad_s * s, rate_rad_s * c, 0.0];
+    cond.ref_w_rad_s = [ref_rate_rad_s * s, ref_rate_rad_s * c, 0.0];
+    Setup { cond, lever_cm }
+}
+
+/// The single-axis angular oscillator (Fig. 6.3): OA along the table axis, oscillation
+/// `amp_mrad·sin(2πft)` about OA. `ia_vertical` false: table top horizontal, OA up (Table
+/// 6.2, IA horizontal); true: table top turned 90° about the tilt axis, IA up (Table 6.3).
+#[must_use]
+pub fn angular_oscillator(freq_hz: f64, amp_mrad: f64, ia_vertical: bool, lever_cm: [f64; 3]) -> Setup {
+    let g = if ia_vertical { [1.0, 0.0, 0.0] } else { [0.0, 0.0, 1.0] };
+    let mut ang = [0.0; 3];
+    ang[OA] = amp_mrad;
+    Setup {
+        cond: Condition {
+            label: format!(
+                "{freq_hz} Hz, {amp_mrad} mrad about OA, IA {}",
+                if ia_vertical { "vertical" } else { "horizontal" }
+            ),
+            g,
+            freq_hz,
+            ang_mrad: ang,
+            ..Condition::default()
+        },
+        lever_cm,
+    }
+}
+
+/// Which Appendix A set-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum TwoAxisKind {
+    /// Fig. A.2: Y about IA, Z about PA, radius along OA: IA and PA vibrations.
+    Vibropendulous,
+    /// Fig. A.4: Y about IA, Z about OA, radius along PA: IA and OA vibrations.
+    Anisoelastic,
+    /// Fig. A.5: Z about OA (OA angular input), Y about IA with radius along OA: PA vibration.
+    Sculling,
+}
+
+/// The two-axis oscillator of Appendix A: `θ_y = θ_my·sin(ωt + ψ)`, `θ_z = θ_mz·sin(ωt)`,
+/// proof mass at radius `r_cm` along the fixture's X axis, which is vertical.
+///
+/// The tangential accelerations `dw × r` enter the row as linear vibrations (exact, one
+/// frequency); the centripetal terms `w × (w × r)` (second order, DC and 2ω, along the
+/// radius) are left out of the row, as they are along OA (A.2, A.5) or PA (A.4) and do not
+/// reach IA.
+#[must_use]
+pub fn two_axis(kind: TwoAxisKind, freq_hz: f64, theta_my_mrad: f64, theta_mz_mrad: f64, psi_deg: f64, r_cm: f64) -> Condition {
+    let (y_axis, z_axis, radius, g) = match kind {
+        // Signs of r chosen to match the figures' IA_z = +r θ_mz ω² sin ωt.
+        TwoAxisKind::Vibropendulous => (IA, PA, [0.0, 0.0, -r_cm], [0.0, 0.0, -1.0]),
+        TwoAxisKind::Anisoelastic => (IA, OA, [0.0, -r_cm, 0.0], [0.0, -1.0, 0.0]),
+        TwoAxisKind::Sculling => (IA, OA, [0.0, 0.0, r_cm], [0.0, 0.0, 1.0]),
+    };
+    let mut ang = [0.0; 3];
+    let mut ang_deg = [0.0; 3];
+    ang[y_axis] = theta_my_mrad;
+    ang_deg[y_axis] = psi_deg;
+    ang[z_axis] = theta_mz_mrad;
+    // dw_j = −θ_j ω² sin(ωt + p_j): phasor (complex amplitude of sin) −θ ω² e^{jp}.
+    let w = std::f64::consts::TAU * freq_hz;
+    let mut re = [0.0; 3];
+    let mut im = [0.0; 3];
+    for j in 0..3 {
+        let a = -ang[j] * 1e-3 * w * w;
+        let (s, c) = ang_deg[j].to_radians().sin_cos();
+        re[j] = a * c;
+        im[j] = a * s;
+    }
+    let lr = cross(re, radius);
+    let li = cross(im, radius);
+    let mut lin = [0.0; 3];
+    let mut lin_deg = [0.0; 3];
+    for j in 0..3 {
+        lin[j] = lr[j].hypot(li[j]);
+        lin_deg[j] = if lin[j] > 0.0 { li[j].atan2(lr[j]).to_degrees() } else { 0.0 };
+    }
+    Condition {
+        label: format!("{kind:?} {freq_hz} Hz, psi {psi_deg} deg"),
+        g,
+        freq_hz,
+        lin_cm_s2: lin,
+        lin_deg,
+        ang_mrad: ang,
+        ang_deg,
+        ..Condition::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn table_6_1_geometry() {
+        let s = rate_table(45.0, 1.0, 0.05, [0.0; 3]);
+        let i = s.cond.inputs_at(0.0);
+        assert!((i.w_rad_s[IA] * i.w_rad_s[PA] - 0.5).abs() < 1e-12);
+        assert!((s.cond.reference().w_rad_s[IA] - 0.05 * 0.5f64.sqrt()).abs() < 1e-12);
+        let s = rate_table(180.0, 1.0, 0.05, [0.0; 3]);
+        assert_eq!(s.cond.g, [0.0, -1.0, 0.0]);
+    }
+
+    #[test]
+    fn vibropendulous_inputs_match_fig_a2() {
+        let (f, my, mz, r) = (20.0, 1.0, 2.0, 5.0);
+        let c = two_axis(TwoAxisKind::Vibropendulous, f, my, mz, 90.0, r);
+        let w = std::f64::consts::TAU * f;
+        // IA_z = r θ_mz ω² sin ωt, PA_y = −r θ_my ω² sin(ωt + ψ).
+        assert!((c.lin_cm_s2[IA] - r * mz * 1e-3 * w * w).abs() < 1e-9);
+        assert!(c.lin_deg[IA].abs() < 1e-9);
+        assert!((c.lin_cm_s2[PA] - r * my * 1e-3 * w * w).abs() < 1e-9);
+        assert!((c.lin_deg[PA] - (90.0 - 180.0)).abs() < 1e-9, "{}", c.lin_deg[PA]);
+    }
+}

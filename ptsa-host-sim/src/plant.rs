@@ -1,0 +1,238 @@
+//! The pendulum, torquer and pickoff electronics as a linear system, discretised exactly
+//! with a zero-order hold on the torquer command and the disturbance torque.
+//!
+//! State `x = [θ, θ', i, y]`:
+//!
+//! * `θ` (rad), the pendulum angle about OA; `θ'` (rad/s);
+//! * `i`, the torquer current as a fraction of the regulated full current (±1);
+//! * `y` (rad), the demodulated pickoff after the demodulator's ripple filter.
+//!
+//! ```text
+//! I·θ'' + C·θ' + K_eff·θ = d − F·i          (eq. 4.2; F = torque at full current = P·SF)
+//! τ·i' = u − i                              (current regulator, u = ±1 from the PTSA)
+//! y'   = ω_d·(θ − y)                        (demodulator low-pass)
+//! ```
+//!
+//! `K_eff = K + P·a_PA − (I_PA − I_IA)·(W_IA² − W_PA²)` collects the spring and the
+//! time-invariant parts of eq. 4.2's `θ` terms; their oscillating parts, and everything that
+//! does not depend on `θ`, form the disturbance torque `d` (see `sim.rs`). Between clock
+//! edges `u` is constant, and `d` is held at its mid-interval value, so
+//! `x[k+1] = Φ·x[k] + Γu·u[k] + Γd·d[k]` is exact for `u` and exact to `O(T²)` for a smooth
+//! `d`. `Φ = e^{AT}` and `Γ = ∫₀ᵀ e^{Aσ} dσ·B` come from one matrix exponential of the
+//! augmented matrix `[[A, B], [0, 0]]·T` (scaling and squaring, Taylor series).
+//!
+//! The stops at `±θ_s` add a stiff, lossy contact `−K_s·(θ ∓ θ_s) − C_s·θ'`: a second and a
+//! third discretisation, chosen by the sign of `θ` beyond the stop at the start of each tick.
+
+use crate::instrument::Instrument;
+
+/// Number of plant states.
+pub const NX: usize = 4;
+
+/// Matrix exponential of an `n×n` matrix (row-major, `n ≤ 8`): scaling and squaring with a
+/// 20-term Taylor series; accurate to a few ulp for the well-scaled matrices used here.
+#[must_use]
+pub fn expm(a: &[[f64; 8]; 8], n: usize) -> [[f64; 8]; 8] {
+    let norm = (0..n)
+        .map(|r| (0..n).map(|c| a[r][c].abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    let mut squarings = 0u32;
+    let mut scale = 1.0;
+    while norm * scale > 0.25 {
+        scale *= 0.5;
+        squarings += 1;
+    }
+    let mut m = [[0.0; 8]; 8];
+    for r in 0..n {
+        for c in 0..n {
+            m[r][c] = a[r][c] * scale;
+        }
+    }
+    // Taylor: E = I + M + M²/2! + ...
+    let mut e = [[0.0; 8]; 8];
+    let mut term = [[0.0; 8]; 8];
+    for r in 0..n {
+        e[r][r] = 1.0;
+        term[r][r] = 1.0;
+    }
+    for k in 1..=20 {
+        term = matmul(&term, &m, n);
+        let inv = 1.0 / f64::from(k);
+        for row in term.iter_mut().take(n) {
+            for x in row.iter_mut().take(n) {
+                *x *= inv;
+            }
+        }
+        for r in 0..n {
+            for c in 0..n {
+                e[r][c] += term[r][c];
+            }
+        }
+    }
+    for _ in 0..squarings {
+        e = matmul(&e, &e, n);
+    }
+    e
+}
+
+fn matmul(a: &[[f64; 8]; 8], b: &[[f64; 8]; 8], n: usize) -> [[f64; 8]; 8] {
+    let mut out = [[0.0; 8]; 8];
+    for r in 0..n {
+        for c in 0..n {
+            let mut s = 0.0;
+            for k in 0..n {
+                s += a[r][k] * b[k][c];
+            }
+            out[r][c] = s;
+        }
+    }
+    out
+}
+
+/// One exact discretisation: `x' = Φ x + Γu u + Γd d`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Zoh {
+    /// State transition over one tick.
+    pub phi: [[f64; NX]; NX],
+    /// Response to the torquer command `u` held over the tick.
+    pub gu: [f64; NX],
+    /// Response to a disturbance torque `d` (dyn·cm) held over the tick.
+    pub gd: [f64; NX],
+}
+
+impl Zoh {
+    /// Discretise with stiffness `k` (dyn·cm/rad) and damping `c` (dyn·cm·s) on the pendulum.
+    #[must_use]
+    pub fn new(instr: &Instrument, k: f64, c: f64) -> Self {
+        let t = 1.0 / instr.clock_hz;
+        let inertia = instr.inertia_dyn_cm_s2;
+        let f = instr.full_torque_dyn_cm();
+        let tau = instr.torquer_tau_s;
+        let wd = std::f64::consts::TAU * instr.demod_bandwidth_hz;
+        let mut m = [[0.0; 8]; 8];
+        // A
+        m[0][1] = 1.0;
+        m[1][0] = -k / inertia;
+        m[1][1] = -c / inertia;
+        m[1][2] = -f / inertia;
+        m[2][2] = -1.0 / tau;
+        m[3][0] = wd;
+        m[3][3] = -wd;
+        // B: column 4 = u, column 5 = d
+        m[2][4] = 1.0 / tau;
+        m[1][5] = 1.0 / inertia;
+        for row in &mut m {
+            for x in row.iter_mut() {
+                *x *= t;
+            }
+        }
+        let e = expm(&m, 6);
+        let mut z = Zoh {
+            phi: [[0.0; NX]; NX],
+            gu: [0.0; NX],
+            gd: [0.0; NX],
+        };
+        for r in 0..NX {
+            for c in 0..NX {
+                z.phi[r][c] = e[r][c];
+            }
+            z.gu[r] = e[r][4];
+            z.gd[r] = e[r][5];
+        }
+        z
+    }
+
+    /// One step.
+    #[inline(always)]
+    #[must_use]
+    pub fn step(&self, x: &[f64; NX], add: &[f64; NX]) -> [f64; NX] {
+        let p = &self.phi;
+        let mut out = *add;
+        for r in 0..NX {
+            out[r] += p[r][0] * x[0] + p[r][1] * x[1] + p[r][2] * x[2] + p[r][3] * x[3];
+        }
+        out
+    }
+}
+
+/// The three discretisations (free, on the upper stop, on the lower stop) and the constant
+/// torque each adds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plant {
+    /// `[free, upper stop, lower stop]`.
+    pub zoh: [Zoh; 3],
+    /// Constant torque of each region, dyn·cm: `0`, `+K_s·θ_s`, `−K_s·θ_s`.
+    pub stop_torque: [f64; 3],
+    /// Stop angle, rad.
+    pub theta_stop: f64,
+}
+
+impl Plant {
+    /// Discretise for an effective stiffness `k_eff` (dyn·cm/rad, see the module docs).
+    #[must_use]
+    pub fn new(instr: &Instrument, k_eff: f64) -> Self {
+        let ks = instr.stop_stiffness_dyn_cm_rad;
+        let cs = instr.stop_damping_dyn_cm_s;
+        let c = instr.damping_dyn_cm_s;
+        let free = Zoh::new(instr, k_eff, c);
+        let stop = Zoh::new(instr, k_eff + ks, c + cs);
+        let ts = instr.freedom_rad;
+        Self {
+            zoh: [free, stop, stop],
+            stop_torque: [0.0, ks * ts, -ks * ts],
+            theta_stop: ts,
+        }
+    }
+
+    /// Region of the state: 0 free, 1 beyond `+θ_s`, 2 beyond `−θ_s`.
+    #[inline(always)]
+    #[must_use]
+    pub fn region(&self, theta: f64) -> usize {
+        if theta.abs() <= self.theta_stop {
+            0
+        } else if theta > 0.0 {
+            1
+        } else {
+            2
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn expm_of_a_rotation() {
+        let mut a = [[0.0; 8]; 8];
+        a[0][1] = -1.0;
+        a[1][0] = 1.0;
+        let e = expm(&a, 2);
+        assert!((e[0][0] - 1f64.cos()).abs() < 1e-14);
+        assert!((e[1][0] - 1f64.sin()).abs() < 1e-14);
+    }
+
+    #[test]
+    fn zoh_matches_the_first_order_current_exactly() {
+        let i = Instrument::kearfott_2401();
+        let z = Zoh::new(&i, 1540.0, 76400.0);
+        let a = (-1.0 / i.clock_hz / i.torquer_tau_s).exp();
+        assert!((z.phi[2][2] - a).abs() < 1e-13);
+        assert!((z.gu[2] - (1.0 - a)).abs() < 1e-13);
+    }
+
+    #[test]
+    fn static_gain_of_the_pendulum() {
+        // Hold d constant: θ settles at d/K. Iterate the ZOH long enough (time constant C/K).
+        let i = Instrument::kearfott_2401();
+        let k = 1e7; // stiff, so that it settles fast: C/K = 7.6 ms
+        let z = Zoh::new(&i, k, i.damping_dyn_cm_s);
+        let mut x = [0.0; NX];
+        let add = [z.gd[0] * 100.0, z.gd[1] * 100.0, z.gd[2] * 100.0, z.gd[3] * 100.0];
+        for _ in 0..64_000 {
+            x = z.step(&x, &add);
+        }
+        assert!((x[0] - 1e-5).abs() < 1e-12, "{x:?}");
+        assert!((x[3] - 1e-5).abs() < 1e-12, "{x:?}");
+    }
+}

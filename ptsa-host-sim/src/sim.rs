@@ -1,0 +1,600 @@
+//! The closed loop: `ptsa-core` (the firmware's own code) tick by tick against the plant,
+//! and the estimator of the mean indicated acceleration.
+//!
+//! # Timing
+//! At clock edge `k` the ADC samples the demodulated pickoff; [`ptsa_core::Ptsa::tick`]
+//! decides the polarity of the next clock interval, which the H-bridge applies from edge
+//! `k+1` (one interval of computation delay, as in the PTSA: "the polarity of current
+//! change occurs ... when the next 64 kHz clock pulse occurs").
+//!
+//! # The estimator (charge balance)
+//! Integrating eq. 4.2 over a window `[t0, t1]` of length `W`:
+//!
+//! ```text
+//! ∫ T_ext dt = F·∫ i dt + I·Δθ' + C·Δθ,      ∫ i dt = T·Σu − τ·Δi
+//! ```
+//!
+//! where `T_ext` is every torque except the torquer's (`P·a_IA`, bias, spring, cross
+//! coupling, anisoinertia, stops, effects). The long-run mean of the pulse output converges
+//! to `mean(T_ext)/P`, so the estimate
+//!
+//! ```text
+//! â = SF·(Σu/N − τ·Δi/W) + (I·Δθ' + C·Δθ)/(P·W)        (SF = F/P)
+//! ```
+//!
+//! is what an infinitely long count would indicate for the conditions of the window: the
+//! plain count `SF·(2P/T − 1)` plus the sigma-delta residual (the charge stored in the
+//! pendulum and the torquer at the ends of the window). It is exact for the simulated
+//! system; windows of whole oscillation periods remove the oscillating part of `T_ext`.
+
+use ptsa_core::{Config, Polarity, Ptsa, State};
+use rand_chacha::ChaCha8Rng;
+use rand_chacha::rand_core::{RngCore, SeedableRng};
+
+use crate::condition::{CaseInputs, Condition, Effects, IA, OA, PA, Prepared};
+use crate::instrument::Instrument;
+use crate::plant::{NX, Plant};
+
+/// Options of a simulated run.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SimOptions {
+    /// Seed of the pickoff noise.
+    pub seed: u64,
+    /// Settling time before the measurement window, s.
+    pub warmup_s: f64,
+    /// Shortest measurement window, s; a dynamic condition gets the smallest whole number
+    /// of oscillation periods at least this long (and at least one period).
+    pub min_window_s: f64,
+    /// Pickoff noise on (as in the instrument file) or off.
+    pub noise: bool,
+    /// Also measure the component of the pulse output at this harmonic of the condition's
+    /// frequency (1 or 2; 0 = none).
+    pub harmonic: u32,
+    /// The loop configuration (default: `Config::DEFAULT`).
+    pub config: Config,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self {
+            seed: 1,
+            warmup_s: 0.1,
+            min_window_s: 0.1,
+            noise: true,
+            harmonic: 0,
+            config: Config::DEFAULT,
+        }
+    }
+}
+
+/// What a run measured over its window.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SimResult {
+    /// Mean indicated acceleration over the window, cm/s² (charge-balance estimate, see the
+    /// module docs): what a long count would indicate.
+    pub indicated_cm_s2: f64,
+    /// Plain count over the window, `SF·(2P/T − 1)` with the configured SF, cm/s².
+    pub count_cm_s2: f64,
+    /// Clock ticks in the window (`T`).
+    pub ticks: u64,
+    /// Data pulses in the window (`P`, as the core counted them).
+    pub pulses: u64,
+    /// Window length, s.
+    pub window_s: f64,
+    /// RMS of the pendulum angle over the window, rad.
+    pub theta_rms_rad: f64,
+    /// Largest `|θ|` over the window, rad.
+    pub theta_max_rad: f64,
+    /// Complete limit cycles in the window.
+    pub cycles: u64,
+    /// Cycles with exactly two current reversals.
+    pub cycles_two_reversals: u64,
+    /// Ticks on a mechanical stop.
+    pub stop_ticks: u64,
+    /// Amplitude of the indicated acceleration at the requested harmonic, cm/s² (0 if none).
+    pub harmonic_amp_cm_s2: f64,
+    /// Phase of that component, degrees, relative to `sin(h·ωt)`.
+    pub harmonic_deg: f64,
+}
+
+/// A condition minus its reference (as `measured_cm_s2` is defined).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SimDifference {
+    /// The condition's run.
+    pub condition: SimResult,
+    /// The reference's run.
+    pub reference: SimResult,
+    /// `condition.indicated_cm_s2 − reference.indicated_cm_s2`, cm/s².
+    pub difference_cm_s2: f64,
+}
+
+/// xoshiro256++ (Blackman and Vigna), seeded from ChaCha8: a fast generator for the
+/// per-tick noise.
+#[derive(Clone, Debug)]
+struct Xoshiro([u64; 4]);
+
+impl Xoshiro {
+    fn new(seed: u64) -> Self {
+        let mut c = ChaCha8Rng::seed_from_u64(seed);
+        let mut s = [0u64; 4];
+        for x in &mut s {
+            *x = c.next_u64() | 1;
+        }
+        Self(s)
+    }
+    #[inline(always)]
+    fn next(&mut self) -> u64 {
+        let s = &mut self.0;
+        let r = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
+        let t = s[1] << 17;
+        s[2] ^= s[0];
+        s[3] ^= s[1];
+        s[1] ^= s[2];
+        s[0] ^= s[3];
+        s[2] ^= t;
+        s[3] = s[3].rotate_left(45);
+        r
+    }
+    /// Approximately standard normal: Irwin-Hall sum of four 16-bit uniforms.
+    #[inline(always)]
+    fn normal(&mut self) -> f64 {
+        let r = self.next();
+        let sum = (r & 0xffff) + ((r >> 16) & 0xffff) + ((r >> 32) & 0xffff) + (r >> 48);
+        #[allow(clippy::cast_precision_loss)]
+        let x = sum as f64;
+        (x - 131_070.0) * (1.0 / 37_837.23)
+    }
+}
+
+/// Running totals of the loop (differenced into window results).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Totals {
+    /// Ticks run.
+    pub ticks: u64,
+    /// Sum of the applied commands `u = ±1`.
+    pub sum_u: i64,
+    /// Pulses the core counted.
+    pub pulses: u64,
+    /// Sum of `θ²`, rad².
+    pub sum_theta2: f64,
+    /// Largest `|θ|`, rad.
+    pub max_theta: f64,
+    /// Completed limit cycles.
+    pub cycles: u64,
+    /// Cycles with exactly two reversals.
+    pub cycles_two: u64,
+    /// Ticks on a stop.
+    pub stop_ticks: u64,
+    /// `Σ u·sin(hωt)`, `Σ u·cos(hωt)` at the requested harmonic.
+    pub harm: [f64; 2],
+}
+
+/// One tick as seen by an observer (for waveforms and traces).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TickView {
+    /// Tick index since the loop was built.
+    pub k: u64,
+    /// Plant state after the tick: `[θ (rad), θ' (rad/s), i (fraction of full current),
+    /// y (rad)]`.
+    pub x: [f64; NX],
+    /// ADC code sampled at the start of the tick.
+    pub code: i16,
+    /// Command applied over this tick, ±1.
+    pub u: f64,
+    /// Polarity decided for the next interval.
+    pub decided: Polarity,
+}
+
+/// The closed loop: instrument plant, ADC, `ptsa-core` loop, all state.
+#[derive(Clone, Debug)]
+pub struct ClosedLoop {
+    instr: Instrument,
+    ptsa: Ptsa,
+    core: State,
+    plant: Plant,
+    prep: Prepared,
+    effects: Effects,
+    dynamic: bool,
+    /// Plant state.
+    x: [f64; NX],
+    /// Command applied in the current interval (decided at the previous tick).
+    u: f64,
+    k: u64,
+    rng: Xoshiro,
+    noise_codes: f64,
+    code_per_rad: f64,
+    code_offset: f64,
+    /// Constant part of the disturbance torque, dyn·cm.
+    d0: f64,
+    /// `a_PA` and `W_IA² − W_PA²` folded into `K_eff`.
+    a_pa0: f64,
+    wq0: f64,
+    p_gcm: f64,
+    totals: Totals,
+    prev_pol: Polarity,
+    reversals: u32,
+    harmonic: u32,
+}
+
+impl ClosedLoop {
+    /// A loop at rest (reset core, pendulum at null, current at zero) in `cond`.
+    ///
+    /// # Panics
+    /// If `opts.config` is refused by `ptsa-core` (the default never is).
+    #[must_use]
+    pub fn new(instr: &Instrument, cond: &Condition, effects: &Effects, opts: &SimOptions) -> Self {
+        let ptsa = opts.config.build().expect("valid PTSA configuration");
+        let lsb_v = instr.adc_full_scale_v / 32768.0;
+        let noise = if opts.noise { instr.noise_v_rms } else { 0.0 };
+        let mut s = Self {
+            instr: instr.clone(),
+            ptsa,
+            core: ptsa.initial_state(),
+            plant: Plant::new(instr, instr.spring_dyn_cm_rad),
+            prep: Prepared::default(),
+            effects: *effects,
+            dynamic: false,
+            x: [0.0; NX],
+            u: 1.0,
+            k: 0,
+            rng: Xoshiro::new(opts.seed),
+            noise_codes: noise * instr.amp_gain / lsb_v,
+            code_per_rad: instr.lsb_per_rad() * instr.phase_error_rad.cos(),
+            code_offset: instr.quadrature_v * instr.phase_error_rad.sin() * instr.amp_gain / lsb_v,
+            d0: 0.0,
+            a_pa0: 0.0,
+            wq0: 0.0,
+            p_gcm: instr.pendulosity_g_cm(),
+            totals: Totals::default(),
+            prev_pol: Polarity::Positive,
+            reversals: 0,
+            harmonic: opts.harmonic,
+        };
+        s.set_condition(cond, effects);
+        s
+    }
+
+    /// Change the condition (and effects) from the next tick on, keeping every state.
+    pub fn set_condition(&mut self, cond: &Condition, effects: &Effects) {
+        let instr = &self.instr;
+        let prep = cond.prepare();
+        let m = prep.mean_inputs();
+        let p = self.p_gcm;
+        let di = instr.anisoinertia_g_cm2;
+        self.a_pa0 = m.a_cm_s2[PA];
+        self.wq0 = m.w_rad_s[IA].powi(2) - m.w_rad_s[PA].powi(2);
+        let k_eff = instr.spring_dyn_cm_rad + p * self.a_pa0 - di * self.wq0;
+        self.plant = Plant::new(instr, k_eff);
+        self.prep = prep;
+        self.effects = *effects;
+        self.dynamic = prep.is_dynamic();
+        self.d0 = self.static_torque(&m);
+    }
+
+    /// The θ-independent torque for inputs `i`, dyn·cm.
+    #[inline(always)]
+    fn static_torque(&self, i: &CaseInputs) -> f64 {
+        let eff = if self.effects.is_zero() {
+            0.0
+        } else {
+            self.effects.indicated_cm_s2(i)
+        };
+        self.p_gcm * (i.a_cm_s2[IA] + self.instr.bias_cm_s2 + eff)
+            - self.instr.inertia_dyn_cm_s2 * i.dw_rad_s2[OA]
+            + self.instr.anisoinertia_g_cm2 * i.w_rad_s[IA] * i.w_rad_s[PA]
+    }
+
+    /// Plant state `[θ, θ', i, y]`.
+    #[must_use]
+    pub fn state(&self) -> [f64; NX] {
+        self.x
+    }
+
+    /// Running totals.
+    #[must_use]
+    pub fn totals(&self) -> Totals {
+        self.totals
+    }
+
+    /// The core's state.
+    #[must_use]
+    pub fn core(&self) -> &State {
+        &self.core
+    }
+
+    /// The instrument.
+    #[must_use]
+    pub fn instrument(&self) -> &Instrument {
+        &self.instr
+    }
+
+    /// Ticks run since the loop was built.
+    #[must_use]
+    pub fn ticks(&self) -> u64 {
+        self.k
+    }
+
+    #[inline(always)]
+    fn adc(&mut self, y: f64) -> i16 {
+        let mut v = y * self.code_per_rad + self.code_offset;
+        if self.noise_codes != 0.0 {
+            v += self.noise_codes * self.rng.normal();
+        }
+        // Round half up and clip to the i16 range without a libm call.
+        let z = (v + 32768.5).clamp(0.0, 65535.0);
+        #[allow(clippy::cast_possible_truncation)]
+        let z = z as i32 - 32768;
+        #[allow(clippy::cast_possible_truncation)]
+        let z = z as i16;
+        z
+    }
+
+    /// Run `n` ticks, calling `obs` after each.
+    pub fn run_observed(&mut self, n: u64, mut obs: impl FnMut(&TickView)) {
+        self.run_inner(n, &mut obs, true);
+    }
+
+    /// Run `n` ticks.
+    pub fn run(&mut self, n: u64) {
+        self.run_inner(n, &mut |_| {}, false);
+    }
+
+    #[inline(always)]
+    fn run_inner<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
+        if self.dynamic || self.harmonic != 0 {
+            self.run_dynamic(n, obs, observe);
+        } else {
+            self.run_static(n, obs, observe);
+        }
+    }
+
+    #[inline(always)]
+    fn bookkeeping(&mut self, pol: Polarity, theta: f64, cycle_end: bool) {
+        let t = &mut self.totals;
+        t.ticks += 1;
+        t.sum_theta2 += theta * theta;
+        t.max_theta = t.max_theta.max(theta.abs());
+        self.reversals += u32::from(pol != self.prev_pol);
+        self.prev_pol = pol;
+        if cycle_end {
+            t.cycles += 1;
+            t.cycles_two += u64::from(self.reversals == 2);
+            self.reversals = 0;
+        }
+    }
+
+    fn run_static<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
+        // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
+        let mut add = [[[0.0; NX]; 2]; 3];
+        for (r, a) in add.iter_mut().enumerate() {
+            let z = &self.plant.zoh[r];
+            let d = self.d0 + self.plant.stop_torque[r];
+            for j in 0..NX {
+                a[0][j] = z.gu[j] + z.gd[j] * d;
+                a[1][j] = -z.gu[j] + z.gd[j] * d;
+            }
+        }
+        let ptsa = self.ptsa;
+        let mut x = self.x;
+        let mut u = self.u;
+        let mut sum_u = 0i64;
+        let mut stop = 0u64;
+        for _ in 0..n {
+            let code = self.adc(x[3]);
+            let tick = ptsa.tick(&mut self.core, code);
+            let r = self.plant.region(x[0]);
+            stop += u64::from(r != 0);
+            let a = &add[r][usize::from(u < 0.0)];
+            x = self.plant.zoh[r].step(&x, a);
+            #[allow(clippy::cast_possible_truncation)]
+            {
+                sum_u += u as i64;
+            }
+            self.bookkeeping(tick.polarity, x[0], tick.cycle_pulses.is_some());
+            if observe {
+                obs(&TickView { k: self.k, x, code, u, decided: tick.polarity });
+            }
+            self.k += 1;
+            u = f64::from(tick.polarity.sign());
+        }
+        self.x = x;
+        self.u = u;
+        self.totals.sum_u += sum_u;
+        self.totals.stop_ticks += stop;
+        self.totals.pulses = u64::from(self.core.total_pulses().0);
+    }
+
+    fn run_dynamic<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
+        let t_s = 1.0 / self.instr.clock_hz;
+        let w = self.prep.omega;
+        let (sr, cr) = (w * t_s).sin_cos();
+        let p = self.p_gcm;
+        let di = self.instr.anisoinertia_g_cm2;
+        let ptsa = self.ptsa;
+        let harmonic = self.harmonic;
+        let mut x = self.x;
+        let mut u = self.u;
+        let (mut s, mut c) = (0.0, 1.0);
+        for j in 0..n {
+            let k = self.k;
+            if j == 0 || k % 4096 == 0 {
+                #[allow(clippy::cast_precision_loss)]
+                let t_mid = (k as f64 + 0.5) * t_s;
+                (s, c) = (w * t_mid).sin_cos();
+            }
+            let code = self.adc(x[3]);
+            let tick = ptsa.tick(&mut self.core, code);
+            let theta = x[0];
+            let r = self.plant.region(theta);
+            let inp = self.prep.inputs(s, c);
+            let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
+            let d = self.static_torque(&inp)
+                + theta * (-p * (inp.a_cm_s2[PA] - self.a_pa0) + di * (wq - self.wq0))
+                + self.plant.stop_torque[r];
+            let z = &self.plant.zoh[r];
+            let mut a = [0.0; NX];
+            for i in 0..NX {
+                a[i] = z.gu[i] * u + z.gd[i] * d;
+            }
+            x = z.step(&x, &a);
+            if harmonic != 0 {
+                let (hs, hc) = if harmonic == 1 { (s, c) } else { (2.0 * s * c, c * c - s * s) };
+                self.totals.harm[0] += u * hs;
+                self.totals.harm[1] += u * hc;
+            }
+            #[allow(clippy::cast_possible_truncation)]
+            {
+                self.totals.sum_u += u as i64;
+            }
+            self.totals.stop_ticks += u64::from(r != 0);
+            self.bookkeeping(tick.polarity, x[0], tick.cycle_pulses.is_some());
+            if observe {
+                obs(&TickView { k, x, code, u, decided: tick.polarity });
+            }
+            self.k += 1;
+            u = f64::from(tick.polarity.sign());
+            // Advance the phasor by one tick.
+            (s, c) = (s * cr + c * sr, c * cr - s * sr);
+        }
+        self.x = x;
+        self.u = u;
+        self.totals.pulses = u64::from(self.core.total_pulses().0);
+    }
+
+    /// Run a measurement window of `n` ticks and return its result.
+    #[must_use]
+    pub fn measure(&mut self, n: u64) -> SimResult {
+        let t0 = self.totals;
+        let x0 = self.x;
+        let p0 = self.core.total_pulses();
+        self.run(n);
+        let t1 = self.totals;
+        let x1 = self.x;
+        let pulses = u64::from((self.core.total_pulses() - p0).0);
+        self.window_result(&t0, &t1, &x0, &x1, pulses)
+    }
+
+    fn window_result(&self, t0: &Totals, t1: &Totals, x0: &[f64; NX], x1: &[f64; NX], pulses: u64) -> SimResult {
+        let i = &self.instr;
+        let t_s = 1.0 / i.clock_hz;
+        let n = t1.ticks - t0.ticks;
+        #[allow(clippy::cast_precision_loss)]
+        let nf = n as f64;
+        let w = nf * t_s;
+        let sf = i.actual_sf_cm_s2();
+        #[allow(clippy::cast_precision_loss)]
+        let mean_u = (t1.sum_u - t0.sum_u) as f64 / nf;
+        let indicated = sf * (mean_u - i.torquer_tau_s * (x1[2] - x0[2]) / w)
+            + (i.inertia_dyn_cm_s2 * (x1[1] - x0[1]) + i.damping_dyn_cm_s * (x1[0] - x0[0]))
+                / (self.p_gcm * w);
+        #[allow(clippy::cast_precision_loss)]
+        let count = i.sf_cm_s2 * (2.0 * pulses as f64 / nf - 1.0);
+        let hs = t1.harm[0] - t0.harm[0];
+        let hc = t1.harm[1] - t0.harm[1];
+        SimResult {
+            indicated_cm_s2: indicated,
+            count_cm_s2: count,
+            ticks: n,
+            pulses,
+            window_s: w,
+            theta_rms_rad: ((t1.sum_theta2 - t0.sum_theta2) / nf).sqrt(),
+            theta_max_rad: t1.max_theta,
+            cycles: t1.cycles - t0.cycles,
+            cycles_two_reversals: t1.cycles_two - t0.cycles_two,
+            stop_ticks: t1.stop_ticks - t0.stop_ticks,
+            harmonic_amp_cm_s2: 2.0 * sf * hs.hypot(hc) / nf,
+            harmonic_deg: hc.atan2(hs).to_degrees(),
+        }
+    }
+}
+
+/// Ticks of the measurement window for `cond`: whole limit cycles for a static condition,
+/// whole oscillation periods (at least one, at least `min_window_s`) for a dynamic one.
+#[must_use]
+pub fn window_ticks(instr: &Instrument, cond: &Condition, opts: &SimOptions) -> u64 {
+    let clock = instr.clock_hz;
+    let n_cycle = f64::from(opts.config.ticks_per_cycle);
+    let ticks = if cond.prepare().is_dynamic() || (opts.harmonic != 0 && cond.freq_hz > 0.0) {
+        let periods = (opts.min_window_s * cond.freq_hz).ceil().max(1.0);
+        (periods * clock / cond.freq_hz).round()
+    } else {
+        (opts.min_window_s * clock / n_cycle).ceil().max(1.0) * n_cycle
+    };
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let t = ticks as u64;
+    t.max(1)
+}
+
+/// Simulate one condition: settle for `opts.warmup_s`, then measure over a window of whole
+/// limit cycles or whole oscillation periods. Effects enter the plant as an extra torque
+/// `P·effects.indicated_cm_s2(inputs)` on the pendulum.
+#[must_use]
+pub fn simulate_condition(
+    instr: &Instrument,
+    cond: &Condition,
+    effects: &Effects,
+    opts: &SimOptions,
+) -> SimResult {
+    let mut l = ClosedLoop::new(instr, cond, effects, opts);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let warm = (opts.warmup_s * instr.clock_hz).round() as u64;
+    l.run(warm);
+    l.measure(window_ticks(instr, cond, opts))
+}
+
+/// Simulate a condition and its reference ([`Condition::reference`]) with the same options
+/// and effects; the difference is what `measured_cm_s2` measures.
+#[must_use]
+pub fn simulate_difference(
+    instr: &Instrument,
+    cond: &Condition,
+    effects: &Effects,
+    opts: &SimOptions,
+) -> SimDifference {
+    let c = simulate_condition(instr, cond, effects, opts);
+    let r = simulate_condition(instr, &cond.reference(), effects, opts);
+    SimDifference {
+        condition: c,
+        reference: r,
+        difference_cm_s2: c.indicated_cm_s2 - r.indicated_cm_s2,
+    }
+}
+
+/// Result of `ptsa static`.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct StaticRun {
+    /// Clock ticks (`T`).
+    pub ticks: u64,
+    /// Data pulses (`P`).
+    pub pulses: u64,
+    /// `SF·(2P/T − 1)` with the configured SF, cm/s².
+    pub indicated_cm_s2: f64,
+}
+
+/// Settling time before the gate of [`run_static`], ticks (0.1 s at 64 kHz, whole cycles).
+pub const STATIC_SETTLE_TICKS: u64 = 6400;
+
+/// The plain closed loop with a constant acceleration `accel_cm_s2` along IA (no gravity,
+/// no rates; the instrument's bias and noise apply): after [`STATIC_SETTLE_TICKS`] of
+/// settling from reset, one gate of `ticks` ticks; the core's pulse count over the gate and
+/// eq. 6.1's value `SF·(2P/T − 1)` with the configured SF.
+///
+/// Settling first matters: from reset the loop stores about eight pulses' worth of charge
+/// in the pendulum (the limit-cycle ripple and the integrator build-up) before it is in its
+/// periodic regime.
+#[must_use]
+pub fn run_static(instr: &Instrument, accel_cm_s2: f64, ticks: u64, opts: &SimOptions) -> StaticRun {
+    let cond = Condition {
+        label: "static".into(),
+        g: [accel_cm_s2 / crate::condition::G_CM_S2, 0.0, 0.0],
+        ..Condition::default()
+    };
+    let mut l = ClosedLoop::new(instr, &cond, &Effects::default(), opts);
+    l.run(STATIC_SETTLE_TICKS);
+    let p0 = l.core().total_pulses();
+    l.run(ticks);
+    let pulses = u64::from((l.core().total_pulses() - p0).0);
+    #[allow(clippy::cast_precision_loss)]
+    let x = instr.sf_cm_s2 * (2.0 * pulses as f64 / ticks as f64 - 1.0);
+    StaticRun { ticks, pulses, indicated_cm_s2: x }
+}

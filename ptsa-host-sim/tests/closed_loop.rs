@@ -1,0 +1,86 @@
+//! Properties of the closed loop (plant + ptsa-core): sigma-delta exactness, the estimator
+//! against long plain counts, the limit cycle, over-range and recovery.
+
+use proptest::prelude::*;
+use ptsa_host_sim::sim::{ClosedLoop, run_static};
+use ptsa_host_sim::{Condition, Effects, Instrument, SimOptions, simulate_condition};
+
+fn ia(a_cm_s2: f64) -> Condition {
+    Condition {
+        g: [a_cm_s2 / 980.4, 0.0, 0.0],
+        ..Condition::default()
+    }
+}
+
+/// One pulse over a gate of `ticks`, cm/s².
+fn pulse(i: &Instrument, ticks: u64) -> f64 {
+    #[allow(clippy::cast_precision_loss)]
+    let t = ticks as f64;
+    2.0 * i.sf_cm_s2 / t
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
+
+    /// For a constant input across ±95 % of full scale, the 1 s gate indicates the input
+    /// plus the bias (the instrument's A_b and the loop's own, zero for the nominal file) to
+    /// within one pulse, and every limit cycle has exactly two current reversals.
+    #[test]
+    fn sigma_delta_exactness(frac in -0.95f64..0.95, seed in 0u64..1000) {
+        let i = Instrument::kearfott_2401();
+        let opts = SimOptions { seed, ..SimOptions::default() };
+        let a = frac * i.sf_cm_s2 - i.bias_cm_s2;
+        let r = run_static(&i, a, 64_000, &opts);
+        let expect = a + i.bias_cm_s2 + i.loop_bias_cm_s2(0.0);
+        prop_assert!((r.indicated_cm_s2 - expect).abs() <= pulse(&i, 64_000),
+            "a = {a}: indicated {} expected {expect}", r.indicated_cm_s2);
+        let s = simulate_condition(&i, &ia(a), &Effects::default(), &opts);
+        prop_assert_eq!(s.cycles, s.cycles_two_reversals);
+        prop_assert!((s.indicated_cm_s2 - expect).abs() < 0.01, "estimator {} vs {expect}", s.indicated_cm_s2);
+    }
+}
+
+/// The charge-balance estimator over 0.1 s agrees with plain pulse counting over 20 s to
+/// within the count's own resolution (one pulse over 20 s = 0.033 cm/s²) and the noise.
+#[test]
+fn estimator_agrees_with_long_plain_counts() {
+    let i = Instrument::kearfott_2401();
+    let opts = SimOptions::default();
+    for a in [-12_000.0, -980.4, 0.0, 333.3, 980.4, 15_000.0] {
+        let est = simulate_condition(&i, &ia(a), &Effects::default(), &opts);
+        let long = run_static(&i, a, 20 * 64_000, &opts);
+        let tol = pulse(&i, 20 * 64_000) + 0.005;
+        assert!(
+            (est.indicated_cm_s2 - long.indicated_cm_s2).abs() <= tol,
+            "a = {a}: estimator {} vs 20 s count {}",
+            est.indicated_cm_s2,
+            long.indicated_cm_s2
+        );
+        // The short window's plain count is coarse: one pulse over 0.1 s is 6.6 cm/s².
+        assert!((est.count_cm_s2 - est.indicated_cm_s2).abs() <= 2.0 * pulse(&i, est.ticks));
+    }
+}
+
+/// Beyond full scale the duty saturates (no reversals), the pendulum rides the stop, and
+/// the output is clipped at the full scale; back in range the loop recovers within 50 ms.
+#[test]
+fn over_range_saturates_and_recovers() {
+    let i = Instrument::kearfott_2401();
+    let opts = SimOptions::default();
+    let over = ia(1.3 * i.sf_cm_s2);
+    let mut l = ClosedLoop::new(&i, &over, &Effects::default(), &opts);
+    l.run(6400);
+    let r = l.measure(6400);
+    assert_eq!(r.cycles_two_reversals, 0, "{r:?}");
+    assert!(r.stop_ticks > 0, "{r:?}");
+    assert!((r.count_cm_s2 - i.sf_cm_s2).abs() < 1e-6, "{r:?}");
+    assert!(l.core().saturations().integrator > 0);
+    // Back in range.
+    let a = 0.5 * i.sf_cm_s2;
+    l.set_condition(&ia(a), &Effects::default());
+    l.run(3200);
+    let r = l.measure(6400);
+    assert_eq!(r.cycles, r.cycles_two_reversals, "{r:?}");
+    assert_eq!(r.stop_ticks, 0);
+    assert!((r.indicated_cm_s2 - a - i.bias_cm_s2).abs() < 0.01, "{r:?}");
+}
