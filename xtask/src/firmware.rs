@@ -608,12 +608,15 @@ fn production_under_qemu(root: &Path, fw: &Path, elf: &Path) -> Result<String, S
         ));
     }
     let mut summary = Vec::new();
+    let mut times = Vec::new();
     for g in &gates {
         let field = |k: &str| -> Option<u64> {
             g.split_whitespace()
                 .find_map(|w| w.strip_prefix(k)?.strip_prefix('=')?.parse().ok())
         };
-        let (Some(p), Some(t), Some(n)) = (field("P"), field("T"), field("gates")) else {
+        let (Some(p), Some(t), Some(n), Some(ns)) =
+            (field("P"), field("T"), field("gates"), field("t_ns"))
+        else {
             return Err(format!("malformed gate report `{g}`"));
         };
         if t != PRODUCTION_GATE_TICKS || n != 1 || p > t {
@@ -622,10 +625,30 @@ fn production_under_qemu(root: &Path, fw: &Path, elf: &Path) -> Result<String, S
             ));
         }
         summary.push(format!("{p}/{t}"));
+        times.push(ns);
+    }
+    // Consecutive gates must be PRODUCTION_GATE_TICKS periods of 64 kHz apart in virtual time
+    // (15 625 ns per tick). QEMU 7.2's STM32 timer model re-arms its period when the handler
+    // clears the update flag instead of running free, so each emulated tick is stretched by
+    // the interrupt's entry latency (about 5 % here): accept up to +10 %, never less.
+    let period_ns = PRODUCTION_GATE_TICKS * 1_000_000_000 / 64_000;
+    let mut intervals = Vec::new();
+    for w in times.windows(2) {
+        let d = w[1].wrapping_sub(w[0]) & 0xffff_ffff;
+        if d + 15_625 < period_ns || d > period_ns + period_ns / 10 {
+            return Err(format!(
+                "gates {d} ns apart in virtual time, expected {period_ns} ns (64 kHz tick) \
+                 to +10 %: {:?}",
+                run.stdout
+            ));
+        }
+        intervals.push(d.to_string());
     }
     Ok(format!(
-        "production image under QEMU: 64 kHz TIM2 interrupt ran, {} gates reported (P/T: {})",
+        "production image under QEMU: 64 kHz TIM2 interrupt ran, {} gates reported (P/T: {}; \
+         {} ns apart in virtual time, expected {period_ns})",
         gates.len(),
-        summary.join(", ")
+        summary.join(", "),
+        intervals.join(", ")
     ))
 }

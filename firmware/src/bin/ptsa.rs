@@ -5,8 +5,8 @@
 //!
 //! With the `qemu` feature (QEMU `netduinoplus2`, see docs/firmware.md) the clock set-up is
 //! skipped, each count is also printed as text through semihosting
-//! (`gate <n>: P=<pulses> T=<ticks> gates=<merged>`), and after [`QEMU_GATES`] gates the
-//! image exits QEMU with status 0.
+//! (`gate <n>: P=<pulses> T=<ticks> gates=<merged> t_ns=<virtual time, ns>`), and after
+//! [`QEMU_GATES`] gates the image exits QEMU with status 0.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -41,6 +41,8 @@ fn main() -> ! {
     #[cfg(not(feature = "qemu"))]
     ptsa_firmware::clocks_160mhz(&dp.RCC, &dp.FLASH);
     let board = Board::new(dp, ptsa);
+    #[cfg(feature = "qemu")]
+    let board_stopwatch = board.stopwatch;
     board.tick.start();
     critical_section::with(|cs| TICK.borrow(cs).replace(Some(board.tick)));
     unmask_tick();
@@ -66,12 +68,14 @@ fn main() -> ! {
         #[cfg(feature = "qemu")]
         {
             reported += 1;
+            // Virtual time under `-icount shift=0`: TIM5 counts 1 GHz, i.e. nanoseconds.
             semihosting::println!(
-                "gate {}: P={} T={} gates={}",
+                "gate {}: P={} T={} gates={} t_ns={}",
                 reported,
                 count.pulses,
                 count.ticks,
-                count.gates
+                count.gates,
+                ptsa_firmware::stopwatch(&board_stopwatch)
             );
             if reported == QEMU_GATES {
                 semihosting::process::exit(0);
