@@ -73,12 +73,42 @@ impl Simulator for AnalyticSimulator {
     }
 }
 
-/// The closed-loop simulator (`crate::simulate_difference`) behind [`Simulator`], or, until
-/// it is available in this crate, the analytic model with a note on stderr.
+/// The closed loop ([`crate::sim::simulate_difference`]: ptsa-core tick by tick against the
+/// plant of eq. 4.2, Table 2.1's parameters) behind [`Simulator`]. Effects enter the plant
+/// as an extra torque `P·effects.indicated_cm_s2(inputs)`.
+#[derive(Clone, Debug)]
+pub struct ClosedLoopSimulator {
+    /// The instrument (default: the shipped Kearfott 2401 file).
+    pub instrument: crate::instrument::Instrument,
+    /// Run options (seed of the pickoff noise, warm-up, window).
+    pub options: crate::sim::SimOptions,
+}
+
+impl ClosedLoopSimulator {
+    /// The shipped instrument with default options and noise seed `seed`.
+    #[must_use]
+    pub fn kearfott_2401(seed: u64) -> Self {
+        ClosedLoopSimulator {
+            instrument: crate::instrument::Instrument::kearfott_2401(),
+            options: crate::sim::SimOptions { seed, ..crate::sim::SimOptions::default() },
+        }
+    }
+}
+
+impl Simulator for ClosedLoopSimulator {
+    fn name(&self) -> &'static str {
+        "closed-loop"
+    }
+
+    fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        crate::sim::simulate_difference(&self.instrument, cond, effects, &self.options).difference_cm_s2
+    }
+}
+
+/// The closed-loop simulator of the shipped instrument, boxed.
 #[must_use]
-pub fn closed_loop(_seed: u64) -> Box<dyn Simulator> {
-    eprintln!("discover: closed-loop simulator not available yet; using the analytic model");
-    Box::new(AnalyticSimulator)
+pub fn closed_loop(seed: u64) -> Box<dyn Simulator> {
+    Box::new(ClosedLoopSimulator::kearfott_2401(seed))
 }
 
 #[cfg(test)]
