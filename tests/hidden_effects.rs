@@ -16,7 +16,10 @@ use ptsa_host_sim::discovery::{self, Simulator};
 fn sims() -> (Box<dyn Simulator>, Box<dyn Simulator>) {
     let analytic = std::env::var("PTSA_HIDDEN_ANALYTIC").is_ok_and(|v| v == "1");
     // Different noise seeds for "the instrument" and "the model".
-    (discovery::simulator(analytic, 7_777), discovery::simulator(analytic, 1))
+    (
+        discovery::simulator(analytic, 7_777),
+        discovery::simulator(analytic, 1),
+    )
 }
 
 fn check(s: &CampaignSummary) {
@@ -45,15 +48,26 @@ fn hidden_effects_ci() {
     let (gen_sim, fit_sim) = sims();
     let t0 = std::time::Instant::now();
     let s = campaign(10, 20, 2026, &*gen_sim, &*fit_sim);
-    println!("generator: {}, pipeline: {}, {:.1} s", gen_sim.name(), fit_sim.name(), t0.elapsed().as_secs_f64());
+    println!(
+        "generator: {}, pipeline: {}, {:.1} s",
+        gen_sim.name(),
+        fit_sim.name(),
+        t0.elapsed().as_secs_f64()
+    );
     check(&s);
 }
 
 #[test]
 #[ignore = "full campaign: cargo xtask hidden --sets 50"]
 fn hidden_effects_campaign() {
-    let n: usize = std::env::var("PTSA_HIDDEN_SETS").ok().and_then(|v| v.parse().ok()).unwrap_or(50);
-    let seed: u64 = std::env::var("PTSA_HIDDEN_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(4242);
+    let n: usize = std::env::var("PTSA_HIDDEN_SETS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(50);
+    let seed: u64 = std::env::var("PTSA_HIDDEN_SEED")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(4242);
     let (gen_sim, fit_sim) = sims();
     let t0 = std::time::Instant::now();
     let s = campaign(n, n, seed, &*gen_sim, &*fit_sim);

@@ -23,11 +23,16 @@ pub fn run(args: &[String]) -> Result<(), String> {
             }
             "--seed" => {
                 let s = it.next().ok_or("--seed needs a number")?.clone();
-                s.parse::<u64>().map_err(|_| format!("--seed {s}: expected a whole number"))?;
+                s.parse::<u64>()
+                    .map_err(|_| format!("--seed {s}: expected a whole number"))?;
                 seed = Some(s);
             }
             "--analytic" => analytic = true,
-            other => return Err(format!("unknown option `{other}`; expected --sets N, --seed S, --analytic")),
+            other => {
+                return Err(format!(
+                    "unknown option `{other}`; expected --sets N, --seed S, --analytic"
+                ));
+            }
         }
     }
     let root = util::root();
@@ -51,11 +56,17 @@ pub fn run(args: &[String]) -> Result<(), String> {
     if analytic {
         cmd.env("PTSA_HIDDEN_ANALYTIC", "1");
     }
-    eprintln!("+ PTSA_HIDDEN_SETS={sets} cargo test -p ptsa-tests --test hidden_effects hidden_effects_campaign -- --ignored --nocapture");
-    let status = cmd.status().map_err(|e| format!("cannot start cargo: {e}"))?;
+    eprintln!(
+        "+ PTSA_HIDDEN_SETS={sets} cargo test -p ptsa-tests --test hidden_effects hidden_effects_campaign -- --ignored --nocapture"
+    );
+    let status = cmd
+        .status()
+        .map_err(|e| format!("cannot start cargo: {e}"))?;
     if status.success() {
         Ok(())
     } else {
-        Err(format!("the campaign failed ({status}); see the rates printed above"))
+        Err(format!(
+            "the campaign failed ({status}); see the rates printed above"
+        ))
     }
 }

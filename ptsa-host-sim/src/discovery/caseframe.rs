@@ -104,8 +104,8 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
         if trimmed.is_empty() || trimmed.starts_with('#') {
             continue;
         }
-        let cells = split_csv_line(raw)
-            .with_context(|| format!("{name}:{line}: malformed CSV line"))?;
+        let cells =
+            split_csv_line(raw).with_context(|| format!("{name}:{line}: malformed CSV line"))?;
         let Some(cols) = &header else {
             let mut cols = Vec::with_capacity(cells.len());
             for (i, cell) in cells.iter().enumerate() {
@@ -233,13 +233,17 @@ fn split_csv_line(line: &str) -> Result<Vec<String>> {
 /// # Errors
 /// The file cannot be read, or [`parse`] fails (the message names the file).
 pub fn read(path: &Path) -> Result<Vec<Condition>> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read {}", path.display()))?;
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     parse(&path.display().to_string(), &text)
 }
 
 fn fmt_num(v: f64) -> String {
-    if v == 0.0 { "0".to_string() } else { format!("{v}") }
+    if v == 0.0 {
+        "0".to_string()
+    } else {
+        format!("{v}")
+    }
 }
 
 /// Render rows as case-frame CSV: `comments` (each line prefixed with `# `), the header
@@ -251,9 +255,10 @@ pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
         .filter(|&k| {
             k == 0
                 || k == 23
-                || rows
-                    .iter()
-                    .any(|c| get_value(c, k).is_some_and(|v| v != 0.0) || (k == 24 && c.sigma_cm_s2.is_some()))
+                || rows.iter().any(|c| {
+                    get_value(c, k).is_some_and(|v| v != 0.0)
+                        || (k == 24 && c.sigma_cm_s2.is_some())
+                })
         })
         .collect();
     let mut out = String::new();
@@ -338,7 +343,10 @@ mod tests {
     fn errors_name_file_line_column_and_expectation() {
         let e = parse("bad.csv", "# c\ng_ia,measured_cm_s2\n1,0.5\n1,abc\n").unwrap_err();
         let m = format!("{e:#}");
-        assert!(m.contains("bad.csv:4") && m.contains("measured_cm_s2") && m.contains("expected"), "{m}");
+        assert!(
+            m.contains("bad.csv:4") && m.contains("measured_cm_s2") && m.contains("expected"),
+            "{m}"
+        );
         let e = parse("bad.csv", "g_ia,bogus\n1,2\n").unwrap_err();
         assert!(format!("{e:#}").contains("bogus"));
         let e = parse("bad.csv", "g_ia,sigma_cm_s2\n1,0\n").unwrap_err();

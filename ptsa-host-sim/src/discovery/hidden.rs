@@ -107,7 +107,11 @@ fn rate_table(rng: &mut Rng) -> Vec<Condition> {
     let other = if rng.uniform() < 0.5 { 1 } else { 2 }; // PA or OA in the vertical plane
     #[allow(clippy::cast_precision_loss)]
     let step = 360.0 / n as f64;
-    let offset = if rng.uniform() < 0.5 { 0.0 } else { rng.range(0.0, step) };
+    let offset = if rng.uniform() < 0.5 {
+        0.0
+    } else {
+        rng.range(0.0, step)
+    };
     let w = rng.range(0.5, 2.0);
     (0..n)
         .map(|k| {
@@ -118,7 +122,10 @@ fn rate_table(rng: &mut Rng) -> Vec<Condition> {
             u[0] = s;
             u[other] = c;
             Condition {
-                label: format!("rate table IA {phi:.1} deg in IA-{} plane", if other == 1 { "PA" } else { "OA" }),
+                label: format!(
+                    "rate table IA {phi:.1} deg in IA-{} plane",
+                    if other == 1 { "PA" } else { "OA" }
+                ),
                 g: u,
                 w_rad_s: u.map(|x| w * x),
                 ref_w_rad_s: u.map(|x| 0.05 * x),
@@ -151,7 +158,11 @@ fn two_axis(rng: &mut Rng) -> Vec<Condition> {
         for k in 0..nph {
             #[allow(clippy::cast_precision_loss)]
             let psi = 360.0 * k as f64 / nph as f64;
-            let mut c = Condition { g, freq_hz: f, ..Condition::default() };
+            let mut c = Condition {
+                g,
+                freq_hz: f,
+                ..Condition::default()
+            };
             let what = match b {
                 0 => {
                     c.lin_cm_s2 = [a1, a2, 0.0];
@@ -205,10 +216,18 @@ pub fn generate(seed: u64, hidden: Option<usize>, sim: &dyn Simulator) -> Hidden
                 r
             }
         };
-        design = ["rate table", "two-axis oscillator", "rate table + two-axis oscillator"][kind].to_string();
+        design = [
+            "rate table",
+            "two-axis oscillator",
+            "rate table + two-axis oscillator",
+        ][kind]
+            .to_string();
         let Some(h) = hidden else { break };
         let e = unit_effect(h, 1.0);
-        let col: Vec<f64> = rows.iter().map(|r| AnalyticSimulator.difference_cm_s2(r, &e)).collect();
+        let col: Vec<f64> = rows
+            .iter()
+            .map(|r| AnalyticSimulator.difference_cm_s2(r, &e))
+            .collect();
         let visible = rows
             .iter()
             .zip(&col)
@@ -218,10 +237,21 @@ pub fn generate(seed: u64, hidden: Option<usize>, sim: &dyn Simulator) -> Hidden
             break;
         }
     }
-    let strength = if hidden.is_some() { rng.range(3.0, 30.0) } else { 0.0 };
-    let coef = if hidden.is_some() && se.is_finite() { rng.sign() * strength * se } else { 0.0 };
+    let strength = if hidden.is_some() {
+        rng.range(3.0, 30.0)
+    } else {
+        0.0
+    };
+    let coef = if hidden.is_some() && se.is_finite() {
+        rng.sign() * strength * se
+    } else {
+        0.0
+    };
     let effects = hidden.map_or_else(Effects::default, |h| unit_effect(h, coef));
-    let clean: Vec<f64> = rows.par_iter().map(|r| sim.difference_cm_s2(r, &effects)).collect();
+    let clean: Vec<f64> = rows
+        .par_iter()
+        .map(|r| sim.difference_cm_s2(r, &effects))
+        .collect();
     for (r, y) in rows.iter_mut().zip(clean) {
         r.measured_cm_s2 = Some(y + sigma * rng.normal());
         r.sigma_cm_s2 = Some(sigma);
@@ -285,7 +315,11 @@ pub fn score(set: &HiddenSet, d: &Discovery) -> Outcome {
         coef_within_4se: coef_ok,
         z: zval,
         false_discoveries: fd,
-        selected: d.selected.iter().map(|s| CANDIDATES[s.idx].name.to_string()).collect(),
+        selected: d
+            .selected
+            .iter()
+            .map(|s| CANDIDATES[s.idx].name.to_string())
+            .collect(),
     }
 }
 
@@ -332,7 +366,11 @@ impl CampaignSummary {
 
 #[allow(clippy::cast_precision_loss)]
 fn ratio(a: usize, b: usize) -> f64 {
-    if b == 0 { f64::NAN } else { a as f64 / b as f64 }
+    if b == 0 {
+        f64::NAN
+    } else {
+        a as f64 / b as f64
+    }
 }
 
 /// Run `sets_per_effect` sets for every candidate and `null_sets` null sets, seeds derived
@@ -348,11 +386,19 @@ pub fn campaign(
     let mut jobs: Vec<(u64, Option<usize>)> = Vec::new();
     for c in 0..CANDIDATES.len() {
         for k in 0..sets_per_effect {
-            jobs.push((seed.wrapping_mul(1_000_003).wrapping_add((c as u64 + 1) * 100_000 + k as u64), Some(c)));
+            jobs.push((
+                seed.wrapping_mul(1_000_003)
+                    .wrapping_add((c as u64 + 1) * 100_000 + k as u64),
+                Some(c),
+            ));
         }
     }
     for k in 0..null_sets {
-        jobs.push((seed.wrapping_mul(1_000_003).wrapping_add(900_000 + k as u64), None));
+        jobs.push((
+            seed.wrapping_mul(1_000_003)
+                .wrapping_add(900_000 + k as u64),
+            None,
+        ));
     }
     let opts = Options::default();
     let outcomes: Vec<Outcome> = jobs
@@ -372,7 +418,10 @@ pub fn campaign(
             }
         })
         .collect();
-    let mut s = CampaignSummary { per_candidate: vec![(0, 0); CANDIDATES.len()], ..CampaignSummary::default() };
+    let mut s = CampaignSummary {
+        per_candidate: vec![(0, 0); CANDIDATES.len()],
+        ..CampaignSummary::default()
+    };
     for o in &outcomes {
         let name = o.truth.idx.map_or("(none)", |h| CANDIDATES[h].name);
         let _ = writeln!(
@@ -381,7 +430,11 @@ pub fn campaign(
             o.truth.strength_se,
             o.truth.design,
             o.truth.sigma_cm_s2,
-            if o.selected.is_empty() { "-".to_string() } else { o.selected.join(",") },
+            if o.selected.is_empty() {
+                "-".to_string()
+            } else {
+                o.selected.join(",")
+            },
             o.detected,
             o.z.map_or("-".to_string(), |z| format!("{z:+.2}"))
         );

@@ -24,14 +24,46 @@ pub struct Candidate {
 
 /// The vocabulary, one entry per coefficient, in tie-break order.
 pub const CANDIDATES: [Candidate; 8] = [
-    Candidate { effect: "anisoinertia", key: "k_ai_cm", name: "anisoinertia" },
-    Candidate { effect: "lever_arm", key: "r_ia_cm", name: "lever_arm.r_ia_cm" },
-    Candidate { effect: "lever_arm", key: "r_pa_cm", name: "lever_arm.r_pa_cm" },
-    Candidate { effect: "lever_arm", key: "r_oa_cm", name: "lever_arm.r_oa_cm" },
-    Candidate { effect: "vibropendulosity", key: "k_ip_s2_cm", name: "vibropendulosity" },
-    Candidate { effect: "anisoelasticity", key: "k_io_s2_cm", name: "anisoelasticity" },
-    Candidate { effect: "nonlinearity", key: "k2_s2_cm", name: "nonlinearity" },
-    Candidate { effect: "sculling", key: "k_sc_s2", name: "sculling" },
+    Candidate {
+        effect: "anisoinertia",
+        key: "k_ai_cm",
+        name: "anisoinertia",
+    },
+    Candidate {
+        effect: "lever_arm",
+        key: "r_ia_cm",
+        name: "lever_arm.r_ia_cm",
+    },
+    Candidate {
+        effect: "lever_arm",
+        key: "r_pa_cm",
+        name: "lever_arm.r_pa_cm",
+    },
+    Candidate {
+        effect: "lever_arm",
+        key: "r_oa_cm",
+        name: "lever_arm.r_oa_cm",
+    },
+    Candidate {
+        effect: "vibropendulosity",
+        key: "k_ip_s2_cm",
+        name: "vibropendulosity",
+    },
+    Candidate {
+        effect: "anisoelasticity",
+        key: "k_io_s2_cm",
+        name: "anisoelasticity",
+    },
+    Candidate {
+        effect: "nonlinearity",
+        key: "k2_s2_cm",
+        name: "nonlinearity",
+    },
+    Candidate {
+        effect: "sculling",
+        key: "k_sc_s2",
+        name: "sculling",
+    },
 ];
 
 /// Add `value` to candidate `idx`'s coefficient in `e`.
@@ -67,7 +99,8 @@ pub fn parse_candidates(list: &str) -> anyhow::Result<Vec<usize>> {
             .filter(|&k| CANDIDATES[k].effect == item || CANDIDATES[k].name == item)
             .collect();
         if hits.is_empty() {
-            let names: BTreeSet<&str> = CANDIDATES.iter().flat_map(|c| [c.effect, c.name]).collect();
+            let names: BTreeSet<&str> =
+                CANDIDATES.iter().flat_map(|c| [c.effect, c.name]).collect();
             anyhow::bail!(
                 "unknown candidate `{item}`; expected one of: {}",
                 names.into_iter().collect::<Vec<_>>().join(", ")
@@ -231,7 +264,10 @@ pub fn signature_columns(rows: &[&Condition]) -> (Vec<Vec<f64>>, Vec<bool>) {
     let mut null = Vec::with_capacity(CANDIDATES.len());
     for c in 0..CANDIDATES.len() {
         let e = unit_effect(c, 1.0);
-        let col: Vec<f64> = rows.iter().map(|r| AnalyticSimulator.difference_cm_s2(r, &e)).collect();
+        let col: Vec<f64> = rows
+            .iter()
+            .map(|r| AnalyticSimulator.difference_cm_s2(r, &e))
+            .collect();
         let is_null = rows
             .iter()
             .zip(&col)
@@ -271,8 +307,14 @@ impl Design<'_> {
 ///
 /// # Errors
 /// No row has a measurement.
-pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyhow::Result<Discovery> {
-    let fitted: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].measured_cm_s2.is_some()).collect();
+pub fn discover(
+    rows: &[Condition],
+    sim: &dyn Simulator,
+    opts: &Options,
+) -> anyhow::Result<Discovery> {
+    let fitted: Vec<usize> = (0..rows.len())
+        .filter(|&i| rows[i].measured_cm_s2.is_some())
+        .collect();
     let n = fitted.len();
     if n == 0 {
         anyhow::bail!("no row has a value in `measured_cm_s2`: nothing to fit");
@@ -286,7 +328,10 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
         .par_iter()
         .map(|r| sim.difference_cm_s2(r, &Effects::default()))
         .collect();
-    let y: Vec<f64> = fitted.iter().map(|&i| rows[i].measured_cm_s2.unwrap_or(0.0)).collect();
+    let y: Vec<f64> = fitted
+        .iter()
+        .map(|&i| rows[i].measured_cm_s2.unwrap_or(0.0))
+        .collect();
     let z: Vec<f64> = fitted
         .iter()
         .zip(&y)
@@ -301,7 +346,11 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
     let mut testable = Vec::new();
     let mut untestable = Vec::new();
     for &c in &opts.candidates {
-        let w: Vec<f64> = fitted.iter().enumerate().map(|(k, &i)| cols[c][k] / sigma[i]).collect();
+        let w: Vec<f64> = fitted
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| cols[c][k] / sigma[i])
+            .collect();
         let s = norm(&w);
         if null[c] || s == 0.0 {
             untestable.push(c);
@@ -313,7 +362,9 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
     }
     let m = testable.len();
     let d = Design { z: &z, u: &u };
-    let min_partial = (1.0 - opts.confound_cos * opts.confound_cos).max(0.0).sqrt();
+    let min_partial = (1.0 - opts.confound_cos * opts.confound_cos)
+        .max(0.0)
+        .sqrt();
 
     let mut set: Vec<usize> = Vec::new();
     let mut steps = Vec::new();
@@ -350,7 +401,13 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
             next.sort_unstable();
             if visited.insert(next.clone()) {
                 set = next;
-                steps.push(Step { added: true, idx: c, delta_chi2: delta, p_value: p, threshold: thr_add });
+                steps.push(Step {
+                    added: true,
+                    idx: c,
+                    delta_chi2: delta,
+                    p_value: p,
+                    threshold: thr_add,
+                });
                 continue;
             }
         }
@@ -377,7 +434,13 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
             let next: Vec<usize> = set.iter().copied().filter(|&j| j != c).collect();
             if visited.insert(next.clone()) {
                 set = next;
-                steps.push(Step { added: false, idx: c, delta_chi2: delta, p_value: p, threshold: thr_keep });
+                steps.push(Step {
+                    added: false,
+                    idx: c,
+                    delta_chi2: delta,
+                    p_value: p,
+                    threshold: thr_keep,
+                });
                 continue;
             }
         }
@@ -394,14 +457,22 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
     });
     let dof_fit = n - set.len();
     #[allow(clippy::cast_precision_loss)]
-    let birge = if dof_fit > 0 { (final_fit.chi2 / dof_fit as f64).sqrt().max(1.0) } else { 1.0 };
+    let birge = if dof_fit > 0 {
+        (final_fit.chi2 / dof_fit as f64).sqrt().max(1.0)
+    } else {
+        1.0
+    };
     let mut selected = Vec::new();
     let mut effects = Effects::default();
     for (k, &c) in set.iter().enumerate() {
         let coef = final_fit.beta[k] / scale[c];
         let stderr = final_fit.cov[(k, k)].sqrt() / scale[c] * birge;
         add_coefficient(&mut effects, c, coef);
-        let others: Vec<&[f64]> = set.iter().filter(|&&j| j != c).map(|&j| u[j].as_slice()).collect();
+        let others: Vec<&[f64]> = set
+            .iter()
+            .filter(|&&j| j != c)
+            .map(|&j| u[j].as_slice())
+            .collect();
         let a = residualize(&u[c], &others);
         let mut confounded = Vec::new();
         for &o in &testable {
@@ -419,7 +490,12 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
                 confounded.push((o, f));
             }
         }
-        selected.push(Selected { idx: c, coef, stderr, confounded });
+        selected.push(Selected {
+            idx: c,
+            coef,
+            stderr,
+            confounded,
+        });
     }
 
     // Pairwise groups before any fit (for the identifiability report).
@@ -427,7 +503,10 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
     for (a_i, &a) in testable.iter().enumerate() {
         for &b in &testable[a_i + 1..] {
             if abs_cos(&u[a], &u[b]) > opts.confound_cos {
-                if let Some(g) = confounded_groups.iter_mut().find(|g| g.contains(&a) || g.contains(&b)) {
+                if let Some(g) = confounded_groups
+                    .iter_mut()
+                    .find(|g| g.contains(&a) || g.contains(&b))
+                {
                     for x in [a, b] {
                         if !g.contains(&x) {
                             g.push(x);
@@ -444,17 +523,28 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
     let extended: Vec<f64> = if effects.is_zero() {
         baseline.clone()
     } else {
-        rows.par_iter().map(|r| sim.difference_cm_s2(r, &effects)).collect()
+        rows.par_iter()
+            .map(|r| sim.difference_cm_s2(r, &effects))
+            .collect()
     };
     let summary = |pred: &[f64], p: usize| -> FitSummary {
         let res: Vec<f64> = fitted.iter().zip(&y).map(|(&i, yi)| yi - pred[i]).collect();
         #[allow(clippy::cast_precision_loss)]
         let rms = (res.iter().map(|r| r * r).sum::<f64>() / n as f64).sqrt();
-        let chi2: f64 = fitted.iter().zip(&res).map(|(&i, r)| (r / sigma[i]).powi(2)).sum();
+        let chi2: f64 = fitted
+            .iter()
+            .zip(&res)
+            .map(|(&i, r)| (r / sigma[i]).powi(2))
+            .sum();
         let dof = n.saturating_sub(p);
         #[allow(clippy::cast_precision_loss)]
         let p_value = chi2_sf(chi2, dof as f64);
-        FitSummary { rms_cm_s2: rms, chi2, dof, p_value }
+        FitSummary {
+            rms_cm_s2: rms,
+            chi2,
+            dof,
+            p_value,
+        }
     };
     let base_summary = summary(&baseline, 0);
     let ext_summary = summary(&extended, set.len());
@@ -463,15 +553,18 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
     let mut reports: Vec<EffectReport> = Vec::new();
     for s in &selected {
         let cand = CANDIDATES[s.idx];
-        let pos = reports.iter().position(|r| r.name == cand.effect).unwrap_or_else(|| {
-            reports.push(EffectReport {
-                name: cand.effect.to_string(),
-                coefficients: BTreeMap::new(),
-                stderr: BTreeMap::new(),
-                confounded_with: vec![],
+        let pos = reports
+            .iter()
+            .position(|r| r.name == cand.effect)
+            .unwrap_or_else(|| {
+                reports.push(EffectReport {
+                    name: cand.effect.to_string(),
+                    coefficients: BTreeMap::new(),
+                    stderr: BTreeMap::new(),
+                    confounded_with: vec![],
+                });
+                reports.len() - 1
             });
-            reports.len() - 1
-        });
         let r = &mut reports[pos];
         r.coefficients.insert(cand.key.to_string(), s.coef);
         r.stderr.insert(cand.key.to_string(), s.stderr);
@@ -495,7 +588,12 @@ pub fn discover(rows: &[Condition], sim: &dyn Simulator, opts: &Options) -> anyh
         .collect();
     Ok(Discovery {
         simulator: sim.name(),
-        json: JsonReport { rows: n, baseline: base_summary, effects: reports, extended: ext_summary },
+        json: JsonReport {
+            rows: n,
+            baseline: base_summary,
+            effects: reports,
+            extended: ext_summary,
+        },
         selected,
         table,
         steps,
@@ -530,7 +628,10 @@ mod tests {
 
     #[test]
     fn tables_6_2_and_6_3_are_null() {
-        for rows in [report_data::table_6_2().unwrap(), report_data::table_6_3().unwrap()] {
+        for rows in [
+            report_data::table_6_2().unwrap(),
+            report_data::table_6_3().unwrap(),
+        ] {
             let d = discover(&rows, &AnalyticSimulator, &Options::default()).unwrap();
             eprintln!("{}", show::text_report("oa coupling", &d));
             assert!(d.json.effects.is_empty());
@@ -541,17 +642,33 @@ mod tests {
     fn the_report_story_holds_with_the_closed_loop() {
         let sim = crate::discovery::sim::closed_loop(1);
         let t0 = std::time::Instant::now();
-        let d = discover(&report_data::table_6_1().unwrap(), &*sim, &Options::default()).unwrap();
-        eprintln!("{}
-{:.3} s", show::text_report("table 6.1 (closed loop)", &d), t0.elapsed().as_secs_f64());
+        let d = discover(
+            &report_data::table_6_1().unwrap(),
+            &*sim,
+            &Options::default(),
+        )
+        .unwrap();
+        eprintln!(
+            "{}
+{:.3} s",
+            show::text_report("table 6.1 (closed loop)", &d),
+            t0.elapsed().as_secs_f64()
+        );
         assert_eq!(d.json.effects.len(), 1);
         assert_eq!(d.json.effects[0].name, "anisoinertia");
         assert!((d.json.effects[0].coefficients["k_ai_cm"] - 2.95).abs() < 0.1);
-        for rows in [report_data::table_6_2().unwrap(), report_data::table_6_3().unwrap()] {
+        for rows in [
+            report_data::table_6_2().unwrap(),
+            report_data::table_6_3().unwrap(),
+        ] {
             let t0 = std::time::Instant::now();
             let d = discover(&rows, &*sim, &Options::default()).unwrap();
-            eprintln!("{}
-{:.3} s", show::text_report("oa coupling (closed loop)", &d), t0.elapsed().as_secs_f64());
+            eprintln!(
+                "{}
+{:.3} s",
+                show::text_report("oa coupling (closed loop)", &d),
+                t0.elapsed().as_secs_f64()
+            );
             assert!(d.json.effects.is_empty());
         }
     }

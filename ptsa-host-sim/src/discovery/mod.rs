@@ -83,7 +83,10 @@ pub fn run(args: &DiscoverArgs) -> Result<()> {
         return Ok(());
     }
     if !(args.sigma.is_finite() && args.sigma > 0.0) {
-        anyhow::bail!("--sigma {}: expected a finite number of cm/s² greater than 0", args.sigma);
+        anyhow::bail!(
+            "--sigma {}: expected a finite number of cm/s² greater than 0",
+            args.sigma
+        );
     }
     let opts = Options {
         default_sigma_cm_s2: args.sigma,
@@ -92,7 +95,8 @@ pub fn run(args: &DiscoverArgs) -> Result<()> {
     };
     let sim = simulator(args.analytic, args.seed);
     let Some(path) = &args.data else {
-        let text = show::report_section(&*sim, &opts, (!args.no_plots).then_some(args.out.as_path()))?;
+        let text =
+            show::report_section(&*sim, &opts, (!args.no_plots).then_some(args.out.as_path()))?;
         if args.json {
             let mut all = Vec::new();
             for (name, _, rows) in report_data::case_files()? {
@@ -112,12 +116,21 @@ pub fn run(args: &DiscoverArgs) -> Result<()> {
     let elapsed = t0.elapsed();
     let text = show::text_report(&path.display().to_string(), &d);
     if !args.no_plots {
-        let stem = path.file_stem().map_or_else(|| "discover".to_string(), |s| s.to_string_lossy().into_owned());
+        let stem = path.file_stem().map_or_else(
+            || "discover".to_string(),
+            |s| s.to_string_lossy().into_owned(),
+        );
         let stem = stem.trim_end_matches(".case").to_string();
-        show::write_outputs(&args.out, &stem, &d).with_context(|| format!("writing {}", args.out.display()))?;
+        show::write_outputs(&args.out, &stem, &d)
+            .with_context(|| format!("writing {}", args.out.display()))?;
         eprintln!("wrote {}/{stem}.{{csv,png,svg}}", args.out.display());
     }
-    eprintln!("discover: {} rows in {:.3} s ({} simulator)", rows.len(), elapsed.as_secs_f64(), d.simulator);
+    eprintln!(
+        "discover: {} rows in {:.3} s ({} simulator)",
+        rows.len(),
+        elapsed.as_secs_f64(),
+        d.simulator
+    );
     if args.json {
         let s = serde_json::to_string(&d.json)?;
         let mut out = std::io::stdout().lock();

@@ -45,7 +45,11 @@ pub const TABLE_6_1_REF_RATE_RAD_S: f64 = 0.05;
 pub fn test_uncertainty_cm_s2() -> f64 {
     section_6_1()
         .ok()
-        .and_then(|v| v.into_iter().find(|(k, _)| k == "test_uncertainty").map(|(_, v)| v))
+        .and_then(|v| {
+            v.into_iter()
+                .find(|(k, _)| k == "test_uncertainty")
+                .map(|(_, v)| v)
+        })
         .unwrap_or(0.3)
 }
 
@@ -57,9 +61,9 @@ pub fn section_6_1() -> Result<Vec<(String, f64)>> {
     parse_plain(SECTION_6_1_CSV, "r890-section-6.1.csv", 3)?
         .into_iter()
         .map(|(line, cells)| {
-            let v = cells[1]
-                .parse::<f64>()
-                .with_context(|| format!("r890-section-6.1.csv:{line}: column `value`: expected a number"))?;
+            let v = cells[1].parse::<f64>().with_context(|| {
+                format!("r890-section-6.1.csv:{line}: column `value`: expected a number")
+            })?;
             Ok((cells[0].clone(), v))
         })
         .collect()
@@ -91,9 +95,9 @@ fn num(name: &str, line: usize, col: &str, s: &str) -> Result<Option<f64>> {
     if s.is_empty() {
         return Ok(None);
     }
-    s.parse::<f64>()
-        .map(Some)
-        .with_context(|| format!("{name}:{line}: column `{col}` holds `{s}`; expected a number or an empty cell"))
+    s.parse::<f64>().map(Some).with_context(|| {
+        format!("{name}:{line}: column `{col}` holds `{s}`; expected a number or an empty cell")
+    })
 }
 
 /// Table 6.1 in the case frame.
@@ -114,7 +118,11 @@ pub fn table_6_1() -> Result<Vec<Condition>> {
                 label: format!("IA {phi_deg} deg"),
                 g: [s, co, 0.0],
                 w_rad_s: [TABLE_6_1_RATE_RAD_S * s, TABLE_6_1_RATE_RAD_S * co, 0.0],
-                ref_w_rad_s: [TABLE_6_1_REF_RATE_RAD_S * s, TABLE_6_1_REF_RATE_RAD_S * co, 0.0],
+                ref_w_rad_s: [
+                    TABLE_6_1_REF_RATE_RAD_S * s,
+                    TABLE_6_1_REF_RATE_RAD_S * co,
+                    0.0,
+                ],
                 measured_cm_s2: a,
                 sigma_cm_s2: Some(sigma),
                 ..Condition::default()
@@ -165,7 +173,12 @@ fn oa_coupling(text: &str, name: &str, g: [f64; 3], what: &str) -> Result<Vec<Co
 /// # Errors
 /// The transcription is malformed.
 pub fn table_6_2() -> Result<Vec<Condition>> {
-    oa_coupling(TABLE_6_2_CSV, "r890-table-6.2.csv", [0.0, 0.0, 1.0], "IA horizontal, OA up,")
+    oa_coupling(
+        TABLE_6_2_CSV,
+        "r890-table-6.2.csv",
+        [0.0, 0.0, 1.0],
+        "IA horizontal, OA up,",
+    )
 }
 
 /// Table 6.3 in the case frame.
@@ -173,7 +186,12 @@ pub fn table_6_2() -> Result<Vec<Condition>> {
 /// # Errors
 /// The transcription is malformed.
 pub fn table_6_3() -> Result<Vec<Condition>> {
-    oa_coupling(TABLE_6_3_CSV, "r890-table-6.3.csv", [1.0, 0.0, 0.0], "IA up,")
+    oa_coupling(
+        TABLE_6_3_CSV,
+        "r890-table-6.3.csv",
+        [1.0, 0.0, 0.0],
+        "IA up,",
+    )
 }
 
 /// One shipped case-frame file: `(file name, comment lines, rows)`.
@@ -246,9 +264,16 @@ mod tests {
             write_case_files(&dir).unwrap();
         }
         for (name, comments, rows) in case_files().unwrap() {
-            let shipped = std::fs::read_to_string(dir.join(name))
-                .unwrap_or_else(|e| panic!("data/{name}: {e}; regenerate with `ptsa discover --convert-report-data data`"));
-            assert_eq!(shipped, to_csv(&rows, &comments), "data/{name} differs from the conversion");
+            let shipped = std::fs::read_to_string(dir.join(name)).unwrap_or_else(|e| {
+                panic!(
+                    "data/{name}: {e}; regenerate with `ptsa discover --convert-report-data data`"
+                )
+            });
+            assert_eq!(
+                shipped,
+                to_csv(&rows, &comments),
+                "data/{name} differs from the conversion"
+            );
             assert_eq!(caseframe::parse(name, &shipped).unwrap(), rows);
         }
     }
@@ -258,13 +283,23 @@ mod tests {
         let t = table_6_1().unwrap();
         assert_eq!(t.len(), 8);
         let r45 = &t[0];
-        assert!((r45.g[0] - 0.5f64.sqrt()).abs() < 1e-15 && (r45.w_rad_s[1] - 0.5f64.sqrt()).abs() < 1e-15);
+        assert!(
+            (r45.g[0] - 0.5f64.sqrt()).abs() < 1e-15
+                && (r45.w_rad_s[1] - 0.5f64.sqrt()).abs() < 1e-15
+        );
         assert_eq!(t[3].g, [0.0, -1.0, 0.0]); // 180°: IA horizontal, PA down
         assert_eq!(t[1].g, [1.0, 0.0, 0.0]); // 90°: IA up
         let t2 = table_6_2().unwrap();
         assert_eq!(t2.len(), 12);
         assert_eq!(t2.iter().filter(|r| r.measured_cm_s2.is_none()).count(), 3);
         assert_eq!(t2[0].measured_cm_s2, Some(0.03));
-        assert_eq!(table_6_3().unwrap().iter().filter(|r| r.measured_cm_s2.is_none()).count(), 2);
+        assert_eq!(
+            table_6_3()
+                .unwrap()
+                .iter()
+                .filter(|r| r.measured_cm_s2.is_none())
+                .count(),
+            2
+        );
     }
 }

@@ -16,7 +16,10 @@ fn names(idx: &[usize]) -> String {
     if idx.is_empty() {
         return "none".to_string();
     }
-    idx.iter().map(|&i| CANDIDATES[i].name).collect::<Vec<_>>().join(", ")
+    idx.iter()
+        .map(|&i| CANDIDATES[i].name)
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Human-readable report of one analysis.
@@ -24,8 +27,16 @@ fn names(idx: &[usize]) -> String {
 pub fn text_report(source: &str, d: &Discovery) -> String {
     let mut s = String::new();
     let j = &d.json;
-    let _ = writeln!(s, "discover: {source} ({} fitted rows, {} simulator)", j.rows, d.simulator);
-    let _ = writeln!(s, "\n{:<48} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9}", "row", "measured", "sigma", "baseline", "resid", "extended", "resid");
+    let _ = writeln!(
+        s,
+        "discover: {source} ({} fitted rows, {} simulator)",
+        j.rows, d.simulator
+    );
+    let _ = writeln!(
+        s,
+        "\n{:<48} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9}",
+        "row", "measured", "sigma", "baseline", "resid", "extended", "resid"
+    );
     for r in &d.table {
         let (m, rb, re) = match r.measured_cm_s2 {
             Some(m) => (
@@ -47,13 +58,29 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
     let _ = writeln!(
         s,
         "\nbaseline: RMS {:.3} cm/s², chi2 {:.2} for {} dof (p = {})",
-        j.baseline.rms_cm_s2, j.baseline.chi2, j.baseline.dof, pfmt(j.baseline.p_value)
+        j.baseline.rms_cm_s2,
+        j.baseline.chi2,
+        j.baseline.dof,
+        pfmt(j.baseline.p_value)
     );
-    let _ = writeln!(s, "not testable here (no signature in this data set): {}", names(&d.untestable));
+    let _ = writeln!(
+        s,
+        "not testable here (no signature in this data set): {}",
+        names(&d.untestable)
+    );
     for g in &d.confounded_groups {
-        let _ = writeln!(s, "indistinguishable here (|cos| > {}): {}", d.options.confound_cos, names(g));
+        let _ = writeln!(
+            s,
+            "indistinguishable here (|cos| > {}): {}",
+            d.options.confound_cos,
+            names(g)
+        );
     }
-    let _ = writeln!(s, "test: {TEST_STATEMENT}; family of {} candidates", d.family_size);
+    let _ = writeln!(
+        s,
+        "test: {TEST_STATEMENT}; family of {} candidates",
+        d.family_size
+    );
     for st in &d.steps {
         let _ = writeln!(
             s,
@@ -66,11 +93,18 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         );
     }
     if d.selected.is_empty() {
-        let _ = writeln!(s, "selected: none (no candidate is significant at familywise 5%)");
+        let _ = writeln!(
+            s,
+            "selected: none (no candidate is significant at familywise 5%)"
+        );
     }
     for sel in &d.selected {
         let c = CANDIDATES[sel.idx];
-        let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| CANDIDATES[o].name).collect();
+        let conf: Vec<&str> = sel
+            .confounded
+            .iter()
+            .map(|&(o, _)| CANDIDATES[o].name)
+            .collect();
         let _ = writeln!(
             s,
             "selected: {} {} = {:.4} ± {:.4}{}",
@@ -78,7 +112,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             c.key,
             sel.coef,
             sel.stderr,
-            if conf.is_empty() { String::new() } else { format!("  (indistinguishable here from: {})", conf.join(", ")) }
+            if conf.is_empty() {
+                String::new()
+            } else {
+                format!("  (indistinguishable here from: {})", conf.join(", "))
+            }
         );
     }
     let e = &j.extended;
@@ -89,30 +127,58 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         e.chi2,
         e.dof,
         pfmt(e.p_value),
-        if e.p_value >= 0.05 { "the rest is consistent with the noise" } else { "the rest is NOT consistent with the stated noise" }
+        if e.p_value >= 0.05 {
+            "the rest is consistent with the noise"
+        } else {
+            "the rest is NOT consistent with the stated noise"
+        }
     );
     s
 }
 
 /// A probability for humans: 3 decimals, or scientific below 0.001.
 fn pfmt(p: f64) -> String {
-    if p < 1e-3 { format!("{p:.2e}") } else { format!("{p:.3}") }
+    if p < 1e-3 {
+        format!("{p:.2e}")
+    } else {
+        format!("{p:.3}")
+    }
 }
 
 fn truncate(s: &str, n: usize) -> String {
-    if s.chars().count() <= n { s.to_string() } else { s.chars().take(n - 1).collect::<String>() + "…" }
+    if s.chars().count() <= n {
+        s.to_string()
+    } else {
+        s.chars().take(n - 1).collect::<String>() + "…"
+    }
 }
 
 /// Per-row CSV table.
 #[must_use]
 pub fn table_csv(d: &Discovery) -> String {
-    let mut s = String::from("label,measured_cm_s2,sigma_cm_s2,baseline_cm_s2,extended_cm_s2,residual_baseline_cm_s2,residual_extended_cm_s2\n");
+    let mut s = String::from(
+        "label,measured_cm_s2,sigma_cm_s2,baseline_cm_s2,extended_cm_s2,residual_baseline_cm_s2,residual_extended_cm_s2\n",
+    );
     for r in &d.table {
-        let q = if r.label.contains([',', '"']) { format!("\"{}\"", r.label.replace('"', "\"\"")) } else { r.label.clone() };
-        let (m, rb, re) = r.measured_cm_s2.map_or((String::new(), String::new(), String::new()), |m| {
-            (format!("{m}"), format!("{}", m - r.baseline_cm_s2), format!("{}", m - r.extended_cm_s2))
-        });
-        let _ = writeln!(s, "{q},{m},{},{},{},{rb},{re}", r.sigma_cm_s2, r.baseline_cm_s2, r.extended_cm_s2);
+        let q = if r.label.contains([',', '"']) {
+            format!("\"{}\"", r.label.replace('"', "\"\""))
+        } else {
+            r.label.clone()
+        };
+        let (m, rb, re) =
+            r.measured_cm_s2
+                .map_or((String::new(), String::new(), String::new()), |m| {
+                    (
+                        format!("{m}"),
+                        format!("{}", m - r.baseline_cm_s2),
+                        format!("{}", m - r.extended_cm_s2),
+                    )
+                });
+        let _ = writeln!(
+            s,
+            "{q},{m},{},{},{},{rb},{re}",
+            r.sigma_cm_s2, r.baseline_cm_s2, r.extended_cm_s2
+        );
     }
     s
 }
@@ -147,18 +213,33 @@ pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     write_atomic(&dir.join(format!("{stem}.csv")), &table_csv(d))?;
     let svg = dir.join(format!("{stem}.svg"));
-    draw(SVGBackend::new(&svg, (1000, 700)).into_drawing_area(), stem, d, true)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", svg.display()))?;
+    draw(
+        SVGBackend::new(&svg, (1000, 700)).into_drawing_area(),
+        stem,
+        d,
+        true,
+    )
+    .map_err(|e| anyhow::anyhow!("{}: {e}", svg.display()))?;
     let png = dir.join(format!("{stem}.png"));
     let text = font_ready();
-    draw(BitMapBackend::new(&png, (1000, 700)).into_drawing_area(), stem, d, text)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", png.display()))?;
+    draw(
+        BitMapBackend::new(&png, (1000, 700)).into_drawing_area(),
+        stem,
+        d,
+        text,
+    )
+    .map_err(|e| anyhow::anyhow!("{}: {e}", png.display()))?;
     Ok(())
 }
 
 type DrawResult<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, plotters::coord::Shift>, title: &str, d: &Discovery, text: bool) -> DrawResult<()>
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    title: &str,
+    d: &Discovery,
+    text: bool,
+) -> DrawResult<()>
 where
     DB::ErrorType: 'static,
 {
@@ -169,7 +250,11 @@ where
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
     for (_, r) in &rows {
-        for v in [r.measured_cm_s2.unwrap_or(0.0), r.baseline_cm_s2, r.extended_cm_s2] {
+        for v in [
+            r.measured_cm_s2.unwrap_or(0.0),
+            r.baseline_cm_s2,
+            r.extended_cm_s2,
+        ] {
             lo = lo.min(v - r.sigma_cm_s2);
             hi = hi.max(v + r.sigma_cm_s2);
         }
@@ -188,52 +273,92 @@ where
         let mut b = ChartBuilder::on(&top);
         b.margin(10);
         if text {
-            b.caption(format!("{title}: measured, baseline and extended (cm/s²)"), ("sans-serif", 20))
-                .x_label_area_size(30)
-                .y_label_area_size(60);
+            b.caption(
+                format!("{title}: measured, baseline and extended (cm/s²)"),
+                ("sans-serif", 20),
+            )
+            .x_label_area_size(30)
+            .y_label_area_size(60);
         }
         let mut chart = b.build_cartesian_2d(-0.5..xmax, (lo - pad)..(hi + pad))?;
         let mut mesh = chart.configure_mesh();
         mesh.disable_x_mesh();
         if text {
-            mesh.x_desc("row").y_desc("condition − reference, cm/s²").draw()?;
+            mesh.x_desc("row")
+                .y_desc("condition − reference, cm/s²")
+                .draw()?;
         } else {
             mesh.disable_y_mesh().x_labels(0).y_labels(0).draw()?;
         }
         #[allow(clippy::cast_precision_loss)]
         let pts = |f: &dyn Fn(&super::method::RowResult) -> Option<f64>| -> Vec<(f64, f64)> {
-            rows.iter().filter_map(|(i, r)| f(r).map(|v| (*i as f64, v))).collect()
+            rows.iter()
+                .filter_map(|(i, r)| f(r).map(|v| (*i as f64, v)))
+                .collect()
         };
         let base = pts(&|r| Some(r.baseline_cm_s2));
         let ext = pts(&|r| Some(r.extended_cm_s2));
         let meas = pts(&|r| r.measured_cm_s2);
         let s = chart.draw_series(LineSeries::new(base.clone(), orange.stroke_width(2)))?;
         if text {
-            s.label("baseline").legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], orange));
+            s.label("baseline")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], orange));
         }
         chart.draw_series(base.iter().map(|&p| Circle::new(p, 3, orange.filled())))?;
         let s = chart.draw_series(LineSeries::new(ext.clone(), green.stroke_width(2)))?;
         if text {
-            s.label("extended").legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], green));
+            s.label("extended")
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], green));
         }
-        chart.draw_series(ext.iter().map(|&p| TriangleMarker::new(p, 4, green.filled())))?;
+        chart.draw_series(
+            ext.iter()
+                .map(|&p| TriangleMarker::new(p, 4, green.filled())),
+        )?;
         #[allow(clippy::cast_precision_loss)]
         chart.draw_series(rows.iter().filter_map(|(i, r)| {
-            r.measured_cm_s2.map(|m| PathElement::new(vec![(*i as f64, m - r.sigma_cm_s2), (*i as f64, m + r.sigma_cm_s2)], blue))
+            r.measured_cm_s2.map(|m| {
+                PathElement::new(
+                    vec![
+                        (*i as f64, m - r.sigma_cm_s2),
+                        (*i as f64, m + r.sigma_cm_s2),
+                    ],
+                    blue,
+                )
+            })
         }))?;
         let s = chart.draw_series(meas.iter().map(|&p| Cross::new(p, 5, blue.stroke_width(2))))?;
         if text {
-            s.label("measured ± sigma").legend(move |(x, y)| Cross::new((x + 10, y), 5, blue));
-            chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+            s.label("measured ± sigma")
+                .legend(move |(x, y)| Cross::new((x + 10, y), 5, blue));
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()?;
         }
     }
     {
         let res: Vec<(usize, f64, f64, f64)> = rows
             .iter()
-            .filter_map(|(i, r)| r.measured_cm_s2.map(|m| (*i, m - r.baseline_cm_s2, m - r.extended_cm_s2, r.sigma_cm_s2)))
+            .filter_map(|(i, r)| {
+                r.measured_cm_s2.map(|m| {
+                    (
+                        *i,
+                        m - r.baseline_cm_s2,
+                        m - r.extended_cm_s2,
+                        r.sigma_cm_s2,
+                    )
+                })
+            })
             .collect();
-        let mut rl = res.iter().map(|r| r.1.min(r.2) - r.3).fold(f64::INFINITY, f64::min);
-        let mut rh = res.iter().map(|r| r.1.max(r.2) + r.3).fold(f64::NEG_INFINITY, f64::max);
+        let mut rl = res
+            .iter()
+            .map(|r| r.1.min(r.2) - r.3)
+            .fold(f64::INFINITY, f64::min);
+        let mut rh = res
+            .iter()
+            .map(|r| r.1.max(r.2) + r.3)
+            .fold(f64::NEG_INFINITY, f64::max);
         if !(rh - rl).is_finite() || rh <= rl {
             rl = -1.0;
             rh = 1.0;
@@ -241,9 +366,12 @@ where
         let mut b = ChartBuilder::on(&bottom);
         b.margin(10);
         if text {
-            b.caption("residuals: measured − baseline, measured − extended", ("sans-serif", 18))
-                .x_label_area_size(30)
-                .y_label_area_size(60);
+            b.caption(
+                "residuals: measured − baseline, measured − extended",
+                ("sans-serif", 18),
+            )
+            .x_label_area_size(30)
+            .y_label_area_size(60);
         }
         let pad = 0.1 * (rh - rl);
         let mut chart = b.build_cartesian_2d(-0.5..xmax, (rl - pad)..(rh + pad))?;
@@ -257,14 +385,27 @@ where
         chart.draw_series(LineSeries::new(vec![(-0.5, 0.0), (xmax, 0.0)], BLACK))?;
         #[allow(clippy::cast_precision_loss)]
         {
-            let s = chart.draw_series(res.iter().map(|r| Circle::new((r.0 as f64 - 0.1, r.1), 4, orange.filled())))?;
+            let s = chart.draw_series(
+                res.iter()
+                    .map(|r| Circle::new((r.0 as f64 - 0.1, r.1), 4, orange.filled())),
+            )?;
             if text {
-                s.label("before (baseline)").legend(move |(x, y)| Circle::new((x + 10, y), 4, orange.filled()));
+                s.label("before (baseline)")
+                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, orange.filled()));
             }
-            let s = chart.draw_series(res.iter().map(|r| TriangleMarker::new((r.0 as f64 + 0.1, r.2), 5, green.filled())))?;
+            let s =
+                chart
+                    .draw_series(res.iter().map(|r| {
+                        TriangleMarker::new((r.0 as f64 + 0.1, r.2), 5, green.filled())
+                    }))?;
             if text {
-                s.label("after (extended)").legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, green.filled()));
-                chart.configure_series_labels().background_style(WHITE.mix(0.8)).border_style(BLACK).draw()?;
+                s.label("after (extended)")
+                    .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, green.filled()));
+                chart
+                    .configure_series_labels()
+                    .background_style(WHITE.mix(0.8))
+                    .border_style(BLACK)
+                    .draw()?;
             }
         }
     }
@@ -279,7 +420,10 @@ where
 /// The shipped transcriptions are malformed or an output cannot be written.
 pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -> Result<String> {
     let mut s = String::new();
-    let _ = writeln!(s, "## Discovery: what the baseline model misses in Tables 6.1–6.3\n");
+    let _ = writeln!(
+        s,
+        "## Discovery: what the baseline model misses in Tables 6.1–6.3\n"
+    );
     let _ = writeln!(s, "Method: `docs/discovery.md`. Test: {TEST_STATEMENT}.\n");
     let _ = writeln!(
         s,
@@ -293,19 +437,47 @@ pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -
         let sel = if d.selected.is_empty() {
             ("none".to_string(), "—".to_string(), "—".to_string())
         } else {
-            let n: Vec<String> = d.selected.iter().map(|x| CANDIDATES[x.idx].name.to_string()).collect();
-            let c: Vec<String> = d.selected.iter().map(|x| format!("{:.2} ± {:.2} {}", x.coef, x.stderr, CANDIDATES[x.idx].key)).collect();
+            let n: Vec<String> = d
+                .selected
+                .iter()
+                .map(|x| CANDIDATES[x.idx].name.to_string())
+                .collect();
+            let c: Vec<String> = d
+                .selected
+                .iter()
+                .map(|x| format!("{:.2} ± {:.2} {}", x.coef, x.stderr, CANDIDATES[x.idx].key))
+                .collect();
             let f: Vec<String> = d
                 .selected
                 .iter()
-                .flat_map(|x| x.confounded.iter().map(|&(o, _)| CANDIDATES[o].name.to_string()))
+                .flat_map(|x| {
+                    x.confounded
+                        .iter()
+                        .map(|&(o, _)| CANDIDATES[o].name.to_string())
+                })
                 .collect();
-            (n.join(", "), c.join(", "), if f.is_empty() { "—".into() } else { f.join(", ") })
+            (
+                n.join(", "),
+                c.join(", "),
+                if f.is_empty() {
+                    "—".into()
+                } else {
+                    f.join(", ")
+                },
+            )
         };
         let _ = writeln!(
             s,
             "| {name} | {} | {:.3} | {:.2} | {} | {} | {} | {:.3} | {:.2} ({:.2}) |",
-            j.rows, j.baseline.rms_cm_s2, j.baseline.chi2, sel.0, sel.1, sel.2, j.extended.rms_cm_s2, j.extended.chi2, j.extended.p_value
+            j.rows,
+            j.baseline.rms_cm_s2,
+            j.baseline.chi2,
+            sel.0,
+            sel.1,
+            sel.2,
+            j.extended.rms_cm_s2,
+            j.extended.chi2,
+            j.extended.p_value
         );
         let _ = writeln!(details, "\n```text\n{}```", text_report(name, &d));
         if let Some(dir) = out {

@@ -51,7 +51,11 @@ pub fn mean_effect_cm_s2(cond: &Condition, effects: &Effects) -> f64 {
 pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects) -> f64 {
     let r = cond.reference();
     let n = if cond.is_static() { 1 } else { SAMPLES };
-    let period = if cond.freq_hz > 0.0 { 1.0 / cond.freq_hz } else { 0.0 };
+    let period = if cond.freq_hz > 0.0 {
+        1.0 / cond.freq_hz
+    } else {
+        0.0
+    };
     #[allow(clippy::cast_precision_loss)]
     let nf = n as f64;
     let mut s = 0.0;
@@ -90,7 +94,10 @@ impl ClosedLoopSimulator {
     pub fn kearfott_2401(seed: u64) -> Self {
         ClosedLoopSimulator {
             instrument: crate::instrument::Instrument::kearfott_2401(),
-            options: crate::sim::SimOptions { seed, ..crate::sim::SimOptions::default() },
+            options: crate::sim::SimOptions {
+                seed,
+                ..crate::sim::SimOptions::default()
+            },
         }
     }
 }
@@ -101,7 +108,8 @@ impl Simulator for ClosedLoopSimulator {
     }
 
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        crate::sim::simulate_difference(&self.instrument, cond, effects, &self.options).difference_cm_s2
+        crate::sim::simulate_difference(&self.instrument, cond, effects, &self.options)
+            .difference_cm_s2
     }
 }
 
@@ -138,6 +146,9 @@ mod tests {
             ..Effects::default()
         };
         let d2 = AnalyticSimulator.difference_cm_s2(&c, &e2);
-        assert!((d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * G_CM_S2, "{d2}");
+        assert!(
+            (d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * G_CM_S2,
+            "{d2}"
+        );
     }
 }
