@@ -3,6 +3,8 @@
 //!
 //! What is checked (each is one "check" in the closing `N passed, M failed` line):
 //!
+//! 0. `cargo fmt --check` and `cargo clippy --all-targets -- -D warnings` (with and without
+//!    the `qemu` feature) in the firmware crate;
 //! 1. every golden vector `tests/golden/*.in` run by the test image `golden` on QEMU's
 //!    `netduinoplus2` (an STM32F405, Cortex-M4F) gives exactly `tests/golden/*.out`;
 //! 2. the worst-case instruction count of the whole tick interrupt over all vectors, measured
@@ -74,10 +76,30 @@ fn check(only: &[String]) -> Result<(), String> {
     let qemu = ensure_qemu()?;
     eprintln!("firmware: using {qemu}");
 
-    // The board build: production image for the size budget, test image for the vectors.
+    let mut report = Report::default();
+    // Format and lints of the firmware crate (it is outside the host workspace's checks).
+    match cargo_firmware(&fw, &["fmt", "--check"]) {
+        Ok(()) => report.pass("firmware: rustfmt clean"),
+        Err(e) => report.fail(&format!("firmware: {e} (run `cd firmware && cargo fmt`)")),
+    }
+    let clippy = ["clippy", "--all-targets", "--", "-D", "warnings"];
+    let clippy_qemu = [
+        "clippy",
+        "--all-targets",
+        "--features",
+        "qemu",
+        "--",
+        "-D",
+        "warnings",
+    ];
+    match cargo_firmware(&fw, &clippy).and_then(|()| cargo_firmware(&fw, &clippy_qemu)) {
+        Ok(()) => report.pass("firmware: clippy clean (-D warnings, with and without `qemu`)"),
+        Err(e) => report.fail(&format!("firmware: {e}")),
+    }
+
+    // The board build: production image for the size budget, test images for the vectors.
     cargo_firmware(&fw, &["build", "--release", "--bins"])?;
     let elf_dir = fw.join("target").join(TARGET).join("release");
-    let mut report = Report::default();
     size_checks(&elf_dir.join("ptsa"), &mut report)?;
 
     let vectors = golden_vectors(&root, only)?;
