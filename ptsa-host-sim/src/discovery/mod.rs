@@ -40,7 +40,8 @@ pub struct DiscoverArgs {
     /// `lever_arm.r_pa_cm`); default all.
     #[arg(long, value_name = "LIST", default_value = "")]
     pub candidates: String,
-    /// Print exactly one JSON object on stdout (logs go to stderr).
+    /// Print exactly one JSON object on stdout (logs go to stderr). Without `--data`, the
+    /// object maps each report table's file name to its result.
     #[arg(long)]
     pub json: bool,
     /// Directory for the table (CSV) and plots (PNG, SVG).
@@ -98,13 +99,13 @@ pub fn run(args: &DiscoverArgs) -> Result<()> {
         let text =
             show::report_section(&*sim, &opts, (!args.no_plots).then_some(args.out.as_path()))?;
         if args.json {
-            let mut all = Vec::new();
+            let mut all = serde_json::Map::new();
             for (name, _, rows) in report_data::case_files()? {
                 let d = discover(&rows, &*sim, &opts)?;
-                all.push(serde_json::json!({"file": name, "result": d.json}));
+                all.insert(name.to_string(), serde_json::to_value(&d.json)?);
             }
             eprint!("{text}");
-            println!("{}", serde_json::Value::Array(all));
+            println!("{}", serde_json::Value::Object(all));
         } else {
             print!("{text}");
         }
@@ -142,3 +143,13 @@ pub fn run(args: &DiscoverArgs) -> Result<()> {
 }
 
 pub use show::report_section;
+
+/// The discovery section of the no-argument report, with the closed-loop simulator and the
+/// default options: the analysis of Tables 6.1, 6.2 and 6.3 as Markdown. Tables and plots
+/// go into `out` (e.g. `report/discover`) when given.
+///
+/// # Errors
+/// The shipped transcriptions are malformed or an output cannot be written.
+pub fn report_markdown(out: Option<&std::path::Path>) -> Result<String> {
+    report_section(&*sim::closed_loop(1), &Options::default(), out)
+}
