@@ -34,7 +34,7 @@
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
 
-use core::cell::{Cell, RefCell};
+use core::cell::RefCell;
 use core::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use critical_section::Mutex;
@@ -116,14 +116,6 @@ pub struct TickContext {
     pub bridge: HBridge<LegA, LegB>,
     adc: pac::ADC1,
     timer: pac::TIM2,
-}
-
-impl TickContext {
-    /// Restart the loop with a new configuration (state reset, bridge untouched).
-    pub fn restart(&mut self, ptsa: Ptsa) {
-        self.ptsa = ptsa;
-        self.state = ptsa.initial_state();
-    }
 }
 
 /// The peripherals the firmware uses, set up.
@@ -286,19 +278,9 @@ pub fn clocks_160mhz(rcc: &pac::RCC, flash: &pac::FLASH) {
 }
 
 /// Test images only: the pickoff word [`on_tick`] reads instead of the ADC's data register
-/// when `INJECT` is set: bits 15..0 as the ADC would deliver them (left-aligned, offset
-/// binary: the `i16` sample XOR `0x8000`), or [`RELOAD`].
+/// when `INJECT` is set, as the ADC would deliver it: bits 15..0 left-aligned offset binary
+/// (the `i16` sample XOR `0x8000`).
 pub static INJECTED: AtomicU32 = AtomicU32::new(0);
-
-/// Flag in the pickoff word: instead of a tick, restart the loop with the [`Ptsa`] in
-/// [`RESTART`]. The ADC's data register has bits 31..16 reserved (read as 0), so on the
-/// board the flag never appears; the test images use it through [`INJECTED`]. Production and
-/// test handlers therefore run the same instructions, except for the address of the word
-/// they read.
-pub const RELOAD: u32 = 1 << 16;
-
-/// Test images only: the configuration for the next [`RELOAD`].
-pub static RESTART: Mutex<Cell<Option<Ptsa>>> = Mutex::new(Cell::new(None));
 
 /// A gate closed by the tick interrupt, waiting for [`on_gate`] to queue it: pulses,
 /// ticks, and whether the slot is full. Written only by `TIM2`, read only by the bottom half,
@@ -320,8 +302,7 @@ pub const GATE_IRQ: pac::Interrupt = pac::Interrupt::EXTI0;
 /// interrupt moves the context in from [`TICK`], where `main` installed it, and returns.
 ///
 /// With `INJECT = true` (test images only) the pickoff word comes from [`INJECTED`] instead
-/// of the ADC's data register, and a [`RELOAD`] request is served instead of a tick (two
-/// more instructions than the production handler: the measured count is an upper bound).
+/// of the ADC's data register; nothing else differs.
 #[inline(always)]
 pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
     let Some(c) = ctx.as_mut() else {
@@ -334,10 +315,6 @@ pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
     } else {
         c.adc.dr().read().bits()
     };
-    if INJECT && raw & RELOAD != 0 {
-        install(ctx);
-        return;
-    }
     // Left-aligned 12-bit code in bits 15..4, offset binary: flip the top bit.
     #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
     let x = (raw as u16 ^ 0x8000) as i16;
@@ -381,16 +358,13 @@ pub fn on_gate() {
     }
 }
 
-/// Move the context in from [`TICK`], or apply a [`RESTART`].
+/// Move the context in from [`TICK`].
 #[cold]
 #[inline(never)]
 fn install(ctx: &mut Option<TickContext>) {
     critical_section::with(|cs| {
         if let Some(c) = TICK.borrow_ref_mut(cs).take() {
             *ctx = Some(c);
-        }
-        if let (Some(c), Some(p)) = (ctx.as_mut(), RESTART.borrow(cs).take()) {
-            c.restart(p);
         }
     });
 }

@@ -5,12 +5,12 @@ use core::ffi::CStr;
 use core::fmt;
 use core::sync::atomic::Ordering;
 
-use ptsa_core::trace;
+use ptsa_core::{Ptsa, trace};
 use semihosting::fs::File;
 use semihosting::io::{Read, Write};
 use semihosting::{eprintln, println};
 
-use crate::{GATE_IRQ, INJECTED, RELOAD, RESTART, pac, stopwatch, unmask};
+use crate::{GATE_IRQ, INJECTED, pac, stopwatch, unmask};
 
 /// Input chunk size, bytes.
 const CHUNK: usize = 1024;
@@ -133,12 +133,76 @@ pub fn golden_pass(input: &CStr, output: &CStr) -> Result<(), Failure> {
     Ok(())
 }
 
-/// Budget: every sample of `input` through the real `TIM2` interrupt, counted with the
-/// stopwatch `watch`; prints the `budget ...` line.
+/// Calls `f` with every line of `input` (without its `\n`), in order; stops early when `f`
+/// returns `Ok(false)`.
+fn for_each_line(
+    input: &CStr,
+    mut f: impl FnMut(&str) -> Result<bool, Failure>,
+) -> Result<(), Failure> {
+    let mut inp = File::open(input).map_err(|e| fail!("cannot open {:?}: {:?}", input, e))?;
+    let mut chunk = [0u8; CHUNK];
+    let mut line = [0u8; trace::MAX_LINE];
+    let mut len = 0usize;
+    loop {
+        let n = inp
+            .read(&mut chunk)
+            .map_err(|e| fail!("cannot read {:?}: {:?}", input, e))?;
+        for &b in &chunk[..n] {
+            if b == b'\n' {
+                let text =
+                    core::str::from_utf8(&line[..len]).map_err(|_| fail!("input is not UTF-8"))?;
+                if !f(text)? {
+                    return Ok(());
+                }
+                len = 0;
+            } else if len < line.len() {
+                line[len] = b;
+                len += 1;
+            } else {
+                return Err(fail!("input line longer than {} bytes", trace::MAX_LINE));
+            }
+        }
+        if n == 0 {
+            let text =
+                core::str::from_utf8(&line[..len]).map_err(|_| fail!("input is not UTF-8"))?;
+            f(text)?;
+            return Ok(());
+        }
+    }
+}
+
+/// The loop configured by the `section`-th (0-based) `config` line of `input`.
+///
+/// # Errors
+/// When there is no such line or it is malformed or refused (message printed).
+pub fn section_config(input: &CStr, section: usize) -> Result<Ptsa, Failure> {
+    let mut seen = 0usize;
+    let mut found = None;
+    for_each_line(input, |text| {
+        let text = text.trim();
+        if text.starts_with("config") {
+            if seen == section {
+                let c = trace::parse_config(text).map_err(|e| fail!("bad config: {:?}", e))?;
+                found = Some(c.build().map_err(|e| fail!("config refused: {}", e))?);
+                return Ok(false);
+            }
+            seen += 1;
+        }
+        Ok(true)
+    })?;
+    found.ok_or_else(|| fail!("no config line number {} in {:?}", section, input))
+}
+
+/// Budget: every sample of the `section`-th run of `input` through the real `TIM2`
+/// interrupt, counted with the stopwatch `watch`; prints the `budget ...` line. The
+/// interrupt's context must have been installed in [`crate::TICK`] with that run's
+/// configuration, and `TIM2` and `TIM3` unmasked, `EXTI0` masked.
 ///
 /// # Errors
 /// On any I/O or parse error (message printed).
-pub fn budget_pass(input: &CStr, watch: &pac::TIM5) -> Result<(), Failure> {
+pub fn budget_pass(input: &CStr, section: usize, watch: &pac::TIM5) -> Result<(), Failure> {
+    // The first interrupt moves the context into the handler and returns without a tick.
+    cortex_m::peripheral::NVIC::pend(pac::Interrupt::TIM2);
     // The bracket's own cost: the same sequence around an empty handler (whose body is one
     // instruction, `bx lr`).
     let mut overhead = u32::MAX;
@@ -148,33 +212,28 @@ pub fn budget_pass(input: &CStr, watch: &pac::TIM5) -> Result<(), Failure> {
         let t1 = stopwatch(watch);
         overhead = overhead.min(t1.wrapping_sub(t0).saturating_sub(1));
     }
-
-    let mut inp = File::open(input).map_err(|e| fail!("cannot open {:?}: {:?}", input, e))?;
-    let mut chunk = [0u8; CHUNK];
-    let mut line = [0u8; trace::MAX_LINE];
-    let mut len = 0usize;
     let mut stats = Stats::default();
-    loop {
-        let n = inp
-            .read(&mut chunk)
-            .map_err(|e| fail!("cannot read {:?}: {:?}", input, e))?;
-        for &b in &chunk[..n] {
-            if b == b'\n' {
-                measure_line(&line[..len], watch, overhead, &mut stats)?;
-                len = 0;
-            } else if len < line.len() {
-                line[len] = b;
-                len += 1;
-            }
+    let mut configs = 0usize;
+    for_each_line(input, |text| {
+        let text = text.trim();
+        if text.is_empty() || text.starts_with('#') {
+            return Ok(true);
         }
-        if n == 0 {
-            measure_line(&line[..len], watch, overhead, &mut stats)?;
-            break;
+        if text.starts_with("config") {
+            configs += 1;
+            // Stop at the end of the wanted run.
+            return Ok(configs <= section + 1);
         }
-    }
+        if configs == section + 1 {
+            let x: i16 = text.parse().map_err(|_| fail!("bad sample {:?}", text))?;
+            measure_tick(x, watch, overhead, &mut stats);
+        }
+        Ok(true)
+    })?;
     let mean100 = (stats.sum * 100).checked_div(stats.ticks).unwrap_or(0);
     println!(
-        "budget ticks={} max={} max_plain={} max_gate={} bottom_half={} mean={}.{:02} overhead={}",
+        "budget section={} ticks={} max={} max_plain={} max_gate={} bottom_half={} mean={}.{:02} overhead={}",
+        section,
         stats.ticks,
         stats.max,
         stats.max_plain,
@@ -197,27 +256,8 @@ struct Stats {
     max_bottom: u32,
 }
 
-fn measure_line(
-    line: &[u8],
-    watch: &pac::TIM5,
-    overhead: u32,
-    stats: &mut Stats,
-) -> Result<(), Failure> {
-    let text = core::str::from_utf8(line)
-        .map_err(|_| fail!("input is not UTF-8"))?
-        .trim();
-    if text.is_empty() || text.starts_with('#') {
-        return Ok(());
-    }
-    if text.starts_with("config") {
-        let c = trace::parse_config(text).map_err(|e| fail!("bad config: {:?}", e))?;
-        let p = c.build().map_err(|e| fail!("config refused: {}", e))?;
-        critical_section::with(|cs| RESTART.borrow(cs).set(Some(p)));
-        INJECTED.store(RELOAD, Ordering::Relaxed);
-        cortex_m::peripheral::NVIC::pend(pac::Interrupt::TIM2);
-        return Ok(());
-    }
-    let x: i16 = text.parse().map_err(|_| fail!("bad sample {:?}", text))?;
+fn measure_tick(x: i16, watch: &pac::TIM5, overhead: u32, stats: &mut Stats) {
+    // The word the ADC would deliver: left-aligned offset binary.
     #[allow(clippy::cast_sign_loss)]
     INJECTED.store(u32::from(x as u16 ^ 0x8000), Ordering::Relaxed);
     let t0 = stopwatch(watch);
@@ -242,5 +282,4 @@ fn measure_line(
     stats.ticks += 1;
     stats.sum += u64::from(n);
     stats.max = stats.max.max(n);
-    Ok(())
 }
