@@ -212,16 +212,17 @@ fn font_ready() -> bool {
 pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     write_atomic(&dir.join(format!("{stem}.csv")), &table_csv(d))?;
+    // Text needs a TrueType font (ab_glyph); without one the plots are drawn unlabelled.
+    let text = font_ready();
     let svg = dir.join(format!("{stem}.svg"));
     draw(
         SVGBackend::new(&svg, (1000, 700)).into_drawing_area(),
         stem,
         d,
-        true,
+        text,
     )
     .map_err(|e| anyhow::anyhow!("{}: {e}", svg.display()))?;
     let png = dir.join(format!("{stem}.png"));
-    let text = font_ready();
     draw(
         BitMapBackend::new(&png, (1000, 700)).into_drawing_area(),
         stem,
@@ -488,4 +489,34 @@ pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -
     }
     s.push_str(&details);
     Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::discovery::sim::AnalyticSimulator;
+
+    #[test]
+    fn report_section_writes_tables_and_plots() {
+        let dir = std::env::temp_dir().join(format!("ptsa-discover-{}", std::process::id()));
+        let md = report_section(&AnalyticSimulator, &Options::default(), Some(&dir)).unwrap();
+        assert!(md.contains("anisoinertia") && md.contains("lever_arm.r_pa_cm"));
+        for stem in ["r890-table-6.1", "r890-table-6.2", "r890-table-6.3"] {
+            for ext in ["csv", "png", "svg"] {
+                let p = dir.join(format!("{stem}.{ext}"));
+                assert!(
+                    std::fs::metadata(&p)
+                        .map(|m| m.len() > 100)
+                        .unwrap_or(false),
+                    "{}",
+                    p.display()
+                );
+            }
+        }
+        if std::env::var_os("PTSA_KEEP_PLOTS").is_none() {
+            let _ = std::fs::remove_dir_all(&dir);
+        } else {
+            eprintln!("{md}\nplots in {}", dir.display());
+        }
+    }
 }
