@@ -656,9 +656,10 @@ fn production_under_qemu(root: &Path, fw: &Path, elf: &Path) -> Result<String, S
             run.stdout
         ));
     }
+    let expected = host_gate_pulses(gates.len())?;
     let mut summary = Vec::new();
     let mut times = Vec::new();
-    for g in &gates {
+    for (g, want) in gates.iter().zip(&expected) {
         let field = |k: &str| -> Option<u64> {
             g.split_whitespace()
                 .find_map(|w| w.strip_prefix(k)?.strip_prefix('=')?.parse().ok())
@@ -671,6 +672,12 @@ fn production_under_qemu(root: &Path, fw: &Path, elf: &Path) -> Result<String, S
         if t != PRODUCTION_GATE_TICKS || n != 1 || p > t {
             return Err(format!(
                 "gate report `{g}`: expected T={PRODUCTION_GATE_TICKS}, gates=1, P<=T"
+            ));
+        }
+        if p != *want {
+            return Err(format!(
+                "gate report `{g}`: the host model gives P={want} for the same input \
+                 (constant {QEMU_ADC_SAMPLE})"
             ));
         }
         summary.push(format!("{p}/{t}"));
@@ -694,10 +701,36 @@ fn production_under_qemu(root: &Path, fw: &Path, elf: &Path) -> Result<String, S
         intervals.push(d.to_string());
     }
     Ok(format!(
-        "production image under QEMU: 64 kHz TIM2 interrupt ran, {} gates reported (P/T: {}; \
-         {} ns apart in virtual time, expected {period_ns})",
+        "production image under QEMU: 64 kHz TIM2 interrupt ran, {} gates reported (P/T: {}, \
+         as the host model gives for QEMU's ADC input, constant {QEMU_ADC_SAMPLE}; {} ns \
+         apart in virtual time, expected {period_ns})",
         gates.len(),
         summary.join(", "),
         intervals.join(", ")
     ))
+}
+
+/// The pickoff sample the production image sees under QEMU: QEMU 7.2's ADC model returns a
+/// synthetic value only on the first data-register read after a software start (7, shifted
+/// left-aligned to 0), then 0, as the firmware starts it once in continuous mode; 0 in
+/// offset binary is negative full scale.
+const QEMU_ADC_SAMPLE: i16 = i16::MIN;
+
+/// Data pulses of the first `n` gates of the production image's QEMU configuration (default
+/// loop, [`PRODUCTION_GATE_TICKS`]-tick gate) on the host, for QEMU's ADC input.
+fn host_gate_pulses(n: usize) -> Result<Vec<u64>, String> {
+    let ptsa = ptsa_core::Config {
+        gate_ticks: u32::try_from(PRODUCTION_GATE_TICKS).map_err(|e| e.to_string())?,
+        ..ptsa_core::Config::DEFAULT
+    }
+    .build()
+    .map_err(|e| format!("host model refused the QEMU configuration: {e}"))?;
+    let mut state = ptsa.initial_state();
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        if let Some(g) = ptsa.tick(&mut state, QEMU_ADC_SAMPLE).gate {
+            out.push(u64::from(g.pulses));
+        }
+    }
+    Ok(out)
 }
