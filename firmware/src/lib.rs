@@ -3,15 +3,16 @@
 //! Everything the loop decides lives in `ptsa-core`; this crate only
 //!
 //! * sets up the clocks ([`clocks_160mhz`]), the pickoff ADC, the two H-bridge legs and the
-//!   64 kHz tick timer ([`Board::take`]),
+//!   64 kHz tick timer ([`Board::new`]),
 //! * holds the interrupt's context ([`TICK`]) and the gate queue ([`GATES`]) shared with the
 //!   main loop, and
 //! * services one tick ([`on_tick`]): read the ADC, call [`ptsa_core::Ptsa::tick`], drive the
-//!   legs through [`ptsa_core::HBridge`], queue a closed gate.
+//!   legs through [`ptsa_core::HBridge`], hand a closed gate to the bottom half
+//!   ([`on_gate`], which queues it).
 //!
-//! Both images, the production `ptsa` and the QEMU test image `golden`, call [`on_tick`]
-//! from the same `TIM2` handler code, so what the test image measures is what runs on the
-//! board.
+//! The production image `ptsa` and the QEMU test image `budget` have the same `TIM2`
+//! handler (`on_tick`, differing only in the address the pickoff word is read from), so what
+//! the test image measures is what runs on the board.
 //!
 //! # Pins and units
 //!
@@ -27,9 +28,9 @@
 //! tick is 1250 timer counts = 2500 core cycles. Under QEMU (`qemu` feature) the timer
 //! kernel clock is QEMU's fixed 1 GHz ([`TIMER_CLOCK_HZ`]).
 //!
-//! The ADC conversion for tick `n + 1` is started by software at the end of the tick-`n`
-//! interrupt (one conversion, 15 + 12 ADC clocks = 1.35 µs at 20 MHz), so each tick reads a
-//! sample taken one tick period (15.6 µs) earlier: a fixed one-tick transport delay.
+//! ADC1 converts continuously (15 + 12 ADC clocks = 1.35 µs per conversion at 20 MHz); the
+//! tick interrupt reads the newest result, so its sample is at most 1.35 µs old. (QEMU's ADC
+//! model does not convert continuously: under QEMU the data register reads 0.)
 #![no_std]
 #![deny(unsafe_code)]
 #![deny(missing_docs)]
@@ -138,6 +139,8 @@ impl Board {
         rcc.apb1enr()
             .modify(|_, w| w.tim2en().enabled().tim5en().enabled());
         rcc.apb2enr().modify(|_, w| w.adc1en().enabled());
+        // RM0090 errata: allow two bus cycles after enabling a peripheral clock.
+        let _ = rcc.apb2enr().read();
 
         // PA1 analog; PD12, PD14 push-pull outputs, low.
         dp.GPIOA.moder().modify(|_, w| w.moder1().analog());

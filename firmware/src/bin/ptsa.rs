@@ -6,7 +6,7 @@
 //! With the `qemu` feature (QEMU `netduinoplus2`, see docs/firmware.md) the clock set-up is
 //! skipped, each count is also printed as text through semihosting
 //! (`gate <n>: P=<pulses> T=<ticks> gates=<merged> t_ns=<virtual time, ns>`), and after
-//! [`QEMU_GATES`] gates the image exits QEMU with status 0.
+//! `QEMU_GATES` (3) gates the image exits QEMU with status 0.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
