@@ -734,3 +734,47 @@ fn host_gate_pulses(n: usize) -> Result<Vec<u64>, String> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn first_difference_names_line_and_tick() {
+        let e = b"+\n- c1\nend ticks=2 pulses=1 sat=0,0,0 digest=00\n+\n-\n";
+        let g = b"+\n- c1\nend ticks=2 pulses=1 sat=0,0,0 digest=00\n+\n+\n";
+        let msg = first_difference(e, g, Path::new("e"), Path::new("g"));
+        assert!(msg.contains("line 5 (tick 2 of its run)"), "{msg}");
+        assert!(msg.contains("expected `-`, got `+`"), "{msg}");
+        let msg = first_difference(b"+\nend x\n", b"+\nend y\n", Path::new("e"), Path::new("g"));
+        assert!(msg.contains("the run's `end` line"), "{msg}");
+        let msg = first_difference(b"+\n-\n", b"+\n", Path::new("e"), Path::new("g"));
+        assert!(msg.contains("got <end of file>"), "{msg}");
+    }
+
+    #[test]
+    fn budget_line_parses() {
+        let b = parse_budget(
+            "budget section=0 ticks=10 max=148 max_plain=135 max_gate=148 bottom_half=41 \
+             mean=98.33 overhead=4\n",
+        )
+        .unwrap();
+        assert_eq!(
+            (b.ticks, b.max, b.max_plain, b.bottom_half),
+            (10, 148, 135, 41)
+        );
+        assert!((b.mean - 98.33).abs() < 1e-9);
+        assert!(parse_budget("nothing").is_err());
+    }
+
+    #[test]
+    fn elf_parser_refuses_garbage() {
+        assert!(elf32_sections(b"not an elf").is_err());
+        assert!(elf32_sections(&[0x7f, b'E', b'L', b'F', 1, 1, 0, 0]).is_err());
+    }
+
+    #[test]
+    fn host_model_runs_for_the_qemu_configuration() {
+        assert_eq!(host_gate_pulses(2).unwrap().len(), 2);
+    }
+}
