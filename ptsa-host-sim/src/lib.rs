@@ -12,6 +12,7 @@
 
 pub mod condition;
 pub mod design;
+pub mod experiments;
 pub mod fixtures;
 pub mod output;
 pub mod discovery;

@@ -351,10 +351,12 @@ impl Output {
     pub fn emit(&self, dir: &Path, print: bool) -> Result<Vec<PathBuf>> {
         let mut files = Vec::new();
         for (k, t) in self.tables.iter().enumerate() {
-            if print {
-                println!("{}", t.to_text());
-            }
             let f = if k == 0 { dir.join(format!("{}.csv", self.name)) } else { dir.join(format!("{}-{}.csv", self.name, k + 1)) };
+            if print && t.rows.len() <= 40 {
+                println!("{}", t.to_text());
+            } else if print {
+                println!("{}: {} rows, in {}\n", t.title, t.rows.len(), f.display());
+            }
             write_atomic(&f, t.to_csv()?.as_bytes())?;
             files.push(f);
         }

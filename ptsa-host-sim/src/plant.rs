@@ -103,6 +103,7 @@ pub struct Zoh {
 impl Zoh {
     /// Discretise with stiffness `k` (dyn·cm/rad) and damping `c` (dyn·cm·s) on the pendulum.
     #[must_use]
+    #[allow(clippy::needless_range_loop)]
     pub fn new(instr: &Instrument, k: f64, c: f64) -> Self {
         let t = 1.0 / instr.clock_hz;
         let inertia = instr.inertia_dyn_cm_s2;

@@ -95,6 +95,12 @@ pub struct SimResult {
     pub harmonic_amp_cm_s2: f64,
     /// Phase of that component, degrees, relative to `sin(h·ωt)`.
     pub harmonic_deg: f64,
+    /// Amplitude at the requested harmonic of the rebalanced torque over `P` (the
+    /// charge-balance signal `(F·i + I·θ'' + C·θ')/P`, i.e. every torque on the pendulum
+    /// but the torquer's, free of the pulse train's quantization), cm/s².
+    pub harmonic_torque_amp_cm_s2: f64,
+    /// Phase of that component, degrees, relative to `sin(h·ωt)`.
+    pub harmonic_torque_deg: f64,
 }
 
 /// A condition minus its reference (as `measured_cm_s2` is defined).
@@ -167,6 +173,8 @@ pub struct Totals {
     pub stop_ticks: u64,
     /// `Σ u·sin(hωt)`, `Σ u·cos(hωt)` at the requested harmonic.
     pub harm: [f64; 2],
+    /// The same sums of the per-tick charge-balance signal, cm/s².
+    pub harm_q: [f64; 2],
 }
 
 /// One tick as seen by an observer (for waveforms and traces).
@@ -363,6 +371,7 @@ impl ClosedLoop {
         }
     }
 
+    #[allow(clippy::needless_range_loop)]
     fn run_static<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
         // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
         let mut add = [[[0.0; NX]; 2]; 3];
@@ -404,6 +413,7 @@ impl ClosedLoop {
         self.totals.pulses = u64::from(self.core.total_pulses().0);
     }
 
+    #[allow(clippy::needless_range_loop)]
     fn run_dynamic<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
         let t_s = 1.0 / self.instr.clock_hz;
         let w = self.prep.omega;
@@ -412,12 +422,16 @@ impl ClosedLoop {
         let di = self.instr.anisoinertia_g_cm2;
         let ptsa = self.ptsa;
         let harmonic = self.harmonic;
+        let sf = self.instr.actual_sf_cm_s2();
+        let tau_t = self.instr.torquer_tau_s / t_s;
+        let ip = self.instr.inertia_dyn_cm_s2 / (p * t_s);
+        let cp = self.instr.damping_dyn_cm_s / (p * t_s);
         let mut x = self.x;
         let mut u = self.u;
         let (mut s, mut c) = (0.0, 1.0);
         for j in 0..n {
             let k = self.k;
-            if j == 0 || k % 4096 == 0 {
+            if j == 0 || k.is_multiple_of(4096) {
                 #[allow(clippy::cast_precision_loss)]
                 let t_mid = (k as f64 + 0.5) * t_s;
                 (s, c) = (w * t_mid).sin_cos();
@@ -436,11 +450,15 @@ impl ClosedLoop {
             for i in 0..NX {
                 a[i] = z.gu[i] * u + z.gd[i] * d;
             }
+            let x_old = x;
             x = z.step(&x, &a);
             if harmonic != 0 {
                 let (hs, hc) = if harmonic == 1 { (s, c) } else { (2.0 * s * c, c * c - s * s) };
                 self.totals.harm[0] += u * hs;
                 self.totals.harm[1] += u * hc;
+                let q = sf * (u - tau_t * (x[2] - x_old[2])) + ip * (x[1] - x_old[1]) + cp * (x[0] - x_old[0]);
+                self.totals.harm_q[0] += q * hs;
+                self.totals.harm_q[1] += q * hc;
             }
             #[allow(clippy::cast_possible_truncation)]
             {
@@ -491,6 +509,8 @@ impl ClosedLoop {
         let count = i.sf_cm_s2 * (2.0 * pulses as f64 / nf - 1.0);
         let hs = t1.harm[0] - t0.harm[0];
         let hc = t1.harm[1] - t0.harm[1];
+        let qs = t1.harm_q[0] - t0.harm_q[0];
+        let qc = t1.harm_q[1] - t0.harm_q[1];
         SimResult {
             indicated_cm_s2: indicated,
             count_cm_s2: count,
@@ -504,6 +524,8 @@ impl ClosedLoop {
             stop_ticks: t1.stop_ticks - t0.stop_ticks,
             harmonic_amp_cm_s2: 2.0 * sf * hs.hypot(hc) / nf,
             harmonic_deg: hc.atan2(hs).to_degrees(),
+            harmonic_torque_amp_cm_s2: 2.0 * qs.hypot(qc) / nf,
+            harmonic_torque_deg: qc.atan2(qs).to_degrees(),
         }
     }
 }
