@@ -35,6 +35,8 @@ pub const MAX_RAM: u64 = 2 * 1024;
 pub const PRODUCTION_GATES: usize = 3;
 /// Gate length of the production image under QEMU, ticks.
 pub const PRODUCTION_GATE_TICKS: u64 = 6_400;
+/// Instructions of the budget image's calibration loop (`cortex_m::asm::delay(10_000)`).
+const CALIBRATION_INSTRUCTIONS: u64 = 20_002;
 /// Wall-clock limit for one QEMU run.
 const QEMU_TIMEOUT: Duration = Duration::from_secs(300);
 /// Start of RAM in `memory.x`.
@@ -447,6 +449,15 @@ fn parse_budget(stdout: &str) -> Result<Budget, String> {
             .map_err(|_| format!("bad `{k}` in `{line}`"))
     };
     let to32 = |v: u64| u32::try_from(v).unwrap_or(u32::MAX);
+    // 20 002 instructions of `cortex_m::asm::delay(10_000)` plus call and alignment: if the
+    // stopwatch does not read about that, QEMU's timers are not counting instructions.
+    let cal = num("calibration")?;
+    if !(CALIBRATION_INSTRUCTIONS..=CALIBRATION_INSTRUCTIONS + 16).contains(&cal) {
+        return Err(format!(
+            "the stopwatch read {cal} over a {CALIBRATION_INSTRUCTIONS}-instruction loop: \
+             QEMU's timers do not count one per instruction (is `-icount shift=0` in effect?)"
+        ));
+    }
     Ok(Budget {
         ticks: num("ticks")?,
         max: to32(num("max")?),
@@ -756,7 +767,7 @@ mod tests {
     fn budget_line_parses() {
         let b = parse_budget(
             "budget section=0 ticks=10 max=148 max_plain=135 max_gate=148 bottom_half=41 \
-             mean=98.33 overhead=4\n",
+             mean=98.33 overhead=4 calibration=20006\n",
         )
         .unwrap();
         assert_eq!(
