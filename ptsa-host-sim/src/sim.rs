@@ -19,7 +19,7 @@
 //! to `mean(T_ext)/P`, so the estimate
 //!
 //! ```text
-//! â = SF·(Σu/N − τ·Δi/W) + (I·Δθ' + C·Δθ)/(P·W)        (SF = F/P)
+//! â = SF·(Σu/N − τ·Δi/W + (I·Δθ' + C·Δθ)/(F·W))      (F = torque at full current)
 //! ```
 //!
 //! is what an infinitely long count would indicate for the conditions of the window: the
@@ -71,7 +71,8 @@ impl Default for SimOptions {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct SimResult {
     /// Mean indicated acceleration over the window, cm/s² (charge-balance estimate, see the
-    /// module docs): what a long count would indicate.
+    /// module docs): what a long count would indicate, `SF·(2P/T − 1)` in the limit, with
+    /// the configured SF (equal to the true one for the shipped instrument).
     pub indicated_cm_s2: f64,
     /// Plain count over the window, `SF·(2P/T − 1)` with the configured SF, cm/s².
     pub count_cm_s2: f64,
@@ -482,6 +483,7 @@ impl ClosedLoop {
     /// Run a measurement window of `n` ticks and return its result.
     #[must_use]
     pub fn measure(&mut self, n: u64) -> SimResult {
+        self.totals.max_theta = 0.0;
         let t0 = self.totals;
         let x0 = self.x;
         let p0 = self.core.total_pulses();
@@ -499,12 +501,14 @@ impl ClosedLoop {
         #[allow(clippy::cast_precision_loss)]
         let nf = n as f64;
         let w = nf * t_s;
-        let sf = i.actual_sf_cm_s2();
         #[allow(clippy::cast_precision_loss)]
         let mean_u = (t1.sum_u - t0.sum_u) as f64 / nf;
-        let indicated = sf * (mean_u - i.torquer_tau_s * (x1[2] - x0[2]) / w)
+        // Limit of the count's duty 2P/T − 1 (torque fraction), then eq. 6.1 with the
+        // configured SF, like the count itself.
+        let duty = mean_u - i.torquer_tau_s * (x1[2] - x0[2]) / w
             + (i.inertia_dyn_cm_s2 * (x1[1] - x0[1]) + i.damping_dyn_cm_s * (x1[0] - x0[0]))
-                / (self.p_gcm * w);
+                / (i.full_torque_dyn_cm() * w);
+        let indicated = i.sf_cm_s2 * duty;
         #[allow(clippy::cast_precision_loss)]
         let count = i.sf_cm_s2 * (2.0 * pulses as f64 / nf - 1.0);
         let hs = t1.harm[0] - t0.harm[0];
@@ -522,7 +526,7 @@ impl ClosedLoop {
             cycles: t1.cycles - t0.cycles,
             cycles_two_reversals: t1.cycles_two - t0.cycles_two,
             stop_ticks: t1.stop_ticks - t0.stop_ticks,
-            harmonic_amp_cm_s2: 2.0 * sf * hs.hypot(hc) / nf,
+            harmonic_amp_cm_s2: 2.0 * i.sf_cm_s2 * hs.hypot(hc) / nf,
             harmonic_deg: hc.atan2(hs).to_degrees(),
             harmonic_torque_amp_cm_s2: 2.0 * qs.hypot(qc) / nf,
             harmonic_torque_deg: qc.atan2(qs).to_degrees(),
