@@ -333,31 +333,32 @@ pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
 fn close_gate(g: Gate) {
     if CLOSED_FULL.load(Ordering::Relaxed) {
         // Cannot happen: the pended bottom half (lower vector number, same priority) runs
-        // before the next tick. Should it not have, queue the gate here: nothing is lost.
-        queue_directly(g);
-    } else {
-        CLOSED_PULSES.store(g.pulses, Ordering::Relaxed);
-        CLOSED_TICKS.store(g.ticks, Ordering::Relaxed);
-        CLOSED_FULL.store(true, Ordering::Relaxed);
+        // before the next tick. Should it not have, queue the waiting gate here, in order:
+        // nothing is lost.
+        queue_waiting_gate();
     }
+    CLOSED_PULSES.store(g.pulses, Ordering::Relaxed);
+    CLOSED_TICKS.store(g.ticks, Ordering::Relaxed);
+    CLOSED_FULL.store(true, Ordering::Relaxed);
     cortex_m::peripheral::NVIC::pend(GATE_IRQ);
 }
 
+/// Move the gate waiting in the slot into [`GATES`] and empty the slot.
 #[cold]
 #[inline(never)]
-fn queue_directly(g: Gate) {
+fn queue_waiting_gate() {
+    let g = Gate {
+        pulses: CLOSED_PULSES.load(Ordering::Relaxed),
+        ticks: CLOSED_TICKS.load(Ordering::Relaxed),
+    };
+    CLOSED_FULL.store(false, Ordering::Relaxed);
     critical_section::with(|cs| GATES.borrow_ref_mut(cs).push(g));
 }
 
 /// The bottom half (body of the [`GATE_IRQ`] handler): move a closed gate into [`GATES`].
 pub fn on_gate() {
     if CLOSED_FULL.load(Ordering::Relaxed) {
-        let g = Gate {
-            pulses: CLOSED_PULSES.load(Ordering::Relaxed),
-            ticks: CLOSED_TICKS.load(Ordering::Relaxed),
-        };
-        CLOSED_FULL.store(false, Ordering::Relaxed);
-        critical_section::with(|cs| GATES.borrow_ref_mut(cs).push(g));
+        queue_waiting_gate();
     }
 }
 
