@@ -390,7 +390,9 @@ pub fn discover(
             let Some(f) = d.fit(&trial) else { continue };
             let delta = chi2_set - f.chi2;
             let p = step_p(delta, f.chi2, n - trial.len());
-            if best.is_none_or(|(_, bp, _)| p < bp) {
+            // Ties (identical signatures up to rounding) go to the earlier candidate in the
+            // vocabulary; the other is reported as confounded.
+            if best.is_none_or(|(_, bp, _)| p < bp * (1.0 - 1e-9)) {
                 best = Some((c, p, delta));
             }
         }
@@ -425,7 +427,7 @@ pub fn discover(
             let Some(f) = d.fit(&rest) else { continue };
             let delta = f.chi2 - full.chi2;
             let p = step_p(delta, full.chi2, n - set.len());
-            if worst.is_none_or(|(_, wp, _)| p > wp) {
+            if worst.is_none_or(|(_, wp, _)| p > wp * (1.0 + 1e-9)) {
                 worst = Some((c, p, delta));
             }
         }
