@@ -23,7 +23,16 @@ fn sims() -> (Box<dyn Simulator>, Box<dyn Simulator>) {
 }
 
 fn check(s: &CampaignSummary) {
+    use std::io::Write as _;
+    // Every set (shown by cargo test on failure, or with --nocapture) ...
     println!("{}", s.log);
+    // ... and the measured rates, written past the test harness's capture so that they
+    // appear in every CI log.
+    let rates = s.log.rsplit("per candidate").next().unwrap_or_default();
+    let _ = writeln!(
+        std::io::stderr(),
+        "hidden-effect rates: per candidate{rates}"
+    );
     assert!(s.strong > 0, "no set of 8 SE or more");
     assert!(
         s.detection_rate() >= 0.95,
