@@ -415,7 +415,8 @@ where
 }
 
 /// The analysis of the report's Tables 6.1, 6.2 and 6.3 as a Markdown section, for the
-/// no-argument report. Writes the tables and plots into `out` when given.
+/// no-argument report. Writes the tables and plots into `out` when given; the Markdown links
+/// to the plots relative to `out`'s parent (where the report's summary is expected).
 ///
 /// # Errors
 /// The shipped transcriptions are malformed or an output cannot be written.
@@ -484,7 +485,12 @@ pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -
         if let Some(dir) = out {
             let stem = name.trim_end_matches(".case.csv");
             write_outputs(dir, stem, &d)?;
-            let _ = writeln!(details, "\n![{stem}]({}/{stem}.svg)", dir.display());
+            // The Markdown is meant to sit in `out`'s parent (the report folder).
+            let rel = dir.file_name().map_or_else(
+                || dir.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            let _ = writeln!(details, "\n![{stem}]({rel}/{stem}.svg)");
         }
     }
     s.push_str(&details);
