@@ -266,14 +266,15 @@ pub struct OaRow {
     pub amp_mrad: Option<f64>,
     /// Report's difference, cm/s².
     pub report: Option<f64>,
-    /// Simulated dynamic minus static, cm/s².
+    /// Simulated static minus dynamic output (the report's column), cm/s².
     pub simulated: Option<f64>,
     /// Largest `|θ|` during the run, rad.
     pub theta_max_rad: Option<f64>,
 }
 
-/// Tables 6.2 and 6.3: single-axis oscillation about OA, IA horizontal then vertical;
-/// steady-state output minus the output at rest.
+/// Tables 6.2 and 6.3: single-axis oscillation about OA, IA horizontal then vertical; the
+/// output at rest minus the steady-state output in oscillation (the report's "static-dynamic
+/// output difference").
 #[must_use]
 pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) -> (Vec<OaRow>, Output) {
     let mut cases: Vec<(bool, f64, Option<f64>, Option<f64>)> = Vec::new();
@@ -290,7 +291,7 @@ pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) ->
                 Some(a) => {
                     let s = fixtures::angular_oscillator(f, a, v, lever_cm);
                     let d = simulate_difference(instr, &s.cond, &s.effects(&Effects::default()), opts);
-                    (Some(d.difference_cm_s2), Some(d.condition.theta_max_rad))
+                    (Some(-d.difference_cm_s2), Some(d.condition.theta_max_rad))
                 }
                 None => (None, None),
             };
@@ -300,7 +301,7 @@ pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) ->
     let mut tables = Vec::new();
     let mut plots = Vec::new();
     for (v, title) in [(false, "Table 6.2: OA coupling, IA horizontal"), (true, "Table 6.3: OA coupling, IA vertical")] {
-        let mut t = Table::new(title, &["freq Hz", "amp mrad", "report cm/s^2", "simulated cm/s^2", "max |theta| urad"]);
+        let mut t = Table::new(title, &["freq Hz", "amp mrad", "report static-dynamic cm/s^2", "simulated static-dynamic cm/s^2", "max |theta| urad"]);
         let opt = |x: Option<f64>, d: usize| x.map_or(Cell::Missing, |x| num(x, d));
         for r in rows.iter().filter(|r| r.ia_vertical == v) {
             t.rows.push(vec![num(r.freq_hz, 1), opt(r.amp_mrad, 1), opt(r.report, 2), opt(r.simulated, 4), opt(r.theta_max_rad.map(|x| x * 1e6), 1)]);
@@ -309,7 +310,7 @@ pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) ->
         plots.push(Plot {
             title: title.into(),
             x_label: "frequency, Hz".into(),
-            y_label: "dynamic - static output, cm/s^2".into(),
+            y_label: "static - dynamic output, cm/s^2".into(),
             series: vec![
                 Series::markers("report", rows.iter().filter(|r| r.ia_vertical == v).filter_map(|r| r.report.map(|x| (r.freq_hz, x))).collect()),
                 Series::line("simulated", rows.iter().filter(|r| r.ia_vertical == v).filter_map(|r| r.simulated.map(|x| (r.freq_hz, x))).collect()),

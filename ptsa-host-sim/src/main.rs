@@ -367,7 +367,7 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
     }
     let _ = writeln!(s, "\nCoefficient from the simulated table as the report derives it: {k_sim:.3} cm (report: {} cm).\n", report::K_AI_CM);
     let _ = writeln!(s, "## OA coupling (Tables 6.2 and 6.3, `ptsa oa-coupling`)\n");
-    let _ = writeln!(s, "| IA | Hz | mrad | report cm/s² | simulated cm/s² |\n|---|---|---|---|---|");
+    let _ = writeln!(s, "| IA | Hz | mrad | report static−dynamic cm/s² | simulated static−dynamic cm/s² |\n|---|---|---|---|---|");
     for r in &oa {
         let f = |x: Option<f64>, d: usize| x.map_or_else(|| "—".to_string(), |x| format!("{x:.d$}"));
         let _ = writeln!(s, "| {} | {} | {} | {} | {} |", if r.ia_vertical { "vertical" } else { "horizontal" }, r.freq_hz, f(r.amp_mrad, 1), f(r.report, 2), f(r.simulated, 4));

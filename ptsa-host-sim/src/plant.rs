@@ -150,7 +150,8 @@ impl Zoh {
         let p = &self.phi;
         let mut out = *add;
         for r in 0..NX {
-            out[r] += p[r][0] * x[0] + p[r][1] * x[1] + p[r][2] * x[2] + p[r][3] * x[3];
+            // Pairwise sums: a shorter dependency chain than left-to-right.
+            out[r] += (p[r][0] * x[0] + p[r][1] * x[1]) + (p[r][2] * x[2] + p[r][3] * x[3]);
         }
         out
     }

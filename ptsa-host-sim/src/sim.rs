@@ -194,6 +194,66 @@ pub struct TickView {
     pub decided: Polarity,
 }
 
+/// The ADC: demodulated pickoff (rad) to a code, with the quadrature leak and noise.
+#[derive(Clone, Copy, Debug)]
+struct Adc {
+    /// Codes per rad.
+    gain: f64,
+    /// Offset (quadrature leak), codes.
+    offset: f64,
+    /// Noise, codes rms.
+    noise: f64,
+}
+
+impl Adc {
+    #[inline(always)]
+    fn sample(&self, y: f64, rng: &mut Xoshiro) -> i16 {
+        let mut v = y * self.gain + self.offset;
+        if self.noise != 0.0 {
+            v += self.noise * rng.normal();
+        }
+        // Round half up and clip to the i16 range without a libm call.
+        let z = (v + 32768.5).clamp(0.0, 65535.0);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let z = z as u32;
+        #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
+        let z = (z as u16 ^ 0x8000) as i16;
+        z
+    }
+}
+
+/// Per-run accumulators, kept in registers in the hot loops and merged into [`Totals`].
+#[derive(Clone, Copy, Debug)]
+struct Acc {
+    ticks: u64,
+    sum_u: i64,
+    sum_theta2: f64,
+    max_theta: f64,
+    cycles: u64,
+    cycles_two: u64,
+    stop: u64,
+    rev: u32,
+    prev_positive: bool,
+}
+
+impl Acc {
+    #[inline(always)]
+    fn tick(&mut self, u: f64, positive: bool, theta: f64, cycle_end: bool, region: usize) {
+        self.ticks += 1;
+        self.sum_u += if u > 0.0 { 1 } else { -1 };
+        self.sum_theta2 += theta * theta;
+        self.max_theta = self.max_theta.max(theta.abs());
+        self.stop += u64::from(region != 0);
+        self.rev += u32::from(positive != self.prev_positive);
+        self.prev_positive = positive;
+        if cycle_end {
+            self.cycles += 1;
+            self.cycles_two += u64::from(self.rev == 2);
+            self.rev = 0;
+        }
+    }
+}
+
 /// The closed loop: instrument plant, ADC, `ptsa-core` loop, all state.
 #[derive(Clone, Debug)]
 pub struct ClosedLoop {
@@ -323,19 +383,36 @@ impl ClosedLoop {
         self.k
     }
 
-    #[inline(always)]
-    fn adc(&mut self, y: f64) -> i16 {
-        let mut v = y * self.code_per_rad + self.code_offset;
-        if self.noise_codes != 0.0 {
-            v += self.noise_codes * self.rng.normal();
+    fn adc_params(&self) -> Adc {
+        Adc { gain: self.code_per_rad, offset: self.code_offset, noise: self.noise_codes }
+    }
+
+    fn acc(&self) -> Acc {
+        Acc {
+            ticks: 0,
+            sum_u: 0,
+            sum_theta2: 0.0,
+            max_theta: self.totals.max_theta,
+            cycles: 0,
+            cycles_two: 0,
+            stop: 0,
+            rev: self.reversals,
+            prev_positive: self.prev_pol == Polarity::Positive,
         }
-        // Round half up and clip to the i16 range without a libm call.
-        let z = (v + 32768.5).clamp(0.0, 65535.0);
-        #[allow(clippy::cast_possible_truncation)]
-        let z = z as i32 - 32768;
-        #[allow(clippy::cast_possible_truncation)]
-        let z = z as i16;
-        z
+    }
+
+    fn merge(&mut self, a: &Acc) {
+        let t = &mut self.totals;
+        t.ticks += a.ticks;
+        t.sum_u += a.sum_u;
+        t.sum_theta2 += a.sum_theta2;
+        t.max_theta = a.max_theta;
+        t.cycles += a.cycles;
+        t.cycles_two += a.cycles_two;
+        t.stop_ticks += a.stop;
+        self.reversals = a.rev;
+        self.prev_pol = if a.prev_positive { Polarity::Positive } else { Polarity::Negative };
+        t.pulses = u64::from(self.core.total_pulses().0);
     }
 
     /// Run `n` ticks, calling `obs` after each.
@@ -357,21 +434,6 @@ impl ClosedLoop {
         }
     }
 
-    #[inline(always)]
-    fn bookkeeping(&mut self, pol: Polarity, theta: f64, cycle_end: bool) {
-        let t = &mut self.totals;
-        t.ticks += 1;
-        t.sum_theta2 += theta * theta;
-        t.max_theta = t.max_theta.max(theta.abs());
-        self.reversals += u32::from(pol != self.prev_pol);
-        self.prev_pol = pol;
-        if cycle_end {
-            t.cycles += 1;
-            t.cycles_two += u64::from(self.reversals == 2);
-            self.reversals = 0;
-        }
-    }
-
     #[allow(clippy::needless_range_loop)]
     fn run_static<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
         // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
@@ -385,33 +447,34 @@ impl ClosedLoop {
             }
         }
         let ptsa = self.ptsa;
+        let plant = self.plant;
+        let adc = self.adc_params();
+        let mut rng = self.rng.clone();
+        let mut core = self.core;
+        let mut acc = self.acc();
         let mut x = self.x;
         let mut u = self.u;
-        let mut sum_u = 0i64;
-        let mut stop = 0u64;
+        let mut k = self.k;
         for _ in 0..n {
-            let code = self.adc(x[3]);
-            let tick = ptsa.tick(&mut self.core, code);
-            let r = self.plant.region(x[0]);
-            stop += u64::from(r != 0);
+            let code = adc.sample(x[3], &mut rng);
+            let tick = ptsa.tick(&mut core, code);
+            let r = plant.region(x[0]);
             let a = &add[r][usize::from(u < 0.0)];
-            x = self.plant.zoh[r].step(&x, a);
-            #[allow(clippy::cast_possible_truncation)]
-            {
-                sum_u += u as i64;
-            }
-            self.bookkeeping(tick.polarity, x[0], tick.cycle_pulses.is_some());
+            x = plant.zoh[r].step(&x, a);
+            let positive = tick.polarity == Polarity::Positive;
+            acc.tick(u, positive, x[0], tick.cycle_pulses.is_some(), r);
             if observe {
-                obs(&TickView { k: self.k, x, code, u, decided: tick.polarity });
+                obs(&TickView { k, x, code, u, decided: tick.polarity });
             }
-            self.k += 1;
-            u = f64::from(tick.polarity.sign());
+            k += 1;
+            u = if positive { 1.0 } else { -1.0 };
         }
         self.x = x;
         self.u = u;
-        self.totals.sum_u += sum_u;
-        self.totals.stop_ticks += stop;
-        self.totals.pulses = u64::from(self.core.total_pulses().0);
+        self.k = k;
+        self.rng = rng;
+        self.core = core;
+        self.merge(&acc);
     }
 
     #[allow(clippy::needless_range_loop)]
@@ -427,6 +490,10 @@ impl ClosedLoop {
         let tau_t = self.instr.torquer_tau_s / t_s;
         let ip = self.instr.inertia_dyn_cm_s2 / (p * t_s);
         let cp = self.instr.damping_dyn_cm_s / (p * t_s);
+        let adc = self.adc_params();
+        let mut rng = self.rng.clone();
+        let mut core = self.core;
+        let mut acc = self.acc();
         let mut x = self.x;
         let mut u = self.u;
         let (mut s, mut c) = (0.0, 1.0);
@@ -437,8 +504,8 @@ impl ClosedLoop {
                 let t_mid = (k as f64 + 0.5) * t_s;
                 (s, c) = (w * t_mid).sin_cos();
             }
-            let code = self.adc(x[3]);
-            let tick = ptsa.tick(&mut self.core, code);
+            let code = adc.sample(x[3], &mut rng);
+            let tick = ptsa.tick(&mut core, code);
             let theta = x[0];
             let r = self.plant.region(theta);
             let inp = self.prep.inputs(s, c);
@@ -461,23 +528,21 @@ impl ClosedLoop {
                 self.totals.harm_q[0] += q * hs;
                 self.totals.harm_q[1] += q * hc;
             }
-            #[allow(clippy::cast_possible_truncation)]
-            {
-                self.totals.sum_u += u as i64;
-            }
-            self.totals.stop_ticks += u64::from(r != 0);
-            self.bookkeeping(tick.polarity, x[0], tick.cycle_pulses.is_some());
+            let positive = tick.polarity == Polarity::Positive;
+            acc.tick(u, positive, x[0], tick.cycle_pulses.is_some(), r);
             if observe {
                 obs(&TickView { k, x, code, u, decided: tick.polarity });
             }
             self.k += 1;
-            u = f64::from(tick.polarity.sign());
+            u = if positive { 1.0 } else { -1.0 };
             // Advance the phasor by one tick.
             (s, c) = (s * cr + c * sr, c * cr - s * sr);
         }
         self.x = x;
         self.u = u;
-        self.totals.pulses = u64::from(self.core.total_pulses().0);
+        self.rng = rng;
+        self.core = core;
+        self.merge(&acc);
     }
 
     /// Run a measurement window of `n` ticks and return its result.

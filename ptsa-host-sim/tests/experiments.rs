@@ -98,7 +98,7 @@ fn outputs_are_written() {
         assert!(std::fs::metadata(f).unwrap().len() > 0, "{}", f.display());
     }
     let csv = std::fs::read_to_string(dir.join("oa-coupling.csv")).unwrap();
-    assert!(csv.starts_with("freq Hz,amp mrad,report cm/s^2"));
+    assert!(csv.starts_with("freq Hz,amp mrad,report static-dynamic cm/s^2"));
     assert!(csv.contains("5,,,,"), "missing rows stay empty: {csv}");
     let leftovers = std::fs::read_dir(&dir).unwrap().filter(|e| e.as_ref().unwrap().file_name().to_string_lossy().contains(".tmp")).count();
     assert_eq!(leftovers, 0);
