@@ -41,8 +41,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         let (m, rb, re) = match r.measured_cm_s2 {
             Some(m) => (
                 format!("{m:9.3}"),
-                format!("{:9.3}", m - r.baseline_cm_s2),
-                format!("{:9.3}", m - r.extended_cm_s2),
+                format!("{:9.3}", nz(m - r.baseline_cm_s2)),
+                format!("{:9.3}", nz(m - r.extended_cm_s2)),
             ),
             None => ("        -".into(), "        -".into(), "        -".into()),
         };
@@ -51,8 +51,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             "{:<48} {m} {:7.3} {:9.3} {rb} {:9.3} {re}",
             truncate(&r.label, 48),
             r.sigma_cm_s2,
-            r.baseline_cm_s2,
-            r.extended_cm_s2
+            nz(r.baseline_cm_s2),
+            nz(r.extended_cm_s2)
         );
     }
     let _ = writeln!(
@@ -134,6 +134,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         }
     );
     s
+}
+
+/// `x`, with values that print as ±0.000 made +0 (no "-0.000" in the table).
+fn nz(x: f64) -> f64 {
+    if x.abs() < 5e-4 { 0.0 } else { x }
 }
 
 /// A probability for humans: 3 decimals, or scientific below 0.001.
