@@ -305,7 +305,8 @@ impl Ptsa {
             // Level whose ideal duty is n/N: y = h·(2n − N).
             let y = self.h * (2 * i32::from(n) - i32::from(self.n));
             let c = s.latched - y;
-            s.carry = c.clamp(-self.h, self.h);
+            // max/min rather than clamp: same result, and no "min <= max" panic path.
+            s.carry = c.max(-self.h).min(self.h);
             s.sat.carry = s.sat.carry.wrapping_add(u32::from(s.carry != c));
         }
         s.switched = false;
