@@ -153,3 +153,49 @@ pub use show::report_section;
 pub fn report_markdown(out: Option<&std::path::Path>) -> Result<String> {
     report_section(&*sim::closed_loop(1), &Options::default(), out)
 }
+
+#[cfg(test)]
+mod tests {
+    use std::path::Path;
+
+    use super::*;
+
+    fn args(data: Option<PathBuf>, out: PathBuf) -> DiscoverArgs {
+        DiscoverArgs {
+            data,
+            sigma: 0.3,
+            candidates: String::new(),
+            json: true,
+            out,
+            seed: 1,
+            analytic: true,
+            no_plots: false,
+            convert_report_data: None,
+        }
+    }
+
+    #[test]
+    fn run_writes_table_and_plots_and_a_bad_file_writes_nothing() {
+        let base = std::env::temp_dir().join(format!("ptsa-discover-run-{}", std::process::id()));
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/r890-table-6.1.case.csv");
+        let out = base.join("ok");
+        run(&args(Some(data), out.clone())).unwrap();
+        for ext in ["csv", "png", "svg"] {
+            assert!(out.join(format!("r890-table-6.1.{ext}")).exists(), "{ext}");
+        }
+        let bad = base.join("bad.case.csv");
+        std::fs::write(&bad, "label,g_ia,measured_cm_s2\nx,1,0.5\ny,1,zz\n").unwrap();
+        let out_bad = base.join("bad-out");
+        let e = run(&args(Some(bad), out_bad.clone())).unwrap_err();
+        let msg = format!("{e:#}");
+        assert!(
+            msg.contains("bad.case.csv:3") && msg.contains("measured_cm_s2"),
+            "{msg}"
+        );
+        assert!(!out_bad.exists());
+        let mut a = args(None, base.join("x"));
+        a.sigma = -1.0;
+        assert!(run(&a).is_err());
+        let _ = std::fs::remove_dir_all(&base);
+    }
+}
