@@ -143,15 +143,28 @@ impl Zoh {
         z
     }
 
-    /// One step.
+    /// One step. Uses the structure of `Φ`: the demodulator output `y` feeds nothing back,
+    /// and the current `i` depends only on itself, so `Φ[0..3][3]` and the off-diagonal
+    /// entries of row 2 are exactly zero (the exponential of a block-triangular matrix is
+    /// block-triangular; a unit test checks it).
     #[inline(always)]
     #[must_use]
     pub fn step(&self, x: &[f64; NX], add: &[f64; NX]) -> [f64; NX] {
         let p = &self.phi;
+        [
+            add[0] + (p[0][0] * x[0] + p[0][1] * x[1]) + p[0][2] * x[2],
+            add[1] + (p[1][0] * x[0] + p[1][1] * x[1]) + p[1][2] * x[2],
+            add[2] + p[2][2] * x[2],
+            add[3] + (p[3][0] * x[0] + p[3][1] * x[1]) + (p[3][2] * x[2] + p[3][3] * x[3]),
+        ]
+    }
+
+    /// The general product `Φ x + add` (reference for [`Zoh::step`]).
+    #[must_use]
+    pub fn step_full(&self, x: &[f64; NX], add: &[f64; NX]) -> [f64; NX] {
         let mut out = *add;
-        for r in 0..NX {
-            // Pairwise sums: a shorter dependency chain than left-to-right.
-            out[r] += (p[r][0] * x[0] + p[r][1] * x[1]) + (p[r][2] * x[2] + p[r][3] * x[3]);
+        for (o, row) in out.iter_mut().zip(&self.phi) {
+            *o += row.iter().zip(x).map(|(a, b)| a * b).sum::<f64>();
         }
         out
     }
@@ -221,6 +234,25 @@ mod tests {
         let a = (-1.0 / i.clock_hz / i.torquer_tau_s).exp();
         assert!((z.phi[2][2] - a).abs() < 1e-13);
         assert!((z.gu[2] - (1.0 - a)).abs() < 1e-13);
+    }
+
+    #[test]
+    #[allow(clippy::float_cmp)]
+    fn structural_zeros_of_phi_are_exact() {
+        let i = Instrument::kearfott_2401();
+        for z in Plant::new(&i, 1540.0).zoh {
+            for r in 0..3 {
+                assert_eq!(z.phi[r][3], 0.0);
+            }
+            assert_eq!(z.phi[2][0], 0.0);
+            assert_eq!(z.phi[2][1], 0.0);
+            let x = [1e-5, -2e-3, 0.3, 7e-6];
+            let a = [1e-9, 2e-7, 0.01, 3e-9];
+            let (s, f) = (z.step(&x, &a), z.step_full(&x, &a));
+            for k in 0..NX {
+                assert!((s[k] - f[k]).abs() <= 1e-15 * f[k].abs().max(1e-12), "{s:?} {f:?}");
+            }
+        }
     }
 
     #[test]
