@@ -208,12 +208,14 @@ struct Adc {
 impl Adc {
     #[inline(always)]
     fn sample(&self, y: f64, rng: &mut Xoshiro) -> i16 {
-        let mut v = y * self.gain + self.offset;
+        // Everything but `y` first, so the dependency chain from the plant state to the code
+        // is one multiply-add.
+        let mut bias = self.offset + 32768.5;
         if self.noise != 0.0 {
-            v += self.noise * rng.normal();
+            bias += self.noise * rng.normal();
         }
         // Round half up and clip to the i16 range without a libm call.
-        let z = (v + 32768.5).clamp(0.0, 65535.0);
+        let z = (y * self.gain + bias).clamp(0.0, 65535.0);
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let z = z as u32;
         #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
@@ -454,19 +456,22 @@ impl ClosedLoop {
         let mut acc = self.acc();
         let mut x = self.x;
         let mut u = self.u;
+        // Index of the applied polarity in `add` (0 = positive), kept as an integer so that
+        // the polarity reaches the plant without a float round trip.
+        let mut ui = usize::from(u < 0.0);
         let mut k = self.k;
         for _ in 0..n {
             let code = adc.sample(x[3], &mut rng);
             let tick = ptsa.tick(&mut core, code);
             let r = plant.region(x[0]);
-            let a = &add[r][usize::from(u < 0.0)];
-            x = plant.zoh[r].step(&x, a);
+            x = plant.zoh[r].step(&x, &add[r][ui]);
             let positive = tick.polarity == Polarity::Positive;
             acc.tick(u, positive, x[0], tick.cycle_pulses.is_some(), r);
             if observe {
                 obs(&TickView { k, x, code, u, decided: tick.polarity });
             }
             k += 1;
+            ui = usize::from(!positive);
             u = if positive { 1.0 } else { -1.0 };
         }
         self.x = x;
