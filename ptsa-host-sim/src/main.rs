@@ -82,9 +82,9 @@ enum Cmd {
         #[arg(long, default_value_t = 4)]
         cycles: u64,
     },
-    /// The plain closed loop with a constant acceleration along IA (instrument bias and
-    /// noise included): after 0.1 s of settling, one gate of S seconds; prints P, T and
-    /// SF·(2P/T − 1) with the configured SF.
+    /// The plain closed loop with a constant acceleration along IA (Table 2.1 instrument
+    /// with its pickoff noise; the measured bias A_b only with --with-bias): after 0.1 s of
+    /// settling, one gate of S seconds; prints P, T and SF·(2P/T − 1) with the configured SF.
     Static {
         /// Acceleration along IA, cm/s².
         #[arg(long, allow_hyphen_values = true, value_name = "CM_S2")]
@@ -98,6 +98,9 @@ enum Cmd {
         /// Write the ADC samples of the run (one i16 per line, golden-vector style) here.
         #[arg(long, value_name = "FILE")]
         trace: Option<PathBuf>,
+        /// Include the instrument file's bias A_b (18.7 cm/s² shipped) as a torque.
+        #[arg(long)]
+        with_bias: bool,
     },
     /// Print the compensator design (and the ptsa-core constants).
     Design {
@@ -215,8 +218,12 @@ fn run(cli: Cli) -> Result<()> {
         Some(Cmd::Anisoelasticity(a)) => emit(&two_axis(&instr, &opts, TwoAxisKind::Anisoelastic, &a), &dir)?,
         Some(Cmd::Sculling(a)) => emit(&two_axis(&instr, &opts, TwoAxisKind::Sculling, &a), &dir)?,
         Some(Cmd::Waveform { accel_cm_s2, cycles }) => emit(&experiments::waveform(&instr, &opts, accel_cm_s2, cycles), &dir)?,
-        Some(Cmd::Static { accel_cm_s2, seconds, json, trace }) => {
+        Some(Cmd::Static { accel_cm_s2, seconds, json, trace, with_bias }) => {
             anyhow::ensure!(seconds > 0.0 && seconds.is_finite(), "--seconds must be > 0");
+            let mut instr = instr.clone();
+            if !with_bias {
+                instr.bias_cm_s2 = 0.0;
+            }
             #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
             let ticks = (seconds * instr.clock_hz).round().max(1.0) as u64;
             if let Some(path) = trace {
@@ -227,8 +234,8 @@ fn run(cli: Cli) -> Result<()> {
                 println!("{}", serde_json::to_string(&r)?);
             } else {
                 println!(
-                    "static: {accel_cm_s2} cm/s^2 along IA (bias {} cm/s^2): T = {} ticks, P = {} pulses, indicated SF(2P/T - 1) = {:.4} cm/s^2",
-                    instr.bias_cm_s2, r.ticks, r.pulses, r.indicated_cm_s2
+                    "static: {accel_cm_s2} cm/s^2 along IA (bias {} cm/s^2, loop's own {:.5}): T = {} ticks, P = {} pulses, indicated SF(2P/T - 1) = {:.4} cm/s^2",
+                    instr.bias_cm_s2, instr.loop_bias_cm_s2(0.0), r.ticks, r.pulses, r.indicated_cm_s2
                 );
             }
         }
