@@ -115,41 +115,55 @@ pub struct SimDifference {
     pub difference_cm_s2: f64,
 }
 
-/// xoshiro256++ (Blackman and Vigna), seeded from ChaCha8: a fast generator for the
-/// per-tick noise.
+/// The per-tick noise source: wyrand (one multiply per draw) indexing a table of 4096
+/// standard-normal values drawn once (Box-Muller from ChaCha8, normalised to mean 0 and
+/// variance 1), all from the seed. Cheap enough for the hot loop; the table's 4096 levels
+/// are far finer than the ADC's.
 #[derive(Clone, Debug)]
-struct Xoshiro([u64; 4]);
+struct NoiseSource {
+    state: u64,
+    table: std::sync::Arc<[f64; NOISE_TABLE]>,
+}
 
-impl Xoshiro {
+const NOISE_TABLE: usize = 4096;
+
+impl NoiseSource {
     fn new(seed: u64) -> Self {
         let mut c = ChaCha8Rng::seed_from_u64(seed);
-        let mut s = [0u64; 4];
-        for x in &mut s {
-            *x = c.next_u64() | 1;
+        let mut t = [0.0f64; NOISE_TABLE];
+        let unit = |x: u64| {
+            #[allow(clippy::cast_precision_loss)]
+            let u = ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+            u
+        };
+        for pair in t.chunks_mut(2) {
+            let (u1, u2) = (unit(c.next_u64()), unit(c.next_u64()));
+            let r = (-2.0 * u1.ln()).sqrt();
+            let (s, co) = (std::f64::consts::TAU * u2).sin_cos();
+            pair[0] = r * co;
+            if pair.len() > 1 {
+                pair[1] = r * s;
+            }
         }
-        Self(s)
+        #[allow(clippy::cast_precision_loss)]
+        let n = NOISE_TABLE as f64;
+        let mean = t.iter().sum::<f64>() / n;
+        let sd = (t.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n).sqrt();
+        for x in &mut t {
+            *x = (*x - mean) / sd;
+        }
+        Self { state: c.next_u64(), table: std::sync::Arc::new(t) }
     }
-    #[inline(always)]
-    fn next(&mut self) -> u64 {
-        let s = &mut self.0;
-        let r = s[0].wrapping_add(s[3]).rotate_left(23).wrapping_add(s[0]);
-        let t = s[1] << 17;
-        s[2] ^= s[0];
-        s[3] ^= s[1];
-        s[1] ^= s[2];
-        s[0] ^= s[3];
-        s[2] ^= t;
-        s[3] = s[3].rotate_left(45);
-        r
-    }
-    /// Approximately standard normal: Irwin-Hall sum of four 16-bit uniforms.
+    /// One standard-normal draw.
     #[inline(always)]
     fn normal(&mut self) -> f64 {
-        let r = self.next();
-        let sum = (r & 0xffff) + ((r >> 16) & 0xffff) + ((r >> 32) & 0xffff) + (r >> 48);
-        #[allow(clippy::cast_precision_loss)]
-        let x = sum as f64;
-        (x - 131_070.0) * (1.0 / 37_837.23)
+        self.state = self.state.wrapping_add(0xa076_1d64_78bd_642f);
+        let t = u128::from(self.state) * u128::from(self.state ^ 0xe703_7ed1_a0b4_28db);
+        #[allow(clippy::cast_possible_truncation)]
+        let r = ((t >> 64) as u64) ^ (t as u64);
+        #[allow(clippy::cast_possible_truncation)]
+        let j = (r >> 52) as usize;
+        self.table[j & (NOISE_TABLE - 1)]
     }
 }
 
@@ -207,7 +221,7 @@ struct Adc {
 
 impl Adc {
     #[inline(always)]
-    fn sample(&self, y: f64, rng: &mut Xoshiro) -> i16 {
+    fn sample(&self, y: f64, rng: &mut NoiseSource) -> i16 {
         // Everything but `y` first, so the dependency chain from the plant state to the code
         // is one multiply-add.
         let mut bias = self.offset + 32768.5;
@@ -245,7 +259,9 @@ impl Acc {
         self.sum_u += if u > 0.0 { 1 } else { -1 };
         self.sum_theta2 += theta * theta;
         self.max_theta = self.max_theta.max(theta.abs());
-        self.stop += u64::from(region != 0);
+        if region != 0 {
+            self.stop += 1;
+        }
         self.rev += u32::from(positive != self.prev_positive);
         self.prev_positive = positive;
         if cycle_end {
@@ -271,7 +287,7 @@ pub struct ClosedLoop {
     /// Command applied in the current interval (decided at the previous tick).
     u: f64,
     k: u64,
-    rng: Xoshiro,
+    rng: NoiseSource,
     noise_codes: f64,
     code_per_rad: f64,
     code_offset: f64,
@@ -308,7 +324,7 @@ impl ClosedLoop {
             x: [0.0; NX],
             u: 1.0,
             k: 0,
-            rng: Xoshiro::new(opts.seed),
+            rng: NoiseSource::new(opts.seed),
             noise_codes: noise * instr.amp_gain / lsb_v,
             code_per_rad: instr.lsb_per_rad() * instr.phase_error_rad.cos(),
             code_offset: instr.quadrature_v * instr.phase_error_rad.sin() * instr.amp_gain / lsb_v,
@@ -460,11 +476,22 @@ impl ClosedLoop {
         // the polarity reaches the plant without a float round trip.
         let mut ui = usize::from(u < 0.0);
         let mut k = self.k;
+        // The free region's matrices by value, so they can live in registers; the stops
+        // are the rare, cold path.
+        let free = plant.zoh[0];
+        let add0 = add[0];
+        let theta_stop = plant.theta_stop;
         for _ in 0..n {
             let code = adc.sample(x[3], &mut rng);
             let tick = ptsa.tick(&mut core, code);
-            let r = plant.region(x[0]);
-            x = plant.zoh[r].step(&x, &add[r][ui]);
+            let r = if x[0].abs() <= theta_stop {
+                x = free.step(&x, &add0[ui]);
+                0
+            } else {
+                let r = plant.region(x[0]);
+                x = plant.zoh[r].step(&x, &add[r][ui]);
+                r
+            };
             let positive = tick.polarity == Polarity::Positive;
             acc.tick(u, positive, x[0], tick.cycle_pulses.is_some(), r);
             if observe {
