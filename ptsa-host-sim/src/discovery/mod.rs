@@ -72,11 +72,21 @@ pub fn simulator(analytic: bool, seed: u64) -> Box<dyn Simulator> {
     }
 }
 
-/// Run `ptsa discover`.
+/// Run `ptsa discover` with the shipped instrument (closed loop, or the analytic model with
+/// `--analytic`).
 ///
 /// # Errors
 /// Bad arguments, an unreadable or malformed data file, or an output that cannot be written.
 pub fn run(args: &DiscoverArgs) -> Result<()> {
+    run_with(args, &*simulator(args.analytic, args.seed))
+}
+
+/// Run `ptsa discover` with a given simulator, e.g. a [`sim::ClosedLoopSimulator`] built
+/// from another instrument file or other run options.
+///
+/// # Errors
+/// As [`run`].
+pub fn run_with(args: &DiscoverArgs, sim: &dyn Simulator) -> Result<()> {
     if let Some(dir) = &args.convert_report_data {
         for p in report_data::write_case_files(dir)? {
             eprintln!("wrote {}", p.display());
@@ -94,14 +104,13 @@ pub fn run(args: &DiscoverArgs) -> Result<()> {
         candidates: method::parse_candidates(&args.candidates)?,
         ..Options::default()
     };
-    let sim = simulator(args.analytic, args.seed);
     let Some(path) = &args.data else {
         let text =
-            show::report_section(&*sim, &opts, (!args.no_plots).then_some(args.out.as_path()))?;
+            show::report_section(sim, &opts, (!args.no_plots).then_some(args.out.as_path()))?;
         if args.json {
             let mut all = serde_json::Map::new();
             for (name, _, rows) in report_data::case_files()? {
-                let d = discover(&rows, &*sim, &opts)?;
+                let d = discover(&rows, sim, &opts)?;
                 all.insert(name.to_string(), serde_json::to_value(&d.json)?);
             }
             eprint!("{text}");
@@ -113,7 +122,7 @@ pub fn run(args: &DiscoverArgs) -> Result<()> {
     };
     let rows = caseframe::read(path)?;
     let t0 = Instant::now();
-    let d = discover(&rows, &*sim, &opts)?;
+    let d = discover(&rows, sim, &opts)?;
     let elapsed = t0.elapsed();
     let text = show::text_report(&path.display().to_string(), &d);
     if !args.no_plots {
