@@ -328,7 +328,7 @@ pub fn loop_gain(instr: &Instrument, cfg: &Config, f_hz: f64) -> Cx {
 #[must_use]
 pub fn margins(instr: &Instrument, cfg: &Config) -> Margins {
     let nyq = instr.clock_hz / 2.0 * 0.999;
-    let n = 4000;
+    let n = 1000;
     let f_at = |k: usize| {
         #[allow(clippy::cast_precision_loss)]
         let x = k as f64 / n as f64;
@@ -366,7 +366,27 @@ pub fn margins(instr: &Instrument, cfg: &Config) -> Margins {
         // crossing with |L| < 1 (above crossover); below it, integrator phase is −90°..−180°.
         let target = -std::f64::consts::PI;
         if prev_phase > target && ph <= target && f > 1.0 && gm.is_infinite() {
-            gm = -20.0 * l.abs().log10();
+            // Refine: the phase is continuous between neighbouring grid points.
+            let unwrap = |x: f64| {
+                let mut p = x;
+                while p - prev_phase > std::f64::consts::PI {
+                    p -= TAU;
+                }
+                while p - prev_phase < -std::f64::consts::PI {
+                    p += TAU;
+                }
+                p
+            };
+            let (mut lo, mut hi) = (prev_f, f);
+            for _ in 0..40 {
+                let mid = (lo * hi).sqrt();
+                if unwrap(loop_gain(instr, cfg, mid).arg()) > target {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            gm = -20.0 * loop_gain(instr, cfg, (lo * hi).sqrt()).abs().log10();
         }
         prev_phase = ph;
         prev = l;

@@ -299,7 +299,14 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
     let t0 = Instant::now();
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let pb = progress(10);
-    let step = |pb: &ProgressBar, m: &str| {
+    let mut timings: Vec<(String, f64)> = Vec::new();
+    let mut last = Instant::now();
+    let mut step = |pb: &ProgressBar, m: &str| {
+        let now = Instant::now();
+        if let Some(msg) = Some(pb.message()).filter(|s| !s.is_empty()) {
+            timings.push((msg, (now - last).as_secs_f64()));
+        }
+        last = now;
         pb.set_message(m.to_string());
     };
     step(&pb, "tumble");
@@ -341,6 +348,7 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
     let design = experiments::design_text(instr);
     write_atomic(&dir.join("design.txt"), design.as_bytes())?;
     pb.inc(1);
+    step(&pb, "");
     pb.finish_and_clear();
     let wall = t0.elapsed().as_secs_f64();
 
@@ -397,6 +405,11 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
             let _ = writeln!(s, "## Discovery\n\nNot available: {e:#}\n");
         }
     }
+    let _ = writeln!(
+        s,
+        "## Timing\n\n{}\n",
+        timings.iter().map(|(n, t)| format!("{n} {t:.2} s")).collect::<Vec<_>>().join(", ")
+    );
     let _ = writeln!(s, "## Files\n\nCSV tables and PNG/SVG plots beside this file: tumble, anisoinertia, oa-coupling (-2), vibropendulosity, anisoelasticity, sculling, waveform (-2), monte-carlo (-2), design.txt, discover/.");
     write_atomic(&dir.join("summary.md"), s.as_bytes())?;
     println!("report written to {} in {wall:.2} s", dir.display());
