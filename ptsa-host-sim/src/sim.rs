@@ -254,9 +254,9 @@ struct Acc {
 
 impl Acc {
     #[inline(always)]
-    fn tick(&mut self, u: f64, positive: bool, theta: f64, cycle_end: bool, region: usize) {
+    fn tick(&mut self, applied_positive: bool, positive: bool, theta: f64, cycle_end: bool, region: usize) {
         self.ticks += 1;
-        self.sum_u += if u > 0.0 { 1 } else { -1 };
+        self.sum_u += 2 * i64::from(applied_positive) - 1;
         self.sum_theta2 += theta * theta;
         self.max_theta = self.max_theta.max(theta.abs());
         if region != 0 {
@@ -435,25 +435,25 @@ impl ClosedLoop {
 
     /// Run `n` ticks, calling `obs` after each.
     pub fn run_observed(&mut self, n: u64, mut obs: impl FnMut(&TickView)) {
-        self.run_inner(n, &mut obs, true);
+        self.run_inner::<_, true>(n, &mut obs);
     }
 
     /// Run `n` ticks.
     pub fn run(&mut self, n: u64) {
-        self.run_inner(n, &mut |_| {}, false);
+        self.run_inner::<_, false>(n, &mut |_| {});
     }
 
     #[inline(always)]
-    fn run_inner<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
+    fn run_inner<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         if self.dynamic || self.harmonic != 0 {
-            self.run_dynamic(n, obs, observe);
+            self.run_dynamic::<F, OBSERVE>(n, obs);
         } else {
-            self.run_static(n, obs, observe);
+            self.run_static::<F, OBSERVE>(n, obs);
         }
     }
 
     #[allow(clippy::needless_range_loop)]
-    fn run_static<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
+    fn run_static<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
         let mut add = [[[0.0; NX]; 2]; 3];
         for (r, a) in add.iter_mut().enumerate() {
@@ -471,10 +471,9 @@ impl ClosedLoop {
         let mut core = self.core;
         let mut acc = self.acc();
         let mut x = self.x;
-        let mut u = self.u;
         // Index of the applied polarity in `add` (0 = positive), kept as an integer so that
         // the polarity reaches the plant without a float round trip.
-        let mut ui = usize::from(u < 0.0);
+        let mut ui = usize::from(self.u < 0.0);
         let mut k = self.k;
         // The free region's matrices by value, so they can live in registers; the stops
         // are the rare, cold path.
@@ -493,16 +492,19 @@ impl ClosedLoop {
                 r
             };
             let positive = tick.polarity == Polarity::Positive;
-            acc.tick(u, positive, x[0], tick.cycle_pulses.is_some(), r);
-            if observe {
+            acc.tick(ui == 0, positive, x[0], tick.cycle_pulses.is_some(), r);
+            if OBSERVE {
+                let u = if ui == 0 { 1.0 } else { -1.0 };
                 obs(&TickView { k, x, code, u, decided: tick.polarity });
+                k += 1;
             }
-            k += 1;
             ui = usize::from(!positive);
-            u = if positive { 1.0 } else { -1.0 };
+        }
+        if !OBSERVE {
+            k += n;
         }
         self.x = x;
-        self.u = u;
+        self.u = if ui == 0 { 1.0 } else { -1.0 };
         self.k = k;
         self.rng = rng;
         self.core = core;
@@ -510,7 +512,7 @@ impl ClosedLoop {
     }
 
     #[allow(clippy::needless_range_loop)]
-    fn run_dynamic<F: FnMut(&TickView)>(&mut self, n: u64, obs: &mut F, observe: bool) {
+    fn run_dynamic<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         let t_s = 1.0 / self.instr.clock_hz;
         let w = self.prep.omega;
         let (sr, cr) = (w * t_s).sin_cos();
@@ -561,8 +563,8 @@ impl ClosedLoop {
                 self.totals.harm_q[1] += q * hc;
             }
             let positive = tick.polarity == Polarity::Positive;
-            acc.tick(u, positive, x[0], tick.cycle_pulses.is_some(), r);
-            if observe {
+            acc.tick(u > 0.0, positive, x[0], tick.cycle_pulses.is_some(), r);
+            if OBSERVE {
                 obs(&TickView { k, x, code, u, decided: tick.polarity });
             }
             self.k += 1;
