@@ -14,6 +14,7 @@ use std::hint::black_box;
 
 const TICKS: u64 = 64_000;
 
+#[allow(clippy::needless_range_loop)]
 fn bench(c: &mut Criterion) {
     let instr = Instrument::kearfott_2401();
     let static_cond = Condition { g: [1.0, 0.0, 0.0], ..Condition::default() };
@@ -32,6 +33,34 @@ fn bench(c: &mut Criterion) {
             });
         });
     }
+    // The floor: the same plant step and the same ptsa-core tick with nothing else (no
+    // noise, no stops, no statistics) — what a bare C loop of the static case would do.
+    let plant = ptsa_host_sim::plant::Plant::new(&instr, instr.spring_dyn_cm_rad);
+    let z = plant.zoh[0];
+    let d = instr.pendulosity_g_cm() * instr.g_cm_s2;
+    let mut add = [[0.0; 4]; 2];
+    for j in 0..4 {
+        add[0][j] = z.gu[j] + z.gd[j] * d;
+        add[1][j] = -z.gu[j] + z.gd[j] * d;
+    }
+    let ptsa = ptsa_core::Config::DEFAULT.build().expect("default config");
+    let gain = instr.lsb_per_rad();
+    let mut st = ptsa.initial_state();
+    let mut x = [0.0f64; 4];
+    let mut ui = 0usize;
+    g.bench_function("bare_plant_and_core", |b| {
+        b.iter(|| {
+            for _ in 0..TICKS {
+                let v = (x[3] * gain + 32768.5).clamp(0.0, 65535.0);
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+                let code = ((v as u32) as u16 ^ 0x8000) as i16;
+                let tk = ptsa.tick(&mut st, code);
+                x = z.step(&x, &add[ui]);
+                ui = usize::from(tk.polarity != ptsa_core::Polarity::Positive);
+            }
+            black_box(x)
+        });
+    });
     g.finish();
     let mut g = c.benchmark_group("discovery_row");
     g.sample_size(20);
