@@ -254,14 +254,11 @@ struct Acc {
 
 impl Acc {
     #[inline(always)]
-    fn tick(&mut self, applied_positive: bool, positive: bool, theta: f64, cycle_end: bool, region: usize) {
+    fn tick(&mut self, applied_positive: bool, positive: bool, theta: f64, cycle_end: bool) {
         self.ticks += 1;
         self.sum_u += 2 * i64::from(applied_positive) - 1;
         self.sum_theta2 += theta * theta;
         self.max_theta = self.max_theta.max(theta.abs());
-        if region != 0 {
-            self.stop += 1;
-        }
         self.rev += u32::from(positive != self.prev_positive);
         self.prev_positive = positive;
         if cycle_end {
@@ -438,6 +435,18 @@ impl ClosedLoop {
         self.run_inner::<_, true>(n, &mut obs);
     }
 
+    /// Run `n` ticks without the per-tick statistics (θ RMS and maximum, reversals per
+    /// cycle): the pulse count, the tick count, the applied-command sum and the plant state
+    /// stay exact, so [`ClosedLoop::measure`]'s estimate over a later window is unaffected.
+    /// Dynamic conditions fall back to [`ClosedLoop::run`].
+    pub fn run_fast(&mut self, n: u64) {
+        if self.dynamic || self.harmonic != 0 {
+            self.run(n);
+        } else {
+            self.run_static::<_, false, false>(n, &mut |_| {});
+        }
+    }
+
     /// Run `n` ticks.
     pub fn run(&mut self, n: u64) {
         self.run_inner::<_, false>(n, &mut |_| {});
@@ -448,12 +457,12 @@ impl ClosedLoop {
         if self.dynamic || self.harmonic != 0 {
             self.run_dynamic::<F, OBSERVE>(n, obs);
         } else {
-            self.run_static::<F, OBSERVE>(n, obs);
+            self.run_static::<F, OBSERVE, true>(n, obs);
         }
     }
 
     #[allow(clippy::needless_range_loop)]
-    fn run_static<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
+    fn run_static<F: FnMut(&TickView), const OBSERVE: bool, const STATS: bool>(&mut self, n: u64, obs: &mut F) {
         // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
         let mut add = [[[0.0; NX]; 2]; 3];
         for (r, a) in add.iter_mut().enumerate() {
@@ -483,16 +492,17 @@ impl ClosedLoop {
         for _ in 0..n {
             let code = adc.sample(x[3], &mut rng);
             let tick = ptsa.tick(&mut core, code);
-            let r = if x[0].abs() <= theta_stop {
+            if x[0].abs() <= theta_stop {
                 x = free.step(&x, &add0[ui]);
-                0
             } else {
                 let r = plant.region(x[0]);
                 x = plant.zoh[r].step(&x, &add[r][ui]);
-                r
-            };
+                acc.stop += 1;
+            }
             let positive = tick.polarity == Polarity::Positive;
-            acc.tick(ui == 0, positive, x[0], tick.cycle_pulses.is_some(), r);
+            if STATS {
+                acc.tick(ui == 0, positive, x[0], tick.cycle_pulses.is_some());
+            }
             if OBSERVE {
                 let u = if ui == 0 { 1.0 } else { -1.0 };
                 obs(&TickView { k, x, code, u, decided: tick.polarity });
@@ -502,6 +512,17 @@ impl ClosedLoop {
         }
         if !OBSERVE {
             k += n;
+        }
+        if !STATS {
+            // Ticks and the applied-command sum from the core's count: the applied
+            // polarities are the decided ones shifted by one tick.
+            let decided = i64::from((core.total_pulses() - self.core.total_pulses()).0);
+            let first = i64::from(self.u > 0.0);
+            let last = i64::from(ui == 0);
+            #[allow(clippy::cast_possible_wrap)]
+            let n_i = n as i64;
+            acc.ticks = n;
+            acc.sum_u = 2 * (decided + first - last) - n_i;
         }
         self.x = x;
         self.u = if ui == 0 { 1.0 } else { -1.0 };
@@ -563,7 +584,8 @@ impl ClosedLoop {
                 self.totals.harm_q[1] += q * hc;
             }
             let positive = tick.polarity == Polarity::Positive;
-            acc.tick(u > 0.0, positive, x[0], tick.cycle_pulses.is_some(), r);
+            acc.stop += u64::from(r != 0);
+            acc.tick(u > 0.0, positive, x[0], tick.cycle_pulses.is_some());
             if OBSERVE {
                 obs(&TickView { k, x, code, u, decided: tick.polarity });
             }
@@ -715,9 +737,9 @@ pub fn run_static(instr: &Instrument, accel_cm_s2: f64, ticks: u64, opts: &SimOp
         ..Condition::default()
     };
     let mut l = ClosedLoop::new(instr, &cond, &Effects::default(), opts);
-    l.run(STATIC_SETTLE_TICKS);
+    l.run_fast(STATIC_SETTLE_TICKS);
     let p0 = l.core().total_pulses();
-    l.run(ticks);
+    l.run_fast(ticks);
     let pulses = u64::from((l.core().total_pulses() - p0).0);
     #[allow(clippy::cast_precision_loss)]
     let x = instr.sf_cm_s2 * (2.0 * pulses as f64 / ticks as f64 - 1.0);

@@ -84,3 +84,23 @@ fn over_range_saturates_and_recovers() {
     assert_eq!(r.stop_ticks, 0);
     assert!((r.indicated_cm_s2 - a - i.bias_cm_s2).abs() < 0.01, "{r:?}");
 }
+
+/// `run_fast` (no statistics) keeps the count, the applied-command sum and the state exact:
+/// the same seed gives the same pulses and the same estimate as `run`.
+#[test]
+fn fast_run_matches_full_run() {
+    let i = Instrument::kearfott_2401();
+    let opts = SimOptions::default();
+    let c = ia(1234.5);
+    let mut a = ClosedLoop::new(&i, &c, &Effects::default(), &opts);
+    let mut b = a.clone();
+    a.run(10_007);
+    b.run_fast(10_007);
+    assert_eq!(a.core(), b.core());
+    assert_eq!(a.totals().sum_u, b.totals().sum_u);
+    assert_eq!(a.totals().ticks, b.totals().ticks);
+    assert_eq!(a.ticks(), b.ticks());
+    let (ra, rb) = (a.measure(6400), b.measure(6400));
+    assert_eq!(ra.pulses, rb.pulses);
+    assert!((ra.indicated_cm_s2 - rb.indicated_cm_s2).abs() < 1e-12);
+}
