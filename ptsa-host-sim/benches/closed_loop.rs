@@ -3,7 +3,8 @@
 //!
 //! `cargo bench -p ptsa-host-sim --bench closed_loop` — criterion reports the median time per
 //! second of simulated time (64 000 ticks) for the static loop (`ptsa static`'s hot path),
-//! with and without pickoff noise, and for a dynamic condition (20 Hz oscillation about OA,
+//! with and without pickoff noise, `ptsa static`'s path without per-tick statistics
+//! (`static_fast`), the bare plant step plus core tick, a dynamic condition (20 Hz oscillation about OA,
 //! the OA-coupling test), plus one `simulate_difference` as discovery calls it.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
@@ -33,6 +34,15 @@ fn bench(c: &mut Criterion) {
             });
         });
     }
+    // `ptsa static`'s path: no per-tick statistics.
+    let mut l = ClosedLoop::new(&instr, &static_cond, &Effects::default(), &SimOptions::default());
+    l.run_fast(6400);
+    g.bench_function("static_fast", |b| {
+        b.iter(|| {
+            l.run_fast(black_box(TICKS));
+            black_box(l.state())
+        });
+    });
     // The floor: the same plant step and the same ptsa-core tick with nothing else (no
     // noise, no stops, no statistics) — what a bare C loop of the static case would do.
     let plant = ptsa_host_sim::plant::Plant::new(&instr, instr.spring_dyn_cm_rad);
