@@ -488,6 +488,35 @@ pub fn waveform(instr: &Instrument, opts: &SimOptions, accel_cm_s2: f64, cycles:
     for r in &resp {
         ft.rows.push(vec![num(r.0, 0), num(r.1, 2), num(r.2, 1), num(r.3, 2), num(r.4, 1)]);
     }
+    // The limit cycle across and beyond the range (no bias, 1 s windows).
+    let mut nb = instr.clone();
+    nb.bias_cm_s2 = 0.0;
+    let fracs = [0.0, 0.5, 0.9, 0.95, 0.96875, 0.975, 0.985, 0.994, 1.0, 1.05, 1.3];
+    let lc: Vec<(f64, crate::sim::SimResult)> = fracs
+        .par_iter()
+        .map(|&fr| {
+            let a = fr * nb.sf_cm_s2;
+            let c = Condition { g: [a / nb.g_cm_s2, 0.0, 0.0], ..Condition::default() };
+            (a, simulate_condition(&nb, &c, &Effects::default(), &SimOptions { min_window_s: 1.0, ..*opts }))
+        })
+        .collect();
+    let mut lt = Table::new(
+        "Limit cycle across the range (no bias, 1 s windows): cycles with two reversals, pendulum excursion, plain count and estimate",
+        &["input cm/s^2", "fraction of SF", "cycles", "2 reversals", "max |theta| urad", "stop ticks", "1 s count cm/s^2", "estimate cm/s^2"],
+    );
+    for (a, r) in &lc {
+        #[allow(clippy::cast_precision_loss)]
+        lt.rows.push(vec![
+            num(*a, 1),
+            num(a / nb.sf_cm_s2, 5),
+            num(r.cycles as f64, 0),
+            num(r.cycles_two_reversals as f64, 0),
+            num(r.theta_max_rad * 1e6, 1),
+            num(r.stop_ticks as f64, 0),
+            num(r.count_cm_s2, 3),
+            num(r.indicated_cm_s2, 4),
+        ]);
+    }
     let m = margins(instr, &opts.config);
     let notes = vec![format!(
         "waveform: loop crossover {:.1} Hz, phase margin {:.1} deg, gain margin {:.1} dB (linear model)",
@@ -507,7 +536,7 @@ pub fn waveform(instr: &Instrument, opts: &SimOptions, accel_cm_s2: f64, cycles:
         series: vec![Series::line("model L/(1+L)", resp.iter().map(|r| (r.0, r.3)).collect()), Series::markers("simulated", resp.iter().map(|r| (r.0, r.1)).collect())],
         log_x: true,
     };
-    Output { name: "waveform".into(), tables: vec![ft, trace], plots: vec![p1, p2], notes }
+    Output { name: "waveform".into(), tables: vec![ft, trace, lt], plots: vec![p1, p2], notes }
 }
 
 /// Monte Carlo over the tolerance box: every corner of the box (all toleranced parameters
