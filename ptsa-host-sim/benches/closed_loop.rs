@@ -18,13 +18,27 @@ const TICKS: u64 = 64_000;
 #[allow(clippy::needless_range_loop)]
 fn bench(c: &mut Criterion) {
     let instr = Instrument::kearfott_2401();
-    let static_cond = Condition { g: [1.0, 0.0, 0.0], ..Condition::default() };
-    let mut dynamic = Condition { g: [1.0, 0.0, 0.0], freq_hz: 20.0, ..Condition::default() };
+    let static_cond = Condition {
+        g: [1.0, 0.0, 0.0],
+        ..Condition::default()
+    };
+    let mut dynamic = Condition {
+        g: [1.0, 0.0, 0.0],
+        freq_hz: 20.0,
+        ..Condition::default()
+    };
     dynamic.ang_mrad[OA] = 2.0;
     let mut g = c.benchmark_group("closed_loop");
     g.throughput(Throughput::Elements(TICKS));
-    for (name, noise, cond) in [("static", true, &static_cond), ("static_no_noise", false, &static_cond), ("dynamic_20hz", true, &dynamic)] {
-        let opts = SimOptions { noise, ..SimOptions::default() };
+    for (name, noise, cond) in [
+        ("static", true, &static_cond),
+        ("static_no_noise", false, &static_cond),
+        ("dynamic_20hz", true, &dynamic),
+    ] {
+        let opts = SimOptions {
+            noise,
+            ..SimOptions::default()
+        };
         let mut l = ClosedLoop::new(&instr, cond, &Effects::default(), &opts);
         l.run(6400);
         g.bench_function(name, |b| {
@@ -35,7 +49,12 @@ fn bench(c: &mut Criterion) {
         });
     }
     // `ptsa static`'s path: no per-tick statistics.
-    let mut l = ClosedLoop::new(&instr, &static_cond, &Effects::default(), &SimOptions::default());
+    let mut l = ClosedLoop::new(
+        &instr,
+        &static_cond,
+        &Effects::default(),
+        &SimOptions::default(),
+    );
     l.run_fast(6400);
     g.bench_function("static_fast", |b| {
         b.iter(|| {
@@ -62,7 +81,11 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             for _ in 0..TICKS {
                 let v = (x[3] * gain + 32768.5).clamp(0.0, 65535.0);
-                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss, clippy::cast_possible_wrap)]
+                #[allow(
+                    clippy::cast_possible_truncation,
+                    clippy::cast_sign_loss,
+                    clippy::cast_possible_wrap
+                )]
                 let code = ((v as u32) as u16 ^ 0x8000) as i16;
                 let tk = ptsa.tick(&mut st, code);
                 x = z.step(&x, &add[ui]);
@@ -76,7 +99,14 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20);
     let opts = SimOptions::default();
     g.bench_function("simulate_difference_20hz", |b| {
-        b.iter(|| black_box(simulate_difference(&instr, black_box(&dynamic), &Effects::default(), &opts)));
+        b.iter(|| {
+            black_box(simulate_difference(
+                &instr,
+                black_box(&dynamic),
+                &Effects::default(),
+                &opts,
+            ))
+        });
     });
     g.finish();
 }

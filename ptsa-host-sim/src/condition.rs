@@ -183,8 +183,13 @@ impl Prepared {
     #[must_use]
     pub fn is_dynamic(&self) -> bool {
         self.omega != 0.0
-            && (self.lin_s.iter().chain(&self.lin_c).chain(&self.phi_s).chain(&self.phi_c))
-                .any(|&x| x != 0.0)
+            && (self
+                .lin_s
+                .iter()
+                .chain(&self.lin_c)
+                .chain(&self.phi_s)
+                .chain(&self.phi_c))
+            .any(|&x| x != 0.0)
     }
 }
 

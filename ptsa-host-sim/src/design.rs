@@ -197,18 +197,61 @@ fn underscore(x: i32) -> String {
 impl std::fmt::Display for Design {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let [b0, b1, a1, ki] = self.bits();
-        writeln!(f, "PTSA compensator design (Kearfott 2401, pole-zero matched at 1/T)")?;
-        writeln!(f, "  theta_lsb        = {:.6e} rad per ADC LSB", self.theta_lsb_rad)?;
+        writeln!(
+            f,
+            "PTSA compensator design (Kearfott 2401, pole-zero matched at 1/T)"
+        )?;
+        writeln!(
+            f,
+            "  theta_lsb        = {:.6e} rad per ADC LSB",
+            self.theta_lsb_rad
+        )?;
         writeln!(f, "  P (m*l)          = {:.6} g*cm", self.pendulosity_g_cm)?;
-        writeln!(f, "  SF               = {:.1} cm/s^2 at full torque", self.sf_cm_s2)?;
-        writeln!(f, "  C                = {:.1} dyn*cm*s", self.damping_dyn_cm_s)?;
-        writeln!(f, "  G_fs = P*SF/(C*theta_lsb) = {:.6e} LSB/s at full torque", self.g_fs_lsb_s)?;
-        writeln!(f, "  G0 = G_fs/2^24   = {:.6e} LSB/s per comparator LSB", self.g0)?;
-        writeln!(f, "  w_c = {:.3} rad/s (100 Hz), w_z = w_c/2, w_p = 2 w_c, w_i = w_c/4", self.omega_c)?;
-        writeln!(f, "  Kc               = {:.6} comparator LSB per ADC LSB", self.kc)?;
-        writeln!(f, "  z = exp(-w_z T)  = {:.9}, p = exp(-w_p T) = {:.9}", self.z, self.p)?;
-        writeln!(f, "  b0 = {:.6} ({b0}), b1 = {:.6} ({b1})", self.b0, self.b1)?;
-        writeln!(f, "  a1 = {:.9} ({a1}), ki = {:.6} ({ki})", self.a1, self.ki)
+        writeln!(
+            f,
+            "  SF               = {:.1} cm/s^2 at full torque",
+            self.sf_cm_s2
+        )?;
+        writeln!(
+            f,
+            "  C                = {:.1} dyn*cm*s",
+            self.damping_dyn_cm_s
+        )?;
+        writeln!(
+            f,
+            "  G_fs = P*SF/(C*theta_lsb) = {:.6e} LSB/s at full torque",
+            self.g_fs_lsb_s
+        )?;
+        writeln!(
+            f,
+            "  G0 = G_fs/2^24   = {:.6e} LSB/s per comparator LSB",
+            self.g0
+        )?;
+        writeln!(
+            f,
+            "  w_c = {:.3} rad/s (100 Hz), w_z = w_c/2, w_p = 2 w_c, w_i = w_c/4",
+            self.omega_c
+        )?;
+        writeln!(
+            f,
+            "  Kc               = {:.6} comparator LSB per ADC LSB",
+            self.kc
+        )?;
+        writeln!(
+            f,
+            "  z = exp(-w_z T)  = {:.9}, p = exp(-w_p T) = {:.9}",
+            self.z, self.p
+        )?;
+        writeln!(
+            f,
+            "  b0 = {:.6} ({b0}), b1 = {:.6} ({b1})",
+            self.b0, self.b1
+        )?;
+        writeln!(
+            f,
+            "  a1 = {:.9} ({a1}), ki = {:.6} ({ki})",
+            self.a1, self.ki
+        )
     }
 }
 

@@ -114,7 +114,10 @@ pub fn tumble(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> (Tumble, Ou
     let (up, down) = rayon::join(|| run(true), || run(false));
     let g = instr.g_cm_s2;
     #[allow(clippy::cast_precision_loss)]
-    let (c1, c2) = (up.pulses as f64 / ticks as f64, down.pulses as f64 / ticks as f64);
+    let (c1, c2) = (
+        up.pulses as f64 / ticks as f64,
+        down.pulses as f64 / ticks as f64,
+    );
     let (sf_count, bias_count) = sf_and_bias(g, c1, c2);
     let sfc = instr.sf_cm_s2;
     let f1 = 0.5 * (1.0 + up.indicated_cm_s2 / sfc);
@@ -135,33 +138,93 @@ pub fn tumble(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> (Tumble, Ou
     };
     let mut tab = Table::new(
         &format!("Tumble (section 6.1), gate T = {ticks} ticks ({gate_s} s)"),
-        &["quantity", "plain count", "charge balance", "configured", "report"],
+        &[
+            "quantity",
+            "plain count",
+            "charge balance",
+            "configured",
+            "report",
+        ],
     );
     #[allow(clippy::cast_precision_loss)]
     let rows = vec![
-        vec![text("P1 (IA up), pulses"), num(t.p1 as f64, 0), num(f1 * ticks as f64, 3), Cell::Missing, Cell::Missing],
-        vec![text("P2 (IA down), pulses"), num(t.p2 as f64, 0), num(f2 * ticks as f64, 3), Cell::Missing, Cell::Missing],
-        vec![text("SF, cm/s^2 (eq. 6.3)"), num(sf_count, 2), num(sf, 4), num(t.sf_configured, 4), num(report::SF_CM_S2, 1)],
-        vec![text("A_b, cm/s^2 (eq. 6.4)"), num(bias_count, 3), num(bias, 4), num(t.bias_configured, 4), num(report::BIAS_CM_S2, 1)],
+        vec![
+            text("P1 (IA up), pulses"),
+            num(t.p1 as f64, 0),
+            num(f1 * ticks as f64, 3),
+            Cell::Missing,
+            Cell::Missing,
+        ],
+        vec![
+            text("P2 (IA down), pulses"),
+            num(t.p2 as f64, 0),
+            num(f2 * ticks as f64, 3),
+            Cell::Missing,
+            Cell::Missing,
+        ],
+        vec![
+            text("SF, cm/s^2 (eq. 6.3)"),
+            num(sf_count, 2),
+            num(sf, 4),
+            num(t.sf_configured, 4),
+            num(report::SF_CM_S2, 1),
+        ],
+        vec![
+            text("A_b, cm/s^2 (eq. 6.4)"),
+            num(bias_count, 3),
+            num(bias, 4),
+            num(t.bias_configured, 4),
+            num(report::BIAS_CM_S2, 1),
+        ],
     ];
     tab.rows = rows;
     // Sweep of IA through 360°.
     let angles: Vec<f64> = (0..24).map(|k| f64::from(k) * 15.0).collect();
     let sweep: Vec<(f64, f64)> = angles
         .par_iter()
-        .map(|&a| (a, simulate_condition(instr, &fixtures::dividing_head(a), &Effects::default(), opts).indicated_cm_s2))
+        .map(|&a| {
+            (
+                a,
+                simulate_condition(
+                    instr,
+                    &fixtures::dividing_head(a),
+                    &Effects::default(),
+                    opts,
+                )
+                .indicated_cm_s2,
+            )
+        })
         .collect();
-    let mut tab2 = Table::new("Tumble sweep: IA angle above horizontal", &["IA deg", "indicated cm/s^2", "g sin(phi) + A_b cm/s^2", "difference cm/s^2"]);
+    let mut tab2 = Table::new(
+        "Tumble sweep: IA angle above horizontal",
+        &[
+            "IA deg",
+            "indicated cm/s^2",
+            "g sin(phi) + A_b cm/s^2",
+            "difference cm/s^2",
+        ],
+    );
     for &(a, x) in &sweep {
         let e = g * a.to_radians().sin() + t.bias_configured;
-        tab2.rows.push(vec![num(a, 0), num(x, 4), num(e, 4), num(x - e, 5)]);
+        tab2.rows
+            .push(vec![num(a, 0), num(x, 4), num(e, 4), num(x - e, 5)]);
     }
     let plot = Plot {
         title: "Tumble: indicated acceleration vs IA angle".into(),
         x_label: "IA angle above horizontal, deg".into(),
         y_label: "indicated, cm/s^2".into(),
         series: vec![
-            Series::line("g sin(phi) + A_b", (0..=360).map(|a| (f64::from(a), g * f64::from(a).to_radians().sin() + t.bias_configured)).collect()),
+            Series::line(
+                "g sin(phi) + A_b",
+                (0..=360)
+                    .map(|a| {
+                        (
+                            f64::from(a),
+                            g * f64::from(a).to_radians().sin() + t.bias_configured,
+                        )
+                    })
+                    .collect(),
+            ),
             Series::markers("simulated", sweep.clone()),
         ],
         log_x: false,
@@ -177,7 +240,15 @@ pub fn tumble(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> (Tumble, Ou
         sf_count,
         bias_count
     )];
-    (t, Output { name: "tumble".into(), tables: vec![tab, tab2], plots: vec![plot], notes })
+    (
+        t,
+        Output {
+            name: "tumble".into(),
+            tables: vec![tab, tab2],
+            plots: vec![plot],
+            notes,
+        },
+    )
 }
 
 /// One row of the anisoinertia experiment.
@@ -199,7 +270,12 @@ pub struct AnisoRow {
 /// 0.05 rad/s, eq. 6.5; with the instrument's anisoinertia set to `aniso_g_cm2` and with
 /// the baseline (0).
 #[must_use]
-pub fn anisoinertia(instr: &Instrument, opts: &SimOptions, aniso_g_cm2: f64, lever_cm: [f64; 3]) -> (Vec<AnisoRow>, f64, Output) {
+pub fn anisoinertia(
+    instr: &Instrument,
+    opts: &SimOptions,
+    aniso_g_cm2: f64,
+    lever_cm: [f64; 3],
+) -> (Vec<AnisoRow>, f64, Output) {
     let mut with = instr.clone();
     with.anisoinertia_g_cm2 = aniso_g_cm2;
     let mut base = instr.clone();
@@ -215,22 +291,50 @@ pub fn anisoinertia(instr: &Instrument, opts: &SimOptions, aniso_g_cm2: f64, lev
             let w1 = s.cond.w_rad_s;
             let w0 = s.cond.ref_w_rad_s;
             let pred = k * (w1[IA] * w1[PA] - w0[IA] * w0[PA]);
-            AnisoRow { ia_deg: deg, report: rep, simulated: sim, baseline: b, predicted: pred }
+            AnisoRow {
+                ia_deg: deg,
+                report: rep,
+                simulated: sim,
+                baseline: b,
+                predicted: pred,
+            }
         })
         .collect();
     // Coefficient as the report derives it: mean |A_in| at the 45° positions over w_IA·w_PA.
-    let diag: Vec<f64> = rows.iter().filter(|r| (r.ia_deg % 90.0 - 45.0).abs() < 1e-9).map(|r| r.simulated.abs()).collect();
+    let diag: Vec<f64> = rows
+        .iter()
+        .filter(|r| (r.ia_deg % 90.0 - 45.0).abs() < 1e-9)
+        .map(|r| r.simulated.abs())
+        .collect();
     #[allow(clippy::cast_precision_loss)]
     let mean = diag.iter().sum::<f64>() / diag.len() as f64;
     let k_sim = mean / (0.5 - 0.05f64.powi(2) * 0.5);
     let mut t = Table::new(
-        &format!("Table 6.1: error due to anisoinertia (I_PA - I_IA = {aniso_g_cm2} g cm^2, k = {k:.3} cm)"),
-        &["IA deg", "report cm/s^2", "simulated cm/s^2", "baseline cm/s^2", "k w_IA w_PA cm/s^2"],
+        &format!(
+            "Table 6.1: error due to anisoinertia (I_PA - I_IA = {aniso_g_cm2} g cm^2, k = {k:.3} cm)"
+        ),
+        &[
+            "IA deg",
+            "report cm/s^2",
+            "simulated cm/s^2",
+            "baseline cm/s^2",
+            "k w_IA w_PA cm/s^2",
+        ],
     );
     for r in &rows {
-        t.rows.push(vec![num(r.ia_deg, 0), num(r.report, 2), num(r.simulated, 3), num(r.baseline, 3), num(r.predicted, 3)]);
+        t.rows.push(vec![
+            num(r.ia_deg, 0),
+            num(r.report, 2),
+            num(r.simulated, 3),
+            num(r.baseline, 3),
+            num(r.predicted, 3),
+        ]);
     }
-    let rep_diag: Vec<f64> = report::TABLE_6_1.iter().filter(|r| (r.0 % 90.0 - 45.0).abs() < 1e-9).map(|r| r.1.abs()).collect();
+    let rep_diag: Vec<f64> = report::TABLE_6_1
+        .iter()
+        .filter(|r| (r.0 % 90.0 - 45.0).abs() < 1e-9)
+        .map(|r| r.1.abs())
+        .collect();
     #[allow(clippy::cast_precision_loss)]
     let rep_mean = rep_diag.iter().sum::<f64>() / rep_diag.len() as f64;
     let plot = Plot {
@@ -238,13 +342,27 @@ pub fn anisoinertia(instr: &Instrument, opts: &SimOptions, aniso_g_cm2: f64, lev
         x_label: "IA position, deg".into(),
         y_label: "A_in(1.0 rad/s) - A_in(0.05 rad/s), cm/s^2".into(),
         series: vec![
-            Series::line("k w_IA w_PA", (0..=360).map(|a| {
-                let x = f64::from(a).to_radians();
-                (f64::from(a), k * (1.0 - 0.0025) * x.sin() * x.cos())
-            }).collect()),
-            Series::markers("simulated", rows.iter().map(|r| (r.ia_deg, r.simulated)).collect()),
-            Series::markers("report", rows.iter().map(|r| (r.ia_deg, r.report)).collect()),
-            Series::markers("baseline (I_PA = I_IA)", rows.iter().map(|r| (r.ia_deg, r.baseline)).collect()),
+            Series::line(
+                "k w_IA w_PA",
+                (0..=360)
+                    .map(|a| {
+                        let x = f64::from(a).to_radians();
+                        (f64::from(a), k * (1.0 - 0.0025) * x.sin() * x.cos())
+                    })
+                    .collect(),
+            ),
+            Series::markers(
+                "simulated",
+                rows.iter().map(|r| (r.ia_deg, r.simulated)).collect(),
+            ),
+            Series::markers(
+                "report",
+                rows.iter().map(|r| (r.ia_deg, r.report)).collect(),
+            ),
+            Series::markers(
+                "baseline (I_PA = I_IA)",
+                rows.iter().map(|r| (r.ia_deg, r.baseline)).collect(),
+            ),
         ],
         log_x: false,
     };
@@ -252,7 +370,16 @@ pub fn anisoinertia(instr: &Instrument, opts: &SimOptions, aniso_g_cm2: f64, lev
         "anisoinertia: mean |A_in| at 45-deg positions: simulated {mean:.3} cm/s^2 (report {rep_mean:.3}); coefficient {k_sim:.3} cm (configured {k:.3}, report {})",
         report::K_AI_CM
     )];
-    (rows, k_sim, Output { name: "anisoinertia".into(), tables: vec![t], plots: vec![plot], notes })
+    (
+        rows,
+        k_sim,
+        Output {
+            name: "anisoinertia".into(),
+            tables: vec![t],
+            plots: vec![plot],
+            notes,
+        },
+    )
 }
 
 /// One row of the OA-coupling experiment.
@@ -276,7 +403,11 @@ pub struct OaRow {
 /// output at rest minus the steady-state output in oscillation (the report's "static-dynamic
 /// output difference").
 #[must_use]
-pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) -> (Vec<OaRow>, Output) {
+pub fn oa_coupling(
+    instr: &Instrument,
+    opts: &SimOptions,
+    lever_cm: [f64; 3],
+) -> (Vec<OaRow>, Output) {
     let mut cases: Vec<(bool, f64, Option<f64>, Option<f64>)> = Vec::new();
     for r in report::TABLE_6_2 {
         cases.push((false, r.0, r.1, r.2));
@@ -290,21 +421,47 @@ pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) ->
             let (sim, th) = match amp {
                 Some(a) => {
                     let s = fixtures::angular_oscillator(f, a, v, lever_cm);
-                    let d = simulate_difference(instr, &s.cond, &s.effects(&Effects::default()), opts);
+                    let d =
+                        simulate_difference(instr, &s.cond, &s.effects(&Effects::default()), opts);
                     (Some(-d.difference_cm_s2), Some(d.condition.theta_max_rad))
                 }
                 None => (None, None),
             };
-            OaRow { ia_vertical: v, freq_hz: f, amp_mrad: amp, report: rep, simulated: sim, theta_max_rad: th }
+            OaRow {
+                ia_vertical: v,
+                freq_hz: f,
+                amp_mrad: amp,
+                report: rep,
+                simulated: sim,
+                theta_max_rad: th,
+            }
         })
         .collect();
     let mut tables = Vec::new();
     let mut plots = Vec::new();
-    for (v, title) in [(false, "Table 6.2: OA coupling, IA horizontal"), (true, "Table 6.3: OA coupling, IA vertical")] {
-        let mut t = Table::new(title, &["freq Hz", "amp mrad", "report static-dynamic cm/s^2", "simulated static-dynamic cm/s^2", "max |theta| urad"]);
+    for (v, title) in [
+        (false, "Table 6.2: OA coupling, IA horizontal"),
+        (true, "Table 6.3: OA coupling, IA vertical"),
+    ] {
+        let mut t = Table::new(
+            title,
+            &[
+                "freq Hz",
+                "amp mrad",
+                "report static-dynamic cm/s^2",
+                "simulated static-dynamic cm/s^2",
+                "max |theta| urad",
+            ],
+        );
         let opt = |x: Option<f64>, d: usize| x.map_or(Cell::Missing, |x| num(x, d));
         for r in rows.iter().filter(|r| r.ia_vertical == v) {
-            t.rows.push(vec![num(r.freq_hz, 1), opt(r.amp_mrad, 1), opt(r.report, 2), opt(r.simulated, 4), opt(r.theta_max_rad.map(|x| x * 1e6), 1)]);
+            t.rows.push(vec![
+                num(r.freq_hz, 1),
+                opt(r.amp_mrad, 1),
+                opt(r.report, 2),
+                opt(r.simulated, 4),
+                opt(r.theta_max_rad.map(|x| x * 1e6), 1),
+            ]);
         }
         tables.push(t);
         plots.push(Plot {
@@ -312,13 +469,28 @@ pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) ->
             x_label: "frequency, Hz".into(),
             y_label: "static - dynamic output, cm/s^2".into(),
             series: vec![
-                Series::markers("report", rows.iter().filter(|r| r.ia_vertical == v).filter_map(|r| r.report.map(|x| (r.freq_hz, x))).collect()),
-                Series::line("simulated", rows.iter().filter(|r| r.ia_vertical == v).filter_map(|r| r.simulated.map(|x| (r.freq_hz, x))).collect()),
+                Series::markers(
+                    "report",
+                    rows.iter()
+                        .filter(|r| r.ia_vertical == v)
+                        .filter_map(|r| r.report.map(|x| (r.freq_hz, x)))
+                        .collect(),
+                ),
+                Series::line(
+                    "simulated",
+                    rows.iter()
+                        .filter(|r| r.ia_vertical == v)
+                        .filter_map(|r| r.simulated.map(|x| (r.freq_hz, x)))
+                        .collect(),
+                ),
             ],
             log_x: true,
         });
     }
-    let max_sim = rows.iter().filter_map(|r| r.simulated).fold(0.0f64, |m, x| m.max(x.abs()));
+    let max_sim = rows
+        .iter()
+        .filter_map(|r| r.simulated)
+        .fold(0.0f64, |m, x| m.max(x.abs()));
     let rms_rep = {
         let v: Vec<f64> = rows.iter().filter_map(|r| r.report).collect();
         #[allow(clippy::cast_precision_loss)]
@@ -328,7 +500,15 @@ pub fn oa_coupling(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) ->
     let notes = vec![format!(
         "oa-coupling: largest simulated |difference| {max_sim:.4} cm/s^2; report's rows scatter with RMS {rms_rep:.3} cm/s^2 (test uncertainty 0.3): no rectified OA coupling, as the report concluded"
     )];
-    (rows, Output { name: "oa-coupling".into(), tables, plots, notes })
+    (
+        rows,
+        Output {
+            name: "oa-coupling".into(),
+            tables,
+            plots,
+            notes,
+        },
+    )
 }
 
 /// Sine/cosine coefficients of the oscillating part of the inputs (the `inputs` of a
@@ -353,7 +533,11 @@ pub fn predict_rectified(instr: &Instrument, cond: &Condition, effects: &Effects
     // Torque phasor (sin-based: x(t) = Re(X e^{jωt}) with X = x_s − j x_c... we use
     // x(t) = x_s sin + x_c cos and the response H: sin → Re/Im rotation).
     let torque = |i: &CaseInputs, mean: bool| {
-        let a = if mean { 0.0 } else { p * (i.a_cm_s2[IA] - m.a_cm_s2[IA]) };
+        let a = if mean {
+            0.0
+        } else {
+            p * (i.a_cm_s2[IA] - m.a_cm_s2[IA])
+        };
         a - instr.inertia_dyn_cm_s2 * i.dw_rad_s2[OA]
     };
     let ts = torque(&s, false);
@@ -362,7 +546,10 @@ pub fn predict_rectified(instr: &Instrument, cond: &Condition, effects: &Effects
     let x = Cx::new(tc, -ts);
     let w = TAU * f;
     let jw = Cx::new(0.0, w);
-    let pend = Cx::new(1.0, 0.0) / (jw * jw * Cx::new(instr.inertia_dyn_cm_s2, 0.0) + jw * Cx::new(instr.damping_dyn_cm_s, 0.0) + Cx::new(instr.spring_dyn_cm_rad, 0.0));
+    let pend = Cx::new(1.0, 0.0)
+        / (jw * jw * Cx::new(instr.inertia_dyn_cm_s2, 0.0)
+            + jw * Cx::new(instr.damping_dyn_cm_s, 0.0)
+            + Cx::new(instr.spring_dyn_cm_rad, 0.0));
     let l = loop_gain(instr, &ptsa_core::Config::DEFAULT, f);
     let th = pend / (Cx::new(1.0, 0.0) + l) * x;
     // θ(t) = th_c cos + th_s sin with th_c = Re(th), th_s = −Im(th).
@@ -391,16 +578,35 @@ pub fn predict_rectified(instr: &Instrument, cond: &Condition, effects: &Effects
 /// Appendix A sweep over the phase ψ for one set-up.
 #[must_use]
 #[allow(clippy::too_many_arguments)]
-pub fn appendix_a(instr: &Instrument, opts: &SimOptions, kind: TwoAxisKind, freq_hz: f64, theta_my_mrad: f64, theta_mz_mrad: f64, r_cm: f64, effects: &Effects) -> Output {
+pub fn appendix_a(
+    instr: &Instrument,
+    opts: &SimOptions,
+    kind: TwoAxisKind,
+    freq_hz: f64,
+    theta_my_mrad: f64,
+    theta_mz_mrad: f64,
+    r_cm: f64,
+    effects: &Effects,
+) -> Output {
     let psis: Vec<f64> = (0..=12).map(|k| f64::from(k) * 15.0).collect();
-    let o = SimOptions { harmonic: 2, ..*opts };
+    let o = SimOptions {
+        harmonic: 2,
+        ..*opts
+    };
     let rows: Vec<(f64, f64, f64, f64, f64, Condition)> = psis
         .par_iter()
         .map(|&psi| {
             let c = fixtures::two_axis(kind, freq_hz, theta_my_mrad, theta_mz_mrad, psi, r_cm);
             let d = simulate_difference(instr, &c, effects, &o);
             let (pdc, p2) = predict_rectified(instr, &c, effects);
-            (psi, d.difference_cm_s2, d.condition.harmonic_torque_amp_cm_s2, pdc, p2, c)
+            (
+                psi,
+                d.difference_cm_s2,
+                d.condition.harmonic_torque_amp_cm_s2,
+                pdc,
+                p2,
+                c,
+            )
         })
         .collect();
     let name = match kind {
@@ -414,37 +620,72 @@ pub fn appendix_a(instr: &Instrument, opts: &SimOptions, kind: TwoAxisKind, freq
             "Appendix A, {name}: {freq_hz} Hz, theta_my {theta_my_mrad} mrad, theta_mz {theta_mz_mrad} mrad, r {r_cm} cm (a_IA {:.1}, a_PA {:.1}, a_OA {:.1} cm/s^2 amplitude)",
             c0.lin_cm_s2[IA], c0.lin_cm_s2[PA], c0.lin_cm_s2[OA]
         ),
-        &["psi deg", "simulated DC cm/s^2", "predicted DC cm/s^2", "simulated 2w amp (torque) cm/s^2", "predicted 2w amp cm/s^2"],
+        &[
+            "psi deg",
+            "simulated DC cm/s^2",
+            "predicted DC cm/s^2",
+            "simulated 2w amp (torque) cm/s^2",
+            "predicted 2w amp cm/s^2",
+        ],
     );
     for r in &rows {
-        t.rows.push(vec![num(r.0, 0), num(r.1, 4), num(r.3, 4), num(r.2, 4), num(r.4, 4)]);
+        t.rows.push(vec![
+            num(r.0, 0),
+            num(r.1, 4),
+            num(r.3, 4),
+            num(r.2, 4),
+            num(r.4, 4),
+        ]);
     }
     let plot = Plot {
         title: format!("Appendix A: {name}, rectified error vs phase"),
         x_label: "phase psi, deg".into(),
         y_label: "rectified error, cm/s^2".into(),
         series: vec![
-            Series::line("predicted (linear loop model)", rows.iter().map(|r| (r.0, r.3)).collect()),
-            Series::markers("simulated (closed loop)", rows.iter().map(|r| (r.0, r.1)).collect()),
+            Series::line(
+                "predicted (linear loop model)",
+                rows.iter().map(|r| (r.0, r.3)).collect(),
+            ),
+            Series::markers(
+                "simulated (closed loop)",
+                rows.iter().map(|r| (r.0, r.1)).collect(),
+            ),
         ],
         log_x: false,
     };
     let worst = rows.iter().map(|r| (r.1 - r.3).abs()).fold(0.0, f64::max);
-    let notes = vec![format!("{name}: largest |simulated - predicted| rectified error {worst:.4} cm/s^2")];
-    Output { name: name.into(), tables: vec![t], plots: vec![plot], notes }
+    let notes = vec![format!(
+        "{name}: largest |simulated - predicted| rectified error {worst:.4} cm/s^2"
+    )];
+    Output {
+        name: name.into(),
+        tables: vec![t],
+        plots: vec![plot],
+        notes,
+    }
 }
 
 /// Waveforms (Fig. 3.2) for a constant input, and the small-signal frequency response
 /// measured by simulation against the linear model `L/(1 + L)`.
 #[must_use]
 pub fn waveform(instr: &Instrument, opts: &SimOptions, accel_cm_s2: f64, cycles: u64) -> Output {
-    let cond = Condition { g: [accel_cm_s2 / instr.g_cm_s2, 0.0, 0.0], ..Condition::default() };
+    let cond = Condition {
+        g: [accel_cm_s2 / instr.g_cm_s2, 0.0, 0.0],
+        ..Condition::default()
+    };
     let mut l = ClosedLoop::new(instr, &cond, &Effects::default(), opts);
     l.run(6400);
     let t_us = 1e6 / instr.clock_hz;
     let mut trace = Table::new(
         &format!("Waveform: {accel_cm_s2} cm/s^2 along IA, {cycles} limit cycles"),
-        &["t us", "command", "current mA", "pulse", "theta urad", "ADC code"],
+        &[
+            "t us",
+            "command",
+            "current mA",
+            "pulse",
+            "theta urad",
+            "ADC code",
+        ],
     );
     let mut cur = Vec::new();
     let mut cmd = Vec::new();
@@ -467,42 +708,104 @@ pub fn waveform(instr: &Instrument, opts: &SimOptions, accel_cm_s2: f64, cycles:
         cmd.push((t, v.u * i_fs));
         cmd.push((t + t_us, v.u * i_fs));
         th.push((t + t_us, v.x[0] * 1e6));
-        trace.rows.push(vec![num(t, 3), num(v.u, 0), num(v.x[2] * i_fs, 4), num(if v.u > 0.0 { 1.0 } else { 0.0 }, 0), num(v.x[0] * 1e6, 3), num(f64::from(v.code), 0)]);
+        trace.rows.push(vec![
+            num(t, 3),
+            num(v.u, 0),
+            num(v.x[2] * i_fs, 4),
+            num(if v.u > 0.0 { 1.0 } else { 0.0 }, 0),
+            num(v.x[0] * 1e6, 3),
+            num(f64::from(v.code), 0),
+        ]);
     });
     // Frequency response: 10 cm/s² sine along IA, component of the pulse output at f.
-    let freqs = [1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 150.0, 200.0, 300.0, 400.0];
+    let freqs = [
+        1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 150.0, 200.0, 300.0, 400.0,
+    ];
     let amp = 2000.0;
-    let o = SimOptions { harmonic: 1, min_window_s: 1.0, ..*opts };
+    let o = SimOptions {
+        harmonic: 1,
+        min_window_s: 1.0,
+        ..*opts
+    };
     let resp: Vec<(f64, f64, f64, f64, f64)> = freqs
         .par_iter()
         .map(|&f| {
-            let mut c = Condition { freq_hz: f, ..Condition::default() };
+            let mut c = Condition {
+                freq_hz: f,
+                ..Condition::default()
+            };
             c.lin_cm_s2[IA] = amp;
             let r = simulate_condition(instr, &c, &Effects::default(), &o);
             let l = loop_gain(instr, &opts.config, f);
             let h = l / (Cx::new(1.0, 0.0) + l);
-            (f, 20.0 * (r.harmonic_amp_cm_s2 / amp).log10(), r.harmonic_deg, 20.0 * h.abs().log10(), h.arg().to_degrees())
+            (
+                f,
+                20.0 * (r.harmonic_amp_cm_s2 / amp).log10(),
+                r.harmonic_deg,
+                20.0 * h.abs().log10(),
+                h.arg().to_degrees(),
+            )
         })
         .collect();
-    let mut ft = Table::new("Small-signal frequency response of the pulse output, indicated / input (2000 cm/s^2 sine along IA, 1 s windows; smaller inputs see the 1-count dead band)", &["freq Hz", "simulated dB", "simulated deg", "model dB", "model deg"]);
+    let mut ft = Table::new(
+        "Small-signal frequency response of the pulse output, indicated / input (2000 cm/s^2 sine along IA, 1 s windows; smaller inputs see the 1-count dead band)",
+        &[
+            "freq Hz",
+            "simulated dB",
+            "simulated deg",
+            "model dB",
+            "model deg",
+        ],
+    );
     for r in &resp {
-        ft.rows.push(vec![num(r.0, 0), num(r.1, 2), num(r.2, 1), num(r.3, 2), num(r.4, 1)]);
+        ft.rows.push(vec![
+            num(r.0, 0),
+            num(r.1, 2),
+            num(r.2, 1),
+            num(r.3, 2),
+            num(r.4, 1),
+        ]);
     }
     // The limit cycle across and beyond the range (no bias, 1 s windows).
     let mut nb = instr.clone();
     nb.bias_cm_s2 = 0.0;
-    let fracs = [0.0, 0.5, 0.9, 0.95, 0.96875, 0.975, 0.985, 0.994, 1.0, 1.05, 1.3];
+    let fracs = [
+        0.0, 0.5, 0.9, 0.95, 0.96875, 0.975, 0.985, 0.994, 1.0, 1.05, 1.3,
+    ];
     let lc: Vec<(f64, crate::sim::SimResult)> = fracs
         .par_iter()
         .map(|&fr| {
             let a = fr * nb.sf_cm_s2;
-            let c = Condition { g: [a / nb.g_cm_s2, 0.0, 0.0], ..Condition::default() };
-            (a, simulate_condition(&nb, &c, &Effects::default(), &SimOptions { min_window_s: 1.0, ..*opts }))
+            let c = Condition {
+                g: [a / nb.g_cm_s2, 0.0, 0.0],
+                ..Condition::default()
+            };
+            (
+                a,
+                simulate_condition(
+                    &nb,
+                    &c,
+                    &Effects::default(),
+                    &SimOptions {
+                        min_window_s: 1.0,
+                        ..*opts
+                    },
+                ),
+            )
         })
         .collect();
     let mut lt = Table::new(
         "Limit cycle across the range (no bias, 1 s windows): cycles with two reversals, pendulum excursion, plain count and estimate",
-        &["input cm/s^2", "fraction of SF", "cycles", "2 reversals", "max |theta| urad", "stop ticks", "1 s count cm/s^2", "estimate cm/s^2"],
+        &[
+            "input cm/s^2",
+            "fraction of SF",
+            "cycles",
+            "2 reversals",
+            "max |theta| urad",
+            "stop ticks",
+            "1 s count cm/s^2",
+            "estimate cm/s^2",
+        ],
     );
     for (a, r) in &lc {
         #[allow(clippy::cast_precision_loss)]
@@ -526,17 +829,29 @@ pub fn waveform(instr: &Instrument, opts: &SimOptions, accel_cm_s2: f64, cycles:
         title: format!("Fig. 3.2: torquer current and pulse train, {accel_cm_s2} cm/s^2"),
         x_label: "time, us".into(),
         y_label: "current, mA / pendulum angle, urad".into(),
-        series: vec![Series::line("torquer current, mA", cur), Series::line("command (pulse train), mA", cmd), Series::line("theta, urad", th)],
+        series: vec![
+            Series::line("torquer current, mA", cur),
+            Series::line("command (pulse train), mA", cmd),
+            Series::line("theta, urad", th),
+        ],
         log_x: false,
     };
     let p2 = Plot {
         title: "Closed-loop frequency response (indicated / input)".into(),
         x_label: "frequency, Hz".into(),
         y_label: "gain, dB".into(),
-        series: vec![Series::line("model L/(1+L)", resp.iter().map(|r| (r.0, r.3)).collect()), Series::markers("simulated", resp.iter().map(|r| (r.0, r.1)).collect())],
+        series: vec![
+            Series::line("model L/(1+L)", resp.iter().map(|r| (r.0, r.3)).collect()),
+            Series::markers("simulated", resp.iter().map(|r| (r.0, r.1)).collect()),
+        ],
         log_x: true,
     };
-    Output { name: "waveform".into(), tables: vec![ft, trace, lt], plots: vec![p1, p2], notes }
+    Output {
+        name: "waveform".into(),
+        tables: vec![ft, trace, lt],
+        plots: vec![p1, p2],
+        notes,
+    }
 }
 
 /// Monte Carlo over the tolerance box: every corner of the box (all toleranced parameters
@@ -586,25 +901,65 @@ pub fn monte_carlo(instr: &Instrument, opts: &SimOptions, samples: usize) -> (f6
         .map(|r| {
             let i = build(r.0);
             let a = 0.9 * i.actual_sf_cm_s2() - i.bias_cm_s2;
-            let c = Condition { g: [a / i.g_cm_s2, 0.0, 0.0], ..Condition::default() };
+            let c = Condition {
+                g: [a / i.g_cm_s2, 0.0, 0.0],
+                ..Condition::default()
+            };
             let s = simulate_condition(&i, &c, &Effects::default(), opts);
             let ok = s.cycles == s.cycles_two_reversals && s.stop_ticks == 0;
-            (r.0, s.indicated_cm_s2 - (a + i.bias_cm_s2 + i.loop_bias_cm_s2(0.0)), s.theta_max_rad, ok)
+            (
+                r.0,
+                s.indicated_cm_s2 - (a + i.bias_cm_s2 + i.loop_bias_cm_s2(0.0)),
+                s.theta_max_rad,
+                ok,
+            )
         })
         .collect();
     let mut t = Table::new(
-        &format!("Monte Carlo over the Table 2.1 tolerance box: {} corners, worst 8", res.len()),
-        &["corner", "phase margin deg", "gain margin dB", "crossover Hz", "closed loop at 0.9 FS", "error cm/s^2", "max |theta| urad"],
+        &format!(
+            "Monte Carlo over the Table 2.1 tolerance box: {} corners, worst 8",
+            res.len()
+        ),
+        &[
+            "corner",
+            "phase margin deg",
+            "gain margin dB",
+            "crossover Hz",
+            "closed loop at 0.9 FS",
+            "error cm/s^2",
+            "max |theta| urad",
+        ],
     );
     for (r, c) in res.iter().zip(&check) {
-        t.rows.push(vec![text(format!("{:#06x}", r.0)), num(r.1, 2), num(r.2, 2), num(r.3, 1), text(if c.3 { "2 reversals/cycle" } else { "FAILED" }), num(c.1, 4), num(c.2 * 1e6, 1)]);
+        t.rows.push(vec![
+            text(format!("{:#06x}", r.0)),
+            num(r.1, 2),
+            num(r.2, 2),
+            num(r.3, 1),
+            text(if c.3 { "2 reversals/cycle" } else { "FAILED" }),
+            num(c.1, 4),
+            num(c.2 * 1e6, 1),
+        ]);
     }
-    let mut keys = Table::new("Corner bits (bit k set = parameter k at its upper limit)", &["bit", "parameter", "low", "nominal", "high"]);
+    let mut keys = Table::new(
+        "Corner bits (bit k set = parameter k at its upper limit)",
+        &["bit", "parameter", "low", "nominal", "high"],
+    );
     for (k, tl) in tol.iter().enumerate() {
-        keys.rows.push(vec![num(f64::from(u32::try_from(k).unwrap_or(0)), 0), text(tl.key), num(tl.lo, 4), num(tl.nominal, 4), num(tl.hi, 4)]);
+        keys.rows.push(vec![
+            num(f64::from(u32::try_from(k).unwrap_or(0)), 0),
+            text(tl.key),
+            num(tl.lo, 4),
+            num(tl.nominal, 4),
+            num(tl.hi, 4),
+        ]);
     }
     #[allow(clippy::cast_precision_loss)]
-    let hist: Vec<(f64, f64)> = res.iter().enumerate().map(|(k, r)| (k as f64, r.1)).collect();
+    let hist: Vec<(f64, f64)> = res
+        .iter()
+        .enumerate()
+        .map(|(k, r)| (k as f64, r.1))
+        .collect();
     let nominal = margins(instr, &opts.config);
     let notes = vec![format!(
         "monte-carlo: {} corners; worst phase margin {worst_pm:.2} deg, worst gain margin {worst_gm:.2} dB (nominal {:.2} deg, {:.2} dB at {:.1} Hz); closed loop of the 8 worst corners: {}",
@@ -612,7 +967,11 @@ pub fn monte_carlo(instr: &Instrument, opts: &SimOptions, samples: usize) -> (f6
         nominal.phase_margin_deg,
         nominal.gain_margin_db,
         nominal.crossover_hz,
-        if check.iter().all(|c| c.3) { "all stable, two reversals per cycle" } else { "SOME FAILED" }
+        if check.iter().all(|c| c.3) {
+            "all stable, two reversals per cycle"
+        } else {
+            "SOME FAILED"
+        }
     )];
     let plot = Plot {
         title: "Phase margin over the tolerance-box corners (sorted)".into(),
@@ -621,7 +980,16 @@ pub fn monte_carlo(instr: &Instrument, opts: &SimOptions, samples: usize) -> (f6
         series: vec![Series::line("phase margin", hist)],
         log_x: false,
     };
-    (worst_pm, worst_gm, Output { name: "monte-carlo".into(), tables: vec![t, keys], plots: vec![plot], notes })
+    (
+        worst_pm,
+        worst_gm,
+        Output {
+            name: "monte-carlo".into(),
+            tables: vec![t, keys],
+            plots: vec![plot],
+            notes,
+        },
+    )
 }
 
 /// The design (text) for an instrument.

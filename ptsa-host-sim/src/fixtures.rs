@@ -64,15 +64,28 @@ pub fn rate_table(ia_deg: f64, rate_rad_s: f64, ref_rate_rad_s: f64, lever_cm: [
 /// `amp_mrad·sin(2πft)` about OA. `ia_vertical` false: table top horizontal, OA up (Table
 /// 6.2, IA horizontal); true: table top turned 90° about the tilt axis, IA up (Table 6.3).
 #[must_use]
-pub fn angular_oscillator(freq_hz: f64, amp_mrad: f64, ia_vertical: bool, lever_cm: [f64; 3]) -> Setup {
-    let g = if ia_vertical { [1.0, 0.0, 0.0] } else { [0.0, 0.0, 1.0] };
+pub fn angular_oscillator(
+    freq_hz: f64,
+    amp_mrad: f64,
+    ia_vertical: bool,
+    lever_cm: [f64; 3],
+) -> Setup {
+    let g = if ia_vertical {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 0.0, 1.0]
+    };
     let mut ang = [0.0; 3];
     ang[OA] = amp_mrad;
     Setup {
         cond: Condition {
             label: format!(
                 "{freq_hz} Hz, {amp_mrad} mrad about OA, IA {}",
-                if ia_vertical { "vertical" } else { "horizontal" }
+                if ia_vertical {
+                    "vertical"
+                } else {
+                    "horizontal"
+                }
             ),
             g,
             freq_hz,
@@ -102,7 +115,14 @@ pub enum TwoAxisKind {
 /// radius) are left out of the row, as they are along OA (A.2, A.5) or PA (A.4) and do not
 /// reach IA.
 #[must_use]
-pub fn two_axis(kind: TwoAxisKind, freq_hz: f64, theta_my_mrad: f64, theta_mz_mrad: f64, psi_deg: f64, r_cm: f64) -> Condition {
+pub fn two_axis(
+    kind: TwoAxisKind,
+    freq_hz: f64,
+    theta_my_mrad: f64,
+    theta_mz_mrad: f64,
+    psi_deg: f64,
+    r_cm: f64,
+) -> Condition {
     let (y_axis, z_axis, radius, g) = match kind {
         // Signs of r chosen to match the figures' IA_z = +r θ_mz ω² sin ωt.
         TwoAxisKind::Vibropendulous => (IA, PA, [0.0, 0.0, -r_cm], [0.0, 0.0, -1.0]),
@@ -130,7 +150,11 @@ pub fn two_axis(kind: TwoAxisKind, freq_hz: f64, theta_my_mrad: f64, theta_mz_mr
     let mut lin_deg = [0.0; 3];
     for j in 0..3 {
         lin[j] = lr[j].hypot(li[j]);
-        lin_deg[j] = if lin[j] > 0.0 { li[j].atan2(lr[j]).to_degrees() } else { 0.0 };
+        lin_deg[j] = if lin[j] > 0.0 {
+            li[j].atan2(lr[j]).to_degrees()
+        } else {
+            0.0
+        };
     }
     Condition {
         label: format!("{kind:?} {freq_hz} Hz, psi {psi_deg} deg"),
@@ -167,6 +191,10 @@ mod tests {
         assert!((c.lin_cm_s2[IA] - r * mz * 1e-3 * w * w).abs() < 1e-9);
         assert!(c.lin_deg[IA].abs() < 1e-9);
         assert!((c.lin_cm_s2[PA] - r * my * 1e-3 * w * w).abs() < 1e-9);
-        assert!((c.lin_deg[PA] - (90.0 - 180.0)).abs() < 1e-9, "{}", c.lin_deg[PA]);
+        assert!(
+            (c.lin_deg[PA] - (90.0 - 180.0)).abs() < 1e-9,
+            "{}",
+            c.lin_deg[PA]
+        );
     }
 }

@@ -201,19 +201,27 @@ impl Ctx<'_> {
         if forms != 1 {
             return Err(self.err(
                 tspan,
-                format!("{key}: expected exactly one tolerance form: tol_pct, tol_abs, or min and max"),
+                format!(
+                    "{key}: expected exactly one tolerance form: tol_pct, tol_abs, or min and max"
+                ),
             ));
         }
         let (lo, hi) = if let Some(t) = q.tol_pct {
             if !(0.0..100.0).contains(&t) {
-                return Err(self.err(tspan, format!("{key}: tol_pct = {t}: expected 0 <= tol_pct < 100")));
+                return Err(self.err(
+                    tspan,
+                    format!("{key}: tol_pct = {t}: expected 0 <= tol_pct < 100"),
+                ));
             }
             let a = v * (1.0 - t / 100.0);
             let b = v * (1.0 + t / 100.0);
             (a.min(b), a.max(b))
         } else if let Some(t) = q.tol_abs {
             if t < 0.0 || !t.is_finite() {
-                return Err(self.err(tspan, format!("{key}: tol_abs = {t}: expected a finite value >= 0")));
+                return Err(self.err(
+                    tspan,
+                    format!("{key}: tol_abs = {t}: expected a finite value >= 0"),
+                ));
             }
             (v - t, v + t)
         } else {
@@ -233,14 +241,27 @@ impl Ctx<'_> {
         if !ok(lo) || !ok(hi) {
             return Err(self.err(
                 tspan,
-                format!("{key}: tolerance band [{lo}, {hi}] leaves the valid range: expected {expected}"),
+                format!(
+                    "{key}: tolerance band [{lo}, {hi}] leaves the valid range: expected {expected}"
+                ),
             ));
         }
-        tolerances.push(Tolerance { key, lo, nominal: v, hi });
+        tolerances.push(Tolerance {
+            key,
+            lo,
+            nominal: v,
+            hi,
+        });
         Ok(v)
     }
 
-    fn scalar(&self, key: &str, s: &Spanned<f64>, ok: impl Fn(f64) -> bool, expected: &str) -> Result<f64, InstrumentError> {
+    fn scalar(
+        &self,
+        key: &str,
+        s: &Spanned<f64>,
+        ok: impl Fn(f64) -> bool,
+        expected: &str,
+    ) -> Result<f64, InstrumentError> {
         let v = *s.get_ref();
         if !v.is_finite() || !ok(v) {
             return Err(self.err(s.span().start, format!("{key} = {v}: expected {expected}")));
@@ -296,31 +317,148 @@ impl Instrument {
         let mut tol = Vec::new();
         let t = &mut tol;
         let p = &f.pendulum;
-        let pendulosity = cx.param("pendulum.pendulosity_dyn_cm_per_g", &p.pendulosity_dyn_cm_per_g, positive, "a pendulosity > 0 dyn·cm/g", t)?;
-        let freedom = cx.param("pendulum.freedom_mrad", &p.freedom_mrad, |x| x > 0.0 && x < 2.5, "0 < freedom < 2.5 mrad (the ADC's full scale)", t)?;
-        let inertia = cx.param("pendulum.inertia_oa_g_cm2", &p.inertia_oa_g_cm2, positive, "an inertia > 0 g·cm²", t)?;
-        let spring = cx.param("pendulum.spring_dyn_cm_per_rad", &p.spring_dyn_cm_per_rad, non_negative, "a spring rate >= 0 dyn·cm/rad", t)?;
-        let damping = cx.param("pendulum.damping_dyn_cm_s", &p.damping_dyn_cm_s, positive, "a damping > 0 dyn·cm·s", t)?;
-        let aniso = cx.param("pendulum.anisoinertia_g_cm2", &p.anisoinertia_g_cm2, |x| x.abs() < 100.0, "|I_PA − I_IA| < 100 g·cm²", t)?;
+        let pendulosity = cx.param(
+            "pendulum.pendulosity_dyn_cm_per_g",
+            &p.pendulosity_dyn_cm_per_g,
+            positive,
+            "a pendulosity > 0 dyn·cm/g",
+            t,
+        )?;
+        let freedom = cx.param(
+            "pendulum.freedom_mrad",
+            &p.freedom_mrad,
+            |x| x > 0.0 && x < 2.5,
+            "0 < freedom < 2.5 mrad (the ADC's full scale)",
+            t,
+        )?;
+        let inertia = cx.param(
+            "pendulum.inertia_oa_g_cm2",
+            &p.inertia_oa_g_cm2,
+            positive,
+            "an inertia > 0 g·cm²",
+            t,
+        )?;
+        let spring = cx.param(
+            "pendulum.spring_dyn_cm_per_rad",
+            &p.spring_dyn_cm_per_rad,
+            non_negative,
+            "a spring rate >= 0 dyn·cm/rad",
+            t,
+        )?;
+        let damping = cx.param(
+            "pendulum.damping_dyn_cm_s",
+            &p.damping_dyn_cm_s,
+            positive,
+            "a damping > 0 dyn·cm·s",
+            t,
+        )?;
+        let aniso = cx.param(
+            "pendulum.anisoinertia_g_cm2",
+            &p.anisoinertia_g_cm2,
+            |x| x.abs() < 100.0,
+            "|I_PA − I_IA| < 100 g·cm²",
+            t,
+        )?;
         let k = &f.pickoff;
-        let po = cx.param("pickoff.scale_factor_v_per_rad", &k.scale_factor_v_per_rad, positive, "a pickoff scale factor > 0 V/rad", t)?;
-        let quad = cx.param("pickoff.quadrature_null_uv", &k.quadrature_null_uv, non_negative, "a quadrature null >= 0 µV", t)?;
-        let phase = cx.param("pickoff.phase_angle_deg", &k.phase_angle_deg, |x| x.abs() < 60.0, "|phase angle| < 60 deg", t)?;
-        let noise = cx.param("pickoff.noise_uv_rms", &k.noise_uv_rms, non_negative, "a noise >= 0 µV rms", t)?;
+        let po = cx.param(
+            "pickoff.scale_factor_v_per_rad",
+            &k.scale_factor_v_per_rad,
+            positive,
+            "a pickoff scale factor > 0 V/rad",
+            t,
+        )?;
+        let quad = cx.param(
+            "pickoff.quadrature_null_uv",
+            &k.quadrature_null_uv,
+            non_negative,
+            "a quadrature null >= 0 µV",
+            t,
+        )?;
+        let phase = cx.param(
+            "pickoff.phase_angle_deg",
+            &k.phase_angle_deg,
+            |x| x.abs() < 60.0,
+            "|phase angle| < 60 deg",
+            t,
+        )?;
+        let noise = cx.param(
+            "pickoff.noise_uv_rms",
+            &k.noise_uv_rms,
+            non_negative,
+            "a noise >= 0 µV rms",
+            t,
+        )?;
         let q = &f.torquer;
-        let csf = cx.param("torquer.current_scale_factor_ma_per_g", &q.current_scale_factor_ma_per_g, positive, "a current scale factor > 0 mA/g", t)?;
-        let tau = cx.param("torquer.time_constant_us", &q.time_constant_us, positive, "a time constant > 0 µs", t)?;
+        let csf = cx.param(
+            "torquer.current_scale_factor_ma_per_g",
+            &q.current_scale_factor_ma_per_g,
+            positive,
+            "a current scale factor > 0 mA/g",
+            t,
+        )?;
+        let tau = cx.param(
+            "torquer.time_constant_us",
+            &q.time_constant_us,
+            positive,
+            "a time constant > 0 µs",
+            t,
+        )?;
         let e = &f.electronics;
-        let sf = cx.scalar("electronics.scale_factor_cm_s2", &e.scale_factor_cm_s2, positive, "a scale factor > 0 cm/s²")?;
-        let bias = cx.scalar("electronics.bias_cm_s2", &e.bias_cm_s2, |x| x.abs() < sf, "|bias| below the scale factor")?;
-        let amp = cx.scalar("electronics.amplifier_gain", &e.amplifier_gain, positive, "a gain > 0")?;
-        let bw = cx.scalar("electronics.demodulator_bandwidth_hz", &e.demodulator_bandwidth_hz, positive, "a bandwidth > 0 Hz")?;
-        let fs = cx.scalar("electronics.adc_full_scale_v", &e.adc_full_scale_v, positive, "a full scale > 0 V")?;
-        let clock = cx.scalar("electronics.clock_hz", &e.clock_hz, |x| x >= 1000.0, "a clock >= 1000 Hz")?;
-        let g = cx.scalar("electronics.local_gravity_cm_s2", &e.local_gravity_cm_s2, positive, "gravity > 0 cm/s²")?;
+        let sf = cx.scalar(
+            "electronics.scale_factor_cm_s2",
+            &e.scale_factor_cm_s2,
+            positive,
+            "a scale factor > 0 cm/s²",
+        )?;
+        let bias = cx.scalar(
+            "electronics.bias_cm_s2",
+            &e.bias_cm_s2,
+            |x| x.abs() < sf,
+            "|bias| below the scale factor",
+        )?;
+        let amp = cx.scalar(
+            "electronics.amplifier_gain",
+            &e.amplifier_gain,
+            positive,
+            "a gain > 0",
+        )?;
+        let bw = cx.scalar(
+            "electronics.demodulator_bandwidth_hz",
+            &e.demodulator_bandwidth_hz,
+            positive,
+            "a bandwidth > 0 Hz",
+        )?;
+        let fs = cx.scalar(
+            "electronics.adc_full_scale_v",
+            &e.adc_full_scale_v,
+            positive,
+            "a full scale > 0 V",
+        )?;
+        let clock = cx.scalar(
+            "electronics.clock_hz",
+            &e.clock_hz,
+            |x| x >= 1000.0,
+            "a clock >= 1000 Hz",
+        )?;
+        let g = cx.scalar(
+            "electronics.local_gravity_cm_s2",
+            &e.local_gravity_cm_s2,
+            positive,
+            "gravity > 0 cm/s²",
+        )?;
         let s = &f.stops;
-        let ks = cx.scalar("stops.stiffness_dyn_cm_per_rad", &s.stiffness_dyn_cm_per_rad, positive, "a stiffness > 0 dyn·cm/rad")?;
-        let cs = cx.scalar("stops.damping_dyn_cm_s", &s.damping_dyn_cm_s, non_negative, "a damping >= 0 dyn·cm·s")?;
+        let ks = cx.scalar(
+            "stops.stiffness_dyn_cm_per_rad",
+            &s.stiffness_dyn_cm_per_rad,
+            positive,
+            "a stiffness > 0 dyn·cm/rad",
+        )?;
+        let cs = cx.scalar(
+            "stops.damping_dyn_cm_s",
+            &s.damping_dyn_cm_s,
+            non_negative,
+            "a damping >= 0 dyn·cm·s",
+        )?;
         Ok(Self {
             pendulosity_dyn_cm_per_g: pendulosity,
             freedom_rad: freedom * 1e-3,

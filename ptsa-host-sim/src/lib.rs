@@ -12,11 +12,11 @@
 
 pub mod condition;
 pub mod design;
+pub mod discovery;
 pub mod experiments;
 pub mod fixtures;
-pub mod output;
-pub mod discovery;
 pub mod instrument;
+pub mod output;
 pub mod plant;
 pub mod sim;
 

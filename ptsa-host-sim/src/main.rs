@@ -169,7 +169,10 @@ impl TwoAxisArgs {
 fn progress(n: u64) -> ProgressBar {
     let pb = ProgressBar::new(n);
     if std::io::stderr().is_terminal() {
-        pb.set_style(ProgressStyle::with_template("{bar:40} {pos}/{len} {msg}").unwrap_or_else(|_| ProgressStyle::default_bar()));
+        pb.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
     } else {
         pb.set_draw_target(ProgressDrawTarget::hidden());
     }
@@ -205,21 +208,56 @@ fn run(cli: Cli) -> Result<()> {
     };
     let dir = cli.out.clone();
     match cli.cmd {
-        None | Some(Cmd::Report) => report_programme(&instr, &opts, &dir, cli.instrument.as_deref())?,
+        None | Some(Cmd::Report) => {
+            report_programme(&instr, &opts, &dir, cli.instrument.as_deref())?
+        }
         Some(Cmd::Tumble { gate_s }) => emit(&experiments::tumble(&instr, &opts, gate_s).1, &dir)?,
-        Some(Cmd::Anisoinertia { anisoinertia_g_cm2, lever_pa_cm }) => {
-            emit(&experiments::anisoinertia(&instr, &opts, anisoinertia_g_cm2, [0.0, lever_pa_cm, 0.0]).2, &dir)?;
+        Some(Cmd::Anisoinertia {
+            anisoinertia_g_cm2,
+            lever_pa_cm,
+        }) => {
+            emit(
+                &experiments::anisoinertia(
+                    &instr,
+                    &opts,
+                    anisoinertia_g_cm2,
+                    [0.0, lever_pa_cm, 0.0],
+                )
+                .2,
+                &dir,
+            )?;
         }
         Some(Cmd::OaCoupling { lever_cm }) => {
             let l = [lever_cm[0], lever_cm[1], lever_cm[2]];
             emit(&experiments::oa_coupling(&instr, &opts, l).1, &dir)?;
         }
-        Some(Cmd::Vibropendulosity(a)) => emit(&two_axis(&instr, &opts, TwoAxisKind::Vibropendulous, &a), &dir)?,
-        Some(Cmd::Anisoelasticity(a)) => emit(&two_axis(&instr, &opts, TwoAxisKind::Anisoelastic, &a), &dir)?,
+        Some(Cmd::Vibropendulosity(a)) => emit(
+            &two_axis(&instr, &opts, TwoAxisKind::Vibropendulous, &a),
+            &dir,
+        )?,
+        Some(Cmd::Anisoelasticity(a)) => emit(
+            &two_axis(&instr, &opts, TwoAxisKind::Anisoelastic, &a),
+            &dir,
+        )?,
         Some(Cmd::Sculling(a)) => emit(&two_axis(&instr, &opts, TwoAxisKind::Sculling, &a), &dir)?,
-        Some(Cmd::Waveform { accel_cm_s2, cycles }) => emit(&experiments::waveform(&instr, &opts, accel_cm_s2, cycles), &dir)?,
-        Some(Cmd::Static { accel_cm_s2, seconds, json, trace, with_bias }) => {
-            anyhow::ensure!(seconds > 0.0 && seconds.is_finite(), "--seconds must be > 0");
+        Some(Cmd::Waveform {
+            accel_cm_s2,
+            cycles,
+        }) => emit(
+            &experiments::waveform(&instr, &opts, accel_cm_s2, cycles),
+            &dir,
+        )?,
+        Some(Cmd::Static {
+            accel_cm_s2,
+            seconds,
+            json,
+            trace,
+            with_bias,
+        }) => {
+            anyhow::ensure!(
+                seconds > 0.0 && seconds.is_finite(),
+                "--seconds must be > 0"
+            );
             let mut instr = instr.clone();
             if !with_bias {
                 instr.bias_cm_s2 = 0.0;
@@ -235,11 +273,17 @@ fn run(cli: Cli) -> Result<()> {
             } else {
                 println!(
                     "static: {accel_cm_s2} cm/s^2 along IA (bias {} cm/s^2, loop's own {:.5}): T = {} ticks, P = {} pulses, indicated SF(2P/T - 1) = {:.4} cm/s^2",
-                    instr.bias_cm_s2, instr.loop_bias_cm_s2(0.0), r.ticks, r.pulses, r.indicated_cm_s2
+                    instr.bias_cm_s2,
+                    instr.loop_bias_cm_s2(0.0),
+                    r.ticks,
+                    r.pulses,
+                    r.indicated_cm_s2
                 );
             }
         }
-        Some(Cmd::Design { print_core_constants }) => {
+        Some(Cmd::Design {
+            print_core_constants,
+        }) => {
             let d = Design::for_instrument(&instr);
             if print_core_constants {
                 print!("{}", d.core_constants());
@@ -248,7 +292,9 @@ fn run(cli: Cli) -> Result<()> {
                 println!("\n// ptsa-core/src/config.rs\n{}", d.core_constants());
             }
         }
-        Some(Cmd::MonteCarlo { samples }) => emit(&experiments::monte_carlo(&instr, &opts, samples).2, &dir)?,
+        Some(Cmd::MonteCarlo { samples }) => {
+            emit(&experiments::monte_carlo(&instr, &opts, samples).2, &dir)?
+        }
         Some(Cmd::Bench { ticks, runs }) => bench(&instr, &opts, ticks, runs),
         Some(Cmd::Discover(args)) => ptsa_host_sim::discovery::run(&args)?,
     }
@@ -256,14 +302,35 @@ fn run(cli: Cli) -> Result<()> {
 }
 
 fn two_axis(instr: &Instrument, opts: &SimOptions, kind: TwoAxisKind, a: &TwoAxisArgs) -> Output {
-    experiments::appendix_a(instr, opts, kind, a.freq_hz, a.theta_my_mrad, a.theta_mz_mrad, a.r_cm, &a.effects())
+    experiments::appendix_a(
+        instr,
+        opts,
+        kind,
+        a.freq_hz,
+        a.theta_my_mrad,
+        a.theta_mz_mrad,
+        a.r_cm,
+        &a.effects(),
+    )
 }
 
-fn write_trace(instr: &Instrument, opts: &SimOptions, accel: f64, ticks: u64, path: &Path) -> Result<()> {
+fn write_trace(
+    instr: &Instrument,
+    opts: &SimOptions,
+    accel: f64,
+    ticks: u64,
+    path: &Path,
+) -> Result<()> {
     use std::fmt::Write as _;
-    let cond = ptsa_host_sim::Condition { g: [accel / instr.g_cm_s2, 0.0, 0.0], ..Default::default() };
+    let cond = ptsa_host_sim::Condition {
+        g: [accel / instr.g_cm_s2, 0.0, 0.0],
+        ..Default::default()
+    };
     let mut l = ptsa_host_sim::sim::ClosedLoop::new(instr, &cond, &Effects::default(), opts);
-    let mut s = format!("# closed-loop pickoff samples: {accel} cm/s^2 along IA, seed {}, from reset\n", opts.seed);
+    let mut s = format!(
+        "# closed-loop pickoff samples: {accel} cm/s^2 along IA, seed {}, from reset\n",
+        opts.seed
+    );
     l.run_observed(ticks, |v| {
         let _ = writeln!(s, "{}", v.code);
     });
@@ -295,7 +362,12 @@ fn bench(instr: &Instrument, opts: &SimOptions, ticks: u64, runs: usize) {
 
 /// The whole programme: every experiment, into `dir`, and `summary.md`.
 #[allow(clippy::too_many_lines)]
-fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Option<&Path>) -> Result<()> {
+fn report_programme(
+    instr: &Instrument,
+    opts: &SimOptions,
+    dir: &Path,
+    file: Option<&Path>,
+) -> Result<()> {
     let t0 = Instant::now();
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
     let pb = progress(10);
@@ -314,16 +386,29 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
     o_t.emit(dir, true)?;
     pb.inc(1);
     step(&pb, "anisoinertia");
-    let (aniso, k_sim, o_a) = experiments::anisoinertia(instr, opts, report::ANISOINERTIA_G_CM2, [0.0; 3]);
+    let (aniso, k_sim, o_a) =
+        experiments::anisoinertia(instr, opts, report::ANISOINERTIA_G_CM2, [0.0; 3]);
     o_a.emit(dir, true)?;
     pb.inc(1);
     step(&pb, "oa-coupling");
     let (oa, o_o) = experiments::oa_coupling(instr, opts, [0.0; 3]);
     o_o.emit(dir, true)?;
     pb.inc(1);
-    let ta = TwoAxisArgs { freq_hz: 100.0, theta_my_mrad: 1.0, theta_mz_mrad: 1.0, r_cm: 10.0, k_io_s2_cm: 0.0, k_ip_s2_cm: 0.0, k_sc_s2: 0.0 };
+    let ta = TwoAxisArgs {
+        freq_hz: 100.0,
+        theta_my_mrad: 1.0,
+        theta_mz_mrad: 1.0,
+        r_cm: 10.0,
+        k_io_s2_cm: 0.0,
+        k_ip_s2_cm: 0.0,
+        k_sc_s2: 0.0,
+    };
     let mut appendix = Vec::new();
-    for kind in [TwoAxisKind::Vibropendulous, TwoAxisKind::Anisoelastic, TwoAxisKind::Sculling] {
+    for kind in [
+        TwoAxisKind::Vibropendulous,
+        TwoAxisKind::Anisoelastic,
+        TwoAxisKind::Sculling,
+    ] {
         step(&pb, &format!("{kind:?}"));
         let o = two_axis(instr, opts, kind, &ta);
         o.emit(dir, true)?;
@@ -341,7 +426,11 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
     step(&pb, "discovery");
     let discovery = {
         let sim = ptsa_host_sim::discovery::simulator(false, opts.seed);
-        ptsa_host_sim::discovery::show::report_section(&*sim, &ptsa_host_sim::discovery::Options::default(), Some(&dir.join("discover")))
+        ptsa_host_sim::discovery::show::report_section(
+            &*sim,
+            &ptsa_host_sim::discovery::Options::default(),
+            Some(&dir.join("discover")),
+        )
     };
     pb.inc(1);
     step(&pb, "design");
@@ -355,18 +444,41 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
     // Summary.
     use std::fmt::Write as _;
     let mut s = String::new();
-    let _ = writeln!(s, "# PTSA / Kearfott 2401 host simulation: the R-890 test programme\n");
+    let _ = writeln!(
+        s,
+        "# PTSA / Kearfott 2401 host simulation: the R-890 test programme\n"
+    );
     let _ = writeln!(
         s,
         "Instrument file: `{}`; seed {}; {} threads; wall time {wall:.2} s. Every figure is reproduced by `ptsa` (this report) or the subcommand named. Details: `docs/host-sim.md`.\n",
-        file.map_or_else(|| "data/kearfott-2401.toml (built in)".to_string(), |p| p.display().to_string()),
+        file.map_or_else(
+            || "data/kearfott-2401.toml (built in)".to_string(),
+            |p| p.display().to_string()
+        ),
         opts.seed,
         rayon::current_num_threads()
     );
     let _ = writeln!(s, "## Scale factor and bias (section 6.1, `ptsa tumble`)\n");
-    let _ = writeln!(s, "| quantity | simulated (charge balance) | simulated (1 s counts) | configured | report |\n|---|---|---|---|---|");
-    let _ = writeln!(s, "| SF, cm/s² | {:.4} | {:.2} | {:.4} | {} |", tumble.sf, tumble.sf_count, tumble.sf_configured, report::SF_CM_S2);
-    let _ = writeln!(s, "| A_b, cm/s² | {:.4} | {:.3} | {:.4} | {} |\n", tumble.bias, tumble.bias_count, tumble.bias_configured, report::BIAS_CM_S2);
+    let _ = writeln!(
+        s,
+        "| quantity | simulated (charge balance) | simulated (1 s counts) | configured | report |\n|---|---|---|---|---|"
+    );
+    let _ = writeln!(
+        s,
+        "| SF, cm/s² | {:.4} | {:.2} | {:.4} | {} |",
+        tumble.sf,
+        tumble.sf_count,
+        tumble.sf_configured,
+        report::SF_CM_S2
+    );
+    let _ = writeln!(
+        s,
+        "| A_b, cm/s² | {:.4} | {:.3} | {:.4} | {} |\n",
+        tumble.bias,
+        tumble.bias_count,
+        tumble.bias_configured,
+        report::BIAS_CM_S2
+    );
     let _ = writeln!(
         s,
         "The instrument file sets the full scale to the report's SF (torquer current {:.4} mA) and the bias to the report's A_b, so the tumble checks that the loop and eqs. 6.3/6.4 give back what was configured: SF error {:.3} ppm, bias error {:.5} cm/s². Note: eq. 6.2 as printed has a sign typo; with IA down the count gives SF(2P2/T − 1) = −g + A_b, i.e. SF(1 − 2P2/T) = g − A_b; eqs. 6.3 and 6.4 are right as printed.\n",
@@ -375,28 +487,74 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
         tumble.bias - tumble.bias_configured
     );
     let _ = writeln!(s, "## Anisoinertia (Table 6.1, `ptsa anisoinertia`)\n");
-    let _ = writeln!(s, "Simulated with I_PA − I_IA = {} g·cm² (the report's result) and with the baseline (0).\n", report::ANISOINERTIA_G_CM2);
-    let _ = writeln!(s, "| IA deg | report cm/s² | simulated cm/s² | baseline cm/s² |\n|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "Simulated with I_PA − I_IA = {} g·cm² (the report's result) and with the baseline (0).\n",
+        report::ANISOINERTIA_G_CM2
+    );
+    let _ = writeln!(
+        s,
+        "| IA deg | report cm/s² | simulated cm/s² | baseline cm/s² |\n|---|---|---|---|"
+    );
     for r in &aniso {
-        let _ = writeln!(s, "| {:.0} | {:.2} | {:.3} | {:.3} |", r.ia_deg, r.report, r.simulated, r.baseline);
+        let _ = writeln!(
+            s,
+            "| {:.0} | {:.2} | {:.3} | {:.3} |",
+            r.ia_deg, r.report, r.simulated, r.baseline
+        );
     }
-    let _ = writeln!(s, "\nCoefficient from the simulated table as the report derives it: {k_sim:.3} cm (report: {} cm).\n", report::K_AI_CM);
-    let _ = writeln!(s, "## OA coupling (Tables 6.2 and 6.3, `ptsa oa-coupling`)\n");
-    let _ = writeln!(s, "| IA | Hz | mrad | report static−dynamic cm/s² | simulated static−dynamic cm/s² |\n|---|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "\nCoefficient from the simulated table as the report derives it: {k_sim:.3} cm (report: {} cm).\n",
+        report::K_AI_CM
+    );
+    let _ = writeln!(
+        s,
+        "## OA coupling (Tables 6.2 and 6.3, `ptsa oa-coupling`)\n"
+    );
+    let _ = writeln!(
+        s,
+        "| IA | Hz | mrad | report static−dynamic cm/s² | simulated static−dynamic cm/s² |\n|---|---|---|---|---|"
+    );
     for r in &oa {
-        let f = |x: Option<f64>, d: usize| x.map_or_else(|| "—".to_string(), |x| format!("{x:.d$}"));
-        let _ = writeln!(s, "| {} | {} | {} | {} | {} |", if r.ia_vertical { "vertical" } else { "horizontal" }, r.freq_hz, f(r.amp_mrad, 1), f(r.report, 2), f(r.simulated, 4));
+        let f =
+            |x: Option<f64>, d: usize| x.map_or_else(|| "—".to_string(), |x| format!("{x:.d$}"));
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} |",
+            if r.ia_vertical {
+                "vertical"
+            } else {
+                "horizontal"
+            },
+            r.freq_hz,
+            f(r.amp_mrad, 1),
+            f(r.report, 2),
+            f(r.simulated, 4)
+        );
     }
-    let _ = writeln!(s, "\nThe simulated loop shows no rectified OA coupling (eq. 4.6 averages to zero), as the report concluded; the report's scatter is its 0.3 cm/s² test uncertainty.\n");
-    let _ = writeln!(s, "## Appendix A (`ptsa vibropendulosity`, `anisoelasticity`, `sculling`)\n");
+    let _ = writeln!(
+        s,
+        "\nThe simulated loop shows no rectified OA coupling (eq. 4.6 averages to zero), as the report concluded; the report's scatter is its 0.3 cm/s² test uncertainty.\n"
+    );
+    let _ = writeln!(
+        s,
+        "## Appendix A (`ptsa vibropendulosity`, `anisoelasticity`, `sculling`)\n"
+    );
     for n in &appendix {
         let _ = writeln!(s, "* {n}");
     }
-    let _ = writeln!(s, "\n## Loop (`ptsa waveform`, `ptsa monte-carlo`, `ptsa design`)\n");
+    let _ = writeln!(
+        s,
+        "\n## Loop (`ptsa waveform`, `ptsa monte-carlo`, `ptsa design`)\n"
+    );
     for n in o_w.notes.iter().chain(&o_m.notes) {
         let _ = writeln!(s, "* {n}");
     }
-    let _ = writeln!(s, "* Monte Carlo worst case: phase margin {pm:.2} deg, gain margin {gm:.2} dB.\n");
+    let _ = writeln!(
+        s,
+        "* Monte Carlo worst case: phase margin {pm:.2} deg, gain margin {gm:.2} dB.\n"
+    );
     match discovery {
         Ok(text) => {
             let _ = writeln!(s, "{text}");
@@ -408,9 +566,16 @@ fn report_programme(instr: &Instrument, opts: &SimOptions, dir: &Path, file: Opt
     let _ = writeln!(
         s,
         "## Timing\n\n{}\n",
-        timings.iter().map(|(n, t)| format!("{n} {t:.2} s")).collect::<Vec<_>>().join(", ")
+        timings
+            .iter()
+            .map(|(n, t)| format!("{n} {t:.2} s"))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
-    let _ = writeln!(s, "## Files\n\nCSV tables and PNG/SVG plots beside this file: tumble, anisoinertia, oa-coupling (-2), vibropendulosity, anisoelasticity, sculling, waveform (-2), monte-carlo (-2), design.txt, discover/.");
+    let _ = writeln!(
+        s,
+        "## Files\n\nCSV tables and PNG/SVG plots beside this file: tumble, anisoinertia, oa-coupling (-2), vibropendulosity, anisoelasticity, sculling, waveform (-2), monte-carlo (-2), design.txt, discover/."
+    );
     write_atomic(&dir.join("summary.md"), s.as_bytes())?;
     println!("report written to {} in {wall:.2} s", dir.display());
     Ok(())

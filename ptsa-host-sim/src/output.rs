@@ -15,7 +15,9 @@ use plotters::prelude::*;
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     let dir = path.parent().unwrap_or_else(|| Path::new("."));
     std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
-    let name = path.file_name().map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
+    let name = path
+        .file_name()
+        .map_or_else(|| "out".into(), |n| n.to_string_lossy().into_owned());
     let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
     std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
     std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
@@ -87,7 +89,11 @@ impl Table {
     /// Aligned text.
     #[must_use]
     pub fn to_text(&self) -> String {
-        let cells: Vec<Vec<String>> = self.rows.iter().map(|r| r.iter().map(Cell::show).collect()).collect();
+        let cells: Vec<Vec<String>> = self
+            .rows
+            .iter()
+            .map(|r| r.iter().map(Cell::show).collect())
+            .collect();
         let mut w: Vec<usize> = self.header.iter().map(|h| h.chars().count()).collect();
         for r in &cells {
             for (i, c) in r.iter().enumerate() {
@@ -115,7 +121,11 @@ impl Table {
     /// Markdown.
     #[must_use]
     pub fn to_markdown(&self) -> String {
-        let mut s = format!("| {} |\n|{}\n", self.header.join(" | "), "---|".repeat(self.header.len()));
+        let mut s = format!(
+            "| {} |\n|{}\n",
+            self.header.join(" | "),
+            "---|".repeat(self.header.len())
+        );
         for r in &self.rows {
             let cells: Vec<String> = r.iter().map(Cell::show).collect();
             let _ = writeln!(s, "| {} |", cells.join(" | "));
@@ -152,12 +162,20 @@ impl Series {
     /// A line.
     #[must_use]
     pub fn line(name: &str, points: Vec<(f64, f64)>) -> Self {
-        Self { name: name.into(), points, markers: false }
+        Self {
+            name: name.into(),
+            points,
+            markers: false,
+        }
     }
     /// Markers.
     #[must_use]
     pub fn markers(name: &str, points: Vec<(f64, f64)>) -> Self {
-        Self { name: name.into(), points, markers: true }
+        Self {
+            name: name.into(),
+            points,
+            markers: true,
+        }
     }
 }
 
@@ -207,8 +225,17 @@ const COLORS: [RGBColor; 6] = [
 ];
 
 fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
-    let pts = plot.series.iter().flat_map(|s| s.points.iter()).filter(|p| p.0.is_finite() && p.1.is_finite());
-    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    let pts = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter())
+        .filter(|p| p.0.is_finite() && p.1.is_finite());
+    let (mut x0, mut x1, mut y0, mut y1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
     for &(x, y) in pts {
         x0 = x0.min(x);
         x1 = x1.max(x);
@@ -229,7 +256,10 @@ fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
     }
 }
 
-fn draw<DB: DrawingBackend>(root: DrawingArea<DB, plotters::coord::Shift>, plot: &Plot) -> Result<()>
+fn draw<DB: DrawingBackend>(
+    root: DrawingArea<DB, plotters::coord::Shift>,
+    plot: &Plot,
+) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -239,7 +269,9 @@ where
     let mut b = ChartBuilder::on(&root);
     b.margin(15);
     if fonts {
-        b.caption(&plot.title, ("sans-serif", 20)).x_label_area_size(40).y_label_area_size(70);
+        b.caption(&plot.title, ("sans-serif", 20))
+            .x_label_area_size(40)
+            .y_label_area_size(70);
     }
     macro_rules! body {
         ($chart:expr) => {{
@@ -264,7 +296,12 @@ where
             }
             for (k, s) in plot.series.iter().enumerate() {
                 let c = COLORS[k % COLORS.len()];
-                let pts: Vec<(f64, f64)> = s.points.iter().copied().filter(|p| p.0.is_finite() && p.1.is_finite()).collect();
+                let pts: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .copied()
+                    .filter(|p| p.0.is_finite() && p.1.is_finite())
+                    .collect();
                 let ann = if s.markers {
                     chart
                         .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
@@ -275,7 +312,9 @@ where
                         .map_err(|e| anyhow::anyhow!("{e:?}"))?
                 };
                 if fonts {
-                    ann.label(s.name.as_str()).legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2)));
+                    ann.label(s.name.as_str()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2))
+                    });
                 }
             }
             if fonts {
@@ -295,7 +334,9 @@ where
             .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         body!(c);
     } else {
-        let c = b.build_cartesian_2d(x0..x1, y0..y1).map_err(|e| anyhow::anyhow!("{e:?}"))?;
+        let c = b
+            .build_cartesian_2d(x0..x1, y0..y1)
+            .map_err(|e| anyhow::anyhow!("{e:?}"))?;
         body!(c);
     }
     root.present().map_err(|e| anyhow::anyhow!("{e:?}"))?;
@@ -310,7 +351,9 @@ where
 pub fn write_plot(stem: &Path, plot: &Plot) -> Result<Vec<PathBuf>> {
     let dir = stem.parent().unwrap_or_else(|| Path::new("."));
     std::fs::create_dir_all(dir)?;
-    let name = stem.file_name().map_or_else(|| "plot".into(), |n| n.to_string_lossy().into_owned());
+    let name = stem
+        .file_name()
+        .map_or_else(|| "plot".into(), |n| n.to_string_lossy().into_owned());
     let png = dir.join(format!("{name}.png"));
     let svg = dir.join(format!("{name}.svg"));
     let tmp_png = dir.join(format!(".{name}.tmp{}.png", std::process::id()));
@@ -351,7 +394,11 @@ impl Output {
     pub fn emit(&self, dir: &Path, print: bool) -> Result<Vec<PathBuf>> {
         let mut files = Vec::new();
         for (k, t) in self.tables.iter().enumerate() {
-            let f = if k == 0 { dir.join(format!("{}.csv", self.name)) } else { dir.join(format!("{}-{}.csv", self.name, k + 1)) };
+            let f = if k == 0 {
+                dir.join(format!("{}.csv", self.name))
+            } else {
+                dir.join(format!("{}-{}.csv", self.name, k + 1))
+            };
             if print && t.rows.len() <= 40 {
                 println!("{}", t.to_text());
             } else if print {
@@ -366,7 +413,11 @@ impl Output {
             }
         }
         for (k, p) in self.plots.iter().enumerate() {
-            let stem = if k == 0 { dir.join(&self.name) } else { dir.join(format!("{}-{}", self.name, k + 1)) };
+            let stem = if k == 0 {
+                dir.join(&self.name)
+            } else {
+                dir.join(format!("{}-{}", self.name, k + 1))
+            };
             match write_plot(&stem, p) {
                 Ok(mut f) => files.append(&mut f),
                 Err(e) => eprintln!("warning: plot {} not written: {e:#}", stem.display()),

@@ -250,7 +250,10 @@ mod tests {
             let a = [1e-9, 2e-7, 0.01, 3e-9];
             let (s, f) = (z.step(&x, &a), z.step_full(&x, &a));
             for k in 0..NX {
-                assert!((s[k] - f[k]).abs() <= 1e-15 * f[k].abs().max(1e-12), "{s:?} {f:?}");
+                assert!(
+                    (s[k] - f[k]).abs() <= 1e-15 * f[k].abs().max(1e-12),
+                    "{s:?} {f:?}"
+                );
             }
         }
     }
@@ -262,7 +265,12 @@ mod tests {
         let k = 1e7; // stiff, so that it settles fast: C/K = 7.6 ms
         let z = Zoh::new(&i, k, i.damping_dyn_cm_s);
         let mut x = [0.0; NX];
-        let add = [z.gd[0] * 100.0, z.gd[1] * 100.0, z.gd[2] * 100.0, z.gd[3] * 100.0];
+        let add = [
+            z.gd[0] * 100.0,
+            z.gd[1] * 100.0,
+            z.gd[2] * 100.0,
+            z.gd[3] * 100.0,
+        ];
         for _ in 0..64_000 {
             x = z.step(&x, &add);
         }

@@ -152,7 +152,10 @@ impl NoiseSource {
         for x in &mut t {
             *x = (*x - mean) / sd;
         }
-        Self { state: c.next_u64(), table: std::sync::Arc::new(t) }
+        Self {
+            state: c.next_u64(),
+            table: std::sync::Arc::new(t),
+        }
     }
     /// One standard-normal draw.
     #[inline(always)]
@@ -399,7 +402,11 @@ impl ClosedLoop {
     }
 
     fn adc_params(&self) -> Adc {
-        Adc { gain: self.code_per_rad, offset: self.code_offset, noise: self.noise_codes }
+        Adc {
+            gain: self.code_per_rad,
+            offset: self.code_offset,
+            noise: self.noise_codes,
+        }
     }
 
     fn acc(&self) -> Acc {
@@ -426,7 +433,11 @@ impl ClosedLoop {
         t.cycles_two += a.cycles_two;
         t.stop_ticks += a.stop;
         self.reversals = a.rev;
-        self.prev_pol = if a.prev_positive { Polarity::Positive } else { Polarity::Negative };
+        self.prev_pol = if a.prev_positive {
+            Polarity::Positive
+        } else {
+            Polarity::Negative
+        };
         t.pulses = u64::from(self.core.total_pulses().0);
     }
 
@@ -462,7 +473,11 @@ impl ClosedLoop {
     }
 
     #[allow(clippy::needless_range_loop)]
-    fn run_static<F: FnMut(&TickView), const OBSERVE: bool, const STATS: bool>(&mut self, n: u64, obs: &mut F) {
+    fn run_static<F: FnMut(&TickView), const OBSERVE: bool, const STATS: bool>(
+        &mut self,
+        n: u64,
+        obs: &mut F,
+    ) {
         // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
         let mut add = [[[0.0; NX]; 2]; 3];
         for (r, a) in add.iter_mut().enumerate() {
@@ -505,7 +520,13 @@ impl ClosedLoop {
             }
             if OBSERVE {
                 let u = if ui == 0 { 1.0 } else { -1.0 };
-                obs(&TickView { k, x, code, u, decided: tick.polarity });
+                obs(&TickView {
+                    k,
+                    x,
+                    code,
+                    u,
+                    decided: tick.polarity,
+                });
                 k += 1;
             }
             ui = usize::from(!positive);
@@ -576,10 +597,16 @@ impl ClosedLoop {
             let x_old = x;
             x = z.step(&x, &a);
             if harmonic != 0 {
-                let (hs, hc) = if harmonic == 1 { (s, c) } else { (2.0 * s * c, c * c - s * s) };
+                let (hs, hc) = if harmonic == 1 {
+                    (s, c)
+                } else {
+                    (2.0 * s * c, c * c - s * s)
+                };
                 self.totals.harm[0] += u * hs;
                 self.totals.harm[1] += u * hc;
-                let q = sf * (u - tau_t * (x[2] - x_old[2])) + ip * (x[1] - x_old[1]) + cp * (x[0] - x_old[0]);
+                let q = sf * (u - tau_t * (x[2] - x_old[2]))
+                    + ip * (x[1] - x_old[1])
+                    + cp * (x[0] - x_old[0]);
                 self.totals.harm_q[0] += q * hs;
                 self.totals.harm_q[1] += q * hc;
             }
@@ -587,7 +614,13 @@ impl ClosedLoop {
             acc.stop += u64::from(r != 0);
             acc.tick(u > 0.0, positive, x[0], tick.cycle_pulses.is_some());
             if OBSERVE {
-                obs(&TickView { k, x, code, u, decided: tick.polarity });
+                obs(&TickView {
+                    k,
+                    x,
+                    code,
+                    u,
+                    decided: tick.polarity,
+                });
             }
             self.k += 1;
             u = if positive { 1.0 } else { -1.0 };
@@ -615,7 +648,14 @@ impl ClosedLoop {
         self.window_result(&t0, &t1, &x0, &x1, pulses)
     }
 
-    fn window_result(&self, t0: &Totals, t1: &Totals, x0: &[f64; NX], x1: &[f64; NX], pulses: u64) -> SimResult {
+    fn window_result(
+        &self,
+        t0: &Totals,
+        t1: &Totals,
+        x0: &[f64; NX],
+        x1: &[f64; NX],
+        pulses: u64,
+    ) -> SimResult {
         let i = &self.instr;
         let t_s = 1.0 / i.clock_hz;
         let n = t1.ticks - t0.ticks;
@@ -730,7 +770,12 @@ pub const STATIC_SETTLE_TICKS: u64 = 6400;
 /// in the pendulum (the limit-cycle ripple and the integrator build-up) before it is in its
 /// periodic regime.
 #[must_use]
-pub fn run_static(instr: &Instrument, accel_cm_s2: f64, ticks: u64, opts: &SimOptions) -> StaticRun {
+pub fn run_static(
+    instr: &Instrument,
+    accel_cm_s2: f64,
+    ticks: u64,
+    opts: &SimOptions,
+) -> StaticRun {
     let cond = Condition {
         label: "static".into(),
         g: [accel_cm_s2 / crate::condition::G_CM_S2, 0.0, 0.0],
@@ -743,5 +788,9 @@ pub fn run_static(instr: &Instrument, accel_cm_s2: f64, ticks: u64, opts: &SimOp
     let pulses = u64::from((l.core().total_pulses() - p0).0);
     #[allow(clippy::cast_precision_loss)]
     let x = instr.sf_cm_s2 * (2.0 * pulses as f64 / ticks as f64 - 1.0);
-    StaticRun { ticks, pulses, indicated_cm_s2: x }
+    StaticRun {
+        ticks,
+        pulses,
+        indicated_cm_s2: x,
+    }
 }
