@@ -296,7 +296,21 @@ fn run(cli: Cli) -> Result<()> {
             emit(&experiments::monte_carlo(&instr, &opts, samples).2, &dir)?
         }
         Some(Cmd::Bench { ticks, runs }) => bench(&instr, &opts, ticks, runs),
-        Some(Cmd::Discover(args)) => ptsa_host_sim::discovery::run(&args)?,
+        Some(Cmd::Discover(args)) => {
+            if args.analytic {
+                ptsa_host_sim::discovery::run(&args)?;
+            } else {
+                // The closed loop of the instrument file and run options given to `ptsa`.
+                let sim = ptsa_host_sim::discovery::sim::ClosedLoopSimulator {
+                    instrument: instr.clone(),
+                    options: SimOptions {
+                        seed: args.seed,
+                        ..opts
+                    },
+                };
+                ptsa_host_sim::discovery::run_with(&args, &sim)?;
+            }
+        }
     }
     Ok(())
 }
@@ -425,9 +439,12 @@ fn report_programme(
     pb.inc(1);
     step(&pb, "discovery");
     let discovery = {
-        let sim = ptsa_host_sim::discovery::simulator(false, opts.seed);
+        let sim = ptsa_host_sim::discovery::sim::ClosedLoopSimulator {
+            instrument: instr.clone(),
+            options: *opts,
+        };
         ptsa_host_sim::discovery::show::report_section(
-            &*sim,
+            &sim,
             &ptsa_host_sim::discovery::Options::default(),
             Some(&dir.join("discover")),
         )
