@@ -244,11 +244,7 @@ fn cases() -> Vec<Case> {
             .collect(),
     );
     let closed = toy_loop(shaping, cycles(100), |t| {
-        if t < cycles(50) {
-            7_000
-        } else {
-            -52_000
-        }
+        if t < cycles(50) { 7_000 } else { -52_000 }
     });
     case(
         "shaping_closed_loop",
