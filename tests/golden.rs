@@ -86,3 +86,35 @@ fn one_lsb_change_in_any_input_changes_the_output() {
         );
     }
 }
+
+/// Vectors recorded from the host's closed loop carry the polarities the host decided in
+/// `# host` comment lines: the expected output must have exactly those polarities.
+#[test]
+fn host_closed_loop_vectors_have_the_host_polarities() {
+    let mut checked = 0;
+    for (name, input, expected) in cases() {
+        let text = fs::read_to_string(&input).expect("read .in");
+        let host: String = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("# host "))
+            .collect();
+        if host.is_empty() {
+            continue;
+        }
+        let out = fs::read_to_string(&expected).expect("read .out");
+        let golden: String = out
+            .lines()
+            .filter(|l| !l.starts_with("end"))
+            .filter_map(|l| l.chars().next())
+            .collect();
+        assert_eq!(host.len(), golden.len(), "{name}: tick counts differ");
+        if let Some(i) = host.chars().zip(golden.chars()).position(|(a, b)| a != b) {
+            panic!(
+                "{name}: tick {} decided differently by the host and by the golden output",
+                i + 1
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked >= 1, "no host closed-loop vector in tests/golden");
+}

@@ -325,6 +325,25 @@ pub fn run(args: &[String]) -> Result<(), String> {
             }
         }
     }
+    if overwrite {
+        // The host closed-loop vector comes from the simulator, which records it itself.
+        let status = std::process::Command::new(util::cargo())
+            .args([
+                "test",
+                "-q",
+                "-p",
+                "ptsa-host-sim",
+                "--test",
+                "golden_trace",
+            ])
+            .env("PTSA_WRITE_GOLDEN", "1")
+            .current_dir(util::root())
+            .status()
+            .map_err(|e| format!("cannot run cargo: {e}"))?;
+        if !status.success() {
+            return Err("recording tests/golden/host_closed_loop.* failed".into());
+        }
+    }
     if stale.is_empty() {
         eprintln!(
             "{} golden cases up to date in {}",
