@@ -122,6 +122,14 @@ enum Cmd {
         /// Runs.
         #[arg(long, default_value_t = 5)]
         runs: usize,
+        /// Without pickoff noise.
+        #[arg(long)]
+        no_noise: bool,
+        /// Also build the plain C loop (ptsa-host-sim/benches/c_static/static_loop.c) with
+        /// the system C compiler (`$CC`, default `cc`, `-std=c11 -O2`), check that it gives
+        /// the same pulses and plant state bit for bit, and time it in alternation.
+        #[arg(long)]
+        compare_c: bool,
     },
     /// The whole report programme (same as no subcommand).
     Report,
@@ -295,7 +303,12 @@ fn run(cli: Cli) -> Result<()> {
         Some(Cmd::MonteCarlo { samples }) => {
             emit(&experiments::monte_carlo(&instr, &opts, samples).2, &dir)?
         }
-        Some(Cmd::Bench { ticks, runs }) => bench(&instr, &opts, ticks, runs),
+        Some(Cmd::Bench {
+            ticks,
+            runs,
+            no_noise,
+            compare_c,
+        }) => bench(&instr, &opts, ticks, runs, no_noise, compare_c)?,
         Some(Cmd::Discover(args)) => {
             if args.analytic {
                 ptsa_host_sim::discovery::run(&args)?;
@@ -351,27 +364,172 @@ fn write_trace(
     write_atomic(path, s.as_bytes()).with_context(|| format!("writing {}", path.display()))
 }
 
-fn bench(instr: &Instrument, opts: &SimOptions, ticks: u64, runs: usize) {
+/// The plain C loop of `bench --compare-c`.
+const C_STATIC_LOOP: &str = include_str!("../benches/c_static/static_loop.c");
+
+/// `ptsa bench`: `run_static` timed `runs` times (and, with `compare_c`, the C loop after
+/// each Rust run); prints the medians and, for C, the ratio.
+fn bench(
+    instr: &Instrument,
+    opts: &SimOptions,
+    ticks: u64,
+    runs: usize,
+    no_noise: bool,
+    compare_c: bool,
+) -> Result<()> {
+    const ACCEL: f64 = 980.4;
+    let settle = ptsa_host_sim::sim::STATIC_SETTLE_TICKS;
+    let opts = SimOptions {
+        noise: opts.noise && !no_noise,
+        ..*opts
+    };
+    let c_loop = if compare_c {
+        Some(CStaticLoop::build(instr, &opts, ACCEL, ticks)?)
+    } else {
+        None
+    };
     let mut rates = Vec::new();
+    let mut c_rates = Vec::new();
     for _ in 0..runs.max(1) {
         let t = Instant::now();
-        let r = run_static(instr, 980.4, ticks, opts);
+        let r = run_static(instr, ACCEL, ticks, &opts);
         let e = t.elapsed().as_secs_f64();
         #[allow(clippy::cast_precision_loss)]
-        let rate = (ticks + ptsa_host_sim::sim::STATIC_SETTLE_TICKS) as f64 / e;
+        let rate = (ticks + settle) as f64 / e;
         rates.push(rate);
         std::hint::black_box(r);
+        if let Some(c) = &c_loop {
+            c_rates.push(c.run()?);
+        }
     }
-    rates.sort_by(f64::total_cmp);
-    let med = rates[rates.len() / 2];
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        (v[v.len() / 2], v[0], v[v.len() - 1])
+    };
+    let (med, lo, hi) = median(&mut rates);
     println!(
-        "bench: static closed loop, {ticks} ticks x {} runs: median {med:.4e} ticks/s ({:.0}x real time at {} Hz), min {:.4e}, max {:.4e}",
+        "bench: static closed loop{}, {ticks} ticks x {} runs: median {med:.4e} ticks/s ({:.0}x real time at {} Hz), min {lo:.4e}, max {hi:.4e}",
+        if opts.noise { "" } else { " without noise" },
         rates.len(),
         med / instr.clock_hz,
         instr.clock_hz,
-        rates[0],
-        rates[rates.len() - 1]
     );
+    if c_loop.is_some() {
+        let (c_med, c_lo, c_hi) = median(&mut c_rates);
+        println!(
+            "bench: plain C loop (cc -std=c11 -O2), same ticks, alternating: median {c_med:.4e} ticks/s, min {c_lo:.4e}, max {c_hi:.4e}; same pulses and plant state bit for bit"
+        );
+        println!("bench: Rust / C = {:.3}", med / c_med);
+    }
+    Ok(())
+}
+
+/// The plain C loop, compiled into a temporary folder, with its parameters.
+struct CStaticLoop {
+    dir: PathBuf,
+    exe: PathBuf,
+    params: String,
+    ticks: u64,
+}
+
+impl CStaticLoop {
+    /// Compile the C loop and check it once against the Rust loop (pulses and plant state).
+    fn build(instr: &Instrument, opts: &SimOptions, accel: f64, ticks: u64) -> Result<Self> {
+        use ptsa_host_sim::sim::{ClosedLoop, STATIC_SETTLE_TICKS};
+        let dir = std::env::temp_dir().join(format!("ptsa-c-static-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+        let src = dir.join("static_loop.c");
+        let exe = dir.join("static_loop");
+        std::fs::write(&src, C_STATIC_LOOP)
+            .with_context(|| format!("writing {}", src.display()))?;
+        let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+        let out = std::process::Command::new(&cc)
+            .args(["-std=c11", "-O2", "-o"])
+            .arg(&exe)
+            .arg(&src)
+            .output()
+            .with_context(|| format!("running the C compiler `{cc}`"))?;
+        anyhow::ensure!(
+            out.status.success(),
+            "`{cc} -std=c11 -O2` failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let cond = ptsa_host_sim::Condition {
+            label: "static".into(),
+            g: [accel / ptsa_host_sim::condition::G_CM_S2, 0.0, 0.0],
+            ..Default::default()
+        };
+        let mut l = ClosedLoop::new(instr, &cond, &Effects::default(), opts);
+        let params = l
+            .c_static_params()
+            .context("no C parameters for this loop")?;
+        let c = Self {
+            dir,
+            exe,
+            params,
+            ticks,
+        };
+        // The check: the same pulses over the gate and the same final plant state.
+        let (_, pulses, x) = c.run_once()?;
+        l.run_fast(STATIC_SETTLE_TICKS);
+        let p0 = l.core().total_pulses();
+        l.run_fast(ticks);
+        let want_pulses = u64::from((l.core().total_pulses() - p0).0);
+        let want_x: Vec<String> = l
+            .state()
+            .iter()
+            .map(|v| format!("{:016x}", v.to_bits()))
+            .collect();
+        anyhow::ensure!(
+            pulses == want_pulses && x == want_x.join(","),
+            "the C loop disagrees with the Rust loop: pulses {pulses} vs {want_pulses}, state {x} vs {}",
+            want_x.join(",")
+        );
+        Ok(c)
+    }
+
+    /// One timed run of the C loop: ticks/s.
+    fn run(&self) -> Result<f64> {
+        Ok(self.run_once()?.0)
+    }
+
+    /// One run: ticks/s, pulses over the gate, the final plant state's bits.
+    fn run_once(&self) -> Result<(f64, u64, String)> {
+        use std::io::Write as _;
+        let mut child = std::process::Command::new(&self.exe)
+            .args([
+                ptsa_host_sim::sim::STATIC_SETTLE_TICKS.to_string(),
+                self.ticks.to_string(),
+                "1".into(),
+            ])
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .context("running the C loop")?;
+        child
+            .stdin
+            .take()
+            .context("C loop stdin")?
+            .write_all(self.params.as_bytes())?;
+        let out = child.wait_with_output()?;
+        anyhow::ensure!(out.status.success(), "the C loop failed");
+        let text = String::from_utf8_lossy(&out.stdout);
+        let field = |name: &str| {
+            text.split_whitespace()
+                .find_map(|w| w.strip_prefix(name))
+                .map(str::to_owned)
+                .with_context(|| format!("C loop output without {name}: {text}"))
+        };
+        let rate: f64 = field("rate=")?.parse()?;
+        let pulses: u64 = field("pulses=")?.parse()?;
+        Ok((rate, pulses, field("x=")?))
+    }
+}
+
+impl Drop for CStaticLoop {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
 }
 
 /// The whole programme: every experiment, into `dir`, and `summary.md`.

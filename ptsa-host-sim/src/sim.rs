@@ -231,12 +231,13 @@ impl Adc {
         if self.noise != 0.0 {
             bias += self.noise * rng.normal();
         }
-        // Round half up and clip to the i16 range without a libm call.
-        let z = (y * self.gain + bias).clamp(0.0, 65535.0);
+        // Round half up and clip to the i16 range without a libm call: `as u16` truncates
+        // toward zero and saturates to `0..=65535` (NaN to 0), the same as an explicit clamp
+        // before the cast but with one max/min pair instead of two.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let z = z as u32;
-        #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
-        let z = (z as u16 ^ 0x8000) as i16;
+        let z = (y * self.gain + bias) as u16;
+        #[allow(clippy::cast_possible_wrap)]
+        let z = (z ^ 0x8000) as i16;
         z
     }
 }
@@ -478,6 +479,10 @@ impl ClosedLoop {
         n: u64,
         obs: &mut F,
     ) {
+        if !OBSERVE && !STATS {
+            self.run_static_fast(n);
+            return;
+        }
         // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
         let mut add = [[[0.0; NX]; 2]; 3];
         for (r, a) in add.iter_mut().enumerate() {
@@ -548,6 +553,60 @@ impl ClosedLoop {
         self.x = x;
         self.u = if ui == 0 { 1.0 } else { -1.0 };
         self.k = k;
+        self.rng = rng;
+        self.core = core;
+        self.merge(&acc);
+    }
+
+    /// [`ClosedLoop::run_static`] without statistics or observer, split by the applied
+    /// polarity: one inner loop per polarity, each with its plant input as a loop
+    /// invariant, left when the core decides the other polarity. The arithmetic is that of
+    /// `run_static` (same operations in the same order), so the pulses and the state are
+    /// bit-identical; what changes is that the polarity reaches the plant through a
+    /// predicted branch instead of a data dependency, which takes the core's decision off
+    /// the per-tick dependency chain (the predictor misses at the two switches of a limit
+    /// cycle, not on the ticks between them).
+    #[allow(clippy::needless_range_loop)]
+    fn run_static_fast(&mut self, n: u64) {
+        let mut add = [[[0.0; NX]; 2]; 3];
+        for (r, a) in add.iter_mut().enumerate() {
+            let z = &self.plant.zoh[r];
+            let d = self.d0 + self.plant.stop_torque[r];
+            for j in 0..NX {
+                a[0][j] = z.gu[j] + z.gd[j] * d;
+                a[1][j] = -z.gu[j] + z.gd[j] * d;
+            }
+        }
+        let ptsa = self.ptsa;
+        let plant = self.plant;
+        let adc = self.adc_params();
+        let mut rng = self.rng.clone();
+        let mut core = self.core;
+        let mut acc = self.acc();
+        let mut x = self.x;
+        let mut positive = self.u > 0.0;
+        let mut left = n;
+        while left > 0 {
+            let (run, next) = if positive {
+                static_phase::<true>(&ptsa, &plant, &add, &adc, &mut rng, &mut core, &mut x, left)
+            } else {
+                static_phase::<false>(&ptsa, &plant, &add, &adc, &mut rng, &mut core, &mut x, left)
+            };
+            left -= run.ticks;
+            acc.stop += run.stop;
+            positive = next;
+        }
+        // Ticks and the applied-command sum from the core's count (see `run_static`).
+        let decided = i64::from((core.total_pulses() - self.core.total_pulses()).0);
+        let first = i64::from(self.u > 0.0);
+        let last = i64::from(positive);
+        #[allow(clippy::cast_possible_wrap)]
+        let n_i = n as i64;
+        acc.ticks = n;
+        acc.sum_u = 2 * (decided + first - last) - n_i;
+        self.x = x;
+        self.u = if positive { 1.0 } else { -1.0 };
+        self.k += n;
         self.rng = rng;
         self.core = core;
         self.merge(&acc);
@@ -634,6 +693,70 @@ impl ClosedLoop {
         self.merge(&acc);
     }
 
+    /// The parameters of `ptsa-host-sim/benches/c_static/static_loop.c` (the plain C loop
+    /// of `ptsa bench --compare-c`) for this loop's static condition, as whitespace-separated
+    /// numbers (floats in shortest round-trip form, so that C's `strtod` reads the same
+    /// bits): the core's constants, the ADC's gain, bias and noise, the stop angle, the
+    /// applied polarity, the noise generator's state, Φ of the free and the stop regions,
+    /// the per-region, per-polarity plant inputs, the plant state and the noise table.
+    /// `None` for a dynamic condition or a core that is not at reset.
+    #[doc(hidden)]
+    #[must_use]
+    #[allow(clippy::needless_range_loop)]
+    pub fn c_static_params(&self) -> Option<String> {
+        use std::fmt::Write as _;
+        if self.dynamic || self.harmonic != 0 || self.core != self.ptsa.initial_state() {
+            return None;
+        }
+        let c = self.ptsa.config();
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "{} {} {} {} {} {} {}",
+            c.b0.to_bits(),
+            c.b1.to_bits(),
+            c.a1.to_bits(),
+            c.ki.to_bits(),
+            c.ticks_per_cycle,
+            c.gate_ticks,
+            u8::from(c.noise_shaping)
+        );
+        let _ = writeln!(
+            s,
+            "{:e} {:e} {:e} {:e} {}",
+            self.code_per_rad,
+            self.code_offset + 32768.5,
+            self.noise_codes,
+            self.plant.theta_stop,
+            if self.u > 0.0 { 1 } else { -1 }
+        );
+        let _ = writeln!(s, "{}", self.rng.state);
+        for z in &self.plant.zoh[..2] {
+            for row in &z.phi {
+                let _ = writeln!(s, "{:e} {:e} {:e} {:e}", row[0], row[1], row[2], row[3]);
+            }
+        }
+        for r in 0..3 {
+            let z = &self.plant.zoh[r];
+            let d = self.d0 + self.plant.stop_torque[r];
+            for sign in [1.0, -1.0] {
+                for j in 0..NX {
+                    let a = if sign > 0.0 { z.gu[j] } else { -z.gu[j] } + z.gd[j] * d;
+                    let _ = write!(s, "{a:e} ");
+                }
+                s.push('\n');
+            }
+        }
+        for v in self.x {
+            let _ = write!(s, "{v:e} ");
+        }
+        s.push('\n');
+        for v in self.rng.table.iter() {
+            let _ = writeln!(s, "{v:e}");
+        }
+        Some(s)
+    }
+
     /// Run a measurement window of `n` ticks and return its result.
     #[must_use]
     pub fn measure(&mut self, n: u64) -> SimResult {
@@ -693,6 +816,53 @@ impl ClosedLoop {
             harmonic_torque_deg: qc.atan2(qs).to_degrees(),
         }
     }
+}
+
+/// Ticks and stop ticks of one [`static_phase`].
+struct PhaseRun {
+    ticks: u64,
+    stop: u64,
+}
+
+/// Ticks with the applied polarity `POSITIVE` until the core decides the other one (that
+/// tick included) or `left` ticks have run; returns the run and the polarity decided last.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn static_phase<const POSITIVE: bool>(
+    ptsa: &Ptsa,
+    plant: &Plant,
+    add: &[[[f64; NX]; 2]; 3],
+    adc: &Adc,
+    rng: &mut NoiseSource,
+    core: &mut State,
+    x: &mut [f64; NX],
+    left: u64,
+) -> (PhaseRun, bool) {
+    let ui = usize::from(!POSITIVE);
+    let free = plant.zoh[0];
+    let add0 = add[0][ui];
+    let theta_stop = plant.theta_stop;
+    let mut xs = *x;
+    let mut run = PhaseRun { ticks: 0, stop: 0 };
+    let mut next = POSITIVE;
+    while run.ticks < left {
+        let code = adc.sample(xs[3], rng);
+        let tick = ptsa.tick(core, code);
+        if xs[0].abs() <= theta_stop {
+            xs = free.step(&xs, &add0);
+        } else {
+            let r = plant.region(xs[0]);
+            xs = plant.zoh[r].step(&xs, &add[r][ui]);
+            run.stop += 1;
+        }
+        run.ticks += 1;
+        next = tick.polarity == Polarity::Positive;
+        if next != POSITIVE {
+            break;
+        }
+    }
+    *x = xs;
+    (run, next)
 }
 
 /// Ticks of the measurement window for `cond`: whole limit cycles for a static condition,
