@@ -227,10 +227,23 @@ impl Adc {
     fn sample(&self, y: f64, rng: &mut NoiseSource) -> i16 {
         // Everything but `y` first, so the dependency chain from the plant state to the code
         // is one multiply-add.
+        self.quantize(y, self.bias(rng))
+    }
+
+    /// The additive term of one sample: offset, the rounding half and a noise draw (none
+    /// without noise).
+    #[inline(always)]
+    fn bias(&self, rng: &mut NoiseSource) -> f64 {
         let mut bias = self.offset + 32768.5;
         if self.noise != 0.0 {
             bias += self.noise * rng.normal();
         }
+        bias
+    }
+
+    /// The code of `y` with the additive term `bias` (see [`Adc::bias`]).
+    #[inline(always)]
+    fn quantize(&self, y: f64, bias: f64) -> i16 {
         // Round half up and clip to the i16 range without a libm call: `as u16` truncates
         // toward zero and saturates to `0..=65535` (NaN to 0), the same as an explicit clamp
         // before the cast but with one max/min pair instead of two.
@@ -585,16 +598,30 @@ impl ClosedLoop {
         let mut acc = self.acc();
         let mut x = self.x;
         let mut positive = self.u > 0.0;
+        // The ADC's additive term of each tick (offset and noise), drawn a block ahead: the
+        // same draws in the same order, off the loop's registers.
+        let mut bias = [0.0f64; BIAS_BLOCK];
         let mut left = n;
         while left > 0 {
-            let (run, next) = if positive {
-                static_phase::<true>(&ptsa, &plant, &add, &adc, &mut rng, &mut core, &mut x, left)
-            } else {
-                static_phase::<false>(&ptsa, &plant, &add, &adc, &mut rng, &mut core, &mut x, left)
-            };
-            left -= run.ticks;
-            acc.stop += run.stop;
-            positive = next;
+            #[allow(clippy::cast_possible_truncation)]
+            let m = left.min(BIAS_BLOCK as u64) as usize;
+            for b in &mut bias[..m] {
+                *b = adc.bias(&mut rng);
+            }
+            let mut i = 0;
+            while i < m {
+                let (run, next) = if positive {
+                    static_phase::<true>(&ptsa, &plant, &add, &adc, &bias[i..m], &mut core, &mut x)
+                } else {
+                    static_phase::<false>(&ptsa, &plant, &add, &adc, &bias[i..m], &mut core, &mut x)
+                };
+                #[allow(clippy::cast_possible_truncation)]
+                let ticks = run.ticks as usize;
+                i += ticks;
+                acc.stop += run.stop;
+                positive = next;
+            }
+            left -= m as u64;
         }
         // Ticks and the applied-command sum from the core's count (see `run_static`).
         let decided = i64::from((core.total_pulses() - self.core.total_pulses()).0);
@@ -824,8 +851,12 @@ struct PhaseRun {
     stop: u64,
 }
 
+/// Ticks of [`ClosedLoop::run_static_fast`]'s blocks of ADC bias terms.
+const BIAS_BLOCK: usize = 512;
+
 /// Ticks with the applied polarity `POSITIVE` until the core decides the other one (that
-/// tick included) or `left` ticks have run; returns the run and the polarity decided last.
+/// tick included) or one tick per entry of `bias` (the ADC's additive terms, see
+/// [`Adc::bias`]) has run; returns the run and the polarity decided last.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn static_phase<const POSITIVE: bool>(
@@ -833,10 +864,9 @@ fn static_phase<const POSITIVE: bool>(
     plant: &Plant,
     add: &[[[f64; NX]; 2]; 3],
     adc: &Adc,
-    rng: &mut NoiseSource,
+    bias: &[f64],
     core: &mut State,
     x: &mut [f64; NX],
-    left: u64,
 ) -> (PhaseRun, bool) {
     let ui = usize::from(!POSITIVE);
     let free = plant.zoh[0];
@@ -845,8 +875,8 @@ fn static_phase<const POSITIVE: bool>(
     let mut xs = *x;
     let mut run = PhaseRun { ticks: 0, stop: 0 };
     let mut next = POSITIVE;
-    while run.ticks < left {
-        let code = adc.sample(xs[3], rng);
+    for &b in bias {
+        let code = adc.quantize(xs[3], b);
         let tick = ptsa.tick(core, code);
         if xs[0].abs() <= theta_stop {
             xs = free.step(&xs, &add0);
