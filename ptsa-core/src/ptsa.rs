@@ -287,15 +287,30 @@ impl Ptsa {
         s.lead = lead;
         s.e_prev = e;
         // Integrator with clamp (anti-windup).
+        // Written as branches, each saturated arm counting its event (same values as a clamp
+        // plus a count of `clamped != unclamped`).
         let integ = s.integ + i64::from(self.ki) * i64::from(e);
-        s.integ = integ.clamp(-INTEGRATOR_LIMIT, INTEGRATOR_LIMIT);
-        s.sat.integrator = s.sat.integrator.wrapping_add(u32::from(s.integ != integ));
+        s.integ = if integ > INTEGRATOR_LIMIT {
+            s.sat.integrator = s.sat.integrator.wrapping_add(1);
+            INTEGRATOR_LIMIT
+        } else if integ < -INTEGRATOR_LIMIT {
+            s.sat.integrator = s.sat.integrator.wrapping_add(1);
+            -INTEGRATOR_LIMIT
+        } else {
+            integ
+        };
         // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, so no i32 overflow.
         #[allow(clippy::cast_possible_truncation)]
         let sum = lead + (s.integ >> COEF_FRAC) as i32;
-        let u = sum.clamp(-RAMP_AMPLITUDE, RAMP_AMPLITUDE);
-        s.sat.output = s.sat.output.wrapping_add(u32::from(u != sum));
-        u
+        if sum > RAMP_AMPLITUDE {
+            s.sat.output = s.sat.output.wrapping_add(1);
+            RAMP_AMPLITUDE
+        } else if sum < -RAMP_AMPLITUDE {
+            s.sat.output = s.sat.output.wrapping_add(1);
+            -RAMP_AMPLITUDE
+        } else {
+            sum
+        }
     }
 
     /// End of a limit cycle with `n` positive ticks: update the carry from the latched level.
