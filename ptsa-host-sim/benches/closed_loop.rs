@@ -62,8 +62,9 @@ fn bench(c: &mut Criterion) {
             black_box(l.state())
         });
     });
-    // The floor: the same plant step and the same ptsa-core tick with nothing else (no
-    // noise, no stops, no statistics) — what a bare C loop of the static case would do.
+    // The same plant step and the same ptsa-core tick with nothing else (no noise, no stops,
+    // no statistics) in a straight loop. The plain C loop of the static case itself is timed
+    // against `ptsa static` by `ptsa bench --compare-c` (benches/c_static/static_loop.c).
     let plant = ptsa_host_sim::plant::Plant::new(&instr, instr.spring_dyn_cm_rad);
     let z = plant.zoh[0];
     let d = instr.pendulosity_g_cm() * instr.g_cm_s2;
