@@ -23,8 +23,15 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 12, ..ProptestConfig::default() })]
 
     /// For a constant input across ±95 % of full scale, the 1 s gate indicates the input
-    /// plus the bias (the instrument's A_b and the loop's own, zero for the nominal file) to
-    /// within one pulse, and every limit cycle has exactly two current reversals.
+    /// plus the bias (the instrument's A_b and the loop's own, zero for the nominal file), and
+    /// every limit cycle has exactly two current reversals.
+    ///
+    /// The plain count over a gate is off from the input by exactly the charge the pendulum
+    /// and torquer hold at the gate's ends, which the loop keeps within about ±1 pulse
+    /// (`ptsa-core/tests/properties.rs` measures the same band on a toy pendulum): so the
+    /// plain count is within 2 pulses, not 1 (a 1-pulse bound failed for input 0.656 FS,
+    /// seed 37: 1.09 pulses). The charge-balance estimator, which adds that stored charge
+    /// back, is within 0.01 cm/s².
     #[test]
     fn sigma_delta_exactness(frac in -0.95f64..0.95, seed in 0u64..1000) {
         let i = Instrument::kearfott_2401();
@@ -32,7 +39,7 @@ proptest! {
         let a = frac * i.sf_cm_s2 - i.bias_cm_s2;
         let r = run_static(&i, a, 64_000, &opts);
         let expect = a + i.bias_cm_s2 + i.loop_bias_cm_s2(0.0);
-        prop_assert!((r.indicated_cm_s2 - expect).abs() <= pulse(&i, 64_000),
+        prop_assert!((r.indicated_cm_s2 - expect).abs() <= 2.0 * pulse(&i, 64_000),
             "a = {a}: indicated {} expected {expect}", r.indicated_cm_s2);
         let s = simulate_condition(&i, &ia(a), &Effects::default(), &opts);
         prop_assert_eq!(s.cycles, s.cycles_two_reversals);
