@@ -126,6 +126,13 @@ pub struct Board {
     /// A free-running 32-bit counter at [`TIMER_CLOCK_HZ`] (TIM5), for measurements. Under
     /// QEMU with `-icount shift=0` one count is one guest instruction.
     pub stopwatch: pac::TIM5,
+    /// QEMU only: the virtual time, in ns since reset, at which TIM2's update generation
+    /// (`EGR.UG`) was written. QEMU 7.2's STM32 timer model re-arms every period
+    /// `ARR + this` ns after the last one instead of `ARR + 1` (see docs/firmware.md), so the
+    /// host check needs it to predict the emulated tick. Read from TIM5 before anything has
+    /// written TIM5, when its count is the virtual time since reset.
+    #[cfg(feature = "qemu")]
+    pub qemu_ug_ns: u32,
 }
 
 impl Board {
@@ -175,6 +182,8 @@ impl Board {
         let tim = dp.TIM2;
         tim.psc().write(|w| w.psc().set(0));
         tim.arr().write(|w| w.arr().set(TICK_RELOAD));
+        #[cfg(feature = "qemu")]
+        let qemu_ug_ns = dp.TIM5.cnt().read().bits();
         tim.egr().write(|w| w.ug().update());
         tim.sr().write(|w| w.uif().clear_bit());
         tim.dier().write(|w| w.uie().enabled());
@@ -195,6 +204,8 @@ impl Board {
                 timer: tim,
             },
             stopwatch: sw,
+            #[cfg(feature = "qemu")]
+            qemu_ug_ns,
         }
     }
 }
@@ -203,6 +214,16 @@ impl TickContext {
     /// Start the tick timer (the interrupt fires once [`unmask_tick`] has run).
     pub fn start(&self) {
         self.timer.cr1().write(|w| w.cen().enabled());
+    }
+
+    /// TIM2's prescaler and auto-reload registers as the hardware holds them: the tick is
+    /// [`TIMER_CLOCK_HZ`] / ((PSC + 1) (ARR + 1)).
+    #[must_use]
+    pub fn timer_registers(&self) -> (u32, u32) {
+        (
+            self.timer.psc().read().bits(),
+            self.timer.arr().read().bits(),
+        )
     }
 }
 
@@ -278,6 +299,52 @@ pub fn clocks_160mhz(rcc: &pac::RCC, flash: &pac::FLASH) {
     rcc.cfgr()
         .modify(|_, w| w.hpre().div1().ppre1().div4().ppre2().div2().sw().pll());
     while !rcc.cfgr().read().sws().is_pll() {}
+}
+
+/// The word cortex-m-rt paints the stack with before `main` (feature `paint-stack`).
+pub const STACK_PAINT: u32 = 0xCCCC_CCCC;
+
+// The two symbols cortex-m-rt's linker script defines; only their addresses are used.
+#[allow(unsafe_code)]
+unsafe extern "C" {
+    /// Top of the stack (first address above it), from cortex-m-rt's `link.x`.
+    safe static _stack_start: u32;
+    /// Bottom of the stack region (lowest address it may grow to), from `link.x`.
+    safe static _stack_end: u32;
+}
+
+/// Deepest stack use so far, in bytes: the distance from the top of the stack to the
+/// lowest word that no longer holds [`STACK_PAINT`].
+///
+/// cortex-m-rt's `paint-stack` feature fills the whole stack region (from the end of
+/// `.bss`/`.uninit` to the top of RAM) with [`STACK_PAINT`] before `main`; every push
+/// scrubs the paint. The scan runs from the bottom of the region upwards and stops at the
+/// first scrubbed word, so it reads the high-water mark of everything that has run since
+/// reset: `main`, the tick interrupt, the gate bottom half and exception stacking. A
+/// pushed word that happens to equal the paint could hide the deepest word (at most an
+/// underestimate of 4 bytes per such word at the very bottom, none in practice).
+///
+/// Cost: one load per word of unused stack (about 32 000 on the 128 KiB part, some 0.4 ms
+/// at 160 MHz). Call it from thread mode, never from the tick interrupt.
+#[must_use]
+pub fn stack_high_water_bytes() -> u32 {
+    let top = (&raw const _stack_start) as usize;
+    let bottom = (&raw const _stack_end) as usize;
+    let mut p = bottom.next_multiple_of(4);
+    while p < top && read_word(p) == STACK_PAINT {
+        p += 4;
+    }
+    #[allow(clippy::cast_possible_truncation)]
+    let used = (top - p) as u32;
+    used
+}
+
+#[allow(unsafe_code)]
+fn read_word(addr: usize) -> u32 {
+    // SAFETY: `addr` is word-aligned and inside the stack region [_stack_end, _stack_start)
+    // of RAM, which is always mapped and readable; a volatile read of a `u32` has no
+    // validity requirement and does not create a reference into the frames that own it.
+    unsafe { core::ptr::read_volatile(addr as *const u32) }
 }
 
 /// Test images only: the pickoff word [`on_tick`] reads instead of the ADC's data register

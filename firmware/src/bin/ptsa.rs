@@ -1,12 +1,14 @@
 //! Production image: the PTSA loop at 64 kHz, gated counts reported over defmt (RTT).
 //!
 //! `TIM2` fires at 64 kHz and runs [`ptsa_firmware::on_tick`]; the main loop pops closed
-//! gates from [`ptsa_firmware::GATES`] and logs `P` (data pulses) over `T` (clock ticks).
+//! gates from [`ptsa_firmware::GATES`] and logs `P` (data pulses) over `T` (clock ticks),
+//! with the stack's high-water mark so far ([`ptsa_firmware::stack_high_water_bytes`]).
 //!
 //! With the `qemu` feature (QEMU `netduinoplus2`, see docs/firmware.md) the clock set-up is
-//! skipped, each count is also printed as text through semihosting
-//! (`gate <n>: P=<pulses> T=<ticks> gates=<merged> t_ns=<virtual time, ns>`), and after
-//! `QEMU_GATES` (3) gates the image exits QEMU with status 0.
+//! skipped, TIM2's registers are printed (`tim2 psc=<PSC> arr=<ARR> ug_ns=<virtual time of
+//! the update generation, ns>`), each count is also printed as text through semihosting
+//! (`gate <n>: P=<pulses> T=<ticks> gates=<merged> t_ns=<virtual time, ns> stack=<bytes>`),
+//! and after `QEMU_GATES` (3) gates the image exits QEMU with status 0.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -43,6 +45,11 @@ fn main() -> ! {
     let board = Board::new(dp, ptsa);
     #[cfg(feature = "qemu")]
     let board_stopwatch = board.stopwatch;
+    #[cfg(feature = "qemu")]
+    {
+        let (psc, arr) = board.tick.timer_registers();
+        semihosting::println!("tim2 psc={} arr={} ug_ns={}", psc, arr, board.qemu_ug_ns);
+    }
     board.tick.start();
     critical_section::with(|cs| TICK.borrow(cs).replace(Some(board.tick)));
     unmask_tick();
@@ -59,23 +66,26 @@ fn main() -> ! {
             cortex_m::asm::wfi();
             continue;
         };
+        let stack = ptsa_firmware::stack_high_water_bytes();
         defmt::info!(
-            "gate P={=u64} T={=u64} ({=u32} gate(s))",
+            "gate P={=u64} T={=u64} ({=u32} gate(s)); stack high-water {=u32} B",
             count.pulses,
             count.ticks,
-            count.gates
+            count.gates,
+            stack
         );
         #[cfg(feature = "qemu")]
         {
             reported += 1;
             // Virtual time under `-icount shift=0`: TIM5 counts 1 GHz, i.e. nanoseconds.
             semihosting::println!(
-                "gate {}: P={} T={} gates={} t_ns={}",
+                "gate {}: P={} T={} gates={} t_ns={} stack={}",
                 reported,
                 count.pulses,
                 count.ticks,
                 count.gates,
-                ptsa_firmware::stopwatch(&board_stopwatch)
+                ptsa_firmware::stopwatch(&board_stopwatch),
+                stack
             );
             if reported == QEMU_GATES {
                 semihosting::process::exit(0);
