@@ -1,4 +1,4 @@
-//! Hidden-effect tests of the discovery pipeline (issue 4): synthetic measured sets built
+//! Hidden-effect tests of the discovery pipeline: synthetic measured sets built
 //! from the simulator with one effect of the vocabulary hidden (random sign and size) or
 //! none, analysed blind by `ptsa_host_sim::discovery::discover`.
 //!

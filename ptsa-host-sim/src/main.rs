@@ -133,7 +133,7 @@ enum Cmd {
     },
     /// The whole report programme (same as no subcommand).
     Report,
-    /// Discovery (issue 4): what the simulation gets wrong in measured data.
+    /// Discovery: what the simulation gets wrong in measured data, the effect that explains it, and the gain of the extended model.
     Discover(ptsa_host_sim::discovery::DiscoverArgs),
 }
 

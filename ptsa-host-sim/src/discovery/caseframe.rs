@@ -134,7 +134,7 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
             );
         }
         let mut c = Condition::default();
-        for (cell, &k) in cells.iter().zip(cols) {
+        for (j, (cell, &k)) in cells.iter().zip(cols).enumerate() {
             if k == 0 {
                 c.label = cell.clone();
                 continue;
@@ -146,14 +146,16 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
             let v: f64 = match s.parse() {
                 Ok(v) if f64::is_finite(v) => v,
                 _ => bail!(
-                    "{name}:{line}: column `{}` holds `{s}`; expected {}",
+                    "{name}:{line}: column {} (`{}`) holds `{s}`; expected {}",
+                    j + 1,
                     COLUMNS[k],
                     expectation(k)
                 ),
             };
             if (k == 7 && v < 0.0) || (k == 24 && v <= 0.0) {
                 bail!(
-                    "{name}:{line}: column `{}` holds `{s}`; expected {}",
+                    "{name}:{line}: column {} (`{}`) holds `{s}`; expected {}",
+                    j + 1,
                     COLUMNS[k],
                     expectation(k)
                 );
@@ -344,7 +346,7 @@ mod tests {
         let e = parse("bad.csv", "# c\ng_ia,measured_cm_s2\n1,0.5\n1,abc\n").unwrap_err();
         let m = format!("{e:#}");
         assert!(
-            m.contains("bad.csv:4") && m.contains("measured_cm_s2") && m.contains("expected"),
+            m.contains("bad.csv:4: column 2 (`measured_cm_s2`)") && m.contains("expected"),
             "{m}"
         );
         let e = parse("bad.csv", "g_ia,bogus\n1,2\n").unwrap_err();

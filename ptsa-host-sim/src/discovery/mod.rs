@@ -1,5 +1,5 @@
 //! `ptsa discover`: given measured data, show what the simulation gets wrong, name the cause,
-//! extend the model and measure the gain (issue 4; method in `docs/discovery.md`, data format
+//! extend the model and measure the gain (method in `docs/discovery.md`, data format
 //! in `docs/case-frame.md`).
 //!
 //! * [`caseframe`]: the case-frame CSV reader and writer.
