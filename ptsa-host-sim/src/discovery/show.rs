@@ -240,6 +240,25 @@ pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
 
 type DrawResult<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
+/// Tick labels for an axis spanning `span`: enough decimals for about ten ticks, and no
+/// "-0.0".
+fn value_tick(span: f64) -> impl Fn(&f64) -> String {
+    let step = (span / 10.0).abs().max(1e-9);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let decimals = (-step.log10().floor()).clamp(0.0, 6.0) as usize;
+    move |y: &f64| {
+        let t = format!("{y:.decimals$}");
+        if t.trim_start_matches('-')
+            .chars()
+            .all(|c| c == '0' || c == '.')
+        {
+            t.trim_start_matches('-').to_string()
+        } else {
+            t
+        }
+    }
+}
+
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     title: &str,
@@ -270,8 +289,35 @@ where
         hi = 1.0;
     }
     let pad = 0.1 * (hi - lo);
+    // Headroom above the data for the legend box (upper right), so it never hides a point.
+    let legend_room = 0.45 * (hi - lo);
     #[allow(clippy::cast_precision_loss)]
     let xmax = n as f64 - 0.5;
+    // Ticks at whole rows only; short labels (IA angles, phases) name the rows of small
+    // sets, else the 1-based row number of the data file.
+    let labels: Vec<&str> = rows.iter().map(|(_, r)| r.label.as_str()).collect();
+    let named = n <= 12
+        && labels
+            .iter()
+            .all(|l| !l.is_empty() && l.chars().count() <= 14);
+    let row_tick = move |x: &f64| -> String {
+        let k = x.round();
+        if (x - k).abs() > 1e-6 || k < 0.0 {
+            return String::new();
+        }
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let i = k as usize;
+        match labels.get(i) {
+            Some(l) if named => (*l).to_string(),
+            Some(_) => (i + 1).to_string(),
+            None => String::new(),
+        }
+    };
+    let x_desc = if named {
+        "row (label)"
+    } else {
+        "row (1 = first data row)"
+    };
     let blue = RGBColor(31, 119, 180);
     let orange = RGBColor(255, 127, 14);
     let green = RGBColor(44, 160, 44);
@@ -286,11 +332,14 @@ where
             .x_label_area_size(30)
             .y_label_area_size(60);
         }
-        let mut chart = b.build_cartesian_2d(-0.5..xmax, (lo - pad)..(hi + pad))?;
+        let mut chart = b.build_cartesian_2d(-0.5..xmax, (lo - pad)..(hi + pad + legend_room))?;
         let mut mesh = chart.configure_mesh();
         mesh.disable_x_mesh();
         if text {
-            mesh.x_desc("row")
+            mesh.x_desc(x_desc)
+                .x_labels(n + 1)
+                .x_label_formatter(&row_tick)
+                .y_label_formatter(&value_tick(hi - lo + 2.0 * pad + legend_room))
                 .y_desc("condition − reference, cm/s²")
                 .draw()?;
         } else {
@@ -338,6 +387,7 @@ where
                 .legend(move |(x, y)| Cross::new((x + 10, y), 5, blue));
             chart
                 .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
                 .background_style(WHITE.mix(0.8))
                 .border_style(BLACK)
                 .draw()?;
@@ -380,11 +430,17 @@ where
             .y_label_area_size(60);
         }
         let pad = 0.1 * (rh - rl);
-        let mut chart = b.build_cartesian_2d(-0.5..xmax, (rl - pad)..(rh + pad))?;
+        let room = 0.45 * (rh - rl);
+        let mut chart = b.build_cartesian_2d(-0.5..xmax, (rl - pad)..(rh + pad + room))?;
         let mut mesh = chart.configure_mesh();
         mesh.disable_x_mesh();
         if text {
-            mesh.x_desc("row").y_desc("residual, cm/s²").draw()?;
+            mesh.x_desc(x_desc)
+                .x_labels(n + 1)
+                .x_label_formatter(&row_tick)
+                .y_label_formatter(&value_tick(rh - rl + 2.0 * pad + room))
+                .y_desc("residual, cm/s²")
+                .draw()?;
         } else {
             mesh.disable_y_mesh().x_labels(0).y_labels(0).draw()?;
         }
@@ -409,6 +465,7 @@ where
                     .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, green.filled()));
                 chart
                     .configure_series_labels()
+                    .position(SeriesLabelPosition::UpperRight)
                     .background_style(WHITE.mix(0.8))
                     .border_style(BLACK)
                     .draw()?;
