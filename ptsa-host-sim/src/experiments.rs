@@ -229,6 +229,20 @@ pub fn tumble(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> (Tumble, Ou
         ],
         log_x: false,
     };
+    // What the first plot cannot show at its 2000 cm/s^2 scale: the loop's error.
+    let residual = Plot {
+        title: "Tumble: indicated − (g sin(phi) + A_b) vs IA angle".into(),
+        x_label: "IA angle above horizontal, deg".into(),
+        y_label: "indicated − expected, cm/s^2".into(),
+        series: vec![Series::markers(
+            "simulated − expected",
+            sweep
+                .iter()
+                .map(|&(a, x)| (a, x - (g * a.to_radians().sin() + t.bias_configured)))
+                .collect(),
+        )],
+        log_x: false,
+    };
     let notes = vec![format!(
         "tumble: SF {:.4} cm/s^2 (configured {:.4}, error {:.3} ppm), A_b {:.5} cm/s^2 (configured {:.5}); plain {} s counts give SF {:.2}, A_b {:.3}",
         sf,
@@ -245,7 +259,7 @@ pub fn tumble(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> (Tumble, Ou
         Output {
             name: "tumble".into(),
             tables: vec![tab, tab2],
-            plots: vec![plot],
+            plots: vec![plot, residual],
             notes,
         },
     )

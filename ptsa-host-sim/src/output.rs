@@ -224,6 +224,25 @@ const COLORS: [RGBColor; 6] = [
     RGBColor(0, 0, 0),
 ];
 
+/// Tick labels for an axis spanning `span`: enough decimals for about ten ticks, and no
+/// "-0.0".
+pub(crate) fn value_tick(span: f64) -> impl Fn(&f64) -> String {
+    let step = (span / 10.0).abs().max(1e-9);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let decimals = (-step.log10().floor()).clamp(0.0, 6.0) as usize;
+    move |y: &f64| {
+        let t = format!("{y:.decimals$}");
+        if t.trim_start_matches('-')
+            .chars()
+            .all(|c| c == '0' || c == '.')
+        {
+            t.trim_start_matches('-').to_string()
+        } else {
+            t
+        }
+    }
+}
+
 fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
     let pts = plot
         .series
@@ -281,6 +300,7 @@ where
                     .configure_mesh()
                     .x_desc(plot.x_label.as_str())
                     .y_desc(plot.y_label.as_str())
+                    .y_label_formatter(&value_tick(y1 - y0))
                     .label_style(("sans-serif", 13))
                     .draw()
                     .map_err(|e| anyhow::anyhow!("{e:?}"))?;

@@ -240,25 +240,6 @@ pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
 
 type DrawResult<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
-/// Tick labels for an axis spanning `span`: enough decimals for about ten ticks, and no
-/// "-0.0".
-fn value_tick(span: f64) -> impl Fn(&f64) -> String {
-    let step = (span / 10.0).abs().max(1e-9);
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let decimals = (-step.log10().floor()).clamp(0.0, 6.0) as usize;
-    move |y: &f64| {
-        let t = format!("{y:.decimals$}");
-        if t.trim_start_matches('-')
-            .chars()
-            .all(|c| c == '0' || c == '.')
-        {
-            t.trim_start_matches('-').to_string()
-        } else {
-            t
-        }
-    }
-}
-
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, plotters::coord::Shift>,
     title: &str,
@@ -339,7 +320,9 @@ where
             mesh.x_desc(x_desc)
                 .x_labels(n + 1)
                 .x_label_formatter(&row_tick)
-                .y_label_formatter(&value_tick(hi - lo + 2.0 * pad + legend_room))
+                .y_label_formatter(&crate::output::value_tick(
+                    hi - lo + 2.0 * pad + legend_room,
+                ))
                 .y_desc("condition − reference, cm/s²")
                 .draw()?;
         } else {
@@ -438,7 +421,7 @@ where
             mesh.x_desc(x_desc)
                 .x_labels(n + 1)
                 .x_label_formatter(&row_tick)
-                .y_label_formatter(&value_tick(rh - rl + 2.0 * pad + room))
+                .y_label_formatter(&crate::output::value_tick(rh - rl + 2.0 * pad + room))
                 .y_desc("residual, cm/s²")
                 .draw()?;
         } else {
