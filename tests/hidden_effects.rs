@@ -10,16 +10,20 @@
 //! (then by the quasi-static model; faster, no loop dynamics). The pipeline's baseline and
 //! re-simulation use the same kind of simulator, as `ptsa discover` does.
 
-use ptsa_host_sim::discovery::hidden::{CampaignSummary, campaign};
 use ptsa_host_sim::discovery::{self, Simulator};
+use ptsa_tests::hidden::{CampaignSummary, campaign};
 
 fn sims() -> (Box<dyn Simulator>, Box<dyn Simulator>) {
     let analytic = std::env::var("PTSA_HIDDEN_ANALYTIC").is_ok_and(|v| v == "1");
     // Different noise seeds for "the instrument" and "the model".
-    (
-        discovery::simulator(analytic, 7_777),
-        discovery::simulator(analytic, 1),
-    )
+    let sim = |seed| -> Box<dyn Simulator> {
+        if analytic {
+            discovery::analytic()
+        } else {
+            discovery::sim::closed_loop(seed)
+        }
+    };
+    (sim(7_777), sim(1))
 }
 
 fn check(s: &CampaignSummary) {

@@ -1,16 +1,13 @@
-//! Test conditions in the instrument's case frame, and the vocabulary of candidate effects.
+//! Test conditions in the instrument's case frame.
 //!
 //! A [`Condition`] is one row of the case-frame data format (`docs/case-frame.md`): gravity,
 //! constant rates, and sinusoidal linear and angular oscillations, all along or about the
 //! case axes IA, PA, OA (right-handed). [`Condition::inputs_at`] evaluates what the
-//! instrument feels at a time `t`. [`Effects`] holds the coefficients of the candidate error
-//! terms that the baseline model leaves out; [`Effects::indicated_cm_s2`] is their sum, an
-//! extra indicated acceleration (equivalently a torque `P·a` on the pendulum, eq. 4.2).
+//! instrument feels at a time `t`. Gravity is given in g; its value in cm/s² is the
+//! instrument file's `local_gravity_cm_s2`, passed in wherever inputs are evaluated (one
+//! source).
 
 use std::f64::consts::TAU;
-
-/// Local gravity, cm/s² (R-890 section 6.1).
-pub const G_CM_S2: f64 = 980.4;
 
 /// Axis indices in every `[f64; 3]` of this module.
 pub const IA: usize = 0;
@@ -24,7 +21,8 @@ pub const OA: usize = 2;
 pub struct Condition {
     /// Free text.
     pub label: String,
-    /// Gravity's specific force along IA, PA, OA with the case at rest, in g (980.4 cm/s²).
+    /// Gravity's specific force along IA, PA, OA with the case at rest, in g (the instrument
+    /// file's local gravity).
     pub g: [f64; 3],
     /// Constant angular rate of the case about IA, PA, OA, rad/s.
     pub w_rad_s: [f64; 3],
@@ -77,7 +75,7 @@ impl Condition {
             || (self.lin_cm_s2.iter().all(|&x| x == 0.0) && self.ang_mrad.iter().all(|&x| x == 0.0))
     }
 
-    /// Case-frame inputs at time `t` (s).
+    /// Case-frame inputs at time `t` (s), with local gravity `g_cm_s2`.
     ///
     /// Angular oscillation about axis j is the small angle `φ_j(t) = amp_j·1e-3·sin(ωt + p_j)`;
     /// its rate `φ̇_j` adds to `w_rad_s[j]` and `φ̈_j` is the angular acceleration. Gravity,
@@ -85,20 +83,21 @@ impl Condition {
     /// order: `g_case = g − φ × g`. Constant rates are taken to turn the case about a
     /// gravity-fixed axis (a rate table), so they do not rotate gravity in the case frame.
     #[must_use]
-    pub fn inputs_at(&self, t: f64) -> CaseInputs {
-        let p = self.prepare();
+    pub fn inputs_at(&self, t: f64, g_cm_s2: f64) -> CaseInputs {
+        let p = self.prepare(g_cm_s2);
         let (s, c) = (p.omega * t).sin_cos();
         p.inputs(s, c)
     }
 
     /// The condition reduced to per-axis sine and cosine coefficients of the common phase
     /// `ωt`, so that [`Prepared::inputs`] needs no trigonometry (the simulator's hot path).
+    /// `g_cm_s2` is the local gravity (the instrument file's).
     #[must_use]
-    pub fn prepare(&self) -> Prepared {
+    pub fn prepare(&self, g_cm_s2: f64) -> Prepared {
         let omega = TAU * self.freq_hz;
         let mut p = Prepared {
             omega,
-            g: self.g.map(|x| x * G_CM_S2),
+            g: self.g.map(|x| x * g_cm_s2),
             w0: self.w_rad_s,
             ..Prepared::default()
         };
@@ -203,84 +202,9 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     ]
 }
 
-/// Coefficients of the candidate effects (all zero in the baseline model). The names and
-/// keys are part of the `ptsa discover` contract.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Effects {
-    /// `anisoinertia`: `k_ai_cm·w_IA·w_PA`; `k_ai_cm = (I_PA − I_IA)/(m·l)`, cm.
-    pub k_ai_cm: f64,
-    /// `lever_arm`: proof-mass offset from the centre of rotation, cm (IA, PA, OA); the
-    /// term is the IA component of `dw × r + w × (w × r)`.
-    pub r_cm: [f64; 3],
-    /// `vibropendulosity`: `k_ip_s2_cm·a_IA·a_PA`, s²/cm.
-    pub k_ip_s2_cm: f64,
-    /// `anisoelasticity`: `k_io_s2_cm·a_IA·a_OA`, s²/cm.
-    pub k_io_s2_cm: f64,
-    /// `nonlinearity`: `k2_s2_cm·a_IA²`, s²/cm.
-    pub k2_s2_cm: f64,
-    /// `sculling`: `k_sc_s2·dw_OA·a_PA`, s².
-    pub k_sc_s2: f64,
-}
-
-impl Effects {
-    /// Whether every coefficient is zero.
-    #[must_use]
-    pub fn is_zero(&self) -> bool {
-        *self == Effects::default()
-    }
-
-    /// Sum of the effect terms at one instant: extra indicated acceleration along IA, cm/s².
-    #[must_use]
-    pub fn indicated_cm_s2(&self, i: &CaseInputs) -> f64 {
-        let [a_ia, a_pa, a_oa] = i.a_cm_s2;
-        let w = i.w_rad_s;
-        let dw = i.dw_rad_s2;
-        let r = self.r_cm;
-        let lever = cross(dw, r)[IA] + cross(w, cross(w, r))[IA];
-        self.k_ai_cm * w[IA] * w[PA]
-            + lever
-            + self.k_ip_s2_cm * a_ia * a_pa
-            + self.k_io_s2_cm * a_ia * a_oa
-            + self.k2_s2_cm * a_ia * a_ia
-            + self.k_sc_s2 * dw[OA] * a_pa
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn anisoinertia_at_45_degrees_matches_the_report_arithmetic() {
-        // Table 6.1 geometry: IA 45° above horizontal, table rate 1 rad/s about the vertical.
-        let phi = 45f64.to_radians();
-        let c = Condition {
-            g: [phi.sin(), phi.cos(), 0.0],
-            w_rad_s: [phi.sin(), phi.cos(), 0.0],
-            ..Condition::default()
-        };
-        let e = Effects {
-            k_ai_cm: 3.0,
-            ..Effects::default()
-        };
-        let x = e.indicated_cm_s2(&c.inputs_at(0.0));
-        assert!((x - 1.5).abs() < 1e-12, "{x}");
-    }
-
-    #[test]
-    fn lever_arm_along_pa_gives_centripetal_ia_term() {
-        // w about IA and PA, r along PA: w × (w × r) = w (w·r) − r |w|²; IA part = w_IA w_PA r_PA.
-        let c = Condition {
-            w_rad_s: [0.6, 0.8, 0.0],
-            ..Condition::default()
-        };
-        let e = Effects {
-            r_cm: [0.0, 2.0, 0.0],
-            ..Effects::default()
-        };
-        let x = e.indicated_cm_s2(&c.inputs_at(0.0));
-        assert!((x - 0.6 * 0.8 * 2.0).abs() < 1e-12, "{x}");
-    }
 
     #[test]
     fn oscillation_about_oa_tilts_gravity_into_ia() {
@@ -291,9 +215,10 @@ mod tests {
             ang_mrad: [0.0, 0.0, 2.0],
             ..Condition::default()
         };
-        let i = c.inputs_at(0.25); // sin = 1: φ_OA = 2 mrad
+        let g = 980.4;
+        let i = c.inputs_at(0.25, g); // sin = 1: φ_OA = 2 mrad
         // −(φ × g)_IA = −(φ_PA g_OA − φ_OA g_PA) = φ_OA g_PA
-        assert!((i.a_cm_s2[IA] - 2e-3 * G_CM_S2).abs() < 1e-9);
+        assert!((i.a_cm_s2[IA] - 2e-3 * g).abs() < 1e-9);
         assert!((i.dw_rad_s2[OA] + 2e-3 * TAU * TAU).abs() < 1e-9);
     }
 }

@@ -255,70 +255,8 @@ impl std::fmt::Display for Design {
     }
 }
 
-/// Complex number (just enough for loop analysis).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Cx {
-    /// Real part.
-    pub re: f64,
-    /// Imaginary part.
-    pub im: f64,
-}
-
-impl Cx {
-    /// `re + j·im`.
-    #[must_use]
-    pub const fn new(re: f64, im: f64) -> Self {
-        Self { re, im }
-    }
-    /// `exp(j·phi)`.
-    #[must_use]
-    pub fn expj(phi: f64) -> Self {
-        let (s, c) = phi.sin_cos();
-        Self { re: c, im: s }
-    }
-    /// Modulus.
-    #[must_use]
-    pub fn abs(self) -> f64 {
-        self.re.hypot(self.im)
-    }
-    /// Argument, rad.
-    #[must_use]
-    pub fn arg(self) -> f64 {
-        self.im.atan2(self.re)
-    }
-}
-
-impl std::ops::Add for Cx {
-    type Output = Cx;
-    fn add(self, o: Cx) -> Cx {
-        Cx::new(self.re + o.re, self.im + o.im)
-    }
-}
-impl std::ops::Sub for Cx {
-    type Output = Cx;
-    fn sub(self, o: Cx) -> Cx {
-        Cx::new(self.re - o.re, self.im - o.im)
-    }
-}
-impl std::ops::Mul for Cx {
-    type Output = Cx;
-    fn mul(self, o: Cx) -> Cx {
-        Cx::new(
-            self.re * o.re - self.im * o.im,
-            self.re * o.im + self.im * o.re,
-        )
-    }
-}
-impl std::ops::Div for Cx {
-    type Output = Cx;
-    fn div(self, o: Cx) -> Cx {
-        let d = o.re * o.re + o.im * o.im;
-        Cx::new(
-            (self.re * o.re + self.im * o.im) / d,
-            (self.im * o.re - self.re * o.im) / d,
-        )
-    }
-}
+/// Complex numbers of the loop analysis.
+pub type Cx = num_complex::Complex64;
 
 /// Stability margins of the linearised loop.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -341,29 +279,33 @@ pub fn loop_gain(instr: &Instrument, cfg: &Config, f_hz: f64) -> Cx {
     let t = 1.0 / instr.clock_hz;
     let w = TAU * f_hz;
     let s = Cx::new(0.0, w);
-    let zinv = Cx::expj(-w * t);
+    let zinv = Cx::cis(-w * t);
     let one = Cx::new(1.0, 0.0);
     let b0 = cfg.b0.to_num::<f64>();
     let b1 = cfg.b1.to_num::<f64>();
     let a1 = cfg.a1.to_num::<f64>();
     let ki = cfg.ki.to_num::<f64>();
-    let lead = (Cx::new(b0, 0.0) + Cx::new(b1, 0.0) * zinv) / (one - Cx::new(a1, 0.0) * zinv);
-    let integ = Cx::new(ki, 0.0) / (one - zinv);
+    let lead = (b0 + b1 * zinv) / (one - a1 * zinv);
+    let integ = ki / (one - zinv);
     let d = lead + integ; // comparator LSB per ADC LSB
     // Level → torque: 2^24 comparator LSB = full torque P·SF (dyn·cm).
     let torque_per_lsb = instr.full_torque_dyn_cm() / f64::from(1u32 << 24);
     // ZOH + one tick of delay: e^{-sT}·(1 − e^{-sT})/(sT)
-    let zoh = (one - zinv) / (s * Cx::new(t, 0.0));
+    let zoh = (one - zinv) / (s * t);
     let delay = zinv * zoh;
-    let current = one / (one + s * Cx::new(instr.torquer_tau_s, 0.0));
-    let pend = one
-        / (s * s * Cx::new(instr.inertia_dyn_cm_s2, 0.0)
-            + s * Cx::new(instr.damping_dyn_cm_s, 0.0)
-            + Cx::new(instr.spring_dyn_cm_rad, 0.0));
+    let current = one / (one + s * instr.torquer_tau_s);
+    let pend = pendulum(instr, f_hz);
     let wd = TAU * instr.demod_bandwidth_hz;
-    let demod = Cx::new(wd, 0.0) / (s + Cx::new(wd, 0.0));
+    let demod = wd / (s + wd);
     let pick = instr.lsb_per_rad() * instr.phase_error_rad.cos();
-    d * Cx::new(torque_per_lsb * pick, 0.0) * delay * current * pend * demod
+    d * (torque_per_lsb * pick) * delay * current * pend * demod
+}
+
+/// The pendulum's response `1/(I s² + C s + K)` at `f_hz`, rad per dyn·cm.
+#[must_use]
+pub fn pendulum(instr: &Instrument, f_hz: f64) -> Cx {
+    let s = Cx::new(0.0, TAU * f_hz);
+    1.0 / (s * s * instr.inertia_dyn_cm_s2 + s * instr.damping_dyn_cm_s + instr.spring_dyn_cm_rad)
 }
 
 /// Phase and gain margins of [`loop_gain`], found on a log grid from 1 Hz to Nyquist and
@@ -386,11 +328,11 @@ pub fn margins(instr: &Instrument, cfg: &Config) -> Margins {
     for k in 1..=n {
         let f = f_at(k);
         let l = loop_gain(instr, cfg, f);
-        if crossover.is_nan() && prev.abs() >= 1.0 && l.abs() < 1.0 {
+        if crossover.is_nan() && prev.norm() >= 1.0 && l.norm() < 1.0 {
             let (mut lo, mut hi) = (prev_f, f);
             for _ in 0..60 {
                 let mid = (lo * hi).sqrt();
-                if loop_gain(instr, cfg, mid).abs() >= 1.0 {
+                if loop_gain(instr, cfg, mid).norm() >= 1.0 {
                     lo = mid;
                 } else {
                     hi = mid;
@@ -429,7 +371,7 @@ pub fn margins(instr: &Instrument, cfg: &Config) -> Margins {
                     hi = mid;
                 }
             }
-            gm = -20.0 * loop_gain(instr, cfg, (lo * hi).sqrt()).abs().log10();
+            gm = -20.0 * loop_gain(instr, cfg, (lo * hi).sqrt()).norm().log10();
         }
         prev_phase = ph;
         prev = l;
@@ -445,6 +387,68 @@ pub fn margins(instr: &Instrument, cfg: &Config) -> Margins {
         phase_margin_deg: pm,
         gain_margin_db: gm,
     }
+}
+
+/// Smallest phase margin of a loop the simulator accepts, degrees.
+pub const MIN_PHASE_MARGIN_DEG: f64 = 30.0;
+/// Smallest gain margin of a loop the simulator accepts, dB.
+pub const MIN_GAIN_MARGIN_DB: f64 = 6.0;
+/// The crossover must stay below the limit-cycle frequency divided by this (the quantizer
+/// acts as a gain only well below the limit cycle).
+pub const LIMIT_CYCLE_TO_CROSSOVER: f64 = 4.0;
+
+/// The loop an instrument file gives: the compensator designed for it (the configuration the
+/// simulator runs) and its margins.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LoopCheck {
+    /// The compensator for this instrument (`Config::DEFAULT` for the shipped file).
+    pub config: Config,
+    /// Margins of the linearised loop.
+    pub margins: Margins,
+    /// Limit-cycle frequency, Hz (clock / ticks per cycle).
+    pub limit_cycle_hz: f64,
+}
+
+/// Design the compensator for `instr` and check that the loop is one the simulator can run:
+/// ptsa-core accepts the coefficients, the loop has a gain crossover, phase and gain margins
+/// of at least [`MIN_PHASE_MARGIN_DEG`] and [`MIN_GAIN_MARGIN_DB`], and the crossover lies
+/// below the limit-cycle frequency over [`LIMIT_CYCLE_TO_CROSSOVER`].
+///
+/// # Errors
+/// The reason the loop is refused, in the instrument file's terms.
+pub fn check_loop(instr: &Instrument) -> Result<LoopCheck, String> {
+    let d = Design::for_instrument(instr);
+    let config = d.config();
+    config.build().map_err(|e| {
+        format!(
+            "the compensator designed for this instrument (b0 {:.3}, b1 {:.3}, a1 {:.6}, ki {:.5}) is refused by ptsa-core: {e}",
+            d.b0, d.b1, d.a1, d.ki
+        )
+    })?;
+    let m = margins(instr, &config);
+    let lc = instr.clock_hz / f64::from(config.ticks_per_cycle);
+    if !m.crossover_hz.is_finite() {
+        return Err("the loop has no gain crossover below the Nyquist frequency".into());
+    }
+    if m.crossover_hz > lc / LIMIT_CYCLE_TO_CROSSOVER {
+        return Err(format!(
+            "the loop's crossover ({:.1} Hz) is not well below its limit cycle ({lc:.1} Hz = clock_hz / {} ticks): expected a crossover below {:.1} Hz (raise electronics.clock_hz)",
+            m.crossover_hz,
+            config.ticks_per_cycle,
+            lc / LIMIT_CYCLE_TO_CROSSOVER
+        ));
+    }
+    if !(m.phase_margin_deg >= MIN_PHASE_MARGIN_DEG && m.gain_margin_db >= MIN_GAIN_MARGIN_DB) {
+        return Err(format!(
+            "the loop is unstable or nearly so: phase margin {:.1} deg, gain margin {:.1} dB at {:.1} Hz crossover; expected at least {MIN_PHASE_MARGIN_DEG} deg and {MIN_GAIN_MARGIN_DB} dB",
+            m.phase_margin_deg, m.gain_margin_db, m.crossover_hz
+        ));
+    }
+    Ok(LoopCheck {
+        config,
+        margins: m,
+        limit_cycle_hz: lc,
+    })
 }
 
 #[cfg(test)]
@@ -471,6 +475,18 @@ mod tests {
         assert!((m.crossover_hz - 100.0).abs() < 15.0, "{m:?}");
         assert!(m.phase_margin_deg > 35.0, "{m:?}");
         assert!(m.gain_margin_db > 6.0, "{m:?}");
+    }
+
+    #[test]
+    fn the_shipped_loop_is_accepted_and_nonsense_refused() {
+        let i = Instrument::kearfott_2401();
+        let c = check_loop(&i).unwrap();
+        assert_eq!(c.config, Config::DEFAULT);
+        assert!((c.limit_cycle_hz - 1000.0).abs() < 1e-9);
+        let mut slow = i.clone();
+        slow.clock_hz = 1000.0;
+        let e = check_loop(&slow).unwrap_err();
+        assert!(e.contains("limit cycle") || e.contains("refused"), "{e}");
     }
 
     #[test]

@@ -4,9 +4,10 @@
 //! Case axes IA, PA, OA are right-handed. Specific force is "up" positive: IA up gives
 //! `g_ia = +1`. A lever arm `r` (cm, case axes) is the proof mass's offset from the centre of
 //! rotation: it feels `dw × r + w × (w × r)` (the `lever_arm` effect of [`Effects`]), which
-//! the simulator adds through [`Effects::r_cm`].
+//! the simulator adds through the `lever_arm` candidate of [`Effects`].
 
-use crate::condition::{Condition, Effects, IA, OA, PA, cross};
+use crate::condition::{Condition, IA, OA, PA, cross};
+use crate::effects::Effects;
 
 /// A condition and the lever arm of the fixture (cm, case axes).
 #[derive(Clone, Debug, PartialEq)]
@@ -22,10 +23,19 @@ impl Setup {
     #[must_use]
     pub fn effects(&self, effects: &Effects) -> Effects {
         let mut e = *effects;
-        for j in 0..3 {
-            e.r_cm[j] += self.lever_cm[j];
-        }
+        e.add_lever_arm_cm(self.lever_cm);
         e
+    }
+}
+
+/// A constant specific force `accel_cm_s2` along IA and nothing else (the plain static
+/// loop); `g_cm_s2` is the local gravity that the case frame's `g_*` columns are in.
+#[must_use]
+pub fn along_ia(accel_cm_s2: f64, g_cm_s2: f64) -> Condition {
+    Condition {
+        label: format!("{accel_cm_s2} cm/s^2 along IA"),
+        g: [accel_cm_s2 / g_cm_s2, 0.0, 0.0],
+        ..Condition::default()
     }
 }
 
@@ -41,9 +51,16 @@ pub fn dividing_head(ia_deg: f64) -> Condition {
     }
 }
 
-/// Round `1e-16`-ish values of `sin`/`cos` at multiples of 90° to zero.
+/// Round the `1e-16`-ish values of `sin`/`cos` at multiples of 90° to 0 and ±1, so that
+/// 180° gives `g_ia = 0`, not 1.2e-16.
 fn clean(x: f64) -> f64 {
-    if x.abs() < 1e-12 { 0.0 } else { x }
+    if x.abs() < 1e-12 {
+        0.0
+    } else if (x.abs() - 1.0).abs() < 1e-12 {
+        x.signum()
+    } else {
+        x
+    }
 }
 
 /// The dividing head on the rate table (Fig. 6.1): IA at `ia_deg` above horizontal, table
@@ -175,7 +192,7 @@ mod tests {
     #[test]
     fn table_6_1_geometry() {
         let s = rate_table(45.0, 1.0, 0.05, [0.0; 3]);
-        let i = s.cond.inputs_at(0.0);
+        let i = s.cond.inputs_at(0.0, 980.4);
         assert!((i.w_rad_s[IA] * i.w_rad_s[PA] - 0.5).abs() < 1e-12);
         assert!((s.cond.reference().w_rad_s[IA] - 0.05 * 0.5f64.sqrt()).abs() < 1e-12);
         let s = rate_table(180.0, 1.0, 0.05, [0.0; 3]);

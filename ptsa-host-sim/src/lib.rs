@@ -10,16 +10,21 @@
 //!   [`simulate_difference`] are the entry points.
 //! * [`design`]: the default compensator (`Config::DEFAULT`) and the loop's margins.
 
+pub mod bench;
 pub mod condition;
 pub mod design;
 pub mod discovery;
+pub mod effects;
 pub mod experiments;
 pub mod fixtures;
 pub mod instrument;
 pub mod output;
 pub mod plant;
+pub mod r890;
+pub mod report;
 pub mod sim;
 
-pub use condition::{CaseInputs, Condition, Effects};
+pub use condition::{CaseInputs, Condition};
+pub use effects::{CandidateId, Effects};
 pub use instrument::{Instrument, InstrumentError};
 pub use sim::{SimDifference, SimOptions, SimResult, simulate_condition, simulate_difference};

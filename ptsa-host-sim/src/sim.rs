@@ -31,7 +31,8 @@ use ptsa_core::{Config, Polarity, Ptsa, State};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 
-use crate::condition::{CaseInputs, Condition, Effects, IA, OA, PA, Prepared};
+use crate::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
+use crate::effects::{Effects, Signature};
 use crate::instrument::Instrument;
 use crate::plant::{NX, Plant};
 
@@ -52,6 +53,16 @@ pub struct SimOptions {
     pub harmonic: u32,
     /// The loop configuration (default: `Config::DEFAULT`).
     pub config: Config,
+}
+
+impl SimOptions {
+    /// Settling ticks before a measurement: `warmup_s` at the clock `clock_hz`, rounded.
+    #[must_use]
+    pub fn warmup_ticks(&self, clock_hz: f64) -> u64 {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let t = (self.warmup_s * clock_hz).round().max(0.0) as u64;
+        t
+    }
 }
 
 impl Default for SimOptions {
@@ -286,6 +297,9 @@ impl Acc {
     }
 }
 
+/// An effect term per unit coefficient: extra indicated acceleration, cm/s².
+type TermFn = fn(&CaseInputs) -> f64;
+
 /// The closed loop: instrument plant, ADC, `ptsa-core` loop, all state.
 #[derive(Clone, Debug)]
 pub struct ClosedLoop {
@@ -294,7 +308,8 @@ pub struct ClosedLoop {
     core: State,
     plant: Plant,
     prep: Prepared,
-    effects: Effects,
+    /// The non-zero effect terms, `(term per unit coefficient, coefficient)`.
+    effect_terms: Vec<(TermFn, f64)>,
     dynamic: bool,
     /// Plant state.
     x: [f64; NX],
@@ -333,7 +348,7 @@ impl ClosedLoop {
             core: ptsa.initial_state(),
             plant: Plant::new(instr, instr.spring_dyn_cm_rad),
             prep: Prepared::default(),
-            effects: *effects,
+            effect_terms: Vec::new(),
             dynamic: false,
             x: [0.0; NX],
             u: 1.0,
@@ -358,7 +373,7 @@ impl ClosedLoop {
     /// Change the condition (and effects) from the next tick on, keeping every state.
     pub fn set_condition(&mut self, cond: &Condition, effects: &Effects) {
         let instr = &self.instr;
-        let prep = cond.prepare();
+        let prep = cond.prepare(instr.g_cm_s2);
         let m = prep.mean_inputs();
         let p = self.p_gcm;
         let di = instr.anisoinertia_g_cm2;
@@ -367,7 +382,12 @@ impl ClosedLoop {
         let k_eff = instr.spring_dyn_cm_rad + p * self.a_pa0 - di * self.wq0;
         self.plant = Plant::new(instr, k_eff);
         self.prep = prep;
-        self.effects = *effects;
+        self.effect_terms = effects
+            .nonzero()
+            .map(|(id, c)| match id.info().signature {
+                Signature::Term(f) => (f, c),
+            })
+            .collect();
         self.dynamic = prep.is_dynamic();
         self.d0 = self.static_torque(&m);
     }
@@ -375,11 +395,7 @@ impl ClosedLoop {
     /// The θ-independent torque for inputs `i`, dyn·cm.
     #[inline(always)]
     fn static_torque(&self, i: &CaseInputs) -> f64 {
-        let eff = if self.effects.is_zero() {
-            0.0
-        } else {
-            self.effects.indicated_cm_s2(i)
-        };
+        let eff: f64 = self.effect_terms.iter().map(|&(f, c)| c * f(i)).sum();
         self.p_gcm * (i.a_cm_s2[IA] + self.instr.bias_cm_s2 + eff)
             - self.instr.inertia_dyn_cm_s2 * i.dw_rad_s2[OA]
             + self.instr.anisoinertia_g_cm2 * i.w_rad_s[IA] * i.w_rad_s[PA]
@@ -727,10 +743,9 @@ impl ClosedLoop {
     /// applied polarity, the noise generator's state, Φ of the free and the stop regions,
     /// the per-region, per-polarity plant inputs, the plant state and the noise table.
     /// `None` for a dynamic condition or a core that is not at reset.
-    #[doc(hidden)]
     #[must_use]
     #[allow(clippy::needless_range_loop)]
-    pub fn c_static_params(&self) -> Option<String> {
+    pub(crate) fn c_static_params(&self) -> Option<String> {
         use std::fmt::Write as _;
         if self.dynamic || self.harmonic != 0 || self.core != self.ptsa.initial_state() {
             return None;
@@ -901,12 +916,13 @@ fn static_phase<const POSITIVE: bool>(
 pub fn window_ticks(instr: &Instrument, cond: &Condition, opts: &SimOptions) -> u64 {
     let clock = instr.clock_hz;
     let n_cycle = f64::from(opts.config.ticks_per_cycle);
-    let ticks = if cond.prepare().is_dynamic() || (opts.harmonic != 0 && cond.freq_hz > 0.0) {
-        let periods = (opts.min_window_s * cond.freq_hz).ceil().max(1.0);
-        (periods * clock / cond.freq_hz).round()
-    } else {
-        (opts.min_window_s * clock / n_cycle).ceil().max(1.0) * n_cycle
-    };
+    let ticks =
+        if cond.prepare(instr.g_cm_s2).is_dynamic() || (opts.harmonic != 0 && cond.freq_hz > 0.0) {
+            let periods = (opts.min_window_s * cond.freq_hz).ceil().max(1.0);
+            (periods * clock / cond.freq_hz).round()
+        } else {
+            (opts.min_window_s * clock / n_cycle).ceil().max(1.0) * n_cycle
+        };
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let t = ticks as u64;
     t.max(1)
@@ -923,9 +939,7 @@ pub fn simulate_condition(
     opts: &SimOptions,
 ) -> SimResult {
     let mut l = ClosedLoop::new(instr, cond, effects, opts);
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let warm = (opts.warmup_s * instr.clock_hz).round() as u64;
-    l.run(warm);
+    l.run(opts.warmup_ticks(instr.clock_hz));
     l.measure(window_ticks(instr, cond, opts))
 }
 
@@ -947,7 +961,7 @@ pub fn simulate_difference(
     }
 }
 
-/// Result of `ptsa static`.
+/// Result of `ptsa static` (the JSON object of `ptsa static --json`).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct StaticRun {
     /// Clock ticks (`T`).
@@ -956,15 +970,16 @@ pub struct StaticRun {
     pub pulses: u64,
     /// `SF·(2P/T − 1)` with the configured SF, cm/s².
     pub indicated_cm_s2: f64,
+    /// The loop left its linear range during the gate: the integrator or the summing
+    /// junction clamped, the pendulum reached a mechanical stop, or the count sat at a rail
+    /// (`P = 0` or `P = T`). The indicated value is then not the input.
+    pub saturated: bool,
 }
 
-/// Settling time before the gate of [`run_static`], ticks (0.1 s at 64 kHz, whole cycles).
-pub const STATIC_SETTLE_TICKS: u64 = 6400;
-
 /// The plain closed loop with a constant acceleration `accel_cm_s2` along IA (no gravity,
-/// no rates; the instrument's bias and noise apply): after [`STATIC_SETTLE_TICKS`] of
-/// settling from reset, one gate of `ticks` ticks; the core's pulse count over the gate and
-/// eq. 6.1's value `SF·(2P/T − 1)` with the configured SF.
+/// no rates; the instrument's bias and noise apply): after `opts.warmup_s` of settling from
+/// reset, one gate of `ticks` ticks; the core's pulse count over the gate and eq. 6.1's
+/// value `SF·(2P/T − 1)` with the configured SF.
 ///
 /// Settling first matters: from reset the loop stores about eight pulses' worth of charge
 /// in the pendulum (the limit-cycle ripple and the integrator build-up) before it is in its
@@ -976,21 +991,59 @@ pub fn run_static(
     ticks: u64,
     opts: &SimOptions,
 ) -> StaticRun {
-    let cond = Condition {
-        label: "static".into(),
-        g: [accel_cm_s2 / crate::condition::G_CM_S2, 0.0, 0.0],
-        ..Condition::default()
+    run_static_with(instr, accel_cm_s2, ticks, opts, None, &mut |_, _| {})
+}
+
+/// Ticks between two calls of a progress callback.
+pub const PROGRESS_CHUNK: u64 = 1 << 22;
+
+/// [`run_static`] with an observer called on every tick from reset (settling and gate) and
+/// `progress(done, total)` called every [`PROGRESS_CHUNK`] ticks. The result is the same
+/// with or without them, tick for tick: the observed and the fast paths are bit-identical
+/// (a test checks it), and running in chunks changes nothing.
+pub fn run_static_with(
+    instr: &Instrument,
+    accel_cm_s2: f64,
+    ticks: u64,
+    opts: &SimOptions,
+    mut obs: Option<&mut dyn FnMut(&TickView)>,
+    progress: &mut dyn FnMut(u64, u64),
+) -> StaticRun {
+    let cond = crate::fixtures::along_ia(accel_cm_s2, instr.g_cm_s2);
+    let mut l = ClosedLoop::new(instr, &cond, &Effects::NONE, opts);
+    let settle = opts.warmup_ticks(instr.clock_hz);
+    let total = settle + ticks;
+    let mut done = 0;
+    let mut run = |l: &mut ClosedLoop, n: u64| {
+        let mut left = n;
+        while left > 0 {
+            let k = left.min(PROGRESS_CHUNK);
+            match obs.as_deref_mut() {
+                Some(f) => l.run_observed(k, |v| f(v)),
+                None => l.run_fast(k),
+            }
+            left -= k;
+            done += k;
+            progress(done, total);
+        }
     };
-    let mut l = ClosedLoop::new(instr, &cond, &Effects::default(), opts);
-    l.run_fast(STATIC_SETTLE_TICKS);
+    run(&mut l, settle);
     let p0 = l.core().total_pulses();
-    l.run_fast(ticks);
+    let s0 = l.core().saturations();
+    let stop0 = l.totals().stop_ticks;
+    run(&mut l, ticks);
     let pulses = u64::from((l.core().total_pulses() - p0).0);
+    let s1 = l.core().saturations();
     #[allow(clippy::cast_precision_loss)]
     let x = instr.sf_cm_s2 * (2.0 * pulses as f64 / ticks as f64 - 1.0);
     StaticRun {
         ticks,
         pulses,
         indicated_cm_s2: x,
+        saturated: s1.integrator != s0.integrator
+            || s1.output != s0.output
+            || l.totals().stop_ticks != stop0
+            || pulses == 0
+            || pulses == ticks,
     }
 }

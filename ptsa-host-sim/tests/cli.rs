@@ -25,10 +25,11 @@ fn static_json_is_one_object_with_eq_6_1() {
     let v: serde_json::Value = serde_json::from_str(&text).unwrap();
     let o = v.as_object().unwrap();
     let keys: Vec<&str> = o.keys().map(String::as_str).collect();
-    assert_eq!(keys.len(), 3);
-    for k in ["ticks", "pulses", "indicated_cm_s2"] {
+    assert_eq!(keys.len(), 4);
+    for k in ["ticks", "pulses", "indicated_cm_s2", "saturated"] {
         assert!(o.contains_key(k), "{text}");
     }
+    assert_eq!(o["saturated"], false);
     let t = o["ticks"].as_u64().unwrap();
     let p = o["pulses"].as_u64().unwrap();
     assert_eq!(t, 32_000);

@@ -1,8 +1,10 @@
 //! The report's experiments reproduce what the simulation was configured with.
 
-use ptsa_host_sim::experiments::{self, report};
+use ptsa_host_sim::experiments::appendix_a::{self, TwoAxisPlan};
+use ptsa_host_sim::experiments::{anisoinertia, monte_carlo, oa_coupling, tumble};
 use ptsa_host_sim::fixtures::TwoAxisKind;
-use ptsa_host_sim::{Effects, Instrument, SimOptions};
+use ptsa_host_sim::r890;
+use ptsa_host_sim::{CandidateId, Effects, Instrument, SimOptions};
 
 /// The tumble (eqs. 6.3/6.4 on the charge-balance counts) recovers the configured SF to
 /// 1 ppm and bias to 0.01 cm/s², for the shipped instrument and for one with a different
@@ -24,7 +26,7 @@ fn tumble_recovers_configured_sf_and_bias() {
             seed,
             ..SimOptions::default()
         };
-        let (t, _) = experiments::tumble(&instr, &opts, 1.0);
+        let t = tumble::run(&instr, &opts, 1.0).unwrap().tumble;
         let sf_ppm = (t.sf / t.sf_configured - 1.0) * 1e6;
         assert!(
             sf_ppm.abs() < 1.0,
@@ -48,35 +50,36 @@ fn tumble_recovers_configured_sf_and_bias() {
 #[test]
 fn anisoinertia_table_follows_the_coefficient() {
     let i = Instrument::kearfott_2401();
-    let (rows, k, _) = experiments::anisoinertia(
-        &i,
-        &SimOptions::default(),
-        report::ANISOINERTIA_G_CM2,
-        [0.0; 3],
-    );
-    for r in &rows {
-        assert!((r.simulated - r.predicted).abs() < 0.01, "{r:?}");
-        assert!(r.baseline.abs() < 0.01, "{r:?}");
+    let s62 = r890::section_6_2().unwrap();
+    let r =
+        anisoinertia::run(&i, &SimOptions::default(), s62.anisoinertia_g_cm2, [0.0; 3]).unwrap();
+    for row in &r.rows {
+        assert!((row.simulated - row.predicted).abs() < 0.01, "{row:?}");
+        assert!(row.baseline.abs() < 0.01, "{row:?}");
     }
+    let k = r.k_simulated_cm;
     assert!(
-        (k - report::ANISOINERTIA_G_CM2 / i.pendulosity_g_cm()).abs() < 0.01,
+        (k - s62.anisoinertia_g_cm2 / i.pendulosity_g_cm()).abs() < 0.01,
         "{k}"
     );
-    assert!((k - report::K_AI_CM).abs() < 0.1);
+    assert!((k - s62.coefficient_cm).abs() < 0.1);
 }
 
 /// Tables 6.2/6.3: no rectified OA coupling.
 #[test]
 fn oa_coupling_is_null() {
-    let (rows, _) = experiments::oa_coupling(
+    let r = oa_coupling::run(
         &Instrument::kearfott_2401(),
         &SimOptions::default(),
         [0.0; 3],
-    );
-    assert_eq!(rows.iter().filter(|r| r.simulated.is_some()).count(), 17);
-    for r in rows.iter().filter_map(|r| r.simulated) {
-        assert!(r.abs() < 0.01, "{r}");
+    )
+    .unwrap();
+    assert_eq!(r.rows.iter().filter(|r| r.simulated.is_some()).count(), 17);
+    for x in r.rows.iter().filter_map(|r| r.simulated) {
+        assert!(x.abs() < 0.01, "{x}");
     }
+    // The report's values are shown as dynamic − static (negated).
+    assert_eq!(r.rows[0].report, Some(0.03));
 }
 
 /// Appendix A: the closed loop's rectified error follows the linear loop model (within the
@@ -86,39 +89,25 @@ fn oa_coupling_is_null() {
 fn appendix_a_follows_the_linear_model() {
     let i = Instrument::kearfott_2401();
     let o = SimOptions::default();
-    let out = experiments::appendix_a(
-        &i,
-        &o,
-        TwoAxisKind::Vibropendulous,
-        100.0,
-        1.0,
-        1.0,
-        10.0,
-        &Effects::default(),
-    );
-    let t = &out.tables[0];
-    for row in &t.rows {
-        let (ptsa_host_sim::output::Cell::Num(sim, _), ptsa_host_sim::output::Cell::Num(pred, _)) =
-            (&row[1], &row[2])
-        else {
-            panic!("numbers expected");
-        };
+    let r = appendix_a::run(&i, &o, &TwoAxisPlan::report(TwoAxisKind::Vibropendulous)).unwrap();
+    for row in &r.rows {
+        let (sim, pred) = (row.simulated_dc, row.predicted_dc);
         assert!(
             (sim - pred).abs() < 0.2 * pred.abs() + 0.015,
             "{sim} vs {pred}"
         );
     }
-    let e = Effects {
-        k_io_s2_cm: 1e-5,
-        ..Effects::default()
+    let plan = TwoAxisPlan {
+        effects: Effects::only(CandidateId::Anisoelasticity, 1e-5),
+        ..TwoAxisPlan::report(TwoAxisKind::Anisoelastic)
     };
-    let out = experiments::appendix_a(&i, &o, TwoAxisKind::Anisoelastic, 100.0, 1.0, 1.0, 10.0, &e);
-    for row in &out.tables[0].rows {
-        let (ptsa_host_sim::output::Cell::Num(sim, _), ptsa_host_sim::output::Cell::Num(pred, _)) =
-            (&row[1], &row[2])
-        else {
-            panic!("numbers expected");
-        };
+    let r = appendix_a::run(&i, &o, &plan).unwrap();
+    for row in &r.rows {
+        let (sim, pred) = (row.simulated_dc, row.predicted_dc);
+        assert!(
+            pred.abs() > 0.05 || (row.psi_deg - 90.0).abs() < 1e-9,
+            "{pred}"
+        );
         assert!(
             (sim - pred).abs() < 0.01 + 0.01 * pred.abs(),
             "{sim} vs {pred}"
@@ -126,23 +115,37 @@ fn appendix_a_follows_the_linear_model() {
     }
 }
 
-/// Monte Carlo over every corner of the tolerance box: the loop keeps healthy margins and
-/// the worst corners run two reversals per cycle.
+/// Monte Carlo over every corner of the tolerance box: the loop keeps healthy margins, the
+/// worst corners run two reversals per cycle, and what they indicate beyond the input is
+/// their scale-factor change.
 #[test]
 fn tolerance_box_is_stable() {
     let i = Instrument::kearfott_2401();
-    let (pm, gm, out) = experiments::monte_carlo(&i, &SimOptions::default(), 256);
-    println!("{}", out.notes.join("\n"));
-    assert!(pm > 45.0, "worst phase margin {pm}");
-    assert!(gm > 10.0, "worst gain margin {gm}");
-    assert!(out.notes[0].contains("all stable"), "{}", out.notes[0]);
+    let r = monte_carlo::run(&i, &SimOptions::default(), 256).unwrap();
+    println!("{}", r.output.notes.join("\n"));
+    assert!(
+        r.worst_phase_margin_deg > 45.0,
+        "{}",
+        r.worst_phase_margin_deg
+    );
+    assert!(r.worst_gain_margin_db > 10.0, "{}", r.worst_gain_margin_db);
+    assert!(
+        r.output.notes[0].contains("all stable"),
+        "{}",
+        r.output.notes[0]
+    );
+    for c in &r.checks {
+        assert!(c.error_cm_s2.abs() > 1.0, "{c:?}");
+        assert!(c.residual_cm_s2.abs() < 0.01, "{c:?}");
+    }
 }
 
-/// Tables, CSV and plots are written (atomically, no temporary files left behind).
+/// Tables, CSV and plots are written under names that say what they hold (atomically, no
+/// temporary files left behind).
 #[test]
 fn outputs_are_written() {
-    let dir = std::env::temp_dir().join(format!("ptsa-out-test-{}", std::process::id()));
-    let (_, out) = experiments::oa_coupling(
+    let dir = tempfile::tempdir().unwrap();
+    let r = oa_coupling::run(
         &Instrument::kearfott_2401(),
         &SimOptions {
             min_window_s: 0.02,
@@ -150,29 +153,16 @@ fn outputs_are_written() {
             ..SimOptions::default()
         },
         [0.0; 3],
-    );
-    let files = out.emit(&dir, false).unwrap();
-    assert!(
-        files
-            .iter()
-            .any(|f| f.extension().is_some_and(|e| e == "csv"))
-    );
+    )
+    .unwrap();
+    let files = r.output.write_files(dir.path()).unwrap();
+    assert_eq!(files.len(), 6, "{files:?}");
     for f in &files {
         assert!(std::fs::metadata(f).unwrap().len() > 0, "{}", f.display());
     }
-    let csv = std::fs::read_to_string(dir.join("oa-coupling.csv")).unwrap();
-    assert!(csv.starts_with("freq Hz,amp mrad,report static-dynamic cm/s^2"));
+    let csv = std::fs::read_to_string(dir.path().join("oa-coupling-table-6-2.csv")).unwrap();
+    assert!(csv.starts_with("freq Hz,amp mrad,report dynamic-static cm/s^2"));
     assert!(csv.contains("5,,,,"), "missing rows stay empty: {csv}");
-    let leftovers = std::fs::read_dir(&dir)
-        .unwrap()
-        .filter(|e| {
-            e.as_ref()
-                .unwrap()
-                .file_name()
-                .to_string_lossy()
-                .contains(".tmp")
-        })
-        .count();
-    assert_eq!(leftovers, 0);
-    let _ = std::fs::remove_dir_all(&dir);
+    assert!(dir.path().join("oa-coupling-table-6-3.svg").exists());
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 6);
 }

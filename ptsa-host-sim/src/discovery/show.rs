@@ -4,20 +4,20 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{Context, Result};
-use plotters::prelude::*;
+use anyhow::Result;
 
-use super::caseframe::write_atomic;
-use super::method::{CANDIDATES, Discovery, Options, TEST_STATEMENT, discover};
-use super::report_data;
+use super::method::{Discovery, Options, RowResult, TEST_STATEMENT, discover};
 use super::sim::Simulator;
+use crate::effects::CandidateId;
+use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num, opt, text};
+use crate::r890;
 
-fn names(idx: &[usize]) -> String {
-    if idx.is_empty() {
+fn names(ids: &[CandidateId]) -> String {
+    if ids.is_empty() {
         return "none".to_string();
     }
-    idx.iter()
-        .map(|&i| CANDIDATES[i].name)
+    ids.iter()
+        .map(|&i| i.info().name)
         .collect::<Vec<_>>()
         .join(", ")
 }
@@ -86,7 +86,7 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             s,
             "  {} {:<20} delta chi2 {:8.2}  p = {} (level {})",
             if st.added { "add " } else { "drop" },
-            CANDIDATES[st.idx].name,
+            st.id.info().name,
             st.delta_chi2,
             pfmt(st.p_value),
             pfmt(st.threshold)
@@ -99,12 +99,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         );
     }
     for sel in &d.selected {
-        let c = CANDIDATES[sel.idx];
-        let conf: Vec<&str> = sel
-            .confounded
-            .iter()
-            .map(|&(o, _)| CANDIDATES[o].name)
-            .collect();
+        let c = sel.id.info();
+        let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| o.info().name).collect();
         let _ = writeln!(
             s,
             "selected: {} {} = {:.4} ± {:.4}{}",
@@ -158,56 +154,124 @@ fn truncate(s: &str, n: usize) -> String {
     }
 }
 
-/// Per-row CSV table.
+/// The per-row table (`<stem>.csv`): label, measured, sigma, baseline, extended and both
+/// residuals, cm/s².
 #[must_use]
-pub fn table_csv(d: &Discovery) -> String {
-    let mut s = String::from(
-        "label,measured_cm_s2,sigma_cm_s2,baseline_cm_s2,extended_cm_s2,residual_baseline_cm_s2,residual_extended_cm_s2\n",
+pub fn row_table(stem: &str, d: &Discovery) -> Table {
+    let mut t = Table::new(
+        stem,
+        &format!("{stem}: measured, baseline and extended per row (cm/s²)"),
+        &[
+            "label",
+            "measured_cm_s2",
+            "sigma_cm_s2",
+            "baseline_cm_s2",
+            "extended_cm_s2",
+            "residual_baseline_cm_s2",
+            "residual_extended_cm_s2",
+        ],
     );
     for r in &d.table {
-        let q = if r.label.contains([',', '"']) {
-            format!("\"{}\"", r.label.replace('"', "\"\""))
-        } else {
-            r.label.clone()
-        };
-        let (m, rb, re) =
-            r.measured_cm_s2
-                .map_or((String::new(), String::new(), String::new()), |m| {
-                    (
-                        format!("{m}"),
-                        format!("{}", m - r.baseline_cm_s2),
-                        format!("{}", m - r.extended_cm_s2),
-                    )
-                });
-        let _ = writeln!(
-            s,
-            "{q},{m},{},{},{},{rb},{re}",
-            r.sigma_cm_s2, r.baseline_cm_s2, r.extended_cm_s2
-        );
+        let m = r.measured_cm_s2;
+        t.rows.push(vec![
+            text(r.label.clone()),
+            opt(m, 3),
+            num(r.sigma_cm_s2, 3),
+            num(r.baseline_cm_s2, 3),
+            num(r.extended_cm_s2, 3),
+            opt(m.map(|m| m - r.baseline_cm_s2), 3),
+            opt(m.map(|m| m - r.extended_cm_s2), 3),
+        ]);
     }
-    s
+    t
 }
 
-/// Register a system TrueType font for the PNG backend once; false if none was found.
-fn font_ready() -> bool {
-    use std::sync::OnceLock;
-    static OK: OnceLock<bool> = OnceLock::new();
-    *OK.get_or_init(|| {
-        for p in [
-            "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
-            "/usr/share/fonts/TTF/DejaVuSans.ttf",
-            "/usr/share/fonts/dejavu/DejaVuSans.ttf",
-            "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
-        ] {
-            if let Ok(bytes) = std::fs::read(p) {
-                let leaked: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                if plotters::style::register_font("sans-serif", FontStyle::Normal, leaked).is_ok() {
-                    return true;
-                }
-            }
+/// The figure (`<stem>.png`, `.svg`): measured (± sigma), baseline and extended per row,
+/// and below it the residuals before and after. Rows are ticked by their labels when there
+/// are few short ones, else by row number; many rows are drawn as points, not lines.
+#[must_use]
+pub fn figure(stem: &str, d: &Discovery) -> Figure {
+    let labels: Vec<String> = d.table.iter().map(|r| r.label.clone()).collect();
+    let few = labels.len() <= 12;
+    #[allow(clippy::cast_precision_loss)]
+    let at = |i: usize| i as f64;
+    let per_row = |f: &dyn Fn(&RowResult) -> Option<f64>| -> Vec<(f64, f64)> {
+        d.table
+            .iter()
+            .enumerate()
+            .filter_map(|(i, r)| f(r).map(|v| (at(i), v)))
+            .collect()
+    };
+    let base = per_row(&|r| Some(r.baseline_cm_s2));
+    let ext = per_row(&|r| Some(r.extended_cm_s2));
+    let measured: Vec<&RowResult> = d
+        .table
+        .iter()
+        .filter(|r| r.measured_cm_s2.is_some())
+        .collect();
+    let meas = per_row(&|r| r.measured_cm_s2);
+    let sig: Vec<f64> = measured.iter().map(|r| r.sigma_cm_s2).collect();
+    let (b, e) = if few {
+        (
+            Series::line("baseline", base),
+            Series::line("extended", ext),
+        )
+    } else {
+        (
+            Series::markers("baseline", base),
+            Series::triangles("extended", ext),
+        )
+    };
+    let top = Plot {
+        title: format!("{stem}: measured, baseline and extended"),
+        x_label: if few {
+            "row (label)"
+        } else {
+            "row (1 = first data row)"
         }
-        false
-    })
+        .into(),
+        y_label: "condition − reference, cm/s²".into(),
+        series: vec![
+            Series::crosses("measured ± sigma", meas).with_error_bars(sig),
+            b,
+            e,
+        ],
+        x_axis: XAxis::Rows(labels.clone()),
+        zero_line: false,
+    };
+    let before = per_row(&|r| r.measured_cm_s2.map(|m| m - r.baseline_cm_s2));
+    let after = per_row(&|r| r.measured_cm_s2.map(|m| m - r.extended_cm_s2));
+    let bottom = Plot {
+        title: "residuals: measured − baseline, measured − extended".into(),
+        x_label: top.x_label.clone(),
+        y_label: "residual, cm/s²".into(),
+        series: vec![
+            Series::markers(
+                "before (baseline)",
+                before.into_iter().map(|(x, y)| (x - 0.1, y)).collect(),
+            ),
+            Series::triangles(
+                "after (extended)",
+                after.into_iter().map(|(x, y)| (x + 0.1, y)).collect(),
+            ),
+        ],
+        x_axis: XAxis::Rows(labels),
+        zero_line: true,
+    };
+    Figure {
+        stem: stem.into(),
+        panels: vec![top, bottom],
+    }
+}
+
+/// The table and the figure of one analysis, as an [`Output`].
+#[must_use]
+pub fn output(stem: &str, d: &Discovery) -> Output {
+    Output {
+        tables: vec![row_table(stem, d)],
+        plots: vec![figure(stem, d)],
+        notes: Vec::new(),
+    }
 }
 
 /// Write `<stem>.csv`, `<stem>.png` and `<stem>.svg` into `dir`.
@@ -215,247 +279,7 @@ fn font_ready() -> bool {
 /// # Errors
 /// The directory or a file cannot be written.
 pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
-    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    write_atomic(&dir.join(format!("{stem}.csv")), &table_csv(d))?;
-    // Text needs a TrueType font (ab_glyph); without one the plots are drawn unlabelled.
-    let text = font_ready();
-    let svg = dir.join(format!("{stem}.svg"));
-    draw(
-        SVGBackend::new(&svg, (1000, 700)).into_drawing_area(),
-        stem,
-        d,
-        text,
-    )
-    .map_err(|e| anyhow::anyhow!("{}: {e}", svg.display()))?;
-    let png = dir.join(format!("{stem}.png"));
-    draw(
-        BitMapBackend::new(&png, (1000, 700)).into_drawing_area(),
-        stem,
-        d,
-        text,
-    )
-    .map_err(|e| anyhow::anyhow!("{}: {e}", png.display()))?;
-    Ok(())
-}
-
-type DrawResult<T> = std::result::Result<T, Box<dyn std::error::Error>>;
-
-fn draw<DB: DrawingBackend>(
-    root: DrawingArea<DB, plotters::coord::Shift>,
-    title: &str,
-    d: &Discovery,
-    text: bool,
-) -> DrawResult<()>
-where
-    DB::ErrorType: 'static,
-{
-    root.fill(&WHITE)?;
-    let (top, bottom) = root.split_vertically(400);
-    let rows: Vec<(usize, &super::method::RowResult)> = d.table.iter().enumerate().collect();
-    let n = rows.len().max(1);
-    let mut lo = f64::INFINITY;
-    let mut hi = f64::NEG_INFINITY;
-    for (_, r) in &rows {
-        for v in [
-            r.measured_cm_s2.unwrap_or(0.0),
-            r.baseline_cm_s2,
-            r.extended_cm_s2,
-        ] {
-            lo = lo.min(v - r.sigma_cm_s2);
-            hi = hi.max(v + r.sigma_cm_s2);
-        }
-    }
-    if !(hi - lo).is_finite() || hi <= lo {
-        lo = -1.0;
-        hi = 1.0;
-    }
-    let pad = 0.1 * (hi - lo);
-    // Headroom above the data for the legend box (upper right), so it never hides a point.
-    let legend_room = 0.45 * (hi - lo);
-    #[allow(clippy::cast_precision_loss)]
-    let xmax = n as f64 - 0.5;
-    // Ticks at whole rows only; short labels (IA angles, phases) name the rows of small
-    // sets, else the 1-based row number of the data file.
-    let labels: Vec<&str> = rows.iter().map(|(_, r)| r.label.as_str()).collect();
-    let named = n <= 12
-        && labels
-            .iter()
-            .all(|l| !l.is_empty() && l.chars().count() <= 14);
-    let row_tick = move |x: &f64| -> String {
-        let k = x.round();
-        if (x - k).abs() > 1e-6 || k < 0.0 {
-            return String::new();
-        }
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let i = k as usize;
-        match labels.get(i) {
-            Some(l) if named => (*l).to_string(),
-            Some(_) => (i + 1).to_string(),
-            None => String::new(),
-        }
-    };
-    let x_desc = if named {
-        "row (label)"
-    } else {
-        "row (1 = first data row)"
-    };
-    let blue = RGBColor(31, 119, 180);
-    let orange = RGBColor(255, 127, 14);
-    let green = RGBColor(44, 160, 44);
-    {
-        let mut b = ChartBuilder::on(&top);
-        b.margin(10);
-        if text {
-            b.caption(
-                format!("{title}: measured, baseline and extended (cm/s²)"),
-                ("sans-serif", 20),
-            )
-            .x_label_area_size(30)
-            .y_label_area_size(60);
-        }
-        let mut chart = b.build_cartesian_2d(-0.5..xmax, (lo - pad)..(hi + pad + legend_room))?;
-        let mut mesh = chart.configure_mesh();
-        mesh.disable_x_mesh();
-        if text {
-            mesh.x_desc(x_desc)
-                .x_labels(n + 1)
-                .x_label_formatter(&row_tick)
-                .y_label_formatter(&crate::output::value_tick(
-                    hi - lo + 2.0 * pad + legend_room,
-                ))
-                .y_desc("condition − reference, cm/s²")
-                .draw()?;
-        } else {
-            mesh.disable_y_mesh().x_labels(0).y_labels(0).draw()?;
-        }
-        #[allow(clippy::cast_precision_loss)]
-        let pts = |f: &dyn Fn(&super::method::RowResult) -> Option<f64>| -> Vec<(f64, f64)> {
-            rows.iter()
-                .filter_map(|(i, r)| f(r).map(|v| (*i as f64, v)))
-                .collect()
-        };
-        let base = pts(&|r| Some(r.baseline_cm_s2));
-        let ext = pts(&|r| Some(r.extended_cm_s2));
-        let meas = pts(&|r| r.measured_cm_s2);
-        let s = chart.draw_series(LineSeries::new(base.clone(), orange.stroke_width(2)))?;
-        if text {
-            s.label("baseline")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], orange));
-        }
-        chart.draw_series(base.iter().map(|&p| Circle::new(p, 3, orange.filled())))?;
-        let s = chart.draw_series(LineSeries::new(ext.clone(), green.stroke_width(2)))?;
-        if text {
-            s.label("extended")
-                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], green));
-        }
-        chart.draw_series(
-            ext.iter()
-                .map(|&p| TriangleMarker::new(p, 4, green.filled())),
-        )?;
-        #[allow(clippy::cast_precision_loss)]
-        chart.draw_series(rows.iter().filter_map(|(i, r)| {
-            r.measured_cm_s2.map(|m| {
-                PathElement::new(
-                    vec![
-                        (*i as f64, m - r.sigma_cm_s2),
-                        (*i as f64, m + r.sigma_cm_s2),
-                    ],
-                    blue,
-                )
-            })
-        }))?;
-        let s = chart.draw_series(meas.iter().map(|&p| Cross::new(p, 5, blue.stroke_width(2))))?;
-        if text {
-            s.label("measured ± sigma")
-                .legend(move |(x, y)| Cross::new((x + 10, y), 5, blue));
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.8))
-                .border_style(BLACK)
-                .draw()?;
-        }
-    }
-    {
-        let res: Vec<(usize, f64, f64, f64)> = rows
-            .iter()
-            .filter_map(|(i, r)| {
-                r.measured_cm_s2.map(|m| {
-                    (
-                        *i,
-                        m - r.baseline_cm_s2,
-                        m - r.extended_cm_s2,
-                        r.sigma_cm_s2,
-                    )
-                })
-            })
-            .collect();
-        let mut rl = res
-            .iter()
-            .map(|r| r.1.min(r.2) - r.3)
-            .fold(f64::INFINITY, f64::min);
-        let mut rh = res
-            .iter()
-            .map(|r| r.1.max(r.2) + r.3)
-            .fold(f64::NEG_INFINITY, f64::max);
-        if !(rh - rl).is_finite() || rh <= rl {
-            rl = -1.0;
-            rh = 1.0;
-        }
-        let mut b = ChartBuilder::on(&bottom);
-        b.margin(10);
-        if text {
-            b.caption(
-                "residuals: measured − baseline, measured − extended",
-                ("sans-serif", 18),
-            )
-            .x_label_area_size(30)
-            .y_label_area_size(60);
-        }
-        let pad = 0.1 * (rh - rl);
-        let room = 0.45 * (rh - rl);
-        let mut chart = b.build_cartesian_2d(-0.5..xmax, (rl - pad)..(rh + pad + room))?;
-        let mut mesh = chart.configure_mesh();
-        mesh.disable_x_mesh();
-        if text {
-            mesh.x_desc(x_desc)
-                .x_labels(n + 1)
-                .x_label_formatter(&row_tick)
-                .y_label_formatter(&crate::output::value_tick(rh - rl + 2.0 * pad + room))
-                .y_desc("residual, cm/s²")
-                .draw()?;
-        } else {
-            mesh.disable_y_mesh().x_labels(0).y_labels(0).draw()?;
-        }
-        chart.draw_series(LineSeries::new(vec![(-0.5, 0.0), (xmax, 0.0)], BLACK))?;
-        #[allow(clippy::cast_precision_loss)]
-        {
-            let s = chart.draw_series(
-                res.iter()
-                    .map(|r| Circle::new((r.0 as f64 - 0.1, r.1), 4, orange.filled())),
-            )?;
-            if text {
-                s.label("before (baseline)")
-                    .legend(move |(x, y)| Circle::new((x + 10, y), 4, orange.filled()));
-            }
-            let s =
-                chart
-                    .draw_series(res.iter().map(|r| {
-                        TriangleMarker::new((r.0 as f64 + 0.1, r.2), 5, green.filled())
-                    }))?;
-            if text {
-                s.label("after (extended)")
-                    .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 5, green.filled()));
-                chart
-                    .configure_series_labels()
-                    .position(SeriesLabelPosition::UpperRight)
-                    .background_style(WHITE.mix(0.8))
-                    .border_style(BLACK)
-                    .draw()?;
-            }
-        }
-    }
-    root.present()?;
+    output(stem, d).write_files(dir)?;
     Ok(())
 }
 
@@ -478,8 +302,9 @@ pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
     let mut details = String::new();
-    for (name, _, rows) in report_data::case_files()? {
-        let d = discover(&rows, sim, opts)?;
+    for f in r890::case_files()? {
+        let name = f.name;
+        let d = discover(&f.rows, sim, opts)?;
         let j = &d.json;
         let sel = if d.selected.is_empty() {
             ("none".to_string(), "—".to_string(), "—".to_string())
@@ -487,21 +312,17 @@ pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -
             let n: Vec<String> = d
                 .selected
                 .iter()
-                .map(|x| CANDIDATES[x.idx].name.to_string())
+                .map(|x| x.id.info().name.to_string())
                 .collect();
             let c: Vec<String> = d
                 .selected
                 .iter()
-                .map(|x| format!("{:.2} ± {:.2} {}", x.coef, x.stderr, CANDIDATES[x.idx].key))
+                .map(|x| format!("{:.2} ± {:.2} {}", x.coef, x.stderr, x.id.info().key))
                 .collect();
             let f: Vec<String> = d
                 .selected
                 .iter()
-                .flat_map(|x| {
-                    x.confounded
-                        .iter()
-                        .map(|&(o, _)| CANDIDATES[o].name.to_string())
-                })
+                .flat_map(|x| x.confounded.iter().map(|&(o, _)| o.info().name.to_string()))
                 .collect();
             (
                 n.join(", "),
@@ -550,7 +371,8 @@ mod tests {
     #[test]
     fn report_section_writes_tables_and_plots() {
         let dir = std::env::temp_dir().join(format!("ptsa-discover-{}", std::process::id()));
-        let md = report_section(&AnalyticSimulator, &Options::default(), Some(&dir)).unwrap();
+        let sim = AnalyticSimulator::for_instrument(&crate::Instrument::kearfott_2401());
+        let md = report_section(&sim, &Options::default(), Some(&dir)).unwrap();
         assert!(md.contains("anisoinertia") && md.contains("lever_arm.r_pa_cm"));
         for stem in ["r890-table-6.1", "r890-table-6.2", "r890-table-6.3"] {
             for ext in ["csv", "png", "svg"] {

@@ -1,12 +1,15 @@
 //! What the discovery pipeline needs from a simulator, and the two it can use.
 
-use crate::condition::{Condition, Effects};
+use crate::condition::Condition;
+use crate::effects::Effects;
 
 /// A model of the instrument that predicts a row's `measured_cm_s2`: the mean indicated
 /// acceleration in the condition minus that in its reference condition, cm/s².
 pub trait Simulator: Sync {
     /// Short name for reports (`"closed-loop"`, `"analytic"`).
     fn name(&self) -> &'static str;
+    /// Local gravity of the simulated instrument, cm/s² (what `g_*` = 1 means).
+    fn g_cm_s2(&self) -> f64;
     /// Predicted condition-minus-reference difference with the given extra effects, cm/s².
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64;
 }
@@ -18,19 +21,33 @@ pub trait Simulator: Sync {
 /// For terms linear in their coefficients this is exact: every term is a product of at most
 /// two sinusoids at one frequency, i.e. a trigonometric polynomial of degree ≤ 2, and the
 /// mean of such a polynomial over `N ≥ 3` equally spaced samples of one period is exact.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct AnalyticSimulator;
+#[derive(Clone, Copy, Debug)]
+pub struct AnalyticSimulator {
+    /// Local gravity, cm/s² (the instrument file's).
+    pub g_cm_s2: f64,
+}
+
+impl AnalyticSimulator {
+    /// The analytic model with the local gravity of `instr`.
+    #[must_use]
+    pub fn for_instrument(instr: &crate::instrument::Instrument) -> Self {
+        Self {
+            g_cm_s2: instr.g_cm_s2,
+        }
+    }
+}
 
 /// Samples per period (exact for degree < 8; the terms have degree ≤ 2).
 const SAMPLES: usize = 8;
 /// [`SAMPLES`] as a float.
 const SAMPLES_F: f64 = 8.0;
 
-/// Mean of the effect terms over one period of `cond` (one sample if static), cm/s².
+/// Mean of the effect terms over one period of `cond` (one sample if static), cm/s², with
+/// local gravity `g_cm_s2`.
 #[must_use]
-pub fn mean_effect_cm_s2(cond: &Condition, effects: &Effects) -> f64 {
+pub fn mean_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> f64 {
     if cond.is_static() {
-        return effects.indicated_cm_s2(&cond.inputs_at(0.0));
+        return effects.indicated_cm_s2(&cond.inputs_at(0.0, g_cm_s2));
     }
     let period = 1.0 / cond.freq_hz;
     #[allow(clippy::cast_precision_loss)]
@@ -39,16 +56,17 @@ pub fn mean_effect_cm_s2(cond: &Condition, effects: &Effects) -> f64 {
         .map(|k| {
             #[allow(clippy::cast_precision_loss)]
             let t = k as f64 * dt;
-            effects.indicated_cm_s2(&cond.inputs_at(t))
+            effects.indicated_cm_s2(&cond.inputs_at(t, g_cm_s2))
         })
         .sum::<f64>()
         / SAMPLES_F
 }
 
 /// Mean of `|each term|`-ish magnitude used to tell an exactly cancelling column from a real
-/// one: the mean absolute effect in the condition plus that in the reference, cm/s².
+/// one: the mean absolute effect in the condition plus that in the reference, cm/s² (local
+/// gravity `g_cm_s2`).
 #[must_use]
-pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects) -> f64 {
+pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> f64 {
     let r = cond.reference();
     let n = if cond.is_static() { 1 } else { SAMPLES };
     let period = if cond.freq_hz > 0.0 {
@@ -62,9 +80,9 @@ pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects) -> f64 {
     for k in 0..n {
         #[allow(clippy::cast_precision_loss)]
         let t = k as f64 * period / nf;
-        s += effects.indicated_cm_s2(&cond.inputs_at(t)).abs();
+        s += effects.indicated_cm_s2(&cond.inputs_at(t, g_cm_s2)).abs();
     }
-    s / nf + effects.indicated_cm_s2(&r.inputs_at(0.0)).abs()
+    s / nf + effects.indicated_cm_s2(&r.inputs_at(0.0, g_cm_s2)).abs()
 }
 
 impl Simulator for AnalyticSimulator {
@@ -72,8 +90,13 @@ impl Simulator for AnalyticSimulator {
         "analytic"
     }
 
+    fn g_cm_s2(&self) -> f64 {
+        self.g_cm_s2
+    }
+
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        mean_effect_cm_s2(cond, effects) - mean_effect_cm_s2(&cond.reference(), effects)
+        mean_effect_cm_s2(cond, effects, self.g_cm_s2)
+            - mean_effect_cm_s2(&cond.reference(), effects, self.g_cm_s2)
     }
 }
 
@@ -107,6 +130,10 @@ impl Simulator for ClosedLoopSimulator {
         "closed-loop"
     }
 
+    fn g_cm_s2(&self) -> f64 {
+        self.instrument.g_cm_s2
+    }
+
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
         crate::sim::simulate_difference(&self.instrument, cond, effects, &self.options)
             .difference_cm_s2
@@ -122,10 +149,12 @@ pub fn closed_loop(seed: u64) -> Box<dyn Simulator> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::condition::G_CM_S2;
+    use crate::effects::CandidateId;
 
     #[test]
     fn rectified_vibropendulosity_is_half_the_amplitude_product_times_cos_phase() {
+        let g = 980.4;
+        let sim = AnalyticSimulator { g_cm_s2: g };
         let c = Condition {
             g: [1.0, 0.0, 0.0],
             freq_hz: 10.0,
@@ -133,22 +162,13 @@ mod tests {
             lin_deg: [0.0, 60.0, 0.0],
             ..Condition::default()
         };
-        let e = Effects {
-            k_ip_s2_cm: 1e-4,
-            ..Effects::default()
-        };
-        let d = AnalyticSimulator.difference_cm_s2(&c, &e);
+        let e = Effects::only(CandidateId::Vibropendulosity, 1e-4);
+        let d = sim.difference_cm_s2(&c, &e);
         let want = 1e-4 * 200.0 * 300.0 * 60f64.to_radians().cos() / 2.0;
         assert!((d - want).abs() < 1e-12, "{d} {want}");
         // Gravity alone cancels against the reference.
-        let e2 = Effects {
-            k2_s2_cm: 1e-6,
-            ..Effects::default()
-        };
-        let d2 = AnalyticSimulator.difference_cm_s2(&c, &e2);
-        assert!(
-            (d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * G_CM_S2,
-            "{d2}"
-        );
+        let e2 = Effects::only(CandidateId::Nonlinearity, 1e-6);
+        let d2 = sim.difference_cm_s2(&c, &e2);
+        assert!((d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * g, "{d2}");
     }
 }

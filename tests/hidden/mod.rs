@@ -1,7 +1,7 @@
 //! Hidden-effect generator and campaign: synthetic measured sets built from a simulator
 //! with one effect of the vocabulary hidden in them (random sign and size) or none, and the
-//! scoring of the pipeline's blind answer (`tests/hidden_effects.rs`,
-//! `cargo xtask hidden`).
+//! scoring of the pipeline's blind answer (`tests/hidden_effects.rs`, `cargo xtask hidden`).
+//! Test support: not part of `ptsa-host-sim`'s interface.
 //!
 //! Designs (chosen at random per set, redrawn until the hidden effect leaves a signature):
 //! * **rate table**, like Table 6.1: 8–16 positions of IA in a vertical plane (the IA–PA
@@ -23,62 +23,55 @@ use std::fmt::Write as _;
 
 use rayon::prelude::*;
 
-use super::method::{CANDIDATES, Discovery, Options, discover, unit_effect};
-use super::sim::{AnalyticSimulator, Simulator, gross_effect_cm_s2};
-use super::stats::norm;
-use crate::condition::{Condition, Effects};
+use ptsa_host_sim::condition::Condition;
+use ptsa_host_sim::discovery::sim::{AnalyticSimulator, Simulator, gross_effect_cm_s2};
+use ptsa_host_sim::discovery::{Discovery, Options, discover};
+use ptsa_host_sim::effects::{CandidateId, Effects, N_CANDIDATES};
 
-/// Small deterministic generator (SplitMix64), so sets are reproducible from their seed.
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
 
-impl Rng {
-    /// Seeded generator.
-    #[must_use]
-    pub fn new(seed: u64) -> Self {
-        Rng(seed ^ 0x9E37_79B9_7F4A_7C15)
-    }
-    /// Next 64 random bits.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
+/// The seeded generator of the sets (ChaCha8: the same stream on every machine).
+pub type Rng = rand_chacha::ChaCha8Rng;
+
+/// The draws the generator makes, on any [`rand::Rng`].
+pub trait Draw: rand::Rng {
     /// Uniform in [0, 1).
-    pub fn uniform(&mut self) -> f64 {
-        #[allow(clippy::cast_precision_loss)]
-        let x = (self.next_u64() >> 11) as f64;
-        x * (1.0 / 9_007_199_254_740_992.0)
+    fn uniform(&mut self) -> f64 {
+        self.random::<f64>()
     }
     /// Uniform in [lo, hi).
-    pub fn range(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * self.uniform()
+    fn range(&mut self, lo: f64, hi: f64) -> f64 {
+        self.random_range(lo..hi)
     }
     /// Uniform integer in [lo, hi].
-    pub fn int(&mut self, lo: usize, hi: usize) -> usize {
-        #[allow(clippy::cast_possible_truncation)]
-        let k = (self.next_u64() % (hi - lo + 1) as u64) as usize;
-        lo + k
+    fn int(&mut self, lo: usize, hi: usize) -> usize {
+        self.random_range(lo..=hi)
     }
-    /// Standard normal (Box–Muller).
-    pub fn normal(&mut self) -> f64 {
-        let u1 = self.uniform().max(1e-300);
-        let u2 = self.uniform();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    /// Standard normal.
+    fn normal(&mut self) -> f64 {
+        self.sample(rand_distr::StandardNormal)
     }
     /// Random sign.
-    pub fn sign(&mut self) -> f64 {
-        if self.next_u64() & 1 == 0 { 1.0 } else { -1.0 }
+    fn sign(&mut self) -> f64 {
+        if self.random::<bool>() { 1.0 } else { -1.0 }
     }
+}
+
+impl<R: rand::Rng + ?Sized> Draw for R {}
+
+/// A generator seeded with `seed`.
+#[must_use]
+pub fn rng(seed: u64) -> Rng {
+    rand::SeedableRng::seed_from_u64(seed)
 }
 
 /// What was hidden in a set.
 #[derive(Clone, Debug)]
 pub struct Truth {
-    /// Hidden candidate (index into [`CANDIDATES`]), or `None` for a null set.
-    pub idx: Option<usize>,
+    /// Hidden candidate, or `None` for a null set.
+    pub id: Option<CandidateId>,
     /// Its coefficient, in the candidate's unit.
     pub coef: f64,
     /// `|coef|` in standard errors of that coefficient alone in this design.
@@ -216,7 +209,7 @@ fn two_axis(rng: &mut Rng) -> Vec<Condition> {
 /// `sigma` cm/s² (seeded): the size the speed target is stated for.
 #[must_use]
 pub fn design_48(sim: &dyn Simulator, effects: &Effects, sigma: f64, seed: u64) -> Vec<Condition> {
-    let mut rng = Rng::new(seed);
+    let mut rng = rng(seed);
     let mut rows = Vec::new();
     for k in 0..16 {
         let phi = 22.5 * f64::from(k + 1);
@@ -281,8 +274,8 @@ pub fn design_48(sim: &dyn Simulator, effects: &Effects, sigma: f64, seed: u64) 
 
 /// Build one set with candidate `hidden` (or none) hidden, from `sim`.
 #[must_use]
-pub fn generate(seed: u64, hidden: Option<usize>, sim: &dyn Simulator) -> HiddenSet {
-    let mut rng = Rng::new(seed);
+pub fn generate(seed: u64, hidden: Option<CandidateId>, sim: &dyn Simulator) -> HiddenSet {
+    let mut rng = rng(seed);
     let sigma = rng.range(0.1, 0.3);
     let write_sigma = rng.uniform() >= 0.25;
     let stated = if write_sigma {
@@ -310,15 +303,17 @@ pub fn generate(seed: u64, hidden: Option<usize>, sim: &dyn Simulator) -> Hidden
         ][kind]
             .to_string();
         let Some(h) = hidden else { break };
-        let e = unit_effect(h, 1.0);
+        let e = Effects::only(h, 1.0);
+        let analytic = AnalyticSimulator {
+            g_cm_s2: sim.g_cm_s2(),
+        };
         let col: Vec<f64> = rows
             .iter()
-            .map(|r| AnalyticSimulator.difference_cm_s2(r, &e))
+            .map(|r| analytic.difference_cm_s2(r, &e))
             .collect();
-        let visible = rows
-            .iter()
-            .zip(&col)
-            .any(|(r, &x)| x.abs() > 1e-6 * gross_effect_cm_s2(r, &e) && x.abs() > 0.0);
+        let visible = rows.iter().zip(&col).any(|(r, &x)| {
+            x.abs() > 1e-6 * gross_effect_cm_s2(r, &e, sim.g_cm_s2()) && x.abs() > 0.0
+        });
         if visible {
             se = stated / norm(&col);
             break;
@@ -334,7 +329,7 @@ pub fn generate(seed: u64, hidden: Option<usize>, sim: &dyn Simulator) -> Hidden
     } else {
         0.0
     };
-    let effects = hidden.map_or_else(Effects::default, |h| unit_effect(h, coef));
+    let effects = hidden.map_or(Effects::NONE, |h| Effects::only(h, coef));
     let clean: Vec<f64> = rows
         .par_iter()
         .map(|r| sim.difference_cm_s2(r, &effects))
@@ -346,7 +341,7 @@ pub fn generate(seed: u64, hidden: Option<usize>, sim: &dyn Simulator) -> Hidden
     HiddenSet {
         rows,
         truth: Truth {
-            idx: hidden,
+            id: hidden,
             coef,
             strength_se: if se.is_finite() { strength } else { 0.0 },
             design,
@@ -382,8 +377,8 @@ pub fn score(set: &HiddenSet, d: &Discovery) -> Outcome {
     let mut zval = None;
     let mut fd = 0;
     for s in &d.selected {
-        let hit = match t.idx {
-            Some(h) if s.idx == h => Some(1.0),
+        let hit = match t.id {
+            Some(h) if s.id == h => Some(1.0),
             Some(h) => s.confounded.iter().find(|(o, _)| *o == h).map(|&(_, f)| f),
             None => None,
         };
@@ -405,7 +400,7 @@ pub fn score(set: &HiddenSet, d: &Discovery) -> Outcome {
         selected: d
             .selected
             .iter()
-            .map(|s| CANDIDATES[s.idx].name.to_string())
+            .map(|s| s.id.info().name.to_string())
             .collect(),
     }
 }
@@ -470,12 +465,12 @@ pub fn campaign(
     gen_sim: &dyn Simulator,
     fit_sim: &dyn Simulator,
 ) -> CampaignSummary {
-    let mut jobs: Vec<(u64, Option<usize>)> = Vec::new();
-    for c in 0..CANDIDATES.len() {
+    let mut jobs: Vec<(u64, Option<CandidateId>)> = Vec::new();
+    for &c in CandidateId::ALL {
         for k in 0..sets_per_effect {
             jobs.push((
                 seed.wrapping_mul(1_000_003)
-                    .wrapping_add((c as u64 + 1) * 100_000 + k as u64),
+                    .wrapping_add((c.index() as u64 + 1) * 100_000 + k as u64),
                 Some(c),
             ));
         }
@@ -506,11 +501,11 @@ pub fn campaign(
         })
         .collect();
     let mut s = CampaignSummary {
-        per_candidate: vec![(0, 0); CANDIDATES.len()],
+        per_candidate: vec![(0, 0); N_CANDIDATES],
         ..CampaignSummary::default()
     };
     for o in &outcomes {
-        let name = o.truth.idx.map_or("(none)", |h| CANDIDATES[h].name);
+        let name = o.truth.id.map_or("(none)", |h| h.info().name);
         let _ = writeln!(
             s.log,
             "{name:<20} {:>5.1} SE  {:<32} sigma {:.2}  -> {:<40} detected {:<5} z {}",
@@ -525,7 +520,7 @@ pub fn campaign(
             o.detected,
             o.z.map_or("-".to_string(), |z| format!("{z:+.2}"))
         );
-        match o.truth.idx {
+        match o.truth.id {
             None => {
                 s.null += 1;
                 if !o.selected.is_empty() {
@@ -539,10 +534,10 @@ pub fn campaign(
                 }
                 if o.truth.strength_se >= 8.0 {
                     s.strong += 1;
-                    s.per_candidate[h].0 += 1;
+                    s.per_candidate[h.index()].0 += 1;
                     if o.detected {
                         s.strong_detected += 1;
-                        s.per_candidate[h].1 += 1;
+                        s.per_candidate[h.index()].1 += 1;
                         if o.coef_within_4se == Some(true) {
                             s.strong_coef_ok += 1;
                         }
@@ -553,7 +548,7 @@ pub fn campaign(
     }
     let _ = writeln!(s.log, "\nper candidate (sets >= 8 SE: detected/total):");
     for (c, (n, k)) in s.per_candidate.iter().enumerate() {
-        let _ = writeln!(s.log, "  {:<20} {k}/{n}", CANDIDATES[c].name);
+        let _ = writeln!(s.log, "  {:<20} {k}/{n}", CandidateId::ALL[c].info().name);
     }
     let _ = writeln!(
         s.log,
@@ -578,6 +573,10 @@ pub fn campaign(
 mod tests {
     use super::*;
 
+    fn analytic() -> AnalyticSimulator {
+        AnalyticSimulator::for_instrument(&ptsa_host_sim::Instrument::kearfott_2401())
+    }
+
     /// Null sets whose stated sigma is a third of the true noise: the F half of the test
     /// keeps the familywise rate at 5% or less.
     #[test]
@@ -585,7 +584,7 @@ mod tests {
         let mut false_sets = 0;
         let n = 300;
         for k in 0..n {
-            let mut set = generate(10_000 + k, None, &AnalyticSimulator);
+            let mut set = generate(10_000 + k, None, &analytic());
             for r in &mut set.rows {
                 let s = r.sigma_cm_s2.unwrap_or(0.3);
                 let m = r.measured_cm_s2.unwrap_or(0.0);
@@ -593,7 +592,7 @@ mod tests {
                 r.measured_cm_s2 = Some(3.0 * m);
                 r.sigma_cm_s2 = Some(s);
             }
-            let d = discover(&set.rows, &AnalyticSimulator, &Options::default()).unwrap();
+            let d = discover(&set.rows, &analytic(), &Options::default()).unwrap();
             if !d.selected.is_empty() {
                 false_sets += 1;
             }
@@ -606,7 +605,7 @@ mod tests {
     /// found by name, the PA component through anisoinertia's confounding.
     #[test]
     fn whole_lever_arm_vector_in_a_rate_table_design() {
-        let mut rng = Rng::new(3);
+        let mut rng = rng(3);
         let mut rows = rate_table(&mut rng);
         for r in &mut rows {
             let [a, b, c] = r.g;
@@ -614,21 +613,18 @@ mod tests {
             r.w_rad_s = r.g.map(|x| x * 1.5);
             r.ref_w_rad_s = r.g.map(|x| x * 0.05);
         }
-        let truth = Effects {
-            r_cm: [2.0, -3.0, 5.0],
-            ..Effects::default()
-        };
+        let mut truth = Effects::NONE;
+        truth.add_lever_arm_cm([2.0, -3.0, 5.0]);
         for r in &mut rows {
-            r.measured_cm_s2 =
-                Some(AnalyticSimulator.difference_cm_s2(r, &truth) + 0.2 * rng.normal());
+            r.measured_cm_s2 = Some(analytic().difference_cm_s2(r, &truth) + 0.2 * rng.normal());
             r.sigma_cm_s2 = Some(0.2);
         }
-        let d = discover(&rows, &AnalyticSimulator, &Options::default()).unwrap();
+        let d = discover(&rows, &analytic(), &Options::default()).unwrap();
         eprintln!(
             "{}",
-            super::super::show::text_report("lever arm vector", &d)
+            ptsa_host_sim::discovery::show::text_report("lever arm vector", &d)
         );
-        let names: Vec<&str> = d.selected.iter().map(|s| CANDIDATES[s.idx].name).collect();
+        let names: Vec<&str> = d.selected.iter().map(|s| s.id.info().name).collect();
         assert!(names.contains(&"lever_arm.r_ia_cm"), "{names:?}");
         assert!(names.contains(&"anisoinertia"), "{names:?}");
         assert!(
@@ -642,6 +638,34 @@ mod tests {
                 .effects
                 .iter()
                 .any(|e| e.coefficients.contains_key("r_oa_cm"))
+        );
+    }
+
+    /// `data/synthetic-48.case.csv` is what [`design_48`] makes (anisoinertia 3.0 cm hidden,
+    /// noise 0.2 cm/s², seed 5, analytic model, so it is exactly reproducible). With
+    /// `PTSA_WRITE_REPORT_DATA=1` the test rewrites it instead.
+    #[test]
+    fn synthetic_48_file_is_what_the_generator_makes() {
+        use ptsa_host_sim::discovery::caseframe;
+        let truth = Effects::only(CandidateId::Anisoinertia, 3.0);
+        let rows = design_48(&analytic(), &truth, 0.2, 5);
+        let text = caseframe::to_csv(
+            &rows,
+            &[
+                "Synthetic example, not measured: 16 rate-table rows and 32 two-axis-oscillator rows",
+                "(ptsa_tests::hidden::design_48) with anisoinertia k_ai_cm = 3.0 hidden and noise 0.2 cm/s^2, seed 5.",
+                "Generated by the test ptsa_tests::hidden::synthetic_48_file_is_what_the_generator_makes; do not edit.",
+            ],
+        );
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/synthetic-48.case.csv");
+        if std::env::var_os("PTSA_WRITE_REPORT_DATA").is_some() {
+            std::fs::write(&path, &text).unwrap();
+        }
+        let shipped = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(
+            shipped, text,
+            "data/synthetic-48.case.csv differs from the generator"
         );
     }
 }

@@ -1,0 +1,443 @@
+//! The command line: clap types only (they never leave the binary), and the value parsers
+//! that refuse nonsense before anything runs. Units are in every option's name and help.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand};
+use ptsa_host_sim::effects::{CandidateId, candidate_names, resolve_candidates};
+use ptsa_host_sim::experiments::{appendix_a::TwoAxisPlan, monte_carlo, tumble, waveform};
+use ptsa_host_sim::sim::SimOptions;
+
+/// Closed-loop simulator of the Kearfott 2401 accelerometer in the UAC PTSA forced-binary
+/// loop (Draper report R-890), built on ptsa-core, the firmware's own loop code.
+///
+/// Without a subcommand, runs the report's whole test programme on the instrument file and
+/// writes a report folder (tables as CSV, plots as PNG and SVG, summary.md), which appears
+/// whole or not at all. Units: cm/s² for accelerations, rad/s for rates, mrad for
+/// oscillation amplitudes, g·cm² for inertias, Hz, seconds.
+#[derive(Parser, Debug)]
+#[command(name = "ptsa", version, about, long_about)]
+pub struct Cli {
+    /// Instrument file (TOML: Table 2.1 with tolerances and the PTSA electronics; see
+    /// data/kearfott-2401.toml). Default: the shipped Kearfott 2401 file, compiled in.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub instrument: Option<PathBuf>,
+    /// Options of the report programme (no subcommand).
+    #[command(flatten)]
+    pub report: ReportArgs,
+    /// What to run.
+    #[command(subcommand)]
+    pub cmd: Option<Cmd>,
+}
+
+/// Options of every simulated run.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct RunArgs {
+    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
+    pub seed: u64,
+    /// Settling time before each measurement, s (0 or more).
+    #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
+          value_parser = non_negative_s)]
+    pub warmup_s: f64,
+    /// Shortest measurement window, s (more than 0; whole limit cycles, or whole periods of a
+    /// condition's oscillation).
+    #[arg(long, default_value_t = SimOptions::default().min_window_s, value_name = "S",
+          value_parser = positive_s)]
+    pub window_s: f64,
+    /// Run even when the work is estimated to take more than ten minutes.
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl RunArgs {
+    /// The run options.
+    pub fn options(&self) -> SimOptions {
+        SimOptions {
+            seed: self.seed,
+            warmup_s: self.warmup_s,
+            min_window_s: self.window_s,
+            ..SimOptions::default()
+        }
+    }
+}
+
+/// Where files go.
+#[derive(Args, Debug, Clone)]
+pub struct OutArgs {
+    /// Folder for the tables (CSV) and plots (PNG, SVG).
+    #[arg(long, default_value = "report", value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+/// The report programme's options.
+#[derive(Args, Debug, Clone)]
+pub struct ReportArgs {
+    /// Run options.
+    #[command(flatten)]
+    pub run: RunArgs,
+    /// Report folder (replaced as a whole when the run succeeds).
+    #[arg(long, default_value = "report", value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Cmd {
+    /// Section 6.1: ±1 g counts P1, P2 over a gate T; SF and A_b by eqs. 6.3/6.4; and IA
+    /// through 360°.
+    #[command(allow_negative_numbers = true)]
+    Tumble {
+        /// Counting gate, s (more than 0; rounded to whole limit cycles).
+        #[arg(long, default_value_t = tumble::DEFAULT_GATE_S, value_name = "S",
+              value_parser = positive_s)]
+        gate_s: f64,
+        #[command(flatten)]
+        run: RunArgs,
+        #[command(flatten)]
+        out: OutArgs,
+    },
+    /// Table 6.1: 8 IA positions on the rate table at 1.0 and 0.05 rad/s (eq. 6.5).
+    #[command(allow_negative_numbers = true)]
+    Anisoinertia {
+        /// Anisoinertia I_PA − I_IA of the simulated instrument, g·cm² (report: 3.4;
+        /// |value| below 100, the instrument file's range).
+        #[arg(long, default_value_t = 3.4, value_name = "G_CM2",
+              value_parser = anisoinertia_g_cm2)]
+        anisoinertia_g_cm2: f64,
+        /// Offset of the proof mass from the table axis along PA, cm (0 in the report's
+        /// revised set-up; |value| up to 100).
+        #[arg(long, default_value_t = 0.0, value_name = "CM", value_parser = lever_cm)]
+        lever_pa_cm: f64,
+        #[command(flatten)]
+        run: RunArgs,
+        #[command(flatten)]
+        out: OutArgs,
+    },
+    /// Tables 6.2/6.3: angular oscillation about OA, IA horizontal and vertical.
+    #[command(allow_negative_numbers = true)]
+    OaCoupling {
+        /// Offset of the proof mass from the table axis along IA, PA, OA, cm (three values,
+        /// each |value| up to 100).
+        #[arg(long, num_args = 3, default_values_t = [0.0, 0.0, 0.0],
+              value_names = ["IA_CM", "PA_CM", "OA_CM"], value_parser = lever_cm)]
+        lever_cm: Vec<f64>,
+        #[command(flatten)]
+        run: RunArgs,
+        #[command(flatten)]
+        out: OutArgs,
+    },
+    /// Appendix A.1 (Fig. A.2): IA and PA vibration on the two-axis oscillator, phase sweep.
+    #[command(allow_negative_numbers = true)]
+    Vibropendulosity(TwoAxisArgs),
+    /// Appendix A.2 (Fig. A.4): IA and OA vibration, phase sweep.
+    #[command(allow_negative_numbers = true)]
+    Anisoelasticity(TwoAxisArgs),
+    /// Appendix A.3 (Fig. A.5): OA angular oscillation with PA vibration, phase sweep.
+    #[command(allow_negative_numbers = true)]
+    Sculling(TwoAxisArgs),
+    /// Fig. 3.2's waveforms (torquer current, pulse train, pendulum angle) tick by tick,
+    /// the closed loop's frequency response and the limit cycle across the range.
+    #[command(allow_negative_numbers = true)]
+    Waveform {
+        /// Constant acceleration along IA, cm/s² (beyond the loop's full scale the loop
+        /// saturates; a warning says so).
+        #[arg(long, default_value_t = waveform::DEFAULT_ACCEL_CM_S2, value_name = "CM_S2",
+              value_parser = finite)]
+        accel_cm_s2: f64,
+        /// Limit cycles to trace (1 to 10 000; the CSV has one row per clock tick; more
+        /// with --force).
+        #[arg(long, default_value_t = waveform::DEFAULT_CYCLES, value_name = "N",
+              value_parser = clap::value_parser!(u64).range(1..))]
+        cycles: u64,
+        #[command(flatten)]
+        run: RunArgs,
+        #[command(flatten)]
+        out: OutArgs,
+    },
+    /// The plain closed loop with a constant acceleration along IA (Table 2.1 instrument
+    /// with its pickoff noise; the measured bias A_b only with --with-bias): after the
+    /// settling time, one gate; prints P, T and SF·(2P/T − 1) with the configured SF.
+    #[command(allow_negative_numbers = true)]
+    Static {
+        /// Acceleration along IA, cm/s² (beyond full scale the loop saturates: the output
+        /// says so).
+        #[arg(long, value_name = "CM_S2", value_parser = finite)]
+        accel_cm_s2: f64,
+        /// Gate length, s (at least one limit cycle: 64 ticks at 64 kHz).
+        #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = positive_s)]
+        seconds: f64,
+        /// Print exactly one JSON object {"ticks", "pulses", "indicated_cm_s2",
+        /// "saturated"}.
+        #[arg(long)]
+        json: bool,
+        /// Write the ADC samples of this very run, settling included (one i16 per line,
+        /// golden-vector style) to FILE.
+        #[arg(long, value_name = "FILE")]
+        trace: Option<PathBuf>,
+        /// Include the instrument file's bias A_b (18.7 cm/s² shipped) as a torque.
+        #[arg(long)]
+        with_bias: bool,
+        /// Run even when the work is estimated to take more than ten minutes.
+        #[arg(long)]
+        force: bool,
+        /// Seed of the pickoff noise.
+        #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
+        seed: u64,
+        /// Settling time before the gate, s (0 or more).
+        #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
+              value_parser = non_negative_s)]
+        warmup_s: f64,
+    },
+    /// Print the compensator designed for the instrument file, the loop's margins, and the
+    /// ptsa-core constants.
+    Design {
+        /// Print only the four DEFAULT_*_BITS constants of ptsa-core/src/config.rs.
+        #[arg(long)]
+        print_core_constants: bool,
+    },
+    /// Monte Carlo over the Table 2.1 tolerance box: stability margins at every corner and
+    /// a closed-loop check of the worst ones.
+    MonteCarlo {
+        /// Random corners when the box has more than 14 parameters (at least 1).
+        #[arg(long, default_value_t = monte_carlo::DEFAULT_SAMPLES, value_name = "N",
+              value_parser = count)]
+        samples: usize,
+        #[command(flatten)]
+        run: RunArgs,
+        #[command(flatten)]
+        out: OutArgs,
+    },
+    /// Speed of the closed loop: ticks per second of `static` on one core, median of runs.
+    Bench {
+        /// Ticks per run (at least 1).
+        #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::TICKS, value_name = "N",
+              value_parser = clap::value_parser!(u64).range(1..))]
+        ticks: u64,
+        /// Runs (1 to 1000).
+        #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::RUNS, value_name = "N",
+              value_parser = runs)]
+        runs: usize,
+        /// Without pickoff noise.
+        #[arg(long)]
+        no_noise: bool,
+        /// Also build the plain C loop (ptsa-host-sim/benches/c_static/static_loop.c) with
+        /// the system C compiler (`$CC`, default `cc`, `-std=c11 -O2`), check that it gives
+        /// the same pulses and plant state bit for bit, and time it in alternation.
+        #[arg(long)]
+        compare_c: bool,
+        /// Run even when the work is estimated to take more than ten minutes.
+        #[arg(long)]
+        force: bool,
+        /// Seed of the pickoff noise.
+        #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
+        seed: u64,
+    },
+    /// The whole report programme (the same as no subcommand).
+    Report(ReportArgs),
+    /// Discovery: what the simulation gets wrong in measured data, the effect that explains
+    /// it, and the gain of the extended model.
+    Discover(DiscoverArgs),
+}
+
+/// Options of the Appendix A set-ups.
+#[derive(Args, Debug, Clone)]
+pub struct TwoAxisArgs {
+    /// Oscillation frequency, Hz (more than 0, at most half the limit-cycle frequency: 500 Hz
+    /// for the shipped file).
+    #[arg(long, default_value_t = TwoAxisPlan::FREQ_HZ, value_name = "HZ",
+          value_parser = positive_hz)]
+    pub freq_hz: f64,
+    /// Y-axis amplitude θ_my, mrad (0 to 100: the model is small-angle).
+    #[arg(long, default_value_t = TwoAxisPlan::THETA_MRAD, value_name = "MRAD",
+          value_parser = amplitude_mrad)]
+    pub theta_my_mrad: f64,
+    /// Z-axis amplitude θ_mz, mrad (0 to 100).
+    #[arg(long, default_value_t = TwoAxisPlan::THETA_MRAD, value_name = "MRAD",
+          value_parser = amplitude_mrad)]
+    pub theta_mz_mrad: f64,
+    /// Radius of the proof mass from the oscillator axes, cm (0 to 100).
+    #[arg(long, default_value_t = TwoAxisPlan::R_CM, value_name = "CM", value_parser = radius_cm)]
+    pub r_cm: f64,
+    /// Injected anisoelastic coefficient k_io, s²/cm (the model has none by itself).
+    #[arg(long, default_value_t = 0.0, value_name = "S2_CM", value_parser = finite)]
+    pub k_io_s2_cm: f64,
+    /// Injected vibropendulous coefficient k_ip, s²/cm.
+    #[arg(long, default_value_t = 0.0, value_name = "S2_CM", value_parser = finite)]
+    pub k_ip_s2_cm: f64,
+    /// Injected sculling coefficient k_sc, s².
+    #[arg(long, default_value_t = 0.0, value_name = "S2", value_parser = finite)]
+    pub k_sc_s2: f64,
+    #[command(flatten)]
+    pub run: RunArgs,
+    #[command(flatten)]
+    pub out: OutArgs,
+}
+
+/// Arguments of `ptsa discover`.
+#[derive(Args, Debug, Clone)]
+#[command(allow_negative_numbers = true)]
+pub struct DiscoverArgs {
+    /// Case-frame CSV file of measured conditions (docs/case-frame.md). Without it, the
+    /// report's Tables 6.1, 6.2 and 6.3 are analysed.
+    #[arg(long, value_name = "FILE")]
+    pub data: Option<PathBuf>,
+    /// 1-sigma uncertainty for rows without `sigma_cm_s2`, cm/s² (more than 0; default: the
+    /// report's test uncertainty).
+    #[arg(long, default_value_t = ptsa_host_sim::discovery::Options::default().default_sigma_cm_s2,
+          value_name = "CM_S2", value_parser = positive_cm_s2)]
+    pub sigma: f64,
+    /// Candidate effects, comma separated: effect names (`lever_arm` = its three
+    /// components) or candidate names (`lever_arm.r_pa_cm`); default all.
+    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = candidate,
+          long_help = candidates_help())]
+    pub candidates: Vec<Vec<CandidateId>>,
+    /// Print exactly one JSON object on stdout (the text report goes to stderr). Without
+    /// --data, the object maps each report table's file name to its result.
+    #[arg(long)]
+    pub json: bool,
+    /// Folder for the per-row table (CSV) and plots (PNG, SVG).
+    #[arg(long, value_name = "DIR", default_value = "report/discover")]
+    pub out: PathBuf,
+    /// Do not write the table and plots.
+    #[arg(long)]
+    pub no_plots: bool,
+    /// Seed of the simulator's pickoff noise (closed loop).
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
+    pub seed: u64,
+    /// Use the quasi-static analytic model instead of the closed loop (fast, no loop
+    /// dynamics).
+    #[arg(long)]
+    pub analytic: bool,
+    /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
+    #[arg(long, value_name = "DIR")]
+    pub convert_report_data: Option<PathBuf>,
+}
+
+fn candidates_help() -> String {
+    format!(
+        "Candidate effects, comma separated: effect names (`lever_arm` = its three components) or candidate names (`lever_arm.r_pa_cm`); default all. Known: {}",
+        candidate_names().join(", ")
+    )
+}
+
+fn candidate(s: &str) -> Result<Vec<CandidateId>, String> {
+    resolve_candidates(s.trim())
+}
+
+fn number(s: &str) -> Result<f64, String> {
+    s.trim()
+        .parse::<f64>()
+        .map_err(|_| format!("`{s}` is not a number"))
+}
+
+/// A finite number.
+pub fn finite(s: &str) -> Result<f64, String> {
+    let x = number(s)?;
+    if x.is_finite() {
+        Ok(x)
+    } else {
+        Err(format!("expected a finite number, not {x}"))
+    }
+}
+
+/// A finite number within `[lo, hi]`.
+fn within(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
+    let x = finite(s)?;
+    if (lo..=hi).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!("expected {what}, not {x}"))
+    }
+}
+
+fn non_negative_s(s: &str) -> Result<f64, String> {
+    within(s, 0.0, 1e9, "a time in seconds from 0 to 1e9")
+}
+
+fn positive_s(s: &str) -> Result<f64, String> {
+    let x = within(
+        s,
+        0.0,
+        1e9,
+        "a time in seconds, more than 0 and at most 1e9",
+    )?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err("expected a time in seconds, more than 0".into())
+    }
+}
+
+fn positive_hz(s: &str) -> Result<f64, String> {
+    let x = within(s, 0.0, 1e6, "a frequency in Hz, more than 0")?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err("expected a frequency in Hz, more than 0".into())
+    }
+}
+
+fn positive_cm_s2(s: &str) -> Result<f64, String> {
+    let x = finite(s)?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected an uncertainty in cm/s², more than 0, not {x}"
+        ))
+    }
+}
+
+fn anisoinertia_g_cm2(s: &str) -> Result<f64, String> {
+    let x = finite(s)?;
+    if x.abs() < 100.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected |I_PA − I_IA| below 100 g·cm² (the instrument file's range; the float's I_OA is 14 g·cm²), not {x}"
+        ))
+    }
+}
+
+fn lever_cm(s: &str) -> Result<f64, String> {
+    within(
+        s,
+        -100.0,
+        100.0,
+        "an offset in cm between −100 and 100 (the fixtures are table-top sized)",
+    )
+}
+
+fn radius_cm(s: &str) -> Result<f64, String> {
+    within(s, 0.0, 100.0, "a radius in cm from 0 to 100")
+}
+
+fn amplitude_mrad(s: &str) -> Result<f64, String> {
+    within(
+        s,
+        0.0,
+        100.0,
+        "an amplitude in mrad from 0 to 100 (the oscillator model is small-angle)",
+    )
+}
+
+fn whole(s: &str) -> Result<usize, String> {
+    s.trim()
+        .parse::<usize>()
+        .map_err(|_| format!("expected a whole number, not `{s}`"))
+}
+
+fn count(s: &str) -> Result<usize, String> {
+    match whole(s)? {
+        0 => Err("expected at least 1".into()),
+        n => Ok(n),
+    }
+}
+
+fn runs(s: &str) -> Result<usize, String> {
+    match whole(s)? {
+        n @ 1..=1000 => Ok(n),
+        n => Err(format!("expected 1 to 1000 runs, not {n}")),
+    }
+}

@@ -1,0 +1,531 @@
+//! `ptsa`: the host simulator's command line. This file is the dispatcher: it loads and
+//! checks the instrument file, turns the validated options of [`flags`] into the library's
+//! requests, runs them and prints; the work itself lives in the `ptsa_host_sim` library.
+//! A closed stdout (`ptsa | head -1`) is not an error: the output is dropped and the run
+//! finishes (so a report folder is still written whole).
+
+mod flags;
+mod work;
+
+use std::io::Write;
+use std::path::Path;
+use std::process::ExitCode;
+
+use anyhow::{Context, Result, bail};
+use clap::Parser as _;
+use flags::{Cli, Cmd, DiscoverArgs, OutArgs, ReportArgs, RunArgs, TwoAxisArgs};
+use ptsa_host_sim::bench::{BenchPlan, bench};
+use ptsa_host_sim::design::{Design, check_loop};
+use ptsa_host_sim::discovery::{self, Options, Request, Simulator};
+use ptsa_host_sim::effects::{CandidateId, Effects};
+use ptsa_host_sim::experiments::{
+    anisoinertia, appendix_a, design, frequency_response, limit_cycle, monte_carlo, oa_coupling,
+    tumble, waveform,
+};
+use ptsa_host_sim::fixtures::TwoAxisKind;
+use ptsa_host_sim::output::Output;
+use ptsa_host_sim::output::fs::{persist, temp_beside};
+use ptsa_host_sim::sim::{SimOptions, run_static_with};
+use ptsa_host_sim::{Instrument, report};
+use work::Work;
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let mut out = Stdout::default();
+    let result = run(cli, &mut out);
+    let _ = out.flush();
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Standard output that turns a closed pipe into silence: once a write fails with
+/// `BrokenPipe`, everything after it is dropped, and nothing is reported as an error.
+#[derive(Default)]
+struct Stdout {
+    closed: bool,
+}
+
+impl Write for Stdout {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.closed {
+            return Ok(buf.len());
+        }
+        match std::io::stdout().lock().write_all(buf) {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                self.closed = true;
+                Ok(buf.len())
+            }
+            Err(e) => Err(e),
+            Ok(()) => Ok(buf.len()),
+        }
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        if self.closed {
+            return Ok(());
+        }
+        match std::io::stdout().lock().flush() {
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => {
+                self.closed = true;
+                Ok(())
+            }
+            r => r,
+        }
+    }
+}
+
+/// The instrument file (or the shipped one) and the name to show for it.
+fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String)> {
+    Ok(match path {
+        Some(p) => (Instrument::load(p)?, p.display().to_string()),
+        None => (
+            Instrument::kearfott_2401(),
+            "data/kearfott-2401.toml (the shipped file, built in)".to_string(),
+        ),
+    })
+}
+
+fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
+    let (instr, name) = load_instrument(cli.instrument.as_deref())?;
+    let checked = check_loop(&instr);
+    if let Some(Cmd::Design {
+        print_core_constants,
+    }) = &cli.cmd
+    {
+        return design_cmd(&instr, &name, *print_core_constants, checked.as_ref(), out);
+    }
+    let config = checked.map_err(|e| anyhow::anyhow!("{name}: {e}"))?.config;
+    let opts = |r: &RunArgs| SimOptions {
+        config,
+        ..r.options()
+    };
+    let Some(cmd) = cli.cmd else {
+        return report_cmd(&instr, &name, &cli.report, config, out);
+    };
+    match cmd {
+        Cmd::Report(a) => report_cmd(&instr, &name, &a, config, out),
+        Cmd::Tumble {
+            gate_s,
+            run,
+            out: o,
+        } => {
+            let opts = opts(&run);
+            let gate = tumble::gate_ticks(&instr, &opts, gate_s);
+            if gate > u64::from(u32::MAX) {
+                bail!(
+                    "--gate-s {gate_s}: {gate} ticks; the core's counters hold at most {} ticks per gate ({:.0} s)",
+                    u32::MAX,
+                    f64::from(u32::MAX) / instr.clock_hz
+                );
+            }
+            Work::new(&instr, &opts)
+                .gate(2 * gate)
+                .conditions(24)
+                .check(run.force, "the tumble")?;
+            let s = work::spinner("tumble");
+            let r = tumble::run(&instr, &opts, gate_s)?;
+            s.finish_and_clear();
+            emit(&r.output, &o, out)
+        }
+        Cmd::Anisoinertia {
+            anisoinertia_g_cm2,
+            lever_pa_cm,
+            run,
+            out: o,
+        } => {
+            let opts = opts(&run);
+            Work::new(&instr, &opts)
+                .conditions(32)
+                .check(run.force, "Table 6.1")?;
+            let r = anisoinertia::run(&instr, &opts, anisoinertia_g_cm2, [0.0, lever_pa_cm, 0.0])?;
+            emit(&r.output, &o, out)
+        }
+        Cmd::OaCoupling {
+            lever_cm,
+            run,
+            out: o,
+        } => {
+            let opts = opts(&run);
+            Work::new(&instr, &opts)
+                .dynamic_conditions(34)
+                .check(run.force, "Tables 6.2 and 6.3")?;
+            let l = [lever_cm[0], lever_cm[1], lever_cm[2]];
+            let r = oa_coupling::run(&instr, &opts, l)?;
+            emit(&r.output, &o, out)
+        }
+        Cmd::Vibropendulosity(a) => two_axis(&instr, config, TwoAxisKind::Vibropendulous, &a, out),
+        Cmd::Anisoelasticity(a) => two_axis(&instr, config, TwoAxisKind::Anisoelastic, &a, out),
+        Cmd::Sculling(a) => two_axis(&instr, config, TwoAxisKind::Sculling, &a, out),
+        Cmd::Waveform {
+            accel_cm_s2,
+            cycles,
+            run,
+            out: o,
+        } => {
+            let opts = opts(&run);
+            if cycles > work::MAX_TRACE_CYCLES && !run.force {
+                bail!(
+                    "--cycles {cycles}: the trace has one row per clock tick ({} rows); at most {} cycles without --force",
+                    cycles * u64::from(opts.config.ticks_per_cycle),
+                    work::MAX_TRACE_CYCLES
+                );
+            }
+            work::warn_beyond_full_scale(&instr, accel_cm_s2, "--accel-cm-s2");
+            Work::new(&instr, &opts)
+                .gate(cycles * u64::from(opts.config.ticks_per_cycle))
+                .dynamic_conditions(11)
+                .conditions(11)
+                .window_s(1.0, 22)
+                .check(run.force, "the waveform")?;
+            let s = work::spinner("waveform, frequency response, limit cycle");
+            let mut all = waveform::run(&instr, &opts, accel_cm_s2, cycles, &o.out)?;
+            all.extend(frequency_response::run(&instr, &opts)?.output);
+            all.extend(limit_cycle::run(&instr, &opts)?.output);
+            s.finish_and_clear();
+            emit(&all, &o, out)
+        }
+        Cmd::Static {
+            accel_cm_s2,
+            seconds,
+            json,
+            trace,
+            with_bias,
+            force,
+            seed,
+            warmup_s,
+        } => {
+            let opts = SimOptions {
+                seed,
+                warmup_s,
+                config,
+                ..SimOptions::default()
+            };
+            static_cmd(
+                &instr,
+                &opts,
+                accel_cm_s2,
+                seconds,
+                json,
+                trace.as_deref(),
+                with_bias,
+                force,
+                out,
+            )
+        }
+        Cmd::Design { .. } => unreachable!("handled above"),
+        Cmd::MonteCarlo {
+            samples,
+            run,
+            out: o,
+        } => {
+            let opts = opts(&run);
+            Work::new(&instr, &opts)
+                .conditions(8)
+                .check(run.force, "the Monte Carlo")?;
+            let s = work::spinner("monte carlo");
+            let r = monte_carlo::run(&instr, &opts, samples)?;
+            s.finish_and_clear();
+            emit(&r.output, &o, out)
+        }
+        Cmd::Bench {
+            ticks,
+            runs,
+            no_noise,
+            compare_c,
+            force,
+            seed,
+        } => {
+            let opts = SimOptions {
+                seed,
+                config,
+                ..SimOptions::default()
+            };
+            let per = if compare_c { 2 } else { 1 };
+            #[allow(clippy::cast_possible_truncation)]
+            Work::new(&instr, &opts)
+                .gate(ticks * per * runs as u64)
+                .check(force, "the benchmark")?;
+            let plan = BenchPlan {
+                ticks,
+                runs,
+                no_noise,
+                compare_c,
+            };
+            bench(&instr, &opts, &plan, out)
+        }
+        Cmd::Discover(a) => discover_cmd(&instr, config, &a, out),
+    }
+}
+
+/// Print an experiment's tables and notes, write its files into `--out`.
+fn emit(o: &Output, dir: &OutArgs, out: &mut dyn Write) -> Result<()> {
+    o.print(out)?;
+    let files = o.write_files(&dir.out)?;
+    eprintln!("wrote {} files into {}", files.len(), dir.out.display());
+    Ok(())
+}
+
+fn report_cmd(
+    instr: &Instrument,
+    name: &str,
+    a: &ReportArgs,
+    config: ptsa_core::Config,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let opts = SimOptions {
+        config,
+        ..a.run.options()
+    };
+    Work::new(instr, &opts)
+        .conditions(200)
+        .dynamic_conditions(100)
+        .window_s(1.0, 22)
+        .check(a.run.force, "the report programme")?;
+    let bar = work::steps(report::STEPS.len());
+    let info = report::RunInfo {
+        instrument: name.to_string(),
+        options: opts,
+        threads: rayon::current_num_threads(),
+    };
+    let (p, dir) = report::run(
+        instr,
+        &opts,
+        info,
+        &a.out,
+        &mut |k, step| {
+            bar.set_position(k as u64);
+            bar.set_message(step.to_string());
+        },
+        out,
+    )?;
+    bar.finish_and_clear();
+    eprintln!("report written to {} in {:.2} s", dir.display(), p.wall_s);
+    Ok(())
+}
+
+fn two_axis(
+    instr: &Instrument,
+    config: ptsa_core::Config,
+    kind: TwoAxisKind,
+    a: &TwoAxisArgs,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let opts = SimOptions {
+        config,
+        ..a.run.options()
+    };
+    let lc = instr.clock_hz / f64::from(config.ticks_per_cycle);
+    if a.freq_hz > lc / 2.0 {
+        bail!(
+            "--freq-hz {}: expected at most half the limit-cycle frequency, {} Hz (clock_hz / {} ticks / 2)",
+            a.freq_hz,
+            lc / 2.0,
+            config.ticks_per_cycle
+        );
+    }
+    let plan = appendix_a::TwoAxisPlan {
+        kind,
+        freq_hz: a.freq_hz,
+        theta_my_mrad: a.theta_my_mrad,
+        theta_mz_mrad: a.theta_mz_mrad,
+        r_cm: a.r_cm,
+        effects: Effects::NONE
+            .with(CandidateId::Anisoelasticity, a.k_io_s2_cm)
+            .with(CandidateId::Vibropendulosity, a.k_ip_s2_cm)
+            .with(CandidateId::Sculling, a.k_sc_s2),
+    };
+    let c = ptsa_host_sim::fixtures::two_axis(
+        kind,
+        a.freq_hz,
+        a.theta_my_mrad,
+        a.theta_mz_mrad,
+        90.0,
+        a.r_cm,
+    );
+    let peak = c.lin_cm_s2.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    work::warn_beyond_full_scale(instr, peak, "the vibration (r·θ·ω²)");
+    Work::new(instr, &opts)
+        .dynamic_conditions(26)
+        .check(a.run.force, appendix_a::name(kind))?;
+    let r = appendix_a::run(instr, &opts, &plan)?;
+    emit(&r.output, &a.out, out)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn static_cmd(
+    instr: &Instrument,
+    opts: &SimOptions,
+    accel_cm_s2: f64,
+    seconds: f64,
+    json: bool,
+    trace: Option<&Path>,
+    with_bias: bool,
+    force: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let mut instr = instr.clone();
+    if !with_bias {
+        instr.bias_cm_s2 = 0.0;
+    }
+    let per_cycle = f64::from(opts.config.ticks_per_cycle);
+    let ticks_f = (seconds * instr.clock_hz).round();
+    if ticks_f < per_cycle {
+        bail!(
+            "--seconds {seconds}: a gate of {ticks_f} ticks is shorter than one limit cycle ({per_cycle} ticks = {} s); expected at least that",
+            per_cycle / instr.clock_hz
+        );
+    }
+    if ticks_f > f64::from(u32::MAX) {
+        bail!(
+            "--seconds {seconds}: {ticks_f:.3e} ticks; the core's counters hold at most {} ticks per gate ({:.0} s)",
+            u32::MAX,
+            f64::from(u32::MAX) / instr.clock_hz
+        );
+    }
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let ticks = ticks_f as u64;
+    Work::new(&instr, opts)
+        .gate(ticks)
+        .check(force, "this gate")?;
+    let total = opts.warmup_ticks(instr.clock_hz) + ticks;
+    let bar = work::ticks_bar(total);
+    let mut progress = |done: u64, _: u64| bar.set_position(done);
+    let r = if let Some(path) = trace {
+        let tmp = temp_beside(path)?;
+        let mut w = std::io::BufWriter::new(tmp.as_file());
+        writeln!(
+            w,
+            "# closed-loop ADC codes of `ptsa static`: {accel_cm_s2} cm/s^2 along IA, seed {}, {} settling ticks then a gate of {ticks} ticks",
+            opts.seed,
+            opts.warmup_ticks(instr.clock_hz)
+        )?;
+        let mut failed = None;
+        let r = run_static_with(
+            &instr,
+            accel_cm_s2,
+            ticks,
+            opts,
+            Some(&mut |v| {
+                if failed.is_none()
+                    && let Err(e) = writeln!(w, "{}", v.code)
+                {
+                    failed = Some(e);
+                }
+            }),
+            &mut progress,
+        );
+        if let Some(e) = failed {
+            return Err(e).with_context(|| format!("writing {}", path.display()));
+        }
+        w.flush()?;
+        drop(w);
+        persist(tmp, path)?;
+        r
+    } else {
+        run_static_with(&instr, accel_cm_s2, ticks, opts, None, &mut progress)
+    };
+    bar.finish_and_clear();
+    if r.saturated {
+        eprintln!(
+            "warning: the loop saturated during the gate ({accel_cm_s2} cm/s^2 + bias {} cm/s^2 against a full scale of ±{} cm/s^2): the indicated value is not the input",
+            instr.bias_cm_s2, instr.sf_cm_s2
+        );
+    }
+    if json {
+        writeln!(out, "{}", serde_json::to_string(&r)?)?;
+    } else {
+        writeln!(
+            out,
+            "static: {accel_cm_s2} cm/s^2 along IA (bias {} cm/s^2, loop's own {:.5}): T = {} ticks, P = {} pulses, indicated SF(2P/T - 1) = {:.4} cm/s^2{}",
+            instr.bias_cm_s2,
+            instr.loop_bias_cm_s2(0.0),
+            r.ticks,
+            r.pulses,
+            r.indicated_cm_s2,
+            if r.saturated { " (SATURATED)" } else { "" }
+        )?;
+    }
+    Ok(())
+}
+
+fn design_cmd(
+    instr: &Instrument,
+    name: &str,
+    print_core_constants: bool,
+    checked: std::result::Result<&ptsa_host_sim::design::LoopCheck, &String>,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let d = Design::for_instrument(instr);
+    if print_core_constants {
+        write!(out, "{}", d.core_constants())?;
+    } else {
+        write!(out, "{}", design::text(instr))?;
+        writeln!(out, "\n// ptsa-core/src/config.rs\n{}", d.core_constants())?;
+    }
+    match checked {
+        Ok(c) => {
+            if !print_core_constants {
+                writeln!(
+                    out,
+                    "verdict: the loop is accepted (limit cycle {:.1} Hz)",
+                    c.limit_cycle_hz
+                )?;
+            }
+            Ok(())
+        }
+        Err(e) => bail!("{name}: {e}"),
+    }
+}
+
+fn discover_cmd(
+    instr: &Instrument,
+    config: ptsa_core::Config,
+    a: &DiscoverArgs,
+    out: &mut dyn Write,
+) -> Result<()> {
+    if let Some(dir) = &a.convert_report_data {
+        for p in ptsa_host_sim::r890::write_case_files(dir)? {
+            eprintln!("wrote {}", p.display());
+        }
+        return Ok(());
+    }
+    let candidates: Vec<CandidateId> = if a.candidates.is_empty() {
+        CandidateId::ALL.to_vec()
+    } else {
+        let mut v: Vec<CandidateId> = a.candidates.iter().flatten().copied().collect();
+        v.sort_unstable();
+        v.dedup();
+        v
+    };
+    let req = Request {
+        data: a.data.clone(),
+        options: Options {
+            default_sigma_cm_s2: a.sigma,
+            candidates,
+            ..Options::default()
+        },
+        json: a.json,
+        out: (!a.no_plots).then(|| a.out.clone()),
+    };
+    let sim: Box<dyn Simulator> = if a.analytic {
+        Box::new(discovery::AnalyticSimulator::for_instrument(instr))
+    } else {
+        Box::new(discovery::sim::ClosedLoopSimulator {
+            instrument: instr.clone(),
+            options: SimOptions {
+                seed: a.seed,
+                config,
+                ..SimOptions::default()
+            },
+        })
+    };
+    let s = work::spinner("discover");
+    let r = discovery::run(&req, &*sim, out);
+    s.finish_and_clear();
+    r
+}

@@ -1,0 +1,352 @@
+//! The candidate registry: every error term the baseline model leaves out and `ptsa discover`
+//! may name, in one table.
+//!
+//! Each [`Candidate`] is one coefficient: its effect name and coefficient key (both part of
+//! the `--json` contract), the coefficient's unit (cgs), the term it adds to the indicated
+//! acceleration, and how its signature is computed. [`Effects`] holds one value per
+//! candidate and is indexed by the typed [`CandidateId`], never by a bare number; everything
+//! that names, sets, fits or prints a candidate goes through [`CandidateId::info`].
+//!
+//! Adding a term of the model equation is one [`CandidateId`] variant and one [`REGISTRY`]
+//! entry (and, for a term that needs new inputs, the case-frame columns that carry them).
+
+use serde::Serialize;
+
+use crate::condition::{CaseInputs, IA, OA, PA, cross};
+
+/// How a candidate's signature (its effect per unit coefficient on a row) is computed.
+#[derive(Clone, Copy, Debug)]
+pub enum Signature {
+    /// An extra indicated acceleration that is linear in the coefficient: `term(inputs)` is
+    /// its value for a unit coefficient at one instant, cm/s². The loop indicates its time
+    /// average (an extra torque `P·term` on the pendulum, eq. 4.2).
+    Term(fn(&CaseInputs) -> f64),
+}
+
+/// One candidate coefficient of the vocabulary.
+#[derive(Clone, Copy, Debug)]
+pub struct Candidate {
+    /// Its typed name.
+    pub id: CandidateId,
+    /// Effect name in the JSON (`anisoinertia`, `lever_arm`, ...).
+    pub effect: &'static str,
+    /// Coefficient key, units in the name (`k_ai_cm`, `r_pa_cm`, ...).
+    pub key: &'static str,
+    /// Name in lists and `confounded_with`: the effect name, or `effect.key` for the
+    /// components of a multi-coefficient effect (`lever_arm.r_pa_cm`).
+    pub name: &'static str,
+    /// Unit of the coefficient (cgs, as in the report).
+    pub unit: &'static str,
+    /// The term, as written in the docs.
+    pub formula: &'static str,
+    /// How its signature is computed.
+    pub signature: Signature,
+}
+
+macro_rules! candidates {
+    ($($id:ident = $effect:literal, $key:literal, $name:literal, $unit:literal, $formula:literal, $sig:expr;)*) => {
+        /// Typed name of a candidate coefficient (the order is the tie-break order of the
+        /// selection and the order of every listing).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        pub enum CandidateId {
+            $(
+                #[doc = concat!("`", $name, "` (`", $key, "`): ", $formula)]
+                $id,
+            )*
+        }
+
+        /// The registry: one entry per [`CandidateId`], in the same order.
+        pub const REGISTRY: &[Candidate] = &[
+            $(Candidate {
+                id: CandidateId::$id,
+                effect: $effect,
+                key: $key,
+                name: $name,
+                unit: $unit,
+                formula: $formula,
+                signature: $sig,
+            },)*
+        ];
+
+        impl CandidateId {
+            /// Every candidate, in registry order.
+            pub const ALL: &[CandidateId] = &[$(CandidateId::$id,)*];
+        }
+    };
+}
+
+/// Number of candidates.
+pub const N_CANDIDATES: usize = CandidateId::ALL.len();
+
+candidates! {
+    Anisoinertia = "anisoinertia", "k_ai_cm", "anisoinertia", "cm",
+        "k·w_IA·w_PA, k = (I_PA − I_IA)/(m·l)",
+        Signature::Term(|i| i.w_rad_s[IA] * i.w_rad_s[PA]);
+    LeverArmIa = "lever_arm", "r_ia_cm", "lever_arm.r_ia_cm", "cm",
+        "IA component of dw × r + w × (w × r), r along IA",
+        Signature::Term(|i| lever_arm_ia(i, IA));
+    LeverArmPa = "lever_arm", "r_pa_cm", "lever_arm.r_pa_cm", "cm",
+        "IA component of dw × r + w × (w × r), r along PA",
+        Signature::Term(|i| lever_arm_ia(i, PA));
+    LeverArmOa = "lever_arm", "r_oa_cm", "lever_arm.r_oa_cm", "cm",
+        "IA component of dw × r + w × (w × r), r along OA",
+        Signature::Term(|i| lever_arm_ia(i, OA));
+    Vibropendulosity = "vibropendulosity", "k_ip_s2_cm", "vibropendulosity", "s²/cm",
+        "k·a_IA·a_PA",
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[PA]);
+    Anisoelasticity = "anisoelasticity", "k_io_s2_cm", "anisoelasticity", "s²/cm",
+        "k·a_IA·a_OA",
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[OA]);
+    Nonlinearity = "nonlinearity", "k2_s2_cm", "nonlinearity", "s²/cm",
+        "k·a_IA²",
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[IA]);
+    Sculling = "sculling", "k_sc_s2", "sculling", "s²",
+        "k·dw_OA·a_PA",
+        Signature::Term(|i| i.dw_rad_s2[OA] * i.a_cm_s2[PA]);
+}
+
+/// IA component of `dw × r + w × (w × r)` for a unit `r` along case axis `axis`.
+fn lever_arm_ia(i: &CaseInputs, axis: usize) -> f64 {
+    let mut r = [0.0; 3];
+    r[axis] = 1.0;
+    cross(i.dw_rad_s2, r)[IA] + cross(i.w_rad_s, cross(i.w_rad_s, r))[IA]
+}
+
+impl CandidateId {
+    /// Its registry entry.
+    #[must_use]
+    pub fn info(self) -> &'static Candidate {
+        &REGISTRY[self.index()]
+    }
+
+    /// Position in [`CandidateId::ALL`] and [`REGISTRY`].
+    #[must_use]
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// The candidate named `name` (`anisoinertia`, `lever_arm.r_pa_cm`, ...).
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<CandidateId> {
+        REGISTRY.iter().find(|c| c.name == name).map(|c| c.id)
+    }
+
+    /// The candidates of effect `effect` (`lever_arm` has three).
+    pub fn of_effect(effect: &str) -> impl Iterator<Item = CandidateId> + '_ {
+        REGISTRY
+            .iter()
+            .filter(move |c| c.effect == effect)
+            .map(|c| c.id)
+    }
+
+    /// Its extra indicated acceleration at one instant for a unit coefficient, cm/s².
+    #[must_use]
+    pub fn term_cm_s2(self, i: &CaseInputs) -> f64 {
+        match self.info().signature {
+            Signature::Term(f) => f(i),
+        }
+    }
+}
+
+/// The candidates a name stands for: an effect name (`lever_arm`: its three components) or
+/// a candidate name (`lever_arm.r_pa_cm`).
+///
+/// # Errors
+/// An unknown name; the message lists every known one.
+pub fn resolve_candidates(name: &str) -> Result<Vec<CandidateId>, String> {
+    let hits: Vec<CandidateId> = REGISTRY
+        .iter()
+        .filter(|c| c.effect == name || c.name == name)
+        .map(|c| c.id)
+        .collect();
+    if hits.is_empty() {
+        Err(format!(
+            "unknown candidate `{name}`; expected one of: {}",
+            candidate_names().join(", ")
+        ))
+    } else {
+        Ok(hits)
+    }
+}
+
+/// Every name [`resolve_candidates`] accepts: effect names and candidate names, sorted.
+#[must_use]
+pub fn candidate_names() -> Vec<&'static str> {
+    let set: std::collections::BTreeSet<&str> =
+        REGISTRY.iter().flat_map(|c| [c.effect, c.name]).collect();
+    set.into_iter().collect()
+}
+
+impl std::fmt::Display for CandidateId {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.info().name)
+    }
+}
+
+impl Serialize for CandidateId {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(self.info().name)
+    }
+}
+
+const _: () = {
+    // The registry and the enum are generated together; check the order once more.
+    let mut k = 0;
+    while k < REGISTRY.len() {
+        assert!(REGISTRY[k].id as usize == k);
+        k += 1;
+    }
+};
+
+/// Coefficients of the candidate effects, one per [`CandidateId`] (all zero in the
+/// baseline model), each in its candidate's unit.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Effects {
+    coef: [f64; N_CANDIDATES],
+}
+
+impl Effects {
+    /// No effect: the baseline model.
+    pub const NONE: Effects = Effects {
+        coef: [0.0; N_CANDIDATES],
+    };
+
+    /// Only `id` set to `value`.
+    #[must_use]
+    pub fn only(id: CandidateId, value: f64) -> Self {
+        Self::NONE.with(id, value)
+    }
+
+    /// These effects with `id` set to `value`.
+    #[must_use]
+    pub fn with(mut self, id: CandidateId, value: f64) -> Self {
+        self.coef[id.index()] = value;
+        self
+    }
+
+    /// The coefficient of `id`.
+    #[must_use]
+    pub fn get(&self, id: CandidateId) -> f64 {
+        self.coef[id.index()]
+    }
+
+    /// Set the coefficient of `id`.
+    pub fn set(&mut self, id: CandidateId, value: f64) {
+        self.coef[id.index()] = value;
+    }
+
+    /// Add `value` to the coefficient of `id`.
+    pub fn add(&mut self, id: CandidateId, value: f64) {
+        self.coef[id.index()] += value;
+    }
+
+    /// The lever arm `r` (IA, PA, OA), cm.
+    #[must_use]
+    pub fn lever_arm_cm(&self) -> [f64; 3] {
+        [
+            self.get(CandidateId::LeverArmIa),
+            self.get(CandidateId::LeverArmPa),
+            self.get(CandidateId::LeverArmOa),
+        ]
+    }
+
+    /// Add a lever arm `r` (IA, PA, OA), cm.
+    pub fn add_lever_arm_cm(&mut self, r: [f64; 3]) {
+        self.add(CandidateId::LeverArmIa, r[IA]);
+        self.add(CandidateId::LeverArmPa, r[PA]);
+        self.add(CandidateId::LeverArmOa, r[OA]);
+    }
+
+    /// Whether every coefficient is zero.
+    #[must_use]
+    pub fn is_zero(&self) -> bool {
+        self.coef.iter().all(|&c| c == 0.0)
+    }
+
+    /// The non-zero coefficients, in registry order.
+    pub fn nonzero(&self) -> impl Iterator<Item = (CandidateId, f64)> + '_ {
+        CandidateId::ALL
+            .iter()
+            .map(|&id| (id, self.get(id)))
+            .filter(|&(_, c)| c != 0.0)
+    }
+
+    /// Sum of the effect terms at one instant: extra indicated acceleration along IA, cm/s².
+    #[must_use]
+    pub fn indicated_cm_s2(&self, i: &CaseInputs) -> f64 {
+        self.nonzero().map(|(id, c)| c * id.term_cm_s2(i)).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::condition::Condition;
+
+    #[test]
+    fn names_keys_and_order_are_the_contract() {
+        let names: Vec<&str> = REGISTRY.iter().map(|c| c.name).collect();
+        assert_eq!(
+            names,
+            [
+                "anisoinertia",
+                "lever_arm.r_ia_cm",
+                "lever_arm.r_pa_cm",
+                "lever_arm.r_oa_cm",
+                "vibropendulosity",
+                "anisoelasticity",
+                "nonlinearity",
+                "sculling"
+            ]
+        );
+        for c in REGISTRY {
+            assert_eq!(CandidateId::from_name(c.name), Some(c.id));
+            assert!(c.name == c.effect || c.name == format!("{}.{}", c.effect, c.key));
+        }
+        assert_eq!(CandidateId::of_effect("lever_arm").count(), 3);
+    }
+
+    #[test]
+    fn anisoinertia_at_45_degrees_matches_the_report_arithmetic() {
+        // Table 6.1 geometry: IA 45° above horizontal, table rate 1 rad/s about the vertical.
+        let phi = 45f64.to_radians();
+        let c = Condition {
+            g: [phi.sin(), phi.cos(), 0.0],
+            w_rad_s: [phi.sin(), phi.cos(), 0.0],
+            ..Condition::default()
+        };
+        let e = Effects::only(CandidateId::Anisoinertia, 3.0);
+        let x = e.indicated_cm_s2(&c.inputs_at(0.0, 980.4));
+        assert!((x - 1.5).abs() < 1e-12, "{x}");
+    }
+
+    #[test]
+    fn lever_arm_along_pa_gives_centripetal_ia_term() {
+        // w about IA and PA, r along PA: w × (w × r) = w (w·r) − r |w|²; IA part = w_IA w_PA r_PA.
+        let c = Condition {
+            w_rad_s: [0.6, 0.8, 0.0],
+            ..Condition::default()
+        };
+        let e = Effects::only(CandidateId::LeverArmPa, 2.0);
+        let x = e.indicated_cm_s2(&c.inputs_at(0.0, 980.4));
+        assert!((x - 0.6 * 0.8 * 2.0).abs() < 1e-12, "{x}");
+    }
+
+    #[test]
+    fn every_term_is_linear_in_its_coefficient() {
+        let i = CaseInputs {
+            a_cm_s2: [310.0, -120.0, 45.0],
+            w_rad_s: [0.3, -0.7, 1.1],
+            dw_rad_s2: [2.0, -5.0, 7.0],
+        };
+        for &id in CandidateId::ALL {
+            let one = Effects::only(id, 1.0).indicated_cm_s2(&i);
+            let three = Effects::only(id, 3.0).indicated_cm_s2(&i);
+            assert!(
+                (three - 3.0 * one).abs() <= 1e-12 * three.abs().max(1.0),
+                "{id}"
+            );
+            assert!(one != 0.0, "{id} has no term at these inputs");
+        }
+    }
+}

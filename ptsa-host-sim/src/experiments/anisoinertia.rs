@@ -1,0 +1,170 @@
+//! Section 6.2 and Table 6.1: the accelerometer on the dividing head on the rate table, IA
+//! at eight positions 45° apart, the table at 1.0 and 0.05 rad/s; eq. 6.5 is the difference.
+
+use anyhow::Result;
+use rayon::prelude::*;
+
+use crate::condition::{IA, PA};
+use crate::effects::Effects;
+use crate::fixtures;
+use crate::instrument::Instrument;
+use crate::output::{Figure, Output, Plot, Series, Table, num, opt};
+use crate::r890;
+use crate::sim::{SimOptions, simulate_difference};
+
+/// One row of the anisoinertia experiment.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AnisoRow {
+    /// IA position, deg.
+    pub ia_deg: f64,
+    /// Report's `A_in` difference, cm/s² (if tabulated).
+    pub report: Option<f64>,
+    /// Simulated with the given anisoinertia, cm/s².
+    pub simulated: f64,
+    /// Simulated baseline (`I_PA = I_IA`), cm/s².
+    pub baseline: f64,
+    /// `(I_PA − I_IA)/(m l)·(w_IA w_PA at 1.0 − at 0.05 rad/s)`, cm/s².
+    pub predicted: f64,
+}
+
+/// What [`run`] returns.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnisoRun {
+    /// One row per IA position of Table 6.1.
+    pub rows: Vec<AnisoRow>,
+    /// The coefficient as the report derives it from the simulated table (mean |A_in| at the
+    /// 45° positions over `w_IA·w_PA`), cm.
+    pub k_simulated_cm: f64,
+    /// The configured coefficient `(I_PA − I_IA)/(m·l)`, cm.
+    pub k_configured_cm: f64,
+    /// Tables, figures, notes.
+    pub output: Output,
+}
+
+/// Table 6.1's procedure with the instrument's anisoinertia set to `aniso_g_cm2` (g·cm²)
+/// and with the baseline (0); `lever_cm` is the CG's offset from the table axis (IA, PA, OA),
+/// cm.
+///
+/// # Errors
+/// The report's transcriptions are malformed.
+pub fn run(
+    instr: &Instrument,
+    opts: &SimOptions,
+    aniso_g_cm2: f64,
+    lever_cm: [f64; 3],
+) -> Result<AnisoRun> {
+    let s62 = r890::section_6_2()?;
+    let table = r890::table_6_1()?;
+    let mut with = instr.clone();
+    with.anisoinertia_g_cm2 = aniso_g_cm2;
+    let mut base = instr.clone();
+    base.anisoinertia_g_cm2 = 0.0;
+    let k = aniso_g_cm2 / instr.pendulosity_g_cm();
+    let (w1, w0) = (s62.rate_rad_s, s62.reference_rate_rad_s);
+    let rows: Vec<AnisoRow> = table
+        .par_iter()
+        .map(|r| {
+            let s = fixtures::rate_table(r.ia_deg, w1, w0, lever_cm);
+            let e = s.effects(&Effects::NONE);
+            let sim = simulate_difference(&with, &s.cond, &e, opts).difference_cm_s2;
+            let b = simulate_difference(&base, &s.cond, &e, opts).difference_cm_s2;
+            let c = s.cond.w_rad_s;
+            let rf = s.cond.ref_w_rad_s;
+            AnisoRow {
+                ia_deg: r.ia_deg,
+                report: r.a_in_cm_s2,
+                simulated: sim,
+                baseline: b,
+                predicted: k * (c[IA] * c[PA] - rf[IA] * rf[PA]),
+            }
+        })
+        .collect();
+    // w_IA·w_PA at a 45° position, measurement minus reference.
+    let w45 = 0.5 * (w1 * w1 - w0 * w0);
+    let is45 = |deg: f64| (deg % 90.0 - 45.0).abs() < 1e-9;
+    let mean = |v: Vec<f64>| {
+        #[allow(clippy::cast_precision_loss)]
+        let n = v.len().max(1) as f64;
+        v.iter().sum::<f64>() / n
+    };
+    let sim_mean = mean(
+        rows.iter()
+            .filter(|r| is45(r.ia_deg))
+            .map(|r| r.simulated.abs())
+            .collect(),
+    );
+    let rep_mean = mean(
+        rows.iter()
+            .filter(|r| is45(r.ia_deg))
+            .filter_map(|r| r.report.map(f64::abs))
+            .collect(),
+    );
+    let k_sim = sim_mean / w45;
+    let mut t = Table::new(
+        "anisoinertia-table-6-1",
+        &format!(
+            "Table 6.1: error due to anisoinertia (I_PA - I_IA = {aniso_g_cm2} g cm^2, k = {k:.3} cm)"
+        ),
+        &[
+            "IA deg",
+            "report cm/s^2",
+            "simulated cm/s^2",
+            "baseline cm/s^2",
+            "k w_IA w_PA cm/s^2",
+        ],
+    );
+    for r in &rows {
+        t.rows.push(vec![
+            num(r.ia_deg, 0),
+            opt(r.report, 2),
+            num(r.simulated, 3),
+            num(r.baseline, 3),
+            num(r.predicted, 3),
+        ]);
+    }
+    let plot = Plot {
+        title: "Table 6.1: anisoinertia error vs IA position".into(),
+        x_label: "IA position, deg".into(),
+        y_label: "A_in(1.0 rad/s) - A_in(0.05 rad/s), cm/s^2".into(),
+        series: vec![
+            Series::line(
+                "k w_IA w_PA",
+                (0..=360)
+                    .map(|a| {
+                        let x = f64::from(a).to_radians();
+                        (f64::from(a), k * (w1 * w1 - w0 * w0) * x.sin() * x.cos())
+                    })
+                    .collect(),
+            ),
+            Series::markers(
+                "simulated",
+                rows.iter().map(|r| (r.ia_deg, r.simulated)).collect(),
+            ),
+            Series::crosses(
+                "report",
+                rows.iter()
+                    .filter_map(|r| r.report.map(|x| (r.ia_deg, x)))
+                    .collect(),
+            ),
+            Series::triangles(
+                "baseline (I_PA = I_IA)",
+                rows.iter().map(|r| (r.ia_deg, r.baseline)).collect(),
+            ),
+        ],
+        ..Plot::default()
+    };
+    let notes = vec![format!(
+        "anisoinertia: mean |A_in| at 45-deg positions: simulated {sim_mean:.3} cm/s^2 (report {rep_mean:.3}); coefficient {k_sim:.3} cm (configured {k:.3}, report {})",
+        s62.coefficient_cm
+    )];
+    Ok(AnisoRun {
+        rows,
+        k_simulated_cm: k_sim,
+        k_configured_cm: k,
+        output: Output {
+            tables: vec![t],
+            plots: vec![Figure::single("anisoinertia-table-6-1", plot)],
+            notes,
+        },
+    })
+}
