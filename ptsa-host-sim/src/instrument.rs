@@ -1,41 +1,138 @@
 //! The instrument file (`data/kearfott-2401.toml`): Table 2.1 of R-890 with tolerances, and
 //! the PTSA electronics, validated on load.
 
+use std::fmt;
 use std::path::Path;
 
 use serde::Deserialize;
+use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use toml::Spanned;
 
 /// The shipped instrument file, compiled in.
 pub const KEARFOTT_2401_TOML: &str = include_str!("../../data/kearfott-2401.toml");
 
 /// Why an instrument file was refused: where and what was expected.
+///
+/// Displayed as `file:line:column: message`, or `file: message` when the error has no
+/// position (the file could not be read).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{file}:{line}:{column}: {message}")]
+#[error("{file}{}: {message}", position_text(*.line, *.column))]
 pub struct InstrumentError {
     /// File name (or `<builtin>`).
     pub file: String,
-    /// 1-based line.
+    /// 1-based line; 0 when the error has no position in the file.
     pub line: usize,
-    /// 1-based column.
+    /// 1-based column, counted in characters; 0 when the error has no position.
     pub column: usize,
     /// What was wrong and what was expected.
     pub message: String,
 }
 
+impl InstrumentError {
+    /// The 1-based (line, column) of the error, `None` when it has no position in the file
+    /// (the file could not be read).
+    #[must_use]
+    pub fn position(&self) -> Option<(usize, usize)> {
+        (self.line > 0).then_some((self.line, self.column))
+    }
+}
+
+/// `:line:column` after the file name, or nothing for an error without a position.
+fn position_text(line: usize, column: usize) -> String {
+    if line == 0 {
+        String::new()
+    } else {
+        format!(":{line}:{column}")
+    }
+}
+
+/// A number in the file: a TOML float or integer. It has its own visitor so that a value of
+/// another type is reported in the file's terms ("expected a number, found the string
+/// "fast"") rather than serde's ("invalid type: string, expected f64").
+#[derive(Debug, Clone, Copy)]
+struct Num(f64);
+
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NumVisitor)
+    }
+}
+
+struct NumVisitor;
+
+impl<'de> Visitor<'de> for NumVisitor {
+    type Value = Num;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a number")
+    }
+
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<Num, E> {
+        Ok(Num(v))
+    }
+
+    // TOML integers stand for the same number as a float (`clock_hz = 64000`); the rounding
+    // of integers beyond 2^53 is that of writing them as floats.
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<Num, E> {
+        Ok(Num(v as f64))
+    }
+
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Num, E> {
+        Ok(Num(v as f64))
+    }
+
+    fn visit_i128<E: de::Error>(self, v: i128) -> Result<Num, E> {
+        Ok(Num(v as f64))
+    }
+
+    fn visit_u128<E: de::Error>(self, v: u128) -> Result<Num, E> {
+        Ok(Num(v as f64))
+    }
+
+    fn visit_str<E: de::Error>(self, v: &str) -> Result<Num, E> {
+        Err(E::custom(format!(
+            "expected a number, found the string {v:?}"
+        )))
+    }
+
+    fn visit_bool<E: de::Error>(self, v: bool) -> Result<Num, E> {
+        Err(E::custom(format!("expected a number, found `{v}`")))
+    }
+
+    fn visit_seq<A: SeqAccess<'de>>(self, _: A) -> Result<Num, A::Error> {
+        Err(de::Error::custom("expected a number, found an array"))
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<Num, A::Error> {
+        // The toml crate hands a date or time to a visitor as a one-entry map with a private
+        // key; anything else is an inline table.
+        let key: Option<String> = map.next_key()?;
+        if key.as_deref() == Some("$__toml_private_datetime") {
+            let date: String = map.next_value()?;
+            return Err(de::Error::custom(format!(
+                "expected a number, found the date/time {date}"
+            )));
+        }
+        Err(de::Error::custom("expected a number, found a table"))
+    }
+}
+
 /// A toleranced parameter as written in the file.
 #[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "a table { value = ..., tol_pct = ... }, { value = ..., tol_abs = ... } or { value = ..., min = ..., max = ... }"
+)]
 struct Param {
-    value: Spanned<f64>,
-    tol_pct: Option<f64>,
-    tol_abs: Option<f64>,
-    min: Option<f64>,
-    max: Option<f64>,
+    value: Spanned<Num>,
+    tol_pct: Option<Num>,
+    tol_abs: Option<Num>,
+    min: Option<Num>,
+    max: Option<Num>,
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a [pendulum] table")]
 struct PendulumT {
     pendulosity_dyn_cm_per_g: Spanned<Param>,
     freedom_mrad: Spanned<Param>,
@@ -46,7 +143,7 @@ struct PendulumT {
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a [pickoff] table")]
 struct PickoffT {
     scale_factor_v_per_rad: Spanned<Param>,
     quadrature_null_uv: Spanned<Param>,
@@ -55,33 +152,36 @@ struct PickoffT {
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a [torquer] table")]
 struct TorquerT {
     current_scale_factor_ma_per_g: Spanned<Param>,
     time_constant_us: Spanned<Param>,
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "an [electronics] table")]
 struct ElectronicsT {
-    scale_factor_cm_s2: Spanned<f64>,
-    bias_cm_s2: Spanned<f64>,
-    amplifier_gain: Spanned<f64>,
-    demodulator_bandwidth_hz: Spanned<f64>,
-    adc_full_scale_v: Spanned<f64>,
-    clock_hz: Spanned<f64>,
-    local_gravity_cm_s2: Spanned<f64>,
+    scale_factor_cm_s2: Spanned<Num>,
+    bias_cm_s2: Spanned<Num>,
+    amplifier_gain: Spanned<Num>,
+    demodulator_bandwidth_hz: Spanned<Num>,
+    adc_full_scale_v: Spanned<Num>,
+    clock_hz: Spanned<Num>,
+    local_gravity_cm_s2: Spanned<Num>,
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, expecting = "a [stops] table")]
 struct StopsT {
-    stiffness_dyn_cm_per_rad: Spanned<f64>,
-    damping_dyn_cm_s: Spanned<f64>,
+    stiffness_dyn_cm_per_rad: Spanned<Num>,
+    damping_dyn_cm_s: Spanned<Num>,
 }
 
 #[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops]"
+)]
 struct FileT {
     pendulum: PendulumT,
     pickoff: PickoffT,
@@ -155,11 +255,55 @@ pub struct Instrument {
     pub tolerances: Vec<Tolerance>,
 }
 
+/// The 1-based line and column (in characters) of byte `offset` of `src`.
 fn line_col(src: &str, offset: usize) -> (usize, usize) {
-    let before = &src[..offset.min(src.len())];
+    let mut at = offset.min(src.len());
+    while !src.is_char_boundary(at) {
+        at -= 1;
+    }
+    let before = &src[..at];
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
     (line, col)
+}
+
+/// A toml/serde message in the file's terms: serde's `invalid type: X, expected Y` becomes
+/// `expected Y, found X` with X named as TOML names it (a table, an array, the number 3), and
+/// `invalid length N, expected Y` (serde reads a struct from an array too, in key order)
+/// becomes `expected Y, found an array of N values`.
+fn user_message(message: &str) -> String {
+    let message = message.trim();
+    if let Some((n, expected)) = message
+        .strip_prefix("invalid length ")
+        .and_then(|rest| rest.split_once(", expected "))
+    {
+        let values = if n == "1" { "value" } else { "values" };
+        return format!("expected {expected}, found an array of {n} {values}");
+    }
+    let Some((found, expected)) = message
+        .strip_prefix("invalid type: ")
+        .and_then(|rest| rest.rsplit_once(", expected "))
+    else {
+        return message.to_string();
+    };
+    let found = if let Some(s) = found.strip_prefix("string ") {
+        format!("the string {s}")
+    } else if let Some(n) = found
+        .strip_prefix("floating point ")
+        .or_else(|| found.strip_prefix("integer "))
+    {
+        let n = n.split(" as ").next().unwrap_or(n);
+        format!("the number {}", n.trim_matches('`'))
+    } else if let Some(b) = found.strip_prefix("boolean ") {
+        b.to_string()
+    } else {
+        match found {
+            "map" => "a table".to_string(),
+            "sequence" => "an array".to_string(),
+            other => other.to_string(),
+        }
+    };
+    format!("expected {expected}, found {found}")
 }
 
 struct Ctx<'a> {
@@ -188,59 +332,16 @@ impl Ctx<'_> {
         expected: &str,
         tolerances: &mut Vec<Tolerance>,
     ) -> Result<f64, InstrumentError> {
-        let v = *p.get_ref().value.get_ref();
-        let at = p.get_ref().value.span().start;
+        let q = p.get_ref();
+        let v = q.value.get_ref().0;
         if !v.is_finite() || !ok(v) {
+            let at = q.value.span().start;
             return Err(self.err(at, format!("{key} = {v}: expected {expected}")));
         }
-        let q = p.get_ref();
-        let forms = usize::from(q.tol_pct.is_some())
-            + usize::from(q.tol_abs.is_some())
-            + usize::from(q.min.is_some() || q.max.is_some());
-        let tspan = p.span().start;
-        if forms != 1 {
+        let (lo, hi) = band(key, v, q).map_err(|m| self.err(p.span().start, m))?;
+        if !lo.is_finite() || !hi.is_finite() || !ok(lo) || !ok(hi) {
             return Err(self.err(
-                tspan,
-                format!(
-                    "{key}: expected exactly one tolerance form: tol_pct, tol_abs, or min and max"
-                ),
-            ));
-        }
-        let (lo, hi) = if let Some(t) = q.tol_pct {
-            if !(0.0..100.0).contains(&t) {
-                return Err(self.err(
-                    tspan,
-                    format!("{key}: tol_pct = {t}: expected 0 <= tol_pct < 100"),
-                ));
-            }
-            let a = v * (1.0 - t / 100.0);
-            let b = v * (1.0 + t / 100.0);
-            (a.min(b), a.max(b))
-        } else if let Some(t) = q.tol_abs {
-            if t < 0.0 || !t.is_finite() {
-                return Err(self.err(
-                    tspan,
-                    format!("{key}: tol_abs = {t}: expected a finite value >= 0"),
-                ));
-            }
-            (v - t, v + t)
-        } else {
-            match (q.min, q.max) {
-                (Some(a), Some(b)) if a <= v && v <= b => (a, b),
-                (Some(a), Some(b)) => {
-                    return Err(self.err(
-                        tspan,
-                        format!("{key}: min = {a}, max = {b}: expected min <= value ({v}) <= max"),
-                    ));
-                }
-                _ => {
-                    return Err(self.err(tspan, format!("{key}: expected both min and max")));
-                }
-            }
-        };
-        if !ok(lo) || !ok(hi) {
-            return Err(self.err(
-                tspan,
+                p.span().start,
                 format!(
                     "{key}: tolerance band [{lo}, {hi}] leaves the valid range: expected {expected}"
                 ),
@@ -258,15 +359,222 @@ impl Ctx<'_> {
     fn scalar(
         &self,
         key: &str,
-        s: &Spanned<f64>,
+        s: &Spanned<Num>,
         ok: impl Fn(f64) -> bool,
         expected: &str,
     ) -> Result<f64, InstrumentError> {
-        let v = *s.get_ref();
+        let v = s.get_ref().0;
         if !v.is_finite() || !ok(v) {
             return Err(self.err(s.span().start, format!("{key} = {v}: expected {expected}")));
         }
         Ok(v)
+    }
+
+    /// `[pendulum]`: pendulosity dyn·cm/g, freedom mrad, inertia g·cm², spring dyn·cm/rad,
+    /// damping dyn·cm·s, anisoinertia g·cm² (the file's units).
+    fn pendulum(&self, p: &PendulumT, t: &mut Vec<Tolerance>) -> Result<[f64; 6], InstrumentError> {
+        Ok([
+            self.param(
+                "pendulum.pendulosity_dyn_cm_per_g",
+                &p.pendulosity_dyn_cm_per_g,
+                positive,
+                "a pendulosity > 0 dyn·cm/g",
+                t,
+            )?,
+            self.param(
+                "pendulum.freedom_mrad",
+                &p.freedom_mrad,
+                |x| x > 0.0 && x < 2.5,
+                "0 < freedom < 2.5 mrad (the ADC's full scale)",
+                t,
+            )?,
+            self.param(
+                "pendulum.inertia_oa_g_cm2",
+                &p.inertia_oa_g_cm2,
+                positive,
+                "an inertia > 0 g·cm²",
+                t,
+            )?,
+            self.param(
+                "pendulum.spring_dyn_cm_per_rad",
+                &p.spring_dyn_cm_per_rad,
+                non_negative,
+                "a spring rate >= 0 dyn·cm/rad",
+                t,
+            )?,
+            self.param(
+                "pendulum.damping_dyn_cm_s",
+                &p.damping_dyn_cm_s,
+                positive,
+                "a damping > 0 dyn·cm·s",
+                t,
+            )?,
+            self.param(
+                "pendulum.anisoinertia_g_cm2",
+                &p.anisoinertia_g_cm2,
+                |x| x.abs() < 100.0,
+                "|I_PA − I_IA| < 100 g·cm²",
+                t,
+            )?,
+        ])
+    }
+
+    /// `[pickoff]`: scale factor V/rad, quadrature null µV, phase angle deg, noise µV rms.
+    fn pickoff(&self, k: &PickoffT, t: &mut Vec<Tolerance>) -> Result<[f64; 4], InstrumentError> {
+        Ok([
+            self.param(
+                "pickoff.scale_factor_v_per_rad",
+                &k.scale_factor_v_per_rad,
+                positive,
+                "a pickoff scale factor > 0 V/rad",
+                t,
+            )?,
+            self.param(
+                "pickoff.quadrature_null_uv",
+                &k.quadrature_null_uv,
+                non_negative,
+                "a quadrature null >= 0 µV",
+                t,
+            )?,
+            self.param(
+                "pickoff.phase_angle_deg",
+                &k.phase_angle_deg,
+                |x| x.abs() < 60.0,
+                "|phase angle| < 60 deg",
+                t,
+            )?,
+            self.param(
+                "pickoff.noise_uv_rms",
+                &k.noise_uv_rms,
+                non_negative,
+                "a noise >= 0 µV rms",
+                t,
+            )?,
+        ])
+    }
+
+    /// `[torquer]`: current scale factor mA/g, time constant µs.
+    fn torquer(&self, q: &TorquerT, t: &mut Vec<Tolerance>) -> Result<[f64; 2], InstrumentError> {
+        Ok([
+            self.param(
+                "torquer.current_scale_factor_ma_per_g",
+                &q.current_scale_factor_ma_per_g,
+                positive,
+                "a current scale factor > 0 mA/g",
+                t,
+            )?,
+            self.param(
+                "torquer.time_constant_us",
+                &q.time_constant_us,
+                positive,
+                "a time constant > 0 µs",
+                t,
+            )?,
+        ])
+    }
+
+    /// `[electronics]`: scale factor cm/s², bias cm/s², amplifier gain V/V, demodulator
+    /// bandwidth Hz, ADC full scale V, clock Hz, local gravity cm/s².
+    fn electronics(&self, e: &ElectronicsT) -> Result<[f64; 7], InstrumentError> {
+        let sf = self.scalar(
+            "electronics.scale_factor_cm_s2",
+            &e.scale_factor_cm_s2,
+            positive,
+            "a scale factor > 0 cm/s²",
+        )?;
+        Ok([
+            sf,
+            self.scalar(
+                "electronics.bias_cm_s2",
+                &e.bias_cm_s2,
+                |x| x.abs() < sf,
+                "|bias| below the scale factor",
+            )?,
+            self.scalar(
+                "electronics.amplifier_gain",
+                &e.amplifier_gain,
+                positive,
+                "a gain > 0",
+            )?,
+            self.scalar(
+                "electronics.demodulator_bandwidth_hz",
+                &e.demodulator_bandwidth_hz,
+                positive,
+                "a bandwidth > 0 Hz",
+            )?,
+            self.scalar(
+                "electronics.adc_full_scale_v",
+                &e.adc_full_scale_v,
+                positive,
+                "a full scale > 0 V",
+            )?,
+            self.scalar(
+                "electronics.clock_hz",
+                &e.clock_hz,
+                |x| x >= 1000.0,
+                "a clock >= 1000 Hz",
+            )?,
+            self.scalar(
+                "electronics.local_gravity_cm_s2",
+                &e.local_gravity_cm_s2,
+                positive,
+                "gravity > 0 cm/s²",
+            )?,
+        ])
+    }
+
+    /// `[stops]`: contact stiffness dyn·cm/rad, contact damping dyn·cm·s.
+    fn stops(&self, s: &StopsT) -> Result<[f64; 2], InstrumentError> {
+        Ok([
+            self.scalar(
+                "stops.stiffness_dyn_cm_per_rad",
+                &s.stiffness_dyn_cm_per_rad,
+                positive,
+                "a stiffness > 0 dyn·cm/rad",
+            )?,
+            self.scalar(
+                "stops.damping_dyn_cm_s",
+                &s.damping_dyn_cm_s,
+                non_negative,
+                "a damping >= 0 dyn·cm·s",
+            )?,
+        ])
+    }
+}
+
+/// The tolerance band `(lo, hi)` of parameter `key` with nominal `v`, from its one
+/// tolerance form; `Err` is the message.
+fn band(key: &str, v: f64, q: &Param) -> Result<(f64, f64), String> {
+    let forms = usize::from(q.tol_pct.is_some())
+        + usize::from(q.tol_abs.is_some())
+        + usize::from(q.min.is_some() || q.max.is_some());
+    if forms != 1 {
+        return Err(format!(
+            "{key}: expected exactly one tolerance form: tol_pct, tol_abs, or min and max"
+        ));
+    }
+    if let Some(Num(t)) = q.tol_pct {
+        if !(0.0..100.0).contains(&t) {
+            return Err(format!("{key}: tol_pct = {t}: expected 0 <= tol_pct < 100"));
+        }
+        let a = v * (1.0 - t / 100.0);
+        let b = v * (1.0 + t / 100.0);
+        return Ok((a.min(b), a.max(b)));
+    }
+    if let Some(Num(t)) = q.tol_abs {
+        if t < 0.0 || !t.is_finite() {
+            return Err(format!(
+                "{key}: tol_abs = {t}: expected a finite value >= 0"
+            ));
+        }
+        return Ok((v - t, v + t));
+    }
+    match (q.min, q.max) {
+        (Some(Num(a)), Some(Num(b))) if a <= v && v <= b => Ok((a, b)),
+        (Some(Num(a)), Some(Num(b))) => Err(format!(
+            "{key}: min = {a}, max = {b}: expected min <= value ({v}) <= max"
+        )),
+        _ => Err(format!("{key}: expected both min and max")),
     }
 }
 
@@ -275,6 +583,15 @@ fn positive(x: f64) -> bool {
 }
 fn non_negative(x: f64) -> bool {
     x >= 0.0
+}
+
+/// An I/O error's message without the operating system's error number.
+fn io_message(e: &std::io::Error) -> String {
+    let s = e.to_string();
+    match s.rfind(" (os error ") {
+        Some(i) if s.ends_with(')') => s[..i].to_string(),
+        _ => s,
+    }
 }
 
 impl Instrument {
@@ -291,187 +608,80 @@ impl Instrument {
     /// Load and validate an instrument file.
     ///
     /// # Errors
-    /// Unreadable file, TOML syntax, unknown or missing keys, or a value out of range; the
-    /// error names the file, line and column and says what was expected.
+    /// Unreadable file (the error has no position: `file: cannot read: ...`), text that is
+    /// not UTF-8, TOML syntax, unknown or missing keys, a value of the wrong type, or a
+    /// value out of range; the error names the file, line and column and says what was
+    /// expected.
     pub fn load(path: &Path) -> Result<Self, InstrumentError> {
         let name = path.display().to_string();
-        let src = std::fs::read_to_string(path).map_err(|e| InstrumentError {
+        let bytes = std::fs::read(path).map_err(|e| InstrumentError {
             file: name.clone(),
             line: 0,
             column: 0,
-            message: format!("cannot read: {e}"),
+            message: format!("cannot read: {}", io_message(&e)),
         })?;
-        Self::parse(&src, &name)
+        Self::parse_bytes(&bytes, &name)
     }
 
-    /// Parse and validate instrument-file text; `file` names it in errors.
+    /// Parse and validate the bytes of an instrument file; `file` names it in errors.
     ///
     /// # Errors
-    /// See [`Instrument::load`].
+    /// Bytes that are not UTF-8 (the error names the line and column of the first bad byte
+    /// and its byte offset), or see [`Instrument::parse`].
+    pub fn parse_bytes(src: &[u8], file: &str) -> Result<Self, InstrumentError> {
+        match std::str::from_utf8(src) {
+            Ok(text) => Self::parse(text, file),
+            Err(e) => {
+                let off = e.valid_up_to();
+                let valid = std::str::from_utf8(&src[..off]).unwrap_or_default();
+                let byte = src.get(off).copied().unwrap_or_default();
+                let (line, column) = line_col(valid, off);
+                Err(InstrumentError {
+                    file: file.to_string(),
+                    line,
+                    column,
+                    message: format!(
+                        "the file is not UTF-8 text: byte 0x{byte:02X} at byte offset {off} \
+                         is not valid UTF-8; expected UTF-8 text"
+                    ),
+                })
+            }
+        }
+    }
+
+    /// Parse and validate instrument-file text; `file` names it in errors. A leading UTF-8
+    /// byte-order mark is ignored.
+    ///
+    /// # Errors
+    /// TOML syntax, unknown or missing keys, a value of the wrong type, or a value out of
+    /// range; the error names the file, line and column and says what was expected.
     pub fn parse(src: &str, file: &str) -> Result<Self, InstrumentError> {
+        let src = src.strip_prefix('\u{feff}').unwrap_or(src);
         let cx = Ctx { file, src };
         let f: FileT = toml::from_str(src).map_err(|e| {
             let at = e.span().map_or(0, |s| s.start);
-            cx.err(at, e.message().trim().to_string())
+            cx.err(at, user_message(e.message()))
         })?;
         let mut tol = Vec::new();
-        let t = &mut tol;
-        let p = &f.pendulum;
-        let pendulosity = cx.param(
-            "pendulum.pendulosity_dyn_cm_per_g",
-            &p.pendulosity_dyn_cm_per_g,
-            positive,
-            "a pendulosity > 0 dyn·cm/g",
-            t,
-        )?;
-        let freedom = cx.param(
-            "pendulum.freedom_mrad",
-            &p.freedom_mrad,
-            |x| x > 0.0 && x < 2.5,
-            "0 < freedom < 2.5 mrad (the ADC's full scale)",
-            t,
-        )?;
-        let inertia = cx.param(
-            "pendulum.inertia_oa_g_cm2",
-            &p.inertia_oa_g_cm2,
-            positive,
-            "an inertia > 0 g·cm²",
-            t,
-        )?;
-        let spring = cx.param(
-            "pendulum.spring_dyn_cm_per_rad",
-            &p.spring_dyn_cm_per_rad,
-            non_negative,
-            "a spring rate >= 0 dyn·cm/rad",
-            t,
-        )?;
-        let damping = cx.param(
-            "pendulum.damping_dyn_cm_s",
-            &p.damping_dyn_cm_s,
-            positive,
-            "a damping > 0 dyn·cm·s",
-            t,
-        )?;
-        let aniso = cx.param(
-            "pendulum.anisoinertia_g_cm2",
-            &p.anisoinertia_g_cm2,
-            |x| x.abs() < 100.0,
-            "|I_PA − I_IA| < 100 g·cm²",
-            t,
-        )?;
-        let k = &f.pickoff;
-        let po = cx.param(
-            "pickoff.scale_factor_v_per_rad",
-            &k.scale_factor_v_per_rad,
-            positive,
-            "a pickoff scale factor > 0 V/rad",
-            t,
-        )?;
-        let quad = cx.param(
-            "pickoff.quadrature_null_uv",
-            &k.quadrature_null_uv,
-            non_negative,
-            "a quadrature null >= 0 µV",
-            t,
-        )?;
-        let phase = cx.param(
-            "pickoff.phase_angle_deg",
-            &k.phase_angle_deg,
-            |x| x.abs() < 60.0,
-            "|phase angle| < 60 deg",
-            t,
-        )?;
-        let noise = cx.param(
-            "pickoff.noise_uv_rms",
-            &k.noise_uv_rms,
-            non_negative,
-            "a noise >= 0 µV rms",
-            t,
-        )?;
-        let q = &f.torquer;
-        let csf = cx.param(
-            "torquer.current_scale_factor_ma_per_g",
-            &q.current_scale_factor_ma_per_g,
-            positive,
-            "a current scale factor > 0 mA/g",
-            t,
-        )?;
-        let tau = cx.param(
-            "torquer.time_constant_us",
-            &q.time_constant_us,
-            positive,
-            "a time constant > 0 µs",
-            t,
-        )?;
-        let e = &f.electronics;
-        let sf = cx.scalar(
-            "electronics.scale_factor_cm_s2",
-            &e.scale_factor_cm_s2,
-            positive,
-            "a scale factor > 0 cm/s²",
-        )?;
-        let bias = cx.scalar(
-            "electronics.bias_cm_s2",
-            &e.bias_cm_s2,
-            |x| x.abs() < sf,
-            "|bias| below the scale factor",
-        )?;
-        let amp = cx.scalar(
-            "electronics.amplifier_gain",
-            &e.amplifier_gain,
-            positive,
-            "a gain > 0",
-        )?;
-        let bw = cx.scalar(
-            "electronics.demodulator_bandwidth_hz",
-            &e.demodulator_bandwidth_hz,
-            positive,
-            "a bandwidth > 0 Hz",
-        )?;
-        let fs = cx.scalar(
-            "electronics.adc_full_scale_v",
-            &e.adc_full_scale_v,
-            positive,
-            "a full scale > 0 V",
-        )?;
-        let clock = cx.scalar(
-            "electronics.clock_hz",
-            &e.clock_hz,
-            |x| x >= 1000.0,
-            "a clock >= 1000 Hz",
-        )?;
-        let g = cx.scalar(
-            "electronics.local_gravity_cm_s2",
-            &e.local_gravity_cm_s2,
-            positive,
-            "gravity > 0 cm/s²",
-        )?;
-        let s = &f.stops;
-        let ks = cx.scalar(
-            "stops.stiffness_dyn_cm_per_rad",
-            &s.stiffness_dyn_cm_per_rad,
-            positive,
-            "a stiffness > 0 dyn·cm/rad",
-        )?;
-        let cs = cx.scalar(
-            "stops.damping_dyn_cm_s",
-            &s.damping_dyn_cm_s,
-            non_negative,
-            "a damping >= 0 dyn·cm·s",
-        )?;
+        let [pendulosity, freedom_mrad, inertia, spring, damping, aniso] =
+            cx.pendulum(&f.pendulum, &mut tol)?;
+        let [pickoff, quad_uv, phase_deg, noise_uv] = cx.pickoff(&f.pickoff, &mut tol)?;
+        let [csf, tau_us] = cx.torquer(&f.torquer, &mut tol)?;
+        let [sf, bias, amp, bw, fs, clock, g] = cx.electronics(&f.electronics)?;
+        let [ks, cs] = cx.stops(&f.stops)?;
         Ok(Self {
             pendulosity_dyn_cm_per_g: pendulosity,
-            freedom_rad: freedom * 1e-3,
+            freedom_rad: freedom_mrad * 1e-3,
             inertia_dyn_cm_s2: inertia,
             spring_dyn_cm_rad: spring,
             damping_dyn_cm_s: damping,
             anisoinertia_g_cm2: aniso,
-            pickoff_v_per_rad: po,
-            quadrature_v: quad * 1e-6,
-            phase_error_rad: phase.to_radians(),
-            noise_v_rms: noise * 1e-6,
+            pickoff_v_per_rad: pickoff,
+            quadrature_v: quad_uv * 1e-6,
+            phase_error_rad: phase_deg.to_radians(),
+            noise_v_rms: noise_uv * 1e-6,
             current_sf_ma_per_g: csf,
-            torquer_tau_s: tau * 1e-6,
+            torquer_tau_s: tau_us * 1e-6,
             full_current_ma: sf / g * csf,
             sf_cm_s2: sf,
             bias_cm_s2: bias,
@@ -596,5 +806,194 @@ mod tests {
 
         let syntax = KEARFOTT_2401_TOML.replace("clock_hz = 64000.0", "clock_hz = 64000.0.0");
         assert!(Instrument::parse(&syntax, "z.toml").is_err());
+    }
+
+    /// The error for the shipped file with `from` replaced by `to` (exactly once).
+    fn mutated(from: &str, to: &str) -> InstrumentError {
+        assert_eq!(KEARFOTT_2401_TOML.matches(from).count(), 1, "{from}");
+        Instrument::parse(&KEARFOTT_2401_TOML.replace(from, to), "m.toml").unwrap_err()
+    }
+
+    /// The 1-based line of the shipped file that starts with `key`.
+    fn line_of(key: &str) -> usize {
+        KEARFOTT_2401_TOML
+            .lines()
+            .position(|l| l.starts_with(key))
+            .unwrap()
+            + 1
+    }
+
+    /// No Rust or serde vocabulary in a user message.
+    fn assert_user_terms(e: &InstrumentError) {
+        for word in [
+            "f64",
+            "i64",
+            "i128",
+            "struct",
+            "Param",
+            "PendulumT",
+            "map",
+            "sequence",
+            "invalid type",
+        ] {
+            assert!(!e.message.contains(word), "`{word}` in: {e}");
+        }
+    }
+
+    #[test]
+    fn a_missing_file_is_reported_without_a_position() {
+        let e = Instrument::load(Path::new("nonexist.toml")).unwrap_err();
+        assert_eq!(e.position(), None);
+        assert_eq!(e.file, "nonexist.toml");
+        let m = e.to_string();
+        assert!(m.starts_with("nonexist.toml: cannot read: "), "{m}");
+        assert!(!m.contains("os error") && !m.contains(":0"), "{m}");
+        #[cfg(unix)]
+        assert_eq!(m, "nonexist.toml: cannot read: No such file or directory");
+    }
+
+    #[test]
+    fn a_number_of_the_wrong_type_is_named_in_toml_terms() {
+        let line = line_of("clock_hz");
+        for (value, found) in [
+            ("\"fast\"", "the string \"fast\""),
+            ("true", "`true`"),
+            ("[64000]", "an array"),
+            ("{ value = 64000 }", "a table"),
+            ("1979-05-27", "the date/time 1979-05-27"),
+        ] {
+            let e = mutated("clock_hz = 64000.0", &format!("clock_hz = {value}"));
+            assert_eq!(
+                e.message,
+                format!("expected a number, found {found}"),
+                "{e}"
+            );
+            assert_eq!(e.position(), Some((line, 12)), "{e}");
+            assert_user_terms(&e);
+        }
+        let e = mutated(
+            "time_constant_us = { value = 2.0,",
+            "time_constant_us = { value = \"fast\",",
+        );
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "m.toml:{}:30: expected a number, found the string \"fast\"",
+                line_of("time_constant_us")
+            )
+        );
+        let e = mutated("tol_abs = 10.0", "tol_abs = \"10 %\"");
+        assert_eq!(e.message, "expected a number, found the string \"10 %\"");
+        // An integer is a number.
+        let i = Instrument::parse(
+            &KEARFOTT_2401_TOML.replace("clock_hz = 64000.0", "clock_hz = 64000"),
+            "m.toml",
+        )
+        .unwrap();
+        assert_eq!(i.clock_hz.to_bits(), 64000.0_f64.to_bits());
+    }
+
+    #[test]
+    fn a_toleranced_entry_of_the_wrong_type_names_the_table_forms() {
+        let e = mutated(
+            "inertia_oa_g_cm2 = { value = 14.0, tol_pct = 20.0 }",
+            "inertia_oa_g_cm2 = 14.0",
+        );
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "m.toml:{}:20: expected a table {{ value = ..., tol_pct = ... }}, \
+                 {{ value = ..., tol_abs = ... }} or {{ value = ..., min = ..., max = ... }}, \
+                 found the number 14.0",
+                line_of("inertia_oa_g_cm2")
+            )
+        );
+        assert_user_terms(&e);
+        // A section of the wrong type.
+        for (line, message) in [
+            ("stops = 3", "expected a [stops] table, found the number 3"),
+            (
+                "pickoff = \"x\"",
+                "expected a [pickoff] table, found the string \"x\"",
+            ),
+            (
+                "pendulum = []",
+                "expected a [pendulum] table, found an array of 0 values",
+            ),
+            (
+                "electronics = [1.0]",
+                "expected an [electronics] table, found an array of 1 value",
+            ),
+        ] {
+            let e = Instrument::parse(&format!("# c\n{line}\n"), "s.toml").unwrap_err();
+            assert_eq!((e.message.as_str(), e.line), (message, 2), "{e}");
+            assert_user_terms(&e);
+        }
+    }
+
+    #[test]
+    fn serde_messages_are_reworded_in_the_file_terms() {
+        assert_eq!(
+            user_message("invalid type: sequence, expected a [stops] table"),
+            "expected a [stops] table, found an array"
+        );
+        assert_eq!(
+            user_message("invalid type: map, expected x, y"),
+            "expected x, y, found a table"
+        );
+        assert_eq!(
+            user_message("invalid type: integer `99` as i128, expected a number"),
+            "expected a number, found the number 99"
+        );
+        assert_eq!(
+            user_message("invalid type: boolean `false`, expected a table"),
+            "expected a table, found `false`"
+        );
+        assert_eq!(
+            user_message(" missing field `value`\n"),
+            "missing field `value`"
+        );
+    }
+
+    #[test]
+    fn byte_order_mark_and_non_utf8_text() {
+        let with_bom = format!("\u{feff}{KEARFOTT_2401_TOML}");
+        assert_eq!(
+            Instrument::parse(&with_bom, "b.toml").unwrap(),
+            Instrument::kearfott_2401()
+        );
+        // Columns on the first line do not count the byte-order mark.
+        let e = Instrument::parse(&format!("\u{feff}x = 1\n{KEARFOTT_2401_TOML}"), "b.toml")
+            .unwrap_err();
+        assert_eq!(e.position(), Some((1, 1)), "{e}");
+        let mut bytes = KEARFOTT_2401_TOML.as_bytes().to_vec();
+        let at = KEARFOTT_2401_TOML.find("ml = 1.12").unwrap();
+        bytes[at] = 0xB5;
+        let e = Instrument::parse_bytes(&bytes, "l.toml").unwrap_err();
+        let (line, column) = line_col(KEARFOTT_2401_TOML, at);
+        assert_eq!(
+            e.to_string(),
+            format!(
+                "l.toml:{line}:{column}: the file is not UTF-8 text: byte 0xB5 at byte offset \
+                 {at} is not valid UTF-8; expected UTF-8 text"
+            )
+        );
+    }
+
+    #[test]
+    fn an_infinite_tolerance_band_is_refused() {
+        let e = mutated("max = 20.0 }", "max = inf }");
+        assert_eq!(
+            e.message,
+            "torquer.time_constant_us: tolerance band [0.2, inf] leaves the valid range: \
+             expected a time constant > 0 µs"
+        );
+    }
+
+    #[test]
+    fn positions_are_found_inside_multi_byte_characters() {
+        assert_eq!(line_col("aµb\nc", 2), (1, 2));
+        assert_eq!(line_col("aµb\nc", 5), (2, 1));
+        assert_eq!(line_col("aµb", 99), (1, 4));
     }
 }

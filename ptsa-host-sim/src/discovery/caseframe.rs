@@ -3,10 +3,12 @@
 //! One row is one test condition ([`Condition`]). The file has a header; any column may be
 //! left out (a missing column means 0, or "not given" for `measured_cm_s2` and
 //! `sigma_cm_s2`); an unknown or repeated column is an error; a bad value is an error that
-//! names the file, the line, the column and what was expected. Lines whose first character
-//! is `#` are comments (the shipped files cite their source there). An empty cell means 0 in
-//! an input column, "not measured" in `measured_cm_s2` (the row is kept but not fitted, as
-//! the resonance rows of Tables 6.2/6.3) and "use `--sigma`" in `sigma_cm_s2`.
+//! names the file, the line, the column and what was expected. Lines whose first non-blank
+//! character is `#` are comments (the shipped files cite their source there). An empty cell
+//! means 0 in an input column, "not measured" in `measured_cm_s2` (the row is kept but not
+//! fitted, as the resonance rows of Tables 6.2/6.3) and "use `--sigma`" in `sigma_cm_s2`.
+//! The reader accepts a UTF-8 byte-order mark and CRLF line ends, and refuses text that is
+//! not UTF-8 or is not comma-separated with an error that says so.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -89,155 +91,276 @@ fn get_value(c: &Condition, col: usize) -> Option<f64> {
     })
 }
 
+/// How to get UTF-8 out of a spreadsheet (used in encoding errors).
+const SAVE_AS_UTF8: &str = "in a spreadsheet, save the file as \"CSV UTF-8\"";
+
 /// Parse case-frame CSV text. `name` is the file name used in error messages.
 ///
+/// A leading UTF-8 byte-order mark is ignored; lines may end in LF or CRLF.
+///
 /// # Errors
-/// A missing or bad header, an unknown or repeated column, a row with the wrong number of
-/// cells, a value that is not what the column expects, or an oscillation amplitude in a row
-/// whose `freq_hz` is 0: each error names `name`, the 1-based line and the column.
+/// A missing or bad header (with a hint when the file looks semicolon- or tab-separated),
+/// an unknown or repeated column, a row with the wrong number of cells, an unterminated
+/// quoted cell, a NUL character, a value that is not what the column expects, or an
+/// oscillation amplitude in a row whose `freq_hz` is 0: each error names `name`, the
+/// 1-based line and, for a cell, the column.
 pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
+    if let Some(off) = text.find('\0') {
+        bail!(
+            "{name}:{}: the file holds a NUL character (byte offset {off}); expected UTF-8 \
+             text, not UTF-16 or a binary file ({SAVE_AS_UTF8})",
+            line_of(text.as_bytes(), off)
+        );
+    }
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let data = DataLines::new(text);
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(data.text.as_bytes());
     let mut header: Option<Vec<usize>> = None;
     let mut rows = Vec::new();
-    for (idx, raw) in text.lines().enumerate() {
-        let line = idx + 1;
-        let trimmed = raw.trim();
-        if trimmed.is_empty() || trimmed.starts_with('#') {
-            continue;
-        }
-        let cells =
-            split_csv_line(raw).with_context(|| format!("{name}:{line}: malformed CSV line"))?;
-        let Some(cols) = &header else {
-            let mut cols = Vec::with_capacity(cells.len());
-            for (i, cell) in cells.iter().enumerate() {
-                let cell = cell.trim();
-                let Some(k) = COLUMNS.iter().position(|c| *c == cell) else {
-                    bail!(
-                        "{name}:{line}: column {} of the header is `{cell}`, which is not a \
-                         case-frame column; expected one of: {}",
-                        i + 1,
-                        COLUMNS.join(", ")
-                    );
-                };
-                if cols.contains(&k) {
-                    bail!("{name}:{line}: column `{cell}` appears twice in the header");
-                }
-                cols.push(k);
+    for record in reader.records() {
+        let record = match record {
+            Ok(r) => r,
+            Err(e) => {
+                let line = e.position().map_or(0, |p| data.file_line(p.line()));
+                bail!("{name}:{line}: malformed CSV line: {e}");
             }
-            header = Some(cols);
-            continue;
         };
-        if cells.len() != cols.len() {
+        let line = record.position().map_or(0, |p| data.file_line(p.line()));
+        if record.iter().any(|cell| cell.contains('\n')) {
             bail!(
-                "{name}:{line}: {} cells, expected {} (one per header column)",
-                cells.len(),
-                cols.len()
+                "{name}:{line}: malformed CSV line: unterminated quoted cell; expected a \
+                 closing `\"` on the same line (a cell cannot span lines)"
             );
         }
-        let mut c = Condition::default();
-        for (j, (cell, &k)) in cells.iter().zip(cols).enumerate() {
-            if k == 0 {
-                c.label = cell.clone();
-                continue;
-            }
-            let s = cell.trim();
-            if s.is_empty() {
-                continue;
-            }
-            let v: f64 = match s.parse() {
-                Ok(v) if f64::is_finite(v) => v,
-                _ => bail!(
-                    "{name}:{line}: column {} (`{}`) holds `{s}`; expected {}",
-                    j + 1,
-                    COLUMNS[k],
-                    expectation(k)
-                ),
-            };
-            if (k == 7 && v < 0.0) || (k == 24 && v <= 0.0) {
-                bail!(
-                    "{name}:{line}: column {} (`{}`) holds `{s}`; expected {}",
-                    j + 1,
-                    COLUMNS[k],
-                    expectation(k)
-                );
-            }
-            set_value(&mut c, k, v);
+        match &header {
+            None => header = Some(parse_header(name, line, &record)?),
+            Some(cols) => rows.push(parse_row(name, line, &record, cols)?),
         }
-        if c.freq_hz == 0.0 {
-            for (j, axis) in ["ia", "pa", "oa"].iter().enumerate() {
-                if c.lin_cm_s2[j] != 0.0 {
-                    bail!(
-                        "{name}:{line}: column `lin_{axis}_cm_s2` is {} but `freq_hz` is 0; \
-                         expected a frequency greater than 0 for an oscillation",
-                        c.lin_cm_s2[j]
-                    );
-                }
-                if c.ang_mrad[j] != 0.0 {
-                    bail!(
-                        "{name}:{line}: column `ang_{axis}_mrad` is {} but `freq_hz` is 0; \
-                         expected a frequency greater than 0 for an oscillation",
-                        c.ang_mrad[j]
-                    );
-                }
-            }
-        }
-        if c.label.is_empty() {
-            c.label = format!("line {line}");
-        }
-        rows.push(c);
     }
     if header.is_none() {
-        bail!("{name}: no header line; expected a CSV header of case-frame columns");
+        bail!(
+            "{name}: no header line (the file is empty or holds only comments and blank \
+             lines); expected a CSV header of case-frame columns"
+        );
     }
     Ok(rows)
 }
 
-/// Split one CSV line into cells (RFC 4180 quoting: `"a,b"` and `""` inside quotes).
-fn split_csv_line(line: &str) -> Result<Vec<String>> {
-    let mut cells = Vec::new();
-    let mut cur = String::new();
-    let mut chars = line.chars().peekable();
-    let mut quoted = false;
-    let mut at_start = true;
-    while let Some(ch) = chars.next() {
-        if quoted {
-            if ch == '"' {
-                if chars.peek() == Some(&'"') {
-                    chars.next();
-                    cur.push('"');
-                } else {
-                    quoted = false;
-                }
-            } else {
-                cur.push(ch);
+/// Parse the bytes of a case-frame file: [`parse`] after checking that they are UTF-8.
+///
+/// # Errors
+/// Bytes that are not UTF-8 (the error names `name`, the 1-based line and the byte offset of
+/// the first bad byte; a UTF-16 byte-order mark is named as such), or any error of
+/// [`parse`].
+pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Condition>> {
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        bail!(
+            "{name}:1: the file is UTF-16 text (it starts with a UTF-16 byte-order mark); \
+             expected UTF-8 text ({SAVE_AS_UTF8})"
+        );
+    }
+    match std::str::from_utf8(bytes) {
+        Ok(text) => parse(name, text),
+        Err(e) => {
+            let off = e.valid_up_to();
+            let byte = bytes.get(off).copied().unwrap_or_default();
+            bail!(
+                "{name}:{}: the file is not UTF-8 text: byte 0x{byte:02X} at byte offset {off} \
+                 is not valid UTF-8; expected UTF-8 text ({SAVE_AS_UTF8})",
+                line_of(bytes, off)
+            );
+        }
+    }
+}
+
+/// The 1-based line of byte offset `off`.
+fn line_of(bytes: &[u8], off: usize) -> usize {
+    bytes[..off.min(bytes.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
+/// The lines of a file that hold CSV records, without the comment lines (first non-blank
+/// character `#`) and the blank lines, and where each came from. The csv crate recognises a
+/// comment only at the very start of a line, and it gives a record that follows blank
+/// lines the position of the first blank line, so both are removed before it sees the
+/// text and its line numbers are mapped back.
+struct DataLines {
+    /// The kept lines, each ending in `\n` (a CRLF line end becomes `\n`).
+    text: String,
+    /// `file_lines[i]`: the file's 1-based line number of kept line `i + 1`.
+    file_lines: Vec<usize>,
+}
+
+impl DataLines {
+    fn new(text: &str) -> Self {
+        let mut kept = String::with_capacity(text.len() + 1);
+        let mut file_lines = Vec::new();
+        for (idx, raw) in text.split_inclusive('\n').enumerate() {
+            let trimmed = raw.trim();
+            if trimmed.is_empty() || trimmed.starts_with('#') {
+                continue;
             }
-        } else if ch == '"' && at_start {
-            quoted = true;
-            at_start = false;
-        } else if ch == ',' {
-            cells.push(std::mem::take(&mut cur));
-            at_start = true;
-        } else if ch != '\r' {
-            cur.push(ch);
-            if !ch.is_whitespace() {
-                at_start = false;
+            // Every kept line ends in a bare `\n`: after a CRLF the csv crate would give the
+            // next record the line of the `\r`. The csv crate reads an unterminated quote at
+            // the end of its input as closed; the final `\n` turns that into a cell holding
+            // a line break, which `parse` refuses like any other multi-line cell.
+            let content = raw.strip_suffix('\n').unwrap_or(raw);
+            kept.push_str(content.strip_suffix('\r').unwrap_or(content));
+            kept.push('\n');
+            file_lines.push(idx + 1);
+        }
+        Self {
+            text: kept,
+            file_lines,
+        }
+    }
+
+    /// The file's line number of the csv reader's 1-based line `csv_line`.
+    fn file_line(&self, csv_line: u64) -> usize {
+        let i = usize::try_from(csv_line.saturating_sub(1)).unwrap_or(usize::MAX);
+        self.file_lines
+            .get(i)
+            .or(self.file_lines.last())
+            .copied()
+            .unwrap_or(0)
+    }
+}
+
+/// The header: the column index (into [`COLUMNS`]) of every cell.
+fn parse_header(name: &str, line: usize, record: &csv::StringRecord) -> Result<Vec<usize>> {
+    if record.len() == 1 {
+        let cell = record[0].trim();
+        if let Some(kind) = separator_hint(cell) {
+            bail!(
+                "{name}:{line}: the header has one column `{cell}`, which is not a case-frame \
+                 column; this looks like a {kind}-separated file: the case-frame format \
+                 separates cells with commas (and writes decimals with a point); expected a \
+                 comma-separated header such as `label,g_ia,measured_cm_s2`"
+            );
+        }
+    }
+    let mut cols = Vec::with_capacity(record.len());
+    for (i, cell) in record.iter().enumerate() {
+        let cell = cell.trim();
+        let Some(k) = COLUMNS.iter().position(|c| *c == cell) else {
+            bail!(
+                "{name}:{line}: column {} of the header is `{cell}`, which is not a \
+                 case-frame column; expected one of: {}",
+                i + 1,
+                COLUMNS.join(", ")
+            );
+        };
+        if cols.contains(&k) {
+            bail!("{name}:{line}: column `{cell}` appears twice in the header");
+        }
+        cols.push(k);
+    }
+    Ok(cols)
+}
+
+/// `Some("semicolon")` or `Some("tab")` when a header cell is several case-frame column
+/// names joined by that separator.
+fn separator_hint(cell: &str) -> Option<&'static str> {
+    [(';', "semicolon"), ('\t', "tab")]
+        .into_iter()
+        .find(|&(sep, _)| {
+            cell.contains(sep)
+                && cell
+                    .split(sep)
+                    .any(|piece| COLUMNS.contains(&piece.trim().trim_matches('"').trim()))
+        })
+        .map(|(_, kind)| kind)
+}
+
+/// A cell that starts with blanks and then `"`: not quoted (a quote opens a quoted cell only
+/// as its first character), the likely cause of a wrong cell count.
+fn blank_before_quote(cell: &str) -> bool {
+    cell.starts_with(char::is_whitespace) && cell.trim_start().starts_with('"')
+}
+
+/// One data row.
+fn parse_row(
+    name: &str,
+    line: usize,
+    record: &csv::StringRecord,
+    cols: &[usize],
+) -> Result<Condition> {
+    if record.len() != cols.len() {
+        let hint = match record.iter().position(blank_before_quote) {
+            Some(j) => format!(
+                "; column {} starts with a blank before `\"`, so it is not a quoted cell: \
+                 put the quote right after the comma",
+                j + 1
+            ),
+            None => String::new(),
+        };
+        bail!(
+            "{name}:{line}: {} cells, expected {} (one per header column){hint}",
+            record.len(),
+            cols.len()
+        );
+    }
+    let mut c = Condition::default();
+    for (j, (cell, &k)) in record.iter().zip(cols).enumerate() {
+        if k == 0 {
+            c.label = cell.to_string();
+            continue;
+        }
+        let s = cell.trim();
+        if s.is_empty() {
+            continue;
+        }
+        let v = s
+            .parse::<f64>()
+            .ok()
+            .filter(|v| v.is_finite() && !(k == 7 && *v < 0.0) && !(k == 24 && *v <= 0.0));
+        let Some(v) = v else {
+            bail!(
+                "{name}:{line}: column {} (`{}`) holds `{s}`; expected {}",
+                j + 1,
+                COLUMNS[k],
+                expectation(k)
+            );
+        };
+        set_value(&mut c, k, v);
+    }
+    if c.freq_hz == 0.0 {
+        for (j, axis) in ["ia", "pa", "oa"].iter().enumerate() {
+            if c.lin_cm_s2[j] != 0.0 {
+                bail!(
+                    "{name}:{line}: column `lin_{axis}_cm_s2` is {} but `freq_hz` is 0; \
+                     expected a frequency greater than 0 for an oscillation",
+                    c.lin_cm_s2[j]
+                );
+            }
+            if c.ang_mrad[j] != 0.0 {
+                bail!(
+                    "{name}:{line}: column `ang_{axis}_mrad` is {} but `freq_hz` is 0; \
+                     expected a frequency greater than 0 for an oscillation",
+                    c.ang_mrad[j]
+                );
             }
         }
     }
-    if quoted {
-        bail!("unterminated quoted cell");
+    if c.label.is_empty() {
+        c.label = format!("line {line}");
     }
-    cells.push(cur);
-    Ok(cells)
+    Ok(c)
 }
 
 /// Read a case-frame file.
 ///
 /// # Errors
-/// The file cannot be read, or [`parse`] fails (the message names the file).
+/// The file cannot be read, or [`parse_bytes`] fails (the message names the file).
 pub fn read(path: &Path) -> Result<Vec<Condition>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    parse(&path.display().to_string(), &text)
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    parse_bytes(&path.display().to_string(), &bytes)
 }
 
 fn fmt_num(v: f64) -> String {
@@ -286,7 +409,7 @@ pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
 }
 
 fn quote(s: &str) -> String {
-    if s.contains([',', '"', '\n']) || s.starts_with('#') || s.trim() != s {
+    if s.contains([',', '"', '\n', '\r']) || s.starts_with('#') || s.trim() != s {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
@@ -359,5 +482,147 @@ mod tests {
         assert!(format!("{e:#}").contains("twice"));
         let e = parse("bad.csv", "g_ia,g_pa\n1\n").unwrap_err();
         assert!(format!("{e:#}").contains("bad.csv:2"));
+    }
+
+    fn err(text: &str) -> String {
+        format!("{:#}", parse("t.csv", text).unwrap_err())
+    }
+
+    fn err_bytes(bytes: &[u8]) -> String {
+        format!("{:#}", parse_bytes("t.csv", bytes).unwrap_err())
+    }
+
+    #[test]
+    fn byte_order_mark_crlf_and_indented_comments_are_accepted() {
+        let text =
+            "\u{feff}# source\r\nlabel,g_ia\r\nx,1\r\n\r\n  # indented comment\r\n \t\r\ny,2\r\n";
+        for rows in [
+            parse("t.csv", text).unwrap(),
+            parse_bytes("t.csv", text.as_bytes()).unwrap(),
+        ] {
+            assert_eq!(rows.len(), 2);
+            assert_eq!((rows[0].label.as_str(), rows[0].g[0]), ("x", 1.0));
+            assert_eq!((rows[1].label.as_str(), rows[1].g[0]), ("y", 2.0));
+        }
+        // Line numbers count the BOM line, CRLF lines, comments and blank lines.
+        let m = err("\u{feff}label,g_ia\r\n\r\n# c\r\n   # c\r\nx,abc\r\n");
+        assert!(
+            m.starts_with("t.csv:5: column 2 (`g_ia`) holds `abc`"),
+            "{m}"
+        );
+        // An unlabelled row is named after its file line.
+        let rows = parse("t.csv", "# c\r\n\r\ng_ia\r\n\r\n1\r\n").unwrap();
+        assert_eq!(rows[0].label, "line 5");
+    }
+
+    #[test]
+    fn semicolon_and_tab_separated_files_get_a_hint() {
+        let m = err("# c\nlabel;g_ia;measured_cm_s2\nx;0,5;1,25\n");
+        assert!(
+            m.starts_with(
+                "t.csv:2: the header has one column `label;g_ia;measured_cm_s2`, which is not \
+                 a case-frame column; this looks like a semicolon-separated file: the \
+                 case-frame format separates cells with commas"
+            ),
+            "{m}"
+        );
+        let m = err("\"label\";\"g_ia\"\n\"x\";1\n");
+        assert!(m.contains("semicolon-separated"), "{m}");
+        let m = err("label\tg_ia\tmeasured_cm_s2\nx\t0.5\t1.25\n");
+        assert!(
+            m.starts_with("t.csv:1: the header has one column `label\tg_ia\tmeasured_cm_s2`")
+                && m.contains("this looks like a tab-separated file"),
+            "{m}"
+        );
+        // A single unknown column without those separators gets the ordinary message.
+        let m = err("bogus\n1\n");
+        assert!(m.contains("column 1 of the header is `bogus`") && !m.contains("looks like"));
+    }
+
+    #[test]
+    fn text_that_is_not_utf8_is_refused_with_its_line_and_offset() {
+        let m = err_bytes(b"label,g_ia\nx,1\n\xB5 rad,2\n");
+        assert!(
+            m.starts_with(
+                "t.csv:3: the file is not UTF-8 text: byte 0xB5 at byte offset 15 is not valid UTF-8"
+            ),
+            "{m}"
+        );
+        let m = err_bytes(b"\xFF\xFEl\0a\0b\0e\0l\0\n\0");
+        assert!(m.starts_with("t.csv:1: the file is UTF-16 text"), "{m}");
+        let m = err_bytes(b"l\0a\0b\0e\0l\0\n\0");
+        assert!(m.starts_with("t.csv:1: the file holds a NUL character (byte offset 1)"));
+        let m = err_bytes(b"\xEF\xBB\xBFg_ia\n\n1\0\n");
+        assert!(
+            m.starts_with("t.csv:3: the file holds a NUL character (byte offset 10)"),
+            "{m}"
+        );
+        let m = err_bytes(b"label\nx\n\xE2\x82");
+        assert!(m.starts_with("t.csv:3: the file is not UTF-8 text"), "{m}");
+    }
+
+    #[test]
+    fn quoted_cells_hold_commas_and_doubled_quotes() {
+        let rows = parse(
+            "t.csv",
+            "label,g_ia\n\"a, \"\"b\"\", c\",\" 1.5 \"\n\"\",2\n",
+        )
+        .unwrap();
+        assert_eq!(rows[0].label, "a, \"b\", c");
+        assert_eq!(rows[0].g[0], 1.5);
+        assert_eq!(rows[1].label, "line 3");
+        // A label keeps its blanks; a number may have blanks around it.
+        let rows = parse("t.csv", "label , g_ia\n x ,  2 \n").unwrap();
+        assert_eq!((rows[0].label.as_str(), rows[0].g[0]), (" x ", 2.0));
+    }
+
+    #[test]
+    fn unterminated_quotes_are_refused_on_their_line() {
+        for text in [
+            "label,g_ia\n\"x,1\n",
+            "label,g_ia\n\"x,1",
+            "label,g_ia\n\"x,1\ny,2\n",
+            "label,g_ia\n\"x\n# c\ny\",2\n",
+            "label,g_ia\nx,\"",
+        ] {
+            let m = err(text);
+            assert!(
+                m.starts_with("t.csv:2: malformed CSV line: unterminated quoted cell"),
+                "{text:?}: {m}"
+            );
+        }
+    }
+
+    #[test]
+    fn rows_with_too_few_or_too_many_cells_are_refused() {
+        assert!(err("label,g_ia\nx,1\nx\n").starts_with("t.csv:3: 1 cells, expected 2"));
+        assert!(err("label,g_ia\nx,1,2\n").starts_with("t.csv:2: 3 cells, expected 2"));
+        let m = err("g_ia,label\n1, \"a, b\"\n");
+        assert!(
+            m.starts_with("t.csv:2: 3 cells, expected 2")
+                && m.contains("column 2 starts with a blank before `\"`"),
+            "{m}"
+        );
+    }
+
+    #[test]
+    fn files_without_a_header_are_refused() {
+        for text in ["", "\u{feff}", "\n\n", "# only\n  # comments\r\n\n"] {
+            let m = err(text);
+            assert!(m.starts_with("t.csv: no header line"), "{text:?}: {m}");
+        }
+        assert_eq!(parse("t.csv", "label,g_ia\n# no rows\n").unwrap(), vec![]);
+    }
+
+    #[test]
+    fn labels_that_need_quotes_round_trip() {
+        let rows: Vec<Condition> = ["#x", " pad ", "cr\rlf", "semi;colon", "q\"", "tab\there"]
+            .iter()
+            .map(|l| Condition {
+                label: (*l).into(),
+                ..Condition::default()
+            })
+            .collect();
+        assert_eq!(parse("t.csv", &to_csv(&rows, &[])).unwrap(), rows);
     }
 }
