@@ -416,21 +416,6 @@ fn quote(s: &str) -> String {
     }
 }
 
-/// Write text to `path` atomically (a temporary file renamed into place), so a failure
-/// leaves nothing half-written.
-///
-/// # Errors
-/// The directory cannot be created or the file cannot be written.
-pub fn write_atomic(path: &Path, text: &str) -> Result<()> {
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
-    let tmp = path.with_extension("tmp-write");
-    std::fs::write(&tmp, text).with_context(|| format!("cannot write {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
-}
-
 #[cfg(test)]
 #[allow(clippy::float_cmp)]
 mod tests {
