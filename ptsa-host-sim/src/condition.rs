@@ -21,6 +21,12 @@ pub const OA: usize = 2;
 pub struct Condition {
     /// Free text.
     pub label: String,
+    /// The rows that share a reference run (case-frame column `block`; `None` = the one
+    /// block of the file). A bias shift per block is a nuisance term of `ptsa discover`.
+    pub block: Option<String>,
+    /// When the row was measured, s (case-frame column `time_s`; `None` = row order). A
+    /// linear drift in time is a nuisance term of `ptsa discover`.
+    pub time_s: Option<f64>,
     /// Gravity's specific force along IA, PA, OA with the case at rest, in g (the instrument
     /// file's local gravity).
     pub g: [f64; 3],

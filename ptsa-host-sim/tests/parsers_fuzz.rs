@@ -285,7 +285,7 @@ proptest! {
         text in "[a-z_,;\"#\t\r\n 0-9.eE+-]{0,400}",
         any_text in any::<String>(),
     ) {
-        let header = caseframe::COLUMNS.join(",");
+        let header = caseframe::column_names().join(",");
         for t in [text.clone(), format!("{header}\n{text}"), any_text.clone(), format!("{header}\n{any_text}")] {
             check_caseframe(t.as_bytes(), caseframe::parse("f.csv", &t))?;
         }
@@ -382,10 +382,24 @@ fn condition() -> impl Strategy<Value = Condition> {
         1e-3..1e4_f64,
         prop::option::of(num()),
         prop::option::of(1e-6..1e3_f64),
+        (
+            prop::option::of("[a-z]([a-z0-9 ]{0,8}[a-z])?"),
+            prop::option::of(num()),
+        ),
     )
         .prop_map(
-            |(label, (g, w, lin, lin_deg), (ang, ang_deg, ref_w), freq, meas, sigma)| Condition {
+            |(
                 label,
+                (g, w, lin, lin_deg),
+                (ang, ang_deg, ref_w),
+                freq,
+                meas,
+                sigma,
+                (block, time_s),
+            )| Condition {
+                label,
+                block,
+                time_s,
                 g,
                 w_rad_s: w,
                 freq_hz: freq,

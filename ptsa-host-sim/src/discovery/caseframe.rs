@@ -17,78 +17,176 @@ use anyhow::{Context, Result, bail};
 
 use crate::condition::Condition;
 
+/// A cell's value as read or written.
+#[derive(Clone, Debug, PartialEq)]
+enum Value {
+    /// A text cell (empty = not given).
+    Text(Option<String>),
+    /// A number cell (empty = not given: 0 in an input column).
+    Num(Option<f64>),
+}
+
+/// What a number cell must hold.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Check {
+    /// Any finite number.
+    Finite,
+    /// A finite number, 0 or more.
+    NonNegative,
+    /// A finite number greater than 0.
+    Positive,
+}
+
+/// One column of the format: its name, what it holds and where it goes in a [`Condition`].
+pub struct Column {
+    /// Header name, units in the name.
+    pub name: &'static str,
+    /// What a cell must hold, for error messages.
+    pub expected: &'static str,
+    check: Option<Check>,
+    get: fn(&Condition) -> Value,
+    set: fn(&mut Condition, Value),
+}
+
+impl Column {
+    /// Whether the cells are text (else numbers).
+    #[must_use]
+    pub fn is_text(&self) -> bool {
+        self.check.is_none()
+    }
+}
+
+fn num_or_zero(v: Value) -> f64 {
+    match v {
+        Value::Num(x) => x.unwrap_or(0.0),
+        Value::Text(_) => 0.0,
+    }
+}
+
+fn num(v: Value) -> Option<f64> {
+    match v {
+        Value::Num(x) => x,
+        Value::Text(_) => None,
+    }
+}
+
+fn text(v: Value) -> Option<String> {
+    match v {
+        Value::Text(t) => t,
+        Value::Num(_) => None,
+    }
+}
+
+/// A number column of an `[f64; 3]` field, one per axis.
+macro_rules! axis_column {
+    ($name:literal, $field:ident, $j:literal, $check:expr, $expected:expr) => {
+        Column {
+            name: $name,
+            expected: $expected,
+            check: Some($check),
+            get: |c| Value::Num(Some(c.$field[$j])),
+            set: |c, v| c.$field[$j] = num_or_zero(v),
+        }
+    };
+}
+
+const INPUT: &str = "a finite number (an empty cell means 0)";
+const ANGLE: &str = "a finite angle amplitude in mrad (an empty cell means 0)";
+
 /// Every column of the format, in the order the writer uses.
-pub const COLUMNS: [&str; 25] = [
-    "label",
-    "g_ia",
-    "g_pa",
-    "g_oa",
-    "w_ia_rad_s",
-    "w_pa_rad_s",
-    "w_oa_rad_s",
-    "freq_hz",
-    "lin_ia_cm_s2",
-    "lin_pa_cm_s2",
-    "lin_oa_cm_s2",
-    "lin_ia_deg",
-    "lin_pa_deg",
-    "lin_oa_deg",
-    "ang_ia_mrad",
-    "ang_pa_mrad",
-    "ang_oa_mrad",
-    "ang_ia_deg",
-    "ang_pa_deg",
-    "ang_oa_deg",
-    "ref_w_ia_rad_s",
-    "ref_w_pa_rad_s",
-    "ref_w_oa_rad_s",
-    "measured_cm_s2",
-    "sigma_cm_s2",
+pub const COLUMNS: &[Column] = &[
+    Column {
+        name: "label",
+        expected: "free text",
+        check: None,
+        get: |c| Value::Text(Some(c.label.clone())),
+        set: |c, v| c.label = text(v).unwrap_or_default(),
+    },
+    Column {
+        name: "block",
+        expected: "free text naming the rows that share a reference run (empty: the one block)",
+        check: None,
+        get: |c| Value::Text(c.block.clone()),
+        set: |c, v| c.block = text(v),
+    },
+    Column {
+        name: "time_s",
+        expected: "a finite time in seconds, or an empty cell (row order)",
+        check: Some(Check::Finite),
+        get: |c| Value::Num(c.time_s),
+        set: |c, v| c.time_s = num(v),
+    },
+    axis_column!("g_ia", g, 0, Check::Finite, INPUT),
+    axis_column!("g_pa", g, 1, Check::Finite, INPUT),
+    axis_column!("g_oa", g, 2, Check::Finite, INPUT),
+    axis_column!("w_ia_rad_s", w_rad_s, 0, Check::Finite, INPUT),
+    axis_column!("w_pa_rad_s", w_rad_s, 1, Check::Finite, INPUT),
+    axis_column!("w_oa_rad_s", w_rad_s, 2, Check::Finite, INPUT),
+    Column {
+        name: "freq_hz",
+        expected: "a finite number of hertz, 0 or more",
+        check: Some(Check::NonNegative),
+        get: |c| Value::Num(Some(c.freq_hz)),
+        set: |c, v| c.freq_hz = num_or_zero(v),
+    },
+    axis_column!(
+        "lin_ia_cm_s2",
+        lin_cm_s2,
+        0,
+        Check::Finite,
+        "a finite number (an empty cell means 0)"
+    ),
+    axis_column!(
+        "lin_pa_cm_s2",
+        lin_cm_s2,
+        1,
+        Check::Finite,
+        "a finite number (an empty cell means 0)"
+    ),
+    axis_column!(
+        "lin_oa_cm_s2",
+        lin_cm_s2,
+        2,
+        Check::Finite,
+        "a finite number (an empty cell means 0)"
+    ),
+    axis_column!("lin_ia_deg", lin_deg, 0, Check::Finite, INPUT),
+    axis_column!("lin_pa_deg", lin_deg, 1, Check::Finite, INPUT),
+    axis_column!("lin_oa_deg", lin_deg, 2, Check::Finite, INPUT),
+    axis_column!("ang_ia_mrad", ang_mrad, 0, Check::Finite, ANGLE),
+    axis_column!("ang_pa_mrad", ang_mrad, 1, Check::Finite, ANGLE),
+    axis_column!("ang_oa_mrad", ang_mrad, 2, Check::Finite, ANGLE),
+    axis_column!("ang_ia_deg", ang_deg, 0, Check::Finite, INPUT),
+    axis_column!("ang_pa_deg", ang_deg, 1, Check::Finite, INPUT),
+    axis_column!("ang_oa_deg", ang_deg, 2, Check::Finite, INPUT),
+    axis_column!("ref_w_ia_rad_s", ref_w_rad_s, 0, Check::Finite, INPUT),
+    axis_column!("ref_w_pa_rad_s", ref_w_rad_s, 1, Check::Finite, INPUT),
+    axis_column!("ref_w_oa_rad_s", ref_w_rad_s, 2, Check::Finite, INPUT),
+    Column {
+        name: "measured_cm_s2",
+        expected: "a finite number of cm/s², or an empty cell (not measured)",
+        check: Some(Check::Finite),
+        get: |c| Value::Num(c.measured_cm_s2),
+        set: |c, v| c.measured_cm_s2 = num(v),
+    },
+    Column {
+        name: "sigma_cm_s2",
+        expected: "a finite number of cm/s² greater than 0, or an empty cell",
+        check: Some(Check::Positive),
+        get: |c| Value::Num(c.sigma_cm_s2),
+        set: |c, v| c.sigma_cm_s2 = num(v),
+    },
 ];
 
-/// What each numeric column must hold (used in error messages).
-fn expectation(col: usize) -> &'static str {
-    match COLUMNS[col] {
-        "freq_hz" => "a finite number of hertz, 0 or more",
-        "sigma_cm_s2" => "a finite number of cm/s² greater than 0, or an empty cell",
-        "measured_cm_s2" => "a finite number of cm/s², or an empty cell (not measured)",
-        "ang_ia_mrad" | "ang_pa_mrad" | "ang_oa_mrad" => {
-            "a finite angle amplitude in mrad (an empty cell means 0)"
-        }
-        _ => "a finite number (an empty cell means 0)",
-    }
+/// The names of [`COLUMNS`], in order.
+#[must_use]
+pub fn column_names() -> Vec<&'static str> {
+    COLUMNS.iter().map(|c| c.name).collect()
 }
 
-fn set_value(c: &mut Condition, col: usize, v: f64) {
-    match col {
-        1..=3 => c.g[col - 1] = v,
-        4..=6 => c.w_rad_s[col - 4] = v,
-        7 => c.freq_hz = v,
-        8..=10 => c.lin_cm_s2[col - 8] = v,
-        11..=13 => c.lin_deg[col - 11] = v,
-        14..=16 => c.ang_mrad[col - 14] = v,
-        17..=19 => c.ang_deg[col - 17] = v,
-        20..=22 => c.ref_w_rad_s[col - 20] = v,
-        23 => c.measured_cm_s2 = Some(v),
-        24 => c.sigma_cm_s2 = Some(v),
-        _ => {}
-    }
-}
-
-fn get_value(c: &Condition, col: usize) -> Option<f64> {
-    Some(match col {
-        1..=3 => c.g[col - 1],
-        4..=6 => c.w_rad_s[col - 4],
-        7 => c.freq_hz,
-        8..=10 => c.lin_cm_s2[col - 8],
-        11..=13 => c.lin_deg[col - 11],
-        14..=16 => c.ang_mrad[col - 14],
-        17..=19 => c.ang_deg[col - 17],
-        20..=22 => c.ref_w_rad_s[col - 20],
-        23 => return c.measured_cm_s2,
-        24 => return c.sigma_cm_s2,
-        _ => return None,
-    })
+/// The index in [`COLUMNS`] of a header cell.
+fn column_index(name: &str) -> Option<usize> {
+    COLUMNS.iter().position(|c| c.name == name)
 }
 
 /// How to get UTF-8 out of a spreadsheet (used in encoding errors).
@@ -248,12 +346,12 @@ fn parse_header(name: &str, line: usize, record: &csv::StringRecord) -> Result<V
     let mut cols = Vec::with_capacity(record.len());
     for (i, cell) in record.iter().enumerate() {
         let cell = cell.trim();
-        let Some(k) = COLUMNS.iter().position(|c| *c == cell) else {
+        let Some(k) = column_index(cell) else {
             bail!(
                 "{name}:{line}: column {} of the header is `{cell}`, which is not a \
                  case-frame column; expected one of: {}",
                 i + 1,
-                COLUMNS.join(", ")
+                column_names().join(", ")
             );
         };
         if cols.contains(&k) {
@@ -273,7 +371,7 @@ fn separator_hint(cell: &str) -> Option<&'static str> {
             cell.contains(sep)
                 && cell
                     .split(sep)
-                    .any(|piece| COLUMNS.contains(&piece.trim().trim_matches('"').trim()))
+                    .any(|piece| column_index(piece.trim().trim_matches('"').trim()).is_some())
         })
         .map(|(_, kind)| kind)
 }
@@ -308,27 +406,37 @@ fn parse_row(
     }
     let mut c = Condition::default();
     for (j, (cell, &k)) in record.iter().zip(cols).enumerate() {
-        if k == 0 {
-            c.label = cell.to_string();
+        let col = &COLUMNS[k];
+        let Some(check) = col.check else {
+            let t = if col.name == "label" {
+                cell
+            } else {
+                cell.trim()
+            };
+            (col.set)(&mut c, Value::Text((!t.is_empty()).then(|| t.to_string())));
             continue;
-        }
+        };
         let s = cell.trim();
         if s.is_empty() {
             continue;
         }
-        let v = s
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite() && !(k == 7 && *v < 0.0) && !(k == 24 && *v <= 0.0));
+        let v = s.parse::<f64>().ok().filter(|v| {
+            v.is_finite()
+                && match check {
+                    Check::Finite => true,
+                    Check::NonNegative => *v >= 0.0,
+                    Check::Positive => *v > 0.0,
+                }
+        });
         let Some(v) = v else {
             bail!(
                 "{name}:{line}: column {} (`{}`) holds `{s}`; expected {}",
                 j + 1,
-                COLUMNS[k],
-                expectation(k)
+                col.name,
+                col.expected
             );
         };
-        set_value(&mut c, k, v);
+        (col.set)(&mut c, Value::Num(Some(v)));
     }
     if c.freq_hz == 0.0 {
         for (j, axis) in ["ia", "pa", "oa"].iter().enumerate() {
@@ -371,18 +479,26 @@ fn fmt_num(v: f64) -> String {
     }
 }
 
+/// Whether a value is worth a column (not empty, not 0).
+fn given(v: &Value) -> bool {
+    match v {
+        Value::Text(t) => t.as_ref().is_some_and(|t| !t.is_empty()),
+        Value::Num(x) => x.is_some_and(|x| x != 0.0),
+    }
+}
+
 /// Render rows as case-frame CSV: `comments` (each line prefixed with `# `), the header
-/// (columns that are zero in every row are left out, except `label` and
-/// `measured_cm_s2`), then one line per row.
+/// (columns that are empty or zero in every row are left out, except `label` and
+/// `measured_cm_s2`; `sigma_cm_s2` whenever a row has one), then one line per row.
 #[must_use]
 pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
     let used: Vec<usize> = (0..COLUMNS.len())
         .filter(|&k| {
-            k == 0
-                || k == 23
+            let col = &COLUMNS[k];
+            col.name == "label"
+                || col.name == "measured_cm_s2"
                 || rows.iter().any(|c| {
-                    get_value(c, k).is_some_and(|v| v != 0.0)
-                        || (k == 24 && c.sigma_cm_s2.is_some())
+                    given(&(col.get)(c)) || (col.name == "sigma_cm_s2" && c.sigma_cm_s2.is_some())
                 })
         })
         .collect();
@@ -390,17 +506,14 @@ pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
     for c in comments {
         let _ = writeln!(out, "# {c}");
     }
-    let names: Vec<&str> = used.iter().map(|&k| COLUMNS[k]).collect();
+    let names: Vec<&str> = used.iter().map(|&k| COLUMNS[k].name).collect();
     let _ = writeln!(out, "{}", names.join(","));
     for c in rows {
         let cells: Vec<String> = used
             .iter()
-            .map(|&k| {
-                if k == 0 {
-                    quote(&c.label)
-                } else {
-                    get_value(c, k).map(fmt_num).unwrap_or_default()
-                }
+            .map(|&k| match (COLUMNS[k].get)(c) {
+                Value::Text(t) => t.as_deref().map(quote).unwrap_or_default(),
+                Value::Num(x) => x.map(fmt_num).unwrap_or_default(),
             })
             .collect();
         let _ = writeln!(out, "{}", cells.join(","));
@@ -425,6 +538,8 @@ mod tests {
     fn round_trip_keeps_every_field() {
         let c = Condition {
             label: "a, \"quoted\" row".into(),
+            block: Some("run 2, morning".into()),
+            time_s: Some(3600.5),
             g: [0.5, -0.25, 0.0],
             w_rad_s: [0.1, 0.2, 0.3],
             freq_hz: 10.0,
