@@ -23,6 +23,34 @@ pub enum Signature {
     Term(fn(&CaseInputs) -> f64),
 }
 
+/// Which plausibility bound of the instrument file ([`crate::instrument::Plausibility`])
+/// limits a candidate's coefficient.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bound {
+    /// `lever_arm_cm`.
+    LeverArm,
+    /// `anisoinertia_g_cm2`, divided by the pendulosity into the coefficient's cm.
+    Anisoinertia,
+    /// `second_order_s2_cm`.
+    SecondOrder,
+    /// `sculling_s2`.
+    Sculling,
+}
+
+impl Bound {
+    /// The largest plausible magnitude of the coefficient, in the candidate's unit.
+    #[must_use]
+    pub fn limit(self, instr: &crate::instrument::Instrument) -> f64 {
+        let p = &instr.plausibility;
+        match self {
+            Bound::LeverArm => p.lever_arm_cm,
+            Bound::Anisoinertia => p.anisoinertia_g_cm2 / instr.pendulosity_g_cm(),
+            Bound::SecondOrder => p.second_order_s2_cm,
+            Bound::Sculling => p.sculling_s2,
+        }
+    }
+}
+
 /// One candidate coefficient of the vocabulary.
 #[derive(Clone, Copy, Debug)]
 pub struct Candidate {
@@ -41,10 +69,12 @@ pub struct Candidate {
     pub formula: &'static str,
     /// How its signature is computed.
     pub signature: Signature,
+    /// Its plausibility bound.
+    pub bound: Bound,
 }
 
 macro_rules! candidates {
-    ($($id:ident = $effect:literal, $key:literal, $name:literal, $unit:literal, $formula:literal, $sig:expr;)*) => {
+    ($($id:ident = $effect:literal, $key:literal, $name:literal, $unit:literal, $formula:literal, $sig:expr, $bound:expr;)*) => {
         /// Typed name of a candidate coefficient (the order is the tie-break order of the
         /// selection and the order of every listing).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -65,6 +95,7 @@ macro_rules! candidates {
                 unit: $unit,
                 formula: $formula,
                 signature: $sig,
+                bound: $bound,
             },)*
         ];
 
@@ -81,28 +112,28 @@ pub const N_CANDIDATES: usize = CandidateId::ALL.len();
 candidates! {
     Anisoinertia = "anisoinertia", "k_ai_cm", "anisoinertia", "cm",
         "k·w_IA·w_PA, k = (I_PA − I_IA)/(m·l)",
-        Signature::Term(|i| i.w_rad_s[IA] * i.w_rad_s[PA]);
+        Signature::Term(|i| i.w_rad_s[IA] * i.w_rad_s[PA]), Bound::Anisoinertia;
     LeverArmIa = "lever_arm", "r_ia_cm", "lever_arm.r_ia_cm", "cm",
         "IA component of dw × r + w × (w × r), r along IA",
-        Signature::Term(|i| lever_arm_ia(i, IA));
+        Signature::Term(|i| lever_arm_ia(i, IA)), Bound::LeverArm;
     LeverArmPa = "lever_arm", "r_pa_cm", "lever_arm.r_pa_cm", "cm",
         "IA component of dw × r + w × (w × r), r along PA",
-        Signature::Term(|i| lever_arm_ia(i, PA));
+        Signature::Term(|i| lever_arm_ia(i, PA)), Bound::LeverArm;
     LeverArmOa = "lever_arm", "r_oa_cm", "lever_arm.r_oa_cm", "cm",
         "IA component of dw × r + w × (w × r), r along OA",
-        Signature::Term(|i| lever_arm_ia(i, OA));
+        Signature::Term(|i| lever_arm_ia(i, OA)), Bound::LeverArm;
     Vibropendulosity = "vibropendulosity", "k_ip_s2_cm", "vibropendulosity", "s²/cm",
         "k·a_IA·a_PA",
-        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[PA]);
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[PA]), Bound::SecondOrder;
     Anisoelasticity = "anisoelasticity", "k_io_s2_cm", "anisoelasticity", "s²/cm",
         "k·a_IA·a_OA",
-        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[OA]);
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[OA]), Bound::SecondOrder;
     Nonlinearity = "nonlinearity", "k2_s2_cm", "nonlinearity", "s²/cm",
         "k·a_IA²",
-        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[IA]);
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[IA]), Bound::SecondOrder;
     Sculling = "sculling", "k_sc_s2", "sculling", "s²",
         "k·dw_OA·a_PA",
-        Signature::Term(|i| i.dw_rad_s2[OA] * i.a_cm_s2[PA]);
+        Signature::Term(|i| i.dw_rad_s2[OA] * i.a_cm_s2[PA]), Bound::Sculling;
 }
 
 /// IA component of `dw × r + w × (w × r)` for a unit `r` along case axis `axis`.

@@ -178,9 +178,18 @@ struct StopsT {
 }
 
 #[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a [plausibility] table")]
+struct PlausibilityT {
+    lever_arm_cm: Option<Spanned<Num>>,
+    anisoinertia_g_cm2: Option<Spanned<Num>>,
+    second_order_s2_cm: Option<Spanned<Num>>,
+    sculling_s2: Option<Spanned<Num>>,
+}
+
+#[derive(Debug, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops]"
+    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops] (and optionally [plausibility])"
 )]
 struct FileT {
     pendulum: PendulumT,
@@ -188,6 +197,26 @@ struct FileT {
     torquer: TorquerT,
     electronics: ElectronicsT,
     stops: StopsT,
+    plausibility: Option<PlausibilityT>,
+}
+
+/// The largest magnitude of each kind of candidate coefficient that is physically plausible
+/// for this instrument (`[plausibility]` of the instrument file; every key optional). A
+/// coefficient that `ptsa discover` selects beyond its bound is reported with
+/// `"plausible": false`: the data's structure is real, but this cause is unlikely.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Plausibility {
+    /// Offset of the proof mass from where the fixture puts it, per component, cm (default
+    /// 3: the case's own size, Fig. 2.1).
+    pub lever_arm_cm: f64,
+    /// `|I_PA − I_IA|`, g·cm² (default: the float's output-axis inertia, Table 2.1's 14).
+    pub anisoinertia_g_cm2: f64,
+    /// Second-order coefficients (vibropendulosity, anisoelasticity, nonlinearity and the
+    /// other products of two accelerations), s²/cm (default 1e-4, about 0.1 g/g²: two orders
+    /// of magnitude beyond catalogue values).
+    pub second_order_s2_cm: f64,
+    /// Sculling coefficient, s² (default 1e-4).
+    pub sculling_s2: f64,
 }
 
 /// One parameter's tolerance band (for Monte Carlo over the tolerance box).
@@ -253,6 +282,8 @@ pub struct Instrument {
     pub stop_damping_dyn_cm_s: f64,
     /// Tolerance box of every toleranced parameter.
     pub tolerances: Vec<Tolerance>,
+    /// Plausibility bounds of the discovery candidates.
+    pub plausibility: Plausibility,
 }
 
 /// The 1-based line and column (in characters) of byte `offset` of `src`.
@@ -523,6 +554,45 @@ impl Ctx<'_> {
         ])
     }
 
+    /// `[plausibility]` (optional, every key optional): the bounds, with defaults.
+    fn plausibility(
+        &self,
+        p: Option<&PlausibilityT>,
+        inertia_g_cm2: f64,
+    ) -> Result<Plausibility, InstrumentError> {
+        let get = |key: &str, v: Option<&Spanned<Num>>, default: f64, unit: &str| {
+            v.map_or(Ok(default), |s| {
+                self.scalar(key, s, positive, &format!("a bound > 0 {unit}"))
+            })
+        };
+        Ok(Plausibility {
+            lever_arm_cm: get(
+                "plausibility.lever_arm_cm",
+                p.and_then(|p| p.lever_arm_cm.as_ref()),
+                3.0,
+                "cm",
+            )?,
+            anisoinertia_g_cm2: get(
+                "plausibility.anisoinertia_g_cm2",
+                p.and_then(|p| p.anisoinertia_g_cm2.as_ref()),
+                inertia_g_cm2,
+                "g·cm²",
+            )?,
+            second_order_s2_cm: get(
+                "plausibility.second_order_s2_cm",
+                p.and_then(|p| p.second_order_s2_cm.as_ref()),
+                1e-4,
+                "s²/cm",
+            )?,
+            sculling_s2: get(
+                "plausibility.sculling_s2",
+                p.and_then(|p| p.sculling_s2.as_ref()),
+                1e-4,
+                "s²",
+            )?,
+        })
+    }
+
     /// `[stops]`: contact stiffness dyn·cm/rad, contact damping dyn·cm·s.
     fn stops(&self, s: &StopsT) -> Result<[f64; 2], InstrumentError> {
         Ok([
@@ -669,6 +739,7 @@ impl Instrument {
         let [csf, tau_us] = cx.torquer(&f.torquer, &mut tol)?;
         let [sf, bias, amp, bw, fs, clock, g] = cx.electronics(&f.electronics)?;
         let [ks, cs] = cx.stops(&f.stops)?;
+        let plausibility = cx.plausibility(f.plausibility.as_ref(), inertia)?;
         Ok(Self {
             pendulosity_dyn_cm_per_g: pendulosity,
             freedom_rad: freedom_mrad * 1e-3,
@@ -693,6 +764,7 @@ impl Instrument {
             stop_stiffness_dyn_cm_rad: ks,
             stop_damping_dyn_cm_s: cs,
             tolerances: tol,
+            plausibility,
         })
     }
 

@@ -300,6 +300,17 @@ impl Acc {
 /// An effect term per unit coefficient: extra indicated acceleration, cm/s².
 type TermFn = fn(&CaseInputs) -> f64;
 
+/// Physics added to the plant from outside the candidate vocabulary: what a caller (the
+/// hidden-effect tests, which must not share code with the candidates) writes from the
+/// equations. It is evaluated once per tick, at mid-tick, and its torque joins the
+/// disturbance torque of eq. 4.2, held over the tick like every other.
+pub trait ExtraPhysics: Send + Sync + std::fmt::Debug {
+    /// Extra torque on the pendulum, dyn·cm, at `t_s` (s since the loop was built, mid-tick),
+    /// given the case inputs at that time and the plant state `[θ (rad), θ' (rad/s),
+    /// i (fraction of full current), y (rad)]` at the start of the tick.
+    fn torque_dyn_cm(&self, t_s: f64, inputs: &CaseInputs, x: &[f64; NX]) -> f64;
+}
+
 /// The closed loop: instrument plant, ADC, `ptsa-core` loop, all state.
 #[derive(Clone, Debug)]
 pub struct ClosedLoop {
@@ -310,6 +321,8 @@ pub struct ClosedLoop {
     prep: Prepared,
     /// The non-zero effect terms, `(term per unit coefficient, coefficient)`.
     effect_terms: Vec<(TermFn, f64)>,
+    /// Physics added from outside the vocabulary.
+    physics: Option<std::sync::Arc<dyn ExtraPhysics>>,
     dynamic: bool,
     /// Plant state.
     x: [f64; NX],
@@ -349,6 +362,7 @@ impl ClosedLoop {
             plant: Plant::new(instr, instr.spring_dyn_cm_rad),
             prep: Prepared::default(),
             effect_terms: Vec::new(),
+            physics: None,
             dynamic: false,
             x: [0.0; NX],
             u: 1.0,
@@ -388,7 +402,7 @@ impl ClosedLoop {
                 Signature::Term(f) => (f, c),
             })
             .collect();
-        self.dynamic = prep.is_dynamic();
+        self.dynamic = prep.is_dynamic() || self.physics.is_some();
         self.d0 = self.static_torque(&m);
     }
 
@@ -399,6 +413,15 @@ impl ClosedLoop {
         self.p_gcm * (i.a_cm_s2[IA] + self.instr.bias_cm_s2 + eff)
             - self.instr.inertia_dyn_cm_s2 * i.dw_rad_s2[OA]
             + self.instr.anisoinertia_g_cm2 * i.w_rad_s[IA] * i.w_rad_s[PA]
+    }
+
+    /// Add physics from outside the vocabulary ([`ExtraPhysics`]) from the next tick on;
+    /// the loop then runs its general (per-tick) path.
+    #[must_use]
+    pub fn with_physics(mut self, physics: std::sync::Arc<dyn ExtraPhysics>) -> Self {
+        self.physics = Some(physics);
+        self.dynamic = true;
+        self
     }
 
     /// Plant state `[θ, θ', i, y]`.
@@ -688,9 +711,14 @@ impl ClosedLoop {
             let r = self.plant.region(theta);
             let inp = self.prep.inputs(s, c);
             let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
-            let d = self.static_torque(&inp)
+            let mut d = self.static_torque(&inp)
                 + theta * (-p * (inp.a_cm_s2[PA] - self.a_pa0) + di * (wq - self.wq0))
                 + self.plant.stop_torque[r];
+            if let Some(ph) = &self.physics {
+                #[allow(clippy::cast_precision_loss)]
+                let t_mid = (k as f64 + 0.5) * t_s;
+                d += ph.torque_dyn_cm(t_mid, &inp, &x);
+            }
             let z = &self.plant.zoh[r];
             let mut a = [0.0; NX];
             for i in 0..NX {
@@ -939,6 +967,21 @@ pub fn simulate_condition(
     opts: &SimOptions,
 ) -> SimResult {
     let mut l = ClosedLoop::new(instr, cond, effects, opts);
+    l.run(opts.warmup_ticks(instr.clock_hz));
+    l.measure(window_ticks(instr, cond, opts))
+}
+
+/// [`simulate_condition`] with physics added from outside the vocabulary (see
+/// [`ExtraPhysics`]).
+#[must_use]
+pub fn simulate_condition_with(
+    instr: &Instrument,
+    cond: &Condition,
+    effects: &Effects,
+    opts: &SimOptions,
+    physics: std::sync::Arc<dyn ExtraPhysics>,
+) -> SimResult {
+    let mut l = ClosedLoop::new(instr, cond, effects, opts).with_physics(physics);
     l.run(opts.warmup_ticks(instr.clock_hz));
     l.measure(window_ticks(instr, cond, opts))
 }

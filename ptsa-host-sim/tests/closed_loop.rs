@@ -111,3 +111,35 @@ fn fast_run_matches_full_run() {
     assert_eq!(ra.pulses, rb.pulses);
     assert!((ra.indicated_cm_s2 - rb.indicated_cm_s2).abs() < 1e-12);
 }
+
+/// A constant extra torque `P·δ` through the physics hook reads as a change of δ in the
+/// indicated acceleration.
+#[test]
+fn extra_physics_enters_as_a_torque() {
+    use std::sync::Arc;
+
+    use ptsa_host_sim::CaseInputs;
+    use ptsa_host_sim::plant::NX;
+    use ptsa_host_sim::sim::{ExtraPhysics, simulate_condition_with};
+
+    #[derive(Debug)]
+    struct Push(f64);
+    impl ExtraPhysics for Push {
+        fn torque_dyn_cm(&self, _: f64, _: &CaseInputs, _: &[f64; NX]) -> f64 {
+            self.0
+        }
+    }
+    let i = Instrument::kearfott_2401();
+    let opts = SimOptions::default();
+    let c = ia(500.0);
+    let base = simulate_condition(&i, &c, &Effects::default(), &opts).indicated_cm_s2;
+    let pushed = simulate_condition_with(
+        &i,
+        &c,
+        &Effects::default(),
+        &opts,
+        Arc::new(Push(i.pendulosity_g_cm() * 1.0)),
+    )
+    .indicated_cm_s2;
+    assert!((pushed - base - 1.0).abs() < 1e-3, "{base} {pushed}");
+}

@@ -278,11 +278,7 @@ pub fn generate(seed: u64, hidden: Option<CandidateId>, sim: &dyn Simulator) -> 
     let mut rng = rng(seed);
     let sigma = rng.range(0.1, 0.3);
     let write_sigma = rng.uniform() >= 0.25;
-    let stated = if write_sigma {
-        sigma
-    } else {
-        Options::default().default_sigma_cm_s2
-    };
+    let stated = sigma;
     let (mut rows, mut design) = (Vec::new(), String::new());
     let mut se = f64::INFINITY;
     for _ in 0..50 {

@@ -4,7 +4,11 @@
 //!
 //! * [`caseframe`]: the case-frame CSV reader and writer.
 //! * [`sim`]: the [`Simulator`] trait, the analytic model and the closed-loop adapter.
-//! * [`method`]: baseline, selection with familywise error control, confounding, extension.
+//! * [`method`]: baseline, the model, confounding, plausibility, extension, the verdict.
+//! * [`data`]: the fitted rows, signatures and the generic basis of the case inputs.
+//! * [`fit`]: nuisance terms, noise, stepwise selection with familywise error control.
+//! * [`unexplained`]: lack of fit and the search of the residuals.
+//! * [`crossval`]: the gain out of sample.
 //! * [`show`]: text table, plots and the report section.
 
 use std::io::Write;
@@ -14,10 +18,14 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 
 pub mod caseframe;
+pub mod crossval;
+pub mod data;
+pub mod fit;
 pub mod method;
 pub mod show;
 pub mod sim;
 pub mod stats;
+pub mod unexplained;
 
 pub use method::{Discovery, Options, TEST_STATEMENT, discover};
 pub use sim::{AnalyticSimulator, Simulator};

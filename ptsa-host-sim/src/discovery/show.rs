@@ -22,16 +22,30 @@ fn names(ids: &[CandidateId]) -> String {
         .join(", ")
 }
 
+/// `n thing` or `n things`.
+fn count(n: usize, thing: &str) -> String {
+    if n == 1 {
+        format!("1 {thing}")
+    } else {
+        format!("{n} {thing}s")
+    }
+}
+
 /// Human-readable report of one analysis.
 #[must_use]
+#[allow(clippy::too_many_lines)]
 pub fn text_report(source: &str, d: &Discovery) -> String {
     let mut s = String::new();
     let j = &d.json;
     let _ = writeln!(
         s,
-        "discover: {source} ({} fitted rows, {} simulator)",
-        j.rows, d.simulator
+        "discover: {source} ({}, {} simulator)",
+        count(j.rows, "fitted row"),
+        d.simulator
     );
+    for w in &j.warnings {
+        let _ = writeln!(s, "warning: {w}");
+    }
     let _ = writeln!(
         s,
         "\n{:<48} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9}",
@@ -63,11 +77,56 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         j.baseline.dof,
         pfmt(j.baseline.p_value)
     );
+    let noise = &j.noise;
+    let _ = writeln!(
+        s,
+        "noise: {}{}",
+        match noise.source {
+            "stated" => "sigma as stated (sigma_cm_s2 or --sigma)".to_string(),
+            src => format!(
+                "sigma estimated from the {src}: {}",
+                noise
+                    .sigma_cm_s2
+                    .iter()
+                    .map(|(g, v)| format!("{g} {v:.3} cm/s²"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        },
+        noise
+            .caveat
+            .as_deref()
+            .map_or_else(String::new, |c| format!(" ({c})"))
+    );
+    let nu = &j.nuisance;
+    let mut parts: Vec<String> = nu
+        .bias_shift_cm_s2
+        .iter()
+        .map(|(b, v)| format!("bias shift {b} {v:+.3} cm/s²"))
+        .collect();
+    if let Some(v) = nu.drift_cm_s2_per_s {
+        parts.push(format!("drift {v:+.3e} cm/s² per s"));
+    }
+    if let Some(v) = nu.drift_cm_s2_per_row {
+        parts.push(format!("drift {v:+.4} cm/s² per row"));
+    }
+    let _ = writeln!(
+        s,
+        "nuisance terms (always in the model, never discoveries): {}",
+        parts.join(", ")
+    );
     let _ = writeln!(
         s,
         "not testable here (no signature in this data set): {}",
         names(&d.untestable)
     );
+    if !d.untestable_nuisance.is_empty() {
+        let _ = writeln!(
+            s,
+            "not testable here (spanned by the nuisance terms): {}",
+            names(&d.untestable_nuisance)
+        );
+    }
     for g in &d.confounded_groups {
         let _ = writeln!(
             s,
@@ -76,11 +135,17 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             names(g)
         );
     }
-    let _ = writeln!(
-        s,
-        "test: {TEST_STATEMENT}; family of {} candidates",
-        d.family_size
-    );
+    let _ = writeln!(s, "test: {TEST_STATEMENT}");
+    if d.family.is_empty() {
+        let _ = writeln!(s, "family: empty: nothing could be tested in these rows");
+    } else {
+        let _ = writeln!(
+            s,
+            "family: {}: {}",
+            count(d.family_size, "candidate"),
+            names(&d.family)
+        );
+    }
     for st in &d.steps {
         let _ = writeln!(
             s,
@@ -92,7 +157,7 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             pfmt(st.threshold)
         );
     }
-    if d.selected.is_empty() {
+    if d.selected.is_empty() && !d.family.is_empty() {
         let _ = writeln!(
             s,
             "selected: none (no candidate is significant at familywise 5%)"
@@ -103,15 +168,25 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| o.info().name).collect();
         let _ = writeln!(
             s,
-            "selected: {} {} = {:.4} ± {:.4}{}",
+            "selected: {} {} = {:.4} ± {:.4} {}{}{}",
             c.effect,
             c.key,
             sel.coef,
             sel.stderr,
+            c.unit,
             if conf.is_empty() {
                 String::new()
             } else {
                 format!("  (indistinguishable here from: {})", conf.join(", "))
+            },
+            if sel.plausible {
+                String::new()
+            } else {
+                format!(
+                    "  IMPLAUSIBLE (bound ±{} {}): the data's structure is real, but this cause is unlikely",
+                    d.options.limits[sel.id.index()],
+                    c.unit
+                )
             }
         );
     }
@@ -126,9 +201,41 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         if e.p_value >= 0.05 {
             "the rest is consistent with the noise"
         } else {
-            "the rest is NOT consistent with the stated noise"
+            "the rest is NOT consistent with the noise"
         }
     );
+    let u = &j.unexplained;
+    let _ = writeln!(
+        s,
+        "unexplained structure: {} (p = {}; {})",
+        if u.detected {
+            format!("YES, {}", u.hint)
+        } else {
+            "none found".to_string()
+        },
+        pfmt(u.p_value),
+        if u.tests.is_empty() {
+            "no test possible".to_string()
+        } else {
+            u.tests
+                .iter()
+                .map(|t| format!("{} p = {}", t.name, pfmt(t.p_value)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    );
+    let g = &j.gain;
+    let _ = writeln!(
+        s,
+        "gain ({}): RMS in sample {:.3}, cross-validated {:.3} against {:.3} for the baseline with its nuisance terms, cm/s²; gain 95 % interval [{:.3}, {:.3}]",
+        g.method,
+        g.rms_in_sample_cm_s2,
+        g.rms_cross_validated_cm_s2,
+        g.baseline_rms_cross_validated_cm_s2,
+        g.ci95_rms_cm_s2[0],
+        g.ci95_rms_cm_s2[1]
+    );
+    let _ = writeln!(s, "verdict: {}", j.verdict);
     s
 }
 

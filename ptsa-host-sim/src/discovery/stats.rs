@@ -1,7 +1,7 @@
 //! Small dense weighted least squares and the tail probabilities the tests use.
 
 use nalgebra::{DMatrix, DVector};
-use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor};
+use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor, StudentsT};
 
 /// A least-squares fit of `z ≈ Σ_j β_j u_j` (columns already divided by the row sigmas).
 #[derive(Clone, Debug)]
@@ -14,6 +14,11 @@ pub struct LsqFit {
     pub chi2: f64,
     /// Residuals `z − Σ β u`.
     pub resid: Vec<f64>,
+    /// Leverage `h_ii` of every row (diagonal of the hat matrix).
+    pub leverage: Vec<f64>,
+    /// Heteroscedasticity-robust (HC3) standard error of every coefficient: the sandwich
+    /// `(XᵀX)⁻¹ Xᵀ diag(e_i²/(1 − h_ii)²) X (XᵀX)⁻¹`, valid whatever the rows' variances.
+    pub se_hc3: Vec<f64>,
 }
 
 /// Relative singular-value tolerance below which a design is treated as rank deficient.
@@ -32,6 +37,8 @@ pub fn lsq(z: &[f64], cols: &[&[f64]]) -> Option<LsqFit> {
             cov: DMatrix::zeros(0, 0),
             chi2: z.iter().map(|v| v * v).sum(),
             resid: z.to_vec(),
+            leverage: vec![0.0; n],
+            se_hc3: vec![],
         });
     }
     if n < p {
@@ -62,12 +69,65 @@ pub fn lsq(z: &[f64], cols: &[&[f64]]) -> Option<LsqFit> {
     let fitted = &a * &beta;
     let resid: Vec<f64> = (0..n).map(|i| z[i] - fitted[i]).collect();
     let chi2 = resid.iter().map(|v| v * v).sum();
+    // Leverage from the left singular vectors; the sandwich through A = V S⁻¹ Uᵀ.
+    let leverage: Vec<f64> = (0..n)
+        .map(|i| (0..p).map(|k| u[(i, k)] * u[(i, k)]).sum::<f64>().min(1.0))
+        .collect();
+    let mut se_hc3 = vec![0.0; p];
+    for (j, se) in se_hc3.iter_mut().enumerate() {
+        let mut var = 0.0;
+        for i in 0..n {
+            let aji: f64 = (0..p)
+                .map(|k| vt[(k, j)] / svd.singular_values[k] * u[(i, k)])
+                .sum();
+            let lev = (1.0 - leverage[i]).max(1e-9);
+            var += aji * aji * resid[i] * resid[i] / (lev * lev);
+        }
+        *se = var.sqrt();
+    }
     Some(LsqFit {
         beta: beta.iter().copied().collect(),
         cov,
         chi2,
         resid,
+        leverage,
+        se_hc3,
     })
+}
+
+/// Heteroscedasticity-robust (HC3-type) standard errors of a fit of `cols` with the
+/// residuals `resid` of another, larger model (so that an effect outside `cols` does not
+/// inflate them): the sandwich `(XᵀX)⁻¹ Xᵀ diag(e_i²/(1 − h_ii)²) X (XᵀX)⁻¹` with the
+/// leverage `h` of `cols`. `None` if the columns are dependent.
+#[must_use]
+pub fn sandwich_se(cols: &[&[f64]], resid: &[f64]) -> Option<Vec<f64>> {
+    let n = resid.len();
+    let p = cols.len();
+    if p == 0 || n < p {
+        return None;
+    }
+    let a = DMatrix::from_fn(n, p, |i, j| cols[j][i]);
+    let svd = a.svd(true, true);
+    let smax = svd.singular_values.max();
+    if smax <= 0.0 || svd.singular_values.min() <= RANK_TOL * smax {
+        return None;
+    }
+    let u = svd.u.as_ref()?;
+    let vt = svd.v_t.as_ref()?;
+    let mut se = vec![0.0; p];
+    for (j, out) in se.iter_mut().enumerate() {
+        let mut var = 0.0;
+        for i in 0..n {
+            let h: f64 = (0..p).map(|k| u[(i, k)] * u[(i, k)]).sum::<f64>().min(1.0);
+            let aji: f64 = (0..p)
+                .map(|k| vt[(k, j)] / svd.singular_values[k] * u[(i, k)])
+                .sum();
+            let l = (1.0 - h).max(1e-9);
+            var += aji * aji * resid[i] * resid[i] / (l * l);
+        }
+        *out = var.sqrt();
+    }
+    Some(se)
 }
 
 /// The part of `v` orthogonal to the span of `basis` (all of `v` if `basis` is empty or
@@ -112,6 +172,15 @@ pub fn f_sf(x: f64, d1: f64, d2: f64) -> f64 {
     FisherSnedecor::new(d1, d2).map_or(f64::NAN, |d| d.sf(x.max(0.0)))
 }
 
+/// Two-sided `P(|t_k| > |t|)`.
+#[must_use]
+pub fn t_two_sided(t: f64, k: f64) -> f64 {
+    if k <= 0.0 || !t.is_finite() {
+        return if t.is_finite() { 1.0 } else { 0.0 };
+    }
+    StudentsT::new(0.0, 1.0, k).map_or(f64::NAN, |d| 2.0 * d.sf(t.abs()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -131,7 +200,22 @@ mod tests {
     }
 
     #[test]
+    fn hc3_equals_the_classical_error_for_equal_residuals_and_leverage() {
+        // Two groups of rows, the regressor ±1, residuals of equal size: the sandwich with
+        // e²/(1 − h)² is the classical error scaled by that constant.
+        let x = [1.0, -1.0, 1.0, -1.0, 1.0, -1.0];
+        let z = [1.1, -0.9, 0.9, -1.1, 1.1, -0.9];
+        let f = lsq(&z, &[&x]).unwrap();
+        let h = 1.0 / 6.0;
+        assert!(f.leverage.iter().all(|&l| (l - h).abs() < 1e-12));
+        let e2 = f.resid.iter().map(|e| e * e).sum::<f64>();
+        let want = (e2 / 36.0).sqrt() / (1.0 - h);
+        assert!((f.se_hc3[0] - want).abs() < 1e-12, "{} {want}", f.se_hc3[0]);
+    }
+
+    #[test]
     fn tails() {
+        assert!((t_two_sided(2.570_581_835_636_314, 5.0) - 0.05).abs() < 1e-6);
         assert!((chi2_sf(3.841_458_820_694_124, 1.0) - 0.05).abs() < 1e-9);
         assert!((f_sf(5.987_377_607_273_44, 1.0, 6.0) - 0.05).abs() < 1e-6);
     }

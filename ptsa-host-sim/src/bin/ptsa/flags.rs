@@ -282,11 +282,11 @@ pub struct DiscoverArgs {
     /// report's Tables 6.1, 6.2 and 6.3 are analysed.
     #[arg(long, value_name = "FILE")]
     pub data: Option<PathBuf>,
-    /// 1-sigma uncertainty for rows without `sigma_cm_s2`, cm/s² (more than 0; default: the
-    /// report's test uncertainty).
-    #[arg(long, default_value_t = ptsa_host_sim::discovery::Options::default().default_sigma_cm_s2,
-          value_name = "CM_S2", value_parser = positive_cm_s2)]
-    pub sigma: f64,
+    /// 1-sigma uncertainty of the rows without `sigma_cm_s2`, cm/s² (more than 0). Without
+    /// it, their noise is estimated: from replicated rows where there are some, else from
+    /// the residuals, per block and kind of row.
+    #[arg(long, value_name = "CM_S2", value_parser = positive_cm_s2)]
+    pub sigma: Option<f64>,
     /// Candidate effects, comma separated: effect names (`lever_arm` = its three
     /// components) or candidate names (`lever_arm.r_pa_cm`); default all.
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = candidate,

@@ -507,7 +507,8 @@ fn discover_cmd(
         options: Options {
             default_sigma_cm_s2: a.sigma,
             candidates,
-            ..Options::default()
+            seed: a.seed,
+            ..Options::for_instrument(instr)
         },
         json: a.json,
         out: (!a.no_plots).then(|| a.out.clone()),
