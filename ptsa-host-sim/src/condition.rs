@@ -16,11 +16,47 @@ pub const PA: usize = 1;
 /// Output axis index.
 pub const OA: usize = 2;
 
+/// What a row's measurement is (case-frame column `kind`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum RowKind {
+    /// `difference` (the default): the mean indicated acceleration in the condition minus
+    /// that in its reference condition (same gravity, rates `ref_w_*`, no oscillation).
+    #[default]
+    Difference,
+    /// `absolute`: the mean indicated acceleration itself over the row's gate,
+    /// `SF·(2P/T − 1)` with the instrument file's nominal SF (a tumble or centrifuge
+    /// position), no reference subtracted.
+    Absolute,
+}
+
+impl RowKind {
+    /// Its name in the case frame.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            RowKind::Difference => "difference",
+            RowKind::Absolute => "absolute",
+        }
+    }
+
+    /// The kind named `s` in the case frame.
+    #[must_use]
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "difference" => Some(RowKind::Difference),
+            "absolute" => Some(RowKind::Absolute),
+            _ => None,
+        }
+    }
+}
+
 /// One test condition (one row of a case-frame file). Every oscillation runs at `freq_hz`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Condition {
     /// Free text.
     pub label: String,
+    /// What `measured_cm_s2` is (case-frame column `kind`).
+    pub kind: RowKind,
     /// The rows that share a reference run (case-frame column `block`; `None` = the one
     /// block of the file). A bias shift per block is a nuisance term of `ptsa discover`.
     pub block: Option<String>,
@@ -44,6 +80,9 @@ pub struct Condition {
     pub ang_deg: [f64; 3],
     /// Constant rates of the reference condition (same gravity, no oscillation), rad/s.
     pub ref_w_rad_s: [f64; 3],
+    /// Distance of the proof mass from the axis of the constant rates (a centrifuge arm), cm;
+    /// see [`Condition::centripetal_cm_s2`] for where its acceleration points (0 = none).
+    pub radius_cm: f64,
     /// Measured mean indicated acceleration minus the reference's, cm/s² (if measured).
     pub measured_cm_s2: Option<f64>,
     /// 1-sigma uncertainty of `measured_cm_s2`, cm/s² (if given).
@@ -70,8 +109,36 @@ impl Condition {
             g: self.g,
             w_rad_s: self.ref_w_rad_s,
             ref_w_rad_s: self.ref_w_rad_s,
+            radius_cm: self.radius_cm,
             ..Condition::default()
         }
+    }
+
+    /// The specific force of a centrifuge arm, cm/s², in case axes: with the proof mass at
+    /// `radius_cm` from the spin axis (the axis of the constant rates `w_rad_s`), the case
+    /// feels `|w|²·radius` pointing **from the proof mass toward the spin axis**, and the
+    /// instrument is taken to be mounted with its input axis pointing at the spin axis: the
+    /// direction is the projection of +IA onto the plane perpendicular to `w`,
+    /// `û = (IA − (IA·ŵ)ŵ)/|…|`. A positive radius thus reads as a positive input along IA
+    /// (times the cosine of IA's tilt out of the turntable plane); a negative radius means
+    /// IA points away from the axis. Tilting the rate vector within the IA–PA (or IA–OA)
+    /// plane puts part of the acceleration along PA (or OA). Zero without a radius or a
+    /// rate; `None` when IA lies along the spin axis, where the direction is undefined.
+    #[must_use]
+    pub fn centripetal_cm_s2(&self, w_rad_s: [f64; 3]) -> Option<[f64; 3]> {
+        let w2 = w_rad_s.iter().map(|x| x * x).sum::<f64>();
+        if self.radius_cm == 0.0 || w2 == 0.0 {
+            return Some([0.0; 3]);
+        }
+        let w_ia = w_rad_s[0] / w2.sqrt();
+        // IA − (IA·ŵ)ŵ, with IA = (1, 0, 0).
+        let mut u = w_rad_s.map(|x| -w_ia * x / w2.sqrt());
+        u[0] += 1.0;
+        let nu = u.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if nu < 1e-9 {
+            return None;
+        }
+        Some(u.map(|x| w2 * self.radius_cm * x / nu))
     }
 
     /// Whether anything in the condition varies with time.
@@ -104,6 +171,7 @@ impl Condition {
         let mut p = Prepared {
             omega,
             g: self.g.map(|x| x * g_cm_s2),
+            centripetal: self.centripetal_cm_s2(self.w_rad_s).unwrap_or([0.0; 3]),
             w0: self.w_rad_s,
             ..Prepared::default()
         };
@@ -134,6 +202,8 @@ pub struct Prepared {
     pub omega: f64,
     /// Gravity's specific force along IA, PA, OA, cm/s².
     pub g: [f64; 3],
+    /// A centrifuge arm's specific force along IA, PA, OA, cm/s².
+    pub centripetal: [f64; 3],
     /// Constant rates, rad/s.
     pub w0: [f64; 3],
     /// Linear vibration, sine coefficient, cm/s².
@@ -166,6 +236,7 @@ impl Prepared {
         let phi_x_g = cross(phi, self.g);
         for j in 0..3 {
             a[j] -= phi_x_g[j];
+            a[j] += self.centripetal[j];
         }
         CaseInputs {
             a_cm_s2: a,
@@ -178,7 +249,7 @@ impl Prepared {
     #[must_use]
     pub fn mean_inputs(&self) -> CaseInputs {
         CaseInputs {
-            a_cm_s2: self.g,
+            a_cm_s2: [0, 1, 2].map(|j| self.g[j] + self.centripetal[j]),
             w_rad_s: self.w0,
             dw_rad_s2: [0.0; 3],
         }
@@ -211,6 +282,31 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_centrifuge_arm_pushes_along_the_projection_of_ia() {
+        let g = 980.4;
+        // Spin about OA (IA and PA in the turntable plane), 100 cm arm: |w|²R along IA.
+        let mut c = Condition {
+            g: [0.0, 0.0, 1.0],
+            w_rad_s: [0.0, 0.0, 3.0],
+            radius_cm: 100.0,
+            ..Condition::default()
+        };
+        let i = c.inputs_at(0.0, g);
+        assert!((i.a_cm_s2[IA] - 900.0).abs() < 1e-9 && i.a_cm_s2[PA].abs() < 1e-12);
+        assert!((i.a_cm_s2[OA] - g).abs() < 1e-9);
+        // The rate vector tilted by β in the IA–PA plane: the push along cos β IA + sin β PA.
+        let b = 30f64.to_radians();
+        c.w_rad_s = [-3.0 * b.sin(), 3.0 * b.cos(), 0.0];
+        c.g = [-b.sin(), b.cos(), 0.0];
+        let i = c.inputs_at(0.0, g);
+        assert!((i.a_cm_s2[IA] - (900.0 * b.cos() - g * b.sin())).abs() < 1e-9);
+        assert!((i.a_cm_s2[PA] - (900.0 * b.sin() + g * b.cos())).abs() < 1e-9);
+        // IA along the spin axis: undefined.
+        c.w_rad_s = [2.0, 0.0, 0.0];
+        assert!(c.centripetal_cm_s2(c.w_rad_s).is_none());
+    }
 
     #[test]
     fn oscillation_about_oa_tilts_gravity_into_ia() {

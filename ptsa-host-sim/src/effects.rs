@@ -35,6 +35,14 @@ pub enum Bound {
     SecondOrder,
     /// `sculling_s2`.
     Sculling,
+    /// `bias_cm_s2`.
+    Bias,
+    /// `scale_factor_ppm`.
+    ScaleFactor,
+    /// `misalignment_rad`.
+    Misalignment,
+    /// `cubic_s4_cm2`.
+    Cubic,
 }
 
 impl Bound {
@@ -47,6 +55,10 @@ impl Bound {
             Bound::Anisoinertia => p.anisoinertia_g_cm2 / instr.pendulosity_g_cm(),
             Bound::SecondOrder => p.second_order_s2_cm,
             Bound::Sculling => p.sculling_s2,
+            Bound::Bias => p.bias_cm_s2,
+            Bound::ScaleFactor => p.scale_factor_ppm,
+            Bound::Misalignment => p.misalignment_rad,
+            Bound::Cubic => p.cubic_s4_cm2,
         }
     }
 }
@@ -71,10 +83,13 @@ pub struct Candidate {
     pub signature: Signature,
     /// Its plausibility bound.
     pub bound: Bound,
+    /// Its symbol and unit in an IEEE Std 1293 model equation, and the factor from the
+    /// coefficient's cgs unit to that unit for local gravity `g` (cm/s²).
+    pub ieee: (&'static str, &'static str, fn(f64) -> f64),
 }
 
 macro_rules! candidates {
-    ($($id:ident = $effect:literal, $key:literal, $name:literal, $unit:literal, $formula:literal, $sig:expr, $bound:expr;)*) => {
+    ($($id:ident = $effect:literal, $key:literal, $name:literal, $unit:literal, $formula:literal, $sig:expr, $bound:expr, $ieee:expr;)*) => {
         /// Typed name of a candidate coefficient (the order is the tie-break order of the
         /// selection and the order of every listing).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
@@ -96,6 +111,7 @@ macro_rules! candidates {
                 formula: $formula,
                 signature: $sig,
                 bound: $bound,
+                ieee: $ieee,
             },)*
         ];
 
@@ -112,28 +128,52 @@ pub const N_CANDIDATES: usize = CandidateId::ALL.len();
 candidates! {
     Anisoinertia = "anisoinertia", "k_ai_cm", "anisoinertia", "cm",
         "k·w_IA·w_PA, k = (I_PA − I_IA)/(m·l)",
-        Signature::Term(|i| i.w_rad_s[IA] * i.w_rad_s[PA]), Bound::Anisoinertia;
+        Signature::Term(|i| i.w_rad_s[IA] * i.w_rad_s[PA]), Bound::Anisoinertia, ("K_ai", "µg/(rad/s)²", |g| 1e6 / g);
     LeverArmIa = "lever_arm", "r_ia_cm", "lever_arm.r_ia_cm", "cm",
         "IA component of dw × r + w × (w × r), r along IA",
-        Signature::Term(|i| lever_arm_ia(i, IA)), Bound::LeverArm;
+        Signature::Term(|i| lever_arm_ia(i, IA)), Bound::LeverArm, ("r_IA", "cm", |_| 1.0);
     LeverArmPa = "lever_arm", "r_pa_cm", "lever_arm.r_pa_cm", "cm",
         "IA component of dw × r + w × (w × r), r along PA",
-        Signature::Term(|i| lever_arm_ia(i, PA)), Bound::LeverArm;
+        Signature::Term(|i| lever_arm_ia(i, PA)), Bound::LeverArm, ("r_PA", "cm", |_| 1.0);
     LeverArmOa = "lever_arm", "r_oa_cm", "lever_arm.r_oa_cm", "cm",
         "IA component of dw × r + w × (w × r), r along OA",
-        Signature::Term(|i| lever_arm_ia(i, OA)), Bound::LeverArm;
+        Signature::Term(|i| lever_arm_ia(i, OA)), Bound::LeverArm, ("r_OA", "cm", |_| 1.0);
     Vibropendulosity = "vibropendulosity", "k_ip_s2_cm", "vibropendulosity", "s²/cm",
         "k·a_IA·a_PA",
-        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[PA]), Bound::SecondOrder;
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[PA]), Bound::SecondOrder, ("K_ip", "µg/g²", |g| g * 1e6);
     Anisoelasticity = "anisoelasticity", "k_io_s2_cm", "anisoelasticity", "s²/cm",
         "k·a_IA·a_OA",
-        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[OA]), Bound::SecondOrder;
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[OA]), Bound::SecondOrder, ("K_io", "µg/g²", |g| g * 1e6);
     Nonlinearity = "nonlinearity", "k2_s2_cm", "nonlinearity", "s²/cm",
         "k·a_IA²",
-        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[IA]), Bound::SecondOrder;
+        Signature::Term(|i| i.a_cm_s2[IA] * i.a_cm_s2[IA]), Bound::SecondOrder, ("K_2", "µg/g²", |g| g * 1e6);
     Sculling = "sculling", "k_sc_s2", "sculling", "s²",
         "k·dw_OA·a_PA",
-        Signature::Term(|i| i.dw_rad_s2[OA] * i.a_cm_s2[PA]), Bound::Sculling;
+        Signature::Term(|i| i.dw_rad_s2[OA] * i.a_cm_s2[PA]), Bound::Sculling, ("K_sc", "µg/(g·rad/s²)", |_| 1e6);
+    Bias = "bias", "k0_cm_s2", "bias", "cm/s²",
+        "k (a change of the instrument file's bias A_b; absolute rows only)",
+        Signature::Term(|_| 1.0), Bound::Bias, ("K_0", "µg", |g| 1e6 / g);
+    ScaleFactor = "scale_factor", "k1_ppm", "scale_factor", "ppm",
+        "k·1e-6·a_IA (a change of the scale factor from the nominal SF)",
+        Signature::Term(|i| 1e-6 * i.a_cm_s2[IA]), Bound::ScaleFactor, ("K_1", "ppm", |_| 1.0);
+    MisalignmentP = "misalignment", "delta_p_rad", "misalignment.delta_p_rad", "rad",
+        "k·a_PA (IA tilted toward PA, about OA)",
+        Signature::Term(|i| i.a_cm_s2[PA]), Bound::Misalignment, ("δ_o", "µrad", |_| 1e6);
+    MisalignmentO = "misalignment", "delta_o_rad", "misalignment.delta_o_rad", "rad",
+        "k·a_OA (IA tilted toward OA, about PA)",
+        Signature::Term(|i| i.a_cm_s2[OA]), Bound::Misalignment, ("−δ_p", "µrad", |_| 1e6);
+    Cubic = "cubic", "k3_s4_cm2", "cubic", "s⁴/cm²",
+        "k·a_IA³",
+        Signature::Term(|i| i.a_cm_s2[IA].powi(3)), Bound::Cubic, ("K_3", "µg/g³", |g| g * g * 1e6);
+    CrossAxisPp = "cross_axis_pp", "k_pp_s2_cm", "cross_axis_pp", "s²/cm",
+        "k·a_PA²",
+        Signature::Term(|i| i.a_cm_s2[PA] * i.a_cm_s2[PA]), Bound::SecondOrder, ("K_pp", "µg/g²", |g| g * 1e6);
+    CrossAxisOo = "cross_axis_oo", "k_oo_s2_cm", "cross_axis_oo", "s²/cm",
+        "k·a_OA²",
+        Signature::Term(|i| i.a_cm_s2[OA] * i.a_cm_s2[OA]), Bound::SecondOrder, ("K_oo", "µg/g²", |g| g * 1e6);
+    CrossAxisPo = "cross_axis_po", "k_po_s2_cm", "cross_axis_po", "s²/cm",
+        "k·a_PA·a_OA",
+        Signature::Term(|i| i.a_cm_s2[PA] * i.a_cm_s2[OA]), Bound::SecondOrder, ("K_po", "µg/g²", |g| g * 1e6);
 }
 
 /// IA component of `dw × r + w × (w × r)` for a unit `r` along case axis `axis`.
@@ -327,7 +367,15 @@ mod tests {
                 "vibropendulosity",
                 "anisoelasticity",
                 "nonlinearity",
-                "sculling"
+                "sculling",
+                "bias",
+                "scale_factor",
+                "misalignment.delta_p_rad",
+                "misalignment.delta_o_rad",
+                "cubic",
+                "cross_axis_pp",
+                "cross_axis_oo",
+                "cross_axis_po"
             ]
         );
         for c in REGISTRY {

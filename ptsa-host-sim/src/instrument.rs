@@ -184,6 +184,10 @@ struct PlausibilityT {
     anisoinertia_g_cm2: Option<Spanned<Num>>,
     second_order_s2_cm: Option<Spanned<Num>>,
     sculling_s2: Option<Spanned<Num>>,
+    bias_cm_s2: Option<Spanned<Num>>,
+    scale_factor_ppm: Option<Spanned<Num>>,
+    misalignment_rad: Option<Spanned<Num>>,
+    cubic_s4_cm2: Option<Spanned<Num>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -217,6 +221,14 @@ pub struct Plausibility {
     pub second_order_s2_cm: f64,
     /// Sculling coefficient, s² (default 1e-4).
     pub sculling_s2: f64,
+    /// A change of the bias from the file's `A_b`, cm/s² (default 50, about 0.05 g).
+    pub bias_cm_s2: f64,
+    /// A change of the scale factor, ppm (default 10 000, 1 %).
+    pub scale_factor_ppm: f64,
+    /// A misalignment of IA, rad (default 0.01; the report puts them below 1 arc minute).
+    pub misalignment_rad: f64,
+    /// The cubic coefficient, s⁴/cm² (default 1e-10, about 0.1 g/g³).
+    pub cubic_s4_cm2: f64,
 }
 
 /// One parameter's tolerance band (for Monte Carlo over the tolerance box).
@@ -589,6 +601,30 @@ impl Ctx<'_> {
                 p.and_then(|p| p.sculling_s2.as_ref()),
                 1e-4,
                 "s²",
+            )?,
+            bias_cm_s2: get(
+                "plausibility.bias_cm_s2",
+                p.and_then(|p| p.bias_cm_s2.as_ref()),
+                50.0,
+                "cm/s²",
+            )?,
+            scale_factor_ppm: get(
+                "plausibility.scale_factor_ppm",
+                p.and_then(|p| p.scale_factor_ppm.as_ref()),
+                1e4,
+                "ppm",
+            )?,
+            misalignment_rad: get(
+                "plausibility.misalignment_rad",
+                p.and_then(|p| p.misalignment_rad.as_ref()),
+                0.01,
+                "rad",
+            )?,
+            cubic_s4_cm2: get(
+                "plausibility.cubic_s4_cm2",
+                p.and_then(|p| p.cubic_s4_cm2.as_ref()),
+                1e-10,
+                "s⁴/cm²",
             )?,
         })
     }

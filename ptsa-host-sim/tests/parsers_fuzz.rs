@@ -9,6 +9,7 @@
 
 use proptest::prelude::*;
 use ptsa_host_sim::Condition;
+use ptsa_host_sim::condition::RowKind;
 use ptsa_host_sim::discovery::caseframe;
 use ptsa_host_sim::instrument::{Instrument, KEARFOTT_2401_TOML};
 
@@ -385,6 +386,7 @@ fn condition() -> impl Strategy<Value = Condition> {
         (
             prop::option::of("[a-z]([a-z0-9 ]{0,8}[a-z])?"),
             prop::option::of(num()),
+            any::<bool>(),
         ),
     )
         .prop_map(
@@ -395,9 +397,15 @@ fn condition() -> impl Strategy<Value = Condition> {
                 freq,
                 meas,
                 sigma,
-                (block, time_s),
+                (block, time_s, absolute),
             )| Condition {
                 label,
+                kind: if absolute {
+                    RowKind::Absolute
+                } else {
+                    RowKind::Difference
+                },
+                radius_cm: 0.0,
                 block,
                 time_s,
                 g,

@@ -302,6 +302,8 @@ pub fn generate(seed: u64, hidden: Option<CandidateId>, sim: &dyn Simulator) -> 
         let e = Effects::only(h, 1.0);
         let analytic = AnalyticSimulator {
             g_cm_s2: sim.g_cm_s2(),
+            bias_cm_s2: 0.0,
+            loop_bias: [0.0; 2],
         };
         let col: Vec<f64> = rows
             .iter()

@@ -15,7 +15,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 
-use crate::condition::Condition;
+use crate::condition::{Condition, RowKind};
 
 /// A cell's value as read or written.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,9 +26,13 @@ enum Value {
     Num(Option<f64>),
 }
 
-/// What a number cell must hold.
+/// What a cell must hold.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Check {
+    /// Free text.
+    Text,
+    /// One of these words (or empty: the first).
+    OneOf(&'static [&'static str]),
     /// Any finite number.
     Finite,
     /// A finite number, 0 or more.
@@ -43,7 +47,7 @@ pub struct Column {
     pub name: &'static str,
     /// What a cell must hold, for error messages.
     pub expected: &'static str,
-    check: Option<Check>,
+    check: Check,
     get: fn(&Condition) -> Value,
     set: fn(&mut Condition, Value),
 }
@@ -52,7 +56,7 @@ impl Column {
     /// Whether the cells are text (else numbers).
     #[must_use]
     pub fn is_text(&self) -> bool {
-        self.check.is_none()
+        matches!(self.check, Check::Text | Check::OneOf(_))
     }
 }
 
@@ -83,7 +87,7 @@ macro_rules! axis_column {
         Column {
             name: $name,
             expected: $expected,
-            check: Some($check),
+            check: $check,
             get: |c| Value::Num(Some(c.$field[$j])),
             set: |c, v| c.$field[$j] = num_or_zero(v),
         }
@@ -98,21 +102,28 @@ pub const COLUMNS: &[Column] = &[
     Column {
         name: "label",
         expected: "free text",
-        check: None,
+        check: Check::Text,
         get: |c| Value::Text(Some(c.label.clone())),
         set: |c, v| c.label = text(v).unwrap_or_default(),
     },
     Column {
+        name: "kind",
+        expected: "`difference` (condition minus its reference; also an empty cell) or `absolute` (the indicated acceleration itself)",
+        check: Check::OneOf(&["difference", "absolute"]),
+        get: |c| Value::Text(Some(c.kind.name().to_string())),
+        set: |c, v| c.kind = text(v).and_then(|t| RowKind::parse(&t)).unwrap_or_default(),
+    },
+    Column {
         name: "block",
         expected: "free text naming the rows that share a reference run (empty: the one block)",
-        check: None,
+        check: Check::Text,
         get: |c| Value::Text(c.block.clone()),
         set: |c, v| c.block = text(v),
     },
     Column {
         name: "time_s",
         expected: "a finite time in seconds, or an empty cell (row order)",
-        check: Some(Check::Finite),
+        check: Check::Finite,
         get: |c| Value::Num(c.time_s),
         set: |c, v| c.time_s = num(v),
     },
@@ -125,7 +136,7 @@ pub const COLUMNS: &[Column] = &[
     Column {
         name: "freq_hz",
         expected: "a finite number of hertz, 0 or more",
-        check: Some(Check::NonNegative),
+        check: Check::NonNegative,
         get: |c| Value::Num(Some(c.freq_hz)),
         set: |c, v| c.freq_hz = num_or_zero(v),
     },
@@ -163,16 +174,23 @@ pub const COLUMNS: &[Column] = &[
     axis_column!("ref_w_pa_rad_s", ref_w_rad_s, 1, Check::Finite, INPUT),
     axis_column!("ref_w_oa_rad_s", ref_w_rad_s, 2, Check::Finite, INPUT),
     Column {
+        name: "radius_cm",
+        expected: "a finite distance in cm from the spin axis of the row's rates to the proof mass (a centrifuge arm; an empty cell means 0)",
+        check: Check::Finite,
+        get: |c| Value::Num(Some(c.radius_cm)),
+        set: |c, v| c.radius_cm = num_or_zero(v),
+    },
+    Column {
         name: "measured_cm_s2",
         expected: "a finite number of cm/s², or an empty cell (not measured)",
-        check: Some(Check::Finite),
+        check: Check::Finite,
         get: |c| Value::Num(c.measured_cm_s2),
         set: |c, v| c.measured_cm_s2 = num(v),
     },
     Column {
         name: "sigma_cm_s2",
         expected: "a finite number of cm/s² greater than 0, or an empty cell",
-        check: Some(Check::Positive),
+        check: Check::Positive,
         get: |c| Value::Num(c.sigma_cm_s2),
         set: |c, v| c.sigma_cm_s2 = num(v),
     },
@@ -407,14 +425,30 @@ fn parse_row(
     let mut c = Condition::default();
     for (j, (cell, &k)) in record.iter().zip(cols).enumerate() {
         let col = &COLUMNS[k];
-        let Some(check) = col.check else {
-            let t = if col.name == "label" {
-                cell
-            } else {
-                cell.trim()
-            };
-            (col.set)(&mut c, Value::Text((!t.is_empty()).then(|| t.to_string())));
-            continue;
+        let check = match col.check {
+            Check::Text => {
+                let t = if col.name == "label" {
+                    cell
+                } else {
+                    cell.trim()
+                };
+                (col.set)(&mut c, Value::Text((!t.is_empty()).then(|| t.to_string())));
+                continue;
+            }
+            Check::OneOf(words) => {
+                let t = cell.trim();
+                if !t.is_empty() && !words.contains(&t) {
+                    bail!(
+                        "{name}:{line}: column {} (`{}`) holds `{t}`; expected {}",
+                        j + 1,
+                        col.name,
+                        col.expected
+                    );
+                }
+                (col.set)(&mut c, Value::Text((!t.is_empty()).then(|| t.to_string())));
+                continue;
+            }
+            check => check,
         };
         let s = cell.trim();
         if s.is_empty() {
@@ -423,9 +457,9 @@ fn parse_row(
         let v = s.parse::<f64>().ok().filter(|v| {
             v.is_finite()
                 && match check {
-                    Check::Finite => true,
                     Check::NonNegative => *v >= 0.0,
                     Check::Positive => *v > 0.0,
+                    Check::Finite | Check::Text | Check::OneOf(_) => true,
                 }
         });
         let Some(v) = v else {
@@ -456,6 +490,21 @@ fn parse_row(
             }
         }
     }
+    if c.radius_cm != 0.0 {
+        if c.w_rad_s.iter().all(|&w| w == 0.0) {
+            bail!(
+                "{name}:{line}: column `radius_cm` is {} but the row has no rate (`w_ia_rad_s`, `w_pa_rad_s`, `w_oa_rad_s` all 0); expected the centrifuge's rate for a centrifuge row",
+                c.radius_cm
+            );
+        }
+        if c.centripetal_cm_s2(c.w_rad_s).is_none() || c.centripetal_cm_s2(c.ref_w_rad_s).is_none()
+        {
+            bail!(
+                "{name}:{line}: column `radius_cm` is {} but IA lies along the spin axis (the rates point along IA), so the arm's direction is undefined; expected IA in or tilted out of the turntable plane (docs/case-frame.md, centrifuge rows)",
+                c.radius_cm
+            );
+        }
+    }
     if c.label.is_empty() {
         c.label = format!("line {line}");
     }
@@ -482,7 +531,9 @@ fn fmt_num(v: f64) -> String {
 /// Whether a value is worth a column (not empty, not 0).
 fn given(v: &Value) -> bool {
     match v {
-        Value::Text(t) => t.as_ref().is_some_and(|t| !t.is_empty()),
+        Value::Text(t) => t
+            .as_ref()
+            .is_some_and(|t| !t.is_empty() && t != RowKind::Difference.name()),
         Value::Num(x) => x.is_some_and(|x| x != 0.0),
     }
 }
@@ -538,6 +589,8 @@ mod tests {
     fn round_trip_keeps_every_field() {
         let c = Condition {
             label: "a, \"quoted\" row".into(),
+            kind: RowKind::Absolute,
+            radius_cm: 12.5,
             block: Some("run 2, morning".into()),
             time_s: Some(3600.5),
             g: [0.5, -0.25, 0.0],

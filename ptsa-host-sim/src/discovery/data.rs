@@ -41,6 +41,8 @@ pub struct Data {
     pub base: Vec<f64>,
     /// Stated sigmas (the row's `sigma_cm_s2`, else the explicit `--sigma`), cm/s².
     pub stated: Vec<Option<f64>>,
+    /// Whether each row is absolute (else a difference).
+    pub absolute: Vec<bool>,
     /// Block of each row (index into `block_names`).
     pub block: Vec<usize>,
     /// Block names (`"all"` when the file has no `block` column).
@@ -175,6 +177,10 @@ pub fn build(
             .map(|&i| rows[i].measured_cm_s2.unwrap_or(0.0))
             .collect(),
         base: fitted.iter().map(|&i| baseline[i]).collect(),
+        absolute: fitted
+            .iter()
+            .map(|&i| rows[i].kind == crate::condition::RowKind::Absolute)
+            .collect(),
         stated: fitted
             .iter()
             .map(|&i| rows[i].sigma_cm_s2.or(default_sigma))
@@ -192,21 +198,22 @@ pub fn build(
     })
 }
 
-/// Signature columns: the analytic difference of each row with a unit coefficient (exact for
-/// these linear terms: the loop indicates their time average), and whether the column is
-/// identically zero here (every entry cancels to rounding against the gross size of the term
-/// in the condition and its reference).
+/// Signature columns: the analytic effect of each row with a unit coefficient (a difference
+/// or an absolute value by the row's kind; exact for these linear terms: the loop indicates
+/// their time average), and whether the column is identically zero here (every entry cancels
+/// to rounding against the gross size of the term in the condition and its reference).
 #[must_use]
 pub fn signatures(rows: &[&Condition], candidates: &[CandidateId], g_cm_s2: f64) -> Vec<Signature> {
-    let analytic = AnalyticSimulator { g_cm_s2 };
+    let analytic = AnalyticSimulator {
+        g_cm_s2,
+        bias_cm_s2: 0.0,
+        loop_bias: [0.0; 2],
+    };
     candidates
         .iter()
         .map(|&id| {
             let e = Effects::only(id, 1.0);
-            let col: Vec<f64> = rows
-                .iter()
-                .map(|r| analytic.difference_cm_s2(r, &e))
-                .collect();
+            let col: Vec<f64> = rows.iter().map(|r| analytic.effect_cm_s2(r, &e)).collect();
             let null = rows.iter().zip(&col).all(|(r, &x)| {
                 x.abs() <= 1e-9 * gross_effect_cm_s2(r, &e, g_cm_s2) + f64::MIN_POSITIVE
             });
@@ -282,7 +289,10 @@ pub fn features(rows: &[&Condition], g_cm_s2: f64) -> Vec<(String, Vec<f64>)> {
         .iter()
         .map(|r| {
             let c = averages(r, g_cm_s2);
-            let f = averages(&r.reference(), g_cm_s2);
+            let f = match r.kind {
+                crate::condition::RowKind::Difference => averages(&r.reference(), g_cm_s2),
+                crate::condition::RowKind::Absolute => [0.0; 54],
+            };
             let mut d = [0.0; 54];
             for k in 0..54 {
                 // Differences that cancel to rounding are zero.

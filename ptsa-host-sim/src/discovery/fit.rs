@@ -202,12 +202,18 @@ impl Design {
     }
 }
 
-/// Raw nuisance columns of a subset: one bias shift per block present, and the drift when
-/// the times differ (dropped when it leaves no residual degree of freedom).
+/// Raw nuisance columns of a subset: one bias shift per block of difference rows present
+/// (a shift between a condition and its reference run; absolute rows have none: their bias
+/// is the candidate `bias`), and the drift when the times differ (dropped when it leaves no
+/// residual degree of freedom).
 fn nuisance_columns(data: &Data, subset: &[usize]) -> (Vec<Nuisance>, Vec<Vec<f64>>, f64) {
     let mut terms = Vec::new();
     let mut cols = Vec::new();
-    let mut blocks: Vec<usize> = subset.iter().map(|&i| data.block[i]).collect();
+    let mut blocks: Vec<usize> = subset
+        .iter()
+        .filter(|&&i| !data.absolute[i])
+        .map(|&i| data.block[i])
+        .collect();
     blocks.sort_unstable();
     blocks.dedup();
     for &b in &blocks {
@@ -215,7 +221,13 @@ fn nuisance_columns(data: &Data, subset: &[usize]) -> (Vec<Nuisance>, Vec<Vec<f6
         cols.push(
             subset
                 .iter()
-                .map(|&i| if data.block[i] == b { 1.0 } else { 0.0 })
+                .map(|&i| {
+                    if data.block[i] == b && !data.absolute[i] {
+                        1.0
+                    } else {
+                        0.0
+                    }
+                })
                 .collect(),
         );
     }
@@ -578,7 +590,7 @@ impl Fitted {
             .iter()
             .enumerate()
             .map(|(j, t)| match *t {
-                Nuisance::Block(b) if data.block[i] == b => self.coef[j],
+                Nuisance::Block(b) if data.block[i] == b && !data.absolute[i] => self.coef[j],
                 Nuisance::Block(_) => 0.0,
                 Nuisance::Drift => self.coef[j] * (data.time[i] - self.t0),
             })

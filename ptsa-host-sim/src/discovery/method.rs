@@ -477,7 +477,7 @@ pub fn discover(
     // 1. Baseline: every row (measured or not, for the table), by the simulator.
     let baseline: Vec<f64> = rows
         .par_iter()
-        .map(|r| sim.difference_cm_s2(r, &Effects::NONE))
+        .map(|r| sim.predict_cm_s2(r, &Effects::NONE))
         .collect();
     let data = data::build(
         rows,
@@ -505,7 +505,7 @@ pub fn discover(
         baseline.clone()
     } else {
         rows.par_iter()
-            .map(|r| sim.difference_cm_s2(r, &effects))
+            .map(|r| sim.predict_cm_s2(r, &effects))
             .collect()
     };
     let mut extended = resim.clone();

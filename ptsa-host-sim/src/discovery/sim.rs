@@ -1,10 +1,12 @@
 //! What the discovery pipeline needs from a simulator, and the two it can use.
 
-use crate::condition::Condition;
+use crate::condition::{Condition, IA, PA, RowKind};
 use crate::effects::Effects;
+use crate::instrument::Instrument;
 
-/// A model of the instrument that predicts a row's `measured_cm_s2`: the mean indicated
-/// acceleration in the condition minus that in its reference condition, cm/s².
+/// A model of the instrument that predicts a row's `measured_cm_s2`: for a `difference`
+/// row the mean indicated acceleration in the condition minus that in its reference
+/// condition, for an `absolute` row the mean indicated acceleration itself, cm/s².
 pub trait Simulator: Sync {
     /// Short name for reports (`"closed-loop"`, `"analytic"`).
     fn name(&self) -> &'static str;
@@ -12,11 +14,22 @@ pub trait Simulator: Sync {
     fn g_cm_s2(&self) -> f64;
     /// Predicted condition-minus-reference difference with the given extra effects, cm/s².
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64;
+    /// Predicted mean indicated acceleration in the condition with the given extra effects,
+    /// `SF·(2P/T − 1)` with the nominal SF in the limit of a long gate, cm/s².
+    fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64;
+    /// The prediction of a row's `measured_cm_s2`, by its kind.
+    fn predict_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        match cond.kind {
+            RowKind::Difference => self.difference_cm_s2(cond, effects),
+            RowKind::Absolute => self.absolute_cm_s2(cond, effects),
+        }
+    }
 }
 
-/// Quasi-static model: the instrument indicates exactly the time average of the effect
-/// terms ([`Effects::indicated_cm_s2`]) over one oscillation period, with no loop dynamics,
-/// so the baseline (no effects) predicts 0 for every row.
+/// Quasi-static model: the instrument indicates exactly the time average of the specific
+/// force along IA, its bias (the instrument file's and the loop's own) and the effect terms
+/// ([`Effects::indicated_cm_s2`]) over one oscillation period, with no loop dynamics; so the
+/// baseline (no effects) predicts 0 for every difference row.
 ///
 /// For terms linear in their coefficients this is exact: every term is a product of at most
 /// two sinusoids at one frequency, i.e. a trigonometric polynomial of degree ≤ 2, and the
@@ -25,14 +38,32 @@ pub trait Simulator: Sync {
 pub struct AnalyticSimulator {
     /// Local gravity, cm/s² (the instrument file's).
     pub g_cm_s2: f64,
+    /// Bias of the instrument, cm/s² (the file's `A_b`; the loop's own bias is added per row
+    /// from `loop_bias_per_pa` below).
+    pub bias_cm_s2: f64,
+    /// The loop's own bias at zero `a_PA` and its change per cm/s² of `a_PA`
+    /// ([`Instrument::loop_bias_cm_s2`] is linear in `a_PA`).
+    pub loop_bias: [f64; 2],
 }
 
 impl AnalyticSimulator {
-    /// The analytic model with the local gravity of `instr`.
+    /// The analytic model of `instr`.
     #[must_use]
-    pub fn for_instrument(instr: &crate::instrument::Instrument) -> Self {
+    pub fn for_instrument(instr: &Instrument) -> Self {
+        let b0 = instr.loop_bias_cm_s2(0.0);
         Self {
             g_cm_s2: instr.g_cm_s2,
+            bias_cm_s2: instr.bias_cm_s2,
+            loop_bias: [b0, instr.loop_bias_cm_s2(1.0) - b0],
+        }
+    }
+
+    /// The effects' part of a row's prediction (what the signatures are made of), cm/s².
+    #[must_use]
+    pub fn effect_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        match cond.kind {
+            RowKind::Difference => self.difference_cm_s2(cond, effects),
+            RowKind::Absolute => mean_effect_cm_s2(cond, effects, self.g_cm_s2),
         }
     }
 }
@@ -82,7 +113,10 @@ pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> 
         let t = k as f64 * period / nf;
         s += effects.indicated_cm_s2(&cond.inputs_at(t, g_cm_s2)).abs();
     }
-    s / nf + effects.indicated_cm_s2(&r.inputs_at(0.0, g_cm_s2)).abs()
+    match cond.kind {
+        RowKind::Difference => s / nf + effects.indicated_cm_s2(&r.inputs_at(0.0, g_cm_s2)).abs(),
+        RowKind::Absolute => s / nf,
+    }
 }
 
 impl Simulator for AnalyticSimulator {
@@ -97,6 +131,17 @@ impl Simulator for AnalyticSimulator {
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
         mean_effect_cm_s2(cond, effects, self.g_cm_s2)
             - mean_effect_cm_s2(&cond.reference(), effects, self.g_cm_s2)
+    }
+
+    fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        // Every oscillation averages to zero in the specific force; the mean is gravity
+        // plus a centrifuge arm's push.
+        let m = cond.prepare(self.g_cm_s2).mean_inputs();
+        m.a_cm_s2[IA]
+            + self.bias_cm_s2
+            + self.loop_bias[0]
+            + self.loop_bias[1] * m.a_cm_s2[PA]
+            + mean_effect_cm_s2(cond, effects, self.g_cm_s2)
     }
 }
 
@@ -138,6 +183,11 @@ impl Simulator for ClosedLoopSimulator {
         crate::sim::simulate_difference(&self.instrument, cond, effects, &self.options)
             .difference_cm_s2
     }
+
+    fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        crate::sim::simulate_condition(&self.instrument, cond, effects, &self.options)
+            .indicated_cm_s2
+    }
 }
 
 /// The closed-loop simulator of the shipped instrument, boxed.
@@ -153,8 +203,8 @@ mod tests {
 
     #[test]
     fn rectified_vibropendulosity_is_half_the_amplitude_product_times_cos_phase() {
-        let g = 980.4;
-        let sim = AnalyticSimulator { g_cm_s2: g };
+        let sim = AnalyticSimulator::for_instrument(&Instrument::kearfott_2401());
+        let g = sim.g_cm_s2;
         let c = Condition {
             g: [1.0, 0.0, 0.0],
             freq_hz: 10.0,
