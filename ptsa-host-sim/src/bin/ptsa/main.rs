@@ -5,6 +5,7 @@
 //! finishes (so a report folder is still written whole).
 
 mod flags;
+mod paths;
 mod work;
 
 use std::ffi::OsString;
@@ -40,7 +41,10 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!(
+                "error: {}",
+                paths::without_os_error_numbers(&format!("{e:#}"))
+            );
             ExitCode::FAILURE
         }
     }
@@ -207,6 +211,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
         } => {
             let opts = opts(&run);
             gate_fits("--gate-s", gate_s, &instr, &opts)?;
+            paths::folder("--out", &o.out)?;
             let gate = tumble::gate_ticks(&instr, &opts, gate_s);
             Work::new(&instr, &opts)
                 .gate(2 * gate)
@@ -224,6 +229,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             out: o,
         } => {
             let opts = opts(&run);
+            paths::folder("--out", &o.out)?;
             Work::new(&instr, &opts)
                 .conditions(32)
                 .check(run.force, "Table 6.1")?;
@@ -236,6 +242,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             out: o,
         } => {
             let opts = opts(&run);
+            paths::folder("--out", &o.out)?;
             Work::new(&instr, &opts)
                 .dynamic_conditions(34)
                 .check(run.force, "Tables 6.2 and 6.3")?;
@@ -269,6 +276,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                     work::MAX_TRACE_CYCLES
                 );
             }
+            paths::folder("--out", &o.out)?;
             work::warn_beyond_full_scale(&instr, accel_cm_s2, "--accel-cm-s2");
             // The trace after its settling, then the frequency response (11 frequencies)
             // and the limit-cycle sweep (11 inputs), each a settling and a 1 s window.
@@ -300,6 +308,9 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 config,
                 ..SimOptions::default()
             };
+            if let Some(t) = &trace {
+                paths::file("--trace", t)?;
+            }
             static_cmd(
                 &instr,
                 &opts,
@@ -329,6 +340,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                     monte_carlo::MAX_EXHAUSTIVE
                 );
             }
+            paths::folder("--out", &o.out)?;
             Work::new(&instr, &opts)
                 .conditions(8)
                 .check(run.force, "the Monte Carlo")?;
@@ -443,6 +455,7 @@ fn report_cmd(
         config,
         ..a.run.options()
     };
+    paths::report_folder("--out", &a.out)?;
     Work::new(instr, &opts)
         .conditions(200)
         .dynamic_conditions(100)
@@ -490,6 +503,7 @@ fn two_axis(
             config.ticks_per_cycle
         );
     }
+    paths::folder("--out", &a.out.out)?;
     let plan = appendix_a::TwoAxisPlan {
         kind,
         freq_hz: a.freq_hz,
@@ -638,6 +652,7 @@ fn discover_cmd(
     out: &mut dyn Write,
 ) -> Result<()> {
     if let Some(dir) = &a.convert_report_data {
+        paths::folder("--convert-report-data", dir)?;
         for p in ptsa_host_sim::r890::write_case_files(dir)? {
             eprintln!("wrote {}", p.display());
         }
@@ -651,6 +666,9 @@ fn discover_cmd(
         v.dedup();
         v
     };
+    if !a.no_plots {
+        paths::folder("--out", &a.out)?;
+    }
     let req = Request {
         data: a.data.clone(),
         options: Options {
