@@ -369,6 +369,12 @@ fn candidates_help() -> String {
 }
 
 fn candidate(s: &str) -> Result<Vec<CandidateId>, String> {
+    if s.trim().is_empty() {
+        return Err(format!(
+            "an empty name in the list (a stray comma?); expected names separated by commas, such as `anisoinertia,lever_arm`; known: {}",
+            candidate_names().join(", ")
+        ));
+    }
     resolve_candidates(s.trim())
 }
 
