@@ -1,89 +1,992 @@
-//! The `ptsa` binary's contract: `static --json` prints exactly one object.
+//! The `ptsa` binary's contract: every subcommand refuses nonsense with a clear message
+//! (what was given, what was expected, with units) and a non-zero exit, writes nothing on
+//! bad input, and long work is bounded; `static --json` prints exactly one object.
+//!
+//! Every run starts in a fresh temporary folder (its working directory, so that even a
+//! default `--out report` lands there) and a refused run must leave that folder as it was.
 
-use std::process::Command;
+use std::path::Path;
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// The report's SF, cm/s².
+const SF: f64 = 21121.1;
+
+/// Options that keep the closed-loop subcommands fast.
+const FAST: [&str; 4] = ["--window-s", "0.01", "--warmup-s", "0.01"];
+
+fn ptsa_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// The names in `dir`, sorted.
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Nothing a user should ever see in a refusal: a panic, Rust's or the OS's internals.
+fn assert_clean(err: &str) {
+    for bad in [
+        "panicked",
+        "RUST_BACKTRACE",
+        "os error",
+        "invalid digit",
+        "ParseIntError",
+        "ParseFloatError",
+        "Broken pipe",
+        ":0:0",
+    ] {
+        assert!(!err.contains(bad), "`{bad}` in: {err}");
+    }
+}
+
+/// Run `args` in a fresh folder holding `files` (name, contents); `{dir}` in an argument
+/// stands for that folder. It must be refused with exit `code`, a message on stderr holding
+/// every one of `needles`, nothing on stdout, and the folder must hold only `files` after.
+/// Returns stderr.
+fn refused_with(files: &[(&str, &[u8])], args: &[&str], code: i32, needles: &[&str]) -> String {
+    let tmp = tempfile::tempdir().unwrap();
+    for (n, b) in files {
+        std::fs::write(tmp.path().join(n), b).unwrap();
+    }
+    let before = names(tmp.path());
+    let d = tmp.path().to_str().unwrap();
+    let args: Vec<String> = args.iter().map(|a| a.replace("{dir}", d)).collect();
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let o = ptsa_in(tmp.path(), &args);
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(code), "ptsa {args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "ptsa {args:?}: `{n}` not in: {err}");
+    }
+    assert_clean(&err);
+    assert!(o.stdout.is_empty(), "ptsa {args:?} printed {}", stdout(&o));
+    assert_eq!(names(tmp.path()), before, "ptsa {args:?} wrote something");
+    err
+}
+
+/// [`refused_with`] in an empty folder.
+fn refused(args: &[&str], code: i32, needles: &[&str]) -> String {
+    refused_with(&[], args, code, needles)
+}
+
+/// Run `args` in `dir`; it must succeed. Returns (stdout, stderr).
+fn succeeds_in(dir: &Path, args: &[&str]) -> (String, String) {
+    let o = ptsa_in(dir, args);
+    let err = stderr(&o);
+    assert!(o.status.success(), "ptsa {args:?}: {err}");
+    assert_clean(&err);
+    (stdout(&o), err)
+}
+
+fn static_json(args: &[&str]) -> (serde_json::Value, String) {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut a = vec!["static", "--json"];
+    a.extend_from_slice(args);
+    let (out, err) = succeeds_in(tmp.path(), &a);
+    assert_eq!(out.lines().count(), 1, "{out}");
+    (serde_json::from_str(&out).unwrap(), err)
+}
+
+fn with(base: &[&str], more: &[&str]) -> Vec<String> {
+    base.iter().chain(more).map(|s| (*s).to_string()).collect()
+}
+
+fn strs(v: &[String]) -> Vec<&str> {
+    v.iter().map(String::as_str).collect()
+}
+
+/// The shipped instrument file with one line replaced.
+fn instrument_with(line: &str, by: &str) -> String {
+    let text = include_str!("../../data/kearfott-2401.toml");
+    assert!(text.contains(line), "{line}");
+    text.replace(line, by)
+}
 
 #[test]
 fn static_json_is_one_object_with_eq_6_1() {
-    let out = Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .args([
-            "static",
-            "--accel-cm-s2",
-            "-250.5",
-            "--seconds",
-            "0.5",
-            "--json",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let text = String::from_utf8(out.stdout).unwrap();
-    assert_eq!(text.lines().count(), 1, "{text}");
-    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let (v, _) = static_json(&["--accel-cm-s2", "-250.5", "--seconds", "0.5"]);
     let o = v.as_object().unwrap();
     let keys: Vec<&str> = o.keys().map(String::as_str).collect();
     assert_eq!(keys.len(), 4);
     for k in ["ticks", "pulses", "indicated_cm_s2", "saturated"] {
-        assert!(o.contains_key(k), "{text}");
+        assert!(o.contains_key(k), "{v}");
     }
     assert_eq!(o["saturated"], false);
     let t = o["ticks"].as_u64().unwrap();
     let p = o["pulses"].as_u64().unwrap();
     assert_eq!(t, 32_000);
     #[allow(clippy::cast_precision_loss)]
-    let x = 21121.1 * (2.0 * p as f64 / t as f64 - 1.0);
+    let x = SF * (2.0 * p as f64 / t as f64 - 1.0);
     let got = o["indicated_cm_s2"].as_f64().unwrap();
     assert!((got - x).abs() < 1e-9, "{got} vs {x}");
     // Within one pulse over the gate of the input (the loop's own bias is 0 for the shipped
     // file; the measured A_b only with --with-bias).
-    assert!((got - -250.5).abs() <= 2.0 * 21121.1 / 32_000.0, "{got}");
-    let out = Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .args([
-            "static",
-            "--accel-cm-s2",
-            "-250.5",
-            "--seconds",
-            "0.5",
-            "--json",
-            "--with-bias",
-        ])
-        .output()
-        .unwrap();
-    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!((got - -250.5).abs() <= 2.0 * SF / 32_000.0, "{got}");
+    let (v, _) = static_json(&["--accel-cm-s2", "-250.5", "--seconds", "0.5", "--with-bias"]);
     let got = v["indicated_cm_s2"].as_f64().unwrap();
     assert!(
-        (got - (-250.5 + 18.7)).abs() <= 2.0 * 21121.1 / 32_000.0,
+        (got - (-250.5 + 18.7)).abs() <= 2.0 * SF / 32_000.0,
         "{got}"
+    );
+}
+
+/// Case 1: `static`'s inputs.
+#[test]
+fn static_refuses_nonsense_and_flags_saturation() {
+    refused(
+        &["static", "--accel-cm-s2", "NaN"],
+        2,
+        &[
+            "'--accel-cm-s2 <CM_S2>'",
+            "expected a finite number, not NaN",
+        ],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "abc"],
+        2,
+        &["`abc` is not a number"],
+    );
+    // Beyond full scale: it runs, and both the JSON and stderr say the loop saturated.
+    let (v, err) = static_json(&["--accel-cm-s2", "1e6"]);
+    assert_eq!(v["saturated"], true, "{v}");
+    assert!(
+        err.contains("warning: the loop saturated during the gate")
+            && err.contains("full scale of ±21121.1 cm/s^2"),
+        "{err}"
+    );
+    let (v, err) = static_json(&["--accel-cm-s2", "0", "--seconds", "0.5"]);
+    assert_eq!(v["saturated"], false, "{v}");
+    assert!(err.is_empty(), "{err}");
+    refused(
+        &["static", "--accel-cm-s2", "0", "--seconds", "1e-9"],
+        1,
+        &[
+            "--seconds 1e-9: expected a gate of at least one limit cycle, 0.001 s (64 ticks at 64000 Hz)",
+        ],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "0", "--seconds", "1e7"],
+        1,
+        &[
+            "--seconds 1e7: expected a gate of at most 67108 s, the longest the core's 32-bit counters hold",
+        ],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "0", "--warmup-s", "-1"],
+        2,
+        &[
+            "'--warmup-s <S>'",
+            "expected a time in seconds from 0 to 1e9, not -1",
+        ],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "0", "--warmup-s", "nan"],
+        2,
+        &["'--warmup-s <S>'", "expected a finite number, not NaN"],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "0", "--seed", "-1"],
+        2,
+        &["expected a seed: a whole number from 0 to 18446744073709551615, not `-1`"],
+    );
+}
+
+/// Case 1: `static --trace` writes one ADC code per tick, settling included.
+#[test]
+fn static_trace_has_one_sample_per_tick_settling_included() {
+    let tmp = tempfile::tempdir().unwrap();
+    let f = tmp.path().join("trace.txt");
+    let (out, _) = succeeds_in(
+        tmp.path(),
+        &[
+            "static",
+            "--accel-cm-s2",
+            "1000",
+            "--seconds",
+            "0.05",
+            "--json",
+            "--trace",
+            f.to_str().unwrap(),
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let gate = v["ticks"].as_u64().unwrap();
+    assert_eq!(gate, 3200);
+    let text = std::fs::read_to_string(&f).unwrap();
+    let (comments, samples): (Vec<&str>, Vec<&str>) =
+        text.lines().partition(|l| l.starts_with('#'));
+    assert_eq!(comments.len(), 1, "{comments:?}");
+    assert!(
+        comments[0].contains("6400 settling ticks then a gate of 3200 ticks"),
+        "{}",
+        comments[0]
+    );
+    // The default settling time, 0.1 s = 6400 ticks, then the gate.
+    assert_eq!(samples.len() as u64, 6400 + gate);
+    assert!(samples.iter().all(|l| l.parse::<i16>().is_ok()));
+    // Only the trace is left in the folder (no temporary file).
+    assert_eq!(names(tmp.path()), ["trace.txt"]);
+    // A trace path that is a folder, or below a file, is refused before the run.
+    refused(
+        &["static", "--accel-cm-s2", "0", "--trace", "{dir}"],
+        1,
+        &["--trace ", ": this is a folder; expected a file name"],
+    );
+    refused_with(
+        &[("afile", b"x")],
+        &["static", "--accel-cm-s2", "0", "--trace", "afile/t.txt"],
+        1,
+        &["--trace afile/t.txt: afile is a file; expected a folder there"],
+    );
+}
+
+/// Case 2: `tumble --gate-s`.
+#[test]
+fn tumble_refuses_gates_it_cannot_count() {
+    let out = ["--out", "{dir}/out"];
+    for (gate, needle) in [
+        ("0", "expected a time in seconds, more than 0, not 0"),
+        (
+            "-1",
+            "expected a time in seconds, more than 0 and at most 1e9, not -1",
+        ),
+        ("nan", "expected a finite number, not NaN"),
+        (
+            "1e12",
+            "expected a time in seconds, more than 0 and at most 1e9, not 1e12",
+        ),
+    ] {
+        let a = with(&["tumble", "--gate-s", gate], &out);
+        refused(&strs(&a), 2, &["'--gate-s <S>'", needle]);
+    }
+    let a = with(&["tumble", "--gate-s", "1e-9"], &out);
+    refused(
+        &strs(&a),
+        1,
+        &["--gate-s 1e-9: expected a gate of at least one limit cycle, 0.001 s"],
+    );
+}
+
+/// Case 3: `bench`.
+#[test]
+fn bench_refuses_no_work() {
+    refused(
+        &["bench", "--ticks", "0"],
+        2,
+        &[
+            "'--ticks <N>'",
+            "expected ticks per run",
+            "from 1 to 4294967295, not `0`",
+        ],
+    );
+    refused(
+        &["bench", "--runs", "0"],
+        2,
+        &[
+            "'--runs <N>'",
+            "expected a number of runs: a whole number from 1 to 1000, not `0`",
+        ],
+    );
+    refused(&["bench", "--ticks", "1.5"], 2, &["not `1.5`"]);
+    // No overflow of ticks × runs (it panicked): the estimate refuses it.
+    refused(
+        &[
+            "bench",
+            "--ticks",
+            "4294967295",
+            "--runs",
+            "1000",
+            "--compare-c",
+        ],
+        1,
+        &[
+            "the benchmark would run about 8.59e12 clock ticks",
+            "pass --force",
+        ],
+    );
+    refused(
+        &["bench", "--ticks", "18446744073709551615"],
+        2,
+        &["from 1 to 4294967295"],
+    );
+}
+
+/// Case 4: the run options, on the report and on a subcommand.
+#[test]
+fn run_options_refuse_nan_everywhere() {
+    for opt in ["--warmup-s", "--window-s"] {
+        refused(
+            &[opt, "nan", "--out", "{dir}/report"],
+            2,
+            &[&format!("'{opt} <S>'"), "expected a finite number, not NaN"],
+        );
+        refused(
+            &["tumble", opt, "nan", "--out", "{dir}/out"],
+            2,
+            &[&format!("'{opt} <S>'"), "expected a finite number, not NaN"],
+        );
+        refused(
+            &["report", opt, "nan", "--out", "{dir}/report"],
+            2,
+            &["expected a finite number, not NaN"],
+        );
+    }
+    refused(
+        &["--window-s", "0", "--out", "{dir}/report"],
+        2,
+        &["expected a time in seconds, more than 0, not 0"],
+    );
+}
+
+/// The report's options before a subcommand would be ignored: refused, and the global
+/// `--instrument` still goes anywhere.
+#[test]
+fn report_options_before_a_subcommand_are_refused() {
+    refused(
+        &["--window-s", "5", "tumble", "--out", "{dir}/out"],
+        2,
+        &[
+            "--window-s before the subcommand `tumble` is an option of the report programme (no subcommand) and would be ignored",
+        ],
+    );
+    refused(
+        &["--out", "{dir}/x", "design"],
+        2,
+        &["--out before the subcommand `design`"],
+    );
+    refused(
+        &["--force", "bench"],
+        2,
+        &["--force before the subcommand `bench`"],
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(
+        tmp.path().join("k.toml"),
+        include_str!("../../data/kearfott-2401.toml"),
+    )
+    .unwrap();
+    let a = succeeds_in(tmp.path(), &["--instrument", "k.toml", "design"]).0;
+    let b = succeeds_in(tmp.path(), &["design", "--instrument", "k.toml"]).0;
+    assert_eq!(a, b);
+}
+
+/// Case 5: the Appendix A and Table 6.1 set-ups.
+#[test]
+fn set_ups_refuse_out_of_range_values() {
+    let out = ["--out", "{dir}/out"];
+    for (f, code, needle) in [
+        ("0", 2, "expected a frequency in Hz, more than 0, not 0"),
+        ("nan", 2, "expected a finite number, not NaN"),
+        (
+            "1e6",
+            1,
+            "--freq-hz 1e6: expected at most half the limit-cycle frequency, 500 Hz",
+        ),
+    ] {
+        let a = with(&["vibropendulosity", "--freq-hz", f], &out);
+        refused(&strs(&a), code, &[needle]);
+    }
+    let a = with(&["anisoinertia", "--anisoinertia-g-cm2", "nan"], &out);
+    refused(&strs(&a), 2, &["expected a finite number, not NaN"]);
+    let a = with(&["anisoinertia", "--anisoinertia-g-cm2", "1e9"], &out);
+    refused(
+        &strs(&a),
+        2,
+        &["expected |I_PA − I_IA| below 100 g·cm²", "not 1e9"],
+    );
+    let a = with(&["sculling", "--theta-my-mrad", "1e6"], &out);
+    refused(
+        &strs(&a),
+        2,
+        &[
+            "'--theta-my-mrad <MRAD>'",
+            "expected an amplitude in mrad from 0 to 100",
+            "not 1e6",
+        ],
+    );
+    let a = with(&["oa-coupling", "--lever-cm", "1", "2"], &out);
+    refused(
+        &strs(&a),
+        2,
+        &["3 values required for '--lever-cm <IA_CM> <PA_CM> <OA_CM>' but 2 were provided"],
+    );
+}
+
+/// Case 6: negative numbers can be typed, in every form `f64` reads.
+#[test]
+fn negative_numbers_can_be_typed() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let (out, _) = succeeds_in(
+        d,
+        &strs(&with(
+            &["anisoinertia", "--anisoinertia-g-cm2", "-3.4", "--out", "a"],
+            &FAST,
+        )),
+    );
+    assert!(out.contains("configured -3.030"), "{out}");
+    succeeds_in(
+        d,
+        &strs(&with(
+            &["vibropendulosity", "--k-ip-s2-cm", "-1e-5", "--out", "v"],
+            &FAST,
+        )),
+    );
+    let (out, _) = succeeds_in(
+        d,
+        &[
+            "waveform",
+            "--accel-cm-s2",
+            "-5000",
+            "--warmup-s",
+            "0.01",
+            "--out",
+            "w",
+        ],
+    );
+    assert!(out.contains("at -5000 cm/s^2 along IA"), "{out}");
+    succeeds_in(
+        d,
+        &strs(&with(
+            &["oa-coupling", "--lever-cm", "1", "-2", "3", "--out", "o"],
+            &FAST,
+        )),
+    );
+    succeeds_in(
+        d,
+        &strs(&with(
+            &[
+                "oa-coupling",
+                "--lever-cm",
+                "-1e-3",
+                "-.5",
+                "-2E1",
+                "--out",
+                "o",
+            ],
+            &FAST,
+        )),
+    );
+    let (v, _) = static_json(&["--accel-cm-s2", "-1e3", "--seconds", "0.5"]);
+    assert!(
+        (v["indicated_cm_s2"].as_f64().unwrap() + 1000.0).abs() < 2.0,
+        "{v}"
+    );
+    let (v, _) = static_json(&["--accel-cm-s2", "-.5e3", "--seconds", "0.5"]);
+    assert!(
+        (v["indicated_cm_s2"].as_f64().unwrap() + 500.0).abs() < 2.0,
+        "{v}"
+    );
+    // A negative number where no value is taken is still refused, in clap's words.
+    refused(
+        &["static", "--json", "-1e-5", "--accel-cm-s2", "0"],
+        2,
+        &["unexpected value '-1e-5' for '--json'"],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "-inf"],
+        2,
+        &["expected a finite number, not -inf"],
+    );
+    refused(
+        &["--warmup-s", "-1e-3", "--out", "{dir}/r"],
+        2,
+        &["expected a time in seconds from 0 to 1e9, not -0.001"],
+    );
+}
+
+/// Case 7: instrument files the loop cannot work with.
+#[test]
+fn unusable_instrument_files_are_refused_naming_the_file() {
+    let slow = instrument_with("clock_hz = 64000.0", "clock_hz = 1000");
+    let why = "slow.toml: the loop's crossover (105.4 Hz) is not well below its limit cycle (15.6 Hz = clock_hz / 64 ticks): expected a crossover below 3.9 Hz (raise electronics.clock_hz)";
+    let files: &[(&str, &[u8])] = &[("slow.toml", slow.as_bytes())];
+    refused_with(
+        files,
+        &["--instrument", "slow.toml", "static", "--accel-cm-s2", "0"],
+        1,
+        &[why],
+    );
+    refused_with(
+        files,
+        &["--instrument", "slow.toml", "waveform", "--out", "out"],
+        1,
+        &[why],
+    );
+    // `design` prints the design, then refuses it with the same reason.
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("slow.toml"), &slow).unwrap();
+    let o = ptsa_in(tmp.path(), &["--instrument", "slow.toml", "design"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains(why), "{}", stderr(&o));
+    assert!(stdout(&o).contains("margins"), "{}", stdout(&o));
+    assert!(!stdout(&o).contains("accepted"), "{}", stdout(&o));
+
+    // An amplifier gain of 100 000: the linear design is the same (its margins do not
+    // depend on the gain) but the ADC clips inside the limit cycle. Both refuse.
+    let loud = instrument_with("amplifier_gain = 100.0", "amplifier_gain = 100000");
+    let why = "loud.toml: the ADC's full scale is ±2.500 µrad of pendulum angle";
+    let files: &[(&str, &[u8])] = &[("loud.toml", loud.as_bytes())];
+    let expected = "expected electronics.amplifier_gain at most 2451 (it is 100000)";
+    let wave = refused_with(
+        files,
+        &["--instrument", "loud.toml", "waveform", "--out", "out"],
+        1,
+        &[why, expected],
+    );
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("loud.toml"), &loud).unwrap();
+    let o = ptsa_in(tmp.path(), &["--instrument", "loud.toml", "design"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert_eq!(stderr(&o), wave);
+    assert!(
+        stdout(&o).contains("crossover 98.1 Hz, phase margin 112.4 deg, gain margin 26.3 dB"),
+        "{}",
+        stdout(&o)
+    );
+    assert!(!stdout(&o).contains("accepted"), "{}", stdout(&o));
+
+    // Gain 1000 keeps the limit cycle inside the ADC's range: design and waveform agree.
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::write(
+        d.join("g1000.toml"),
+        instrument_with("amplifier_gain = 100.0", "amplifier_gain = 1000"),
+    )
+    .unwrap();
+    let margins = |out: &str| {
+        out.lines()
+            .find(|l| l.contains("margins (linearised loop"))
+            .unwrap()
+            .to_string()
+    };
+    let shipped = margins(&succeeds_in(d, &["design"]).0);
+    let design = succeeds_in(d, &["--instrument", "g1000.toml", "design"]).0;
+    assert_eq!(margins(&design), shipped);
+    assert!(design.contains("verdict: the loop is accepted"), "{design}");
+    let (wave, _) = succeeds_in(
+        d,
+        &[
+            "--instrument",
+            "g1000.toml",
+            "waveform",
+            "--warmup-s",
+            "0.01",
+            "--out",
+            "w",
+        ],
+    );
+    let agree: f64 = wave
+        .split("linear-model gain agree within ")
+        .nth(1)
+        .and_then(|s| s.split(' ').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap();
+    assert!(agree < 3.0, "{wave}");
+
+    refused(
+        &[
+            "--instrument",
+            "nonexist.toml",
+            "static",
+            "--accel-cm-s2",
+            "0",
+        ],
+        1,
+        &["error: nonexist.toml: cannot read: No such file or directory"],
+    );
+    refused(
+        &["--instrument", "nonexist.toml", "design"],
+        1,
+        &["error: nonexist.toml: cannot read"],
     );
 }
 
 #[test]
 fn bad_instrument_file_is_refused_with_position() {
-    let dir = std::env::temp_dir().join(format!("ptsa-cli-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let f = dir.join("bad.toml");
-    let text = include_str!("../../data/kearfott-2401.toml").replace(
+    let text = instrument_with(
         "damping_dyn_cm_s = { value = 76400.0",
         "damping_dyn_cm_s = { value = \"fast\"",
     );
-    std::fs::write(&f, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .args([
+    refused_with(
+        &[("bad.toml", text.as_bytes())],
+        &[
             "--instrument",
-            f.to_str().unwrap(),
+            "bad.toml",
             "static",
             "--accel-cm-s2",
             "0",
             "--seconds",
             "0.01",
-        ])
-        .output()
+        ],
+        1,
+        &["bad.toml:", "expected a number, found the string \"fast\""],
+    );
+}
+
+/// Case 8: a trace too long to be meant is refused at once (before any allocation or run).
+#[test]
+fn waveform_refuses_huge_traces_fast() {
+    let t = Instant::now();
+    refused(
+        &["waveform", "--cycles", "100000000", "--out", "{dir}/out"],
+        1,
+        &[
+            "--cycles 100000000: the trace has one row per clock tick (6400000000 rows); expected at most 10000 cycles without --force",
+        ],
+    );
+    // With --force, a count whose ticks overflow 64 bits (it panicked).
+    refused(
+        &[
+            "waveform",
+            "--cycles",
+            "18446744073709551615",
+            "--force",
+            "--out",
+            "{dir}/out",
+        ],
+        1,
+        &["expected at most 288230376151711743 limit cycles"],
+    );
+    refused(
+        &["waveform", "--cycles", "0", "--out", "{dir}/out"],
+        2,
+        &["expected a number of limit cycles: a whole number from 1"],
+    );
+    // `waveform` has no measurement windows of its own: no --window-s that does nothing.
+    refused(
+        &["waveform", "--window-s", "0.01"],
+        2,
+        &["unexpected argument '--window-s'"],
+    );
+    assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
+}
+
+/// Case 9: long work is refused quickly.
+#[test]
+fn long_work_is_refused_quickly() {
+    let t = Instant::now();
+    refused(
+        &["static", "--accel-cm-s2", "0", "--seconds", "1e9"],
+        1,
+        &["--seconds 1e9: expected a gate of at most 67108 s"],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "0", "--warmup-s", "1e9"],
+        1,
+        &[
+            "this gate would run about 6.40e13 clock ticks",
+            "pass --force",
+        ],
+    );
+    refused(
+        &["tumble", "--gate-s", "1e5", "--out", "{dir}/out"],
+        1,
+        &[
+            "--gate-s 100000: expected a gate of at most 67108 s, the longest the core's 32-bit counters hold (4294967295 ticks at 64000 Hz)",
+        ],
+    );
+    refused(
+        &["--window-s", "1e6", "--out", "{dir}/report"],
+        1,
+        &["the report programme would run about"],
+    );
+    assert!(t.elapsed() < Duration::from_secs(3), "{:?}", t.elapsed());
+}
+
+/// Run `args` with stdout a pipe closed after reading `lines` lines; returns stderr.
+fn closed_stdout(dir: &Path, args: &[&str], lines: usize) -> String {
+    use std::io::BufRead as _;
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .current_dir(dir)
+        .args(args)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
         .unwrap();
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("bad.toml:"), "{err}");
-    let _ = std::fs::remove_dir_all(&dir);
+    let out = c.stdout.take().unwrap();
+    if lines > 0 {
+        let mut r = std::io::BufReader::new(out);
+        for _ in 0..lines {
+            let mut l = String::new();
+            r.read_line(&mut l).unwrap();
+        }
+    }
+    let o = c.wait_with_output().unwrap();
+    let err = stderr(&o);
+    assert!(o.status.success(), "ptsa {args:?}: {:?} {err}", o.status);
+    assert_clean(&err);
+    err
+}
+
+/// Case 10: a closed stdout is not an error, and the files are still written whole.
+#[test]
+fn closed_stdout_is_not_an_error() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let err = closed_stdout(d, &strs(&with(&["tumble", "--out", "t"], &FAST)), 0);
+    assert!(err.contains("wrote 6 files into t"), "{err}");
+    assert_eq!(names(&d.join("t")).len(), 6);
+    let err = closed_stdout(d, &strs(&with(&["--out", "report"], &FAST)), 1);
+    assert!(err.contains("report written to report"), "{err}");
+    assert!(d.join("report/summary.md").is_file());
+    let summary = std::fs::read_to_string(d.join("report/summary.md")).unwrap();
+    assert!(summary.contains("Noise seed 1"), "{summary}");
+    assert_eq!(names(d), ["report", "t"]);
+}
+
+/// Case 11: the report folder appears whole or not at all, and replaces only an earlier
+/// report: refused at once where it cannot be written or would replace something else.
+#[test]
+fn report_refuses_folders_it_must_not_replace() {
+    // Its parent is a file: refused at once, nothing created.
+    let a = with(&["--out", "afile/report"], &FAST);
+    refused_with(
+        &[("afile", b"not a folder")],
+        &strs(&a),
+        1,
+        &["--out afile/report: afile is a file; expected a folder there"],
+    );
+    // It is a file: refused, the file kept (the report used to replace it).
+    let a = with(&["--out", "afile"], &FAST);
+    refused_with(
+        &[("afile", b"not a folder")],
+        &strs(&a),
+        1,
+        &["--out afile: this is a file; expected a folder"],
+    );
+    // A folder of other things (`--out .`): refused, nothing deleted.
+    let a = with(&["--out", "."], &FAST);
+    refused_with(
+        &[("notes.txt", b"mine")],
+        &strs(&a),
+        1,
+        &[
+            "--out .: an existing folder that is not an earlier report",
+            "would delete what is in it",
+        ],
+    );
+}
+
+/// Case 11: running the report twice into the same folder leaves exactly the second run's
+/// files, and no temporaries beside it.
+#[test]
+fn report_twice_leaves_the_second_run() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let run = |seed: &str| {
+        let a = with(&["--out", "report", "--seed", seed], &FAST);
+        succeeds_in(d, &strs(&a));
+    };
+    run("1");
+    let first = names(&d.join("report"));
+    assert!(first.contains(&"summary.md".to_string()), "{first:?}");
+    std::fs::write(d.join("report/stale.csv"), "from before").unwrap();
+    run("2");
+    assert_eq!(names(&d.join("report")), first);
+    assert_eq!(names(d), ["report"]);
+    let summary = std::fs::read_to_string(d.join("report/summary.md")).unwrap();
+    assert!(summary.contains("Noise seed 2"), "{summary}");
+}
+
+/// Case 12: `discover`'s inputs.
+#[test]
+fn discover_reads_case_frames_and_refuses_bad_ones() {
+    let table = include_str!("../../data/r890-table-6.1.case.csv");
+    let body: String = table
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    // A UTF-8 byte-order mark is accepted.
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let mut bom = b"\xEF\xBB\xBF".to_vec();
+    bom.extend_from_slice(body.as_bytes());
+    std::fs::write(d.join("bom.csv"), &bom).unwrap();
+    let (out, err) = succeeds_in(
+        d,
+        &[
+            "discover",
+            "--data",
+            "bom.csv",
+            "--analytic",
+            "--out",
+            "out",
+        ],
+    );
+    assert!(out.contains("selected: anisoinertia"), "{out}");
+    assert!(err.contains("8 rows"), "{err}");
+    assert_eq!(names(&d.join("out")), ["bom.csv", "bom.png", "bom.svg"]);
+
+    let semi = body.replace(',', ";");
+    refused_with(
+        &[("semi.csv", semi.as_bytes())],
+        &["discover", "--data", "semi.csv", "--out", "out"],
+        1,
+        &[
+            "semi.csv:1:",
+            "this looks like a semicolon-separated file: the case-frame format separates cells with commas",
+        ],
+    );
+    let bad = body.replacen(",1.54,", ",abc,", 1);
+    refused_with(
+        &[("bad.csv", bad.as_bytes())],
+        &["discover", "--data", "bad.csv", "--out", "out"],
+        1,
+        &[
+            "bad.csv:2: column 8 (`measured_cm_s2`) holds `abc`; expected a finite number of cm/s², or an empty cell (not measured)",
+        ],
+    );
+    refused(
+        &["discover", "--data", "nonexist.csv", "--out", "out"],
+        1,
+        &["cannot read nonexist.csv: No such file or directory"],
+    );
+    refused(
+        &["discover", "--candidates", "foo", "--out", "out"],
+        2,
+        &[
+            "unknown candidate `foo`; expected one of: anisoelasticity, anisoinertia, lever_arm, lever_arm.r_ia_cm",
+        ],
+    );
+    refused(
+        &["discover", "--candidates", "anisoinertia,", "--out", "out"],
+        2,
+        &["an empty name in the list (a stray comma?); expected names separated by commas"],
+    );
+    refused(
+        &["discover", "--sigma", "0", "--out", "out"],
+        2,
+        &[
+            "'--sigma <CM_S2>'",
+            "expected an uncertainty in cm/s², more than 0, not 0",
+        ],
+    );
+    refused_with(
+        &[("afile", b"x")],
+        &["discover", "--out", "afile"],
+        1,
+        &["--out afile: this is a file; expected a folder"],
+    );
+}
+
+/// Output folders are checked before the work: a subcommand whose `--out` is a file, or
+/// below one, is refused at once.
+#[test]
+fn subcommand_output_folders_are_checked_first() {
+    for sub in [
+        "tumble",
+        "anisoinertia",
+        "oa-coupling",
+        "vibropendulosity",
+        "waveform",
+        "monte-carlo",
+    ] {
+        refused_with(
+            &[("afile", b"x")],
+            &[sub, "--out", "afile/x"],
+            1,
+            &["--out afile/x: afile is a file; expected a folder there"],
+        );
+    }
+}
+
+/// Every file a subcommand writes is counted, and an option that does nothing says so.
+#[test]
+fn subcommands_report_what_they_did() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let (_, err) = succeeds_in(d, &["waveform", "--warmup-s", "0.01", "--out", "w"]);
+    assert!(err.contains("wrote 9 files into w"), "{err}");
+    assert_eq!(names(&d.join("w")).len(), 9);
+    // The warning comes before the work (here refused as too long, to keep this fast).
+    refused(
+        &[
+            "monte-carlo",
+            "--samples",
+            "5",
+            "--window-s",
+            "1e6",
+            "--out",
+            "{dir}/m",
+        ],
+        1,
+        &[
+            "warning: --samples 5 is not used: the tolerance box has 12 parameters, so all 4096 of its corners are checked",
+            "the Monte Carlo would run about",
+        ],
+    );
+}
+
+/// Case 13: help.
+#[test]
+fn help_exits_0_and_names_units() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let help = |args: &[&str]| {
+        let (out, err) = succeeds_in(d, args);
+        assert!(err.is_empty(), "{err}");
+        out
+    };
+    let top = help(&["--help"]);
+    assert!(top.contains("cm/s²") && top.contains("mrad"), "{top}");
+    for (sub, unit) in [
+        ("tumble", "s ("),
+        ("anisoinertia", "g·cm²"),
+        ("oa-coupling", "cm ("),
+        ("vibropendulosity", "Hz"),
+        ("anisoelasticity", "s²/cm"),
+        ("sculling", "mrad"),
+        ("waveform", "cm/s²"),
+        ("static", "cm/s²"),
+        ("design", "DEFAULT_*_BITS"),
+        ("monte-carlo", "s ("),
+        ("bench", "ticks"),
+        ("report", "s ("),
+        ("discover", "cm/s²"),
+    ] {
+        let h = help(&[sub, "--help"]);
+        assert!(h.contains(unit), "ptsa {sub} --help lacks `{unit}`:\n{h}");
+        assert_eq!(help(&["help", sub]), h);
+        // The global --instrument comes after the subcommand's own options.
+        let opts: Vec<&str> = h
+            .lines()
+            .filter_map(|l| l.trim_start().strip_prefix("--"))
+            .collect();
+        assert!(
+            opts.iter()
+                .rposition(|l| l.starts_with("instrument"))
+                .is_some_and(|i| i + 1 == opts.len()),
+            "{sub}: {opts:?}"
+        );
+    }
+    let design = help(&["design", "--help"]);
+    for absent in ["--seed", "--out", "--warmup-s", "--window-s", "--force"] {
+        assert!(
+            !design.contains(absent),
+            "design offers {absent}:\n{design}"
+        );
+    }
+    let waveform = help(&["waveform", "--help"]);
+    assert!(!waveform.contains("--window-s"), "{waveform}");
+    assert!(names(d).is_empty());
 }

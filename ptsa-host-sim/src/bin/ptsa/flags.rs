@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
 use ptsa_host_sim::effects::{CandidateId, candidate_names, resolve_candidates};
-use ptsa_host_sim::experiments::{appendix_a::TwoAxisPlan, monte_carlo, tumble, waveform};
+use ptsa_host_sim::experiments::{appendix_a::TwoAxisPlan, tumble, waveform};
 use ptsa_host_sim::sim::SimOptions;
 
 /// Closed-loop simulator of the Kearfott 2401 accelerometer in the UAC PTSA forced-binary
@@ -16,11 +16,22 @@ use ptsa_host_sim::sim::SimOptions;
 /// whole or not at all. Units: cm/s² for accelerations, rad/s for rates, mrad for
 /// oscillation amplitudes, g·cm² for inertias, Hz, seconds.
 #[derive(Parser, Debug)]
-#[command(name = "ptsa", version, about, long_about)]
+// The report's own options (`--out`, `--seed`, ...) before a subcommand would do nothing:
+// `main` refuses them there (clap's `args_conflicts_with_subcommands` would refuse the
+// global `--instrument` as well).
+#[command(
+    name = "ptsa",
+    version,
+    about,
+    long_about,
+    allow_negative_numbers = true
+)]
 pub struct Cli {
     /// Instrument file (TOML: Table 2.1 with tolerances and the PTSA electronics; see
     /// data/kearfott-2401.toml). Default: the shipped Kearfott 2401 file, compiled in.
-    #[arg(long, global = true, value_name = "FILE")]
+    // Listed after each subcommand's own options (a global option is otherwise sorted in
+    // among them by name).
+    #[arg(long, global = true, value_name = "FILE", display_order = 900)]
     pub instrument: Option<PathBuf>,
     /// Options of the report programme (no subcommand).
     #[command(flatten)]
@@ -34,7 +45,8 @@ pub struct Cli {
 #[derive(Args, Debug, Clone, Copy)]
 pub struct RunArgs {
     /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
-    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+          value_parser = seed)]
     pub seed: u64,
     /// Settling time before each measurement, s (0 or more).
     #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
@@ -62,6 +74,34 @@ impl RunArgs {
     }
 }
 
+/// Options of a run without measurement windows of its own (`waveform`: its trace is a
+/// number of limit cycles, its frequency response and limit-cycle sweep use 1 s windows).
+#[derive(Args, Debug, Clone, Copy)]
+pub struct SettleArgs {
+    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+          value_parser = seed)]
+    pub seed: u64,
+    /// Settling time before the trace and before each window, s (0 or more).
+    #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
+          value_parser = non_negative_s)]
+    pub warmup_s: f64,
+    /// Run even when the work is estimated to take more than ten minutes.
+    #[arg(long)]
+    pub force: bool,
+}
+
+impl SettleArgs {
+    /// The run options.
+    pub fn options(&self) -> SimOptions {
+        SimOptions {
+            seed: self.seed,
+            warmup_s: self.warmup_s,
+            ..SimOptions::default()
+        }
+    }
+}
+
 /// Where files go.
 #[derive(Args, Debug, Clone)]
 pub struct OutArgs {
@@ -76,7 +116,8 @@ pub struct ReportArgs {
     /// Run options.
     #[command(flatten)]
     pub run: RunArgs,
-    /// Report folder (replaced as a whole when the run succeeds).
+    /// Report folder, replaced as a whole when the run succeeds (so an existing folder must
+    /// be empty or an earlier report).
     #[arg(long, default_value = "report", value_name = "DIR")]
     pub out: PathBuf,
 }
@@ -88,7 +129,8 @@ pub enum Cmd {
     /// through 360°.
     #[command(allow_negative_numbers = true)]
     Tumble {
-        /// Counting gate, s (more than 0; rounded to whole limit cycles).
+        /// Counting gate, s (at least one limit cycle, 0.001 s for the shipped file, and at
+        /// most what the core's 32-bit counters hold, 67 108 s; rounded to whole limit cycles).
         #[arg(long, default_value_t = tumble::DEFAULT_GATE_S, value_name = "S",
               value_parser = positive_s)]
         gate_s: f64,
@@ -148,10 +190,10 @@ pub enum Cmd {
         /// Limit cycles to trace (1 to 10 000; the CSV has one row per clock tick; more
         /// with --force).
         #[arg(long, default_value_t = waveform::DEFAULT_CYCLES, value_name = "N",
-              value_parser = clap::value_parser!(u64).range(1..))]
+              value_parser = cycles)]
         cycles: u64,
         #[command(flatten)]
-        run: RunArgs,
+        run: SettleArgs,
         #[command(flatten)]
         out: OutArgs,
     },
@@ -164,9 +206,21 @@ pub enum Cmd {
         /// says so).
         #[arg(long, value_name = "CM_S2", value_parser = finite)]
         accel_cm_s2: f64,
-        /// Gate length, s (at least one limit cycle: 64 ticks at 64 kHz).
+        /// Gate length, s (at least one limit cycle, 64 ticks = 0.001 s at 64 kHz, and at
+        /// most what the core's 32-bit counters hold, 67 108 s at 64 kHz).
         #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = positive_s)]
         seconds: f64,
+        /// Settling time before the gate, s (0 or more).
+        #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
+              value_parser = non_negative_s)]
+        warmup_s: f64,
+        /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+        #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+              value_parser = seed)]
+        seed: u64,
+        /// Include the instrument file's bias A_b (18.7 cm/s² shipped) as a torque.
+        #[arg(long)]
+        with_bias: bool,
         /// Print exactly one JSON object {"ticks", "pulses", "indicated_cm_s2",
         /// "saturated"}.
         #[arg(long)]
@@ -175,19 +229,9 @@ pub enum Cmd {
         /// golden-vector style) to FILE.
         #[arg(long, value_name = "FILE")]
         trace: Option<PathBuf>,
-        /// Include the instrument file's bias A_b (18.7 cm/s² shipped) as a torque.
-        #[arg(long)]
-        with_bias: bool,
         /// Run even when the work is estimated to take more than ten minutes.
         #[arg(long)]
         force: bool,
-        /// Seed of the pickoff noise.
-        #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
-        seed: u64,
-        /// Settling time before the gate, s (0 or more).
-        #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
-              value_parser = non_negative_s)]
-        warmup_s: f64,
     },
     /// Print the compensator designed for the instrument file, the loop's margins, and the
     /// ptsa-core constants.
@@ -199,10 +243,11 @@ pub enum Cmd {
     /// Monte Carlo over the Table 2.1 tolerance box: stability margins at every corner and
     /// a closed-loop check of the worst ones.
     MonteCarlo {
-        /// Random corners when the box has more than 14 parameters (at least 1).
-        #[arg(long, default_value_t = monte_carlo::DEFAULT_SAMPLES, value_name = "N",
-              value_parser = count)]
-        samples: usize,
+        /// Random corners when the box has more than 14 parameters (1 to 100 000; default
+        /// 1024). With 14 or fewer (12 in the shipped file) every corner is checked and this
+        /// option is not used.
+        #[arg(long, value_name = "N", value_parser = count)]
+        samples: Option<usize>,
         #[command(flatten)]
         run: RunArgs,
         #[command(flatten)]
@@ -210,9 +255,9 @@ pub enum Cmd {
     },
     /// Speed of the closed loop: ticks per second of `static` on one core, median of runs.
     Bench {
-        /// Ticks per run (at least 1).
+        /// Ticks per run (1 to 4 294 967 295, what the core's 32-bit counters hold).
         #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::TICKS, value_name = "N",
-              value_parser = clap::value_parser!(u64).range(1..))]
+              value_parser = ticks)]
         ticks: u64,
         /// Runs (1 to 1000).
         #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::RUNS, value_name = "N",
@@ -226,12 +271,13 @@ pub enum Cmd {
         /// the same pulses and plant state bit for bit, and time it in alternation.
         #[arg(long)]
         compare_c: bool,
+        /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+        #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+              value_parser = seed)]
+        seed: u64,
         /// Run even when the work is estimated to take more than ten minutes.
         #[arg(long)]
         force: bool,
-        /// Seed of the pickoff noise.
-        #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
-        seed: u64,
     },
     /// The whole report programme (the same as no subcommand).
     Report(ReportArgs),
@@ -302,8 +348,9 @@ pub struct DiscoverArgs {
     /// Do not write the table and plots.
     #[arg(long)]
     pub no_plots: bool,
-    /// Seed of the simulator's pickoff noise (closed loop).
-    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N")]
+    /// Seed of the simulator's pickoff noise (closed loop; not used with --analytic).
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+          value_parser = seed)]
     pub seed: u64,
     /// Use the quasi-static analytic model instead of the closed loop (fast, no loop
     /// dynamics).
@@ -322,6 +369,12 @@ fn candidates_help() -> String {
 }
 
 fn candidate(s: &str) -> Result<Vec<CandidateId>, String> {
+    if s.trim().is_empty() {
+        return Err(format!(
+            "an empty name in the list (a stray comma?); expected names separated by commas, such as `anisoinertia,lever_arm`; known: {}",
+            candidate_names().join(", ")
+        ));
+    }
     resolve_candidates(s.trim())
 }
 
@@ -329,6 +382,17 @@ fn number(s: &str) -> Result<f64, String> {
     s.trim()
         .parse::<f64>()
         .map_err(|_| format!("`{s}` is not a number"))
+}
+
+/// A number for a message: plain when it reads well, in exponent form when it is very large
+/// or very small (`1e12`, `1e-9`, not twelve zeros).
+pub fn num(x: f64) -> String {
+    let a = x.abs();
+    if a != 0.0 && a.is_finite() && !(1e-3..1e6).contains(&a) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }
 
 /// A finite number.
@@ -347,7 +411,7 @@ fn within(s: &str, lo: f64, hi: f64, what: &str) -> Result<f64, String> {
     if (lo..=hi).contains(&x) {
         Ok(x)
     } else {
-        Err(format!("expected {what}, not {x}"))
+        Err(format!("expected {what}, not {}", num(x)))
     }
 }
 
@@ -365,16 +429,24 @@ fn positive_s(s: &str) -> Result<f64, String> {
     if x > 0.0 {
         Ok(x)
     } else {
-        Err("expected a time in seconds, more than 0".into())
+        Err(format!(
+            "expected a time in seconds, more than 0, not {}",
+            num(x)
+        ))
     }
 }
 
+/// More than 0; the upper limit, half the limit-cycle frequency, depends on the instrument
+/// file and is checked with it.
 fn positive_hz(s: &str) -> Result<f64, String> {
-    let x = within(s, 0.0, 1e6, "a frequency in Hz, more than 0")?;
+    let x = finite(s)?;
     if x > 0.0 {
         Ok(x)
     } else {
-        Err("expected a frequency in Hz, more than 0".into())
+        Err(format!(
+            "expected a frequency in Hz, more than 0, not {}",
+            num(x)
+        ))
     }
 }
 
@@ -384,7 +456,8 @@ fn positive_cm_s2(s: &str) -> Result<f64, String> {
         Ok(x)
     } else {
         Err(format!(
-            "expected an uncertainty in cm/s², more than 0, not {x}"
+            "expected an uncertainty in cm/s², more than 0, not {}",
+            num(x)
         ))
     }
 }
@@ -395,7 +468,8 @@ fn anisoinertia_g_cm2(s: &str) -> Result<f64, String> {
         Ok(x)
     } else {
         Err(format!(
-            "expected |I_PA − I_IA| below 100 g·cm² (the instrument file's range; the float's I_OA is 14 g·cm²), not {x}"
+            "expected |I_PA − I_IA| below 100 g·cm² (the instrument file's range; the float's I_OA is 14 g·cm²), not {}",
+            num(x)
         ))
     }
 }
@@ -422,22 +496,39 @@ fn amplitude_mrad(s: &str) -> Result<f64, String> {
     )
 }
 
-fn whole(s: &str) -> Result<usize, String> {
-    s.trim()
-        .parse::<usize>()
-        .map_err(|_| format!("expected a whole number, not `{s}`"))
+/// A whole number in `lo..=hi`; `what` names it ("a seed", "ticks per run").
+fn whole_in(s: &str, lo: u64, hi: u64, what: &str) -> Result<u64, String> {
+    match s.trim().parse::<u64>() {
+        Ok(n) if (lo..=hi).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "expected {what}: a whole number from {lo} to {hi}, not `{s}`"
+        )),
+    }
+}
+
+fn seed(s: &str) -> Result<u64, String> {
+    whole_in(s, 0, u64::MAX, "a seed")
+}
+
+fn ticks(s: &str) -> Result<u64, String> {
+    whole_in(
+        s,
+        1,
+        u64::from(u32::MAX),
+        "ticks per run (the core's counters are 32-bit)",
+    )
+}
+
+fn cycles(s: &str) -> Result<u64, String> {
+    whole_in(s, 1, u64::MAX, "a number of limit cycles")
 }
 
 fn count(s: &str) -> Result<usize, String> {
-    match whole(s)? {
-        0 => Err("expected at least 1".into()),
-        n => Ok(n),
-    }
+    let n = whole_in(s, 1, 100_000, "a number of corners")?;
+    usize::try_from(n).map_err(|e| e.to_string())
 }
 
 fn runs(s: &str) -> Result<usize, String> {
-    match whole(s)? {
-        n @ 1..=1000 => Ok(n),
-        n => Err(format!("expected 1 to 1000 runs, not {n}")),
-    }
+    let n = whole_in(s, 1, 1000, "a number of runs")?;
+    usize::try_from(n).map_err(|e| e.to_string())
 }

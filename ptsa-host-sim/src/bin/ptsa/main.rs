@@ -5,15 +5,19 @@
 //! finishes (so a report folder is still written whole).
 
 mod flags;
+mod paths;
 mod work;
 
+use std::ffi::OsString;
 use std::io::Write;
 use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::{Context, Result, bail};
-use clap::Parser as _;
-use flags::{Cli, Cmd, DiscoverArgs, OutArgs, ReportArgs, RunArgs, TwoAxisArgs};
+use clap::error::ErrorKind;
+use clap::parser::ValueSource;
+use clap::{CommandFactory as _, FromArgMatches as _};
+use flags::{Cli, Cmd, DiscoverArgs, OutArgs, ReportArgs, RunArgs, TwoAxisArgs, num};
 use ptsa_host_sim::bench::{BenchPlan, bench};
 use ptsa_host_sim::design::{Design, check_loop};
 use ptsa_host_sim::discovery::{self, Options, Request, Simulator};
@@ -30,17 +34,108 @@ use ptsa_host_sim::{Instrument, report};
 use work::Work;
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = parse_cli();
     let mut out = Stdout::default();
     let result = run(cli, &mut out);
     let _ = out.flush();
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!(
+                "error: {}",
+                paths::without_os_error_numbers(&format!("{e:#}"))
+            );
             ExitCode::FAILURE
         }
     }
+}
+
+/// The command line, with two refusals clap cannot express: a report option before a
+/// subcommand (`ptsa --window-s 5 tumble`, which would be ignored) and, made possible, a
+/// negative number clap takes for short flags (`-1e-5`, `-.5`: see [`join_negative_numbers`]).
+fn parse_cli() -> Cli {
+    let mut cmd = Cli::command();
+    let matches = cmd
+        .try_get_matches_from_mut(join_negative_numbers(&Cli::command(), std::env::args_os()))
+        .unwrap_or_else(|e| e.exit());
+    let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut cmd).exit());
+    if let Some(sub) = matches.subcommand_name() {
+        for (id, flag) in [
+            ("seed", "--seed"),
+            ("warmup_s", "--warmup-s"),
+            ("window_s", "--window-s"),
+            ("force", "--force"),
+            ("out", "--out"),
+        ] {
+            if matches.value_source(id) == Some(ValueSource::CommandLine) {
+                cmd.error(
+                    ErrorKind::ArgumentConflict,
+                    format!(
+                        "{flag} before the subcommand `{sub}` is an option of the report programme (no subcommand) and would be ignored; expected it after the subcommand, if `{sub}` has it (`ptsa {sub} --help`)"
+                    ),
+                )
+                .exit();
+            }
+        }
+    }
+    cli
+}
+
+/// The arguments with the negative numbers clap would take for short flags made readable
+/// to it. Clap reads a value starting with `-` as a value only when it looks like an integer
+/// or a plain decimal (`-5`, `-0.5`), and takes `-1e-5`, `-.5` or `-inf` for a cluster of
+/// short flags ("unexpected argument '-1'"). Such a number right after a long option that
+/// takes one value is joined to it (`--k-ip-s2-cm=-1e-5`); elsewhere (the second value of
+/// `--lever-cm`) a finite one is written as the plain decimal of the same number. The
+/// command has no positional arguments, so every number is an option's value; a long
+/// option that takes no value then says so.
+fn join_negative_numbers(
+    cmd: &clap::Command,
+    args: impl Iterator<Item = OsString>,
+) -> Vec<OsString> {
+    let mut multi = Vec::new();
+    for c in std::iter::once(cmd).chain(cmd.get_subcommands()) {
+        for a in c.get_arguments() {
+            if a.get_num_args().is_some_and(|r| r.max_values() > 1)
+                && let Some(l) = a.get_long()
+            {
+                multi.push(format!("--{l}"));
+            }
+        }
+    }
+    let mut out: Vec<OsString> = Vec::new();
+    for a in args {
+        let Some(s) = a.to_str() else {
+            out.push(a);
+            continue;
+        };
+        let plain = s.len() > 1
+            && s.starts_with('-')
+            && s[1..].bytes().all(|b| b.is_ascii_digit() || b == b'.')
+            && s.as_bytes()[1] != b'.';
+        let x = match s.parse::<f64>() {
+            Ok(x) if s.starts_with('-') && !plain => x,
+            _ => {
+                out.push(a);
+                continue;
+            }
+        };
+        if let Some(prev) = out.last_mut()
+            && let Some(p) = prev.to_str()
+            && p.starts_with("--")
+            && p.len() > 2
+            && !p.contains('=')
+            && !multi.iter().any(|m| m == p)
+        {
+            let joined = format!("{p}={s}");
+            *prev = joined.into();
+        } else if x.is_finite() {
+            out.push(format!("{x}").into());
+        } else {
+            out.push(a);
+        }
+    }
+    out
 }
 
 /// Standard output that turns a closed pipe into silence: once a write fails with
@@ -92,7 +187,7 @@ fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String)> {
 
 fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
     let (instr, name) = load_instrument(cli.instrument.as_deref())?;
-    let checked = check_loop(&instr);
+    let checked = check_loop(&instr).and_then(|c| adc_covers_limit_cycle(&instr, &c).map(|()| c));
     if let Some(Cmd::Design {
         print_core_constants,
     }) = &cli.cmd
@@ -115,14 +210,9 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             out: o,
         } => {
             let opts = opts(&run);
+            gate_fits("--gate-s", gate_s, &instr, &opts)?;
+            paths::folder("--out", &o.out)?;
             let gate = tumble::gate_ticks(&instr, &opts, gate_s);
-            if gate > u64::from(u32::MAX) {
-                bail!(
-                    "--gate-s {gate_s}: {gate} ticks; the core's counters hold at most {} ticks per gate ({:.0} s)",
-                    u32::MAX,
-                    f64::from(u32::MAX) / instr.clock_hz
-                );
-            }
             Work::new(&instr, &opts)
                 .gate(2 * gate)
                 .conditions(24)
@@ -139,6 +229,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             out: o,
         } => {
             let opts = opts(&run);
+            paths::folder("--out", &o.out)?;
             Work::new(&instr, &opts)
                 .conditions(32)
                 .check(run.force, "Table 6.1")?;
@@ -151,6 +242,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             out: o,
         } => {
             let opts = opts(&run);
+            paths::folder("--out", &o.out)?;
             Work::new(&instr, &opts)
                 .dynamic_conditions(34)
                 .check(run.force, "Tables 6.2 and 6.3")?;
@@ -167,27 +259,38 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             run,
             out: o,
         } => {
-            let opts = opts(&run);
+            let opts = SimOptions {
+                config,
+                ..run.options()
+            };
+            let per_cycle = u64::from(opts.config.ticks_per_cycle);
+            let Some(ticks) = cycles.checked_mul(per_cycle) else {
+                bail!(
+                    "--cycles {cycles}: expected at most {} limit cycles ({per_cycle} ticks each, counted in 64 bits)",
+                    u64::MAX / per_cycle
+                );
+            };
             if cycles > work::MAX_TRACE_CYCLES && !run.force {
                 bail!(
-                    "--cycles {cycles}: the trace has one row per clock tick ({} rows); at most {} cycles without --force",
-                    cycles * u64::from(opts.config.ticks_per_cycle),
+                    "--cycles {cycles}: the trace has one row per clock tick ({ticks} rows); expected at most {} cycles without --force",
                     work::MAX_TRACE_CYCLES
                 );
             }
+            paths::folder("--out", &o.out)?;
             work::warn_beyond_full_scale(&instr, accel_cm_s2, "--accel-cm-s2");
+            // The trace after its settling, then the frequency response (11 frequencies)
+            // and the limit-cycle sweep (11 inputs), each a settling and a 1 s window.
             Work::new(&instr, &opts)
-                .gate(cycles * u64::from(opts.config.ticks_per_cycle))
-                .dynamic_conditions(11)
-                .conditions(11)
-                .window_s(1.0, 22)
+                .gate(ticks)
+                .window_s(opts.warmup_s + 1.0, 22)
                 .check(run.force, "the waveform")?;
             let s = work::spinner("waveform, frequency response, limit cycle");
             let mut all = waveform::run(&instr, &opts, accel_cm_s2, cycles, &o.out)?;
             all.extend(frequency_response::run(&instr, &opts)?.output);
             all.extend(limit_cycle::run(&instr, &opts)?.output);
             s.finish_and_clear();
-            emit(&all, &o, out)
+            // The trace's CSV was streamed into the folder by `waveform::run`.
+            emit_counting(&all, &o, 1, out)
         }
         Cmd::Static {
             accel_cm_s2,
@@ -205,6 +308,9 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 config,
                 ..SimOptions::default()
             };
+            if let Some(t) = &trace {
+                paths::file("--trace", t)?;
+            }
             static_cmd(
                 &instr,
                 &opts,
@@ -224,11 +330,26 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             out: o,
         } => {
             let opts = opts(&run);
+            let n = instr.tolerances.len();
+            if let Some(k) = samples
+                && n <= monte_carlo::MAX_EXHAUSTIVE
+            {
+                eprintln!(
+                    "warning: --samples {k} is not used: the tolerance box has {n} parameters, so all {} of its corners are checked (random corners only beyond {} parameters)",
+                    1u64 << n,
+                    monte_carlo::MAX_EXHAUSTIVE
+                );
+            }
+            paths::folder("--out", &o.out)?;
             Work::new(&instr, &opts)
                 .conditions(8)
                 .check(run.force, "the Monte Carlo")?;
             let s = work::spinner("monte carlo");
-            let r = monte_carlo::run(&instr, &opts, samples)?;
+            let r = monte_carlo::run(
+                &instr,
+                &opts,
+                samples.unwrap_or(monte_carlo::DEFAULT_SAMPLES),
+            )?;
             s.finish_and_clear();
             emit(&r.output, &o, out)
         }
@@ -245,10 +366,15 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 config,
                 ..SimOptions::default()
             };
-            let per = if compare_c { 2 } else { 1 };
-            #[allow(clippy::cast_possible_truncation)]
+            // Each run settles and then runs its ticks, twice with the C loop; counted in
+            // floating point so that no product of the options can overflow.
+            let per = if compare_c { 2.0 } else { 1.0 };
+            #[allow(clippy::cast_precision_loss)]
+            let run_s = (ticks as f64 / instr.clock_hz + opts.warmup_s) * per;
+            #[allow(clippy::cast_precision_loss)]
             Work::new(&instr, &opts)
-                .gate(ticks * per * runs as u64)
+                .window_s(run_s, 1)
+                .times(runs as f64)
                 .check(force, "the benchmark")?;
             let plan = BenchPlan {
                 ticks,
@@ -264,10 +390,86 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
 
 /// Print an experiment's tables and notes, write its files into `--out`.
 fn emit(o: &Output, dir: &OutArgs, out: &mut dyn Write) -> Result<()> {
+    emit_counting(o, dir, 0, out)
+}
+
+/// [`emit`], when `already` files were written into the folder while the work ran.
+fn emit_counting(o: &Output, dir: &OutArgs, already: usize, out: &mut dyn Write) -> Result<()> {
     o.print(out)?;
     let files = o.write_files(&dir.out)?;
-    eprintln!("wrote {} files into {}", files.len(), dir.out.display());
+    eprintln!(
+        "wrote {} into {}",
+        plural((files.len() + already) as u64, "file"),
+        dir.out.display()
+    );
     Ok(())
+}
+
+/// `1 file`, `2 files`.
+fn plural(n: u64, word: &str) -> String {
+    if n == 1 {
+        format!("1 {word}")
+    } else {
+        format!("{n} {word}s")
+    }
+}
+
+/// A counting gate of `gate_s` seconds: at least one limit cycle, at most what the core's
+/// 32-bit counters hold.
+fn gate_fits(flag: &str, gate_s: f64, instr: &Instrument, opts: &SimOptions) -> Result<()> {
+    let per_cycle = f64::from(opts.config.ticks_per_cycle);
+    let ticks = (gate_s * instr.clock_hz).round();
+    if ticks < per_cycle {
+        bail!(
+            "{flag} {}: expected a gate of at least one limit cycle, {} s ({per_cycle} ticks at {} Hz); {} s is {} ticks",
+            num(gate_s),
+            num(per_cycle / instr.clock_hz),
+            num(instr.clock_hz),
+            num(gate_s),
+            num(ticks)
+        );
+    }
+    let max = f64::from(u32::MAX);
+    if ticks > max {
+        bail!(
+            "{flag} {}: expected a gate of at most {} s, the longest the core's 32-bit counters hold ({} ticks at {} Hz); {} s is {} ticks",
+            num(gate_s),
+            (max / instr.clock_hz).floor(),
+            u32::MAX,
+            num(instr.clock_hz),
+            num(gate_s),
+            num(ticks)
+        );
+    }
+    Ok(())
+}
+
+/// The ADC must see the pendulum's swing in a limit cycle: beyond its full scale it clips,
+/// and the loop is then not the linear one whose margins `check_loop` computed (an
+/// `amplifier_gain` of 100 000 instead of 100 passes `check_loop` with the same margins,
+/// but the simulated loop's response is off by tens of dB). The swing is that of the
+/// pendulum, damping-dominated with the lag `I/C`, driven by full torque for half a limit
+/// cycle (102 µrad peak to peak for the shipped file, against an ADC full scale of
+/// ±2.5 mrad).
+fn adc_covers_limit_cycle(
+    instr: &Instrument,
+    c: &ptsa_host_sim::design::LoopCheck,
+) -> std::result::Result<(), String> {
+    let half = 0.5 / c.limit_cycle_hz;
+    let tau = instr.inertia_dyn_cm_s2 / instr.damping_dyn_cm_s;
+    let swing_rad = instr.full_torque_dyn_cm() / instr.damping_dyn_cm_s
+        * (half - tau * (1.0 - (-half / tau).exp()));
+    let full_scale_rad = 32768.0 * instr.theta_lsb_rad();
+    if full_scale_rad >= swing_rad {
+        return Ok(());
+    }
+    Err(format!(
+        "the ADC's full scale is ±{:.3} µrad of pendulum angle (electronics.adc_full_scale_v / (pickoff.scale_factor_v_per_rad × electronics.amplifier_gain)), less than the pendulum's swing in one limit cycle, about {:.1} µrad peak to peak: the ADC would clip inside every limit cycle and the loop is not the linear one designed; expected electronics.amplifier_gain at most {:.0} (it is {}) or a larger electronics.adc_full_scale_v",
+        full_scale_rad * 1e6,
+        swing_rad * 1e6,
+        (instr.amp_gain * full_scale_rad / swing_rad).floor(),
+        num(instr.amp_gain)
+    ))
 }
 
 fn report_cmd(
@@ -281,6 +483,7 @@ fn report_cmd(
         config,
         ..a.run.options()
     };
+    paths::report_folder("--out", &a.out)?;
     Work::new(instr, &opts)
         .conditions(200)
         .dynamic_conditions(100)
@@ -323,11 +526,12 @@ fn two_axis(
     if a.freq_hz > lc / 2.0 {
         bail!(
             "--freq-hz {}: expected at most half the limit-cycle frequency, {} Hz (clock_hz / {} ticks / 2)",
-            a.freq_hz,
-            lc / 2.0,
+            num(a.freq_hz),
+            num(lc / 2.0),
             config.ticks_per_cycle
         );
     }
+    paths::folder("--out", &a.out.out)?;
     let plan = appendix_a::TwoAxisPlan {
         kind,
         freq_hz: a.freq_hz,
@@ -372,21 +576,8 @@ fn static_cmd(
     if !with_bias {
         instr.bias_cm_s2 = 0.0;
     }
-    let per_cycle = f64::from(opts.config.ticks_per_cycle);
+    gate_fits("--seconds", seconds, &instr, opts)?;
     let ticks_f = (seconds * instr.clock_hz).round();
-    if ticks_f < per_cycle {
-        bail!(
-            "--seconds {seconds}: a gate of {ticks_f} ticks is shorter than one limit cycle ({per_cycle} ticks = {} s); expected at least that",
-            per_cycle / instr.clock_hz
-        );
-    }
-    if ticks_f > f64::from(u32::MAX) {
-        bail!(
-            "--seconds {seconds}: {ticks_f:.3e} ticks; the core's counters hold at most {} ticks per gate ({:.0} s)",
-            u32::MAX,
-            f64::from(u32::MAX) / instr.clock_hz
-        );
-    }
     #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
     let ticks = ticks_f as u64;
     Work::new(&instr, opts)
@@ -441,11 +632,11 @@ fn static_cmd(
     } else {
         writeln!(
             out,
-            "static: {accel_cm_s2} cm/s^2 along IA (bias {} cm/s^2, loop's own {:.5}): T = {} ticks, P = {} pulses, indicated SF(2P/T - 1) = {:.4} cm/s^2{}",
+            "static: {accel_cm_s2} cm/s^2 along IA (bias {} cm/s^2, loop's own {:.5}): T = {}, P = {}, indicated SF(2P/T - 1) = {:.4} cm/s^2{}",
             instr.bias_cm_s2,
             instr.loop_bias_cm_s2(0.0),
-            r.ticks,
-            r.pulses,
+            plural(r.ticks, "tick"),
+            plural(r.pulses, "pulse"),
             r.indicated_cm_s2,
             if r.saturated { " (SATURATED)" } else { "" }
         )?;
@@ -489,6 +680,7 @@ fn discover_cmd(
     out: &mut dyn Write,
 ) -> Result<()> {
     if let Some(dir) = &a.convert_report_data {
+        paths::folder("--convert-report-data", dir)?;
         for p in ptsa_host_sim::r890::write_case_files(dir)? {
             eprintln!("wrote {}", p.display());
         }
@@ -502,6 +694,9 @@ fn discover_cmd(
         v.dedup();
         v
     };
+    if !a.no_plots {
+        paths::folder("--out", &a.out)?;
+    }
     let req = Request {
         data: a.data.clone(),
         options: Options {

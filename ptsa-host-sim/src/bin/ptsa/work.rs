@@ -64,6 +64,12 @@ impl<'a> Work<'a> {
         self
     }
 
+    /// The work so far, `n` times over (`n` runs of the same).
+    pub fn times(mut self, n: f64) -> Self {
+        self.ticks *= n;
+        self
+    }
+
     /// Refuse work estimated beyond ten minutes unless `force`.
     pub fn check(self, force: bool, what: &str) -> Result<()> {
         let cores = rayon::current_num_threads().max(1);
