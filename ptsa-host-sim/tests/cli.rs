@@ -865,7 +865,7 @@ fn discover_reads_case_frames_and_refuses_bad_ones() {
         &["discover", "--candidates", "foo", "--out", "out"],
         2,
         &[
-            "unknown candidate `foo`; expected one of: anisoelasticity, anisoinertia, lever_arm, lever_arm.r_ia_cm",
+            "unknown candidate `foo`; expected one of: anisoelasticity, anisoinertia, bias,",
         ],
     );
     refused(
