@@ -86,9 +86,9 @@ pub fn bench(
     let (med, lo, hi) = median(&mut rates);
     writeln!(
         out,
-        "bench: static closed loop{}, {ticks} ticks x {} runs: median {med:.4e} ticks/s ({:.0}x real time at {} Hz), min {lo:.4e}, max {hi:.4e}",
+        "bench: static closed loop{}, {ticks} ticks x {}: median {med:.4e} ticks/s ({:.0}x real time at {} Hz), min {lo:.4e}, max {hi:.4e}",
         if opts.noise { "" } else { " without noise" },
-        rates.len(),
+        crate::output::count(rates.len() as u64, "run"),
         med / instr.clock_hz,
         instr.clock_hz,
     )?;

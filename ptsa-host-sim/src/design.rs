@@ -389,6 +389,26 @@ pub fn margins(instr: &Instrument, cfg: &Config) -> Margins {
     }
 }
 
+/// The ADC must cover the pendulum's swing in one limit cycle (at full torque, half a cycle
+/// each way), or it clips inside every cycle and the loop is not the linear one designed.
+fn adc_covers_limit_cycle(instr: &Instrument, limit_cycle_hz: f64) -> Result<(), String> {
+    let half = 0.5 / limit_cycle_hz;
+    let tau = instr.inertia_dyn_cm_s2 / instr.damping_dyn_cm_s;
+    let swing_rad = instr.full_torque_dyn_cm() / instr.damping_dyn_cm_s
+        * (half - tau * (1.0 - (-half / tau).exp()));
+    let full_scale_rad = 32768.0 * instr.theta_lsb_rad();
+    if full_scale_rad >= swing_rad {
+        return Ok(());
+    }
+    Err(format!(
+        "the ADC's full scale is ±{:.3} µrad of pendulum angle (electronics.adc_full_scale_v / (pickoff.scale_factor_v_per_rad × electronics.amplifier_gain)), less than the pendulum's swing in one limit cycle, about {:.1} µrad peak to peak: the ADC would clip inside every limit cycle and the loop is not the linear one designed; expected electronics.amplifier_gain at most {:.0} (it is {}) or a larger electronics.adc_full_scale_v",
+        full_scale_rad * 1e6,
+        swing_rad * 1e6,
+        (instr.amp_gain * full_scale_rad / swing_rad).floor(),
+        instr.amp_gain
+    ))
+}
+
 /// Smallest phase margin of a loop the simulator accepts, degrees.
 pub const MIN_PHASE_MARGIN_DEG: f64 = 30.0;
 /// Smallest gain margin of a loop the simulator accepts, dB.
@@ -410,9 +430,10 @@ pub struct LoopCheck {
 }
 
 /// Design the compensator for `instr` and check that the loop is one the simulator can run:
-/// ptsa-core accepts the coefficients, the loop has a gain crossover, phase and gain margins
-/// of at least [`MIN_PHASE_MARGIN_DEG`] and [`MIN_GAIN_MARGIN_DB`], and the crossover lies
-/// below the limit-cycle frequency over [`LIMIT_CYCLE_TO_CROSSOVER`].
+/// ptsa-core accepts the coefficients, the loop has a gain crossover, the crossover lies
+/// below the limit-cycle frequency over [`LIMIT_CYCLE_TO_CROSSOVER`], the ADC covers the
+/// pendulum's swing in a limit cycle, and the phase and gain margins are at least
+/// [`MIN_PHASE_MARGIN_DEG`] and [`MIN_GAIN_MARGIN_DB`].
 ///
 /// # Errors
 /// The reason the loop is refused, in the instrument file's terms.
@@ -438,6 +459,7 @@ pub fn check_loop(instr: &Instrument) -> Result<LoopCheck, String> {
             lc / LIMIT_CYCLE_TO_CROSSOVER
         ));
     }
+    adc_covers_limit_cycle(instr, lc)?;
     if !(m.phase_margin_deg >= MIN_PHASE_MARGIN_DEG && m.gain_margin_db >= MIN_GAIN_MARGIN_DB) {
         return Err(format!(
             "the loop is unstable or nearly so: phase margin {:.1} deg, gain margin {:.1} dB at {:.1} Hz crossover; expected at least {MIN_PHASE_MARGIN_DEG} deg and {MIN_GAIN_MARGIN_DB} dB",

@@ -1040,6 +1040,9 @@ pub fn run_static(
 /// Ticks between two calls of a progress callback.
 pub const PROGRESS_CHUNK: u64 = 1 << 22;
 
+/// `ticks` must stay below 2³² (the core's free-running counters are 32-bit, so a longer
+/// gate's pulse count would wrap; callers refuse such gates).
+///
 /// [`run_static`] with an observer called on every tick from reset (settling and gate) and
 /// `progress(done, total)` called every [`PROGRESS_CHUNK`] ticks. The result is the same
 /// with or without them, tick for tick: the observed and the fast paths are bit-identical

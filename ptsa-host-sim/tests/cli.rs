@@ -864,9 +864,7 @@ fn discover_reads_case_frames_and_refuses_bad_ones() {
     refused(
         &["discover", "--candidates", "foo", "--out", "out"],
         2,
-        &[
-            "unknown candidate `foo`; expected one of: anisoelasticity, anisoinertia, bias,",
-        ],
+        &["unknown candidate `foo`; expected one of: anisoelasticity, anisoinertia, bias,"],
     );
     refused(
         &["discover", "--candidates", "anisoinertia,", "--out", "out"],

@@ -91,8 +91,8 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         eprintln!("wrote {}/{stem}.{{csv,png,svg}}", out.display());
     }
     eprintln!(
-        "discover: {} rows in {:.3} s ({} simulator)",
-        rows.len(),
+        "discover: {} in {:.3} s ({} simulator)",
+        crate::output::count(rows.len() as u64, "row"),
         elapsed.as_secs_f64(),
         d.simulator
     );

@@ -115,11 +115,13 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         "nuisance terms (always in the model, never discoveries): {}",
         parts.join(", ")
     );
-    let _ = writeln!(
-        s,
-        "not testable here (no signature in this data set): {}",
-        names(&d.untestable)
-    );
+    if !d.untestable.is_empty() {
+        let _ = writeln!(
+            s,
+            "not testable here (no signature in this data set): {}",
+            names(&d.untestable)
+        );
+    }
     if !d.untestable_nuisance.is_empty() {
         let _ = writeln!(
             s,

@@ -116,7 +116,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<LimitCycleRun> {
                 "limit cycle: two reversals in every cycle up to {last_two:.5} of full scale; closer to full scale cycles lose a reversal but the charge-balance estimate stays within {worst_in_range:.3} cm/s^2 of the input up to full scale; {}",
                 first_stop.map_or_else(
                     || "the pendulum never reached a stop".to_string(),
-                    |f| format!("from {f} of full scale the pendulum sits on its stop and the output clips at the full scale")
+                    |f| format!("from {f:.3} of full scale the pendulum sits on its stop and the output clips at the full scale")
                 )
             )],
         },

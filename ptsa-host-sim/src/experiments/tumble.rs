@@ -62,6 +62,13 @@ pub fn sf_and_bias(g: f64, p1_frac: f64, p2_frac: f64) -> (f64, f64) {
     (sf, sf * (p1_frac + p2_frac - 1.0))
 }
 
+/// The gate actually counted, s (the asked one rounded to whole limit cycles).
+fn gate_used_s(instr: &Instrument, ticks: u64) -> f64 {
+    #[allow(clippy::cast_precision_loss)]
+    let s = ticks as f64 / instr.clock_hz;
+    s
+}
+
 /// Ticks of a gate of `gate_s` seconds, rounded to whole limit cycles (at least one).
 #[must_use]
 pub fn gate_ticks(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> u64 {
@@ -112,7 +119,10 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
     };
     let mut tab = Table::new(
         "tumble-sf-bias",
-        &format!("Tumble (section 6.1), gate T = {ticks} ticks ({gate_s} s)"),
+        &format!(
+            "Tumble (section 6.1), gate T = {ticks} ticks ({} s)",
+            gate_used_s(instr, ticks)
+        ),
         &[
             "quantity",
             "plain count",
@@ -204,7 +214,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
         (sf / t.sf_configured - 1.0) * 1e6,
         bias,
         t.bias_configured,
-        gate_s,
+        gate_used_s(instr, ticks),
         sf_count,
         bias_count
     )];

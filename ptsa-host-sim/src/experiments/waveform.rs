@@ -59,7 +59,10 @@ pub fn run(
     let a = (-1.0 / (instr.clock_hz * instr.torquer_tau_s)).exp();
     let mut prev_i = l.state()[2];
     let mut failed: Option<csv::Error> = None;
-    l.run_observed(cycles * per_cycle, |v| {
+    let ticks = cycles.checked_mul(per_cycle).ok_or_else(|| {
+        anyhow::anyhow!("{cycles} limit cycles of {per_cycle} ticks: too many ticks to count")
+    })?;
+    l.run_observed(ticks, |v| {
         #[allow(clippy::cast_precision_loss)]
         let t = (v.k - k0) as f64 * t_us;
         if v.k - k0 < plotted {
@@ -111,8 +114,9 @@ pub fn run(
         tables: Vec::new(),
         plots: vec![Figure::single(STEM, plot)],
         notes: vec![format!(
-            "waveform: {cycles} limit cycles ({} ticks) at {accel_cm_s2} cm/s^2 along IA, tick by tick in {STEM}.csv",
-            cycles * per_cycle
+            "waveform: {} ({}) at {accel_cm_s2} cm/s^2 along IA, tick by tick in {STEM}.csv",
+            crate::output::count(cycles, "limit cycle"),
+            crate::output::count(cycles.saturating_mul(per_cycle), "tick")
         )],
     })
 }

@@ -30,6 +30,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     tmp.write_all(bytes)
         .with_context(|| format!("cannot write {}", path.display()))?;
     tmp.persist(path)
+        .map_err(|e| e.error)
         .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }
@@ -59,6 +60,7 @@ pub fn temp_beside(path: &Path) -> Result<tempfile::NamedTempFile> {
 /// The rename fails.
 pub fn persist(tmp: tempfile::NamedTempFile, path: &Path) -> Result<()> {
     tmp.persist(path)
+        .map_err(|e| e.error)
         .with_context(|| format!("cannot write {}", path.display()))?;
     Ok(())
 }
@@ -108,8 +110,15 @@ impl StagedDir {
     /// folder is at `target`, never a mixture.
     ///
     /// # Errors
-    /// A rename fails (the old folder is then left in place).
+    /// The target is a file (it is never replaced by a folder), or a rename fails (the old
+    /// folder is then left in place).
     pub fn commit(self) -> Result<PathBuf> {
+        if self.target.is_file() {
+            anyhow::bail!(
+                "{} is a file; expected a folder (or a name for a new one)",
+                self.target.display()
+            );
+        }
         let staged = self.tmp.keep();
         let target = self.target;
         let old = if target.exists() {

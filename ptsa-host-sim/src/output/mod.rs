@@ -17,6 +17,16 @@ pub use fs::{StagedDir, write_atomic};
 pub use plot::{Figure, Plot, Series, Style, XAxis, write_figure};
 pub use table::{Cell, Table, num, opt, text};
 
+/// `n thing` or `n things`.
+#[must_use]
+pub fn count(n: u64, thing: &str) -> String {
+    if n == 1 {
+        format!("1 {thing}")
+    } else {
+        format!("{n} {thing}s")
+    }
+}
+
 /// Tables longer than this are not printed on the terminal, only written (and named).
 pub const MAX_PRINTED_ROWS: usize = 40;
 
@@ -45,9 +55,10 @@ impl Output {
             } else {
                 writeln!(
                     out,
-                    "{}: {} rows, in {}.csv\n",
+                    "{}: {}, in {}.csv
+",
                     t.title,
-                    t.rows.len(),
+                    count(t.rows.len() as u64, "row"),
                     t.stem
                 )?;
             }

@@ -187,7 +187,7 @@ fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String)> {
 
 fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
     let (instr, name) = load_instrument(cli.instrument.as_deref())?;
-    let checked = check_loop(&instr).and_then(|c| adc_covers_limit_cycle(&instr, &c).map(|()| c));
+    let checked = check_loop(&instr);
     if let Some(Cmd::Design {
         print_core_constants,
     }) = &cli.cmd
@@ -451,27 +451,6 @@ fn gate_fits(flag: &str, gate_s: f64, instr: &Instrument, opts: &SimOptions) -> 
 /// pendulum, damping-dominated with the lag `I/C`, driven by full torque for half a limit
 /// cycle (102 µrad peak to peak for the shipped file, against an ADC full scale of
 /// ±2.5 mrad).
-fn adc_covers_limit_cycle(
-    instr: &Instrument,
-    c: &ptsa_host_sim::design::LoopCheck,
-) -> std::result::Result<(), String> {
-    let half = 0.5 / c.limit_cycle_hz;
-    let tau = instr.inertia_dyn_cm_s2 / instr.damping_dyn_cm_s;
-    let swing_rad = instr.full_torque_dyn_cm() / instr.damping_dyn_cm_s
-        * (half - tau * (1.0 - (-half / tau).exp()));
-    let full_scale_rad = 32768.0 * instr.theta_lsb_rad();
-    if full_scale_rad >= swing_rad {
-        return Ok(());
-    }
-    Err(format!(
-        "the ADC's full scale is ±{:.3} µrad of pendulum angle (electronics.adc_full_scale_v / (pickoff.scale_factor_v_per_rad × electronics.amplifier_gain)), less than the pendulum's swing in one limit cycle, about {:.1} µrad peak to peak: the ADC would clip inside every limit cycle and the loop is not the linear one designed; expected electronics.amplifier_gain at most {:.0} (it is {}) or a larger electronics.adc_full_scale_v",
-        full_scale_rad * 1e6,
-        swing_rad * 1e6,
-        (instr.amp_gain * full_scale_rad / swing_rad).floor(),
-        num(instr.amp_gain)
-    ))
-}
-
 fn report_cmd(
     instr: &Instrument,
     name: &str,
