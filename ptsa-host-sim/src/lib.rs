@@ -19,6 +19,7 @@ pub mod experiments;
 pub mod fixtures;
 pub mod instrument;
 pub mod output;
+pub mod plan;
 pub mod plant;
 pub mod r890;
 pub mod report;

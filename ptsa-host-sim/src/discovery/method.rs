@@ -161,6 +161,31 @@ pub struct RowResult {
     pub residual_extended_cm_s2: Option<f64>,
 }
 
+/// One term of the model equation.
+#[derive(Clone, Debug, Serialize)]
+pub struct Term {
+    /// Candidate name (`bias`, `scale_factor`, `misalignment.delta_p_rad`, ...).
+    pub name: String,
+    /// IEEE Std 1293 symbol (`K_0`, `K_1`, `δ_o`, ...; the lever arm and anisoinertia,
+    /// which the standard's equation does not hold, by their own names).
+    pub symbol: String,
+    /// Value in `unit`.
+    pub value: f64,
+    /// The standard's unit (µg, ppm, µg/g², µrad, ...).
+    pub unit: String,
+    /// 1 σ, in `unit`.
+    pub sigma: f64,
+}
+
+/// The fitted model as an IEEE Std 1293 model equation, in the `--json` shape.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ModelEquation {
+    /// The selected terms in the standard's units.
+    pub terms: Vec<Term>,
+    /// Correlation matrix of the terms, in their order.
+    pub correlation: Vec<Vec<f64>>,
+}
+
 /// The `--json` object.
 #[derive(Clone, Debug, Serialize)]
 pub struct JsonReport {
@@ -173,6 +198,8 @@ pub struct JsonReport {
     /// Extended model (baseline + nuisance terms + selected effects, re-simulated) against
     /// the measurements.
     pub extended: FitSummary,
+    /// The selected terms as a model equation (IEEE Std 1293 units) with their correlation.
+    pub model_equation: ModelEquation,
     /// The nuisance terms (always in the model, never discoveries).
     pub nuisance: NuisanceReport,
     /// Structure that no candidate explains.
@@ -423,6 +450,39 @@ fn noise_report(data: &Data, f: &Fitted) -> NoiseReport {
     }
 }
 
+/// The selected terms in IEEE Std 1293 units, with the correlation of the final fit.
+fn model_equation(f: &Fitted, selected: &[Selected], g_cm_s2: f64) -> ModelEquation {
+    let nn = f.n_nuisance();
+    let terms = selected
+        .iter()
+        .map(|s| {
+            let c = s.id.info();
+            let (symbol, unit, factor) = c.ieee;
+            let k = factor(g_cm_s2);
+            Term {
+                name: c.name.to_string(),
+                symbol: symbol.to_string(),
+                value: s.coef * k,
+                unit: unit.to_string(),
+                sigma: s.stderr * k,
+            }
+        })
+        .collect();
+    let m = selected.len();
+    let cov = |i: usize, j: usize| f.fit.cov.get((nn + i, nn + j)).copied().unwrap_or(0.0);
+    let correlation = (0..m)
+        .map(|i| {
+            (0..m)
+                .map(|j| {
+                    let d = (cov(i, i) * cov(j, j)).sqrt();
+                    if d > 0.0 { cov(i, j) / d } else { f64::NAN }
+                })
+                .collect()
+        })
+        .collect();
+    ModelEquation { terms, correlation }
+}
+
 /// Group selected coefficients by effect for the JSON.
 fn effect_reports(selected: &[Selected], opts: &Options) -> Vec<EffectReport> {
     let mut reports: Vec<EffectReport> = Vec::new();
@@ -552,6 +612,7 @@ pub fn discover(
             baseline: base_summary,
             effects: effects_json,
             extended: ext_summary,
+            model_equation: model_equation(&f, &selected, sim.g_cm_s2()),
             nuisance: nuisance_report(&data, &f),
             unexplained,
             gain,
@@ -631,7 +692,12 @@ pub fn verdict(d: &Discovery) -> String {
             .iter()
             .map(|s| {
                 let c = s.id.info();
-                let mut t = format!("{} {} = {:.4} ± {:.4} {}", c.name, c.key, s.coef, s.stderr, c.unit);
+                let mut t = format!(
+                    "{} = {} {}",
+                    if c.name.contains('.') { c.name.to_string() } else { format!("{} {}", c.name, c.key) },
+                    super::show::estimate(s.coef, s.stderr),
+                    c.unit
+                );
                 if !s.plausible {
                     t.push_str(" (implausible: beyond its bound, so the cause is unlikely although the structure is real)");
                 }
@@ -744,5 +810,42 @@ mod tests {
         assert_eq!(names, ["anisoinertia"]);
         let b = &d.json.nuisance.bias_shift_cm_s2;
         assert!((b["b"] - b["a"] - 0.8).abs() < 0.4, "{b:?}");
+    }
+
+    #[test]
+    fn a_24_point_tumble_gives_the_model_equation() {
+        use rand::SeedableRng as _;
+        use rand_distr::Distribution as _;
+        let sim = analytic();
+        let mut rows = crate::plan::tumble(24, crate::plan::Axis::Oa);
+        let truth = Effects::NONE
+            .with(CandidateId::Bias, 2.0)
+            .with(CandidateId::ScaleFactor, 300.0)
+            .with(CandidateId::MisalignmentP, 2e-4);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let noise = rand_distr::Normal::new(0.0, 0.05).unwrap();
+        for r in &mut rows {
+            r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + noise.sample(&mut rng));
+            r.sigma_cm_s2 = Some(0.05);
+        }
+        let d = discover(&rows, &sim, &Options::default()).unwrap();
+        eprintln!("{}", show::text_report("24-point tumble", &d));
+        let got: Vec<CandidateId> = d.selected.iter().map(|s| s.id).collect();
+        for id in [
+            CandidateId::Bias,
+            CandidateId::ScaleFactor,
+            CandidateId::MisalignmentP,
+        ] {
+            assert!(got.contains(&id), "{got:?}");
+        }
+        let me = &d.json.model_equation;
+        let k0 = me.terms.iter().find(|t| t.symbol == "K_0").unwrap();
+        assert!(
+            (k0.value - 2.0 / 980.4 * 1e6).abs() < 4.0 * k0.sigma,
+            "{k0:?}"
+        );
+        assert_eq!(me.correlation.len(), me.terms.len());
+        // In a tumble about OA, a_OA is 0: the OA misalignment is not testable.
+        assert!(d.untestable.contains(&CandidateId::MisalignmentO));
     }
 }

@@ -22,6 +22,34 @@ fn names(ids: &[CandidateId]) -> String {
         .join(", ")
 }
 
+/// `value ± se` with as many digits as the standard error warrants (two significant digits
+/// of the error), in scientific notation when the magnitude calls for it.
+#[must_use]
+pub fn estimate(value: f64, se: f64) -> String {
+    let mag = value.abs().max(se.abs());
+    if !(mag.is_finite()) || mag == 0.0 {
+        return format!("{value} ± {se}");
+    }
+    if !(1e-3..1e6).contains(&mag) {
+        let e = mag.log10().floor();
+        let scale = 10f64.powf(e);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let d = if se > 0.0 {
+            ((scale / se).log10().ceil() + 1.0).clamp(1.0, 8.0) as usize
+        } else {
+            4
+        };
+        return format!("{:.d$}e{e} ± {:.d$}e{e}", value / scale, se / scale);
+    }
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let d = if se > 0.0 {
+        (1.0 - se.log10().floor()).clamp(0.0, 9.0) as usize
+    } else {
+        4
+    };
+    format!("{value:.d$} ± {se:.d$}")
+}
+
 /// `n thing` or `n things`.
 fn count(n: usize, thing: &str) -> String {
     if n == 1 {
@@ -170,11 +198,10 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| o.info().name).collect();
         let _ = writeln!(
             s,
-            "selected: {} {} = {:.4} ± {:.4} {}{}{}",
+            "selected: {} {} = {} {}{}{}",
             c.effect,
             c.key,
-            sel.coef,
-            sel.stderr,
+            estimate(sel.coef, sel.stderr),
             c.unit,
             if conf.is_empty() {
                 String::new()
@@ -206,6 +233,36 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             "the rest is NOT consistent with the noise"
         }
     );
+    if !j.model_equation.terms.is_empty() {
+        let _ = writeln!(
+            s,
+            "model equation (IEEE Std 1293 units, 1 σ): {}",
+            j.model_equation
+                .terms
+                .iter()
+                .map(|t| format!("{} = {} {}", t.symbol, estimate(t.value, t.sigma), t.unit))
+                .collect::<Vec<_>>()
+                .join("; ")
+        );
+        if j.model_equation.terms.len() > 1 {
+            let _ = writeln!(
+                s,
+                "  correlation: {}",
+                j.model_equation
+                    .correlation
+                    .iter()
+                    .map(|r| format!(
+                        "[{}]",
+                        r.iter()
+                            .map(|x| format!("{x:+.2}"))
+                            .collect::<Vec<_>>()
+                            .join(" ")
+                    ))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+        }
+    }
     let u = &j.unexplained;
     let _ = writeln!(
         s,
