@@ -190,6 +190,7 @@ pub fn centrifuge(radius_cm: f64, g_levels: &[f64], g_cm_s2: f64) -> Vec<Conditi
 }
 
 #[cfg(test)]
+#[allow(clippy::float_cmp)] // exact unit vectors, by `clean`
 mod tests {
     use super::*;
     use crate::condition::{IA, OA, PA};
