@@ -14,21 +14,26 @@
 
 use crate::condition::{Condition, RowKind};
 
-/// Which axis a tumble or rate-table position turns about.
+/// Which axis a tumble or rate-table position turns about (it lies horizontal).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Axis {
-    /// IA turns in the IA–PA plane, about OA (OA horizontal).
+    /// IA turns in the IA–PA plane, about OA.
     Oa,
-    /// IA turns in the IA–OA plane, about PA (PA horizontal).
+    /// IA turns in the IA–OA plane, about PA.
     Pa,
+    /// IA stays horizontal and PA turns in the PA–OA plane, about IA (the cross-axis
+    /// positions of a full tumble).
+    Ia,
 }
 
 impl Axis {
-    /// Index of the case axis that shares the vertical plane with IA.
-    fn other(self) -> usize {
+    /// The two case axes in the vertical plane: the one at the angle's sine and at its
+    /// cosine.
+    fn plane_axes(self) -> (usize, usize) {
         match self {
-            Axis::Oa => 1,
-            Axis::Pa => 2,
+            Axis::Oa => (0, 1),
+            Axis::Pa => (0, 2),
+            Axis::Ia => (2, 1),
         }
     }
 
@@ -36,6 +41,7 @@ impl Axis {
         match self {
             Axis::Oa => "IA-PA plane, about OA",
             Axis::Pa => "IA-OA plane, about PA",
+            Axis::Ia => "PA-OA plane, about IA",
         }
     }
 }
@@ -51,12 +57,14 @@ fn clean(x: f64) -> f64 {
     }
 }
 
-/// The upward unit vector in case axes with IA at `deg` above horizontal in `axis`'s plane.
+/// The upward unit vector in case axes at angle `deg` in `axis`'s plane (about OA or PA:
+/// IA at `deg` above horizontal; about IA: OA at `deg` above horizontal).
 fn up(axis: Axis, deg: f64) -> [f64; 3] {
     let (s, c) = deg.to_radians().sin_cos();
+    let (a, b) = axis.plane_axes();
     let mut u = [0.0; 3];
-    u[0] = clean(s);
-    u[axis.other()] = clean(c);
+    u[a] = clean(s);
+    u[b] = clean(c);
     u
 }
 
@@ -68,8 +76,8 @@ fn angles(n: usize, offset_deg: f64) -> Vec<f64> {
     (0..n).map(|k| offset_deg + step * k as f64).collect()
 }
 
-/// A multipoint tumble: `positions` equally spaced IA angles (0°: IA horizontal, 90°: IA
-/// up) in `axis`'s plane; absolute rows.
+/// A multipoint tumble: `positions` equally spaced angles (about OA or PA, of IA: 0° IA
+/// horizontal, 90° IA up; about IA, of OA) in `axis`'s plane; absolute rows.
 #[must_use]
 pub fn tumble(positions: usize, axis: Axis) -> Vec<Condition> {
     angles(positions, 0.0)

@@ -538,6 +538,26 @@ fn given(v: &Value) -> bool {
     }
 }
 
+/// A row as an object of its case-frame columns (those that are not empty or zero, and the
+/// label), numbers as numbers.
+#[must_use]
+pub fn to_object(c: &Condition) -> serde_json::Map<String, serde_json::Value> {
+    let mut m = serde_json::Map::new();
+    for col in COLUMNS {
+        let v = (col.get)(c);
+        if col.name == "label" || given(&v) {
+            m.insert(
+                col.name.to_string(),
+                match v {
+                    Value::Text(t) => t.unwrap_or_default().into(),
+                    Value::Num(x) => x.map_or(serde_json::Value::Null, Into::into),
+                },
+            );
+        }
+    }
+    m
+}
+
 /// Render rows as case-frame CSV: `comments` (each line prefixed with `# `), the header
 /// (columns that are empty or zero in every row are left out, except `label` and
 /// `measured_cm_s2`; `sigma_cm_s2` whenever a row has one), then one line per row.

@@ -213,10 +213,19 @@ pub fn signatures(rows: &[&Condition], candidates: &[CandidateId], g_cm_s2: f64)
         .iter()
         .map(|&id| {
             let e = Effects::only(id, 1.0);
-            let col: Vec<f64> = rows.iter().map(|r| analytic.effect_cm_s2(r, &e)).collect();
-            let null = rows.iter().zip(&col).all(|(r, &x)| {
-                x.abs() <= 1e-9 * gross_effect_cm_s2(r, &e, g_cm_s2) + f64::MIN_POSITIVE
-            });
+            // Entries that cancel to rounding (a mean of a sinusoid over its samples) are 0.
+            let col: Vec<f64> = rows
+                .iter()
+                .map(|r| {
+                    let x = analytic.effect_cm_s2(r, &e);
+                    if x.abs() <= 1e-9 * gross_effect_cm_s2(r, &e, g_cm_s2) {
+                        0.0
+                    } else {
+                        x
+                    }
+                })
+                .collect();
+            let null = col.iter().all(|&x| x == 0.0);
             Signature { id, col, null }
         })
         .collect()

@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::advice::{self, Advice};
 use super::crossval::{self, Gain};
 use super::data::{self, Data, TimeUnit};
 use super::fit::{self, Fitted, NoiseSource, Nuisance, Settings};
@@ -200,6 +201,8 @@ pub struct JsonReport {
     pub extended: FitSummary,
     /// The selected terms as a model equation (IEEE Std 1293 units) with their correlation.
     pub model_equation: ModelEquation,
+    /// Rows that would break each confounding (or test an untestable model-equation term).
+    pub advice: Vec<Advice>,
     /// The nuisance terms (always in the model, never discoveries).
     pub nuisance: NuisanceReport,
     /// Structure that no candidate explains.
@@ -580,6 +583,7 @@ pub fn discover(
     let unexplained = unexplained::test(&data, &f, &selected, opts.alpha);
     let gain = crossval::gain(&data, settings, ext_summary.rms_cm_s2, opts.seed);
     let groups = indistinguishable(&data, &f, opts);
+    let advice = advice::advise(&data, rows, &f, &selected, &groups, sim.g_cm_s2());
     let mut sigma_all = vec![f64::NAN; rows.len()];
     for (k, &i) in data.rows.iter().enumerate() {
         sigma_all[i] = f.sigma[k];
@@ -613,6 +617,7 @@ pub fn discover(
             effects: effects_json,
             extended: ext_summary,
             model_equation: model_equation(&f, &selected, sim.g_cm_s2()),
+            advice,
             nuisance: nuisance_report(&data, &f),
             unexplained,
             gain,

@@ -17,6 +17,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
+pub mod advice;
 pub mod caseframe;
 pub mod crossval;
 pub mod data;

@@ -263,6 +263,12 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             );
         }
     }
+    for a in &j.advice {
+        let _ = writeln!(s, "advice: {}", a.note);
+        for r in &a.rows {
+            let _ = writeln!(s, "  add: {}", r.label);
+        }
+    }
     let u = &j.unexplained;
     let _ = writeln!(
         s,

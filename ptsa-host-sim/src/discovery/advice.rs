@@ -1,0 +1,290 @@
+//! Advice that breaks a confounding: for every group of candidates the data cannot tell
+//! apart (and, on absolute data, every model-equation term they cannot test), the few rows
+//! from a library of feasible extra rows that best separate them.
+//!
+//! The library ([`library`]) holds what a lab can run: tumble positions about OA and PA,
+//! rate-table positions at three rates, the two-axis oscillator's blocks and centrifuge
+//! levels with IA in and out ([`crate::plan`]). The search is greedy: each step adds the row
+//! that most increases the smallest singular value of the group's weighted signatures, each
+//! made orthogonal to the other selected terms' (columns scaled to unit norm over the data
+//! and the library), until that value reaches [`GOOD`] or [`MAX_ROWS`] rows are added.
+//! Candidates whose signatures coincide for every motion (`anisoinertia` and
+//! `lever_arm.r_pa_cm`: both `w_IA·w_PA`) cannot be separated by any row; the advice says so
+//! instead of proposing rows that do not help.
+
+use serde::Serialize;
+
+use super::data::{Data, signatures};
+use super::fit::Fitted;
+use super::method::Selected;
+use super::stats::residualize;
+use crate::condition::Condition;
+use crate::effects::{Bound, CandidateId};
+use crate::plan::{self, Axis};
+
+/// Most rows proposed per group.
+pub const MAX_ROWS: usize = 4;
+/// The smallest singular value (of the columns scaled as in [`group_columns`]) at which a
+/// group counts as separated.
+pub const GOOD: f64 = 0.5;
+
+/// One piece of advice, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct Advice {
+    /// The candidates to separate (or to make testable).
+    pub separates: Vec<String>,
+    /// The rows to add, as objects with case-frame column keys.
+    pub add_rows: Vec<serde_json::Map<String, serde_json::Value>>,
+    /// What adding them achieves, or why no row helps.
+    pub note: String,
+    /// The rows to add, as conditions.
+    #[serde(skip)]
+    pub rows: Vec<Condition>,
+}
+
+/// The library of feasible extra rows.
+#[must_use]
+pub fn library(g_cm_s2: f64) -> Vec<Condition> {
+    let mut rows = Vec::new();
+    for axis in [Axis::Oa, Axis::Pa, Axis::Ia] {
+        rows.extend(plan::tumble(24, axis));
+    }
+    for axis in [Axis::Oa, Axis::Pa] {
+        for rate in [0.5, 1.0, 2.0] {
+            rows.extend(plan::rate_table(24, axis, rate, 0.05, 0.0));
+        }
+    }
+    rows.extend(plan::shaker(10.0, 300.0, 1.0, 8));
+    rows.extend(plan::centrifuge(50.0, &[2.0, 5.0, 10.0], g_cm_s2));
+    rows
+}
+
+/// Smallest singular value over largest (0 for an empty or all-zero matrix) and the
+/// smallest singular value of the columns `cols` (each a column over the rows).
+fn smallest_sv(cols: &[Vec<f64>]) -> f64 {
+    let n = cols.first().map_or(0, Vec::len);
+    if cols.is_empty() || n == 0 {
+        return 0.0;
+    }
+    let a = nalgebra::DMatrix::from_fn(n, cols.len(), |i, j| cols[j][i]);
+    a.singular_values().min()
+}
+
+/// The group's columns over the current rows (data rows then added rows), each made
+/// orthogonal to the context's and divided by its norm before that (so 1 means "untouched
+/// by the context"): the smallest singular value is then 0 for dependent or empty columns
+/// and 1 for orthogonal ones untouched by the context.
+fn group_columns(group: &[Vec<f64>], context: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let ctx: Vec<&[f64]> = context.iter().map(Vec::as_slice).collect();
+    group
+        .iter()
+        .map(|c| {
+            let n = c.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if n == 0.0 {
+                return vec![0.0; c.len()];
+            }
+            residualize(c, &ctx).iter().map(|x| x / n).collect()
+        })
+        .collect()
+}
+
+/// Weighted signatures of `ids` over `rows` (unit coefficients, weight `1/sigma`).
+fn weighted(rows: &[&Condition], ids: &[CandidateId], g: f64, sigma: f64) -> Vec<Vec<f64>> {
+    signatures(rows, ids, g)
+        .into_iter()
+        .map(|s| s.col.iter().map(|x| x / sigma).collect())
+        .collect()
+}
+
+/// The static model-equation terms, which absolute rows can test.
+fn is_model_equation_term(id: CandidateId) -> bool {
+    matches!(
+        id.info().bound,
+        Bound::Bias | Bound::ScaleFactor | Bound::Misalignment | Bound::Cubic
+    ) || matches!(
+        id,
+        CandidateId::Nonlinearity
+            | CandidateId::Vibropendulosity
+            | CandidateId::Anisoelasticity
+            | CandidateId::CrossAxisPp
+            | CandidateId::CrossAxisOo
+            | CandidateId::CrossAxisPo
+    )
+}
+
+/// The groups that need advice: every confounded group with a selected member, every
+/// selected candidate's confounded partners, and, when the data hold absolute rows, every
+/// model-equation term that is not testable.
+fn groups(
+    data: &Data,
+    f: &Fitted,
+    selected: &[Selected],
+    confounded: &[Vec<CandidateId>],
+) -> Vec<Vec<CandidateId>> {
+    let mut out: Vec<Vec<CandidateId>> = Vec::new();
+    let mut push = |mut g: Vec<CandidateId>| {
+        g.sort_unstable();
+        g.dedup();
+        if !g.is_empty() && !out.contains(&g) {
+            out.push(g);
+        }
+    };
+    for g in confounded {
+        if g.iter().any(|c| selected.iter().any(|s| s.id == *c)) {
+            push(g.clone());
+        }
+    }
+    for s in selected {
+        if !s.confounded.is_empty() {
+            let mut g: Vec<CandidateId> = s.confounded.iter().map(|&(o, _)| o).collect();
+            g.push(s.id);
+            push(g);
+        }
+    }
+    if data.absolute.iter().any(|&a| a) {
+        for &c in f.untestable.iter().chain(&f.untestable_nuisance) {
+            if is_model_equation_term(c) {
+                push(vec![c]);
+            }
+        }
+    }
+    out
+}
+
+/// Advice for the fit `f` of `data` (the rows `rows`), with local gravity `g`.
+#[must_use]
+pub fn advise(
+    data: &Data,
+    rows: &[Condition],
+    f: &Fitted,
+    selected: &[Selected],
+    confounded: &[Vec<CandidateId>],
+    g: f64,
+) -> Vec<Advice> {
+    let fitted: Vec<&Condition> = data.rows.iter().map(|&i| &rows[i]).collect();
+    let mut sig: Vec<f64> = f.sigma.clone();
+    sig.sort_by(f64::total_cmp);
+    let sigma = sig.get(sig.len() / 2).copied().unwrap_or(1.0);
+    let lib = library(g);
+    let lib_refs: Vec<&Condition> = lib.iter().collect();
+    groups(data, f, selected, confounded)
+        .into_iter()
+        .map(|group| {
+            // The context: the other selected terms.
+            let ctx_ids: Vec<CandidateId> = selected
+                .iter()
+                .map(|s| s.id)
+                .filter(|id| !group.contains(id))
+                .collect();
+            let data_g: Vec<Vec<f64>> = fitted_weighted(&fitted, &group, g, &f.sigma);
+            let data_c: Vec<Vec<f64>> = fitted_weighted(&fitted, &ctx_ids, g, &f.sigma);
+            let lib_g = weighted(&lib_refs, &group, g, sigma);
+            let lib_c = weighted(&lib_refs, &ctx_ids, g, sigma);
+            let build = |added: &[usize]| -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+                let extend = |d: &[Vec<f64>], l: &[Vec<f64>]| -> Vec<Vec<f64>> {
+                    d.iter()
+                        .zip(l)
+                        .map(|(dc, lc)| {
+                            let mut v = dc.clone();
+                            v.extend(added.iter().map(|&k| lc[k]));
+                            v
+                        })
+                        .collect()
+                };
+                (extend(&data_g, &lib_g), extend(&data_c, &lib_c))
+            };
+            let score = |added: &[usize]| {
+                let (gc, cc) = build(added);
+                smallest_sv(&group_columns(&gc, &cc))
+            };
+            let start = score(&[]);
+            let mut added: Vec<usize> = Vec::new();
+            let mut best = start;
+            // A term made testable needs at least two rows of its own.
+            let min_rows = if group.len() == 1 { 2 } else { 1 };
+            while added.len() < MAX_ROWS && (best < GOOD || added.len() < min_rows) {
+                let mut pick: Option<(usize, f64)> = None;
+                for k in 0..lib.len() {
+                    // A row where every member's signature is 0 cannot help.
+                    if added.contains(&k) || lib_g.iter().all(|c| c[k] == 0.0) {
+                        continue;
+                    }
+                    let mut trial = added.clone();
+                    trial.push(k);
+                    let s = score(&trial);
+                    if pick.is_none_or(|(_, ps)| s > ps * (1.0 + 1e-9)) {
+                        pick = Some((k, s));
+                    }
+                }
+                match pick {
+                    Some((k, s))
+                        if s > best * (1.0 + 1e-6) + 1e-9
+                            || (added.len() < min_rows && s > 1e-6) =>
+                    {
+                        added.push(k);
+                        best = s;
+                    }
+                    _ => break,
+                }
+            }
+            let names: Vec<String> = group.iter().map(|c| c.info().name.to_string()).collect();
+            let what = if group.len() == 1 {
+                format!("to test {}", names[0])
+            } else {
+                format!("to tell {} apart", names.join(" from "))
+            };
+            if added.is_empty() || best < 1e-6 {
+                return Advice {
+                    separates: names,
+                    add_rows: Vec::new(),
+                    note: format!(
+                        "{what}, no row of the library helps: {}",
+                        if group == [CandidateId::Anisoinertia, CandidateId::LeverArmPa] {
+                            "their mean signatures are the same, w_IA·w_PA, for every motion; separate them outside these data, by centring the proof mass on the table axis as R-890 did (so that the lever arm is known to be 0), or by the response at the oscillation frequency to angular acceleration about OA"
+                        } else {
+                            "their mean signatures stay dependent (or zero) for every tumble position, rate, vibration and centrifuge level of the library"
+                        }
+                    ),
+                    rows: Vec::new(),
+                };
+            }
+            let rows: Vec<Condition> = added.iter().map(|&k| lib[k].clone()).collect();
+            Advice {
+                separates: names,
+                add_rows: rows.iter().map(super::caseframe::to_object).collect(),
+                note: format!(
+                    "{what}, add these {} row{} (measured at about the data's {sigma:.3} cm/s²): the smallest singular value of the group's scaled signatures goes from {start:.3} to {best:.3}{}",
+                    rows.len(),
+                    if rows.len() == 1 { "" } else { "s" },
+                    if best >= GOOD { "" } else { " (still short of a clean separation)" }
+                ),
+                rows,
+            }
+        })
+        .collect()
+}
+
+/// Weighted signatures over the fitted rows (each row its own sigma).
+fn fitted_weighted(
+    rows: &[&Condition],
+    ids: &[CandidateId],
+    g: f64,
+    sigma: &[f64],
+) -> Vec<Vec<f64>> {
+    signatures(rows, ids, g)
+        .into_iter()
+        .map(|s| s.col.iter().zip(sigma).map(|(x, s)| x / s).collect())
+        .collect()
+}
+
+/// The advised rows of every piece of advice, once each.
+#[must_use]
+pub fn all_rows(advice: &[Advice]) -> Vec<Condition> {
+    let mut out: Vec<Condition> = Vec::new();
+    for r in advice.iter().flat_map(|a| &a.rows) {
+        if !out.contains(r) {
+            out.push(r.clone());
+        }
+    }
+    out
+}
