@@ -988,3 +988,58 @@ fn help_exits_0_and_names_units() {
     assert!(!waveform.contains("--window-s"), "{waveform}");
     assert!(names(d).is_empty());
 }
+
+/// `ptsa plan` writes designs the reader takes back; `ptsa predict` predicts them, with and
+/// without a discover result's effects, and refuses an effects file that names no candidate.
+#[test]
+fn plan_and_predict() {
+    let dir = tempfile::tempdir().unwrap();
+    let plan = dir.path().join("t.csv");
+    let out = Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .args(["plan", "tumble", "--positions", "12", "--axis", "pa", "--out"])
+        .arg(&plan)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let rows = ptsa_host_sim::discovery::caseframe::read(&plan).unwrap();
+    assert_eq!(rows.len(), 12);
+    let predict = |extra: &[&str]| {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_ptsa"));
+        c.args(["predict", "--analytic", "--json", "--data"]).arg(&plan).args(extra);
+        c.output().unwrap()
+    };
+    let base = predict(&[]);
+    assert!(base.status.success(), "{}", String::from_utf8_lossy(&base.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&base.stdout).unwrap();
+    let p: Vec<f64> = v["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["predicted_cm_s2"].as_f64().unwrap())
+        .collect();
+    // 90°: IA up, g + A_b.
+    assert!((p[3] - (980.4 + 18.7)).abs() < 1e-9, "{p:?}");
+    let fx = dir.path().join("fx.json");
+    std::fs::write(
+        &fx,
+        r#"{"effects": [{"name": "bias", "coefficients": {"k0_cm_s2": 2.5}}]}"#,
+    )
+    .unwrap();
+    let with = predict(&["--effects", fx.to_str().unwrap()]);
+    let w: serde_json::Value = serde_json::from_slice(&with.stdout).unwrap();
+    let q = w["rows"][3]["predicted_cm_s2"].as_f64().unwrap();
+    assert!((q - p[3] - 2.5).abs() < 1e-9, "{q}");
+    std::fs::write(
+        &fx,
+        r#"{"effects": [{"name": "bias", "coefficients": {"k9": 1}}]}"#,
+    )
+    .unwrap();
+    let bad = predict(&["--effects", fx.to_str().unwrap()]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("`bias.k9` is not a candidate"));
+    let bad = Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .args(["plan", "centrifuge", "--radius-cm", "0", "--g-levels", "2"])
+        .output()
+        .unwrap();
+    assert!(!bad.status.success());
+}

@@ -17,6 +17,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
+use crate::condition::Condition;
+use crate::effects::Effects;
+
 pub mod advice;
 pub mod caseframe;
 pub mod crossval;
@@ -43,6 +46,8 @@ pub struct Request {
     pub json: bool,
     /// Folder for the per-row table and the plots; `None` = write nothing.
     pub out: Option<PathBuf>,
+    /// Write the advised rows here as a case-frame file.
+    pub advice_out: Option<PathBuf>,
 }
 
 /// The analytic simulator with the shipped instrument's gravity, boxed.
@@ -97,12 +102,82 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         elapsed.as_secs_f64(),
         d.simulator
     );
+    if let Some(p) = &req.advice_out {
+        let rows = advice::all_rows(&d.json.advice);
+        let comments = [
+            "Rows `ptsa discover` advises adding (see its advice): measure them and append them to the data.",
+        ];
+        crate::output::write_atomic(p, caseframe::to_csv(&rows, &comments).as_bytes())?;
+        eprintln!(
+            "wrote {} ({})",
+            p.display(),
+            crate::output::count(rows.len() as u64, "advised row")
+        );
+    }
     if req.json {
         writeln!(stdout, "{}", serde_json::to_string(&d.json)?)?;
     } else {
         write!(stdout, "{text}")?;
     }
     Ok(())
+}
+
+/// The effects of a `ptsa discover --json` result (the whole object, or its `effects`
+/// array): each entry's `name` and `coefficients` keys name a candidate of the registry.
+///
+/// # Errors
+/// Not such an object, or an effect name or coefficient key that is not in the registry.
+pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
+    let list = v.get("effects").unwrap_or(v);
+    let Some(list) = list.as_array() else {
+        anyhow::bail!(
+            "expected the JSON of `ptsa discover --json` (an object with \"effects\") or its \"effects\" array"
+        );
+    };
+    let mut e = Effects::NONE;
+    for (k, item) in list.iter().enumerate() {
+        let name = item
+            .get("name")
+            .and_then(serde_json::Value::as_str)
+            .with_context(|| format!("effects[{k}]: expected a \"name\""))?;
+        let coefs = item
+            .get("coefficients")
+            .and_then(serde_json::Value::as_object)
+            .with_context(|| format!("effects[{k}] ({name}): expected \"coefficients\""))?;
+        for (key, val) in coefs {
+            let id = crate::effects::REGISTRY
+                .iter()
+                .find(|c| c.effect == name && c.key == key)
+                .map(|c| c.id)
+                .with_context(|| {
+                    format!(
+                        "effects[{k}]: `{name}.{key}` is not a candidate; expected one of: {}",
+                        crate::effects::REGISTRY
+                            .iter()
+                            .map(|c| format!("{}.{}", c.effect, c.key))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })?;
+            let x = val
+                .as_f64()
+                .filter(|x| x.is_finite())
+                .with_context(|| format!("effects[{k}]: `{name}.{key}`: expected a finite number"))?;
+            e.add(id, x);
+        }
+    }
+    Ok(e)
+}
+
+/// What the instrument should read in each row (`ptsa predict`): the simulator's prediction
+/// with `effects` put into the plant, cm/s² (a difference or an absolute value by the row's
+/// kind).
+#[must_use]
+pub fn predict(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<f64> {
+    use rayon::prelude::*;
+    rows.par_iter()
+        .map(|r| sim.predict_cm_s2(r, effects))
+        .collect()
 }
 
 pub use show::report_section;
@@ -119,6 +194,7 @@ mod tests {
             options: Options::default(),
             json: true,
             out: Some(out),
+            advice_out: None,
         }
     }
 

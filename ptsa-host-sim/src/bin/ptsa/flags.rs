@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, Parser, Subcommand};
 use ptsa_host_sim::effects::{CandidateId, candidate_names, resolve_candidates};
 use ptsa_host_sim::experiments::{appendix_a::TwoAxisPlan, tumble, waveform};
+use ptsa_host_sim::plan::Axis;
 use ptsa_host_sim::sim::SimOptions;
 
 /// Closed-loop simulator of the Kearfott 2401 accelerometer in the UAC PTSA forced-binary
@@ -281,6 +282,12 @@ pub enum Cmd {
     },
     /// The whole report programme (the same as no subcommand).
     Report(ReportArgs),
+    /// What the instrument should read in each row of a case-frame file, with the baseline
+    /// model or with a discover result's effects put back into the closed loop.
+    Predict(PredictArgs),
+    /// Write a ready-to-run case-frame design: a tumble, a rate table, the shaker or a
+    /// centrifuge (the measured column left empty for the lab).
+    Plan(PlanArgs),
     /// Discovery: what the simulation gets wrong in measured data, the effect that explains
     /// it, and the gain of the extended model.
     Discover(DiscoverArgs),
@@ -356,9 +363,156 @@ pub struct DiscoverArgs {
     /// dynamics).
     #[arg(long)]
     pub analytic: bool,
+    /// Write the rows the advice proposes (to break each confounding, or to test what these
+    /// data cannot) to FILE as a case-frame file, ready to measure.
+    #[arg(long, value_name = "FILE")]
+    pub advice_out: Option<PathBuf>,
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,
+}
+
+/// Arguments of `ptsa predict`.
+#[derive(Args, Debug, Clone)]
+pub struct PredictArgs {
+    /// Case-frame CSV file (docs/case-frame.md): the conditions to predict (a
+    /// `measured_cm_s2` column, if any, is shown beside the prediction).
+    #[arg(long, value_name = "FILE")]
+    pub data: PathBuf,
+    /// The effects to put into the plant: the JSON of `ptsa discover --json` (or its
+    /// `effects` array). Without it, the baseline model.
+    #[arg(long, value_name = "FILE.json")]
+    pub effects: Option<PathBuf>,
+    /// Print exactly one JSON object {"rows": [{"label", "predicted_cm_s2"}]}.
+    #[arg(long)]
+    pub json: bool,
+    /// Seed of the simulator's pickoff noise (closed loop).
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+          value_parser = seed)]
+    pub seed: u64,
+    /// Use the quasi-static analytic model instead of the closed loop.
+    #[arg(long)]
+    pub analytic: bool,
+}
+
+/// What `ptsa plan` writes.
+#[derive(Subcommand, Debug, Clone)]
+pub enum PlanKind {
+    /// A multipoint tumble on a dividing head (IEEE Std 1293: 4, 8, 12 or 24 positions, or
+    /// any number): absolute rows, IA at equally spaced angles in the plane of --axis.
+    Tumble {
+        /// Positions (2 to 360).
+        #[arg(long, default_value_t = 24, value_name = "N", value_parser = positions)]
+        positions: usize,
+        /// The horizontal axis the dividing head turns about: oa (IA in the IA–PA plane), pa
+        /// (IA in the IA–OA plane) or ia (IA horizontal, PA and OA turning).
+        #[arg(long, value_enum, default_value = "oa")]
+        axis: Axis,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+    /// The dividing head on a rate table (Table 6.1's procedure): difference rows against a
+    /// slow reference run.
+    RateTable {
+        /// IA positions (2 to 360).
+        #[arg(long, default_value_t = 8, value_name = "N", value_parser = positions)]
+        positions: usize,
+        /// The dividing head's horizontal axis (oa or pa).
+        #[arg(long, value_enum, default_value = "oa")]
+        axis: Axis,
+        /// Table rate, rad/s.
+        #[arg(long, default_value_t = 1.0, value_name = "RAD_S", value_parser = rate_rad_s)]
+        rate_rad_s: f64,
+        /// Rate of the reference run, rad/s.
+        #[arg(long, default_value_t = 0.05, value_name = "RAD_S", value_parser = rate_rad_s)]
+        ref_rate_rad_s: f64,
+        /// Distance of the proof mass from the table axis, cm (0: centred).
+        #[arg(long, default_value_t = 0.0, value_name = "CM", value_parser = lever_cm)]
+        radius_cm: f64,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+    /// The two-axis oscillator of Appendix A, IA up: blocks of phases of IA+PA and IA+OA
+    /// vibration, OA rocking with PA vibration, and IA+OA rocking; difference rows.
+    Shaker {
+        /// Frequency, Hz (more than 0, at most 500).
+        #[arg(long, default_value_t = 10.0, value_name = "HZ", value_parser = positive_hz)]
+        freq_hz: f64,
+        /// Vibration amplitude, cm/s².
+        #[arg(long, default_value_t = 300.0, value_name = "CM_S2", value_parser = amplitude_cm_s2)]
+        amplitude_cm_s2: f64,
+        /// Rocking amplitude, mrad (0 to 100).
+        #[arg(long, default_value_t = 1.0, value_name = "MRAD", value_parser = amplitude_mrad)]
+        rock_mrad: f64,
+        /// Phases per block (2 to 360).
+        #[arg(long, default_value_t = 8, value_name = "N", value_parser = positions)]
+        phases: usize,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+    /// A centrifuge (IEEE Std 836): the proof mass at --radius-cm from the vertical spin
+    /// axis, IA along the arm pointing at the axis and away from it, at each g level;
+    /// absolute rows.
+    Centrifuge {
+        /// Arm length to the proof mass, cm (more than 0).
+        #[arg(long, value_name = "CM", value_parser = arm_cm)]
+        radius_cm: f64,
+        /// The arm's push, in g (ω²R/g), comma separated, e.g. 2,5,10.
+        #[arg(long, value_name = "G", value_delimiter = ',', required = true,
+              value_parser = g_level)]
+        g_levels: Vec<f64>,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+}
+
+/// Arguments of `ptsa plan`.
+#[derive(Args, Debug, Clone)]
+pub struct PlanArgs {
+    /// The design.
+    #[command(subcommand)]
+    pub kind: PlanKind,
+}
+
+/// Where `ptsa plan` writes.
+#[derive(Args, Debug, Clone)]
+pub struct PlanOut {
+    /// Write the case-frame file here (default: standard output).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+fn positions(s: &str) -> Result<usize, String> {
+    match s.trim().parse::<usize>() {
+        Ok(n @ 2..=360) => Ok(n),
+        _ => Err(format!("expected a whole number from 2 to 360, not `{s}`")),
+    }
+}
+
+fn rate_rad_s(s: &str) -> Result<f64, String> {
+    within(s, 0.0, 100.0, "a rate in rad/s from 0 to 100")
+}
+
+fn amplitude_cm_s2(s: &str) -> Result<f64, String> {
+    within(s, 0.0, 1e5, "an amplitude in cm/s² from 0 to 1e5")
+}
+
+fn arm_cm(s: &str) -> Result<f64, String> {
+    let x = within(s, 0.0, 1e4, "an arm length in cm, more than 0 and at most 1e4")?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err("expected an arm length in cm, more than 0".into())
+    }
+}
+
+fn g_level(s: &str) -> Result<f64, String> {
+    let x = within(s, 0.0, 1000.0, "a g level from 0 to 1000 (ω²R/g)")?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err("expected a g level more than 0".into())
+    }
 }
 
 fn candidates_help() -> String {

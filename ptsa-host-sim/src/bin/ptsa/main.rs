@@ -17,7 +17,7 @@ use anyhow::{Context, Result, bail};
 use clap::error::ErrorKind;
 use clap::parser::ValueSource;
 use clap::{CommandFactory as _, FromArgMatches as _};
-use flags::{Cli, Cmd, DiscoverArgs, OutArgs, ReportArgs, RunArgs, TwoAxisArgs, num};
+use flags::{Cli, Cmd, DiscoverArgs, PlanArgs, PlanKind, PredictArgs, OutArgs, ReportArgs, RunArgs, TwoAxisArgs, num};
 use ptsa_host_sim::bench::{BenchPlan, bench};
 use ptsa_host_sim::design::{Design, check_loop};
 use ptsa_host_sim::discovery::{self, Options, Request, Simulator};
@@ -385,6 +385,8 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             bench(&instr, &opts, &plan, out)
         }
         Cmd::Discover(a) => discover_cmd(&instr, config, &a, out),
+        Cmd::Predict(a) => predict_cmd(&instr, config, &a, out),
+        Cmd::Plan(a) => plan_cmd(&instr, &a, out),
     }
 }
 
@@ -652,6 +654,179 @@ fn design_cmd(
     }
 }
 
+/// The simulator of `discover` and `predict`: the closed loop of the instrument file, or
+/// the analytic model.
+fn simulator(
+    instr: &Instrument,
+    config: ptsa_core::Config,
+    analytic: bool,
+    seed: u64,
+) -> Box<dyn Simulator> {
+    if analytic {
+        Box::new(discovery::AnalyticSimulator::for_instrument(instr))
+    } else {
+        Box::new(discovery::sim::ClosedLoopSimulator {
+            instrument: instr.clone(),
+            options: SimOptions {
+                seed,
+                config,
+                ..SimOptions::default()
+            },
+        })
+    }
+}
+
+fn predict_cmd(
+    instr: &Instrument,
+    config: ptsa_core::Config,
+    a: &PredictArgs,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let rows = discovery::caseframe::read(&a.data)?;
+    let effects = match &a.effects {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot read", p.display()))?;
+            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+                anyhow::anyhow!(
+                    "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
+                    p.display(),
+                    e.line(),
+                    e.column()
+                )
+            })?;
+            discovery::effects_from_json(&v).with_context(|| p.display().to_string())?
+        }
+        None => Effects::NONE,
+    };
+    let sim = simulator(instr, config, a.analytic, a.seed);
+    let s = work::spinner("predict");
+    let pred = discovery::predict(&rows, &*sim, &effects);
+    s.finish_and_clear();
+    if a.json {
+        let rows: Vec<serde_json::Value> = rows
+            .iter()
+            .zip(&pred)
+            .map(|(r, p)| serde_json::json!({"label": r.label, "predicted_cm_s2": p}))
+            .collect();
+        writeln!(out, "{}", serde_json::json!({ "rows": rows }))?;
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "predict: {} ({} simulator, {})",
+        a.data.display(),
+        sim.name(),
+        if effects.is_zero() {
+            "baseline model".to_string()
+        } else {
+            format!(
+                "with {}",
+                effects
+                    .nonzero()
+                    .map(|(id, c)| format!("{} = {c}", id.info().name))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )
+        }
+    )?;
+    writeln!(
+        out,
+        "{:<48} {:>10} {:>14} {:>12} {:>10}",
+        "row", "kind", "predicted", "measured", "residual"
+    )?;
+    for (r, p) in rows.iter().zip(&pred) {
+        let (m, res) = r.measured_cm_s2.map_or(("-".to_string(), "-".to_string()), |m| {
+            (format!("{m:.3}"), format!("{:.3}", m - p))
+        });
+        writeln!(
+            out,
+            "{:<48} {:>10} {:>14.4} {:>12} {:>10}",
+            r.label.chars().take(48).collect::<String>(),
+            r.kind.name(),
+            p,
+            m,
+            res
+        )?;
+    }
+    writeln!(out, "(cm/s²; a difference row is condition − reference, an absolute row the indicated acceleration)")?;
+    Ok(())
+}
+
+fn plan_cmd(instr: &Instrument, a: &PlanArgs, out: &mut dyn Write) -> Result<()> {
+    use ptsa_host_sim::plan;
+    let (rows, what, dest) = match &a.kind {
+        PlanKind::Tumble {
+            positions,
+            axis,
+            out,
+        } => (
+            plan::tumble(*positions, *axis),
+            format!("{positions}-point tumble about {axis:?}").to_lowercase(),
+            out,
+        ),
+        PlanKind::RateTable {
+            positions,
+            axis,
+            rate_rad_s,
+            ref_rate_rad_s,
+            radius_cm,
+            out,
+        } => (
+            plan::rate_table(*positions, *axis, *rate_rad_s, *ref_rate_rad_s, *radius_cm),
+            format!(
+                "rate table, {positions} positions about {axis:?}, {rate_rad_s} rad/s against {ref_rate_rad_s} rad/s, arm {radius_cm} cm"
+            ),
+            out,
+        ),
+        PlanKind::Shaker {
+            freq_hz,
+            amplitude_cm_s2,
+            rock_mrad,
+            phases,
+            out,
+        } => (
+            plan::shaker(*freq_hz, *amplitude_cm_s2, *rock_mrad, *phases),
+            format!(
+                "two-axis oscillator at {freq_hz} Hz, {amplitude_cm_s2} cm/s^2, rocking {rock_mrad} mrad, {phases} phases per block"
+            ),
+            out,
+        ),
+        PlanKind::Centrifuge {
+            radius_cm,
+            g_levels,
+            out,
+        } => (
+            plan::centrifuge(*radius_cm, g_levels, instr.g_cm_s2),
+            format!(
+                "centrifuge, arm {radius_cm} cm, at {} g, IA in and out",
+                g_levels
+                    .iter()
+                    .map(|g| format!("{g}"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            out,
+        ),
+    };
+    let comments = [
+        format!("Test plan written by `ptsa plan`: {what}."),
+        "Fill in measured_cm_s2 (and sigma_cm_s2) from the lab, then `cargo ptsa discover --data FILE`."
+            .to_string(),
+    ];
+    let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
+    let text = discovery::caseframe::to_csv(&rows, &refs);
+    match &dest.out {
+        Some(p) => {
+            paths::file("--out", p)?;
+            ptsa_host_sim::output::write_atomic(p, text.as_bytes())?;
+            eprintln!("wrote {} ({})", p.display(), ptsa_host_sim::output::count(rows.len() as u64, "row"));
+        }
+        None => write!(out, "{text}")?,
+    }
+    Ok(())
+}
+
 fn discover_cmd(
     instr: &Instrument,
     config: ptsa_core::Config,
@@ -676,6 +851,9 @@ fn discover_cmd(
     if !a.no_plots {
         paths::folder("--out", &a.out)?;
     }
+    if let Some(p) = &a.advice_out {
+        paths::file("--advice-out", p)?;
+    }
     let req = Request {
         data: a.data.clone(),
         options: Options {
@@ -686,19 +864,9 @@ fn discover_cmd(
         },
         json: a.json,
         out: (!a.no_plots).then(|| a.out.clone()),
+        advice_out: a.advice_out.clone(),
     };
-    let sim: Box<dyn Simulator> = if a.analytic {
-        Box::new(discovery::AnalyticSimulator::for_instrument(instr))
-    } else {
-        Box::new(discovery::sim::ClosedLoopSimulator {
-            instrument: instr.clone(),
-            options: SimOptions {
-                seed: a.seed,
-                config,
-                ..SimOptions::default()
-            },
-        })
-    };
+    let sim = simulator(instr, config, a.analytic, a.seed);
     let s = work::spinner("discover");
     let r = discovery::run(&req, &*sim, out);
     s.finish_and_clear();
