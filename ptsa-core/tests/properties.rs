@@ -315,6 +315,8 @@ fn bad_configurations_are_refused_not_panicked() {
             E::WrongSign => "WrongSign",
             E::LeadOverflow { .. } => "LeadOverflow",
             E::EmptyGate => "EmptyGate",
+            // `ConfigError` is non-exhaustive.
+            _ => "another error",
         };
         assert_eq!(got, want, "{c:?}");
         assert!(!e.to_string().is_empty());
