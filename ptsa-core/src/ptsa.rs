@@ -31,6 +31,45 @@ impl Polarity {
     }
 }
 
+impl From<bool> for Polarity {
+    /// `true` is [`Polarity::Positive`], `false` [`Polarity::Negative`] (as embedded-hal's
+    /// `PinState` maps `true` to `High`).
+    ///
+    /// ```
+    /// use ptsa_core::Polarity;
+    /// assert_eq!(Polarity::from(true), Polarity::Positive);
+    /// assert_eq!(Polarity::from(false), Polarity::Negative);
+    /// let positive_ticks = [true, true, false];
+    /// assert_eq!(Polarity::from(positive_ticks[2]).sign(), -1);
+    /// ```
+    fn from(positive: bool) -> Self {
+        if positive {
+            Self::Positive
+        } else {
+            Self::Negative
+        }
+    }
+}
+
+impl core::ops::Not for Polarity {
+    type Output = Self;
+
+    /// The opposite polarity.
+    ///
+    /// ```
+    /// use ptsa_core::Polarity;
+    /// assert_eq!(!Polarity::Positive, Polarity::Negative);
+    /// assert_eq!(!Polarity::Negative, Polarity::Positive);
+    /// assert_eq!((!Polarity::Positive).sign(), -Polarity::Positive.sign());
+    /// ```
+    fn not(self) -> Self {
+        match self {
+            Self::Positive => Self::Negative,
+            Self::Negative => Self::Positive,
+        }
+    }
+}
+
 /// Saturation events, each counted once per tick in which the clamp acted. Like the
 /// free-running counts they wrap modulo 2^32; read them as differences.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]

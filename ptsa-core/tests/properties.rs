@@ -194,6 +194,18 @@ proptest! {
     }
 }
 
+/// `From<bool>` and `!` agree with the polarity's sign.
+#[test]
+fn polarity_from_bool_and_not() {
+    for positive in [false, true] {
+        let p = Polarity::from(positive);
+        assert_eq!(p == Polarity::Positive, positive);
+        assert_eq!(!p, Polarity::from(!positive));
+        assert_eq!((!p).sign(), -p.sign());
+        assert_eq!(!!p, p);
+    }
+}
+
 /// The counts span 0..=N across the input range, and the endpoints are where
 /// ARITHMETIC.md says.
 #[test]
