@@ -423,13 +423,32 @@ impl Ptsa {
         }
     }
 
-    /// Block form: run `input` through the loop and write one [`Tick`] per sample to `out`
-    /// (`out.len()` must be at least `input.len()`; extra entries are left untouched).
+    /// Block form: run `input` through the loop and write one [`Tick`] per sample to `out`,
+    /// which must have the same length.
     ///
     /// A second formulation of [`Ptsa::tick`], kept bit-identical by test: it steps the ramp
     /// by `−2h` instead of computing `h·(N − 1 − 2k)`, and counts the cycle's positive ticks
     /// one by one instead of taking them from the switching index.
+    ///
+    /// ```
+    /// use ptsa_core::{Config, Polarity, Tick};
+    /// let ptsa = Config::DEFAULT.build().unwrap();
+    /// let mut state = ptsa.initial_state();
+    /// let input = [0i16; 64];
+    /// let mut out = [Tick { polarity: Polarity::Negative, cycle_pulses: None, gate: None }; 64];
+    /// ptsa.process_block(&mut state, &input, &mut out);
+    /// assert_eq!(out[63].cycle_pulses, Some(32));
+    /// ```
+    ///
+    /// # Panics
+    /// In builds with debug assertions, if `input.len() != out.len()`. Without them the
+    /// loop runs over the shorter of the two and leaves the rest of `out` untouched.
     pub fn process_block(&self, s: &mut State, input: &[i16], out: &mut [Tick]) {
+        debug_assert_eq!(
+            input.len(),
+            out.len(),
+            "process_block: input and output slices differ in length"
+        );
         let mut k = self.phase(s);
         let mut ramp = self.ramp(k);
         // Positive ticks of the current cycle so far.

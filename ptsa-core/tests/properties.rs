@@ -194,6 +194,21 @@ proptest! {
     }
 }
 
+/// The block form refuses slices of different lengths (debug assertions are on in tests).
+#[test]
+#[cfg(debug_assertions)]
+#[should_panic(expected = "slices differ in length")]
+fn block_form_refuses_unequal_slices() {
+    let p = Config::DEFAULT.build().unwrap();
+    let mut s = p.initial_state();
+    let tick = Tick {
+        polarity: Polarity::Positive,
+        cycle_pulses: None,
+        gate: None,
+    };
+    p.process_block(&mut s, &[0; 3], &mut [tick; 4]);
+}
+
 /// `From<bool>` and `!` agree with the polarity's sign.
 #[test]
 fn polarity_from_bool_and_not() {
