@@ -5,23 +5,9 @@ use std::time::Instant;
 
 use crate::{firmware, golden, util};
 
-/// The embedded target of the firmware and of the ptsa-core cross build.
+/// The embedded target of the firmware and of the ptsa-core cross build (installed with the
+/// toolchain: `rust-toolchain.toml`).
 pub const THUMB: &str = "thumbv7em-none-eabihf";
-
-/// Add the thumbv7em target with rustup if it is missing.
-pub fn ensure_thumb_target() -> Result<(), String> {
-    let out = Command::new("rustup")
-        .args(["target", "list", "--installed"])
-        .output()
-        .map_err(|e| format!("cannot run rustup to check for the {THUMB} target: {e}"))?;
-    if String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .any(|l| l.trim() == THUMB)
-    {
-        return Ok(());
-    }
-    util::run(&util::root(), "rustup", &["target", "add", THUMB])
-}
 
 /// Run everything CI runs.
 pub fn run(args: &[String]) -> Result<(), String> {
@@ -74,7 +60,6 @@ pub fn run(args: &[String]) -> Result<(), String> {
     util::run(&root, &cargo, &["test", "--workspace", "--doc"])?;
 
     step("ptsa-core for the Cortex-M4F, with and without defmt");
-    ensure_thumb_target()?;
     util::run(
         &root,
         &cargo,

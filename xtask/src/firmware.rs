@@ -24,7 +24,7 @@ use std::time::{Duration, Instant};
 
 use crate::util;
 
-/// Rust target of the firmware.
+/// Rust target of the firmware (listed in `rust-toolchain.toml`).
 pub const TARGET: &str = "thumbv7em-none-eabihf";
 /// Budget: instructions per tick of the whole interrupt handler, worst case.
 pub const MAX_TICK_INSTRUCTIONS: u32 = 150;
@@ -76,7 +76,6 @@ fn check(only: &[String]) -> Result<(), String> {
     let root = util::root();
     let fw = root.join("firmware");
     let t0 = Instant::now();
-    ensure_target()?;
     let qemu = ensure_qemu()?;
     eprintln!("firmware: using {qemu}");
 
@@ -184,21 +183,6 @@ impl Report {
         self.failed += 1;
         println!("FAIL {msg}");
     }
-}
-
-/// Add the Rust target with rustup if it is missing.
-fn ensure_target() -> Result<(), String> {
-    let out = Command::new("rustup")
-        .args(["target", "list", "--installed"])
-        .output()
-        .map_err(|e| format!("cannot run rustup to check for the {TARGET} target: {e}"))?;
-    if String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .any(|l| l.trim() == TARGET)
-    {
-        return Ok(());
-    }
-    util::run(&util::root(), "rustup", &["target", "add", TARGET])
 }
 
 /// Make sure `qemu-system-arm` runs: install Debian's package when missing and root,
