@@ -15,7 +15,18 @@ use std::path::Path;
 use ptsa_core::trace::{self, GoldenRunner};
 use ptsa_core::{Coef, Config, Polarity, Pole};
 
-use crate::util;
+use crate::util::{self, Error};
+
+/// `cargo xtask golden --help`.
+pub const USAGE: &str = "\
+golden [--overwrite | --c-twin]
+    Regenerate every golden vector in memory (inputs from deterministic generators,
+    outputs from ptsa-core) and fail if tests/golden/*.in or *.out differ from it.
+    --overwrite  re-record tests/golden/* instead (after an intended change), including
+                 the host closed-loop vector the simulator records
+    --c-twin     instead build the C twin (ptsa-core/c-twin, written from ARITHMETIC.md)
+                 with $CC (default cc) into cargo's target directory and check it against
+                 every vector";
 
 /// One golden case: a name, a description, and its input text.
 struct Case {
@@ -296,13 +307,18 @@ pub fn output_text(input: &str) -> Result<String, String> {
     Ok(out)
 }
 
-/// `cargo xtask golden [--overwrite]`.
-pub fn run(args: &[String]) -> Result<(), String> {
+/// `cargo xtask golden [--overwrite | --c-twin]`.
+pub fn run(args: &[String]) -> Result<(), Error> {
     let overwrite = match args {
         [] => false,
         [a] if a == "--overwrite" => true,
-        [a] if a == "--c-twin" => return check_c_twin(),
-        _ => return Err("usage: cargo xtask golden [--overwrite | --c-twin]".into()),
+        [a] if a == "--c-twin" => return Ok(check_c_twin()?),
+        [a] => return Err(Error::Usage(format!("unknown option `{a}`"))),
+        _ => {
+            return Err(Error::Usage(
+                "expected at most one of --overwrite, --c-twin".into(),
+            ));
+        }
     };
     let dir = util::root().join("tests").join("golden");
     fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -355,7 +371,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
         Err(format!(
             "golden files differ from what the code generates (re-record with `cargo xtask golden --overwrite` if the change is intended):\n  {}",
             stale.join("\n  ")
-        ))
+        )
+        .into())
     }
 }
 
@@ -366,12 +383,16 @@ fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
 }
 
 /// Build the independent C twin (`ptsa-core/c-twin/ptsa_twin.c`, written from ARITHMETIC.md)
-/// with the system C compiler and check it against every golden vector.
+/// with the system C compiler into `<cargo's target directory>/c-twin/` and check it against
+/// every golden vector.
 pub fn check_c_twin() -> Result<(), String> {
     use std::process::{Command, Stdio};
     let root = util::root();
     let src = root.join("ptsa-core").join("c-twin").join("ptsa_twin.c");
-    let exe = root.join("target").join("ptsa_twin");
+    let out_dir = util::target_dir()?.join("c-twin");
+    fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+    let exe = out_dir.join("ptsa_twin");
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     util::run(
         &root,
