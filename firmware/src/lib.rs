@@ -10,6 +10,9 @@
 //!   legs through [`ptsa_core::HBridge`], hand a closed gate to the bottom half
 //!   ([`on_gate`], which queues it).
 //!
+//! The images' `HardFault` handler, panic path and [`rt::exit`] are in [`rt`], each image
+//! choosing with [`image_runtime!`] whether it reports over defmt or semihosting.
+//!
 //! The production image `ptsa` and the QEMU test image `budget` have the same `TIM2`
 //! handler (`on_tick`, differing only in the address the pickoff word is read from), so what
 //! the test image measures is what runs on the board.
@@ -44,6 +47,7 @@ use ptsa_core::{Gate, GateFifo, HBridge, Ptsa, State};
 
 pub use stm32f4::stm32f405 as pac;
 
+pub mod rt;
 pub mod testimage;
 
 /// Tick (clock) frequency of the PTSA loop, in hertz.
