@@ -277,8 +277,7 @@ impl Ptsa {
     /// Index of the interval the next tick of `s` decides within the limit cycle, `0..N`.
     #[must_use]
     pub fn phase(&self, s: &State) -> u16 {
-        // mask < 4096.
-        #[allow(clippy::cast_possible_truncation)]
+        #[allow(clippy::cast_possible_truncation, reason = "mask < 4096")]
         let k = (s.ticks.0 & self.mask) as u16;
         k
     }
@@ -307,6 +306,10 @@ impl Ptsa {
     }
 
     /// Compensator: lead section plus integrator, summed and clamped. Returns `u`.
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: inlined into the firmware's TIM2 handler"
+    )]
     #[inline(always)]
     fn compensate(&self, s: &mut State, x: i16) -> i32 {
         let e = i32::from(x);
@@ -321,7 +324,10 @@ impl Ptsa {
             lead.abs() <= i64::from(LEAD_LIMIT),
             "lead bound violated: {lead}"
         );
-        #[allow(clippy::cast_possible_truncation)]
+        #[allow(
+            clippy::cast_possible_truncation,
+            reason = "|lead| <= 2^30, asserted above"
+        )]
         let lead = lead as i32;
         s.lead = lead;
         s.e_prev = e;
@@ -339,7 +345,7 @@ impl Ptsa {
             integ
         };
         // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, so no i32 overflow.
-        #[allow(clippy::cast_possible_truncation)]
+        #[allow(clippy::cast_possible_truncation, reason = "|integ >> 16| <= 2^24")]
         let sum = lead + (s.integ >> COEF_FRAC) as i32;
         if sum > RAMP_AMPLITUDE {
             s.sat.output = s.sat.output.wrapping_add(1);
@@ -353,6 +359,10 @@ impl Ptsa {
     }
 
     /// End of a limit cycle with `n` positive ticks: update the carry from the latched level.
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: inlined into the firmware's TIM2 handler"
+    )]
     #[inline(always)]
     fn close_cycle(&self, s: &mut State, n: u16) -> u16 {
         if self.config.noise_shaping {
@@ -369,6 +379,10 @@ impl Ptsa {
     }
 
     /// After `ticks` has advanced: the gate's counts if this tick closed it.
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: inlined into the firmware's TIM2 handler"
+    )]
     #[inline(always)]
     fn close_gate(&self, s: &mut State) -> Option<Gate> {
         if (s.ticks - s.gate_open).0 != self.config.gate_ticks {
@@ -389,6 +403,10 @@ impl Ptsa {
     /// The order of operations is ARITHMETIC.md's "Tick order"; it never panics and never
     /// overflows for any `x` and any valid configuration.
     #[inline]
+    #[allow(
+        clippy::many_single_char_names,
+        reason = "ARITHMETIC.md's notation: s, x, u, k, v"
+    )]
     pub fn tick(&self, s: &mut State, x: i16) -> Tick {
         let u = self.compensate(s, x);
         let k = self.phase(s);
@@ -443,6 +461,10 @@ impl Ptsa {
     /// # Panics
     /// In builds with debug assertions, if `input.len() != out.len()`. Without them the
     /// loop runs over the shorter of the two and leaves the rest of `out` untouched.
+    #[allow(
+        clippy::many_single_char_names,
+        reason = "ARITHMETIC.md's notation: s, x, u, k, v"
+    )]
     pub fn process_block(&self, s: &mut State, input: &[i16], out: &mut [Tick]) {
         debug_assert_eq!(
             input.len(),
