@@ -27,10 +27,10 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     while let Some(a) = it.next() {
         match a.as_str() {
             "--sets" => {
-                sets = it
-                    .next()
-                    .ok_or_else(|| Error::Usage("--sets needs a number".into()))?
-                    .clone();
+                sets.clone_from(
+                    it.next()
+                        .ok_or_else(|| Error::Usage("--sets needs a number".into()))?,
+                );
                 if sets.parse::<usize>().map_or(true, |n| n == 0) {
                     return Err(Error::Usage(format!(
                         "--sets {sets}: expected a whole number > 0"
