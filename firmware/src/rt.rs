@@ -22,7 +22,7 @@
 
 pub use cortex_m_rt::{ExceptionFrame, exception};
 
-/// Exit status of an image stopped by a `HardFault` (EX_SOFTWARE).
+/// Exit status of an image stopped by a `HardFault` (`EX_SOFTWARE` of sysexits.h).
 pub const HARD_FAULT_STATUS: i32 = 70;
 /// Exit status of a test image after a panic (as Rust's own).
 pub const PANIC_STATUS: i32 = 101;
