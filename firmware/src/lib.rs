@@ -10,6 +10,9 @@
 //!   legs through [`ptsa_core::HBridge`], hand a closed gate to the bottom half
 //!   ([`on_gate`], which queues it).
 //!
+//! The images' `HardFault` handler, panic path and [`rt::exit`] are in [`rt`], each image
+//! choosing with [`image_runtime!`] whether it reports over defmt or semihosting.
+//!
 //! The production image `ptsa` and the QEMU test image `budget` have the same `TIM2`
 //! handler (`on_tick`, differing only in the address the pickoff word is read from), so what
 //! the test image measures is what runs on the board.
@@ -18,7 +21,7 @@
 //!
 //! | signal | pin | detail |
 //! |---|---|---|
-//! | pickoff | PA1 = ADC1 channel 1 | 12 bit, left-aligned; 0 V = code −32768, mid-scale (V_REF/2) = 0, V_REF = +32752 (steps of 16 LSB of the `i16` sample) |
+//! | pickoff | PA1 = ADC1 channel 1 | 12 bit, left-aligned; 0 V = code −32768, mid-scale (`V_REF`/2) = 0, `V_REF` = +32752 (steps of 16 LSB of the `i16` sample) |
 //! | H-bridge leg A | PD12 (green LED on the STM32F4DISCOVERY) | high while the polarity is `Positive` |
 //! | H-bridge leg B | PD14 (red LED on the STM32F4DISCOVERY) | high while the polarity is `Negative` |
 //!
@@ -44,6 +47,7 @@ use ptsa_core::{Gate, GateFifo, HBridge, Ptsa, State};
 
 pub use stm32f4::stm32f405 as pac;
 
+pub mod rt;
 pub mod testimage;
 
 /// Tick (clock) frequency of the PTSA loop, in hertz.
@@ -89,12 +93,20 @@ impl<const PIN: u8> ErrorType for Leg<PIN> {
 }
 
 impl<const PIN: u8> OutputPin for Leg<PIN> {
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: a pin write inside the TIM2 handler"
+    )]
     #[inline(always)]
     fn set_low(&mut self) -> Result<(), Self::Error> {
         self.port.bsrr().write(|w| w.br(PIN).set_bit());
         Ok(())
     }
 
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: a pin write inside the TIM2 handler"
+    )]
     #[inline(always)]
     fn set_high(&mut self) -> Result<(), Self::Error> {
         self.port.bsrr().write(|w| w.bs(PIN).set_bit());
@@ -228,6 +240,10 @@ impl TickContext {
 }
 
 /// Read the stopwatch (TIM5 counter).
+#[allow(
+    clippy::inline_always,
+    reason = "one load, so the measurement bracket counts no call"
+)]
 #[inline(always)]
 #[must_use]
 pub fn stopwatch(tim5: &pac::TIM5) -> u32 {
@@ -373,6 +389,10 @@ pub const GATE_IRQ: pac::Interrupt = pac::Interrupt::EXTI0;
 ///
 /// With `INJECT = true` (test images only) the pickoff word comes from [`INJECTED`] instead
 /// of the ADC's data register; nothing else differs.
+#[allow(
+    clippy::inline_always,
+    reason = "the whole tick inlined into each image's TIM2 handler"
+)]
 #[inline(always)]
 pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
     let Some(c) = ctx.as_mut() else {
@@ -396,6 +416,7 @@ pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
 }
 
 /// Hand a closed gate to the bottom half and pend it.
+#[allow(clippy::inline_always, reason = "tick path: inside the TIM2 handler")]
 #[inline(always)]
 fn close_gate(g: Gate) {
     if CLOSED_FULL.load(Ordering::Relaxed) {

@@ -13,13 +13,14 @@ const TICKS: usize = 64_000;
 fn samples() -> Vec<i16> {
     // Deterministic bell-shaped noise around a triangle, like a pickoff in closed loop.
     let mut x: u32 = 0x1234_5678;
-    (0..TICKS)
+    (0..u16::try_from(TICKS).expect("TICKS < 2^16"))
         .map(|i| {
             x ^= x << 13;
             x ^= x >> 17;
             x ^= x << 5;
-            let tri = ((i % 64) as i32 - 32).abs() * 60 - 960;
-            (tri + (x >> 24) as i32 - 128) as i16
+            let tri = (i32::from(i % 64) - 32).abs() * 60 - 960;
+            let noise = i32::try_from(x >> 24).expect("8 bits");
+            i16::try_from(tri + noise - 128).expect("within ±1100")
         })
         .collect()
 }
@@ -63,7 +64,11 @@ fn bench(c: &mut Criterion) {
             let mut pol = Polarity::Positive;
             for _ in 0..TICKS {
                 theta += 1_000_000 - i64::from(pol.sign()) * 4_161_536;
-                let x = (theta >> 16).clamp(-32_768, 32_767) as i16;
+                let x = i16::try_from(theta >> 16).unwrap_or(if theta < 0 {
+                    i16::MIN
+                } else {
+                    i16::MAX
+                });
                 pol = ptsa.tick(&mut s, black_box(x)).polarity;
             }
             black_box(theta)

@@ -5,6 +5,15 @@ use embedded_hal::digital::OutputPin;
 use crate::Polarity;
 
 /// Error from one of the two legs.
+///
+/// It displays the failing leg and the pin's own error (by its `Debug` form, since
+/// embedded-hal's pin errors need not implement `Display`):
+///
+/// ```
+/// use ptsa_core::BridgeError;
+/// let e: BridgeError<u8, ()> = BridgeError::LegA(3);
+/// assert_eq!(e.to_string(), "H-bridge leg A: pin error 3");
+/// ```
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub enum BridgeError<A, B> {
@@ -13,6 +22,17 @@ pub enum BridgeError<A, B> {
     /// Leg B's pin failed.
     LegB(B),
 }
+
+impl<A: core::fmt::Debug, B: core::fmt::Debug> core::fmt::Display for BridgeError<A, B> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::LegA(e) => write!(f, "H-bridge leg A: pin error {e:?}"),
+            Self::LegB(e) => write!(f, "H-bridge leg B: pin error {e:?}"),
+        }
+    }
+}
+
+impl<A: core::fmt::Debug, B: core::fmt::Debug> core::error::Error for BridgeError<A, B> {}
 
 /// The torquer's H-bridge (the PTSA's four-transistor switch), driven as two legs.
 ///

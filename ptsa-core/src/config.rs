@@ -41,8 +41,12 @@ pub struct Config {
 }
 
 /// Why a [`Config`] was refused.
+///
+/// Non-exhaustive: a later version may refuse a configuration for a new reason, so a
+/// `match` on it needs a wildcard arm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
+#[non_exhaustive]
 pub enum ConfigError {
     /// `ticks_per_cycle` is not a power of two in `2..=4096`.
     TicksPerCycle(u16),

@@ -31,6 +31,45 @@ impl Polarity {
     }
 }
 
+impl From<bool> for Polarity {
+    /// `true` is [`Polarity::Positive`], `false` [`Polarity::Negative`] (as embedded-hal's
+    /// `PinState` maps `true` to `High`).
+    ///
+    /// ```
+    /// use ptsa_core::Polarity;
+    /// assert_eq!(Polarity::from(true), Polarity::Positive);
+    /// assert_eq!(Polarity::from(false), Polarity::Negative);
+    /// let positive_ticks = [true, true, false];
+    /// assert_eq!(Polarity::from(positive_ticks[2]).sign(), -1);
+    /// ```
+    fn from(positive: bool) -> Self {
+        if positive {
+            Self::Positive
+        } else {
+            Self::Negative
+        }
+    }
+}
+
+impl core::ops::Not for Polarity {
+    type Output = Self;
+
+    /// The opposite polarity.
+    ///
+    /// ```
+    /// use ptsa_core::Polarity;
+    /// assert_eq!(!Polarity::Positive, Polarity::Negative);
+    /// assert_eq!(!Polarity::Negative, Polarity::Positive);
+    /// assert_eq!((!Polarity::Positive).sign(), -Polarity::Positive.sign());
+    /// ```
+    fn not(self) -> Self {
+        match self {
+            Self::Positive => Self::Negative,
+            Self::Negative => Self::Positive,
+        }
+    }
+}
+
 /// Saturation events, each counted once per tick in which the clamp acted. Like the
 /// free-running counts they wrap modulo 2^32; read them as differences.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -238,8 +277,7 @@ impl Ptsa {
     /// Index of the interval the next tick of `s` decides within the limit cycle, `0..N`.
     #[must_use]
     pub fn phase(&self, s: &State) -> u16 {
-        // mask < 4096.
-        #[allow(clippy::cast_possible_truncation)]
+        #[allow(clippy::cast_possible_truncation, reason = "mask < 4096")]
         let k = (s.ticks.0 & self.mask) as u16;
         k
     }
@@ -268,6 +306,10 @@ impl Ptsa {
     }
 
     /// Compensator: lead section plus integrator, summed and clamped. Returns `u`.
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: inlined into the firmware's TIM2 handler"
+    )]
     #[inline(always)]
     fn compensate(&self, s: &mut State, x: i16) -> i32 {
         let e = i32::from(x);
@@ -282,7 +324,10 @@ impl Ptsa {
             lead.abs() <= i64::from(LEAD_LIMIT),
             "lead bound violated: {lead}"
         );
-        #[allow(clippy::cast_possible_truncation)]
+        #[allow(
+            clippy::cast_possible_truncation,
+            reason = "|lead| <= 2^30, asserted above"
+        )]
         let lead = lead as i32;
         s.lead = lead;
         s.e_prev = e;
@@ -300,7 +345,7 @@ impl Ptsa {
             integ
         };
         // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, so no i32 overflow.
-        #[allow(clippy::cast_possible_truncation)]
+        #[allow(clippy::cast_possible_truncation, reason = "|integ >> 16| <= 2^24")]
         let sum = lead + (s.integ >> COEF_FRAC) as i32;
         if sum > RAMP_AMPLITUDE {
             s.sat.output = s.sat.output.wrapping_add(1);
@@ -314,6 +359,10 @@ impl Ptsa {
     }
 
     /// End of a limit cycle with `n` positive ticks: update the carry from the latched level.
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: inlined into the firmware's TIM2 handler"
+    )]
     #[inline(always)]
     fn close_cycle(&self, s: &mut State, n: u16) -> u16 {
         if self.config.noise_shaping {
@@ -330,6 +379,10 @@ impl Ptsa {
     }
 
     /// After `ticks` has advanced: the gate's counts if this tick closed it.
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: inlined into the firmware's TIM2 handler"
+    )]
     #[inline(always)]
     fn close_gate(&self, s: &mut State) -> Option<Gate> {
         if (s.ticks - s.gate_open).0 != self.config.gate_ticks {
@@ -350,6 +403,10 @@ impl Ptsa {
     /// The order of operations is ARITHMETIC.md's "Tick order"; it never panics and never
     /// overflows for any `x` and any valid configuration.
     #[inline]
+    #[allow(
+        clippy::many_single_char_names,
+        reason = "ARITHMETIC.md's notation: s, x, u, k, v"
+    )]
     pub fn tick(&self, s: &mut State, x: i16) -> Tick {
         let u = self.compensate(s, x);
         let k = self.phase(s);
@@ -384,13 +441,36 @@ impl Ptsa {
         }
     }
 
-    /// Block form: run `input` through the loop and write one [`Tick`] per sample to `out`
-    /// (`out.len()` must be at least `input.len()`; extra entries are left untouched).
+    /// Block form: run `input` through the loop and write one [`Tick`] per sample to `out`,
+    /// which must have the same length.
     ///
     /// A second formulation of [`Ptsa::tick`], kept bit-identical by test: it steps the ramp
     /// by `−2h` instead of computing `h·(N − 1 − 2k)`, and counts the cycle's positive ticks
     /// one by one instead of taking them from the switching index.
+    ///
+    /// ```
+    /// use ptsa_core::{Config, Polarity, Tick};
+    /// let ptsa = Config::DEFAULT.build().unwrap();
+    /// let mut state = ptsa.initial_state();
+    /// let input = [0i16; 64];
+    /// let mut out = [Tick { polarity: Polarity::Negative, cycle_pulses: None, gate: None }; 64];
+    /// ptsa.process_block(&mut state, &input, &mut out);
+    /// assert_eq!(out[63].cycle_pulses, Some(32));
+    /// ```
+    ///
+    /// # Panics
+    /// In builds with debug assertions, if `input.len() != out.len()`. Without them the
+    /// loop runs over the shorter of the two and leaves the rest of `out` untouched.
+    #[allow(
+        clippy::many_single_char_names,
+        reason = "ARITHMETIC.md's notation: s, x, u, k, v"
+    )]
     pub fn process_block(&self, s: &mut State, input: &[i16], out: &mut [Tick]) {
+        debug_assert_eq!(
+            input.len(),
+            out.len(),
+            "process_block: input and output slices differ in length"
+        );
         let mut k = self.phase(s);
         let mut ramp = self.ramp(k);
         // Positive ticks of the current cycle so far.

@@ -27,6 +27,14 @@ fn cycle_counts(p: &Ptsa, x: i16, cycles: usize) -> Vec<u16> {
         .collect()
 }
 
+/// Full-torque rate of the toy pendulum, 2^-16 LSB per tick (63.5 LSB).
+const STEP: i32 = 4_161_536;
+
+/// The pickoff sample of the toy pendulum's angle `theta` (2^-16 LSB), saturated to `i16`.
+fn pickoff(theta: i64) -> i16 {
+    i16::try_from(theta >> 16).unwrap_or(if theta < 0 { i16::MIN } else { i16::MAX })
+}
+
 fn ticks_per_cycle() -> impl Strategy<Value = u16> {
     (1u32..=12).prop_map(|k| 1u16 << k)
 }
@@ -82,18 +90,20 @@ proptest! {
     /// within 1/(N·M) of the ideal linear duty (1 + u/R)/2.
     #[test]
     fn noise_shaped_mean_duty_is_exact_to_one_tick(
-        n in ticks_per_cycle(), frac in -0.999f64..0.999, m in 1usize..200
+        n in ticks_per_cycle(), permille in -999i32..999, m in 1u16..200
     ) {
         let p = open_loop(n, 1 << 10, true);
         let h = RAMP_AMPLITUDE / i32::from(n);
         // A sample whose level u = 1024·x stays inside [−R + h, R − h].
-        let x = (frac * f64::from(RAMP_AMPLITUDE - h) / 1024.0) as i16;
+        let x = i16::try_from(permille * ((RAMP_AMPLITUDE - h) / 1024) / 1000)
+            .expect("|x| < 2^14");
         let u = 1024.0 * f64::from(x);
-        let counts = cycle_counts(&p, x, m);
-        let mean = counts.iter().map(|&c| f64::from(c)).sum::<f64>() / (m as f64 * f64::from(n));
-        let ideal = (1.0 + u / f64::from(RAMP_AMPLITUDE)) / 2.0;
+        let counts = cycle_counts(&p, x, usize::from(m));
+        let mean =
+            counts.iter().map(|&c| f64::from(c)).sum::<f64>() / (f64::from(m) * f64::from(n));
+        let ideal = f64::midpoint(1.0, u / f64::from(RAMP_AMPLITUDE));
         prop_assert!(
-            (mean - ideal).abs() <= 1.0 / (f64::from(n) * m as f64),
+            (mean - ideal).abs() <= 1.0 / (f64::from(n) * f64::from(m)),
             "mean {mean} ideal {ideal} (N={n}, M={m})"
         );
     }
@@ -107,19 +117,21 @@ proptest! {
     /// worst over a fine grid of inputs), so each gate is within 2 pulses of ideal, and the
     /// error does not accumulate: the total over all gates is within 2 pulses as well.
     #[test]
-    fn charge_balance_with_an_integrating_plant(a in -0.95f64..0.95) {
+    fn charge_balance_with_an_integrating_plant(
+        accel in -STEP / 20 * 19..STEP / 20 * 19
+    ) {
         let gate = 6400u32; // 100 limit cycles
         let p = Config { gate_ticks: gate, ..Config::DEFAULT }.build().unwrap();
         let mut s = p.initial_state();
-        let step: i64 = 4_161_536; // full-torque rate, 2^-16 LSB per tick (63.5 LSB)
-        let accel = (a * step as f64).round() as i64;
+        let a = f64::from(accel) / f64::from(STEP); // ±0.95 of full torque
+        let (step, accel) = (i64::from(STEP), i64::from(accel));
         let mut theta = 0i64;
         let mut pol = Polarity::Positive;
         let mut gates = Vec::new();
         let mut theta_at_gate = Vec::new();
         for _ in 0..gate * 8 {
             theta += accel - i64::from(pol.sign()) * step;
-            let x = (theta >> 16).clamp(-32_768, 32_767) as i16;
+            let x = pickoff(theta);
             let t = p.tick(&mut s, x);
             pol = t.polarity;
             if let Some(g) = t.gate {
@@ -127,7 +139,7 @@ proptest! {
                 theta_at_gate.push(theta);
             }
         }
-        let duty = (1.0 + accel as f64 / step as f64) / 2.0;
+        let duty = f64::midpoint(1.0, a);
         // Skip the first two gates (settling from rest).
         let (mut total, mut ideal_total) = (0.0, 0.0);
         for (i, g) in gates.iter().enumerate().skip(2) {
@@ -137,7 +149,9 @@ proptest! {
                 "input {a}: {} pulses, ideal {ideal}", g.pulses
             );
             // The exact charge identity of the toy plant (checks the counts are honest).
-            let stored = (theta_at_gate[i] - theta_at_gate[i - 1]) as f64 / (2.0 * step as f64);
+            let moved = i32::try_from(theta_at_gate[i] - theta_at_gate[i - 1])
+                .expect("θ moves by less than 2^31 over a gate");
+            let stored = f64::from(moved) / (2.0 * f64::from(STEP));
             prop_assert!((f64::from(g.pulses) - ideal + stored).abs() < 1e-6);
             total += f64::from(g.pulses);
             ideal_total += ideal;
@@ -191,6 +205,33 @@ proptest! {
         prop_assert_eq!(per_tick, block);
         prop_assert_eq!(s1.digest(), s2.digest());
         prop_assert_eq!(s1, s2);
+    }
+}
+
+/// The block form refuses slices of different lengths (debug assertions are on in tests).
+#[test]
+#[cfg(debug_assertions)]
+#[should_panic(expected = "slices differ in length")]
+fn block_form_refuses_unequal_slices() {
+    let p = Config::DEFAULT.build().unwrap();
+    let mut s = p.initial_state();
+    let tick = Tick {
+        polarity: Polarity::Positive,
+        cycle_pulses: None,
+        gate: None,
+    };
+    p.process_block(&mut s, &[0; 3], &mut [tick; 4]);
+}
+
+/// `From<bool>` and `!` agree with the polarity's sign.
+#[test]
+fn polarity_from_bool_and_not() {
+    for positive in [false, true] {
+        let p = Polarity::from(positive);
+        assert_eq!(p == Polarity::Positive, positive);
+        assert_eq!(!p, Polarity::from(!positive));
+        assert_eq!((!p).sign(), -p.sign());
+        assert_eq!(!!p, p);
     }
 }
 
@@ -315,6 +356,8 @@ fn bad_configurations_are_refused_not_panicked() {
             E::WrongSign => "WrongSign",
             E::LeadOverflow { .. } => "LeadOverflow",
             E::EmptyGate => "EmptyGate",
+            // `ConfigError` is non-exhaustive.
+            _ => "another error",
         };
         assert_eq!(got, want, "{c:?}");
         assert!(!e.to_string().is_empty());
@@ -350,7 +393,8 @@ fn lead_bound_is_the_impulse_response_l1_norm() {
             h *= a;
         }
         let estimate = 32_768.0 * l1 + 0.5 / (1.0 - a.abs());
-        let bound = c.lead_bound().unwrap() as f64;
+        let bound = c.lead_bound().unwrap();
+        let bound = f64::from(u32::try_from(bound).expect("these bounds are below 2^32"));
         assert!(bound >= estimate - 1e-6 * estimate, "{bound} < {estimate}");
         assert!(
             (bound - estimate).abs() / estimate < 1e-6,
@@ -365,8 +409,9 @@ fn lead_bound_is_the_impulse_response_l1_norm() {
 #[test]
 fn recovers_after_over_range() {
     let p = Config::DEFAULT.build().unwrap();
-    let step: i64 = 4_161_536;
-    for (over, after) in [(1.5, 0.3), (-1.5, 0.3), (1.5, -0.9), (-1.5, 0.9)] {
+    let step = i64::from(STEP);
+    // Accelerations in tenths of full torque.
+    for (over, after) in [(15, 3), (-15, 3), (15, -9), (-15, 9)] {
         let mut s = p.initial_state();
         let mut theta = 0i64;
         let mut pol = Polarity::Positive;
@@ -374,10 +419,10 @@ fn recovers_after_over_range() {
         let mut cycle = 0;
         for t in 0..64 * 400 {
             let a = if t < 64 * 200 { over } else { after };
-            theta += (a * step as f64) as i64 - i64::from(pol.sign()) * step;
+            theta += step * a / 10 - i64::from(pol.sign()) * step;
             // Mechanical stops at ±2 mrad = ±26 214 LSB.
             theta = theta.clamp(-26_214 << 16, 26_214 << 16);
-            let x = (theta >> 16) as i16;
+            let x = pickoff(theta);
             let tk = p.tick(&mut s, x);
             pol = tk.polarity;
             if tk.cycle_pulses.is_some() {
@@ -394,9 +439,13 @@ fn recovers_after_over_range() {
         );
         assert!(
             last_bad_cycle <= 50,
-            "{over} -> {after}: pickoff still out of band {last_bad_cycle} cycles after"
+            "{over}/10 -> {after}/10 of full torque: pickoff still out of band \
+             {last_bad_cycle} cycles after"
         );
-        println!("{over} -> {after}: back in band within {last_bad_cycle} limit cycles");
+        println!(
+            "{over}/10 -> {after}/10 of full torque: back in band within {last_bad_cycle} \
+             limit cycles"
+        );
     }
 }
 

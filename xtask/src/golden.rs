@@ -15,7 +15,18 @@ use std::path::Path;
 use ptsa_core::trace::{self, GoldenRunner};
 use ptsa_core::{Coef, Config, Polarity, Pole};
 
-use crate::util;
+use crate::util::{self, Error};
+
+/// `cargo xtask golden --help`.
+pub const USAGE: &str = "\
+golden [--overwrite | --c-twin]
+    Regenerate every golden vector in memory (inputs from deterministic generators,
+    outputs from ptsa-core) and fail if tests/golden/*.in or *.out differ from it.
+    --overwrite  re-record tests/golden/* instead (after an intended change), including
+                 the host closed-loop vector the simulator records
+    --c-twin     instead build the C twin (ptsa-core/c-twin, written from ARITHMETIC.md)
+                 with $CC (default cc) into cargo's target directory and check it against
+                 every vector";
 
 /// One golden case: a name, a description, and its input text.
 struct Case {
@@ -51,7 +62,9 @@ impl Rng {
         self.0.wrapping_mul(0x2545_f491_4f6c_dd1d)
     }
     fn i16(&mut self) -> i16 {
-        (self.next() >> 48) as u16 as i16
+        // The top 16 bits, as two's complement.
+        let [.., hi, top] = self.next().to_le_bytes();
+        i16::from_le_bytes([hi, top])
     }
     /// Sum of four uniform draws in `±span`: a bell-shaped integer noise.
     fn bell(&mut self, span: i32) -> i32 {
@@ -91,167 +104,204 @@ fn toy_loop(config: Config, n: usize, accel_at: impl Fn(usize) -> i64) -> Vec<i1
     let mut out = Vec::with_capacity(n);
     for t in 0..n {
         theta += accel_at(t) * STEP / 65_536 - i64::from(polarity.sign()) * STEP;
-        let x = (theta >> 16).clamp(i64::from(i16::MIN), i64::from(i16::MAX)) as i16;
+        let x = i16::try_from(theta >> 16).unwrap_or(if theta < 0 { i16::MIN } else { i16::MAX });
         out.push(x);
         polarity = ptsa.tick(&mut s, x).polarity;
     }
     out
 }
 
+fn case(name: &'static str, about: &'static str, config: Config, samples: Vec<i16>) -> Case {
+    Case {
+        name,
+        about,
+        config,
+        samples,
+    }
+}
+
+/// The low 16 bits of `x` as an `i16` (two's complement wrap-around, as the recorded
+/// vectors were made).
+fn low_16_bits(x: i32) -> i16 {
+    let [lo, hi, ..] = x.to_le_bytes();
+    i16::from_le_bytes([lo, hi])
+}
+
+/// Every case, in order. The generator `rng` is drawn from in this order too.
 fn cases() -> Vec<Case> {
     let mut rng = Rng(0x9497_4688_36e9_f7ca);
-    let mut v = Vec::new();
-    let mut case = |name, about, config, samples| {
-        v.push(Case {
-            name,
-            about,
-            config,
-            samples,
-        })
-    };
-    case(
-        "zero",
-        "null pickoff: crossing at mid-cycle, 32 of 64",
-        base(),
-        constant(0, cycles(40)),
-    );
-    case(
-        "small_pos",
-        "constant +25 LSB (open loop: the integrator ramps, the duty creeps up)",
-        base(),
-        constant(25, cycles(128)),
-    );
-    case(
-        "small_neg",
-        "constant -25 LSB",
-        base(),
-        constant(-25, cycles(128)),
-    );
-    case(
-        "full_scale_pos",
-        "constant +32767 LSB: beyond full scale, saturation",
-        base(),
-        constant(i16::MAX, cycles(20)),
-    );
-    case(
-        "full_scale_neg",
-        "constant -32768 LSB: beyond full scale, saturation",
-        base(),
-        constant(i16::MIN, cycles(20)),
-    );
+    let mut v = open_loop_cases();
+    v.extend(noise_cases(&mut rng));
+    v.extend(closed_loop_cases());
+    v.push(short_cycle_case(&mut rng));
+    v
+}
+
+/// Constants, steps, a ramp and square waves, in open loop.
+fn open_loop_cases() -> Vec<Case> {
     let steps: Vec<i16> = [0i16, 1500, -1500, 200, -32768, 0]
         .iter()
         .flat_map(|&x| constant(x, cycles(8) + 13))
         .collect();
-    case(
-        "steps",
-        "steps of several sizes, not aligned to cycles",
-        base(),
-        steps,
-    );
-    let n = 1 << 14;
+    let n: i32 = 1 << 14;
     let ramp: Vec<i16> = (0..n)
-        .map(|i| i * 65_535 / (n - 1) - 32_768)
-        .map(|x| x as i16)
+        .map(|i| i16::try_from(i * 65_535 / (n - 1) - 32_768).expect("the i16 range"))
         .collect();
-    case(
-        "slow_ramp",
-        "slow ramp across the whole i16 range",
-        base(),
-        ramp,
-    );
-    case(
-        "square_64",
-        "square wave at the limit-cycle frequency (64 ticks)",
-        base(),
-        square(64, 1000, cycles(32)),
-    );
-    case(
-        "square_62",
-        "square wave just above the limit-cycle frequency",
-        base(),
-        square(62, 1000, cycles(32)),
-    );
-    case(
-        "square_66",
-        "square wave just below the limit-cycle frequency",
-        base(),
-        square(66, 1000, cycles(32)),
-    );
-    case(
-        "square_128",
-        "square wave at half the limit-cycle frequency",
-        base(),
-        square(128, 1000, cycles(32)),
-    );
-    case(
-        "square_192",
-        "square wave at a third of the limit-cycle frequency",
-        base(),
-        square(192, 1000, cycles(32)),
-    );
-    case(
-        "square_32",
-        "square wave at twice the limit-cycle frequency",
-        base(),
-        square(32, 1000, cycles(32)),
-    );
-    let noise: Vec<i16> = (0..cycles(64)).map(|_| rng.i16()).collect();
-    case(
-        "noise_full",
-        "uniform pseudo-random i16 (seeded xorshift64*)",
-        base(),
-        noise,
-    );
-    let noise: Vec<i16> = (0..cycles(64)).map(|_| rng.bell(800) as i16).collect();
-    case(
-        "noise_small",
-        "bell-shaped pseudo-random noise of about ±800 LSB",
-        base(),
-        noise,
-    );
+    vec![
+        case(
+            "zero",
+            "null pickoff: crossing at mid-cycle, 32 of 64",
+            base(),
+            constant(0, cycles(40)),
+        ),
+        case(
+            "small_pos",
+            "constant +25 LSB (open loop: the integrator ramps, the duty creeps up)",
+            base(),
+            constant(25, cycles(128)),
+        ),
+        case(
+            "small_neg",
+            "constant -25 LSB",
+            base(),
+            constant(-25, cycles(128)),
+        ),
+        case(
+            "full_scale_pos",
+            "constant +32767 LSB: beyond full scale, saturation",
+            base(),
+            constant(i16::MAX, cycles(20)),
+        ),
+        case(
+            "full_scale_neg",
+            "constant -32768 LSB: beyond full scale, saturation",
+            base(),
+            constant(i16::MIN, cycles(20)),
+        ),
+        case(
+            "steps",
+            "steps of several sizes, not aligned to cycles",
+            base(),
+            steps,
+        ),
+        case(
+            "slow_ramp",
+            "slow ramp across the whole i16 range",
+            base(),
+            ramp,
+        ),
+        case(
+            "square_64",
+            "square wave at the limit-cycle frequency (64 ticks)",
+            base(),
+            square(64, 1000, cycles(32)),
+        ),
+        case(
+            "square_62",
+            "square wave just above the limit-cycle frequency",
+            base(),
+            square(62, 1000, cycles(32)),
+        ),
+        case(
+            "square_66",
+            "square wave just below the limit-cycle frequency",
+            base(),
+            square(66, 1000, cycles(32)),
+        ),
+        case(
+            "square_128",
+            "square wave at half the limit-cycle frequency",
+            base(),
+            square(128, 1000, cycles(32)),
+        ),
+        case(
+            "square_192",
+            "square wave at a third of the limit-cycle frequency",
+            base(),
+            square(192, 1000, cycles(32)),
+        ),
+        case(
+            "square_32",
+            "square wave at twice the limit-cycle frequency",
+            base(),
+            square(32, 1000, cycles(32)),
+        ),
+    ]
+}
+
+/// Pseudo-random pickoff noise, uniform and bell-shaped.
+fn noise_cases(rng: &mut Rng) -> Vec<Case> {
+    let uniform: Vec<i16> = (0..cycles(64)).map(|_| rng.i16()).collect();
+    let bell: Vec<i16> = (0..cycles(64))
+        .map(|_| i16::try_from(rng.bell(800)).expect("|bell(800)| <= 1600"))
+        .collect();
+    vec![
+        case(
+            "noise_full",
+            "uniform pseudo-random i16 (seeded xorshift64*)",
+            base(),
+            uniform,
+        ),
+        case(
+            "noise_small",
+            "bell-shaped pseudo-random noise of about ±800 LSB",
+            base(),
+            bell,
+        ),
+    ]
+}
+
+/// The toy pendulum in closed loop, and the noise-shaping quantizer.
+fn closed_loop_cases() -> Vec<Case> {
     let recover = toy_loop(base(), cycles(200), |t| match t {
         t if t < cycles(50) => 19_661,   // +0.3 FS
         t if t < cycles(100) => 98_304,  // 1.5 FS: over range, saturates
         t if t < cycles(110) => -98_304, // -1.5 FS
         _ => -13_107,                    // -0.2 FS: recovery
     });
-    case(
-        "saturate_recover",
-        "closed loop (toy pendulum): +0.3, +1.5, -1.5, then -0.2 of full scale",
-        base(),
-        recover,
-    );
     let closed = toy_loop(base(), cycles(150), |t| {
-        40_000 + ((t as i64 * 37) % 2_000) - 1_000
+        40_000 + i64::try_from(t * 37 % 2_000).expect("below 2000") - 1_000
     });
-    case(
-        "closed_loop_toy",
-        "closed loop (toy pendulum) at +0.61 of full scale with a sawtooth disturbance",
-        base(),
-        closed,
-    );
     let shaping = Config {
         noise_shaping: true,
         ..base()
     };
-    case(
-        "shaping_ramp",
-        "noise-shaping quantizer over a slow ramp",
-        shaping,
-        (0..cycles(128))
-            .map(|i| (i as i32 * 4 - 16_384) as i16)
-            .collect(),
-    );
-    let closed = toy_loop(shaping, cycles(100), |t| {
+    let shaping_ramp: Vec<i16> = (0..cycles(128))
+        .map(|i| i16::try_from(i * 4).expect("below 2^15") - 16_384)
+        .collect();
+    let shaping_closed = toy_loop(shaping, cycles(100), |t| {
         if t < cycles(50) { 7_000 } else { -52_000 }
     });
-    case(
-        "shaping_closed_loop",
-        "noise-shaping quantizer in the toy closed loop",
-        shaping,
-        closed,
-    );
+    vec![
+        case(
+            "saturate_recover",
+            "closed loop (toy pendulum): +0.3, +1.5, -1.5, then -0.2 of full scale",
+            base(),
+            recover,
+        ),
+        case(
+            "closed_loop_toy",
+            "closed loop (toy pendulum) at +0.61 of full scale with a sawtooth disturbance",
+            base(),
+            closed,
+        ),
+        case(
+            "shaping_ramp",
+            "noise-shaping quantizer over a slow ramp",
+            shaping,
+            shaping_ramp,
+        ),
+        case(
+            "shaping_closed_loop",
+            "noise-shaping quantizer in the toy closed loop",
+            shaping,
+            shaping_closed,
+        ),
+    ]
+}
+
+/// A short limit cycle with a negative lead pole and loud noise (which wraps in `i16`).
+fn short_cycle_case(rng: &mut Rng) -> Case {
     let short = Config {
         ticks_per_cycle: 8,
         gate_ticks: 1000,
@@ -261,14 +311,13 @@ fn cases() -> Vec<Case> {
         ki: Coef::from_num(0.25),
         noise_shaping: true,
     };
-    let noise: Vec<i16> = (0..4000).map(|_| rng.bell(20_000) as i16).collect();
+    let noise: Vec<i16> = (0..4000).map(|_| low_16_bits(rng.bell(20_000))).collect();
     case(
         "short_cycle",
         "8 ticks per cycle, negative lead pole, gate not a multiple of the cycle",
         short,
         noise,
-    );
-    v
+    )
 }
 
 fn input_text(c: &Case) -> String {
@@ -296,13 +345,18 @@ pub fn output_text(input: &str) -> Result<String, String> {
     Ok(out)
 }
 
-/// `cargo xtask golden [--overwrite]`.
-pub fn run(args: &[String]) -> Result<(), String> {
+/// `cargo xtask golden [--overwrite | --c-twin]`.
+pub fn run(args: &[String]) -> Result<(), Error> {
     let overwrite = match args {
         [] => false,
         [a] if a == "--overwrite" => true,
-        [a] if a == "--c-twin" => return check_c_twin(),
-        _ => return Err("usage: cargo xtask golden [--overwrite | --c-twin]".into()),
+        [a] if a == "--c-twin" => return Ok(check_c_twin()?),
+        [a] => return Err(Error::Usage(format!("unknown option `{a}`"))),
+        _ => {
+            return Err(Error::Usage(
+                "expected at most one of --overwrite, --c-twin".into(),
+            ));
+        }
     };
     let dir = util::root().join("tests").join("golden");
     fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
@@ -355,7 +409,8 @@ pub fn run(args: &[String]) -> Result<(), String> {
         Err(format!(
             "golden files differ from what the code generates (re-record with `cargo xtask golden --overwrite` if the change is intended):\n  {}",
             stale.join("\n  ")
-        ))
+        )
+        .into())
     }
 }
 
@@ -366,12 +421,16 @@ fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
 }
 
 /// Build the independent C twin (`ptsa-core/c-twin/ptsa_twin.c`, written from ARITHMETIC.md)
-/// with the system C compiler and check it against every golden vector.
+/// with the system C compiler into `<cargo's target directory>/c-twin/` and check it against
+/// every golden vector.
 pub fn check_c_twin() -> Result<(), String> {
     use std::process::{Command, Stdio};
     let root = util::root();
     let src = root.join("ptsa-core").join("c-twin").join("ptsa_twin.c");
-    let exe = root.join("target").join("ptsa_twin");
+    let out_dir = util::target_dir()?.join("c-twin");
+    fs::create_dir_all(&out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+    let exe = out_dir.join("ptsa_twin");
     let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
     util::run(
         &root,

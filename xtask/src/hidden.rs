@@ -5,10 +5,21 @@
 //! contract's rates are not met. It runs the ignored test `hidden_effects_campaign` of
 //! `tests/hidden_effects.rs` (the test profile is optimised).
 
-use crate::util;
+use crate::util::{self, Error};
+
+/// `cargo xtask hidden --help`.
+pub const USAGE: &str = "\
+hidden [--sets N] [--seed S] [--analytic]
+    The full hidden-effect campaign of the discovery pipeline (the ignored test
+    hidden_effects_campaign): N sets per candidate effect and N null sets, generated,
+    analysed blind; prints every set and the rates, fails if the contract's are not met.
+    --sets N     sets per candidate and null sets, a whole number > 0 (default 50)
+    --seed S     seed of the campaign, a whole number (default 4242)
+    --analytic   generate with the quasi-static model instead of the closed-loop
+                 simulator (faster, no loop dynamics)";
 
 /// `cargo xtask hidden`.
-pub fn run(args: &[String]) -> Result<(), String> {
+pub fn run(args: &[String]) -> Result<(), Error> {
     let mut sets = "50".to_string();
     let mut seed: Option<String> = None;
     let mut analytic = false;
@@ -16,23 +27,27 @@ pub fn run(args: &[String]) -> Result<(), String> {
     while let Some(a) = it.next() {
         match a.as_str() {
             "--sets" => {
-                sets = it.next().ok_or("--sets needs a number")?.clone();
+                sets.clone_from(
+                    it.next()
+                        .ok_or_else(|| Error::Usage("--sets needs a number".into()))?,
+                );
                 if sets.parse::<usize>().map_or(true, |n| n == 0) {
-                    return Err(format!("--sets {sets}: expected a whole number > 0"));
+                    return Err(Error::Usage(format!(
+                        "--sets {sets}: expected a whole number > 0"
+                    )));
                 }
             }
             "--seed" => {
-                let s = it.next().ok_or("--seed needs a number")?.clone();
+                let s = it
+                    .next()
+                    .ok_or_else(|| Error::Usage("--seed needs a number".into()))?
+                    .clone();
                 s.parse::<u64>()
-                    .map_err(|_| format!("--seed {s}: expected a whole number"))?;
+                    .map_err(|_| Error::Usage(format!("--seed {s}: expected a whole number")))?;
                 seed = Some(s);
             }
             "--analytic" => analytic = true,
-            other => {
-                return Err(format!(
-                    "unknown option `{other}`; expected --sets N, --seed S, --analytic"
-                ));
-            }
+            other => return Err(Error::Usage(format!("unknown option `{other}`"))),
         }
     }
     let root = util::root();
@@ -65,8 +80,6 @@ pub fn run(args: &[String]) -> Result<(), String> {
     if status.success() {
         Ok(())
     } else {
-        Err(format!(
-            "the campaign failed ({status}); see the rates printed above"
-        ))
+        Err(format!("the campaign failed ({status}); see the rates printed above").into())
     }
 }

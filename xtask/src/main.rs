@@ -1,14 +1,23 @@
-//! Project automation. `cargo xtask <command>`:
+//! Project automation. `cargo xtask <command> [options]`; `cargo xtask help` (or `--help`,
+//! `-h`) prints what follows, `cargo xtask <command> --help` one command's part:
 //!
-//! * `ci` — everything CI runs: format and lint checks, rustdoc, host tests, the
-//!   thumbv7em cross build of ptsa-core, and the firmware under QEMU.
-//! * `golden [--overwrite]` — regenerate `tests/golden/*.in` and check (or, with
-//!   `--overwrite`, re-record) `tests/golden/*.out`.
-//! * `firmware [--overwrite]` — build the firmware and run the golden vectors and budgets on
-//!   the emulated Cortex-M4.
-//! * `hidden [--sets N]` — the full hidden-effect campaign of the discovery pipeline.
+//! * `ci [--no-firmware]` — everything CI runs: format and lint checks, rustdoc, the golden
+//!   vectors, the C twin (also once in a fresh `CARGO_TARGET_DIR`), host tests, the
+//!   thumbv7em cross build of ptsa-core, and (unless `--no-firmware`) the firmware under QEMU.
+//! * `golden [--overwrite | --c-twin]` — regenerate `tests/golden/*` and check that the files
+//!   are what the generator makes; `--overwrite` re-records them, `--c-twin` instead checks
+//!   the C twin against every vector.
+//! * `firmware [--vector NAME]...` — build the firmware and run the golden vectors (all, or
+//!   the named ones) and the budgets on the emulated Cortex-M4.
+//! * `hidden [--sets N] [--seed S] [--analytic]` — the full hidden-effect campaign of the
+//!   discovery pipeline.
+//!
+//! Exit status: 0 on success (and for help), 1 when a check fails, 2 for an unknown command
+//! or option (after printing the usage).
 
 use std::process::ExitCode;
+
+use util::Error;
 
 mod ci;
 mod firmware;
@@ -16,24 +25,91 @@ mod golden;
 mod hidden;
 mod util;
 
+/// The commands: name and usage (first line the synopsis, then what it does).
+const COMMANDS: [(&str, &str); 4] = [
+    ("ci", ci::USAGE),
+    ("golden", golden::USAGE),
+    ("firmware", firmware::USAGE),
+    ("hidden", hidden::USAGE),
+];
+
+/// Top-level usage: every command with its options.
+fn usage() -> String {
+    let mut s = String::from(
+        "usage: cargo xtask <command> [options]\n\
+         \x20      cargo xtask help [<command>]   (also --help, -h; <command> --help)\n\n\
+         commands:\n",
+    );
+    for (_, text) in COMMANDS {
+        for line in text.lines() {
+            s.push_str("  ");
+            s.push_str(line);
+            s.push('\n');
+        }
+        s.push('\n');
+    }
+    s.push_str("exit status: 0 passed, 1 a check failed, 2 unknown command or option\n");
+    s
+}
+
+fn is_help(arg: &str) -> bool {
+    matches!(arg, "--help" | "-h")
+}
+
+fn command_usage(cmd: &str) -> Option<&'static str> {
+    COMMANDS
+        .iter()
+        .find(|(name, _)| *name == cmd)
+        .map(|(_, text)| *text)
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let Some((cmd, rest)) = args.split_first() else {
-        eprintln!("usage: cargo xtask <ci|golden|firmware|hidden> [options]");
+        eprint!("{}", usage());
         return ExitCode::from(2);
     };
+    if is_help(cmd) || (cmd == "help" && rest.is_empty()) {
+        print!("{}", usage());
+        return ExitCode::SUCCESS;
+    }
+    if cmd == "help" {
+        return match command_usage(&rest[0]) {
+            Some(text) if rest.len() == 1 => {
+                println!("{text}");
+                ExitCode::SUCCESS
+            }
+            _ => {
+                eprintln!("xtask help: expected one of ci, golden, firmware, hidden");
+                eprint!("{}", usage());
+                ExitCode::from(2)
+            }
+        };
+    }
+    let Some(text) = command_usage(cmd) else {
+        eprintln!("xtask: unknown command `{cmd}`");
+        eprint!("{}", usage());
+        return ExitCode::from(2);
+    };
+    if rest.iter().any(|a| is_help(a)) {
+        println!("{text}");
+        return ExitCode::SUCCESS;
+    }
     let result = match cmd.as_str() {
         "ci" => ci::run(rest),
         "golden" => golden::run(rest),
         "firmware" => firmware::run(rest),
         "hidden" => hidden::run(rest),
-        other => Err(format!(
-            "unknown command `{other}`; expected ci, golden, firmware or hidden"
-        )),
+        other => Err(Error::Usage(format!("unknown command `{other}`"))),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
+        Err(Error::Usage(e)) => {
+            eprintln!("xtask {cmd}: {e}");
+            eprintln!("{text}");
+            ExitCode::from(2)
+        }
+        Err(Error::Failed(e)) => {
             eprintln!("xtask {cmd}: {e}");
             ExitCode::FAILURE
         }

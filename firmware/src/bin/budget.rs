@@ -21,18 +21,20 @@
 #![no_main]
 #![deny(unsafe_code)]
 
-use cortex_m_rt::{ExceptionFrame, entry, exception};
+use cortex_m_rt::entry;
+use ptsa_firmware::rt::exit;
 use ptsa_firmware::testimage::{Failure, PATH, budget_pass, next_path, section_config};
 use ptsa_firmware::{Board, TICK, TickContext, on_tick, pac, pac::interrupt, unmask};
 use semihosting::eprintln;
 
-const NAME: &str = "budget";
+// Reports on semihosting standard error; HardFault exits 70, a panic 101.
+ptsa_firmware::image_runtime!(semihosting, "budget");
 
 #[entry]
 fn main() -> ! {
     match run() {
-        Ok(()) => semihosting::process::exit(0),
-        Err(Failure) => semihosting::process::exit(1),
+        Ok(()) => exit(0),
+        Err(Failure) => exit(1),
     }
 }
 
@@ -85,17 +87,3 @@ fn TIM2() {
 /// The empty handler that calibrates the measurement bracket.
 #[interrupt]
 fn TIM3() {}
-
-// cortex-m-rt requires the HardFault handler to be an `unsafe fn`.
-#[allow(unsafe_code)]
-#[exception]
-unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-    eprintln!("{}: HardFault at pc={:#010x}", NAME, ef.pc());
-    semihosting::process::exit(70)
-}
-
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
-    eprintln!("{}: panic: {}", NAME, info);
-    semihosting::process::exit(101)
-}

@@ -11,17 +11,19 @@
 #![no_main]
 #![deny(unsafe_code)]
 
-use cortex_m_rt::{ExceptionFrame, entry, exception};
+use cortex_m_rt::entry;
+use ptsa_firmware::rt::exit;
 use ptsa_firmware::testimage::{Failure, PATH, golden_pass, next_path};
 use semihosting::eprintln;
 
-const NAME: &str = "golden";
+// Reports on semihosting standard error; HardFault exits 70, a panic 101.
+ptsa_firmware::image_runtime!(semihosting, "golden");
 
 #[entry]
 fn main() -> ! {
     match run() {
-        Ok(()) => semihosting::process::exit(0),
-        Err(Failure) => semihosting::process::exit(1),
+        Ok(()) => exit(0),
+        Err(Failure) => exit(1),
     }
 }
 
@@ -35,18 +37,4 @@ fn run() -> Result<(), Failure> {
     let input = next_path(&mut it, "input")?;
     let output = next_path(&mut it, "output")?;
     golden_pass(input.as_cstr(), output.as_cstr())
-}
-
-// cortex-m-rt requires the HardFault handler to be an `unsafe fn`.
-#[allow(unsafe_code)]
-#[exception]
-unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-    eprintln!("{}: HardFault at pc={:#010x}", NAME, ef.pc());
-    semihosting::process::exit(70)
-}
-
-#[panic_handler]
-fn panic(info: &core::panic::PanicInfo<'_>) -> ! {
-    eprintln!("{}: panic: {}", NAME, info);
-    semihosting::process::exit(101)
 }

@@ -13,9 +13,7 @@
 #![no_main]
 #![deny(unsafe_code)]
 
-use cortex_m_rt::{ExceptionFrame, entry, exception};
-use defmt_rtt as _;
-use panic_probe as _;
+use cortex_m_rt::entry;
 use ptsa_core::Config;
 use ptsa_firmware::{Board, GATES, TICK, TickContext, on_tick, pac, pac::interrupt, unmask_tick};
 
@@ -23,6 +21,9 @@ use ptsa_firmware::{Board, GATES, TICK, TickContext, on_tick, pac, pac::interrup
 /// 6400-tick (100 ms) gate so that this takes 0.3 s of virtual time.
 #[cfg(feature = "qemu")]
 const QEMU_GATES: u32 = 3;
+
+// defmt over RTT; panics through panic-probe into the one HardFault handler.
+ptsa_firmware::image_runtime!(defmt);
 
 #[entry]
 fn main() -> ! {
@@ -88,7 +89,7 @@ fn main() -> ! {
                 stack
             );
             if reported == QEMU_GATES {
-                semihosting::process::exit(0);
+                ptsa_firmware::rt::exit(0);
             }
         }
     }
@@ -104,18 +105,4 @@ fn EXTI0() {
 fn TIM2() {
     static mut CONTEXT: Option<TickContext> = None;
     on_tick::<false>(CONTEXT);
-}
-
-// cortex-m-rt requires the HardFault handler to be an `unsafe fn`.
-#[allow(unsafe_code)]
-#[exception]
-unsafe fn HardFault(ef: &ExceptionFrame) -> ! {
-    defmt::error!("HardFault: pc={=u32:#x} lr={=u32:#x}", ef.pc(), ef.lr());
-    #[cfg(feature = "qemu")]
-    semihosting::process::exit(70);
-    #[cfg(not(feature = "qemu"))]
-    loop {
-        // Halt for the debugger (probe-rs reports the breakpoint and the log above).
-        cortex_m::asm::bkpt();
-    }
 }
