@@ -996,20 +996,38 @@ fn plan_and_predict() {
     let dir = tempfile::tempdir().unwrap();
     let plan = dir.path().join("t.csv");
     let out = Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .args(["plan", "tumble", "--positions", "12", "--axis", "pa", "--out"])
+        .args([
+            "plan",
+            "tumble",
+            "--positions",
+            "12",
+            "--axis",
+            "pa",
+            "--out",
+        ])
         .arg(&plan)
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let rows = ptsa_host_sim::discovery::caseframe::read(&plan).unwrap();
     assert_eq!(rows.len(), 12);
     let predict = |extra: &[&str]| {
         let mut c = Command::new(env!("CARGO_BIN_EXE_ptsa"));
-        c.args(["predict", "--analytic", "--json", "--data"]).arg(&plan).args(extra);
+        c.args(["predict", "--analytic", "--json", "--data"])
+            .arg(&plan)
+            .args(extra);
         c.output().unwrap()
     };
     let base = predict(&[]);
-    assert!(base.status.success(), "{}", String::from_utf8_lossy(&base.stderr));
+    assert!(
+        base.status.success(),
+        "{}",
+        String::from_utf8_lossy(&base.stderr)
+    );
     let v: serde_json::Value = serde_json::from_slice(&base.stdout).unwrap();
     let p: Vec<f64> = v["rows"]
         .as_array()

@@ -159,10 +159,9 @@ pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
                             .join(", ")
                     )
                 })?;
-            let x = val
-                .as_f64()
-                .filter(|x| x.is_finite())
-                .with_context(|| format!("effects[{k}]: `{name}.{key}`: expected a finite number"))?;
+            let x = val.as_f64().filter(|x| x.is_finite()).with_context(|| {
+                format!("effects[{k}]: `{name}.{key}`: expected a finite number")
+            })?;
             e.add(id, x);
         }
     }

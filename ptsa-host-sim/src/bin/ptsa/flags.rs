@@ -498,7 +498,12 @@ fn amplitude_cm_s2(s: &str) -> Result<f64, String> {
 }
 
 fn arm_cm(s: &str) -> Result<f64, String> {
-    let x = within(s, 0.0, 1e4, "an arm length in cm, more than 0 and at most 1e4")?;
+    let x = within(
+        s,
+        0.0,
+        1e4,
+        "an arm length in cm, more than 0 and at most 1e4",
+    )?;
     if x > 0.0 {
         Ok(x)
     } else {

@@ -17,7 +17,10 @@ use anyhow::{Context, Result, bail};
 use clap::error::ErrorKind;
 use clap::parser::ValueSource;
 use clap::{CommandFactory as _, FromArgMatches as _};
-use flags::{Cli, Cmd, DiscoverArgs, PlanArgs, PlanKind, PredictArgs, OutArgs, ReportArgs, RunArgs, TwoAxisArgs, num};
+use flags::{
+    Cli, Cmd, DiscoverArgs, OutArgs, PlanArgs, PlanKind, PredictArgs, ReportArgs, RunArgs,
+    TwoAxisArgs, num,
+};
 use ptsa_host_sim::bench::{BenchPlan, bench};
 use ptsa_host_sim::design::{Design, check_loop};
 use ptsa_host_sim::discovery::{self, Options, Request, Simulator};
@@ -736,9 +739,11 @@ fn predict_cmd(
         "row", "kind", "predicted", "measured", "residual"
     )?;
     for (r, p) in rows.iter().zip(&pred) {
-        let (m, res) = r.measured_cm_s2.map_or(("-".to_string(), "-".to_string()), |m| {
-            (format!("{m:.3}"), format!("{:.3}", m - p))
-        });
+        let (m, res) = r
+            .measured_cm_s2
+            .map_or(("-".to_string(), "-".to_string()), |m| {
+                (format!("{m:.3}"), format!("{:.3}", m - p))
+            });
         writeln!(
             out,
             "{:<48} {:>10} {:>14.4} {:>12} {:>10}",
@@ -749,7 +754,10 @@ fn predict_cmd(
             res
         )?;
     }
-    writeln!(out, "(cm/s²; a difference row is condition − reference, an absolute row the indicated acceleration)")?;
+    writeln!(
+        out,
+        "(cm/s²; a difference row is condition − reference, an absolute row the indicated acceleration)"
+    )?;
     Ok(())
 }
 
@@ -820,7 +828,11 @@ fn plan_cmd(instr: &Instrument, a: &PlanArgs, out: &mut dyn Write) -> Result<()>
         Some(p) => {
             paths::file("--out", p)?;
             ptsa_host_sim::output::write_atomic(p, text.as_bytes())?;
-            eprintln!("wrote {} ({})", p.display(), ptsa_host_sim::output::count(rows.len() as u64, "row"));
+            eprintln!(
+                "wrote {} ({})",
+                p.display(),
+                ptsa_host_sim::output::count(rows.len() as u64, "row")
+            );
         }
         None => write!(out, "{text}")?,
     }
