@@ -23,6 +23,7 @@ pub mod plan;
 pub mod plant;
 pub mod r890;
 pub mod report;
+pub mod response;
 pub mod sim;
 
 pub use condition::{CaseInputs, Condition};

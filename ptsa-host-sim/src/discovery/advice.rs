@@ -24,7 +24,8 @@ use crate::plan::{self, Axis};
 
 /// Most rows proposed per group.
 pub const MAX_ROWS: usize = 4;
-/// The smallest singular value (of the columns scaled as in [`group_columns`]) at which a
+/// The smallest singular value (of the columns scaled to norm 1 before being made orthogonal
+/// to the other selected terms) at which a
 /// group counts as separated.
 pub const GOOD: f64 = 0.5;
 
