@@ -27,6 +27,10 @@ pub enum RowKind {
     /// `SF·(2P/T − 1)` with the instrument file's nominal SF (a tumble or centrifuge
     /// position), no reference subtracted.
     Absolute,
+    /// `response`: a sinusoidal input along IA (`freq_hz`, `lin_ia_cm_s2`) and the
+    /// output's component at that frequency: `measured_gain` (output amplitude over input
+    /// amplitude) and `measured_phase_deg` (output phase minus input phase).
+    Response,
 }
 
 impl RowKind {
@@ -36,6 +40,7 @@ impl RowKind {
         match self {
             RowKind::Difference => "difference",
             RowKind::Absolute => "absolute",
+            RowKind::Response => "response",
         }
     }
 
@@ -45,6 +50,7 @@ impl RowKind {
         match s {
             "difference" => Some(RowKind::Difference),
             "absolute" => Some(RowKind::Absolute),
+            "response" => Some(RowKind::Response),
             _ => None,
         }
     }
@@ -87,6 +93,26 @@ pub struct Condition {
     pub measured_cm_s2: Option<f64>,
     /// 1-sigma uncertainty of `measured_cm_s2`, cm/s² (if given).
     pub sigma_cm_s2: Option<f64>,
+    /// A response row's measured gain, output amplitude over input amplitude.
+    pub measured_gain: Option<f64>,
+    /// A response row's measured phase, output minus input, degrees.
+    pub measured_phase_deg: Option<f64>,
+    /// 1-sigma uncertainty of `measured_gain`.
+    pub sigma_gain: Option<f64>,
+    /// 1-sigma uncertainty of `measured_phase_deg`, degrees.
+    pub sigma_phase_deg: Option<f64>,
+}
+
+impl Condition {
+    /// Whether the row holds a measurement (`measured_cm_s2`, or a response's gain or
+    /// phase).
+    #[must_use]
+    pub fn is_measured(&self) -> bool {
+        match self.kind {
+            RowKind::Response => self.measured_gain.is_some() || self.measured_phase_deg.is_some(),
+            _ => self.measured_cm_s2.is_some(),
+        }
+    }
 }
 
 /// What the instrument feels at one instant, in case axes.

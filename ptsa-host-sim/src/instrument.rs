@@ -864,6 +864,37 @@ impl Instrument {
         Ok(())
     }
 
+    /// One toleranced parameter by its file key, in the file's unit (the inverse of
+    /// [`Instrument::set`]); `None` for an unknown key.
+    #[must_use]
+    pub fn get(&self, key: &str) -> Option<f64> {
+        Some(match key {
+            "pendulum.pendulosity_dyn_cm_per_g" => self.pendulosity_dyn_cm_per_g,
+            "pendulum.freedom_mrad" => self.freedom_rad * 1e3,
+            "pendulum.inertia_oa_g_cm2" => self.inertia_dyn_cm_s2,
+            "pendulum.spring_dyn_cm_per_rad" => self.spring_dyn_cm_rad,
+            "pendulum.damping_dyn_cm_s" => self.damping_dyn_cm_s,
+            "pendulum.anisoinertia_g_cm2" => self.anisoinertia_g_cm2,
+            "pickoff.scale_factor_v_per_rad" => self.pickoff_v_per_rad,
+            "pickoff.quadrature_null_uv" => self.quadrature_v * 1e6,
+            "pickoff.phase_angle_deg" => self.phase_error_rad.to_degrees(),
+            "pickoff.noise_uv_rms" => self.noise_v_rms * 1e6,
+            "torquer.current_scale_factor_ma_per_g" => self.current_sf_ma_per_g,
+            "torquer.time_constant_us" => self.torquer_tau_s * 1e6,
+            _ => return None,
+        })
+    }
+
+    /// The tolerance band of a parameter by its file key, `(lo, nominal, hi)` in the file's
+    /// unit.
+    #[must_use]
+    pub fn tolerance(&self, key: &str) -> Option<(f64, f64, f64)> {
+        self.tolerances
+            .iter()
+            .find(|t| t.key == key)
+            .map(|t| (t.lo, t.nominal, t.hi))
+    }
+
     /// The loop's own bias, cm/s²: the quadrature leak through a demodulator phase error
     /// puts the null at `θ0 = −V_q·tan(φ)/S`, where the spring and the `−P·a_PA·θ` term
     /// (with `a_pa_cm_s2` along PA) push `−(K + P·a_PA)·θ0/P` into the indicated output. It is

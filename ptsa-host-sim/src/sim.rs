@@ -347,11 +347,20 @@ pub struct ClosedLoop {
 
 impl ClosedLoop {
     /// A loop at rest (reset core, pendulum at null, current at zero) in `cond`.
+    /// Parameter changes in `effects` (candidates of the instrument file) are applied to the
+    /// instrument first ([`Effects::apply_parameters`]).
     ///
     /// # Panics
     /// If `opts.config` is refused by `ptsa-core` (the default never is).
     #[must_use]
     pub fn new(instr: &Instrument, cond: &Condition, effects: &Effects, opts: &SimOptions) -> Self {
+        let changed;
+        let instr = if effects.has_parameters() {
+            changed = effects.apply_parameters(instr);
+            &changed
+        } else {
+            instr
+        };
         let ptsa = opts.config.build().expect("valid PTSA configuration");
         let lsb_v = instr.adc_full_scale_v / 32768.0;
         let noise = if opts.noise { instr.noise_v_rms } else { 0.0 };
@@ -398,8 +407,9 @@ impl ClosedLoop {
         self.prep = prep;
         self.effect_terms = effects
             .nonzero()
-            .map(|(id, c)| match id.info().signature {
-                Signature::Term(f) => (f, c),
+            .filter_map(|(id, c)| match id.info().signature {
+                Signature::Term(f) => Some((f, c)),
+                Signature::Parameter(_) => None,
             })
             .collect();
         self.dynamic = prep.is_dynamic() || self.physics.is_some();

@@ -418,6 +418,7 @@ fn condition() -> impl Strategy<Value = Condition> {
                 ref_w_rad_s: ref_w,
                 measured_cm_s2: meas,
                 sigma_cm_s2: sigma,
+                ..Condition::default()
             },
         )
 }

@@ -304,6 +304,7 @@ pub fn generate(seed: u64, hidden: Option<CandidateId>, sim: &dyn Simulator) -> 
             g_cm_s2: sim.g_cm_s2(),
             bias_cm_s2: 0.0,
             loop_bias: [0.0; 2],
+            loop_model: None,
         };
         let col: Vec<f64> = rows
             .iter()

@@ -118,6 +118,7 @@ fn is_model_equation_term(id: CandidateId) -> bool {
 /// model-equation term that is not testable.
 fn groups(
     data: &Data,
+    rows: &[Condition],
     f: &Fitted,
     selected: &[Selected],
     confounded: &[Vec<CandidateId>],
@@ -142,7 +143,11 @@ fn groups(
             push(g);
         }
     }
-    if data.absolute.iter().any(|&a| a) {
+    if data
+        .rows
+        .iter()
+        .any(|&i| rows[i].kind == crate::condition::RowKind::Absolute)
+    {
         for &c in f.untestable.iter().chain(&f.untestable_nuisance) {
             if is_model_equation_term(c) {
                 push(vec![c]);
@@ -168,7 +173,7 @@ pub fn advise(
     let sigma = sig.get(sig.len() / 2).copied().unwrap_or(1.0);
     let lib = library(g);
     let lib_refs: Vec<&Condition> = lib.iter().collect();
-    groups(data, f, selected, confounded)
+    groups(data, rows, f, selected, confounded)
         .into_iter()
         .map(|group| {
             // The context: the other selected terms.

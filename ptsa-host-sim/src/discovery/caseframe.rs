@@ -108,8 +108,8 @@ pub const COLUMNS: &[Column] = &[
     },
     Column {
         name: "kind",
-        expected: "`difference` (condition minus its reference; also an empty cell) or `absolute` (the indicated acceleration itself)",
-        check: Check::OneOf(&["difference", "absolute"]),
+        expected: "`difference` (condition minus its reference; also an empty cell), `absolute` (the indicated acceleration itself) or `response` (gain and phase at freq_hz)",
+        check: Check::OneOf(&["difference", "absolute", "response"]),
         get: |c| Value::Text(Some(c.kind.name().to_string())),
         set: |c, v| c.kind = text(v).and_then(|t| RowKind::parse(&t)).unwrap_or_default(),
     },
@@ -193,6 +193,34 @@ pub const COLUMNS: &[Column] = &[
         check: Check::Positive,
         get: |c| Value::Num(c.sigma_cm_s2),
         set: |c, v| c.sigma_cm_s2 = num(v),
+    },
+    Column {
+        name: "measured_gain",
+        expected: "a response row's gain (output amplitude over input amplitude), greater than 0, or an empty cell",
+        check: Check::Positive,
+        get: |c| Value::Num(c.measured_gain),
+        set: |c, v| c.measured_gain = num(v),
+    },
+    Column {
+        name: "measured_phase_deg",
+        expected: "a response row's phase (output minus input) in degrees, or an empty cell",
+        check: Check::Finite,
+        get: |c| Value::Num(c.measured_phase_deg),
+        set: |c, v| c.measured_phase_deg = num(v),
+    },
+    Column {
+        name: "sigma_gain",
+        expected: "the gain's 1-sigma uncertainty, greater than 0, or an empty cell",
+        check: Check::Positive,
+        get: |c| Value::Num(c.sigma_gain),
+        set: |c, v| c.sigma_gain = num(v),
+    },
+    Column {
+        name: "sigma_phase_deg",
+        expected: "the phase's 1-sigma uncertainty in degrees, greater than 0, or an empty cell",
+        check: Check::Positive,
+        get: |c| Value::Num(c.sigma_phase_deg),
+        set: |c, v| c.sigma_phase_deg = num(v),
     },
 ];
 
@@ -490,6 +518,28 @@ fn parse_row(
             }
         }
     }
+    if c.kind == RowKind::Response {
+        if c.freq_hz <= 0.0 {
+            bail!(
+                "{name}:{line}: a response row without a frequency; expected `freq_hz` greater than 0 (the sine's frequency)"
+            );
+        }
+        if c.lin_cm_s2[0] == 0.0 {
+            bail!(
+                "{name}:{line}: a response row without an input; expected `lin_ia_cm_s2`, the sine's amplitude along IA"
+            );
+        }
+        if c.measured_cm_s2.is_some() {
+            bail!(
+                "{name}:{line}: a response row holds `measured_cm_s2`; expected its measurement in `measured_gain` and `measured_phase_deg`"
+            );
+        }
+    } else if c.measured_gain.is_some() || c.measured_phase_deg.is_some() {
+        bail!(
+            "{name}:{line}: `measured_gain`/`measured_phase_deg` in a {} row; expected them only with kind = response",
+            c.kind.name()
+        );
+    }
     if c.radius_cm != 0.0 {
         if c.w_rad_s.iter().all(|&w| w == 0.0) {
             bail!(
@@ -623,6 +673,22 @@ mod tests {
             ref_w_rad_s: [0.0, 0.05, 0.0],
             measured_cm_s2: Some(1.25),
             sigma_cm_s2: Some(0.2),
+            ..Condition::default()
+        };
+        let text = to_csv(std::slice::from_ref(&c), &["test"]);
+        let back = parse("t.csv", &text).unwrap();
+        assert_eq!(back, vec![c]);
+        // A response row.
+        let c = Condition {
+            label: "20 Hz".into(),
+            kind: RowKind::Response,
+            freq_hz: 20.0,
+            lin_cm_s2: [2000.0, 0.0, 0.0],
+            measured_gain: Some(0.83),
+            measured_phase_deg: Some(-31.5),
+            sigma_gain: Some(0.004),
+            sigma_phase_deg: Some(0.3),
+            ..Condition::default()
         };
         let text = to_csv(std::slice::from_ref(&c), &["test"]);
         let back = parse("t.csv", &text).unwrap();

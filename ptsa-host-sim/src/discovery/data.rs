@@ -30,32 +30,61 @@ pub struct Signature {
     pub null: bool,
 }
 
-/// The fitted rows.
+/// What an observation of a row is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quantity {
+    /// `measured_cm_s2` of a difference or absolute row, cm/s².
+    Value,
+    /// A response row's gain.
+    Gain,
+    /// A response row's phase, degrees.
+    Phase,
+}
+
+impl Quantity {
+    /// Its unit.
+    #[must_use]
+    pub fn unit(self) -> &'static str {
+        match self {
+            Quantity::Value => "cm/s²",
+            Quantity::Gain => "",
+            Quantity::Phase => "deg",
+        }
+    }
+}
+
+/// The fitted observations: one per difference or absolute row with a measurement, one or
+/// two (gain, phase) per response row.
 #[derive(Clone, Debug)]
 pub struct Data {
-    /// Index of each fitted row in the caller's rows.
+    /// Index of each observation's row in the caller's rows.
     pub rows: Vec<usize>,
-    /// Measured values, cm/s².
+    /// What each observation is.
+    pub quantity: Vec<Quantity>,
+    /// Measured values (cm/s², or a gain, or degrees).
     pub y: Vec<f64>,
-    /// Baseline (simulated) values, cm/s².
+    /// Baseline (simulated) values, in the same units.
     pub base: Vec<f64>,
-    /// Stated sigmas (the row's `sigma_cm_s2`, else the explicit `--sigma`), cm/s².
+    /// Stated sigmas (the row's `sigma_*`, else the explicit `--sigma` for cm/s² values).
     pub stated: Vec<Option<f64>>,
-    /// Whether each row is absolute (else a difference).
-    pub absolute: Vec<bool>,
-    /// Block of each row (index into `block_names`).
+    /// Whether each observation takes its block's bias shift (a difference row's value).
+    pub shift: Vec<bool>,
+    /// Whether each observation takes the drift (a difference or absolute row's value).
+    pub drifts: Vec<bool>,
+    /// Block of each observation (index into `block_names`).
     pub block: Vec<usize>,
     /// Block names (`"all"` when the file has no `block` column).
     pub block_names: Vec<String>,
-    /// Time of each row, in `time_unit`.
+    /// Time of each observation's row, in `time_unit`.
     pub time: Vec<f64>,
     /// What `time` is.
     pub time_unit: TimeUnit,
-    /// Variance group of each row (index into `group_names`): block × excitation.
+    /// Variance group of each observation (index into `group_names`): block × kind.
     pub group: Vec<usize>,
     /// Variance group names.
     pub group_names: Vec<String>,
-    /// Replicate set of each row: rows with identical conditions (and block) share it.
+    /// Replicate set of each observation: the same quantity of rows with identical
+    /// conditions (and block) share it.
     pub replicate: Vec<usize>,
     /// Signatures of the candidates asked for, in registry order.
     pub signatures: Vec<Signature>,
@@ -64,13 +93,13 @@ pub struct Data {
 }
 
 impl Data {
-    /// Number of fitted rows.
+    /// Number of observations.
     #[must_use]
     pub fn n(&self) -> usize {
         self.y.len()
     }
 
-    /// Residual to explain, `measured − baseline`, cm/s².
+    /// Residual to explain, `measured − baseline`.
     #[must_use]
     pub fn resid(&self, i: usize) -> f64 {
         self.y[i] - self.base[i]
@@ -114,21 +143,49 @@ fn intern(names: &mut Vec<String>, key: String) -> usize {
     }
 }
 
-/// Build the data of the rows with a measurement. `baseline` is the simulator's value of
-/// every row; `default_sigma` the explicit `--sigma`, if any.
+/// The observations of a row: `(quantity, measured, stated sigma, index into the
+/// simulator's observation vector)`.
+fn observations(
+    r: &Condition,
+    default_sigma: Option<f64>,
+) -> Vec<(Quantity, f64, Option<f64>, usize)> {
+    match r.kind {
+        crate::condition::RowKind::Response => {
+            let mut v = Vec::new();
+            if let Some(gain) = r.measured_gain {
+                v.push((Quantity::Gain, gain, r.sigma_gain, 0));
+            }
+            if let Some(ph) = r.measured_phase_deg {
+                v.push((Quantity::Phase, ph, r.sigma_phase_deg, 1));
+            }
+            v
+        }
+        _ => r
+            .measured_cm_s2
+            .map(|m| vec![(Quantity::Value, m, r.sigma_cm_s2.or(default_sigma), 0)])
+            .unwrap_or_default(),
+    }
+}
+
+/// A phase measured as `y` degrees, moved by whole turns to within half a turn of `base`.
+fn unwrap_phase(y: f64, base: f64) -> f64 {
+    y - 360.0 * ((y - base) / 360.0).round()
+}
+
+/// Build the observations of the rows with a measurement. `observed[i]` is the simulator's
+/// baseline observation vector of row `i` ([`Simulator::observe`]); `default_sigma` the
+/// explicit `--sigma`, if any.
 ///
 /// # Errors
 /// `time_s` given on some measured rows but not on others.
 pub fn build(
     rows: &[Condition],
-    baseline: &[f64],
+    observed: &[Vec<f64>],
     default_sigma: Option<f64>,
     candidates: &[CandidateId],
     sim: &dyn Simulator,
 ) -> anyhow::Result<Data> {
-    let fitted: Vec<usize> = (0..rows.len())
-        .filter(|&i| rows[i].measured_cm_s2.is_some())
-        .collect();
+    let fitted: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].is_measured()).collect();
     let with_time = fitted.iter().filter(|&&i| rows[i].time_s.is_some()).count();
     if with_time > 0 && with_time < fitted.len() {
         let i = fitted
@@ -148,54 +205,211 @@ pub fn build(
     } else {
         TimeUnit::Row
     };
-    let mut block_names = Vec::new();
-    let mut group_names = Vec::new();
+    let mut d = Data {
+        rows: Vec::new(),
+        quantity: Vec::new(),
+        y: Vec::new(),
+        base: Vec::new(),
+        stated: Vec::new(),
+        shift: Vec::new(),
+        drifts: Vec::new(),
+        block: Vec::new(),
+        block_names: Vec::new(),
+        time: Vec::new(),
+        time_unit,
+        group: Vec::new(),
+        group_names: Vec::new(),
+        replicate: Vec::new(),
+        signatures: Vec::new(),
+        features: Vec::new(),
+    };
     let mut keys: Vec<Vec<u64>> = Vec::new();
-    let (mut block, mut group, mut replicate, mut time) = (vec![], vec![], vec![], vec![]);
     for (k, &i) in fitted.iter().enumerate() {
         let r = &rows[i];
         let b = r.block.clone().unwrap_or_else(|| "all".to_string());
-        let bi = intern(&mut block_names, b.clone());
-        block.push(bi);
-        group.push(intern(&mut group_names, format!("{b}/{}", excitation(r))));
-        let mut key = replicate_key(r);
-        key.push(bi as u64);
-        replicate.push(if let Some(p) = keys.iter().position(|x| *x == key) {
-            p
-        } else {
-            keys.push(key);
-            keys.len() - 1
-        });
-        #[allow(clippy::cast_precision_loss)]
-        time.push(r.time_s.unwrap_or(k as f64));
+        let bi = intern(&mut d.block_names, b.clone());
+        for (q, y, sigma, o) in observations(r, default_sigma) {
+            let base = observed[i].get(o).copied().unwrap_or(f64::NAN);
+            d.rows.push(i);
+            d.quantity.push(q);
+            d.y.push(if q == Quantity::Phase {
+                unwrap_phase(y, base)
+            } else {
+                y
+            });
+            d.base.push(base);
+            d.stated.push(sigma);
+            d.shift
+                .push(q == Quantity::Value && r.kind == crate::condition::RowKind::Difference);
+            d.drifts.push(q == Quantity::Value);
+            d.block.push(bi);
+            let kind = match q {
+                Quantity::Value => excitation(r),
+                Quantity::Gain => "gain",
+                Quantity::Phase => "phase",
+            };
+            d.group
+                .push(intern(&mut d.group_names, format!("{b}/{kind}")));
+            let mut key = replicate_key(r);
+            key.push(bi as u64);
+            key.push(q as u64);
+            d.replicate
+                .push(if let Some(p) = keys.iter().position(|x| *x == key) {
+                    p
+                } else {
+                    keys.push(key);
+                    keys.len() - 1
+                });
+            #[allow(clippy::cast_precision_loss)]
+            d.time.push(r.time_s.unwrap_or(k as f64));
+        }
     }
     let g = sim.g_cm_s2();
-    let fitted_rows: Vec<&Condition> = fitted.iter().map(|&i| &rows[i]).collect();
-    Ok(Data {
-        y: fitted
-            .iter()
-            .map(|&i| rows[i].measured_cm_s2.unwrap_or(0.0))
-            .collect(),
-        base: fitted.iter().map(|&i| baseline[i]).collect(),
-        absolute: fitted
-            .iter()
-            .map(|&i| rows[i].kind == crate::condition::RowKind::Absolute)
-            .collect(),
-        stated: fitted
-            .iter()
-            .map(|&i| rows[i].sigma_cm_s2.or(default_sigma))
-            .collect(),
-        block,
-        block_names,
-        time,
-        time_unit,
-        group,
-        group_names,
-        replicate,
-        signatures: signatures(&fitted_rows, candidates, g),
-        features: features(&fitted_rows, g),
-        rows: fitted,
-    })
+    let obs_rows: Vec<&Condition> = d.rows.iter().map(|&i| &rows[i]).collect();
+    let value: Vec<bool> = d.quantity.iter().map(|&q| q == Quantity::Value).collect();
+    // Additive terms act on the values; parameters by the closed loop's sensitivity.
+    let (params, additive): (Vec<CandidateId>, Vec<CandidateId>) = candidates
+        .iter()
+        .partition(|id| id.parameter_key().is_some());
+    let mut sigs = signatures(&obs_rows, &additive, g);
+    for s in &mut sigs {
+        for (x, &v) in s.col.iter_mut().zip(&value) {
+            if !v {
+                *x = 0.0;
+            }
+        }
+        s.null = s.col.iter().all(|&x| x == 0.0);
+    }
+    // Loop parameters show only in oscillating, absolute or response rows (a static
+    // difference is exact by charge balance whatever the loop).
+    let dynamic = d
+        .rows
+        .iter()
+        .any(|&i| rows[i].kind != crate::condition::RowKind::Difference || !rows[i].is_static());
+    if dynamic {
+        sigs.extend(parameter_signatures(rows, &d, &params, sim));
+    } else {
+        sigs.extend(params.iter().map(|&id| Signature {
+            id,
+            col: vec![0.0; d.n()],
+            null: true,
+        }));
+    }
+    sigs.sort_by_key(|s| s.id);
+    d.signatures = sigs;
+    d.features = features(&obs_rows, g)
+        .into_iter()
+        .map(|(n, mut c)| {
+            for (x, &v) in c.iter_mut().zip(&value) {
+                if !v {
+                    *x = 0.0;
+                }
+            }
+            (n, c)
+        })
+        .filter(|(_, c)| c.iter().any(|&x| x != 0.0))
+        .collect();
+    Ok(d)
+}
+
+/// The closed loop's sensitivity of every observation to each parameter candidate, by
+/// central differences through the simulator with a step of a tenth of the parameter's
+/// tolerance half-width (noise as in the simulator). A parameter the simulator cannot vary
+/// has a zero (not testable) signature.
+fn parameter_signatures(
+    rows: &[Condition],
+    d: &Data,
+    params: &[CandidateId],
+    sim: &dyn Simulator,
+) -> Vec<Signature> {
+    sensitivities(rows, d, params, sim, &Effects::NONE)
+}
+
+/// The observations' sensitivities to each parameter around the effects `at` (central
+/// differences, step a tenth of the tolerance half-width); `null` when the parameter, off by
+/// its whole tolerance, moves no observation by a tenth of its noise.
+pub fn sensitivities(
+    rows: &[Condition],
+    d: &Data,
+    params: &[CandidateId],
+    sim: &dyn Simulator,
+    at: &Effects,
+) -> Vec<Signature> {
+    use rayon::prelude::*;
+    let mut measured: Vec<usize> = d.rows.clone();
+    measured.dedup();
+    let measured = &measured;
+    params
+        .iter()
+        .map(|&id| {
+            let key = id.parameter_key().unwrap_or_default();
+            let h = sim
+                .instrument()
+                .and_then(|i| i.tolerance(key))
+                .map_or(0.0, |(lo, nom, hi)| 0.1 * (hi - nom).max(nom - lo));
+            if h == 0.0 {
+                return Signature {
+                    id,
+                    col: vec![0.0; d.n()],
+                    null: true,
+                };
+            }
+            let (mut plus, mut minus) = (*at, *at);
+            plus.add(id, h);
+            minus.add(id, -h);
+            let per_row: Vec<(usize, Vec<f64>)> = measured
+                .par_iter()
+                .map(|&i| {
+                    let up = sim.observe(&rows[i], &plus);
+                    let dn = sim.observe(&rows[i], &minus);
+                    (
+                        i,
+                        up.iter()
+                            .zip(&dn)
+                            .map(|(u, v)| (u - v) / (2.0 * h))
+                            .collect(),
+                    )
+                })
+                .collect();
+            let col: Vec<f64> = (0..d.n())
+                .map(|k| {
+                    let i = d.rows[k];
+                    let o = match d.quantity[k] {
+                        Quantity::Phase => 1,
+                        _ => 0,
+                    };
+                    per_row
+                        .iter()
+                        .find(|(r, _)| *r == i)
+                        .and_then(|(_, v)| v.get(o).copied())
+                        .filter(|x| x.is_finite())
+                        .unwrap_or(0.0)
+                })
+                .collect();
+            // A signature only if the parameter, off by its whole tolerance, moves some
+            // observation by a tenth of that observation's noise.
+            let moves = (0..d.n()).any(|k| col[k].abs() * 10.0 * h >= 0.1 * scale(d, k));
+            let null = !moves;
+            Signature { id, col, null }
+        })
+        .collect()
+}
+
+/// The noise scale of observation `k`: its stated sigma, else the median absolute
+/// deviation (× 1.4826) of the residuals of its quantity.
+fn scale(d: &Data, k: usize) -> f64 {
+    if let Some(s) = d.stated[k] {
+        return s;
+    }
+    let mut r: Vec<f64> = (0..d.n())
+        .filter(|&j| d.quantity[j] == d.quantity[k])
+        .map(|j| d.resid(j))
+        .collect();
+    r.sort_by(f64::total_cmp);
+    let med = r[r.len() / 2];
+    let mut dev: Vec<f64> = r.iter().map(|x| (x - med).abs()).collect();
+    dev.sort_by(f64::total_cmp);
+    (1.4826 * dev[dev.len() / 2]).max(f64::MIN_POSITIVE)
 }
 
 /// Signature columns: the analytic effect of each row with a unit coefficient (a difference
@@ -208,6 +422,7 @@ pub fn signatures(rows: &[&Condition], candidates: &[CandidateId], g_cm_s2: f64)
         g_cm_s2,
         bias_cm_s2: 0.0,
         loop_bias: [0.0; 2],
+        loop_model: None,
     };
     candidates
         .iter()
@@ -300,7 +515,9 @@ pub fn features(rows: &[&Condition], g_cm_s2: f64) -> Vec<(String, Vec<f64>)> {
             let c = averages(r, g_cm_s2);
             let f = match r.kind {
                 crate::condition::RowKind::Difference => averages(&r.reference(), g_cm_s2),
-                crate::condition::RowKind::Absolute => [0.0; 54],
+                crate::condition::RowKind::Absolute | crate::condition::RowKind::Response => {
+                    [0.0; 54]
+                }
             };
             let mut d = [0.0; 54];
             for k in 0..54 {

@@ -206,12 +206,15 @@ impl Design {
 /// (a shift between a condition and its reference run; absolute rows have none: their bias
 /// is the candidate `bias`), and the drift when the times differ (dropped when it leaves no
 /// residual degree of freedom).
-fn nuisance_columns(data: &Data, subset: &[usize]) -> (Vec<Nuisance>, Vec<Vec<f64>>, f64) {
+pub(crate) fn nuisance_columns(
+    data: &Data,
+    subset: &[usize],
+) -> (Vec<Nuisance>, Vec<Vec<f64>>, f64) {
     let mut terms = Vec::new();
     let mut cols = Vec::new();
     let mut blocks: Vec<usize> = subset
         .iter()
-        .filter(|&&i| !data.absolute[i])
+        .filter(|&&i| data.shift[i])
         .map(|&i| data.block[i])
         .collect();
     blocks.sort_unstable();
@@ -222,7 +225,7 @@ fn nuisance_columns(data: &Data, subset: &[usize]) -> (Vec<Nuisance>, Vec<Vec<f6
             subset
                 .iter()
                 .map(|&i| {
-                    if data.block[i] == b && !data.absolute[i] {
+                    if data.block[i] == b && data.shift[i] {
                         1.0
                     } else {
                         0.0
@@ -231,15 +234,29 @@ fn nuisance_columns(data: &Data, subset: &[usize]) -> (Vec<Nuisance>, Vec<Vec<f6
                 .collect(),
         );
     }
+    let drifting: Vec<f64> = subset
+        .iter()
+        .filter(|&&i| data.drifts[i])
+        .map(|&i| data.time[i])
+        .collect();
     #[allow(clippy::cast_precision_loss)]
-    let t0 = subset.iter().map(|&i| data.time[i]).sum::<f64>() / subset.len().max(1) as f64;
-    let drift: Vec<f64> = subset.iter().map(|&i| data.time[i] - t0).collect();
+    let t0 = drifting.iter().sum::<f64>() / drifting.len().max(1) as f64;
+    let drift: Vec<f64> = subset
+        .iter()
+        .map(|&i| {
+            if data.drifts[i] {
+                data.time[i] - t0
+            } else {
+                0.0
+            }
+        })
+        .collect();
     // Keep the drift only if it is not in the blocks' span and leaves a residual dof.
     let in_span = {
         let c: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
         norm(&residualize(&drift, &c)) <= 1e-9 * norm(&drift).max(f64::MIN_POSITIVE)
     };
-    if !in_span && subset.len() > blocks.len() + 1 {
+    if !in_span && norm(&drift) > 0.0 && subset.len() > blocks.len() + 1 {
         terms.push(Nuisance::Drift);
         cols.push(drift);
     }
@@ -590,9 +607,10 @@ impl Fitted {
             .iter()
             .enumerate()
             .map(|(j, t)| match *t {
-                Nuisance::Block(b) if data.block[i] == b && !data.absolute[i] => self.coef[j],
+                Nuisance::Block(b) if data.block[i] == b && data.shift[i] => self.coef[j],
                 Nuisance::Block(_) => 0.0,
-                Nuisance::Drift => self.coef[j] * (data.time[i] - self.t0),
+                Nuisance::Drift if data.drifts[i] => self.coef[j] * (data.time[i] - self.t0),
+                Nuisance::Drift => 0.0,
             })
             .sum()
     }

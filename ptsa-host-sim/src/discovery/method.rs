@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use super::advice::{self, Advice};
 use super::crossval::{self, Gain};
-use super::data::{self, Data, TimeUnit};
+use super::data::{self, Data, Quantity, TimeUnit};
 use super::fit::{self, Fitted, NoiseSource, Nuisance, Settings};
 use super::sim::Simulator;
 use super::stats::{abs_cos, chi2_sf, lsq, norm, residualize};
@@ -112,6 +112,9 @@ pub struct EffectReport {
     pub plausible: bool,
     /// The bounds, keyed as the coefficients.
     pub bounds: BTreeMap<String, f64>,
+    /// For a parameter of the instrument file: its fitted value against the file's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub parameter: Option<ParameterValue>,
 }
 
 /// The nuisance terms' values, in the `--json` shape.
@@ -142,11 +145,14 @@ pub struct NoiseReport {
     pub caveat: Option<String>,
 }
 
-/// One row of the result.
+/// One observation of a row in the result (a response row has two: its gain and its
+/// phase; their values are in the `*_cm_s2` fields, in the unit `quantity` names).
 #[derive(Clone, Debug, Serialize)]
 pub struct RowResult {
-    /// Row label.
+    /// Row label (a response row's with ` (gain)` or ` (phase)`).
     pub label: String,
+    /// `value_cm_s2`, `gain` or `phase_deg`.
+    pub quantity: &'static str,
     /// Measured difference, cm/s² (None = not measured, not fitted).
     pub measured_cm_s2: Option<f64>,
     /// Sigma used, cm/s² (stated or estimated).
@@ -190,7 +196,8 @@ pub struct ModelEquation {
 /// The `--json` object.
 #[derive(Clone, Debug, Serialize)]
 pub struct JsonReport {
-    /// Number of rows with a measurement (the fitted rows).
+    /// Number of fitted observations (a row with a measurement, or a response row's gain
+    /// and phase).
     pub rows: usize,
     /// Baseline model against the measurements.
     pub baseline: FitSummary,
@@ -227,6 +234,43 @@ pub struct JsonReport {
     pub warnings: Vec<String>,
 }
 
+/// A parameter of the instrument file as fitted, in the file's unit.
+#[derive(Clone, Debug, Serialize)]
+pub struct ParameterValue {
+    /// The instrument file's key (`pendulum.damping_dyn_cm_s`, ...).
+    pub key: String,
+    /// The file's value.
+    pub nominal: f64,
+    /// The fitted value (nominal plus the coefficient).
+    pub fitted: f64,
+    /// Its 1 σ.
+    pub sigma: f64,
+    /// The file's tolerance band, `[lo, hi]`.
+    pub tolerance: [f64; 2],
+    /// The fitted value lies in the band.
+    pub within_tolerance: bool,
+}
+
+impl ParameterValue {
+    /// `"damping 114 361 ± 511 dyn·cm·s, nominal 76 400, tolerance 45 840 to 106 960: out of
+    /// tolerance"`, in words.
+    #[must_use]
+    pub fn sentence(&self, name: &str, unit: &str) -> String {
+        format!(
+            "{name} {} {unit}, nominal {} {unit}, tolerance {} to {} {unit}: {}",
+            super::show::estimate(self.fitted, self.sigma),
+            self.nominal,
+            self.tolerance[0],
+            self.tolerance[1],
+            if self.within_tolerance {
+                "within tolerance"
+            } else {
+                "OUT OF TOLERANCE"
+            }
+        )
+    }
+}
+
 /// One selected coefficient (typed form, for programs such as the hidden-effect tests).
 #[derive(Clone, Debug)]
 pub struct Selected {
@@ -236,8 +280,10 @@ pub struct Selected {
     pub coef: f64,
     /// Standard error.
     pub stderr: f64,
-    /// Within its plausibility bound.
+    /// Within its plausibility bound (for a parameter: within its tolerance band).
     pub plausible: bool,
+    /// For a parameter of the instrument file: its fitted value against the file's.
+    pub parameter: Option<ParameterValue>,
     /// Candidates indistinguishable from this one here, with the factor `c` such that the
     /// other's signature ≈ `c ×` this one's (partialled on the nuisance and the other
     /// selected terms): those whose signature is parallel to it (`|cos| > confound_cos`),
@@ -284,12 +330,18 @@ heteroscedasticity-robust (HC3) t test, at the Holm-Bonferroni level alpha/(m-k)
 (m = testable candidates, k = already selected), so the familywise error rate over all \
 candidates is at most alpha = 0.05";
 
-/// `P(χ²)` summary of `pred` against the measured rows.
+/// `P(χ²)` summary of `pred` against the measured observations (the RMS over the values in
+/// cm/s², or over every observation when there are none).
 fn summary(data: &Data, pred: &dyn Fn(usize) -> f64, sigma: &[f64], p: usize) -> FitSummary {
     let n = data.n();
     let res: Vec<f64> = (0..n).map(|i| data.y[i] - pred(i)).collect();
+    let values: Vec<f64> = (0..n)
+        .filter(|&i| data.quantity[i] == Quantity::Value)
+        .map(|i| res[i])
+        .collect();
+    let pool = if values.is_empty() { &res } else { &values };
     #[allow(clippy::cast_precision_loss)]
-    let rms = (res.iter().map(|r| r * r).sum::<f64>() / n.max(1) as f64).sqrt();
+    let rms = (pool.iter().map(|r| r * r).sum::<f64>() / pool.len().max(1) as f64).sqrt();
     let chi2: f64 = res.iter().zip(sigma).map(|(r, s)| (r / s).powi(2)).sum();
     let dof = n.saturating_sub(p);
     #[allow(clippy::cast_precision_loss)]
@@ -302,8 +354,178 @@ fn summary(data: &Data, pred: &dyn Fn(usize) -> f64, sigma: &[f64], p: usize) ->
     }
 }
 
+/// Gauss–Newton on the selected parameters of the instrument file (the response is not
+/// linear in them): from the linear fit, repeat (sensitivities at the current values, a
+/// weighted least-squares step for the parameters with the additive terms and the nuisance
+/// terms refitted) until the steps fall below a hundredth of their standard errors, at most
+/// [`GAUSS_NEWTON_STEPS`] times. The coefficients and standard errors of `selected` become
+/// those of the last step.
+fn refine_parameters(
+    rows: &[Condition],
+    data: &Data,
+    f: &Fitted,
+    selected: &mut [Selected],
+    sim: &dyn Simulator,
+    opts: &Options,
+) {
+    let params: Vec<usize> = (0..selected.len())
+        .filter(|&k| selected[k].id.parameter_key().is_some())
+        .collect();
+    if params.is_empty() {
+        return;
+    }
+    let ids: Vec<CandidateId> = params.iter().map(|&k| selected[k].id).collect();
+    let additive: Vec<usize> = (0..selected.len())
+        .filter(|k| !params.contains(k))
+        .collect();
+    let n = data.n();
+    let all: Vec<usize> = (0..n).collect();
+    let (_, nuis, _) = fit::nuisance_columns(data, &all);
+    let sigma = &f.sigma;
+    let mut theta = Effects::NONE;
+    for &k in &params {
+        theta.set(selected[k].id, selected[k].coef);
+    }
+    let slot = |k: usize| usize::from(data.quantity[k] == Quantity::Phase);
+    for _ in 0..GAUSS_NEWTON_STEPS {
+        let pred: Vec<Vec<f64>> = {
+            let mut rs: Vec<usize> = data.rows.clone();
+            rs.dedup();
+            let obs: Vec<(usize, Vec<f64>)> = rs
+                .par_iter()
+                .map(|&i| (i, sim.observe(&rows[i], &theta)))
+                .collect();
+            (0..rows.len())
+                .map(|i| {
+                    obs.iter()
+                        .find(|(r, _)| *r == i)
+                        .map(|(_, v)| v.clone())
+                        .unwrap_or_default()
+                })
+                .collect()
+        };
+        let jac = data::sensitivities(rows, data, &ids, sim, &theta);
+        let z: Vec<f64> = (0..n)
+            .map(|k| {
+                (data.y[k] - pred[data.rows[k]].get(slot(k)).copied().unwrap_or(f64::NAN))
+                    / sigma[k]
+            })
+            .collect();
+        if z.iter().any(|x| !x.is_finite()) {
+            return;
+        }
+        let w = |c: &[f64]| -> Vec<f64> { c.iter().zip(sigma).map(|(x, s)| x / s).collect() };
+        let mut cols: Vec<Vec<f64>> = jac.iter().map(|s| w(&s.col)).collect();
+        for &k in &additive {
+            if let Some(s) = data.signatures.iter().find(|s| s.id == selected[k].id) {
+                cols.push(w(&s.col));
+            }
+        }
+        cols.extend(nuis.iter().map(|c| w(c)));
+        let scales: Vec<f64> = cols
+            .iter()
+            .map(|c| norm(c).max(f64::MIN_POSITIVE))
+            .collect();
+        let unit: Vec<Vec<f64>> = cols
+            .iter()
+            .zip(&scales)
+            .map(|(c, s)| c.iter().map(|x| x / s).collect())
+            .collect();
+        let refs: Vec<&[f64]> = unit.iter().map(Vec::as_slice).collect();
+        let Some(g) = lsq(&z, &refs) else { return };
+        let dof = n.saturating_sub(refs.len());
+        #[allow(clippy::cast_precision_loss)]
+        let birge = if dof > 0 {
+            (g.chi2 / dof as f64).sqrt().max(1.0)
+        } else {
+            1.0
+        };
+        let mut done = true;
+        for (j, &k) in params.iter().enumerate() {
+            let step = g.beta[j] / scales[j];
+            let classical = g.cov[(j, j)].sqrt() * birge / scales[j];
+            let se = if f.stated() {
+                classical
+            } else {
+                classical.max(g.se_hc3[j] / scales[j])
+            };
+            theta.add(selected[k].id, step);
+            selected[k].coef = theta.get(selected[k].id);
+            selected[k].stderr = se;
+            selected[k].plausible = within_tolerance(selected[k].id, selected[k].coef, sim);
+            done &= step.abs() < 0.01 * se;
+        }
+        for (j, &k) in additive.iter().enumerate() {
+            let c = params.len() + j;
+            selected[k].coef = g.beta[c] / scales[c];
+            selected[k].stderr = g.cov[(c, c)].sqrt() * birge / scales[c];
+            selected[k].plausible = selected[k].coef.abs() <= opts.limits[selected[k].id.index()];
+        }
+        if done {
+            break;
+        }
+    }
+}
+
+/// Most Gauss–Newton steps of [`refine_parameters`].
+pub const GAUSS_NEWTON_STEPS: usize = 8;
+
+/// Whether a parameter candidate's change keeps the parameter in its tolerance band.
+fn within_tolerance(id: CandidateId, change: f64, sim: &dyn Simulator) -> bool {
+    id.parameter_key()
+        .and_then(|k| sim.instrument().and_then(|i| i.tolerance(k)))
+        .is_none_or(|(lo, nom, hi)| (lo..=hi).contains(&(nom + change)))
+}
+
+/// The per-observation table: every observation of every row (measured or not).
+#[allow(clippy::too_many_arguments)]
+fn row_table(
+    rows: &[Condition],
+    data: &Data,
+    f: &Fitted,
+    baseline: &[Vec<f64>],
+    resim: &[Vec<f64>],
+    extended: &[f64],
+    opts: &Options,
+) -> Vec<RowResult> {
+    let mut out = Vec::new();
+    for (i, r) in rows.iter().enumerate() {
+        for (o, &b) in baseline[i].iter().enumerate() {
+            let (quantity, suffix) = match (r.kind, o) {
+                (crate::condition::RowKind::Response, 0) => ("gain", " (gain)"),
+                (crate::condition::RowKind::Response, _) => ("phase_deg", " (phase)"),
+                _ => ("value_cm_s2", ""),
+            };
+            let k = (0..data.n()).find(|&k| {
+                data.rows[k] == i && usize::from(data.quantity[k] == Quantity::Phase) == o
+            });
+            let (measured, sigma, ext) = match k {
+                Some(k) => (Some(data.y[k]), f.sigma[k], extended[k]),
+                None => (
+                    None,
+                    r.sigma_cm_s2
+                        .or(opts.default_sigma_cm_s2)
+                        .unwrap_or(f64::NAN),
+                    resim[i].get(o).copied().unwrap_or(f64::NAN),
+                ),
+            };
+            out.push(RowResult {
+                label: format!("{}{suffix}", r.label),
+                quantity,
+                measured_cm_s2: measured,
+                sigma_cm_s2: sigma,
+                baseline_cm_s2: b,
+                residual_cm_s2: measured.map(|m| m - b),
+                extended_cm_s2: ext,
+                residual_extended_cm_s2: measured.map(|m| m - ext),
+            });
+        }
+    }
+    out
+}
+
 /// Confounding of every selected coefficient, and the plausibility verdict.
-fn selected_report(data: &Data, f: &Fitted, opts: &Options) -> Vec<Selected> {
+fn selected_report(data: &Data, f: &Fitted, opts: &Options, sim: &dyn Simulator) -> Vec<Selected> {
     let m = f.family.len();
     let cols = f.unit_columns();
     let nn = f.n_nuisance();
@@ -358,11 +580,37 @@ fn selected_report(data: &Data, f: &Fitted, opts: &Options) -> Vec<Selected> {
                 id,
                 coef,
                 stderr,
-                plausible: coef.abs() <= opts.limits[id.index()],
+                plausible: if id.parameter_key().is_some() {
+                    within_tolerance(id, coef, sim)
+                } else {
+                    coef.abs() <= opts.limits[id.index()]
+                },
                 confounded,
+                parameter: None,
             }
         })
         .collect()
+}
+
+/// Fill in the parameter values of the selected parameters.
+fn parameter_values(selected: &mut [Selected], sim: &dyn Simulator) {
+    for s in selected {
+        let Some(key) = s.id.parameter_key() else {
+            continue;
+        };
+        let Some((lo, nom, hi)) = sim.instrument().and_then(|i| i.tolerance(key)) else {
+            continue;
+        };
+        let fitted = nom + s.coef;
+        s.parameter = Some(ParameterValue {
+            key: key.to_string(),
+            nominal: nom,
+            fitted,
+            sigma: s.stderr,
+            tolerance: [lo, hi],
+            within_tolerance: (lo..=hi).contains(&fitted),
+        });
+    }
 }
 
 /// Pairwise groups of the family with `|cos| > confound_cos` once the nuisance terms are
@@ -502,14 +750,17 @@ fn effect_reports(selected: &[Selected], opts: &Options) -> Vec<EffectReport> {
                     confounded_with: vec![],
                     plausible: true,
                     bounds: BTreeMap::new(),
+                    parameter: s.parameter.clone(),
                 });
                 reports.len() - 1
             });
         let r = &mut reports[pos];
         r.coefficients.insert(cand.key.to_string(), s.coef);
         r.stderr.insert(cand.key.to_string(), s.stderr);
-        r.bounds
-            .insert(cand.key.to_string(), opts.limits[s.id.index()]);
+        if s.parameter.is_none() {
+            r.bounds
+                .insert(cand.key.to_string(), opts.limits[s.id.index()]);
+        }
         r.plausible &= s.plausible;
         for &(o, _) in &s.confounded {
             let name = o.info().name.to_string();
@@ -534,13 +785,15 @@ pub fn discover(
     sim: &dyn Simulator,
     opts: &Options,
 ) -> anyhow::Result<Discovery> {
-    if rows.iter().all(|r| r.measured_cm_s2.is_none()) {
-        anyhow::bail!("no row has a value in `measured_cm_s2`: nothing to fit");
+    if !rows.iter().any(Condition::is_measured) {
+        anyhow::bail!(
+            "no row has a measurement (`measured_cm_s2`, or `measured_gain`/`measured_phase_deg` in a response row): nothing to fit"
+        );
     }
-    // 1. Baseline: every row (measured or not, for the table), by the simulator.
-    let baseline: Vec<f64> = rows
+    // 1. Baseline: every row's observations (measured or not, for the table).
+    let baseline: Vec<Vec<f64>> = rows
         .par_iter()
-        .map(|r| sim.predict_cm_s2(r, &Effects::NONE))
+        .map(|r| sim.observe(r, &Effects::NONE))
         .collect();
     let data = data::build(
         rows,
@@ -558,55 +811,41 @@ pub fn discover(
     };
     // 2. The model: nuisance terms, noise, selection.
     let f = fit::fit(&data, &all, settings);
-    let selected = selected_report(&data, &f, opts);
+    let mut selected = selected_report(&data, &f, opts, sim);
+    refine_parameters(rows, &data, &f, &mut selected, sim, opts);
+    parameter_values(&mut selected, sim);
     let mut effects = Effects::NONE;
     for s in &selected {
         effects.add(s.id, s.coef);
     }
     // 3. Extend and re-simulate; the nuisance terms are part of the fitted model.
-    let resim: Vec<f64> = if effects.is_zero() {
+    let resim: Vec<Vec<f64>> = if effects.is_zero() {
         baseline.clone()
     } else {
-        rows.par_iter()
-            .map(|r| sim.predict_cm_s2(r, &effects))
-            .collect()
+        rows.par_iter().map(|r| sim.observe(r, &effects)).collect()
     };
-    let mut extended = resim.clone();
-    for (k, &i) in data.rows.iter().enumerate() {
-        extended[i] += f.nuisance_at(&data, k);
-    }
-    let sigma_row = |k: usize| f.sigma[k];
-    let sig: Vec<f64> = (0..n).map(sigma_row).collect();
-    let base_summary = summary(&data, &|k| data.base[k], &sig, 0);
-    let ext_summary = summary(&data, &|k| extended[data.rows[k]], &sig, f.fit.beta.len());
+    let slot = |q: Quantity| usize::from(q == Quantity::Phase);
+    let extended: Vec<f64> = (0..n)
+        .map(|k| {
+            let v = resim[data.rows[k]]
+                .get(slot(data.quantity[k]))
+                .copied()
+                .unwrap_or(f64::NAN);
+            if data.quantity[k] == Quantity::Phase {
+                v
+            } else {
+                v + f.nuisance_at(&data, k)
+            }
+        })
+        .collect();
+    let base_summary = summary(&data, &|k| data.base[k], &f.sigma, 0);
+    let ext_summary = summary(&data, &|k| extended[k], &f.sigma, f.fit.beta.len());
     // 4. What is left, and the gain out of sample.
     let unexplained = unexplained::test(&data, &f, &selected, opts.alpha);
     let gain = crossval::gain(&data, settings, ext_summary.rms_cm_s2, opts.seed);
     let groups = indistinguishable(&data, &f, opts);
     let advice = advice::advise(&data, rows, &f, &selected, &groups, sim.g_cm_s2());
-    let mut sigma_all = vec![f64::NAN; rows.len()];
-    for (k, &i) in data.rows.iter().enumerate() {
-        sigma_all[i] = f.sigma[k];
-    }
-    let table: Vec<RowResult> = rows
-        .iter()
-        .enumerate()
-        .map(|(i, r)| RowResult {
-            label: r.label.clone(),
-            measured_cm_s2: r.measured_cm_s2,
-            sigma_cm_s2: if sigma_all[i].is_nan() {
-                r.sigma_cm_s2
-                    .or(opts.default_sigma_cm_s2)
-                    .unwrap_or(f64::NAN)
-            } else {
-                sigma_all[i]
-            },
-            baseline_cm_s2: baseline[i],
-            residual_cm_s2: r.measured_cm_s2.map(|m| m - baseline[i]),
-            extended_cm_s2: extended[i],
-            residual_extended_cm_s2: r.measured_cm_s2.map(|m| m - extended[i]),
-        })
-        .collect();
+    let table = row_table(rows, &data, &f, &baseline, &resim, &extended, opts);
     let warnings = warnings(&data, &f, &selected);
     let effects_json = effect_reports(&selected, opts);
     let mut d = Discovery {
@@ -697,6 +936,9 @@ pub fn verdict(d: &Discovery) -> String {
             .iter()
             .map(|s| {
                 let c = s.id.info();
+                if let Some(p) = &s.parameter {
+                    return p.sentence(c.name, c.unit);
+                }
                 let mut t = format!(
                     "{} = {} {}",
                     if c.name.contains('.') { c.name.to_string() } else { format!("{} {}", c.name, c.key) },

@@ -196,6 +196,10 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
     for sel in &d.selected {
         let c = sel.id.info();
         let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| o.info().name).collect();
+        if let Some(p) = &sel.parameter {
+            let _ = writeln!(s, "selected: {}", p.sentence(c.name, c.unit));
+            continue;
+        }
         let _ = writeln!(
             s,
             "selected: {} {} = {} {}{}{}",

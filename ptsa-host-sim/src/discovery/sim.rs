@@ -12,16 +12,30 @@ pub trait Simulator: Sync {
     fn name(&self) -> &'static str;
     /// Local gravity of the simulated instrument, cm/s² (what `g_*` = 1 means).
     fn g_cm_s2(&self) -> f64;
+    /// The instrument simulated, if the simulator has one (for parameter candidates).
+    fn instrument(&self) -> Option<&Instrument> {
+        None
+    }
     /// Predicted condition-minus-reference difference with the given extra effects, cm/s².
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64;
     /// Predicted mean indicated acceleration in the condition with the given extra effects,
     /// `SF·(2P/T − 1)` with the nominal SF in the limit of a long gate, cm/s².
     fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64;
-    /// The prediction of a row's `measured_cm_s2`, by its kind.
+    /// Predicted response to the row's sine along IA: `[gain, phase_deg]` (output amplitude
+    /// over input amplitude, output phase minus input phase).
+    fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2];
+    /// The prediction of a row's `measured_cm_s2` (a difference or absolute row), cm/s²;
+    /// for a response row, its gain.
     fn predict_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        self.observe(cond, effects)[0]
+    }
+    /// Every observation of a row: `[value]` for a difference or absolute row, `[gain,
+    /// phase_deg]` for a response row.
+    fn observe(&self, cond: &Condition, effects: &Effects) -> Vec<f64> {
         match cond.kind {
-            RowKind::Difference => self.difference_cm_s2(cond, effects),
-            RowKind::Absolute => self.absolute_cm_s2(cond, effects),
+            RowKind::Difference => vec![self.difference_cm_s2(cond, effects)],
+            RowKind::Absolute => vec![self.absolute_cm_s2(cond, effects)],
+            RowKind::Response => self.response(cond, effects).to_vec(),
         }
     }
 }
@@ -34,7 +48,7 @@ pub trait Simulator: Sync {
 /// For terms linear in their coefficients this is exact: every term is a product of at most
 /// two sinusoids at one frequency, i.e. a trigonometric polynomial of degree ≤ 2, and the
 /// mean of such a polynomial over `N ≥ 3` equally spaced samples of one period is exact.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct AnalyticSimulator {
     /// Local gravity, cm/s² (the instrument file's).
     pub g_cm_s2: f64,
@@ -44,6 +58,9 @@ pub struct AnalyticSimulator {
     /// The loop's own bias at zero `a_PA` and its change per cm/s² of `a_PA`
     /// ([`Instrument::loop_bias_cm_s2`] is linear in `a_PA`).
     pub loop_bias: [f64; 2],
+    /// The instrument and its compensator, for the linear loop model of response rows
+    /// (`None`: no response prediction).
+    pub loop_model: Option<Box<(Instrument, ptsa_core::Config)>>,
 }
 
 impl AnalyticSimulator {
@@ -51,10 +68,13 @@ impl AnalyticSimulator {
     #[must_use]
     pub fn for_instrument(instr: &Instrument) -> Self {
         let b0 = instr.loop_bias_cm_s2(0.0);
+        let config =
+            crate::design::check_loop(instr).map_or(ptsa_core::Config::DEFAULT, |c| c.config);
         Self {
             g_cm_s2: instr.g_cm_s2,
             bias_cm_s2: instr.bias_cm_s2,
             loop_bias: [b0, instr.loop_bias_cm_s2(1.0) - b0],
+            loop_model: Some(Box::new((instr.clone(), config))),
         }
     }
 
@@ -64,6 +84,7 @@ impl AnalyticSimulator {
         match cond.kind {
             RowKind::Difference => self.difference_cm_s2(cond, effects),
             RowKind::Absolute => mean_effect_cm_s2(cond, effects, self.g_cm_s2),
+            RowKind::Response => 0.0,
         }
     }
 }
@@ -115,7 +136,7 @@ pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> 
     }
     match cond.kind {
         RowKind::Difference => s / nf + effects.indicated_cm_s2(&r.inputs_at(0.0, g_cm_s2)).abs(),
-        RowKind::Absolute => s / nf,
+        RowKind::Absolute | RowKind::Response => s / nf,
     }
 }
 
@@ -142,6 +163,21 @@ impl Simulator for AnalyticSimulator {
             + self.loop_bias[0]
             + self.loop_bias[1] * m.a_cm_s2[PA]
             + mean_effect_cm_s2(cond, effects, self.g_cm_s2)
+    }
+
+    fn instrument(&self) -> Option<&Instrument> {
+        self.loop_model.as_ref().map(|m| &m.0)
+    }
+
+    fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
+        // The linear loop model L/(1 + L) of the instrument's loop (with its parameter
+        // changes).
+        self.loop_model.as_ref().map_or([f64::NAN; 2], |m| {
+            let instr = effects.apply_parameters(&m.0);
+            let l = crate::design::loop_gain(&instr, &m.1, cond.freq_hz);
+            let h = l / (1.0 + l);
+            [h.norm(), h.arg().to_degrees()]
+        })
     }
 }
 
@@ -179,6 +215,10 @@ impl Simulator for ClosedLoopSimulator {
         self.instrument.g_cm_s2
     }
 
+    fn instrument(&self) -> Option<&Instrument> {
+        Some(&self.instrument)
+    }
+
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
         crate::sim::simulate_difference(&self.instrument, cond, effects, &self.options)
             .difference_cm_s2
@@ -188,6 +228,41 @@ impl Simulator for ClosedLoopSimulator {
         crate::sim::simulate_condition(&self.instrument, cond, effects, &self.options)
             .indicated_cm_s2
     }
+
+    fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
+        response_of(&self.instrument, cond, effects, &self.options)
+    }
+}
+
+/// Shortest window of a simulated response row, s (the output's component at the input's
+/// frequency needs enough limit cycles to stand out of the pulse train's quantization).
+pub const RESPONSE_WINDOW_S: f64 = 0.5;
+
+/// The closed loop's response to a response row's sine along IA: `[gain, phase_deg]`, the
+/// component of the indicated output at the row's frequency over the input's amplitude, and
+/// its phase minus the input's, over a window of whole periods at least
+/// [`RESPONSE_WINDOW_S`] long.
+#[must_use]
+pub fn response_of(
+    instr: &Instrument,
+    cond: &Condition,
+    effects: &Effects,
+    opts: &crate::sim::SimOptions,
+) -> [f64; 2] {
+    let o = crate::sim::SimOptions {
+        harmonic: 1,
+        min_window_s: opts.min_window_s.max(RESPONSE_WINDOW_S),
+        ..*opts
+    };
+    let r = crate::sim::simulate_condition(instr, cond, effects, &o);
+    let amp = cond.lin_cm_s2[IA].abs();
+    let mut ph = (r.harmonic_deg - cond.lin_deg[IA]) % 360.0;
+    if ph > 180.0 {
+        ph -= 360.0;
+    } else if ph <= -180.0 {
+        ph += 360.0;
+    }
+    [r.harmonic_amp_cm_s2 / amp, ph]
 }
 
 /// The closed-loop simulator of the shipped instrument, boxed.
