@@ -467,7 +467,7 @@ fn refine_parameters(
     }
 }
 
-/// Most Gauss–Newton steps of [`refine_parameters`].
+/// Most Gauss–Newton steps of `refine_parameters`.
 pub const GAUSS_NEWTON_STEPS: usize = 8;
 
 /// Whether a parameter candidate's change keeps the parameter in its tolerance band.
