@@ -97,8 +97,8 @@ pub struct Candidate {
 
 macro_rules! candidates {
     ($($id:ident = $effect:literal, $key:literal, $name:literal, $unit:literal, $formula:literal, $sig:expr, $bound:expr, $ieee:expr;)*) => {
-        /// Typed name of a candidate coefficient (the order is the tie-break order of the
-        /// selection and the order of every listing).
+        /// Typed name of a candidate coefficient (the order is the order of every listing,
+        /// and the selection's tie-break after [`CandidateId::first_order`]).
         #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
         pub enum CandidateId {
             $(
@@ -249,6 +249,20 @@ impl CandidateId {
             Signature::Term(f) => f(i),
             Signature::Parameter(_) => 0.0,
         }
+    }
+
+    /// A first-order term of the IEEE 1293 model equation (bias, scale factor,
+    /// misalignment): when two candidates fit the data exactly as well, the selection takes
+    /// one of these before a second-order or dynamic term (the simpler explanation).
+    #[must_use]
+    pub fn first_order(self) -> bool {
+        matches!(
+            self,
+            CandidateId::Bias
+                | CandidateId::ScaleFactor
+                | CandidateId::MisalignmentP
+                | CandidateId::MisalignmentO
+        )
     }
 
     /// The instrument-file key of a parameter candidate.

@@ -3,7 +3,7 @@
 //! bad input, and long work is bounded; `static --json` prints exactly one object.
 //!
 //! Every run starts in a fresh temporary folder (its working directory, so that even a
-//! default `--out report` lands there) and a refused run must leave that folder as it was.
+//! default `--out out` lands there) and a refused run must leave that folder as it was.
 
 use std::path::Path;
 use std::process::{Command, Output, Stdio};
@@ -884,6 +884,12 @@ fn discover_reads_case_frames_and_refuses_bad_ones() {
         &["discover", "--out", "afile"],
         1,
         &["--out afile: this is a file; expected a folder"],
+    );
+    // Advice needs a data file to advise on.
+    refused(
+        &["discover", "--advice-out", "rows.csv"],
+        2,
+        &["--advice-out <FILE>", "--data <FILE>"],
     );
 }
 

@@ -5,15 +5,19 @@
 //! interval of the gain over the held-out rows.
 //!
 //! The held-out predictions use the candidates' signatures (the linearised model, exact for
-//! these additive terms: the loop indicates their time average); the full-data extended
-//! model is re-simulated in the closed loop.
+//! the additive terms: the loop indicates their time average); the full-data extended
+//! model is re-simulated in the closed loop. A selected parameter of the loop (`damping`,
+//! ...) enters as its secant, the closed loop's change from the instrument file's value to
+//! the full-data fit divided by that change: exact at both ends, linear between, and its
+//! direction taken from all rows (the held-out fold still refits its size).
 
+use rand::seq::SliceRandom as _;
 use rand::{Rng as _, SeedableRng as _};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::data::Data;
+use super::data::{Data, Quantity};
 use super::fit::{self, Settings};
 
 /// Largest set cross-validated leave-one-out.
@@ -26,18 +30,22 @@ pub const BOOTSTRAP: usize = 2000;
 /// The gain, in the `--json` shape.
 #[derive(Clone, Debug, Serialize)]
 pub struct Gain {
-    /// RMS of `measured − extended` on the rows that were fitted, cm/s².
+    /// RMS of `measured − extended` on the rows that were fitted, in `unit`.
     pub rms_in_sample_cm_s2: f64,
     /// RMS of the held-out rows' `measured − prediction` with the selection repeated in every
-    /// fold, cm/s².
+    /// fold, in `unit`.
     pub rms_cross_validated_cm_s2: f64,
-    /// The same for the baseline model (nuisance terms only), cm/s².
+    /// The same for the baseline model (nuisance terms only), in `unit`.
     pub baseline_rms_cross_validated_cm_s2: f64,
     /// Bootstrap 95 % interval of the cross-validated RMS gain (baseline minus selected),
     /// cm/s².
     pub ci95_rms_cm_s2: [f64; 2],
     /// `leave-one-out` or `10-fold`.
     pub method: String,
+    /// Unit of the four RMS figures: `cm/s²`, or `σ` when the data hold response rows (each
+    /// error is then divided by its observation's 1 σ, so that a gain, a phase in degrees
+    /// and an acceleration can share one RMS).
+    pub unit: String,
 }
 
 /// Cross-validate the fit of `data`.
@@ -51,17 +59,14 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
         )
     } else {
         let mut order: Vec<usize> = (0..n).collect();
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        for i in (1..n).rev() {
-            let j = rng.random_range(0..=i);
-            order.swap(i, j);
-        }
+        order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
         let mut f = vec![Vec::new(); FOLDS];
         for (k, &i) in order.iter().enumerate() {
             f[k % FOLDS].push(i);
         }
         (f, format!("{FOLDS}-fold"))
     };
+    let normalise = data.quantity.iter().any(|&q| q != Quantity::Value);
     // (held-out row, error with selection, error with nuisance only)
     let errors: Vec<(f64, f64)> = folds
         .par_iter()
@@ -79,7 +84,24 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
             held.iter()
                 .map(|&i| {
                     let r = data.resid(i);
-                    (r - with.predict(data, i), r - without.predict(data, i))
+                    // The observation's stated 1 σ, else its group's estimate in the fold.
+                    let s = if normalise {
+                        data.stated[i]
+                            .or_else(|| {
+                                without
+                                    .group_sigma
+                                    .iter()
+                                    .find(|(g, _)| *g == data.group[i])
+                                    .map(|&(_, s)| s)
+                            })
+                            .unwrap_or(1.0)
+                    } else {
+                        1.0
+                    };
+                    (
+                        (r - with.predict(data, i)) / s,
+                        (r - without.predict(data, i)) / s,
+                    )
                 })
                 .collect::<Vec<_>>()
         })
@@ -120,5 +142,6 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
             [0.0, 0.0]
         },
         method,
+        unit: if normalise { "σ" } else { "cm/s²" }.to_string(),
     }
 }

@@ -130,6 +130,8 @@ fn replicate_key(c: &Condition) -> Vec<u64> {
         k.extend(v.iter().map(|x| x.to_bits()));
     }
     k.push(c.freq_hz.to_bits());
+    k.push(c.radius_cm.to_bits());
+    k.push(c.kind as u64);
     k
 }
 

@@ -398,6 +398,8 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
             }
         }
     }
+    // Exact ties go to the first-order terms, then to registry order.
+    family.sort_by_key(|&k| (!data.signatures[k].id.first_order(), k));
     if !settings.select {
         family.clear();
     }

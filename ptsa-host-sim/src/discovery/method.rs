@@ -85,8 +85,13 @@ impl Default for Options {
 /// RMS and χ² of a set of residuals.
 #[derive(Clone, Debug, Serialize)]
 pub struct FitSummary {
-    /// Root mean square of `measured − simulated`, cm/s².
+    /// Root mean square of `measured − simulated` over the rows measured in cm/s²
+    /// (difference and absolute rows), cm/s²; `null` when there are none (response rows
+    /// only).
     pub rms_cm_s2: f64,
+    /// Root mean square of `(measured − simulated)/sigma` over every observation (a
+    /// response row's gain and phase included), dimensionless.
+    pub rms_normalised: f64,
     /// `Σ ((measured − simulated)/sigma)²`.
     pub chi2: f64,
     /// Degrees of freedom: fitted rows minus fitted coefficients (nuisance terms included).
@@ -176,7 +181,8 @@ pub struct Term {
     /// IEEE Std 1293 symbol (`K_0`, `K_1`, `δ_o`, ...; the lever arm and anisoinertia,
     /// which the standard's equation does not hold, by their own names).
     pub symbol: String,
-    /// Value in `unit`.
+    /// Value in `unit`; for a parameter of the loop (`damping`, ...), its fitted value,
+    /// not the change from the instrument file.
     pub value: f64,
     /// The standard's unit (µg, ppm, µg/g², µrad, ...).
     pub unit: String,
@@ -339,15 +345,21 @@ fn summary(data: &Data, pred: &dyn Fn(usize) -> f64, sigma: &[f64], p: usize) ->
         .filter(|&i| data.quantity[i] == Quantity::Value)
         .map(|i| res[i])
         .collect();
-    let pool = if values.is_empty() { &res } else { &values };
     #[allow(clippy::cast_precision_loss)]
-    let rms = (pool.iter().map(|r| r * r).sum::<f64>() / pool.len().max(1) as f64).sqrt();
+    let rms = if values.is_empty() {
+        f64::NAN
+    } else {
+        (values.iter().map(|r| r * r).sum::<f64>() / values.len() as f64).sqrt()
+    };
     let chi2: f64 = res.iter().zip(sigma).map(|(r, s)| (r / s).powi(2)).sum();
+    #[allow(clippy::cast_precision_loss)]
+    let rms_normalised = (chi2 / n.max(1) as f64).sqrt();
     let dof = n.saturating_sub(p);
     #[allow(clippy::cast_precision_loss)]
     let p_value = chi2_sf(chi2, dof as f64);
     FitSummary {
         rms_cm_s2: rms,
+        rms_normalised,
         chi2,
         dof,
         p_value,
@@ -465,6 +477,42 @@ fn refine_parameters(
             break;
         }
     }
+}
+
+/// `data` with each selected parameter's signature replaced by its secant: the closed
+/// loop's observations with the fitted change alone, minus the baseline's, over the change
+/// (the central-difference sensitivity at the file's value misjudges a change of tens of
+/// per cent).
+fn secant_signatures(
+    rows: &[Condition],
+    data: &Data,
+    selected: &[Selected],
+    baseline: &[Vec<f64>],
+    sim: &dyn Simulator,
+) -> Data {
+    let mut out = data.clone();
+    let slot = |q: Quantity| usize::from(q == Quantity::Phase);
+    for s in selected {
+        if s.id.parameter_key().is_none() || s.coef == 0.0 {
+            continue;
+        }
+        let e = Effects::only(s.id, s.coef);
+        let obs: Vec<Vec<f64>> = rows.par_iter().map(|r| sim.observe(r, &e)).collect();
+        let col: Vec<f64> = (0..data.n())
+            .map(|k| {
+                let (i, q) = (data.rows[k], slot(data.quantity[k]));
+                let d = obs[i].get(q).copied().unwrap_or(f64::NAN)
+                    - baseline[i].get(q).copied().unwrap_or(f64::NAN);
+                d / s.coef
+            })
+            .collect();
+        if col.iter().all(|x| x.is_finite())
+            && let Some(sig) = out.signatures.iter_mut().find(|x| x.id == s.id)
+        {
+            sig.col = col;
+        }
+    }
+    out
 }
 
 /// Most Gauss–Newton steps of `refine_parameters`.
@@ -710,12 +758,16 @@ fn model_equation(f: &Fitted, selected: &[Selected], g_cm_s2: f64) -> ModelEquat
             let c = s.id.info();
             let (symbol, unit, factor) = c.ieee;
             let k = factor(g_cm_s2);
+            let (value, sigma) = s
+                .parameter
+                .as_ref()
+                .map_or((s.coef * k, s.stderr * k), |p| (p.fitted, p.sigma));
             Term {
                 name: c.name.to_string(),
                 symbol: symbol.to_string(),
-                value: s.coef * k,
+                value,
                 unit: unit.to_string(),
-                sigma: s.stderr * k,
+                sigma,
             }
         })
         .collect();
@@ -842,7 +894,16 @@ pub fn discover(
     let ext_summary = summary(&data, &|k| extended[k], &f.sigma, f.fit.beta.len());
     // 4. What is left, and the gain out of sample.
     let unexplained = unexplained::test(&data, &f, &selected, opts.alpha);
-    let gain = crossval::gain(&data, settings, ext_summary.rms_cm_s2, opts.seed);
+    let gain = crossval::gain(
+        &secant_signatures(rows, &data, &selected, &baseline, sim),
+        settings,
+        if data.quantity.iter().all(|&q| q == Quantity::Value) {
+            ext_summary.rms_cm_s2
+        } else {
+            ext_summary.rms_normalised
+        },
+        opts.seed,
+    );
     let groups = indistinguishable(&data, &f, opts);
     let advice = advice::advise(&data, rows, &f, &selected, &groups, sim.g_cm_s2());
     let table = row_table(rows, &data, &f, &baseline, &resim, &extended, opts);
@@ -906,12 +967,18 @@ fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
         w.push("no sigma_cm_s2 and no replicated rows: the noise is estimated from the residuals (see noise.caveat)".to_string());
     }
     for s in selected.iter().filter(|s| !s.plausible) {
-        w.push(format!(
-            "{} = {:.4} {} is beyond its plausibility bound: the data's structure is real, but this cause is unlikely",
-            s.id.info().name,
-            s.coef,
-            s.id.info().unit
-        ));
+        let (name, unit) = (s.id.info().name, s.id.info().unit);
+        w.push(if let Some(p) = &s.parameter {
+            format!(
+                "{name} = {:.6} {unit} lies outside the instrument file's tolerance ({:.6} to {:.6} {unit}): either this instrument is out of its specification, or another cause imitates the change",
+                p.fitted, p.tolerance[0], p.tolerance[1]
+            )
+        } else {
+            format!(
+                "{name} = {:.4} {unit} is beyond its plausibility bound: the data's structure is real, but this cause is unlikely",
+                s.coef
+            )
+        });
     }
     w
 }
@@ -965,13 +1032,14 @@ pub fn verdict(d: &Discovery) -> String {
     }
     let g = &j.gain;
     v.push_str(&format!(
-        " Out of sample ({}): RMS {:.3} cm/s² with the selected terms against {:.3} for the baseline with its nuisance terms; gain {:.3} cm/s², 95 % interval [{:.3}, {:.3}].",
+        " Out of sample ({}): RMS {:.3} {u} with the selected terms against {:.3} for the baseline with its nuisance terms; gain {:.3} {u}, 95 % interval [{:.3}, {:.3}].",
         g.method,
         g.rms_cross_validated_cm_s2,
         g.baseline_rms_cross_validated_cm_s2,
         g.baseline_rms_cross_validated_cm_s2 - g.rms_cross_validated_cm_s2,
         g.ci95_rms_cm_s2[0],
-        g.ci95_rms_cm_s2[1]
+        g.ci95_rms_cm_s2[1],
+        u = g.unit
     ));
     v
 }
@@ -1057,6 +1125,44 @@ mod tests {
         assert_eq!(names, ["anisoinertia"]);
         let b = &d.json.nuisance.bias_shift_cm_s2;
         assert!((b["b"] - b["a"] - 0.8).abs() < 0.4, "{b:?}");
+    }
+
+    #[test]
+    fn an_exact_tie_goes_to_the_first_order_term() {
+        // IA up and IA down: a bias and the nonlinearity k·a_IA² (g² in both positions) fit
+        // a common offset exactly as well; the simpler term, the bias, is named, the other
+        // said to be indistinguishable from it.
+        use rand::SeedableRng as _;
+        use rand_distr::Distribution as _;
+        let sim = analytic();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let noise = rand_distr::Normal::new(0.0, 0.02).unwrap();
+        let truth = Effects::only(CandidateId::Bias, 0.5);
+        let rows: Vec<Condition> = (0..12)
+            .map(|k| {
+                let mut r = Condition {
+                    label: format!("p{k}"),
+                    kind: crate::condition::RowKind::Absolute,
+                    g: [if k % 2 == 0 { 1.0 } else { -1.0 }, 0.0, 0.0],
+                    sigma_cm_s2: Some(0.02),
+                    ..Condition::default()
+                };
+                r.measured_cm_s2 = Some(sim.absolute_cm_s2(&r, &truth) + noise.sample(&mut rng));
+                r
+            })
+            .collect();
+        let d = discover(&rows, &sim, &Options::default()).unwrap();
+        eprintln!("{}", show::text_report("tie", &d));
+        let names: Vec<&str> = d.json.effects.iter().map(|e| e.name.as_str()).collect();
+        assert_eq!(names, ["bias"]);
+        assert!(
+            d.json.effects[0]
+                .confounded_with
+                .iter()
+                .any(|n| n == "nonlinearity"),
+            "{:?}",
+            d.json.effects[0].confounded_with
+        );
     }
 
     #[test]

@@ -67,13 +67,8 @@ pub fn analytic() -> Box<dyn Simulator> {
 pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result<()> {
     let opts = &req.options;
     let Some(path) = &req.data else {
-        let text = show::report_section(sim, opts, req.out.as_deref())?;
+        let (text, all) = show::report_section_json(sim, opts, req.out.as_deref())?;
         if req.json {
-            let mut all = serde_json::Map::new();
-            for f in crate::r890::case_files()? {
-                let d = discover(&f.rows, sim, opts)?;
-                all.insert(f.name.to_string(), serde_json::to_value(&d.json)?);
-            }
             eprint!("{text}");
             writeln!(stdout, "{}", serde_json::Value::Object(all))?;
         } else {
@@ -115,6 +110,7 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         );
     }
     if req.json {
+        eprint!("{text}");
         writeln!(stdout, "{}", serde_json::to_string(&d.json)?)?;
     } else {
         write!(stdout, "{text}")?;

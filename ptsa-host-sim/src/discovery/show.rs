@@ -99,8 +99,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
     }
     let _ = writeln!(
         s,
-        "\nbaseline: RMS {:.3} cm/s², chi2 {:.2} for {} dof (p = {})",
-        j.baseline.rms_cm_s2,
+        "\nbaseline: {}, chi2 {:.2} for {} dof (p = {})",
+        rms_text(&j.baseline),
         j.baseline.chi2,
         j.baseline.dof,
         pfmt(j.baseline.p_value)
@@ -141,7 +141,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
     let _ = writeln!(
         s,
         "nuisance terms (always in the model, never discoveries): {}",
-        parts.join(", ")
+        if parts.is_empty() {
+            "none".to_string()
+        } else {
+            parts.join(", ")
+        }
     );
     if !d.untestable.is_empty() {
         let _ = writeln!(
@@ -226,8 +230,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
     let e = &j.extended;
     let _ = writeln!(
         s,
-        "extended: RMS {:.3} cm/s², chi2 {:.2} for {} dof (p = {}): {}",
-        e.rms_cm_s2,
+        "extended: {}, chi2 {:.2} for {} dof (p = {}): {}",
+        rms_text(e),
         e.chi2,
         e.dof,
         pfmt(e.p_value),
@@ -296,11 +300,12 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
     let g = &j.gain;
     let _ = writeln!(
         s,
-        "gain ({}): RMS in sample {:.3}, cross-validated {:.3} against {:.3} for the baseline with its nuisance terms, cm/s²; gain 95 % interval [{:.3}, {:.3}]",
+        "gain ({}): RMS in sample {:.3}, cross-validated {:.3} against {:.3} for the baseline with its nuisance terms, {}; gain 95 % interval [{:.3}, {:.3}]",
         g.method,
         g.rms_in_sample_cm_s2,
         g.rms_cross_validated_cm_s2,
         g.baseline_rms_cross_validated_cm_s2,
+        g.unit,
         g.ci95_rms_cm_s2[0],
         g.ci95_rms_cm_s2[1]
     );
@@ -459,6 +464,19 @@ pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
     Ok(())
 }
 
+/// `RMS 0.123 cm/s²`, or with response rows only `RMS 1.23 σ (residual over its
+/// uncertainty)`.
+fn rms_text(f: &super::method::FitSummary) -> String {
+    if f.rms_cm_s2.is_finite() {
+        format!("RMS {:.3} cm/s²", f.rms_cm_s2)
+    } else {
+        format!(
+            "RMS {:.3} σ (each residual over its uncertainty)",
+            f.rms_normalised
+        )
+    }
+}
+
 /// The analysis of the report's Tables 6.1, 6.2 and 6.3 as a Markdown section, for the
 /// no-argument report. Writes the tables and plots into `out` when given; the Markdown links
 /// to the plots relative to `out`'s parent (where the report's summary is expected).
@@ -466,6 +484,20 @@ pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
 /// # Errors
 /// The shipped transcriptions are malformed or an output cannot be written.
 pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -> Result<String> {
+    report_section_json(sim, opts, out).map(|(s, _)| s)
+}
+
+/// [`report_section`] and each case file's `ptsa discover --json` object, by file name
+/// (one analysis per file serves both).
+///
+/// # Errors
+/// As [`report_section`].
+pub fn report_section_json(
+    sim: &dyn Simulator,
+    opts: &Options,
+    out: Option<&Path>,
+) -> Result<(String, serde_json::Map<String, serde_json::Value>)> {
+    let mut all = serde_json::Map::new();
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -524,6 +556,7 @@ pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -
             j.extended.p_value
         );
         let _ = writeln!(details, "\n```text\n{}```", text_report(name, &d));
+        all.insert(name.to_string(), serde_json::to_value(&d.json)?);
         if let Some(dir) = out {
             let stem = name.trim_end_matches(".case.csv");
             write_outputs(dir, stem, &d)?;
@@ -536,7 +569,7 @@ pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -
         }
     }
     s.push_str(&details);
-    Ok(s)
+    Ok((s, all))
 }
 
 #[cfg(test)]

@@ -39,6 +39,44 @@ pub struct OaRun {
     pub rows: Vec<OaRow>,
     /// Tables, figures, notes.
     pub output: Output,
+    /// Largest simulated |dynamic − static|, cm/s².
+    pub max_simulated_cm_s2: f64,
+    /// RMS of the report's rows, cm/s².
+    pub report_rms_cm_s2: f64,
+    /// The report's test uncertainty (section 6.1), cm/s².
+    pub sigma_cm_s2: f64,
+}
+
+impl OaRun {
+    /// The verdict in words, from the figures (not assumed): whether the simulated loop
+    /// rectifies above the test uncertainty, and whether the report's rows scatter within
+    /// it (RMS at most 1.5 σ, about where a χ² of so few rows stops being plausible).
+    #[must_use]
+    pub fn verdict(&self) -> String {
+        let sim = if self.max_simulated_cm_s2 < self.sigma_cm_s2 {
+            format!(
+                "the simulated loop rectifies at most {:.4} cm/s², below the {} cm/s² test uncertainty",
+                self.max_simulated_cm_s2, self.sigma_cm_s2
+            )
+        } else {
+            format!(
+                "the simulated loop rectifies up to {:.4} cm/s², above the {} cm/s² test uncertainty",
+                self.max_simulated_cm_s2, self.sigma_cm_s2
+            )
+        };
+        let rep = if self.report_rms_cm_s2 <= 1.5 * self.sigma_cm_s2 {
+            format!(
+                "the report's rows scatter with RMS {:.3} cm/s², within that uncertainty, so they show no rectified OA coupling, as the report concluded",
+                self.report_rms_cm_s2
+            )
+        } else {
+            format!(
+                "the report's rows scatter with RMS {:.3} cm/s², more than that uncertainty explains: something in them is not noise",
+                self.report_rms_cm_s2
+            )
+        };
+        format!("{sim}; {rep}")
+    }
 }
 
 /// Tables 6.2 and 6.3 with the proof mass at `lever_cm` (IA, PA, OA) from the table axis, cm.
@@ -146,15 +184,19 @@ pub fn run(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) -> Result<
         (v.iter().map(|x| x * x).sum::<f64>() / n).sqrt()
     };
     let sigma = r890::section_6_1()?.test_uncertainty_cm_s2;
-    let notes = vec![format!(
-        "oa-coupling: largest simulated |dynamic - static| {max_sim:.4} cm/s^2; the report's rows scatter with RMS {rms_rep:.3} cm/s^2 (test uncertainty {sigma}): no rectified OA coupling, as the report concluded"
-    )];
-    Ok(OaRun {
+    let mut run = OaRun {
         rows,
         output: Output {
             tables,
             plots,
-            notes,
+            notes: Vec::new(),
         },
-    })
+        max_simulated_cm_s2: max_sim,
+        report_rms_cm_s2: rms_rep,
+        sigma_cm_s2: sigma,
+    };
+    run.output
+        .notes
+        .push(format!("oa-coupling: {}", run.verdict()));
+    Ok(run)
 }

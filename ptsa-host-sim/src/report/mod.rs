@@ -165,8 +165,12 @@ pub fn run(
         instrument: instr.clone(),
         options: *opts,
     };
-    let discovery = show::report_section(&sim, &Options::default(), Some(&dir.join("discover")))
-        .map_err(|e| format!("{e:#}"));
+    let discovery = show::report_section(
+        &sim,
+        &Options::for_instrument(instr),
+        Some(&dir.join("discover")),
+    )
+    .map_err(|e| format!("{e:#}"));
     next(&mut timings);
     let design = design::text(instr);
     write_atomic(&dir.join("design.txt"), design.as_bytes())?;

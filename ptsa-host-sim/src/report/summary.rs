@@ -140,11 +140,8 @@ pub fn render(p: &Programme) -> Result<String> {
         "## OA coupling (Tables 6.2 and 6.3, `cargo ptsa oa-coupling`)\n"
     );
     section(&mut s, &p.oa_coupling.output);
-    let _ = writeln!(
-        s,
-        "The simulated loop shows no rectified OA coupling (eq. 4.6 averages to zero), as the report concluded; the report's scatter is its {} cm/s² test uncertainty.\n",
-        s61.test_uncertainty_cm_s2
-    );
+    let v = p.oa_coupling.verdict();
+    let _ = writeln!(s, "{}{}.\n", v[..1].to_uppercase(), &v[1..]);
     let _ = writeln!(
         s,
         "## Appendix A (`cargo ptsa vibropendulosity`, `anisoelasticity`, `sculling`)\n"

@@ -106,8 +106,9 @@ impl SettleArgs {
 /// Where files go.
 #[derive(Args, Debug, Clone)]
 pub struct OutArgs {
-    /// Folder for the tables (CSV) and plots (PNG, SVG).
-    #[arg(long, default_value = "report", value_name = "DIR")]
+    /// Folder for the tables (CSV) and plots (PNG, SVG); kept apart from the report
+    /// programme's folder so that neither overwrites the other.
+    #[arg(long, default_value = "out", value_name = "DIR")]
     pub out: PathBuf,
 }
 
@@ -350,7 +351,7 @@ pub struct DiscoverArgs {
     #[arg(long)]
     pub json: bool,
     /// Folder for the per-row table (CSV) and plots (PNG, SVG).
-    #[arg(long, value_name = "DIR", default_value = "report/discover")]
+    #[arg(long, value_name = "DIR", default_value = "out/discover")]
     pub out: PathBuf,
     /// Do not write the table and plots.
     #[arg(long)]
@@ -365,7 +366,7 @@ pub struct DiscoverArgs {
     pub analytic: bool,
     /// Write the rows the advice proposes (to break each confounding, or to test what these
     /// data cannot) to FILE as a case-frame file, ready to measure.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", requires = "data")]
     pub advice_out: Option<PathBuf>,
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
