@@ -1,35 +1,55 @@
-//! The batch engine: many independent closed loops, `K` lanes per core interleaved, all
-//! cores through rayon.
+//! The batch engine: many independent closed loops, per core in groups of lanes, all cores
+//! through rayon.
 //!
 //! Discovery, Monte Carlo and parameter identification run many independent closed loops.
-//! One [`ClosedLoop`] runs one tick after the other, and each tick waits for the last: the
-//! plant's state feeds the ADC, the ADC's code the core, the core's polarity the plant. The
-//! batch engine runs `K` loops (lanes) side by side, tick by tick: lane after lane within a
-//! tick, so that the CPU works on the ticks of other lanes while one lane's chain is in
-//! flight. The groups of lanes run on rayon's thread pool.
+//! The engine takes them all at once: [`Engine::run_static`], [`Engine::simulate_conditions`],
+//! [`Engine::simulate_differences`], [`Engine::simulate_jobs`] (a different instrument and
+//! seed per lane) and, on [`ClosedLoop`]s in any state, [`Engine::run`], [`Engine::run_fast`]
+//! and [`Engine::measure`].
 //!
 //! # Bit for bit the single loop
 //! Every lane *is* a [`ClosedLoop`], and a lane's tick is the single loop's tick: the same
-//! functions (`sim::static_tick`, `ClosedLoop::dynamic_tick`, the ADC, the noise source, the
-//! plant step, the core's [`ptsa_core::Ptsa::tick`]), called with the same values in the
-//! same order. A lane runs a program of steps that are the single loop's calls (`run`,
-//! `run_fast`, `measure`'s window, `run_static`'s gate), each with the single loop's
-//! start-and-finish bookkeeping, so the running totals are summed the same way too. The
-//! pulses, the plant state (`f64` bits), the core state and the window results of every lane
-//! are those of a [`ClosedLoop`] given the same instrument, condition, effects, options and
-//! seed; the tests check it lane by lane.
+//! functions (`sim::fast_block`, `sim::static_tick`, `ClosedLoop::dynamic_tick_with`, the ADC,
+//! the noise source, the plant step, the core's [`ptsa_core::Ptsa::tick`]), called with the
+//! same values in the same order. A lane runs a program of steps that are the single loop's
+//! calls (`run`, `run_fast`, `measure`'s window, `run_static`'s gate), each with the single
+//! loop's own start-and-finish bookkeeping, so the running totals are summed the same way.
+//! The pulses, the plant state (`f64` bits), the core state and the window results of every
+//! lane are those of a [`ClosedLoop`] with the same instrument, condition, effects, options
+//! and seed; the tests check it lane by lane, for every `lanes` setting.
 //!
-//! # Lanes, groups, threads
+//! # Groups, lanes, threads
 //! The lanes of a call are sorted by kind (static or dynamic) and length and cut into groups
-//! of at most `K` (fewer when there are fewer lanes than `K` per thread, so that every thread
-//! gets a group). A group runs until its shortest step ends, then starts the lanes' next
-//! steps and drops the lanes that are done; the tail of a group runs in smaller power-of-two
-//! kernels. Each lane may have its own instrument (parameter identification): the plant
+//! (up to 16 lanes, fewer when there are fewer lanes than that per thread, so that every
+//! thread gets a group); rayon runs the groups. The lanes of a group run in step until the
+//! shortest current step ends; then the lanes start their next steps and those that are done
+//! leave. Lanes in step that draw the same noise (the same seed and ADC, as in
+//! [`Engine::run_static`] and [`Engine::simulate_conditions`]) draw it once, and each seed's
+//! noise table is built once per call. Each lane may have its own instrument: the plant
 //! matrices, the ADC and the stops are per lane anyway, so this costs nothing.
 //!
-//! # Speed
-//! `cargo bench -p ptsa-host-sim --bench batch` compares a batch of 16 static conditions
-//! with 16 single loops on one thread; [`batch_rates`] gives the same comparison to the CLI.
+//! How a group's lanes share a core is [`Engine::new`]'s `lanes`:
+//!
+//! * `lanes = 1` (the default, [`LANES`]): one lane after the other, in blocks of 512 ticks,
+//!   each lane with the single loop's own loop (the polarity-split fast path of
+//!   `ClosedLoop::run_fast`, the loop of `ClosedLoop::run`) and its state in registers.
+//! * `lanes = K ≥ 2`: `K` lanes interleaved tick by tick, in phases (the ADC of every lane,
+//!   the core of every lane, the plant step of every lane side by side in structure of
+//!   arrays, [`ZohLanes`]), so that the CPU could overlap the lanes' dependency chains.
+//!
+//! # Why one lane at a time
+//! Interleaving pays when a loop waits on its own dependency chain (plant → ADC → core →
+//! plant). On the machine measured (AMD Zen 5, baseline x86-64 code, i.e. SSE2) it does not:
+//! the static fast path runs about 125 instructions per tick in about 21 cycles (IPC ≈ 6),
+//! the dynamic one about 360 in about 63 (IPC ≈ 5.7), and its plant chain is about 10 cycles
+//! a tick; both are bound by instruction throughput. Interleaved, a lane's tick executes
+//! *more* instructions (the core's state, opaque to this crate, no longer stays in
+//! registers: `Ptsa::tick` costs about 65 instructions plus 20 of glue per lane-tick instead
+//! of about 50, more than the plant's structure of arrays saves), so `K = 2..16` run at
+//! 0.65–0.7× the single loop (static) and about 0.9× (dynamic). What the batch saves is work:
+//! shared noise draws (about 10 instructions a tick) and shared noise tables (about a million
+//! instructions per loop built). `cargo bench -p ptsa-host-sim --bench batch` measures every
+//! setting; [`batch_rates`] gives the single and the batch rate to the CLI.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -40,16 +60,25 @@ use crate::condition::Condition;
 use crate::effects::Effects;
 use crate::fixtures;
 use crate::instrument::Instrument;
+use ptsa_core::{Polarity, Ptsa, State};
+
+use crate::plant::{NX, ZohLanes};
 use crate::sim::{
-    self, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource, PROGRESS_CHUNK, SimDifference,
-    SimOptions, SimResult, StaticRun, StaticRunState, WindowStart, static_tick,
+    self, Acc, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource,
+    PROGRESS_CHUNK, SimDifference, SimOptions, SimResult, StaticRun, StaticRunState, WindowStart,
+    fast_block, static_tick,
 };
 
-/// Lanes per core by default (`K`): see the crate's `benches/batch.rs` for the choice.
-pub const LANES: usize = 8;
+/// Lanes interleaved per core by default: 1, one lane after the other (see the module docs
+/// for why; `benches/batch.rs` measures 1, 2, 4, 8 and 16).
+pub const LANES: usize = 1;
 
-/// The most lanes per core an [`Engine`] takes.
+/// The most lanes interleaved per core an [`Engine`] takes.
 pub const MAX_LANES: usize = 16;
+
+/// The most lanes of a group (lanes in step on one thread, sharing their noise draws when
+/// they can), when there are enough lanes for every thread.
+const GROUP: usize = 16;
 
 /// One closed-loop run of a batch with its own instrument and noise seed: the same as
 /// [`sim::simulate_condition`]`(instr, cond, effects, &SimOptions { seed, ..opts })`.
@@ -65,7 +94,7 @@ pub struct Job<'a> {
     pub seed: u64,
 }
 
-/// The batch engine with `lanes` lanes per core.
+/// The batch engine with `lanes` lanes interleaved per core (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Engine {
     lanes: usize,
@@ -78,8 +107,8 @@ impl Default for Engine {
 }
 
 impl Engine {
-    /// An engine running `lanes` loops interleaved per core: a power of two from 1 to
-    /// [`MAX_LANES`].
+    /// An engine running `lanes` loops interleaved tick by tick per core (1: one after the
+    /// other, block by block): a power of two from 1 to [`MAX_LANES`].
     ///
     /// # Panics
     /// If `lanes` is not a power of two in `1..=MAX_LANES`.
@@ -92,7 +121,7 @@ impl Engine {
         Self { lanes }
     }
 
-    /// Lanes per core.
+    /// Lanes interleaved per core.
     #[must_use]
     pub fn lanes(&self) -> usize {
         self.lanes
@@ -269,7 +298,10 @@ impl Engine {
             .map(|(i, lp)| Lane::new(lp, prog(i)))
             .collect();
         let threads = rayon::current_num_threads().max(1);
-        let per = lanes.len().div_ceil(threads).clamp(1, self.lanes);
+        let per = lanes
+            .len()
+            .div_ceil(threads)
+            .clamp(1, self.lanes.max(GROUP));
         let mut order: Vec<&mut Lane<'_>> = lanes.iter_mut().collect();
         order.sort_by_key(|l| (l.dynamic, l.total_ticks()));
         let k = self.lanes;
@@ -502,8 +534,14 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
         active.sort_by_key(|l| l.mode);
         let mut rest = &mut active[..];
         while !rest.is_empty() {
-            let mode = rest[0].mode;
+            // Lanes in the same mode with the same core configuration (the kernels share it).
+            let (mode, ptsa) = (rest[0].mode, rest[0].lp.ptsa);
             let same = rest.iter().take_while(|l| l.mode == mode).count();
+            rest[..same].sort_by_key(|l| l.lp.ptsa != ptsa);
+            let same = rest[..same]
+                .iter()
+                .take_while(|l| l.lp.ptsa == ptsa)
+                .count();
             let (now, later) = rest.split_at_mut(same);
             run_mode(now, mode, m, k);
             rest = later;
@@ -522,6 +560,14 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
 /// `m` ticks of lanes all in `mode`, in kernels of `k` lanes and then, for the rest, of
 /// the largest powers of two that fit.
 fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
+    if k == 1 {
+        match mode {
+            Mode::Static => static_blocks::<true>(lanes, m),
+            Mode::StaticFast => static_blocks::<false>(lanes, m),
+            Mode::Dynamic => dynamic_blocks(lanes, m),
+        }
+        return;
+    }
     let mut rest = lanes;
     while !rest.is_empty() {
         let s = if rest.len() >= k {
@@ -551,8 +597,177 @@ fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
     }
 }
 
-/// `m` ticks of `K` static lanes, interleaved: each tick, lane after lane, the single
-/// loop's static tick (with its per-tick statistics if `STATS`).
+/// The lanes that draw the same noise: classes of lane indices, in order, each lane with
+/// the same generator state, the same table and the same ADC as the first of its class.
+fn stream_classes<'a>(lanes: impl Iterator<Item = (&'a NoiseSource, &'a Adc)>) -> Vec<Vec<usize>> {
+    let mut classes: Vec<(&NoiseSource, [u64; 3], Vec<usize>)> = Vec::new();
+    for (l, (rng, adc)) in lanes.enumerate() {
+        let bits = adc_bits(adc);
+        match classes
+            .iter_mut()
+            .find(|(r, a, _)| *a == bits && r.same_stream(rng))
+        {
+            Some(c) => c.2.push(l),
+            None => classes.push((rng, bits, vec![l])),
+        }
+    }
+    classes.into_iter().map(|c| c.2).collect()
+}
+
+/// `m` ticks of static lanes one after the other, in blocks of [`BIAS_BLOCK`] ticks: each
+/// lane runs a block with the single loop's own code (`sim::fast_block`, the fast path split
+/// by polarity, or `sim::static_tick` with the per-tick statistics), its state in locals as
+/// in the single loop. Lanes in step with the same noise generator and ADC share the block
+/// of the ADC's additive terms, drawn once (from the first lane of their class, whose
+/// generator the others take at the end).
+#[inline(never)]
+fn static_blocks<const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
+    let mut rs: Vec<&mut StaticRunState> = lanes
+        .iter_mut()
+        .map(|l| match &mut l.live {
+            Live::Static(r) => &mut **r,
+            _ => unreachable!("a static lane"),
+        })
+        .collect();
+    let classes = stream_classes(rs.iter().map(|r| (&r.rng, &r.p.adc)));
+    let mut bias = [0.0; BIAS_BLOCK];
+    let mut left = m;
+    while left > 0 {
+        #[allow(clippy::cast_possible_truncation)]
+        let b = left.min(BIAS_BLOCK as u64) as usize;
+        for class in &classes {
+            let r = &mut *rs[class[0]];
+            for v in &mut bias[..b] {
+                *v = r.p.adc.bias(&mut r.rng);
+            }
+            for &l in class {
+                if STATS {
+                    lane_block_stats(rs[l], &bias[..b]);
+                } else {
+                    lane_block_fast(rs[l], &bias[..b]);
+                }
+            }
+        }
+        left -= b as u64;
+    }
+    for class in &classes {
+        let rng = rs[class[0]].rng.clone();
+        for &l in &class[1..] {
+            rs[l].rng = rng.clone();
+        }
+    }
+}
+
+/// `m` ticks of dynamic lanes one after the other, in blocks of [`BIAS_BLOCK`] ticks: each
+/// lane runs a block with the single loop's own code (`ClosedLoop::dynamic_tick_with`), its
+/// run state in locals as in the single loop; lanes drawing the same noise share it, as in
+/// [`static_blocks`].
+#[inline(never)]
+fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
+    let mut rs: Vec<(&ClosedLoop, &mut (DynParams, DynRun))> = lanes
+        .iter_mut()
+        .map(|l| {
+            let lane = &mut **l;
+            match &mut lane.live {
+                Live::Dynamic(d) => (&*lane.lp, &mut **d),
+                _ => unreachable!("a dynamic lane"),
+            }
+        })
+        .collect();
+    let classes = stream_classes(rs.iter().map(|(_, d)| (&d.1.rng, &d.0.adc)));
+    let mut bias = [0.0; BIAS_BLOCK];
+    let mut left = m;
+    while left > 0 {
+        #[allow(clippy::cast_possible_truncation)]
+        let b = left.min(BIAS_BLOCK as u64) as usize;
+        for class in &classes {
+            let (p, r) = &mut *rs[class[0]].1;
+            for v in &mut bias[..b] {
+                *v = p.adc.bias(&mut r.rng);
+            }
+            for &l in class {
+                let (lp, d) = &mut rs[l];
+                let (p, r) = &mut **d;
+                lane_block_dynamic(lp, p, r, &bias[..b]);
+            }
+        }
+        left -= b as u64;
+    }
+    for class in &classes {
+        let rng = rs[class[0]].1.1.rng.clone();
+        for &l in &class[1..] {
+            rs[l].1.1.rng = rng.clone();
+        }
+    }
+}
+
+/// One block of a static lane without statistics: `ClosedLoop::run_static_fast`'s loop,
+/// with its locals.
+#[inline(never)]
+fn lane_block_fast(r: &mut StaticRunState, bias: &[f64]) {
+    let ptsa = r.p.ptsa;
+    let plant = r.p.plant;
+    let add = r.p.add;
+    let adc = r.p.adc;
+    let mut core = r.core;
+    let mut x = r.x;
+    let mut stop = r.acc.stop;
+    let mut positive = r.ui == 0;
+    fast_block(
+        &ptsa,
+        &plant,
+        &add,
+        &adc,
+        bias,
+        &mut core,
+        &mut x,
+        &mut positive,
+        &mut stop,
+    );
+    r.ui = usize::from(!positive);
+    r.core = core;
+    r.x = x;
+    r.acc.stop = stop;
+}
+
+/// One block of a static lane with statistics: `ClosedLoop::run`'s static loop, with its
+/// locals.
+#[inline(never)]
+fn lane_block_stats(r: &mut StaticRunState, bias: &[f64]) {
+    let p = r.p;
+    let mut core = r.core;
+    let mut x = r.x;
+    let mut acc = r.acc;
+    let mut ui = r.ui;
+    for &v in bias {
+        let _ = static_tick::<true>(&p, v, &mut core, &mut x, &mut ui, &mut acc);
+    }
+    r.ui = ui;
+    r.core = core;
+    r.x = x;
+    r.acc = acc;
+}
+
+/// One block of a dynamic lane: `ClosedLoop::run_dynamic`'s loop, with its locals.
+#[inline(never)]
+fn lane_block_dynamic(lp: &ClosedLoop, p: &DynParams, r: &mut DynRun, bias: &[f64]) {
+    let p = *p;
+    let mut run = r.clone();
+    for &v in bias {
+        let _ = lp.dynamic_tick_with(&p, &mut run, v);
+    }
+    *r = run;
+}
+
+/// `m` ticks of `K` static lanes, interleaved, in three phases per tick: the ADC of every
+/// lane (the noise draws one lane after the other, the quantization side by side), the
+/// core of every lane ([`tick_lanes`]), and the plant step of every lane side by side
+/// ([`ZohLanes::step`], the free region; a lane beyond a stop is stepped again alone with
+/// its stop's discretisation). Each lane computes what the single loop's tick
+/// (`sim::static_tick`) computes, with the same operations in the same order; the lanes
+/// share the core's configuration (see [`run_mode`]).
+#[inline(never)]
+#[allow(clippy::needless_range_loop)]
 fn static_kernel<const K: usize, const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
     let mut it = lanes.iter_mut();
     let mut rs: [&mut StaticRunState; K] =
@@ -560,16 +775,140 @@ fn static_kernel<const K: usize, const STATS: bool>(lanes: &mut [&mut Lane<'_>],
             Live::Static(r) => &mut **r,
             _ => unreachable!("a static lane"),
         });
-    for _ in 0..m {
-        for r in &mut rs {
-            let bias = r.p.adc.bias(&mut r.rng);
-            let _ = static_tick::<STATS>(&r.p, bias, &mut r.core, &mut r.x, &mut r.ui, &mut r.acc);
+    let ptsa = rs[0].p.ptsa;
+    let free = ZohLanes::<K>::new(std::array::from_fn(|l| &rs[l].p.free));
+    // The free region's input of each lane: positive, and the bits that flip to negative
+    // (so that the applied polarity selects it without a branch).
+    let mut add_pos = [[0.0; K]; NX];
+    let mut add_flip = [[0u64; K]; NX];
+    let mut theta_stop = [0.0; K];
+    let mut gain = [0.0; K];
+    let mut x = [[0.0; K]; NX];
+    // All ones where the applied polarity is negative.
+    let mut neg = [0u64; K];
+    for (l, r) in rs.iter().enumerate() {
+        for j in 0..NX {
+            add_pos[j][l] = r.p.add[0][0][j];
+            add_flip[j][l] = r.p.add[0][0][j].to_bits() ^ r.p.add[0][1][j].to_bits();
+            x[j][l] = r.x[j];
         }
+        theta_stop[l] = r.p.theta_stop;
+        gain[l] = r.p.adc.gain;
+        neg[l] = u64::from(r.ui != 0).wrapping_neg();
+    }
+    let mut cores: [State; K] = std::array::from_fn(|l| rs[l].core);
+    let mut acc: [Acc; K] = std::array::from_fn(|l| rs[l].acc);
+    // Lanes in step with the same noise generator and the same ADC draw the same additive
+    // terms: draw them once (the usual batch: one instrument, one seed).
+    let shared = rs
+        .iter()
+        .all(|r| r.rng.same_stream(&rs[0].rng) && adc_bits(&r.p.adc) == adc_bits(&rs[0].p.adc));
+    let mut bias = [0.0; K];
+    let mut codes = [0i16; K];
+    let mut positive = [false; K];
+    let mut cycle_end = [false; K];
+    for _ in 0..m {
+        if shared {
+            let r = &mut *rs[0];
+            bias = [r.p.adc.bias(&mut r.rng); K];
+        } else {
+            for (b, r) in bias.iter_mut().zip(rs.iter_mut()) {
+                let r = &mut **r;
+                *b = r.p.adc.bias(&mut r.rng);
+            }
+        }
+        for l in 0..K {
+            let adc = Adc {
+                gain: gain[l],
+                offset: 0.0,
+                noise: 0.0,
+            };
+            codes[l] = adc.quantize(x[3][l], bias[l]);
+        }
+        tick_lanes(&ptsa, &mut cores, &codes, &mut positive, &mut cycle_end);
+        let mut add = [[0.0; K]; NX];
+        for j in 0..NX {
+            for l in 0..K {
+                add[j][l] = f64::from_bits(add_pos[j][l].to_bits() ^ (add_flip[j][l] & neg[l]));
+            }
+        }
+        let mut y = free.step(&x, &add);
+        let mut off = false;
+        for l in 0..K {
+            off |= !in_free_region(x[0][l], theta_stop[l]);
+        }
+        if off {
+            for l in 0..K {
+                if !in_free_region(x[0][l], theta_stop[l]) {
+                    let p = &rs[l].p;
+                    let xl = [x[0][l], x[1][l], x[2][l], x[3][l]];
+                    let r = p.plant.region(xl[0]);
+                    let yl = p.plant.zoh[r].step(&xl, &p.add[r][usize::from(neg[l] != 0)]);
+                    for j in 0..NX {
+                        y[j][l] = yl[j];
+                    }
+                    acc[l].stop += 1;
+                }
+            }
+        }
+        x = y;
+        for l in 0..K {
+            if STATS {
+                acc[l].tick(neg[l] == 0, positive[l], x[0][l], cycle_end[l]);
+            }
+            neg[l] = u64::from(!positive[l]).wrapping_neg();
+        }
+    }
+    if shared {
+        let rng = rs[0].rng.clone();
+        for r in &mut rs[1..] {
+            r.rng = rng.clone();
+        }
+    }
+    for (l, r) in rs.iter_mut().enumerate() {
+        for j in 0..NX {
+            r.x[j] = x[j][l];
+        }
+        r.ui = usize::from(neg[l] != 0);
+        r.core = cores[l];
+        r.acc = acc[l];
+    }
+}
+
+/// The ADC's constants as bits (to compare them exactly).
+fn adc_bits(a: &Adc) -> [u64; 3] {
+    [a.gain.to_bits(), a.offset.to_bits(), a.noise.to_bits()]
+}
+
+/// Whether the pendulum at `theta` is free of the stops at `±theta_stop` (NaN is not), as the
+/// single loop tests it (`sim::static_tick`).
+#[inline(always)]
+fn in_free_region(theta: f64, theta_stop: f64) -> bool {
+    theta.abs() <= theta_stop
+}
+
+/// The core's tick of every lane, one after the other: `positive[l]` whether lane `l`
+/// decided the positive polarity, `cycle_end[l]` whether it closed a limit cycle. The only
+/// call of [`Ptsa::tick`] in this module: with one call site the compiler inlines the tick
+/// here (as it does in the single loop) instead of calling it from every kernel.
+#[inline(never)]
+fn tick_lanes(
+    ptsa: &Ptsa,
+    cores: &mut [State],
+    codes: &[i16],
+    positive: &mut [bool],
+    cycle_end: &mut [bool],
+) {
+    for l in 0..cores.len() {
+        let t = ptsa.tick(&mut cores[l], codes[l]);
+        positive[l] = t.polarity == Polarity::Positive;
+        cycle_end[l] = t.cycle_pulses.is_some();
     }
 }
 
 /// `m` ticks of `K` dynamic lanes, interleaved: each tick, lane after lane, the single
 /// loop's dynamic tick.
+#[inline(never)]
 fn dynamic_kernel<const K: usize>(lanes: &mut [&mut Lane<'_>], m: u64) {
     let mut it = lanes.iter_mut();
     let mut rs: [(&ClosedLoop, &mut (DynParams, DynRun)); K] = std::array::from_fn(|_| {
@@ -991,32 +1330,34 @@ mod tests {
     fn lanes_step_by_step_match_single_loops() {
         // The low-level calls on loops in mid-run, every lane's whole state after each:
         // runs with and without statistics, windows of different lengths, runs of no tick.
+        // Lanes 0-5 share a seed (built apart: equal noise tables, not the same one), so
+        // that the static and the dynamic lanes among them share their noise draws.
         let i = instr();
         let conds = conditions(&i);
         let e = effects();
         let opts = short(21, true, 0);
-        let mut single: Vec<ClosedLoop> = conds
+        let start: Vec<ClosedLoop> = conds
             .iter()
             .enumerate()
             .map(|(j, c)| {
                 let eff = if j % 3 == 0 { Effects::NONE } else { e };
-                ClosedLoop::new(
-                    &i,
-                    c,
-                    &eff,
-                    &SimOptions {
-                        seed: j as u64,
-                        ..opts
-                    },
-                )
+                let seed = if j < 6 { 5 } else { j as u64 };
+                ClosedLoop::new(&i, c, &eff, &SimOptions { seed, ..opts })
             })
             .collect();
-        let mut lanes = single.clone();
-        let eng = Engine::new(4);
+        for k in [1, 4, 16] {
+            step_by_step(&start, Engine::new(k));
+        }
+    }
+
+    /// The checks of [`lanes_step_by_step_match_single_loops`] with `eng`.
+    fn step_by_step(start: &[ClosedLoop], eng: Engine) {
+        let mut single = start.to_vec();
+        let mut lanes = start.to_vec();
         let lens: Vec<u64> = (0..single.len() as u64).map(|j| 500 + 97 * j).collect();
         let check = |a: &[ClosedLoop], b: &[ClosedLoop], what: &str| {
             for (j, (x, y)) in a.iter().zip(b).enumerate() {
-                assert_same_loop(x, y, &format!("{what}, lane {j}"));
+                assert_same_loop(x, y, &format!("K = {}, {what}, lane {j}", eng.lanes()));
             }
         };
         for l in &mut single {
@@ -1059,6 +1400,19 @@ mod tests {
             .collect();
         assert_eq!(got, want);
         check(&lanes, &single, "measure");
+    }
+
+    #[test]
+    fn same_stream_is_the_same_numbers() {
+        let (a, b, c) = (
+            NoiseSource::new(5),
+            NoiseSource::new(5),
+            NoiseSource::new(6),
+        );
+        assert!(a.same_stream(&b) && a.same_stream(&a.clone()) && !a.same_stream(&c));
+        let mut d = a.clone();
+        let _ = d.normal();
+        assert!(!a.same_stream(&d));
     }
 
     #[test]

@@ -171,6 +171,18 @@ impl NoiseSource {
             table: std::sync::Arc::new(t),
         }
     }
+    /// Whether `other` draws the same numbers from now on (the same generator state and the
+    /// same table).
+    pub(crate) fn same_stream(&self, other: &NoiseSource) -> bool {
+        self.state == other.state
+            && (std::sync::Arc::ptr_eq(&self.table, &other.table)
+                || self
+                    .table
+                    .iter()
+                    .zip(other.table.iter())
+                    .all(|(a, b)| a.to_bits() == b.to_bits()))
+    }
+
     /// One standard-normal draw.
     #[inline(always)]
     pub(crate) fn normal(&mut self) -> f64 {
@@ -237,15 +249,10 @@ pub(crate) struct Adc {
 }
 
 impl Adc {
-    #[inline(always)]
-    pub(crate) fn sample(&self, y: f64, rng: &mut NoiseSource) -> i16 {
-        // Everything but `y` first, so the dependency chain from the plant state to the code
-        // is one multiply-add.
-        self.quantize(y, self.bias(rng))
-    }
-
     /// The additive term of one sample: offset, the rounding half and a noise draw (none
-    /// without noise).
+    /// without noise). Drawn apart from the plant state (ahead, in blocks, or shared between
+    /// the lanes of a batch), so that the chain from the plant state to the code is one
+    /// multiply-add ([`Adc::quantize`]).
     #[inline(always)]
     pub(crate) fn bias(&self, rng: &mut NoiseSource) -> f64 {
         let mut bias = self.offset + 32768.5;
@@ -625,19 +632,17 @@ impl ClosedLoop {
             for b in &mut bias[..m] {
                 *b = adc.bias(&mut rng);
             }
-            let mut i = 0;
-            while i < m {
-                let (run, next) = if positive {
-                    static_phase::<true>(&ptsa, &plant, &add, &adc, &bias[i..m], &mut core, &mut x)
-                } else {
-                    static_phase::<false>(&ptsa, &plant, &add, &adc, &bias[i..m], &mut core, &mut x)
-                };
-                #[allow(clippy::cast_possible_truncation)]
-                let ticks = run.ticks as usize;
-                i += ticks;
-                acc.stop += run.stop;
-                positive = next;
-            }
+            fast_block(
+                &ptsa,
+                &plant,
+                &add,
+                &adc,
+                &bias[..m],
+                &mut core,
+                &mut x,
+                &mut positive,
+                &mut acc.stop,
+            );
             left -= m as u64;
         }
         fast_counts(
@@ -733,11 +738,24 @@ impl ClosedLoop {
     /// of the inputs at mid-tick, the plant step, the harmonic sums and the statistics.
     /// Returns the code, the core's tick and the command applied over the tick.
     #[inline(always)]
-    #[allow(clippy::needless_range_loop)]
     pub(crate) fn dynamic_tick(
         &self,
         p: &DynParams,
         r: &mut DynRun,
+    ) -> (i16, ptsa_core::Tick, f64) {
+        let bias = p.adc.bias(&mut r.rng);
+        self.dynamic_tick_with(p, r, bias)
+    }
+
+    /// [`ClosedLoop::dynamic_tick`] with the ADC's additive term `bias` of the tick given
+    /// (drawn from `r.rng` by the caller, see [`Adc::bias`]).
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn dynamic_tick_with(
+        &self,
+        p: &DynParams,
+        r: &mut DynRun,
+        bias: f64,
     ) -> (i16, ptsa_core::Tick, f64) {
         let k = r.k;
         if r.j == 0 || k.is_multiple_of(4096) {
@@ -747,7 +765,7 @@ impl ClosedLoop {
         }
         let (s, c) = (r.s, r.c);
         let u = r.u;
-        let code = p.adc.sample(r.x[3], &mut r.rng);
+        let code = p.adc.quantize(r.x[3], bias);
         let tick = p.ptsa.tick(&mut r.core, code);
         let theta = r.x[0];
         let reg = self.plant.region(theta);
@@ -1102,6 +1120,39 @@ pub(crate) struct GateStart {
     stop0: u64,
 }
 
+/// One tick per entry of `bias` (the ADC's additive terms, see [`Adc::bias`]) of a static
+/// run without statistics, split by the applied polarity `positive` (see
+/// `ClosedLoop::run_static_fast`): the body of the single loop's fast path and of the batch
+/// engine's static lanes. Adds the ticks on a stop to `stop`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fast_block(
+    ptsa: &Ptsa,
+    plant: &Plant,
+    add: &[[[f64; NX]; 2]; 3],
+    adc: &Adc,
+    bias: &[f64],
+    core: &mut State,
+    x: &mut [f64; NX],
+    positive: &mut bool,
+    stop: &mut u64,
+) {
+    let m = bias.len();
+    let mut i = 0;
+    while i < m {
+        let (run, next) = if *positive {
+            static_phase::<true>(ptsa, plant, add, adc, &bias[i..m], core, x)
+        } else {
+            static_phase::<false>(ptsa, plant, add, adc, &bias[i..m], core, x)
+        };
+        #[allow(clippy::cast_possible_truncation)]
+        let ticks = run.ticks as usize;
+        i += ticks;
+        *stop += run.stop;
+        *positive = next;
+    }
+}
+
 /// Ticks and stop ticks of one [`static_phase`].
 struct PhaseRun {
     ticks: u64,
@@ -1109,7 +1160,7 @@ struct PhaseRun {
 }
 
 /// Ticks of [`ClosedLoop::run_static_fast`]'s blocks of ADC bias terms.
-const BIAS_BLOCK: usize = 512;
+pub(crate) const BIAS_BLOCK: usize = 512;
 
 /// Ticks with the applied polarity `POSITIVE` until the core decides the other one (that
 /// tick included) or one tick per entry of `bias` (the ADC's additive terms, see
