@@ -1403,6 +1403,55 @@ mod tests {
     }
 
     #[test]
+    fn lanes_with_different_core_configurations_match() {
+        // The interleaved kernels share the core's configuration: lanes are grouped by it.
+        let i = instr();
+        let conds = conditions(&i);
+        let configs = [
+            ptsa_core::Config::DEFAULT,
+            ptsa_core::Config {
+                noise_shaping: true,
+                gate_ticks: 6400,
+                ..ptsa_core::Config::DEFAULT
+            },
+        ];
+        let start: Vec<ClosedLoop> = conds
+            .iter()
+            .enumerate()
+            .map(|(j, c)| {
+                let opts = SimOptions {
+                    config: configs[j % 2],
+                    ..short(8, true, 0)
+                };
+                ClosedLoop::new(&i, c, &Effects::NONE, &opts)
+            })
+            .collect();
+        for k in [1, 2, 8] {
+            let mut single = start.clone();
+            let mut lanes = start.clone();
+            for l in &mut single {
+                l.run(3_000);
+                l.run_fast(1_000);
+            }
+            Engine::new(k).run(&mut lanes, 3_000);
+            Engine::new(k).run_fast(&mut lanes, 1_000);
+            for (j, (a, b)) in lanes.iter().zip(&single).enumerate() {
+                assert_same_loop(a, b, &format!("K = {k}, lane {j}"));
+            }
+        }
+    }
+
+    #[test]
+    fn batch_rates_runs_both_and_agrees() {
+        // Only that it runs and that the batch agrees (no timing is asserted).
+        let i = instr();
+        let r = batch_rates(&i, &short(1, true, 0), 5, 1, 640, 1).expect("rates");
+        assert_eq!((r.conditions, r.lanes, r.ticks), (5, 1, 640));
+        assert!(r.single_ticks_per_s > 0.0 && r.batch_ticks_per_s_per_core > 0.0);
+        assert!(r.ratio() > 0.0);
+    }
+
+    #[test]
     fn same_stream_is_the_same_numbers() {
         let (a, b, c) = (
             NoiseSource::new(5),
