@@ -13,12 +13,15 @@
 //!   `batch::run_static` (construction, settling and noise tables included);
 //! * `dynamic_loop/...`: 16 dynamic conditions (angular oscillation about OA and IA+PA
 //!   vibration at 10–47 Hz, with effects) running `run`;
-//! * `dynamic_api/...`: `simulate_condition` 16 times against one `simulate_conditions`.
+//! * `dynamic_api/...`: `simulate_condition` 16 times against one `simulate_conditions`;
+//! * `ident_loop/...`, `ident_api/...`: parameter identification, one dynamic condition (20 Hz
+//!   about OA) with 16 instruments (spring 0–15 % stiffer), one seed: the loops running
+//!   `run`, and `simulate_condition` 16 times against one `simulate_jobs`.
 //!
 //! Ratios: divide the `single` time by the `K/k` time (the same ticks).
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use ptsa_host_sim::batch::{Engine, spread_accels};
+use ptsa_host_sim::batch::{Engine, Job, spread_accels};
 use ptsa_host_sim::condition::{IA, OA, PA};
 use ptsa_host_sim::effects::CandidateId;
 use ptsa_host_sim::sim::{ClosedLoop, run_static, simulate_condition};
@@ -113,6 +116,77 @@ fn bench(c: &mut Criterion) {
         }
         g.finish();
     }
+
+    // Parameter identification: one condition, sixteen instruments.
+    let mut oa = Condition {
+        g: [0.0, 1.0, 0.0],
+        freq_hz: 20.0,
+        ..Condition::default()
+    };
+    oa.ang_mrad[OA] = 2.0;
+    let instrs: Vec<Instrument> = (0..N)
+        .map(|j| {
+            let mut i = instr.clone();
+            i.spring_dyn_cm_rad *= 1.0 + 0.01 * j as f64;
+            i
+        })
+        .collect();
+    let ident = |i: &Instrument| {
+        let mut l = ClosedLoop::new(i, &oa, &Effects::NONE, &opts);
+        l.run(6400);
+        l
+    };
+    let mut g = c.benchmark_group("ident_loop");
+    g.throughput(Throughput::Elements(TICKS * N as u64));
+    let mut loops: Vec<ClosedLoop> = instrs.iter().map(ident).collect();
+    g.bench_function("single", |b| {
+        b.iter(|| {
+            for l in &mut loops {
+                l.run(black_box(TICKS));
+            }
+            black_box(loops[0].state())
+        });
+    });
+    for k in [1, 4] {
+        let e = Engine::new(k);
+        let mut loops: Vec<ClosedLoop> = instrs.iter().map(ident).collect();
+        g.bench_function(BenchmarkId::new("K", k), |b| {
+            b.iter(|| {
+                pool.install(|| e.run(&mut loops, black_box(TICKS)));
+                black_box(loops[0].state())
+            });
+        });
+    }
+    g.finish();
+    let mut g = c.benchmark_group("ident_api");
+    g.sample_size(20);
+    let settle = opts.warmup_ticks(instr.clock_hz);
+    let window = ptsa_host_sim::sim::window_ticks(&instr, &oa, &opts);
+    g.throughput(Throughput::Elements((settle + window) * N as u64));
+    g.bench_function("single", |b| {
+        b.iter(|| {
+            instrs
+                .iter()
+                .map(|i| simulate_condition(i, &oa, &Effects::NONE, &opts))
+                .collect::<Vec<_>>()
+        });
+    });
+    let jobs: Vec<Job<'_>> = instrs
+        .iter()
+        .map(|i| Job {
+            instr: i,
+            cond: &oa,
+            effects: Effects::NONE,
+            seed: opts.seed,
+        })
+        .collect();
+    for k in [1, 4] {
+        let e = Engine::new(k);
+        g.bench_function(BenchmarkId::new("K", k), |b| {
+            b.iter(|| pool.install(|| e.simulate_jobs(&jobs, &opts)));
+        });
+    }
+    g.finish();
 
     // Whole calls, construction and settling included.
     let mut g = c.benchmark_group("static_api");

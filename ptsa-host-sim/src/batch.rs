@@ -25,8 +25,10 @@
 //! shortest current step ends; then the lanes start their next steps and those that are done
 //! leave. Lanes in step that draw the same noise (the same seed and ADC, as in
 //! [`Engine::run_static`] and [`Engine::simulate_conditions`]) draw it once, and each seed's
-//! noise table is built once per call. Each lane may have its own instrument: the plant
-//! matrices, the ADC and the stops are per lane anyway, so this costs nothing.
+//! noise table is built once per call; dynamic lanes in step with the same condition (one
+//! condition, many instruments or effects: identification, Monte Carlo) compute its phasor
+//! and inputs once. Each lane may have its own instrument: the plant matrices, the ADC and
+//! the stops are per lane anyway, so this costs nothing.
 //!
 //! How a group's lanes share a core is [`Engine::new`]'s `lanes`:
 //!
@@ -46,8 +48,10 @@
 //! *more* instructions (the core's state, opaque to this crate, no longer stays in
 //! registers: `Ptsa::tick` costs about 65 instructions plus 20 of glue per lane-tick instead
 //! of about 50, more than the plant's structure of arrays saves), so `K = 2..16` run at
-//! 0.65–0.7× the single loop (static) and about 0.9× (dynamic). What the batch saves is work:
-//! shared noise draws (about 10 instructions a tick) and shared noise tables (about a million
+//! 0.65–0.7× the single loop (static) and about 0.9× (dynamic). What the batch saves is work
+//! that lanes have in common: noise draws (static: 115 instead of 130 instructions per
+//! lane-tick, dynamic: 319 instead of 357), a dynamic condition's phasor and inputs (one
+//! condition, sixteen instruments: 246 instead of 357) and noise tables (about a million
 //! instructions per loop built). `cargo bench -p ptsa-host-sim --bench batch` measures every
 //! setting; [`batch_rates`] gives the single and the batch rate to the CLI.
 
@@ -65,8 +69,8 @@ use ptsa_core::{Polarity, Ptsa, State};
 use crate::plant::{NX, ZohLanes};
 use crate::sim::{
     self, Acc, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource,
-    PROGRESS_CHUNK, SimDifference, SimOptions, SimResult, StaticRun, StaticRunState, WindowStart,
-    fast_block, static_tick,
+    PROGRESS_CHUNK, SimDifference, SimOptions, SimResult, StaticRun, StaticRunState, TickInputs,
+    WindowStart, fast_block, static_tick,
 };
 
 /// Lanes interleaved per core by default: 1, one lane after the other (see the module docs
@@ -658,10 +662,13 @@ fn static_blocks<const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
     }
 }
 
-/// `m` ticks of dynamic lanes one after the other, in blocks of [`BIAS_BLOCK`] ticks: each
+/// `m` ticks of dynamic lanes one after the other, in blocks of [`DYN_BLOCK`] ticks: each
 /// lane runs a block with the single loop's own code (`ClosedLoop::dynamic_tick_with`), its
-/// run state in locals as in the single loop; lanes drawing the same noise share it, as in
-/// [`static_blocks`].
+/// run state in locals as in the single loop. Lanes drawing the same noise share it, as in
+/// [`static_blocks`]; lanes in step with the same condition and clock (parameter
+/// identification, Monte Carlo: one condition, many instruments or effects) share the
+/// first part of the tick, the phasor and the condition's inputs
+/// (`ClosedLoop::dynamic_inputs`), computed once per block.
 #[inline(never)]
 fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
     let mut rs: Vec<(&ClosedLoop, &mut (DynParams, DynRun))> = lanes
@@ -674,31 +681,128 @@ fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
             }
         })
         .collect();
-    let classes = stream_classes(rs.iter().map(|(_, d)| (&d.1.rng, &d.0.adc)));
-    let mut bias = [0.0; BIAS_BLOCK];
+    let n = rs.len();
+    let noise = stream_classes(rs.iter().map(|(_, d)| (&d.1.rng, &d.0.adc)));
+    let mut noise_of = vec![0; n];
+    for (c, class) in noise.iter().enumerate() {
+        for &l in class {
+            noise_of[l] = c;
+        }
+    }
+    // Classes of two lanes or more sharing the inputs (a lone lane computes its own).
+    let inputs: Vec<Vec<usize>> = input_classes(&rs)
+        .into_iter()
+        .filter(|c| c.len() > 1)
+        .collect();
+    let mut inputs_of = vec![None; n];
+    for (c, class) in inputs.iter().enumerate() {
+        for &l in class {
+            inputs_of[l] = Some(c);
+        }
+    }
+    let mut bias = vec![[0.0; DYN_BLOCK]; noise.len()];
+    let mut given = vec![[TickInputs::default(); DYN_BLOCK]; inputs.len()];
     let mut left = m;
     while left > 0 {
         #[allow(clippy::cast_possible_truncation)]
-        let b = left.min(BIAS_BLOCK as u64) as usize;
-        for class in &classes {
+        let b = left.min(DYN_BLOCK as u64) as usize;
+        for (class, buf) in noise.iter().zip(&mut bias) {
             let (p, r) = &mut *rs[class[0]].1;
-            for v in &mut bias[..b] {
+            for v in &mut buf[..b] {
                 *v = p.adc.bias(&mut r.rng);
+            }
+        }
+        for (class, buf) in inputs.iter().zip(&mut given) {
+            let (lp, d) = &rs[class[0]];
+            let (p, r) = &**d;
+            let mut sc = (r.s, r.c);
+            for (t, ti) in (0u64..).zip(&mut buf[..b]) {
+                *ti = lp.dynamic_inputs(p, r.k + t, r.j + t, &mut sc);
             }
             for &l in class {
                 let (lp, d) = &mut rs[l];
                 let (p, r) = &mut **d;
-                lane_block_dynamic(lp, p, r, &bias[..b]);
+                lane_block_dynamic_given(lp, p, r, &bias[noise_of[l]][..b], &buf[..b]);
+                (r.s, r.c) = sc;
+            }
+        }
+        for (l, (lp, d)) in rs.iter_mut().enumerate() {
+            if inputs_of[l].is_none() {
+                let (p, r) = &mut **d;
+                lane_block_dynamic(lp, p, r, &bias[noise_of[l]][..b]);
             }
         }
         left -= b as u64;
     }
-    for class in &classes {
+    for class in &noise {
         let rng = rs[class[0]].1.1.rng.clone();
         for &l in &class[1..] {
             rs[l].1.1.rng = rng.clone();
         }
     }
+}
+
+/// Ticks of [`dynamic_blocks`]' blocks (its buffers stay in the first-level cache).
+const DYN_BLOCK: usize = 128;
+
+/// The dynamic lanes that compute the same phasor and inputs: classes of lane indices, each
+/// lane with the same condition (bits), clock and phasor constants, tick counts and phasor
+/// as the first of its class.
+fn input_classes(rs: &[(&ClosedLoop, &mut (DynParams, DynRun))]) -> Vec<Vec<usize>> {
+    let key = |(lp, d): &(&ClosedLoop, &mut (DynParams, DynRun))| {
+        let (p, r) = &**d;
+        let q = &lp.prep;
+        let mut k: Vec<u64> = [p.t_s, p.w, p.sr, p.cr, r.s, r.c, q.omega]
+            .iter()
+            .chain(&q.g)
+            .chain(&q.w0)
+            .chain(&q.lin_s)
+            .chain(&q.lin_c)
+            .chain(&q.phi_s)
+            .chain(&q.phi_c)
+            .map(|x| x.to_bits())
+            .collect();
+        k.extend([r.k, r.j]);
+        k
+    };
+    let mut classes: Vec<(Vec<u64>, Vec<usize>)> = Vec::new();
+    for (l, lane) in rs.iter().enumerate() {
+        let k = key(lane);
+        match classes.iter_mut().find(|(c, _)| *c == k) {
+            Some(c) => c.1.push(l),
+            None => classes.push((k, vec![l])),
+        }
+    }
+    classes.into_iter().map(|c| c.1).collect()
+}
+
+/// One block of a dynamic lane: `ClosedLoop::run_dynamic`'s loop, with its locals.
+#[inline(never)]
+fn lane_block_dynamic(lp: &ClosedLoop, p: &DynParams, r: &mut DynRun, bias: &[f64]) {
+    let p = *p;
+    let mut run = r.clone();
+    for &v in bias {
+        let _ = lp.dynamic_tick_with(&p, &mut run, v);
+    }
+    *r = run;
+}
+
+/// One block of a dynamic lane with the phasor and inputs of its ticks given (the rest of
+/// `ClosedLoop::run_dynamic`'s loop), with its locals. The caller sets the phasor after.
+#[inline(never)]
+fn lane_block_dynamic_given(
+    lp: &ClosedLoop,
+    p: &DynParams,
+    r: &mut DynRun,
+    bias: &[f64],
+    given: &[TickInputs],
+) {
+    let p = *p;
+    let mut run = r.clone();
+    for (&v, ti) in bias.iter().zip(given) {
+        let _ = lp.dynamic_tick_given(&p, &mut run, v, ti);
+    }
+    *r = run;
 }
 
 /// One block of a static lane without statistics: `ClosedLoop::run_static_fast`'s loop,
@@ -746,17 +850,6 @@ fn lane_block_stats(r: &mut StaticRunState, bias: &[f64]) {
     r.core = core;
     r.x = x;
     r.acc = acc;
-}
-
-/// One block of a dynamic lane: `ClosedLoop::run_dynamic`'s loop, with its locals.
-#[inline(never)]
-fn lane_block_dynamic(lp: &ClosedLoop, p: &DynParams, r: &mut DynRun, bias: &[f64]) {
-    let p = *p;
-    let mut run = r.clone();
-    for &v in bias {
-        let _ = lp.dynamic_tick_with(&p, &mut run, v);
-    }
-    *r = run;
 }
 
 /// `m` ticks of `K` static lanes, interleaved, in three phases per tick: the ADC of every
@@ -1323,6 +1416,43 @@ mod tests {
             };
             let w = simulate_condition(j.instr, j.cond, &j.effects, &o);
             assert_eq!(result_bits(g), result_bits(&w), "{}", j.cond.label);
+        }
+    }
+
+    #[test]
+    fn identification_lanes_share_inputs_and_noise_and_match() {
+        // One condition, eight instruments, one seed: the lanes share the noise draws and
+        // (dynamic) the phasor and the inputs. With the second harmonic measured.
+        let base = instr();
+        let instrs: Vec<Instrument> = (0..8)
+            .map(|j| {
+                let mut i = base.clone();
+                i.spring_dyn_cm_rad *= 1.0 + 0.02 * f64::from(j);
+                i.anisoinertia_g_cm2 += 0.5 * f64::from(j);
+                i
+            })
+            .collect();
+        let conds = conditions(&base);
+        for cond in [&conds[11], &conds[12], &conds[3]] {
+            let jobs: Vec<Job<'_>> = instrs
+                .iter()
+                .map(|i| Job {
+                    instr: i,
+                    cond,
+                    effects: effects(),
+                    seed: 17,
+                })
+                .collect();
+            for harmonic in [0, 2] {
+                let opts = short(17, true, harmonic);
+                for k in [1, 4] {
+                    let got = Engine::new(k).simulate_jobs(&jobs, &opts);
+                    for (j, g) in jobs.iter().zip(&got) {
+                        let w = simulate_condition(j.instr, j.cond, &j.effects, &opts);
+                        assert_eq!(result_bits(g), result_bits(&w), "K = {k}, {}", cond.label);
+                    }
+                }
+            }
         }
     }
 

@@ -750,28 +750,63 @@ impl ClosedLoop {
     /// [`ClosedLoop::dynamic_tick`] with the ADC's additive term `bias` of the tick given
     /// (drawn from `r.rng` by the caller, see [`Adc::bias`]).
     #[inline(always)]
-    #[allow(clippy::needless_range_loop)]
     pub(crate) fn dynamic_tick_with(
         &self,
         p: &DynParams,
         r: &mut DynRun,
         bias: f64,
     ) -> (i16, ptsa_core::Tick, f64) {
-        let k = r.k;
-        if r.j == 0 || k.is_multiple_of(4096) {
+        let mut sc = (r.s, r.c);
+        let ti = self.dynamic_inputs(p, r.k, r.j, &mut sc);
+        (r.s, r.c) = sc;
+        self.dynamic_tick_given(p, r, bias, &ti)
+    }
+
+    /// The first part of a dynamic tick: the phasor `sc = (sin, cos)(ωt)` at mid-tick of
+    /// tick `k`, the `j`-th of its run (exact at `j = 0` and every 4096 ticks, else as given),
+    /// and the condition's inputs there; advances `sc` to the next tick. It depends on the
+    /// condition, the clock and `k`, `j`, `sc` only, so lanes in step with the same ones may
+    /// share it.
+    #[inline(always)]
+    pub(crate) fn dynamic_inputs(
+        &self,
+        p: &DynParams,
+        k: u64,
+        j: u64,
+        sc: &mut (f64, f64),
+    ) -> TickInputs {
+        if j == 0 || k.is_multiple_of(4096) {
             #[allow(clippy::cast_precision_loss)]
             let t_mid = (k as f64 + 0.5) * p.t_s;
-            (r.s, r.c) = (p.w * t_mid).sin_cos();
+            *sc = (p.w * t_mid).sin_cos();
         }
-        let (s, c) = (r.s, r.c);
+        let (s, c) = *sc;
+        let inp = self.prep.inputs(s, c);
+        // Advance the phasor by one tick.
+        *sc = (s * p.cr + c * p.sr, c * p.cr - s * p.sr);
+        TickInputs { s, c, inp }
+    }
+
+    /// The rest of a dynamic tick, its phasor and inputs `ti` given (see
+    /// [`ClosedLoop::dynamic_inputs`]): the ADC with the additive term `bias`, the core, the
+    /// disturbance torque, the plant step, the harmonic sums and the statistics.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn dynamic_tick_given(
+        &self,
+        p: &DynParams,
+        r: &mut DynRun,
+        bias: f64,
+        ti: &TickInputs,
+    ) -> (i16, ptsa_core::Tick, f64) {
+        let (s, c, inp) = (ti.s, ti.c, &ti.inp);
         let u = r.u;
         let code = p.adc.quantize(r.x[3], bias);
         let tick = p.ptsa.tick(&mut r.core, code);
         let theta = r.x[0];
         let reg = self.plant.region(theta);
-        let inp = self.prep.inputs(s, c);
         let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
-        let d = self.static_torque(&inp)
+        let d = self.static_torque(inp)
             + theta * (-p.p * (inp.a_cm_s2[PA] - self.a_pa0) + p.di * (wq - self.wq0))
             + self.plant.stop_torque[reg];
         let z = &self.plant.zoh[reg];
@@ -803,8 +838,6 @@ impl ClosedLoop {
         r.k += 1;
         r.j += 1;
         r.u = if positive { 1.0 } else { -1.0 };
-        // Advance the phasor by one tick.
-        (r.s, r.c) = (s * p.cr + c * p.sr, c * p.cr - s * p.sr);
         (code, tick, u)
     }
 
@@ -1050,6 +1083,17 @@ pub(crate) struct DynParams {
     pub(crate) ip: f64,
     pub(crate) cp: f64,
     pub(crate) adc: Adc,
+}
+
+/// The phasor and the inputs of one dynamic tick ([`ClosedLoop::dynamic_inputs`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct TickInputs {
+    /// `sin(ωt)` at mid-tick.
+    pub(crate) s: f64,
+    /// `cos(ωt)` at mid-tick.
+    pub(crate) c: f64,
+    /// The condition's inputs there.
+    pub(crate) inp: CaseInputs,
 }
 
 /// The state of a dynamic run in progress (one call of [`ClosedLoop::run`]): everything a
