@@ -41,19 +41,23 @@
 //!
 //! # Why one lane at a time
 //! Interleaving pays when a loop waits on its own dependency chain (plant → ADC → core →
-//! plant). On the machine measured (AMD Zen 5, baseline x86-64 code, i.e. SSE2) it does not:
-//! the static fast path runs about 125 instructions per tick in about 21 cycles (IPC ≈ 6),
-//! the dynamic one about 360 in about 63 (IPC ≈ 5.7), and its plant chain is about 10 cycles
-//! a tick; both are bound by instruction throughput. Interleaved, a lane's tick executes
-//! *more* instructions (the core's state, opaque to this crate, no longer stays in
-//! registers: `Ptsa::tick` costs about 65 instructions plus 20 of glue per lane-tick instead
-//! of about 50, more than the plant's structure of arrays saves), so `K = 2..16` run at
-//! 0.65–0.7× the single loop (static) and about 0.9× (dynamic). What the batch saves is work
-//! that lanes have in common: noise draws (static: 115 instead of 130 instructions per
-//! lane-tick, dynamic: 319 instead of 357), a dynamic condition's phasor and inputs (one
-//! condition, sixteen instruments: 246 instead of 357) and noise tables (about a million
-//! instructions per loop built). `cargo bench -p ptsa-host-sim --bench batch` measures every
-//! setting; [`batch_rates`] gives the single and the batch rate to the CLI.
+//! plant). On the machine measured (AMD Zen 5 at about 4.3 GHz, baseline x86-64 code, i.e.
+//! SSE2) it does not: the static fast path runs about 130 instructions per tick in about 22
+//! cycles (IPC ≈ 6) while its loop-carried chain (the plant step; the core's decision reaches
+//! the plant through a predicted branch) is about 10 cycles, so it is bound by instruction
+//! throughput; the dynamic one runs about 357 in about 70 cycles (IPC ≈ 5) with a longer chain
+//! (θ → disturbance torque → plant input → θ, about 20 cycles). Interleaved, a lane's tick
+//! executes *more* instructions: the core's state, opaque to this crate, no longer stays in
+//! registers (`Ptsa::tick` costs about 65 instructions plus 20 of glue per lane-tick instead
+//! of about 50), more than the plant's structure of arrays saves. Measured per core:
+//! `K = 2..16` run at 0.62–0.69× the single loop (static) and 0.93–0.97× (dynamic, where
+//! the interleaving does hide some latency). What the batch saves instead is work that
+//! lanes have in common: noise draws (static: 115 instead of 130 instructions per lane-tick,
+//! 1.10× the single loop's rate; dynamic: 319 instead of 357, but only about 1.03× faster,
+//! the chain binding more), a dynamic condition's phasor and inputs (one condition, sixteen
+//! instruments: 246 instead of 357, 1.2×) and noise tables (about a million instructions
+//! per loop built: 1.3–1.5× on whole calls). `cargo bench -p ptsa-host-sim --bench batch`
+//! measures every setting; [`batch_rates`] gives the single and the batch rate to the CLI.
 
 use std::collections::HashMap;
 use std::time::Instant;
