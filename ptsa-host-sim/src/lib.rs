@@ -8,8 +8,10 @@
 //!   discretised exactly (zero-order hold).
 //! * [`sim`]: the closed loop and the charge-balance estimator; [`simulate_condition`] and
 //!   [`simulate_difference`] are the entry points.
+//! * [`batch`]: many independent closed loops, lanes interleaved per core, all cores.
 //! * [`design`]: the default compensator (`Config::DEFAULT`) and the loop's margins.
 
+pub mod batch;
 pub mod bench;
 pub mod condition;
 pub mod design;

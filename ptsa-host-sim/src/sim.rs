@@ -27,6 +27,8 @@
 //! pendulum and the torquer at the ends of the window). It is exact for the simulated
 //! system; windows of whole oscillation periods remove the oscillating part of `T_ext`.
 
+use std::num::Wrapping;
+
 use ptsa_core::{Config, Polarity, Ptsa, State};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
@@ -34,7 +36,7 @@ use rand_chacha::rand_core::{RngCore, SeedableRng};
 use crate::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
 use crate::effects::{Effects, Signature};
 use crate::instrument::Instrument;
-use crate::plant::{NX, Plant};
+use crate::plant::{NX, Plant, Zoh};
 
 /// Options of a simulated run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -131,7 +133,7 @@ pub struct SimDifference {
 /// variance 1), all from the seed. Cheap enough for the hot loop; the table's 4096 levels
 /// are far finer than the ADC's.
 #[derive(Clone, Debug)]
-struct NoiseSource {
+pub(crate) struct NoiseSource {
     state: u64,
     table: std::sync::Arc<[f64; NOISE_TABLE]>,
 }
@@ -139,7 +141,8 @@ struct NoiseSource {
 const NOISE_TABLE: usize = 4096;
 
 impl NoiseSource {
-    fn new(seed: u64) -> Self {
+    /// The source of `seed`: its table and the generator's first state.
+    pub(crate) fn new(seed: u64) -> Self {
         let mut c = ChaCha8Rng::seed_from_u64(seed);
         let mut t = [0.0f64; NOISE_TABLE];
         let unit = |x: u64| {
@@ -168,9 +171,21 @@ impl NoiseSource {
             table: std::sync::Arc::new(t),
         }
     }
+    /// Whether `other` draws the same numbers from now on (the same generator state and the
+    /// same table).
+    pub(crate) fn same_stream(&self, other: &NoiseSource) -> bool {
+        self.state == other.state
+            && (std::sync::Arc::ptr_eq(&self.table, &other.table)
+                || self
+                    .table
+                    .iter()
+                    .zip(other.table.iter())
+                    .all(|(a, b)| a.to_bits() == b.to_bits()))
+    }
+
     /// One standard-normal draw.
     #[inline(always)]
-    fn normal(&mut self) -> f64 {
+    pub(crate) fn normal(&mut self) -> f64 {
         self.state = self.state.wrapping_add(0xa076_1d64_78bd_642f);
         let t = u128::from(self.state) * u128::from(self.state ^ 0xe703_7ed1_a0b4_28db);
         #[allow(clippy::cast_possible_truncation)]
@@ -224,27 +239,22 @@ pub struct TickView {
 
 /// The ADC: demodulated pickoff (rad) to a code, with the quadrature leak and noise.
 #[derive(Clone, Copy, Debug)]
-struct Adc {
+pub(crate) struct Adc {
     /// Codes per rad.
-    gain: f64,
+    pub(crate) gain: f64,
     /// Offset (quadrature leak), codes.
-    offset: f64,
+    pub(crate) offset: f64,
     /// Noise, codes rms.
-    noise: f64,
+    pub(crate) noise: f64,
 }
 
 impl Adc {
-    #[inline(always)]
-    fn sample(&self, y: f64, rng: &mut NoiseSource) -> i16 {
-        // Everything but `y` first, so the dependency chain from the plant state to the code
-        // is one multiply-add.
-        self.quantize(y, self.bias(rng))
-    }
-
     /// The additive term of one sample: offset, the rounding half and a noise draw (none
-    /// without noise).
+    /// without noise). Drawn apart from the plant state (ahead, in blocks, or shared between
+    /// the lanes of a batch), so that the chain from the plant state to the code is one
+    /// multiply-add ([`Adc::quantize`]).
     #[inline(always)]
-    fn bias(&self, rng: &mut NoiseSource) -> f64 {
+    pub(crate) fn bias(&self, rng: &mut NoiseSource) -> f64 {
         let mut bias = self.offset + 32768.5;
         if self.noise != 0.0 {
             bias += self.noise * rng.normal();
@@ -254,7 +264,7 @@ impl Adc {
 
     /// The code of `y` with the additive term `bias` (see [`Adc::bias`]).
     #[inline(always)]
-    fn quantize(&self, y: f64, bias: f64) -> i16 {
+    pub(crate) fn quantize(&self, y: f64, bias: f64) -> i16 {
         // Round half up and clip to the i16 range without a libm call: `as u16` truncates
         // toward zero and saturates to `0..=65535` (NaN to 0), the same as an explicit clamp
         // before the cast but with one max/min pair instead of two.
@@ -268,21 +278,27 @@ impl Adc {
 
 /// Per-run accumulators, kept in registers in the hot loops and merged into [`Totals`].
 #[derive(Clone, Copy, Debug)]
-struct Acc {
-    ticks: u64,
-    sum_u: i64,
-    sum_theta2: f64,
-    max_theta: f64,
-    cycles: u64,
-    cycles_two: u64,
-    stop: u64,
-    rev: u32,
-    prev_positive: bool,
+pub(crate) struct Acc {
+    pub(crate) ticks: u64,
+    pub(crate) sum_u: i64,
+    pub(crate) sum_theta2: f64,
+    pub(crate) max_theta: f64,
+    pub(crate) cycles: u64,
+    pub(crate) cycles_two: u64,
+    pub(crate) stop: u64,
+    pub(crate) rev: u32,
+    pub(crate) prev_positive: bool,
 }
 
 impl Acc {
     #[inline(always)]
-    fn tick(&mut self, applied_positive: bool, positive: bool, theta: f64, cycle_end: bool) {
+    pub(crate) fn tick(
+        &mut self,
+        applied_positive: bool,
+        positive: bool,
+        theta: f64,
+        cycle_end: bool,
+    ) {
         self.ticks += 1;
         self.sum_u += 2 * i64::from(applied_positive) - 1;
         self.sum_theta2 += theta * theta;
@@ -314,35 +330,35 @@ pub trait ExtraPhysics: Send + Sync + std::fmt::Debug {
 /// The closed loop: instrument plant, ADC, `ptsa-core` loop, all state.
 #[derive(Clone, Debug)]
 pub struct ClosedLoop {
-    instr: Instrument,
-    ptsa: Ptsa,
-    core: State,
-    plant: Plant,
-    prep: Prepared,
+    pub(crate) instr: Instrument,
+    pub(crate) ptsa: Ptsa,
+    pub(crate) core: State,
+    pub(crate) plant: Plant,
+    pub(crate) prep: Prepared,
     /// The non-zero effect terms, `(term per unit coefficient, coefficient)`.
-    effect_terms: Vec<(TermFn, f64)>,
+    pub(crate) effect_terms: Vec<(TermFn, f64)>,
     /// Physics added from outside the vocabulary.
-    physics: Option<std::sync::Arc<dyn ExtraPhysics>>,
-    dynamic: bool,
+    pub(crate) physics: Option<std::sync::Arc<dyn ExtraPhysics>>,
+    pub(crate) dynamic: bool,
     /// Plant state.
-    x: [f64; NX],
+    pub(crate) x: [f64; NX],
     /// Command applied in the current interval (decided at the previous tick).
-    u: f64,
-    k: u64,
-    rng: NoiseSource,
-    noise_codes: f64,
-    code_per_rad: f64,
-    code_offset: f64,
+    pub(crate) u: f64,
+    pub(crate) k: u64,
+    pub(crate) rng: NoiseSource,
+    pub(crate) noise_codes: f64,
+    pub(crate) code_per_rad: f64,
+    pub(crate) code_offset: f64,
     /// Constant part of the disturbance torque, dyn·cm.
-    d0: f64,
+    pub(crate) d0: f64,
     /// `a_PA` and `W_IA² − W_PA²` folded into `K_eff`.
-    a_pa0: f64,
-    wq0: f64,
-    p_gcm: f64,
-    totals: Totals,
-    prev_pol: Polarity,
-    reversals: u32,
-    harmonic: u32,
+    pub(crate) a_pa0: f64,
+    pub(crate) wq0: f64,
+    pub(crate) p_gcm: f64,
+    pub(crate) totals: Totals,
+    pub(crate) prev_pol: Polarity,
+    pub(crate) reversals: u32,
+    pub(crate) harmonic: u32,
 }
 
 impl ClosedLoop {
@@ -354,6 +370,18 @@ impl ClosedLoop {
     /// If `opts.config` is refused by `ptsa-core` (the default never is).
     #[must_use]
     pub fn new(instr: &Instrument, cond: &Condition, effects: &Effects, opts: &SimOptions) -> Self {
+        Self::with_noise(instr, cond, effects, opts, NoiseSource::new(opts.seed))
+    }
+
+    /// [`ClosedLoop::new`] with the noise source of `opts.seed` given (the batch engine
+    /// builds each seed's table once and shares it between lanes).
+    pub(crate) fn with_noise(
+        instr: &Instrument,
+        cond: &Condition,
+        effects: &Effects,
+        opts: &SimOptions,
+        rng: NoiseSource,
+    ) -> Self {
         let changed;
         let instr = if effects.has_parameters() {
             changed = effects.apply_parameters(instr);
@@ -376,7 +404,7 @@ impl ClosedLoop {
             x: [0.0; NX],
             u: 1.0,
             k: 0,
-            rng: NoiseSource::new(opts.seed),
+            rng,
             noise_codes: noise * instr.amp_gain / lsb_v,
             code_per_rad: instr.lsb_per_rad() * instr.phase_error_rad.cos(),
             code_offset: instr.quadrature_v * instr.phase_error_rad.sin() * instr.amp_gain / lsb_v,
@@ -464,7 +492,7 @@ impl ClosedLoop {
         self.k
     }
 
-    fn adc_params(&self) -> Adc {
+    pub(crate) fn adc_params(&self) -> Adc {
         Adc {
             gain: self.code_per_rad,
             offset: self.code_offset,
@@ -472,7 +500,19 @@ impl ClosedLoop {
         }
     }
 
-    fn acc(&self) -> Acc {
+    /// The constants of a static tick (see [`static_tick`]).
+    pub(crate) fn static_params(&self) -> StaticParams {
+        StaticParams {
+            ptsa: self.ptsa,
+            plant: self.plant,
+            free: self.plant.zoh[0],
+            add: add_vectors(&self.plant, self.d0),
+            adc: self.adc_params(),
+            theta_stop: self.plant.theta_stop,
+        }
+    }
+
+    pub(crate) fn acc(&self) -> Acc {
         Acc {
             ticks: 0,
             sum_u: 0,
@@ -486,7 +526,7 @@ impl ClosedLoop {
         }
     }
 
-    fn merge(&mut self, a: &Acc) {
+    pub(crate) fn merge(&mut self, a: &Acc) {
         let t = &mut self.totals;
         t.ticks += a.ticks;
         t.sum_u += a.sum_u;
@@ -545,78 +585,54 @@ impl ClosedLoop {
             self.run_static_fast(n);
             return;
         }
-        // add[r][pol]: Γu·u + Γd·(d0 + stop torque), pol 0 = +1, 1 = −1.
-        let mut add = [[[0.0; NX]; 2]; 3];
-        for (r, a) in add.iter_mut().enumerate() {
-            let z = &self.plant.zoh[r];
-            let d = self.d0 + self.plant.stop_torque[r];
-            for j in 0..NX {
-                a[0][j] = z.gu[j] + z.gd[j] * d;
-                a[1][j] = -z.gu[j] + z.gd[j] * d;
-            }
-        }
-        let ptsa = self.ptsa;
-        let plant = self.plant;
-        let adc = self.adc_params();
-        let mut rng = self.rng.clone();
-        let mut core = self.core;
-        let mut acc = self.acc();
-        let mut x = self.x;
-        // Index of the applied polarity in `add` (0 = positive), kept as an integer so that
-        // the polarity reaches the plant without a float round trip.
-        let mut ui = usize::from(self.u < 0.0);
-        let mut k = self.k;
-        // The free region's matrices by value, so they can live in registers; the stops
-        // are the rare, cold path.
-        let free = plant.zoh[0];
-        let add0 = add[0];
-        let theta_stop = plant.theta_stop;
-        for _ in 0..n {
-            let code = adc.sample(x[3], &mut rng);
-            let tick = ptsa.tick(&mut core, code);
-            if x[0].abs() <= theta_stop {
-                x = free.step(&x, &add0[ui]);
-            } else {
-                let r = plant.region(x[0]);
-                x = plant.zoh[r].step(&x, &add[r][ui]);
-                acc.stop += 1;
-            }
-            let positive = tick.polarity == Polarity::Positive;
-            if STATS {
-                acc.tick(ui == 0, positive, x[0], tick.cycle_pulses.is_some());
-            }
+        let mut r = self.static_run();
+        let k0 = self.k;
+        for i in 0..n {
+            let u = if r.ui == 0 { 1.0 } else { -1.0 };
+            let bias = r.p.adc.bias(&mut r.rng);
+            let (code, tick) =
+                static_tick::<STATS>(&r.p, bias, &mut r.core, &mut r.x, &mut r.ui, &mut r.acc);
             if OBSERVE {
-                let u = if ui == 0 { 1.0 } else { -1.0 };
                 obs(&TickView {
-                    k,
-                    x,
+                    k: k0 + i,
+                    x: r.x,
                     code,
                     u,
                     decided: tick.polarity,
                 });
-                k += 1;
             }
-            ui = usize::from(!positive);
         }
-        if !OBSERVE {
-            k += n;
+        self.finish_static_run(&r, n, STATS);
+    }
+
+    /// The start of a static run (one call of [`ClosedLoop::run`] or
+    /// [`ClosedLoop::run_fast`]): its constants and the loop's state.
+    pub(crate) fn static_run(&self) -> StaticRunState {
+        StaticRunState {
+            p: self.static_params(),
+            rng: self.rng.clone(),
+            core: self.core,
+            acc: self.acc(),
+            x: self.x,
+            ui: usize::from(self.u < 0.0),
+            pulses0: self.core.total_pulses(),
+            first: self.u > 0.0,
         }
-        if !STATS {
-            // Ticks and the applied-command sum from the core's count: the applied
-            // polarities are the decided ones shifted by one tick.
-            let decided = i64::from((core.total_pulses() - self.core.total_pulses()).0);
-            let first = i64::from(self.u > 0.0);
-            let last = i64::from(ui == 0);
-            #[allow(clippy::cast_possible_wrap)]
-            let n_i = n as i64;
-            acc.ticks = n;
-            acc.sum_u = 2 * (decided + first - last) - n_i;
+    }
+
+    /// The end of a static run of `n` ticks: its state back into the loop. Without `stats`
+    /// the run kept no per-tick statistics: its ticks and applied-command sum come from the
+    /// core's count (see [`fast_counts`]).
+    pub(crate) fn finish_static_run(&mut self, r: &StaticRunState, n: u64, stats: bool) {
+        let mut acc = r.acc;
+        if !stats {
+            fast_counts(&mut acc, r.pulses0, r.first, &r.core, r.ui == 0, n);
         }
-        self.x = x;
-        self.u = if ui == 0 { 1.0 } else { -1.0 };
-        self.k = k;
-        self.rng = rng;
-        self.core = core;
+        self.x = r.x;
+        self.u = if r.ui == 0 { 1.0 } else { -1.0 };
+        self.k += n;
+        self.rng = r.rng.clone();
+        self.core = r.core;
         self.merge(&acc);
     }
 
@@ -630,15 +646,7 @@ impl ClosedLoop {
     /// cycle, not on the ticks between them).
     #[allow(clippy::needless_range_loop)]
     fn run_static_fast(&mut self, n: u64) {
-        let mut add = [[[0.0; NX]; 2]; 3];
-        for (r, a) in add.iter_mut().enumerate() {
-            let z = &self.plant.zoh[r];
-            let d = self.d0 + self.plant.stop_torque[r];
-            for j in 0..NX {
-                a[0][j] = z.gu[j] + z.gd[j] * d;
-                a[1][j] = -z.gu[j] + z.gd[j] * d;
-            }
-        }
+        let add = add_vectors(&self.plant, self.d0);
         let ptsa = self.ptsa;
         let plant = self.plant;
         let adc = self.adc_params();
@@ -657,29 +665,27 @@ impl ClosedLoop {
             for b in &mut bias[..m] {
                 *b = adc.bias(&mut rng);
             }
-            let mut i = 0;
-            while i < m {
-                let (run, next) = if positive {
-                    static_phase::<true>(&ptsa, &plant, &add, &adc, &bias[i..m], &mut core, &mut x)
-                } else {
-                    static_phase::<false>(&ptsa, &plant, &add, &adc, &bias[i..m], &mut core, &mut x)
-                };
-                #[allow(clippy::cast_possible_truncation)]
-                let ticks = run.ticks as usize;
-                i += ticks;
-                acc.stop += run.stop;
-                positive = next;
-            }
+            fast_block(
+                &ptsa,
+                &plant,
+                &add,
+                &adc,
+                &bias[..m],
+                &mut core,
+                &mut x,
+                &mut positive,
+                &mut acc.stop,
+            );
             left -= m as u64;
         }
-        // Ticks and the applied-command sum from the core's count (see `run_static`).
-        let decided = i64::from((core.total_pulses() - self.core.total_pulses()).0);
-        let first = i64::from(self.u > 0.0);
-        let last = i64::from(positive);
-        #[allow(clippy::cast_possible_wrap)]
-        let n_i = n as i64;
-        acc.ticks = n;
-        acc.sum_u = 2 * (decided + first - last) - n_i;
+        fast_counts(
+            &mut acc,
+            self.core.total_pulses(),
+            self.u > 0.0,
+            &core,
+            positive,
+            n,
+        );
         self.x = x;
         self.u = if positive { 1.0 } else { -1.0 };
         self.k += n;
@@ -688,90 +694,189 @@ impl ClosedLoop {
         self.merge(&acc);
     }
 
-    #[allow(clippy::needless_range_loop)]
     fn run_dynamic<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
-        let t_s = 1.0 / self.instr.clock_hz;
-        let w = self.prep.omega;
-        let (sr, cr) = (w * t_s).sin_cos();
-        let p = self.p_gcm;
-        let di = self.instr.anisoinertia_g_cm2;
-        let ptsa = self.ptsa;
-        let harmonic = self.harmonic;
-        let sf = self.instr.actual_sf_cm_s2();
-        let tau_t = self.instr.torquer_tau_s / t_s;
-        let ip = self.instr.inertia_dyn_cm_s2 / (p * t_s);
-        let cp = self.instr.damping_dyn_cm_s / (p * t_s);
-        let adc = self.adc_params();
-        let mut rng = self.rng.clone();
-        let mut core = self.core;
-        let mut acc = self.acc();
-        let mut x = self.x;
-        let mut u = self.u;
-        let (mut s, mut c) = (0.0, 1.0);
-        for j in 0..n {
-            let k = self.k;
-            if j == 0 || k.is_multiple_of(4096) {
-                #[allow(clippy::cast_precision_loss)]
-                let t_mid = (k as f64 + 0.5) * t_s;
-                (s, c) = (w * t_mid).sin_cos();
-            }
-            let code = adc.sample(x[3], &mut rng);
-            let tick = ptsa.tick(&mut core, code);
-            let theta = x[0];
-            let r = self.plant.region(theta);
-            let inp = self.prep.inputs(s, c);
-            let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
-            let mut d = self.static_torque(&inp)
-                + theta * (-p * (inp.a_cm_s2[PA] - self.a_pa0) + di * (wq - self.wq0))
-                + self.plant.stop_torque[r];
-            if let Some(ph) = &self.physics {
-                #[allow(clippy::cast_precision_loss)]
-                let t_mid = (k as f64 + 0.5) * t_s;
-                d += ph.torque_dyn_cm(t_mid, &inp, &x);
-            }
-            let z = &self.plant.zoh[r];
-            let mut a = [0.0; NX];
-            for i in 0..NX {
-                a[i] = z.gu[i] * u + z.gd[i] * d;
-            }
-            let x_old = x;
-            x = z.step(&x, &a);
-            if harmonic != 0 {
-                let (hs, hc) = if harmonic == 1 {
-                    (s, c)
-                } else {
-                    (2.0 * s * c, c * c - s * s)
-                };
-                self.totals.harm[0] += u * hs;
-                self.totals.harm[1] += u * hc;
-                let q = sf * (u - tau_t * (x[2] - x_old[2]))
-                    + ip * (x[1] - x_old[1])
-                    + cp * (x[0] - x_old[0]);
-                self.totals.harm_q[0] += q * hs;
-                self.totals.harm_q[1] += q * hc;
-            }
-            let positive = tick.polarity == Polarity::Positive;
-            acc.stop += u64::from(r != 0);
-            acc.tick(u > 0.0, positive, x[0], tick.cycle_pulses.is_some());
+        let p = self.dyn_params();
+        let mut r = self.dyn_run();
+        for _ in 0..n {
+            let (code, tick, u) = self.dynamic_tick(&p, &mut r);
             if OBSERVE {
                 obs(&TickView {
-                    k,
-                    x,
+                    k: r.k - 1,
+                    x: r.x,
                     code,
                     u,
                     decided: tick.polarity,
                 });
             }
-            self.k += 1;
-            u = if positive { 1.0 } else { -1.0 };
-            // Advance the phasor by one tick.
-            (s, c) = (s * cr + c * sr, c * cr - s * sr);
         }
-        self.x = x;
-        self.u = u;
-        self.rng = rng;
-        self.core = core;
-        self.merge(&acc);
+        self.finish_dyn_run(&r);
+    }
+
+    /// The constants of a dynamic tick (see [`ClosedLoop::dynamic_tick`]).
+    pub(crate) fn dyn_params(&self) -> DynParams {
+        let t_s = 1.0 / self.instr.clock_hz;
+        let w = self.prep.omega;
+        let (sr, cr) = (w * t_s).sin_cos();
+        let p = self.p_gcm;
+        DynParams {
+            ptsa: self.ptsa,
+            t_s,
+            w,
+            sr,
+            cr,
+            p,
+            di: self.instr.anisoinertia_g_cm2,
+            harmonic: self.harmonic,
+            sf: self.instr.actual_sf_cm_s2(),
+            tau_t: self.instr.torquer_tau_s / t_s,
+            ip: self.instr.inertia_dyn_cm_s2 / (p * t_s),
+            cp: self.instr.damping_dyn_cm_s / (p * t_s),
+            adc: self.adc_params(),
+        }
+    }
+
+    /// The start of a dynamic run (one call of [`ClosedLoop::run`]): the loop's state.
+    pub(crate) fn dyn_run(&self) -> DynRun {
+        DynRun {
+            rng: self.rng.clone(),
+            core: self.core,
+            acc: self.acc(),
+            x: self.x,
+            u: self.u,
+            k: self.k,
+            j: 0,
+            s: 0.0,
+            c: 1.0,
+            harm: self.totals.harm,
+            harm_q: self.totals.harm_q,
+        }
+    }
+
+    /// The end of a dynamic run: its state back into the loop.
+    pub(crate) fn finish_dyn_run(&mut self, r: &DynRun) {
+        self.x = r.x;
+        self.u = r.u;
+        self.k = r.k;
+        self.rng = r.rng.clone();
+        self.core = r.core;
+        self.totals.harm = r.harm;
+        self.totals.harm_q = r.harm_q;
+        self.merge(&r.acc);
+    }
+
+    /// One tick of a dynamic condition (or of a static one with a harmonic requested), the
+    /// body of [`ClosedLoop::run`]'s dynamic path and of the batch engine's dynamic lanes:
+    /// the phasor `sin, cos(ωt)` at mid-tick (exact at the start of a run and every 4096
+    /// ticks, advanced by a rotation in between), the ADC, the core, the disturbance torque
+    /// of the inputs at mid-tick, the plant step, the harmonic sums and the statistics.
+    /// Returns the code, the core's tick and the command applied over the tick.
+    #[inline(always)]
+    pub(crate) fn dynamic_tick(
+        &self,
+        p: &DynParams,
+        r: &mut DynRun,
+    ) -> (i16, ptsa_core::Tick, f64) {
+        let bias = p.adc.bias(&mut r.rng);
+        self.dynamic_tick_with(p, r, bias)
+    }
+
+    /// [`ClosedLoop::dynamic_tick`] with the ADC's additive term `bias` of the tick given
+    /// (drawn from `r.rng` by the caller, see [`Adc::bias`]).
+    #[inline(always)]
+    pub(crate) fn dynamic_tick_with(
+        &self,
+        p: &DynParams,
+        r: &mut DynRun,
+        bias: f64,
+    ) -> (i16, ptsa_core::Tick, f64) {
+        let mut sc = (r.s, r.c);
+        let ti = self.dynamic_inputs(p, r.k, r.j, &mut sc);
+        (r.s, r.c) = sc;
+        self.dynamic_tick_given(p, r, bias, &ti)
+    }
+
+    /// The first part of a dynamic tick: the phasor `sc = (sin, cos)(ωt)` at mid-tick of
+    /// tick `k`, the `j`-th of its run (exact at `j = 0` and every 4096 ticks, else as given),
+    /// and the condition's inputs there; advances `sc` to the next tick. It depends on the
+    /// condition, the clock and `k`, `j`, `sc` only, so lanes in step with the same ones may
+    /// share it.
+    #[inline(always)]
+    pub(crate) fn dynamic_inputs(
+        &self,
+        p: &DynParams,
+        k: u64,
+        j: u64,
+        sc: &mut (f64, f64),
+    ) -> TickInputs {
+        if j == 0 || k.is_multiple_of(4096) {
+            #[allow(clippy::cast_precision_loss)]
+            let t_mid = (k as f64 + 0.5) * p.t_s;
+            *sc = (p.w * t_mid).sin_cos();
+        }
+        let (s, c) = *sc;
+        let inp = self.prep.inputs(s, c);
+        // Advance the phasor by one tick.
+        *sc = (s * p.cr + c * p.sr, c * p.cr - s * p.sr);
+        TickInputs { s, c, inp }
+    }
+
+    /// The rest of a dynamic tick, its phasor and inputs `ti` given (see
+    /// [`ClosedLoop::dynamic_inputs`]): the ADC with the additive term `bias`, the core, the
+    /// disturbance torque, the plant step, the harmonic sums and the statistics.
+    #[inline(always)]
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn dynamic_tick_given(
+        &self,
+        p: &DynParams,
+        r: &mut DynRun,
+        bias: f64,
+        ti: &TickInputs,
+    ) -> (i16, ptsa_core::Tick, f64) {
+        let (s, c, inp) = (ti.s, ti.c, &ti.inp);
+        let u = r.u;
+        let code = p.adc.quantize(r.x[3], bias);
+        let tick = p.ptsa.tick(&mut r.core, code);
+        let theta = r.x[0];
+        let reg = self.plant.region(theta);
+        let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
+        let mut d = self.static_torque(inp)
+            + theta * (-p.p * (inp.a_cm_s2[PA] - self.a_pa0) + p.di * (wq - self.wq0))
+            + self.plant.stop_torque[reg];
+        if let Some(ph) = &self.physics {
+            #[allow(clippy::cast_precision_loss)]
+            let t_mid = (r.k as f64 + 0.5) * p.t_s;
+            d += ph.torque_dyn_cm(t_mid, inp, &r.x);
+        }
+        let z = &self.plant.zoh[reg];
+        let mut a = [0.0; NX];
+        for i in 0..NX {
+            a[i] = z.gu[i] * u + z.gd[i] * d;
+        }
+        let x_old = r.x;
+        r.x = z.step(&r.x, &a);
+        let x = r.x;
+        if p.harmonic != 0 {
+            let (hs, hc) = if p.harmonic == 1 {
+                (s, c)
+            } else {
+                (2.0 * s * c, c * c - s * s)
+            };
+            r.harm[0] += u * hs;
+            r.harm[1] += u * hc;
+            let q = p.sf * (u - p.tau_t * (x[2] - x_old[2]))
+                + p.ip * (x[1] - x_old[1])
+                + p.cp * (x[0] - x_old[0]);
+            r.harm_q[0] += q * hs;
+            r.harm_q[1] += q * hc;
+        }
+        let positive = tick.polarity == Polarity::Positive;
+        r.acc.stop += u64::from(reg != 0);
+        r.acc
+            .tick(u > 0.0, positive, x[0], tick.cycle_pulses.is_some());
+        r.k += 1;
+        r.j += 1;
+        r.u = if positive { 1.0 } else { -1.0 };
+        (code, tick, u)
     }
 
     /// The parameters of `ptsa-host-sim/benches/c_static/static_loop.c` (the plain C loop
@@ -840,15 +945,54 @@ impl ClosedLoop {
     /// Run a measurement window of `n` ticks and return its result.
     #[must_use]
     pub fn measure(&mut self, n: u64) -> SimResult {
-        self.totals.max_theta = 0.0;
-        let t0 = self.totals;
-        let x0 = self.x;
-        let p0 = self.core.total_pulses();
+        let w = self.window_start();
         self.run(n);
+        self.window_end(&w)
+    }
+
+    /// The start of a measurement window (the maximum of `|θ|` restarts).
+    pub(crate) fn window_start(&mut self) -> WindowStart {
+        self.totals.max_theta = 0.0;
+        WindowStart {
+            t0: self.totals,
+            x0: self.x,
+            p0: self.core.total_pulses(),
+        }
+    }
+
+    /// The result of the window opened by `w`, now.
+    pub(crate) fn window_end(&self, w: &WindowStart) -> SimResult {
         let t1 = self.totals;
         let x1 = self.x;
-        let pulses = u64::from((self.core.total_pulses() - p0).0);
-        self.window_result(&t0, &t1, &x0, &x1, pulses)
+        let pulses = u64::from((self.core.total_pulses() - w.p0).0);
+        self.window_result(&w.t0, &t1, &w.x0, &x1, pulses)
+    }
+
+    /// The start of a gate of `ptsa static` ([`run_static`]).
+    pub(crate) fn gate_start(&self) -> GateStart {
+        GateStart {
+            p0: self.core.total_pulses(),
+            s0: self.core.saturations(),
+            stop0: self.totals.stop_ticks,
+        }
+    }
+
+    /// The result of the gate of `ticks` ticks opened by `g`, now.
+    pub(crate) fn gate_end(&self, g: &GateStart, ticks: u64) -> StaticRun {
+        let pulses = u64::from((self.core.total_pulses() - g.p0).0);
+        let s1 = self.core.saturations();
+        #[allow(clippy::cast_precision_loss)]
+        let x = self.instr.sf_cm_s2 * (2.0 * pulses as f64 / ticks as f64 - 1.0);
+        StaticRun {
+            ticks,
+            pulses,
+            indicated_cm_s2: x,
+            saturated: s1.integrator != g.s0.integrator
+                || s1.output != g.s0.output
+                || self.totals.stop_ticks != g.stop0
+                || pulses == 0
+                || pulses == ticks,
+        }
     }
 
     fn window_result(
@@ -898,6 +1042,199 @@ impl ClosedLoop {
     }
 }
 
+/// The plant inputs of a static condition, `add[region][polarity] = Γu·u + Γd·(d0 + stop
+/// torque)` with polarity 0 = `u = +1`, 1 = `u = −1` (region 0 free, 1 and 2 on the stops).
+#[allow(clippy::needless_range_loop)]
+pub(crate) fn add_vectors(plant: &Plant, d0: f64) -> [[[f64; NX]; 2]; 3] {
+    let mut add = [[[0.0; NX]; 2]; 3];
+    for (r, a) in add.iter_mut().enumerate() {
+        let z = &plant.zoh[r];
+        let d = d0 + plant.stop_torque[r];
+        for j in 0..NX {
+            a[0][j] = z.gu[j] + z.gd[j] * d;
+            a[1][j] = -z.gu[j] + z.gd[j] * d;
+        }
+    }
+    add
+}
+
+/// What a tick of a static condition needs besides the state: the core, the plant (its
+/// stops are the rare, cold path), the free region's matrices by value (so they can live in
+/// registers), the plant inputs of [`add_vectors`] and the ADC.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StaticParams {
+    pub(crate) ptsa: Ptsa,
+    pub(crate) plant: Plant,
+    pub(crate) free: Zoh,
+    pub(crate) add: [[[f64; NX]; 2]; 3],
+    pub(crate) adc: Adc,
+    pub(crate) theta_stop: f64,
+}
+
+/// One tick of a static condition, the body of [`ClosedLoop::run`]'s static path and of the
+/// batch engine's lanes (`crate::batch`): sample with the ADC's additive term `bias` (see
+/// [`Adc::bias`]), let the core decide, step the plant with the applied polarity `ui`
+/// (0 = positive), count a tick on a stop, the per-tick statistics with `STATS`, and make
+/// the decided polarity the applied one. Returns the code and the core's tick.
+#[inline(always)]
+pub(crate) fn static_tick<const STATS: bool>(
+    p: &StaticParams,
+    bias: f64,
+    core: &mut State,
+    x: &mut [f64; NX],
+    ui: &mut usize,
+    acc: &mut Acc,
+) -> (i16, ptsa_core::Tick) {
+    let code = p.adc.quantize(x[3], bias);
+    let tick = p.ptsa.tick(core, code);
+    if x[0].abs() <= p.theta_stop {
+        *x = p.free.step(x, &p.add[0][*ui]);
+    } else {
+        let r = p.plant.region(x[0]);
+        *x = p.plant.zoh[r].step(x, &p.add[r][*ui]);
+        acc.stop += 1;
+    }
+    let positive = tick.polarity == Polarity::Positive;
+    if STATS {
+        acc.tick(*ui == 0, positive, x[0], tick.cycle_pulses.is_some());
+    }
+    *ui = usize::from(!positive);
+    (code, tick)
+}
+
+/// The constants of a dynamic tick (see [`ClosedLoop::dynamic_tick`]): the core, the clock
+/// period `t_s` (s), `ω` (rad/s) and the phasor's rotation per tick `sin, cos(ω·t_s)`,
+/// pendulosity `p` (g·cm), anisoinertia `di` (g·cm²), the requested harmonic, the actual
+/// scale factor (cm/s²), `τ/t_s`, `I/(P·t_s)`, `C/(P·t_s)` and the ADC.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DynParams {
+    pub(crate) ptsa: Ptsa,
+    pub(crate) t_s: f64,
+    pub(crate) w: f64,
+    pub(crate) sr: f64,
+    pub(crate) cr: f64,
+    pub(crate) p: f64,
+    pub(crate) di: f64,
+    pub(crate) harmonic: u32,
+    pub(crate) sf: f64,
+    pub(crate) tau_t: f64,
+    pub(crate) ip: f64,
+    pub(crate) cp: f64,
+    pub(crate) adc: Adc,
+}
+
+/// The phasor and the inputs of one dynamic tick ([`ClosedLoop::dynamic_inputs`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct TickInputs {
+    /// `sin(ωt)` at mid-tick.
+    pub(crate) s: f64,
+    /// `cos(ωt)` at mid-tick.
+    pub(crate) c: f64,
+    /// The condition's inputs there.
+    pub(crate) inp: CaseInputs,
+}
+
+/// The state of a dynamic run in progress (one call of [`ClosedLoop::run`]): everything a
+/// tick changes, and `j`, the ticks run since the call (the phasor is exact at `j = 0`).
+#[derive(Clone, Debug)]
+pub(crate) struct DynRun {
+    pub(crate) rng: NoiseSource,
+    pub(crate) core: State,
+    pub(crate) acc: Acc,
+    pub(crate) x: [f64; NX],
+    pub(crate) u: f64,
+    pub(crate) k: u64,
+    pub(crate) j: u64,
+    pub(crate) s: f64,
+    pub(crate) c: f64,
+    pub(crate) harm: [f64; 2],
+    pub(crate) harm_q: [f64; 2],
+}
+
+/// The state of a static run in progress (one call of [`ClosedLoop::run`] or
+/// [`ClosedLoop::run_fast`]): its constants, everything a tick changes, and the core's pulse
+/// count and the applied polarity at the start (for [`fast_counts`]).
+#[derive(Clone, Debug)]
+pub(crate) struct StaticRunState {
+    pub(crate) p: StaticParams,
+    pub(crate) rng: NoiseSource,
+    pub(crate) core: State,
+    pub(crate) acc: Acc,
+    pub(crate) x: [f64; NX],
+    /// Applied polarity, 0 = positive (the index into `p.add`).
+    pub(crate) ui: usize,
+    pub(crate) pulses0: Wrapping<u32>,
+    pub(crate) first: bool,
+}
+
+/// The ticks and the applied-command sum of a run of `n` ticks without per-tick statistics,
+/// from the core's count: the applied polarities are the decided ones shifted by one tick,
+/// so `Σu = 2·(decided + first − last) − n` with `decided` the pulses since `pulses0`,
+/// `first` and `last` the applied polarities at the start and the end (true = positive).
+pub(crate) fn fast_counts(
+    acc: &mut Acc,
+    pulses0: Wrapping<u32>,
+    first: bool,
+    core: &State,
+    last: bool,
+    n: u64,
+) {
+    let decided = i64::from((core.total_pulses() - pulses0).0);
+    #[allow(clippy::cast_possible_wrap)]
+    let n_i = n as i64;
+    acc.ticks = n;
+    acc.sum_u = 2 * (decided + i64::from(first) - i64::from(last)) - n_i;
+}
+
+/// Where a measurement window started ([`ClosedLoop::measure`]).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct WindowStart {
+    t0: Totals,
+    x0: [f64; NX],
+    p0: Wrapping<u32>,
+}
+
+/// Where a gate of [`run_static`] started.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct GateStart {
+    p0: Wrapping<u32>,
+    s0: ptsa_core::Saturations,
+    stop0: u64,
+}
+
+/// One tick per entry of `bias` (the ADC's additive terms, see [`Adc::bias`]) of a static
+/// run without statistics, split by the applied polarity `positive` (see
+/// `ClosedLoop::run_static_fast`): the body of the single loop's fast path and of the batch
+/// engine's static lanes. Adds the ticks on a stop to `stop`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn fast_block(
+    ptsa: &Ptsa,
+    plant: &Plant,
+    add: &[[[f64; NX]; 2]; 3],
+    adc: &Adc,
+    bias: &[f64],
+    core: &mut State,
+    x: &mut [f64; NX],
+    positive: &mut bool,
+    stop: &mut u64,
+) {
+    let m = bias.len();
+    let mut i = 0;
+    while i < m {
+        let (run, next) = if *positive {
+            static_phase::<true>(ptsa, plant, add, adc, &bias[i..m], core, x)
+        } else {
+            static_phase::<false>(ptsa, plant, add, adc, &bias[i..m], core, x)
+        };
+        #[allow(clippy::cast_possible_truncation)]
+        let ticks = run.ticks as usize;
+        i += ticks;
+        *stop += run.stop;
+        *positive = next;
+    }
+}
+
 /// Ticks and stop ticks of one [`static_phase`].
 struct PhaseRun {
     ticks: u64,
@@ -905,7 +1242,7 @@ struct PhaseRun {
 }
 
 /// Ticks of [`ClosedLoop::run_static_fast`]'s blocks of ADC bias terms.
-const BIAS_BLOCK: usize = 512;
+pub(crate) const BIAS_BLOCK: usize = 512;
 
 /// Ticks with the applied polarity `POSITIVE` until the core decides the other one (that
 /// tick included) or one tick per entry of `bias` (the ADC's additive terms, see
@@ -1084,22 +1421,7 @@ pub fn run_static_with(
         }
     };
     run(&mut l, settle);
-    let p0 = l.core().total_pulses();
-    let s0 = l.core().saturations();
-    let stop0 = l.totals().stop_ticks;
+    let g = l.gate_start();
     run(&mut l, ticks);
-    let pulses = u64::from((l.core().total_pulses() - p0).0);
-    let s1 = l.core().saturations();
-    #[allow(clippy::cast_precision_loss)]
-    let x = instr.sf_cm_s2 * (2.0 * pulses as f64 / ticks as f64 - 1.0);
-    StaticRun {
-        ticks,
-        pulses,
-        indicated_cm_s2: x,
-        saturated: s1.integrator != s0.integrator
-            || s1.output != s0.output
-            || l.totals().stop_ticks != stop0
-            || pulses == 0
-            || pulses == ticks,
-    }
+    l.gate_end(&g, ticks)
 }

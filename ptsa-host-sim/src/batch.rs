@@ -1,0 +1,1693 @@
+//! The batch engine: many independent closed loops, per core in groups of lanes, all cores
+//! through rayon.
+//!
+//! Discovery, Monte Carlo and parameter identification run many independent closed loops.
+//! The engine takes them all at once: [`Engine::run_static`], [`Engine::simulate_conditions`],
+//! [`Engine::simulate_differences`], [`Engine::simulate_jobs`] (a different instrument and
+//! seed per lane) and, on [`ClosedLoop`]s in any state, [`Engine::run`], [`Engine::run_fast`]
+//! and [`Engine::measure`].
+//!
+//! # Bit for bit the single loop
+//! Every lane *is* a [`ClosedLoop`], and a lane's tick is the single loop's tick: the same
+//! functions (`sim::fast_block`, `sim::static_tick`, `ClosedLoop::dynamic_tick_with`, the ADC,
+//! the noise source, the plant step, the core's [`ptsa_core::Ptsa::tick`]), called with the
+//! same values in the same order. A lane runs a program of steps that are the single loop's
+//! calls (`run`, `run_fast`, `measure`'s window, `run_static`'s gate), each with the single
+//! loop's own start-and-finish bookkeeping, so the running totals are summed the same way.
+//! The pulses, the plant state (`f64` bits), the core state and the window results of every
+//! lane are those of a [`ClosedLoop`] with the same instrument, condition, effects, options
+//! and seed; the tests check it lane by lane, for every `lanes` setting.
+//!
+//! # Groups, lanes, threads
+//! The lanes of a call are sorted by kind (static or dynamic) and length and cut into groups
+//! (up to 16 lanes, fewer when there are fewer lanes than that per thread, so that every
+//! thread gets a group); rayon runs the groups. The lanes of a group run in step until the
+//! shortest current step ends; then the lanes start their next steps and those that are done
+//! leave. Lanes in step that draw the same noise (the same seed and ADC, as in
+//! [`Engine::run_static`] and [`Engine::simulate_conditions`]) draw it once, and each seed's
+//! noise table is built once per call; dynamic lanes in step with the same condition (one
+//! condition, many instruments or effects: identification, Monte Carlo) compute its phasor
+//! and inputs once. Each lane may have its own instrument: the plant matrices, the ADC and
+//! the stops are per lane anyway, so this costs nothing.
+//!
+//! How a group's lanes share a core is [`Engine::new`]'s `lanes`:
+//!
+//! * `lanes = 1` (the default, [`LANES`]): one lane after the other, in blocks of 512 ticks,
+//!   each lane with the single loop's own loop (the polarity-split fast path of
+//!   `ClosedLoop::run_fast`, the loop of `ClosedLoop::run`) and its state in registers.
+//! * `lanes = K ≥ 2`: `K` lanes interleaved tick by tick, in phases (the ADC of every lane,
+//!   the core of every lane, the plant step of every lane side by side in structure of
+//!   arrays, [`ZohLanes`]), so that the CPU could overlap the lanes' dependency chains.
+//!
+//! # Why one lane at a time
+//! Interleaving pays when a loop waits on its own dependency chain (plant → ADC → core →
+//! plant). On the machine measured (AMD Zen 5 at about 4.3 GHz, baseline x86-64 code, i.e.
+//! SSE2) it does not: the static fast path runs about 130 instructions per tick in about 22
+//! cycles (IPC ≈ 6) while its loop-carried chain (the plant step; the core's decision reaches
+//! the plant through a predicted branch) is about 10 cycles, so it is bound by instruction
+//! throughput; the dynamic one runs about 357 in about 70 cycles (IPC ≈ 5) with a longer chain
+//! (θ → disturbance torque → plant input → θ, about 20 cycles). Interleaved, a lane's tick
+//! executes *more* instructions: the core's state, opaque to this crate, no longer stays in
+//! registers (`Ptsa::tick` costs about 65 instructions plus 20 of glue per lane-tick instead
+//! of about 50), more than the plant's structure of arrays saves. Measured per core:
+//! `K = 2..16` run at 0.62–0.69× the single loop (static) and 0.93–0.97× (dynamic, where
+//! the interleaving does hide some latency). What the batch saves instead is work that
+//! lanes have in common: noise draws (static: 115 instead of 130 instructions per lane-tick,
+//! 1.10× the single loop's rate; dynamic: 319 instead of 357, but only about 1.03× faster,
+//! the chain binding more), a dynamic condition's phasor and inputs (one condition, sixteen
+//! instruments: 246 instead of 357, 1.2×) and noise tables (about a million instructions
+//! per loop built: 1.3–1.5× on whole calls). `cargo bench -p ptsa-host-sim --bench batch`
+//! measures every setting; [`batch_rates`] gives the single and the batch rate to the CLI.
+
+use std::collections::HashMap;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use crate::condition::Condition;
+use crate::effects::Effects;
+use crate::fixtures;
+use crate::instrument::Instrument;
+use ptsa_core::{Polarity, Ptsa, State};
+
+use crate::plant::{NX, ZohLanes};
+use crate::sim::{
+    self, Acc, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource,
+    PROGRESS_CHUNK, SimDifference, SimOptions, SimResult, StaticRun, StaticRunState, TickInputs,
+    WindowStart, fast_block, static_tick,
+};
+
+/// Lanes interleaved per core by default: 1, one lane after the other (see the module docs
+/// for why; `benches/batch.rs` measures 1, 2, 4, 8 and 16).
+pub const LANES: usize = 1;
+
+/// The most lanes interleaved per core an [`Engine`] takes.
+pub const MAX_LANES: usize = 16;
+
+/// The most lanes of a group (lanes in step on one thread, sharing their noise draws when
+/// they can), when there are enough lanes for every thread.
+const GROUP: usize = 16;
+
+/// One closed-loop run of a batch with its own instrument and noise seed: the same as
+/// [`sim::simulate_condition`]`(instr, cond, effects, &SimOptions { seed, ..opts })`.
+#[derive(Clone, Copy, Debug)]
+pub struct Job<'a> {
+    /// The instrument (lanes may differ: parameter identification).
+    pub instr: &'a Instrument,
+    /// The condition.
+    pub cond: &'a Condition,
+    /// The effects, entering the plant as in [`sim::simulate_condition`].
+    pub effects: Effects,
+    /// Seed of the pickoff noise.
+    pub seed: u64,
+}
+
+/// The batch engine with `lanes` lanes interleaved per core (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Engine {
+    lanes: usize,
+}
+
+impl Default for Engine {
+    fn default() -> Self {
+        Self { lanes: LANES }
+    }
+}
+
+impl Engine {
+    /// An engine running `lanes` loops interleaved tick by tick per core (1: one after the
+    /// other, block by block): a power of two from 1 to [`MAX_LANES`].
+    ///
+    /// # Panics
+    /// If `lanes` is not a power of two in `1..=MAX_LANES`.
+    #[must_use]
+    pub fn new(lanes: usize) -> Self {
+        assert!(
+            lanes.is_power_of_two() && lanes <= MAX_LANES,
+            "lanes = {lanes}: expected a power of two from 1 to {MAX_LANES}"
+        );
+        Self { lanes }
+    }
+
+    /// Lanes interleaved per core.
+    #[must_use]
+    pub fn lanes(&self) -> usize {
+        self.lanes
+    }
+
+    /// [`sim::run_static`] for each acceleration along IA, cm/s² (`ticks` clock ticks in the
+    /// gate after `opts.warmup_s` of settling, seed `opts.seed` for every lane).
+    #[must_use]
+    pub fn run_static(
+        &self,
+        instr: &Instrument,
+        accels_cm_s2: &[f64],
+        ticks: u64,
+        opts: &SimOptions,
+    ) -> Vec<StaticRun> {
+        let noise = NoiseSource::new(opts.seed);
+        let mut loops: Vec<ClosedLoop> = accels_cm_s2
+            .par_iter()
+            .map(|&a| {
+                let cond = fixtures::along_ia(a, instr.g_cm_s2);
+                ClosedLoop::with_noise(instr, &cond, &Effects::NONE, opts, noise.clone())
+            })
+            .collect();
+        // `sim::run_static_with`: `run_fast` in chunks of PROGRESS_CHUNK ticks (which matters
+        // only for a dynamic lane: its phasor is exact at the start of each call).
+        let mut prog = Vec::new();
+        push_chunked(&mut prog, opts.warmup_ticks(instr.clock_hz));
+        prog.push(Step::OpenGate);
+        push_chunked(&mut prog, ticks);
+        prog.push(Step::CloseGate(ticks));
+        let outs = self.execute(&mut loops, |_| prog.clone());
+        outs.into_iter()
+            .map(|o| match o {
+                Some(Out::Gate(r)) => r,
+                _ => unreachable!("a static run closes its gate"),
+            })
+            .collect()
+    }
+
+    /// [`sim::simulate_condition`] for each `(condition, effects)`, all with `instr` and
+    /// `opts` (seed `opts.seed` for every lane).
+    #[must_use]
+    pub fn simulate_conditions(
+        &self,
+        instr: &Instrument,
+        jobs: &[(Condition, Effects)],
+        opts: &SimOptions,
+    ) -> Vec<SimResult> {
+        let jobs: Vec<Job<'_>> = jobs
+            .iter()
+            .map(|(cond, effects)| Job {
+                instr,
+                cond,
+                effects: *effects,
+                seed: opts.seed,
+            })
+            .collect();
+        self.simulate_jobs(&jobs, opts)
+    }
+
+    /// [`sim::simulate_difference`] for each `(condition, effects)`: the condition and its
+    /// reference ([`Condition::reference`]) as two lanes.
+    #[must_use]
+    pub fn simulate_differences(
+        &self,
+        instr: &Instrument,
+        jobs: &[(Condition, Effects)],
+        opts: &SimOptions,
+    ) -> Vec<SimDifference> {
+        let refs: Vec<Condition> = jobs.iter().map(|(c, _)| c.reference()).collect();
+        let lanes: Vec<Job<'_>> = jobs
+            .iter()
+            .zip(&refs)
+            .flat_map(|((cond, effects), reference)| {
+                [cond, reference].map(|cond| Job {
+                    instr,
+                    cond,
+                    effects: *effects,
+                    seed: opts.seed,
+                })
+            })
+            .collect();
+        let r = self.simulate_jobs(&lanes, opts);
+        r.chunks_exact(2)
+            .map(|p| SimDifference {
+                condition: p[0],
+                reference: p[1],
+                difference_cm_s2: p[0].indicated_cm_s2 - p[1].indicated_cm_s2,
+            })
+            .collect()
+    }
+
+    /// [`sim::simulate_condition`] for each job, with its own instrument and seed and the
+    /// rest of `opts` (warm-up, window, noise, harmonic, configuration). Each seed's noise
+    /// table is built once and shared by its lanes.
+    #[must_use]
+    pub fn simulate_jobs(&self, jobs: &[Job<'_>], opts: &SimOptions) -> Vec<SimResult> {
+        let noise = noise_sources(jobs.iter().map(|j| j.seed));
+        let mut loops: Vec<ClosedLoop> = jobs
+            .par_iter()
+            .map(|j| {
+                let o = SimOptions {
+                    seed: j.seed,
+                    ..*opts
+                };
+                ClosedLoop::with_noise(j.instr, j.cond, &j.effects, &o, noise[&j.seed].clone())
+            })
+            .collect();
+        let outs = self.execute(&mut loops, |i| {
+            let j = &jobs[i];
+            let o = SimOptions {
+                seed: j.seed,
+                ..*opts
+            };
+            vec![
+                Step::Run(o.warmup_ticks(j.instr.clock_hz)),
+                Step::OpenWindow,
+                Step::Run(sim::window_ticks(j.instr, j.cond, &o)),
+                Step::CloseWindow,
+            ]
+        });
+        outs.into_iter()
+            .map(|o| match o {
+                Some(Out::Window(r)) => r,
+                _ => unreachable!("a simulated condition closes its window"),
+            })
+            .collect()
+    }
+
+    /// [`ClosedLoop::run`]`(n)` for each loop.
+    pub fn run(&self, loops: &mut [ClosedLoop], n: u64) {
+        let _ = self.execute(loops, |_| vec![Step::Run(n)]);
+    }
+
+    /// [`ClosedLoop::run_fast`]`(n)` for each loop.
+    pub fn run_fast(&self, loops: &mut [ClosedLoop], n: u64) {
+        let _ = self.execute(loops, |_| vec![Step::RunFast(n)]);
+    }
+
+    /// [`ClosedLoop::measure`]`(n)` for each loop.
+    #[must_use]
+    pub fn measure(&self, loops: &mut [ClosedLoop], n: u64) -> Vec<SimResult> {
+        self.measure_each(loops, &vec![n; loops.len()])
+    }
+
+    /// [`ClosedLoop::measure`]`(n[i])` for each loop `i` (windows of different lengths).
+    ///
+    /// # Panics
+    /// If `n` and `loops` differ in length.
+    #[must_use]
+    pub fn measure_each(&self, loops: &mut [ClosedLoop], n: &[u64]) -> Vec<SimResult> {
+        assert_eq!(n.len(), loops.len(), "one window length per loop");
+        let outs = self.execute(loops, |i| {
+            vec![Step::OpenWindow, Step::Run(n[i]), Step::CloseWindow]
+        });
+        outs.into_iter()
+            .map(|o| match o {
+                Some(Out::Window(r)) => r,
+                _ => unreachable!("a measurement closes its window"),
+            })
+            .collect()
+    }
+
+    /// Run program `prog(i)` on loop `i`, every loop: sort the lanes into groups, the groups
+    /// across rayon's threads. Returns each lane's output.
+    fn execute(
+        &self,
+        loops: &mut [ClosedLoop],
+        prog: impl Fn(usize) -> Vec<Step>,
+    ) -> Vec<Option<Out>> {
+        let mut lanes: Vec<Lane<'_>> = loops
+            .iter_mut()
+            .enumerate()
+            .map(|(i, lp)| Lane::new(lp, prog(i)))
+            .collect();
+        let threads = rayon::current_num_threads().max(1);
+        let per = lanes
+            .len()
+            .div_ceil(threads)
+            .clamp(1, self.lanes.max(GROUP));
+        let mut order: Vec<&mut Lane<'_>> = lanes.iter_mut().collect();
+        order.sort_by_key(|l| (l.dynamic, l.total_ticks()));
+        let k = self.lanes;
+        order.par_chunks_mut(per).for_each(|g| run_group(g, k));
+        lanes.into_iter().map(|l| l.out).collect()
+    }
+}
+
+/// [`Engine::run_static`] with the default engine.
+#[must_use]
+pub fn run_static(
+    instr: &Instrument,
+    accels_cm_s2: &[f64],
+    ticks: u64,
+    opts: &SimOptions,
+) -> Vec<StaticRun> {
+    Engine::default().run_static(instr, accels_cm_s2, ticks, opts)
+}
+
+/// [`Engine::simulate_conditions`] with the default engine.
+#[must_use]
+pub fn simulate_conditions(
+    instr: &Instrument,
+    jobs: &[(Condition, Effects)],
+    opts: &SimOptions,
+) -> Vec<SimResult> {
+    Engine::default().simulate_conditions(instr, jobs, opts)
+}
+
+/// [`Engine::simulate_differences`] with the default engine.
+#[must_use]
+pub fn simulate_differences(
+    instr: &Instrument,
+    jobs: &[(Condition, Effects)],
+    opts: &SimOptions,
+) -> Vec<SimDifference> {
+    Engine::default().simulate_differences(instr, jobs, opts)
+}
+
+/// [`Engine::simulate_jobs`] with the default engine.
+#[must_use]
+pub fn simulate_jobs(jobs: &[Job<'_>], opts: &SimOptions) -> Vec<SimResult> {
+    Engine::default().simulate_jobs(jobs, opts)
+}
+
+/// The noise source of each distinct seed, built once (in parallel).
+fn noise_sources(seeds: impl Iterator<Item = u64>) -> HashMap<u64, NoiseSource> {
+    let mut distinct: Vec<u64> = seeds.collect();
+    distinct.sort_unstable();
+    distinct.dedup();
+    distinct
+        .into_par_iter()
+        .map(|s| (s, NoiseSource::new(s)))
+        .collect()
+}
+
+/// `RunFast` steps of at most [`PROGRESS_CHUNK`] ticks, `n` in all (as `run_static_with`
+/// calls `run_fast`).
+fn push_chunked(prog: &mut Vec<Step>, n: u64) {
+    let mut left = n;
+    while left > 0 {
+        let k = left.min(PROGRESS_CHUNK);
+        prog.push(Step::RunFast(k));
+        left -= k;
+    }
+}
+
+/// One step of a lane's program: one call of the single loop.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Step {
+    /// [`ClosedLoop::run`].
+    Run(u64),
+    /// [`ClosedLoop::run_fast`].
+    RunFast(u64),
+    /// The start of [`ClosedLoop::measure`]'s window.
+    OpenWindow,
+    /// The end of the window: its [`SimResult`] is the lane's output.
+    CloseWindow,
+    /// The start of [`sim::run_static`]'s gate.
+    OpenGate,
+    /// The end of a gate of so many ticks: its [`StaticRun`] is the lane's output.
+    CloseGate(u64),
+}
+
+impl Step {
+    fn ticks(self) -> u64 {
+        match self {
+            Step::Run(n) | Step::RunFast(n) => n,
+            _ => 0,
+        }
+    }
+}
+
+/// What a lane's program produced.
+#[derive(Clone, Copy, Debug)]
+enum Out {
+    Window(SimResult),
+    Gate(StaticRun),
+}
+
+/// How a lane's current run ticks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Mode {
+    /// A static condition with per-tick statistics ([`ClosedLoop::run`]).
+    Static,
+    /// A static condition without them ([`ClosedLoop::run_fast`]).
+    StaticFast,
+    /// A dynamic condition (or a harmonic requested).
+    Dynamic,
+}
+
+/// The run in progress of a lane: the single loop's own run state.
+#[derive(Clone, Debug)]
+enum Live {
+    Idle,
+    Static(Box<StaticRunState>),
+    Dynamic(Box<(DynParams, DynRun)>),
+}
+
+/// One lane: a loop, its program and its run in progress.
+struct Lane<'a> {
+    lp: &'a mut ClosedLoop,
+    prog: Vec<Step>,
+    /// Index of the next step.
+    next: usize,
+    /// The loop ticks dynamically (as `ClosedLoop::run` decides).
+    dynamic: bool,
+    mode: Mode,
+    /// Ticks of the current run and ticks left in it.
+    n: u64,
+    left: u64,
+    live: Live,
+    window: Option<WindowStart>,
+    gate: Option<GateStart>,
+    out: Option<Out>,
+}
+
+impl<'a> Lane<'a> {
+    fn new(lp: &'a mut ClosedLoop, prog: Vec<Step>) -> Self {
+        let dynamic = lp.dynamic || lp.harmonic != 0;
+        Self {
+            lp,
+            prog,
+            next: 0,
+            dynamic,
+            mode: Mode::Static,
+            n: 0,
+            left: 0,
+            live: Live::Idle,
+            window: None,
+            gate: None,
+            out: None,
+        }
+    }
+
+    fn total_ticks(&self) -> u64 {
+        self.prog.iter().map(|s| s.ticks()).sum()
+    }
+
+    fn done(&self) -> bool {
+        matches!(self.live, Live::Idle)
+    }
+
+    /// Take the program's steps until one has ticks to run (started), or the program ends
+    /// (the lane is then done).
+    fn advance(&mut self) {
+        while let Some(&step) = self.prog.get(self.next) {
+            self.next += 1;
+            match step {
+                Step::OpenWindow => self.window = Some(self.lp.window_start()),
+                Step::CloseWindow => {
+                    let w = self.window.take().expect("window opened");
+                    self.out = Some(Out::Window(self.lp.window_end(&w)));
+                }
+                Step::OpenGate => self.gate = Some(self.lp.gate_start()),
+                Step::CloseGate(ticks) => {
+                    let g = self.gate.take().expect("gate opened");
+                    self.out = Some(Out::Gate(self.lp.gate_end(&g, ticks)));
+                }
+                Step::Run(n) | Step::RunFast(n) => {
+                    self.n = n;
+                    self.left = n;
+                    if self.dynamic {
+                        self.mode = Mode::Dynamic;
+                        self.live =
+                            Live::Dynamic(Box::new((self.lp.dyn_params(), self.lp.dyn_run())));
+                    } else {
+                        self.mode = if matches!(step, Step::Run(_)) {
+                            Mode::Static
+                        } else {
+                            Mode::StaticFast
+                        };
+                        self.live = Live::Static(Box::new(self.lp.static_run()));
+                    }
+                    if n > 0 {
+                        return;
+                    }
+                    // A run of no ticks still starts and finishes, as the single loop's does.
+                    self.finish_run();
+                }
+            }
+        }
+        self.live = Live::Idle;
+    }
+
+    /// The current run has run all its ticks: its state back into the loop.
+    fn finish_run(&mut self) {
+        match std::mem::replace(&mut self.live, Live::Idle) {
+            Live::Idle => {}
+            Live::Static(r) => self
+                .lp
+                .finish_static_run(&r, self.n, self.mode == Mode::Static),
+            Live::Dynamic(d) => self.lp.finish_dyn_run(&d.1),
+        }
+    }
+}
+
+/// Run a group of lanes to the end of their programs, at most `k` interleaved at a time.
+fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
+    for l in group.iter_mut() {
+        l.advance();
+    }
+    let mut active: Vec<&mut Lane<'_>> = group
+        .iter_mut()
+        .filter(|l| !l.done())
+        .map(|l| &mut **l)
+        .collect();
+    while !active.is_empty() {
+        let m = active.iter().map(|l| l.left).min().unwrap_or(0);
+        active.sort_by_key(|l| l.mode);
+        let mut rest = &mut active[..];
+        while !rest.is_empty() {
+            // Lanes in the same mode with the same core configuration (the kernels share it).
+            let (mode, ptsa) = (rest[0].mode, rest[0].lp.ptsa);
+            let same = rest.iter().take_while(|l| l.mode == mode).count();
+            rest[..same].sort_by_key(|l| l.lp.ptsa != ptsa);
+            let same = rest[..same]
+                .iter()
+                .take_while(|l| l.lp.ptsa == ptsa)
+                .count();
+            let (now, later) = rest.split_at_mut(same);
+            run_mode(now, mode, m, k);
+            rest = later;
+        }
+        for l in &mut active {
+            l.left -= m;
+            if l.left == 0 {
+                l.finish_run();
+                l.advance();
+            }
+        }
+        active.retain(|l| !l.done());
+    }
+}
+
+/// `m` ticks of lanes all in `mode`, in kernels of `k` lanes and then, for the rest, of
+/// the largest powers of two that fit.
+fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
+    if k == 1 {
+        match mode {
+            Mode::Static => static_blocks::<true>(lanes, m),
+            Mode::StaticFast => static_blocks::<false>(lanes, m),
+            Mode::Dynamic => dynamic_blocks(lanes, m),
+        }
+        return;
+    }
+    let mut rest = lanes;
+    while !rest.is_empty() {
+        let s = if rest.len() >= k {
+            k
+        } else {
+            1 << rest.len().ilog2()
+        };
+        let (now, later) = rest.split_at_mut(s);
+        match (mode, s) {
+            (Mode::Static, 16) => static_kernel::<16, true>(now, m),
+            (Mode::Static, 8) => static_kernel::<8, true>(now, m),
+            (Mode::Static, 4) => static_kernel::<4, true>(now, m),
+            (Mode::Static, 2) => static_kernel::<2, true>(now, m),
+            (Mode::Static, _) => static_kernel::<1, true>(now, m),
+            (Mode::StaticFast, 16) => static_kernel::<16, false>(now, m),
+            (Mode::StaticFast, 8) => static_kernel::<8, false>(now, m),
+            (Mode::StaticFast, 4) => static_kernel::<4, false>(now, m),
+            (Mode::StaticFast, 2) => static_kernel::<2, false>(now, m),
+            (Mode::StaticFast, _) => static_kernel::<1, false>(now, m),
+            (Mode::Dynamic, 16) => dynamic_kernel::<16>(now, m),
+            (Mode::Dynamic, 8) => dynamic_kernel::<8>(now, m),
+            (Mode::Dynamic, 4) => dynamic_kernel::<4>(now, m),
+            (Mode::Dynamic, 2) => dynamic_kernel::<2>(now, m),
+            (Mode::Dynamic, _) => dynamic_kernel::<1>(now, m),
+        }
+        rest = later;
+    }
+}
+
+/// The lanes that draw the same noise: classes of lane indices, in order, each lane with
+/// the same generator state, the same table and the same ADC as the first of its class.
+fn stream_classes<'a>(lanes: impl Iterator<Item = (&'a NoiseSource, &'a Adc)>) -> Vec<Vec<usize>> {
+    let mut classes: Vec<(&NoiseSource, [u64; 3], Vec<usize>)> = Vec::new();
+    for (l, (rng, adc)) in lanes.enumerate() {
+        let bits = adc_bits(adc);
+        match classes
+            .iter_mut()
+            .find(|(r, a, _)| *a == bits && r.same_stream(rng))
+        {
+            Some(c) => c.2.push(l),
+            None => classes.push((rng, bits, vec![l])),
+        }
+    }
+    classes.into_iter().map(|c| c.2).collect()
+}
+
+/// `m` ticks of static lanes one after the other, in blocks of [`BIAS_BLOCK`] ticks: each
+/// lane runs a block with the single loop's own code (`sim::fast_block`, the fast path split
+/// by polarity, or `sim::static_tick` with the per-tick statistics), its state in locals as
+/// in the single loop. Lanes in step with the same noise generator and ADC share the block
+/// of the ADC's additive terms, drawn once (from the first lane of their class, whose
+/// generator the others take at the end).
+#[inline(never)]
+fn static_blocks<const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
+    let mut rs: Vec<&mut StaticRunState> = lanes
+        .iter_mut()
+        .map(|l| match &mut l.live {
+            Live::Static(r) => &mut **r,
+            _ => unreachable!("a static lane"),
+        })
+        .collect();
+    let classes = stream_classes(rs.iter().map(|r| (&r.rng, &r.p.adc)));
+    let mut bias = [0.0; BIAS_BLOCK];
+    let mut left = m;
+    while left > 0 {
+        #[allow(clippy::cast_possible_truncation)]
+        let b = left.min(BIAS_BLOCK as u64) as usize;
+        for class in &classes {
+            let r = &mut *rs[class[0]];
+            for v in &mut bias[..b] {
+                *v = r.p.adc.bias(&mut r.rng);
+            }
+            for &l in class {
+                if STATS {
+                    lane_block_stats(rs[l], &bias[..b]);
+                } else {
+                    lane_block_fast(rs[l], &bias[..b]);
+                }
+            }
+        }
+        left -= b as u64;
+    }
+    for class in &classes {
+        let rng = rs[class[0]].rng.clone();
+        for &l in &class[1..] {
+            rs[l].rng = rng.clone();
+        }
+    }
+}
+
+/// `m` ticks of dynamic lanes one after the other, in blocks of [`DYN_BLOCK`] ticks: each
+/// lane runs a block with the single loop's own code (`ClosedLoop::dynamic_tick_with`), its
+/// run state in locals as in the single loop. Lanes drawing the same noise share it, as in
+/// [`static_blocks`]; lanes in step with the same condition and clock (parameter
+/// identification, Monte Carlo: one condition, many instruments or effects) share the
+/// first part of the tick, the phasor and the condition's inputs
+/// (`ClosedLoop::dynamic_inputs`), computed once per block.
+#[inline(never)]
+fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
+    let mut rs: Vec<(&ClosedLoop, &mut (DynParams, DynRun))> = lanes
+        .iter_mut()
+        .map(|l| {
+            let lane = &mut **l;
+            match &mut lane.live {
+                Live::Dynamic(d) => (&*lane.lp, &mut **d),
+                _ => unreachable!("a dynamic lane"),
+            }
+        })
+        .collect();
+    let n = rs.len();
+    let noise = stream_classes(rs.iter().map(|(_, d)| (&d.1.rng, &d.0.adc)));
+    let mut noise_of = vec![0; n];
+    for (c, class) in noise.iter().enumerate() {
+        for &l in class {
+            noise_of[l] = c;
+        }
+    }
+    // Classes of two lanes or more sharing the inputs (a lone lane computes its own).
+    let inputs: Vec<Vec<usize>> = input_classes(&rs)
+        .into_iter()
+        .filter(|c| c.len() > 1)
+        .collect();
+    let mut inputs_of = vec![None; n];
+    for (c, class) in inputs.iter().enumerate() {
+        for &l in class {
+            inputs_of[l] = Some(c);
+        }
+    }
+    let mut bias = vec![[0.0; DYN_BLOCK]; noise.len()];
+    let mut given = vec![[TickInputs::default(); DYN_BLOCK]; inputs.len()];
+    let mut left = m;
+    while left > 0 {
+        #[allow(clippy::cast_possible_truncation)]
+        let b = left.min(DYN_BLOCK as u64) as usize;
+        for (class, buf) in noise.iter().zip(&mut bias) {
+            let (p, r) = &mut *rs[class[0]].1;
+            for v in &mut buf[..b] {
+                *v = p.adc.bias(&mut r.rng);
+            }
+        }
+        for (class, buf) in inputs.iter().zip(&mut given) {
+            let (lp, d) = &rs[class[0]];
+            let (p, r) = &**d;
+            let mut sc = (r.s, r.c);
+            for (t, ti) in (0u64..).zip(&mut buf[..b]) {
+                *ti = lp.dynamic_inputs(p, r.k + t, r.j + t, &mut sc);
+            }
+            for &l in class {
+                let (lp, d) = &mut rs[l];
+                let (p, r) = &mut **d;
+                lane_block_dynamic_given(lp, p, r, &bias[noise_of[l]][..b], &buf[..b]);
+                (r.s, r.c) = sc;
+            }
+        }
+        for (l, (lp, d)) in rs.iter_mut().enumerate() {
+            if inputs_of[l].is_none() {
+                let (p, r) = &mut **d;
+                lane_block_dynamic(lp, p, r, &bias[noise_of[l]][..b]);
+            }
+        }
+        left -= b as u64;
+    }
+    for class in &noise {
+        let rng = rs[class[0]].1.1.rng.clone();
+        for &l in &class[1..] {
+            rs[l].1.1.rng = rng.clone();
+        }
+    }
+}
+
+/// Ticks of [`dynamic_blocks`]' blocks (its buffers stay in the first-level cache).
+const DYN_BLOCK: usize = 128;
+
+/// The dynamic lanes that compute the same phasor and inputs: classes of lane indices, each
+/// lane with the same condition (bits), clock and phasor constants, tick counts and phasor
+/// as the first of its class.
+fn input_classes(rs: &[(&ClosedLoop, &mut (DynParams, DynRun))]) -> Vec<Vec<usize>> {
+    let key = |(lp, d): &(&ClosedLoop, &mut (DynParams, DynRun))| {
+        let (p, r) = &**d;
+        let q = &lp.prep;
+        let mut k: Vec<u64> = [p.t_s, p.w, p.sr, p.cr, r.s, r.c, q.omega]
+            .iter()
+            .chain(&q.g)
+            .chain(&q.w0)
+            .chain(&q.lin_s)
+            .chain(&q.lin_c)
+            .chain(&q.phi_s)
+            .chain(&q.phi_c)
+            .map(|x| x.to_bits())
+            .collect();
+        k.extend([r.k, r.j]);
+        k
+    };
+    let mut classes: Vec<(Vec<u64>, Vec<usize>)> = Vec::new();
+    for (l, lane) in rs.iter().enumerate() {
+        let k = key(lane);
+        match classes.iter_mut().find(|(c, _)| *c == k) {
+            Some(c) => c.1.push(l),
+            None => classes.push((k, vec![l])),
+        }
+    }
+    classes.into_iter().map(|c| c.1).collect()
+}
+
+/// One block of a dynamic lane: `ClosedLoop::run_dynamic`'s loop, with its locals.
+#[inline(never)]
+fn lane_block_dynamic(lp: &ClosedLoop, p: &DynParams, r: &mut DynRun, bias: &[f64]) {
+    let p = *p;
+    let mut run = r.clone();
+    for &v in bias {
+        let _ = lp.dynamic_tick_with(&p, &mut run, v);
+    }
+    *r = run;
+}
+
+/// One block of a dynamic lane with the phasor and inputs of its ticks given (the rest of
+/// `ClosedLoop::run_dynamic`'s loop), with its locals. The caller sets the phasor after.
+#[inline(never)]
+fn lane_block_dynamic_given(
+    lp: &ClosedLoop,
+    p: &DynParams,
+    r: &mut DynRun,
+    bias: &[f64],
+    given: &[TickInputs],
+) {
+    let p = *p;
+    let mut run = r.clone();
+    for (&v, ti) in bias.iter().zip(given) {
+        let _ = lp.dynamic_tick_given(&p, &mut run, v, ti);
+    }
+    *r = run;
+}
+
+/// One block of a static lane without statistics: `ClosedLoop::run_static_fast`'s loop,
+/// with its locals.
+#[inline(never)]
+fn lane_block_fast(r: &mut StaticRunState, bias: &[f64]) {
+    let ptsa = r.p.ptsa;
+    let plant = r.p.plant;
+    let add = r.p.add;
+    let adc = r.p.adc;
+    let mut core = r.core;
+    let mut x = r.x;
+    let mut stop = r.acc.stop;
+    let mut positive = r.ui == 0;
+    fast_block(
+        &ptsa,
+        &plant,
+        &add,
+        &adc,
+        bias,
+        &mut core,
+        &mut x,
+        &mut positive,
+        &mut stop,
+    );
+    r.ui = usize::from(!positive);
+    r.core = core;
+    r.x = x;
+    r.acc.stop = stop;
+}
+
+/// One block of a static lane with statistics: `ClosedLoop::run`'s static loop, with its
+/// locals.
+#[inline(never)]
+fn lane_block_stats(r: &mut StaticRunState, bias: &[f64]) {
+    let p = r.p;
+    let mut core = r.core;
+    let mut x = r.x;
+    let mut acc = r.acc;
+    let mut ui = r.ui;
+    for &v in bias {
+        let _ = static_tick::<true>(&p, v, &mut core, &mut x, &mut ui, &mut acc);
+    }
+    r.ui = ui;
+    r.core = core;
+    r.x = x;
+    r.acc = acc;
+}
+
+/// `m` ticks of `K` static lanes, interleaved, in three phases per tick: the ADC of every
+/// lane (the noise draws one lane after the other, the quantization side by side), the
+/// core of every lane ([`tick_lanes`]), and the plant step of every lane side by side
+/// ([`ZohLanes::step`], the free region; a lane beyond a stop is stepped again alone with
+/// its stop's discretisation). Each lane computes what the single loop's tick
+/// (`sim::static_tick`) computes, with the same operations in the same order; the lanes
+/// share the core's configuration (see [`run_mode`]).
+#[inline(never)]
+#[allow(clippy::needless_range_loop)]
+fn static_kernel<const K: usize, const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
+    let mut it = lanes.iter_mut();
+    let mut rs: [&mut StaticRunState; K] =
+        std::array::from_fn(|_| match &mut it.next().expect("K lanes").live {
+            Live::Static(r) => &mut **r,
+            _ => unreachable!("a static lane"),
+        });
+    let ptsa = rs[0].p.ptsa;
+    let free = ZohLanes::<K>::new(std::array::from_fn(|l| &rs[l].p.free));
+    // The free region's input of each lane: positive, and the bits that flip to negative
+    // (so that the applied polarity selects it without a branch).
+    let mut add_pos = [[0.0; K]; NX];
+    let mut add_flip = [[0u64; K]; NX];
+    let mut theta_stop = [0.0; K];
+    let mut gain = [0.0; K];
+    let mut x = [[0.0; K]; NX];
+    // All ones where the applied polarity is negative.
+    let mut neg = [0u64; K];
+    for (l, r) in rs.iter().enumerate() {
+        for j in 0..NX {
+            add_pos[j][l] = r.p.add[0][0][j];
+            add_flip[j][l] = r.p.add[0][0][j].to_bits() ^ r.p.add[0][1][j].to_bits();
+            x[j][l] = r.x[j];
+        }
+        theta_stop[l] = r.p.theta_stop;
+        gain[l] = r.p.adc.gain;
+        neg[l] = u64::from(r.ui != 0).wrapping_neg();
+    }
+    let mut cores: [State; K] = std::array::from_fn(|l| rs[l].core);
+    let mut acc: [Acc; K] = std::array::from_fn(|l| rs[l].acc);
+    // Lanes in step with the same noise generator and the same ADC draw the same additive
+    // terms: draw them once (the usual batch: one instrument, one seed).
+    let shared = rs
+        .iter()
+        .all(|r| r.rng.same_stream(&rs[0].rng) && adc_bits(&r.p.adc) == adc_bits(&rs[0].p.adc));
+    let mut bias = [0.0; K];
+    let mut codes = [0i16; K];
+    let mut positive = [false; K];
+    let mut cycle_end = [false; K];
+    for _ in 0..m {
+        if shared {
+            let r = &mut *rs[0];
+            bias = [r.p.adc.bias(&mut r.rng); K];
+        } else {
+            for (b, r) in bias.iter_mut().zip(rs.iter_mut()) {
+                let r = &mut **r;
+                *b = r.p.adc.bias(&mut r.rng);
+            }
+        }
+        for l in 0..K {
+            let adc = Adc {
+                gain: gain[l],
+                offset: 0.0,
+                noise: 0.0,
+            };
+            codes[l] = adc.quantize(x[3][l], bias[l]);
+        }
+        tick_lanes(&ptsa, &mut cores, &codes, &mut positive, &mut cycle_end);
+        let mut add = [[0.0; K]; NX];
+        for j in 0..NX {
+            for l in 0..K {
+                add[j][l] = f64::from_bits(add_pos[j][l].to_bits() ^ (add_flip[j][l] & neg[l]));
+            }
+        }
+        let mut y = free.step(&x, &add);
+        let mut off = false;
+        for l in 0..K {
+            off |= !in_free_region(x[0][l], theta_stop[l]);
+        }
+        if off {
+            for l in 0..K {
+                if !in_free_region(x[0][l], theta_stop[l]) {
+                    let p = &rs[l].p;
+                    let xl = [x[0][l], x[1][l], x[2][l], x[3][l]];
+                    let r = p.plant.region(xl[0]);
+                    let yl = p.plant.zoh[r].step(&xl, &p.add[r][usize::from(neg[l] != 0)]);
+                    for j in 0..NX {
+                        y[j][l] = yl[j];
+                    }
+                    acc[l].stop += 1;
+                }
+            }
+        }
+        x = y;
+        for l in 0..K {
+            if STATS {
+                acc[l].tick(neg[l] == 0, positive[l], x[0][l], cycle_end[l]);
+            }
+            neg[l] = u64::from(!positive[l]).wrapping_neg();
+        }
+    }
+    if shared {
+        let rng = rs[0].rng.clone();
+        for r in &mut rs[1..] {
+            r.rng = rng.clone();
+        }
+    }
+    for (l, r) in rs.iter_mut().enumerate() {
+        for j in 0..NX {
+            r.x[j] = x[j][l];
+        }
+        r.ui = usize::from(neg[l] != 0);
+        r.core = cores[l];
+        r.acc = acc[l];
+    }
+}
+
+/// The ADC's constants as bits (to compare them exactly).
+fn adc_bits(a: &Adc) -> [u64; 3] {
+    [a.gain.to_bits(), a.offset.to_bits(), a.noise.to_bits()]
+}
+
+/// Whether the pendulum at `theta` is free of the stops at `±theta_stop` (NaN is not), as the
+/// single loop tests it (`sim::static_tick`).
+#[inline(always)]
+fn in_free_region(theta: f64, theta_stop: f64) -> bool {
+    theta.abs() <= theta_stop
+}
+
+/// The core's tick of every lane, one after the other: `positive[l]` whether lane `l`
+/// decided the positive polarity, `cycle_end[l]` whether it closed a limit cycle. The only
+/// call of [`Ptsa::tick`] in this module: with one call site the compiler inlines the tick
+/// here (as it does in the single loop) instead of calling it from every kernel.
+#[inline(never)]
+fn tick_lanes(
+    ptsa: &Ptsa,
+    cores: &mut [State],
+    codes: &[i16],
+    positive: &mut [bool],
+    cycle_end: &mut [bool],
+) {
+    for l in 0..cores.len() {
+        let t = ptsa.tick(&mut cores[l], codes[l]);
+        positive[l] = t.polarity == Polarity::Positive;
+        cycle_end[l] = t.cycle_pulses.is_some();
+    }
+}
+
+/// `m` ticks of `K` dynamic lanes, interleaved: each tick, lane after lane, the single
+/// loop's dynamic tick.
+#[inline(never)]
+fn dynamic_kernel<const K: usize>(lanes: &mut [&mut Lane<'_>], m: u64) {
+    let mut it = lanes.iter_mut();
+    let mut rs: [(&ClosedLoop, &mut (DynParams, DynRun)); K] = std::array::from_fn(|_| {
+        let lane = &mut **it.next().expect("K lanes");
+        match &mut lane.live {
+            Live::Dynamic(d) => (&*lane.lp, &mut **d),
+            _ => unreachable!("a dynamic lane"),
+        }
+    });
+    for _ in 0..m {
+        for (lp, d) in &mut rs {
+            let (p, r) = &mut **d;
+            let _ = lp.dynamic_tick(p, r);
+        }
+    }
+}
+
+/// The single loop's and the batch engine's speed on the static loop, side by side.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BatchRates {
+    /// Lanes in the batch (static conditions spread over ±0.9 of full scale).
+    pub conditions: usize,
+    /// Lanes per core.
+    pub lanes: usize,
+    /// Ticks per condition (settling included).
+    pub ticks: u64,
+    /// [`sim::run_static`] one condition after the other: median ticks per second.
+    pub single_ticks_per_s: f64,
+    /// [`Engine::run_static`] on one thread: median ticks per second (all lanes' ticks).
+    pub batch_ticks_per_s_per_core: f64,
+}
+
+impl BatchRates {
+    /// Batch over single.
+    #[must_use]
+    pub fn ratio(&self) -> f64 {
+        self.batch_ticks_per_s_per_core / self.single_ticks_per_s
+    }
+}
+
+/// The static accelerations of [`batch_rates`] and the batch benchmark: `n` values spread
+/// evenly over ±0.9 of the full scale, cm/s².
+#[must_use]
+pub fn spread_accels(instr: &Instrument, n: usize) -> Vec<f64> {
+    #[allow(clippy::cast_precision_loss)]
+    let step = |i: usize| {
+        if n < 2 {
+            0.0
+        } else {
+            -0.9 + 1.8 * i as f64 / (n - 1) as f64
+        }
+    };
+    (0..n).map(|i| step(i) * instr.sf_cm_s2).collect()
+}
+
+/// For `ptsa bench --batch N`: `conditions` static conditions ([`spread_accels`]) of `ticks`
+/// gate ticks each (plus `opts.warmup_s` of settling), run `runs` times one after the other
+/// with [`sim::run_static`] and as one batch of `lanes` lanes per core on one thread; the
+/// median rates of each. Both give the same pulses (checked).
+///
+/// # Errors
+/// The one-thread pool cannot be built, or the batch disagrees with the single loops.
+pub fn batch_rates(
+    instr: &Instrument,
+    opts: &SimOptions,
+    conditions: usize,
+    lanes: usize,
+    ticks: u64,
+    runs: usize,
+) -> anyhow::Result<BatchRates> {
+    let engine = Engine::new(lanes);
+    let accels = spread_accels(instr, conditions);
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
+    #[allow(clippy::cast_precision_loss)]
+    let all = (conditions as u64 * (ticks + opts.warmup_ticks(instr.clock_hz))) as f64;
+    let mut single = Vec::new();
+    let mut batch = Vec::new();
+    for _ in 0..runs.max(1) {
+        let t = Instant::now();
+        let a: Vec<StaticRun> = accels
+            .iter()
+            .map(|&a| sim::run_static(instr, a, ticks, opts))
+            .collect();
+        single.push(all / t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let b = pool.install(|| engine.run_static(instr, &accels, ticks, opts));
+        batch.push(all / t.elapsed().as_secs_f64());
+        anyhow::ensure!(a == b, "the batch engine disagrees with the single loop");
+    }
+    let median = |v: &mut Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    Ok(BatchRates {
+        conditions,
+        lanes,
+        ticks,
+        single_ticks_per_s: median(&mut single),
+        batch_ticks_per_s_per_core: median(&mut batch),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::condition::{IA, OA, PA};
+    use crate::effects::CandidateId;
+    use crate::sim::{Totals, simulate_condition, simulate_difference};
+    use proptest::prelude::*;
+
+    /// Every number of a window result, floats as bits.
+    fn result_bits(r: &SimResult) -> Vec<u64> {
+        vec![
+            r.indicated_cm_s2.to_bits(),
+            r.count_cm_s2.to_bits(),
+            r.ticks,
+            r.pulses,
+            r.window_s.to_bits(),
+            r.theta_rms_rad.to_bits(),
+            r.theta_max_rad.to_bits(),
+            r.cycles,
+            r.cycles_two_reversals,
+            r.stop_ticks,
+            r.harmonic_amp_cm_s2.to_bits(),
+            r.harmonic_deg.to_bits(),
+            r.harmonic_torque_amp_cm_s2.to_bits(),
+            r.harmonic_torque_deg.to_bits(),
+        ]
+    }
+
+    fn static_bits(r: &StaticRun) -> (u64, u64, u64, bool) {
+        (r.ticks, r.pulses, r.indicated_cm_s2.to_bits(), r.saturated)
+    }
+
+    #[allow(clippy::cast_sign_loss)]
+    fn totals_bits(t: &Totals) -> Vec<u64> {
+        vec![
+            t.ticks,
+            t.sum_u as u64,
+            t.pulses,
+            t.sum_theta2.to_bits(),
+            t.max_theta.to_bits(),
+            t.cycles,
+            t.cycles_two,
+            t.stop_ticks,
+            t.harm[0].to_bits(),
+            t.harm[1].to_bits(),
+            t.harm_q[0].to_bits(),
+            t.harm_q[1].to_bits(),
+        ]
+    }
+
+    /// The whole state of a loop: plant (bits), core, totals (bits), ticks, the noise
+    /// generator, the applied command and the reversal count.
+    fn assert_same_loop(a: &ClosedLoop, b: &ClosedLoop, what: &str) {
+        assert_eq!(
+            a.state().map(f64::to_bits),
+            b.state().map(f64::to_bits),
+            "{what}: plant state"
+        );
+        assert_eq!(a.core(), b.core(), "{what}: core state");
+        assert_eq!(
+            totals_bits(&a.totals()),
+            totals_bits(&b.totals()),
+            "{what}: totals"
+        );
+        assert_eq!(a.ticks(), b.ticks(), "{what}: ticks");
+        assert_eq!(a.u.to_bits(), b.u.to_bits(), "{what}: applied command");
+        assert_eq!(
+            a.rng.clone().normal().to_bits(),
+            b.rng.clone().normal().to_bits(),
+            "{what}: noise"
+        );
+        assert_eq!(
+            (a.reversals, a.prev_pol),
+            (b.reversals, b.prev_pol),
+            "{what}: reversals"
+        );
+    }
+
+    fn instr() -> Instrument {
+        Instrument::kearfott_2401()
+    }
+
+    /// Static conditions from well inside to beyond full scale (both stops), with rates,
+    /// gravity along PA and OA; and dynamic ones: a 20 Hz angular oscillation about OA
+    /// (the OA-coupling test), IA+PA vibration at 37 Hz, a slow oscillation about IA with
+    /// rates, an oscillation near full scale that hits a stop.
+    fn conditions(i: &Instrument) -> Vec<Condition> {
+        let fs = i.sf_cm_s2 / i.g_cm_s2;
+        let mut v: Vec<Condition> = [-1.4, -1.02, -0.97, -0.5, 0.0, 0.31, 0.9, 0.99, 1.05, 1.3]
+            .iter()
+            .map(|&f| fixtures::along_ia(f * i.sf_cm_s2, i.g_cm_s2))
+            .collect();
+        v.push(Condition {
+            g: [0.4, 0.9, 0.17],
+            w_rad_s: [0.3, 0.4, -0.2],
+            ..Condition::default()
+        });
+        let mut oa = Condition {
+            g: [0.0, 1.0, 0.0],
+            freq_hz: 20.0,
+            ..Condition::default()
+        };
+        oa.ang_mrad[OA] = 2.0;
+        v.push(oa);
+        let mut vib = Condition {
+            g: [0.2, 0.98, 0.0],
+            freq_hz: 37.0,
+            ..Condition::default()
+        };
+        vib.lin_cm_s2[IA] = 500.0;
+        vib.lin_cm_s2[PA] = 300.0;
+        vib.lin_deg[PA] = 30.0;
+        v.push(vib);
+        let mut slow = Condition {
+            g: [0.7, 0.7, 0.1],
+            w_rad_s: [0.1, 0.05, 0.0],
+            freq_hz: 7.5,
+            ..Condition::default()
+        };
+        slow.ang_mrad[IA] = 3.0;
+        slow.ang_deg[IA] = 45.0;
+        v.push(slow);
+        let mut near = Condition {
+            g: [0.97 * fs, 0.0, 0.0],
+            freq_hz: 50.0,
+            ..Condition::default()
+        };
+        near.lin_cm_s2[IA] = 0.1 * i.sf_cm_s2;
+        v.push(near);
+        v
+    }
+
+    fn effects() -> Effects {
+        Effects::only(CandidateId::Sculling, 2e-3)
+            .with(CandidateId::Anisoinertia, 3.0)
+            .with(CandidateId::LeverArmPa, 1.5)
+            .with(CandidateId::Vibropendulosity, 1e-6)
+            .with(CandidateId::Nonlinearity, -2e-7)
+    }
+
+    /// Short runs for the tests (settling and windows of 20 ms).
+    fn short(seed: u64, noise: bool, harmonic: u32) -> SimOptions {
+        SimOptions {
+            seed,
+            noise,
+            harmonic,
+            warmup_s: 0.02,
+            min_window_s: 0.02,
+            ..SimOptions::default()
+        }
+    }
+
+    fn engines() -> [Engine; 5] {
+        [1, 2, 4, 8, 16].map(Engine::new)
+    }
+
+    #[test]
+    fn batch_run_static_matches_run_static() {
+        let i = instr();
+        // 13 lanes: not a multiple of any K but 1; from −1.4 to +1.4 full scale.
+        let accels: Vec<f64> = (0..13)
+            .map(|j| (-1.4 + 2.8 * f64::from(j) / 12.0) * i.sf_cm_s2)
+            .collect();
+        for noise in [true, false] {
+            let opts = short(11, noise, 0);
+            let want: Vec<_> = accels
+                .iter()
+                .map(|&a| static_bits(&sim::run_static(&i, a, 3_001, &opts)))
+                .collect();
+            assert!(want.iter().any(|w| w.3) && want.iter().any(|w| !w.3));
+            for e in engines() {
+                let got: Vec<_> = e
+                    .run_static(&i, &accels, 3_001, &opts)
+                    .iter()
+                    .map(static_bits)
+                    .collect();
+                assert_eq!(got, want, "K = {}, noise {noise}", e.lanes());
+            }
+        }
+    }
+
+    #[test]
+    fn batch_run_static_with_a_harmonic_matches() {
+        // A harmonic sends the static loop down the dynamic path.
+        let i = instr();
+        let accels = [-0.5 * i.sf_cm_s2, 10.0, 1.2 * i.sf_cm_s2];
+        let opts = short(5, true, 2);
+        let want: Vec<_> = accels
+            .iter()
+            .map(|&a| static_bits(&sim::run_static(&i, a, 2_000, &opts)))
+            .collect();
+        let got: Vec<_> = Engine::new(2)
+            .run_static(&i, &accels, 2_000, &opts)
+            .iter()
+            .map(static_bits)
+            .collect();
+        assert_eq!(got, want);
+    }
+
+    #[test]
+    fn batch_simulate_conditions_matches_simulate_condition() {
+        let i = instr();
+        let conds = conditions(&i);
+        let e = effects();
+        // Every condition with and without effects: 30 lanes of mixed kinds and lengths
+        // (the dynamic windows are whole periods of 20, 37, 7.5 and 50 Hz).
+        let jobs: Vec<(Condition, Effects)> = conds
+            .iter()
+            .flat_map(|c| [(c.clone(), Effects::NONE), (c.clone(), e)])
+            .collect();
+        for (noise, harmonic) in [(true, 0), (false, 0), (true, 1)] {
+            let opts = short(3, noise, harmonic);
+            let want: Vec<_> = jobs
+                .iter()
+                .map(|(c, e)| result_bits(&simulate_condition(&i, c, e, &opts)))
+                .collect();
+            let windows: std::collections::BTreeSet<u64> = want.iter().map(|w| w[2]).collect();
+            assert!(
+                windows.len() >= 4,
+                "lanes of different lengths: {windows:?}"
+            );
+            assert!(want.iter().any(|w| w[9] > 0), "some lane on a stop");
+            for eng in engines() {
+                let got: Vec<_> = eng
+                    .simulate_conditions(&i, &jobs, &opts)
+                    .iter()
+                    .map(result_bits)
+                    .collect();
+                for (j, (g, w)) in got.iter().zip(&want).enumerate() {
+                    assert_eq!(
+                        g,
+                        w,
+                        "K = {}, noise {noise}, harmonic {harmonic}, lane {j}: {}",
+                        eng.lanes(),
+                        jobs[j].0.label
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn batch_simulate_differences_matches_simulate_difference() {
+        let i = instr();
+        let e = effects();
+        let jobs: Vec<(Condition, Effects)> = conditions(&i)
+            .into_iter()
+            .map(|mut c| {
+                c.ref_w_rad_s = [0.05, 0.0, 0.01];
+                (c, e)
+            })
+            .collect();
+        let opts = short(9, true, 0);
+        let got = Engine::new(4).simulate_differences(&i, &jobs, &opts);
+        assert_eq!(got.len(), jobs.len());
+        for ((c, e), g) in jobs.iter().zip(&got) {
+            let w = simulate_difference(&i, c, e, &opts);
+            assert_eq!(
+                result_bits(&g.condition),
+                result_bits(&w.condition),
+                "{}",
+                c.label
+            );
+            assert_eq!(
+                result_bits(&g.reference),
+                result_bits(&w.reference),
+                "{}",
+                c.label
+            );
+            assert_eq!(g.difference_cm_s2.to_bits(), w.difference_cm_s2.to_bits());
+        }
+    }
+
+    #[test]
+    fn lanes_with_their_own_instruments_and_seeds_match() {
+        // Parameter identification: every lane a slightly different instrument.
+        let base = instr();
+        let instrs: Vec<Instrument> = (0..7)
+            .map(|j| {
+                let mut i = base.clone();
+                let f = 1.0 + 0.01 * f64::from(j);
+                i.spring_dyn_cm_rad *= f;
+                i.damping_dyn_cm_s /= f;
+                i.pendulosity_dyn_cm_per_g *= 1.0 + 0.001 * f64::from(j);
+                i.noise_v_rms *= f;
+                i
+            })
+            .collect();
+        let conds = conditions(&base);
+        let jobs: Vec<Job<'_>> = instrs
+            .iter()
+            .enumerate()
+            .flat_map(|(j, i)| {
+                let c = &conds[(3 * j) % conds.len()];
+                let d = &conds[(3 * j + 11) % conds.len()];
+                [(c, 100 + j as u64), (d, 7)].map(|(cond, seed)| Job {
+                    instr: i,
+                    cond,
+                    effects: if j % 2 == 0 { effects() } else { Effects::NONE },
+                    seed,
+                })
+            })
+            .collect();
+        let opts = short(0, true, 0);
+        let got = Engine::new(8).simulate_jobs(&jobs, &opts);
+        for (j, g) in jobs.iter().zip(&got) {
+            let o = SimOptions {
+                seed: j.seed,
+                ..opts
+            };
+            let w = simulate_condition(j.instr, j.cond, &j.effects, &o);
+            assert_eq!(result_bits(g), result_bits(&w), "{}", j.cond.label);
+        }
+    }
+
+    #[test]
+    fn identification_lanes_share_inputs_and_noise_and_match() {
+        // One condition, eight instruments, one seed: the lanes share the noise draws and
+        // (dynamic) the phasor and the inputs. With the second harmonic measured.
+        let base = instr();
+        let instrs: Vec<Instrument> = (0..8)
+            .map(|j| {
+                let mut i = base.clone();
+                i.spring_dyn_cm_rad *= 1.0 + 0.02 * f64::from(j);
+                i.anisoinertia_g_cm2 += 0.5 * f64::from(j);
+                i
+            })
+            .collect();
+        let conds = conditions(&base);
+        for cond in [&conds[11], &conds[12], &conds[3]] {
+            let jobs: Vec<Job<'_>> = instrs
+                .iter()
+                .map(|i| Job {
+                    instr: i,
+                    cond,
+                    effects: effects(),
+                    seed: 17,
+                })
+                .collect();
+            for harmonic in [0, 2] {
+                let opts = short(17, true, harmonic);
+                for k in [1, 4] {
+                    let got = Engine::new(k).simulate_jobs(&jobs, &opts);
+                    for (j, g) in jobs.iter().zip(&got) {
+                        let w = simulate_condition(j.instr, j.cond, &j.effects, &opts);
+                        assert_eq!(result_bits(g), result_bits(&w), "K = {k}, {}", cond.label);
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lanes_step_by_step_match_single_loops() {
+        // The low-level calls on loops in mid-run, every lane's whole state after each:
+        // runs with and without statistics, windows of different lengths, runs of no tick.
+        // Lanes 0-5 share a seed (built apart: equal noise tables, not the same one), so
+        // that the static and the dynamic lanes among them share their noise draws.
+        let i = instr();
+        let conds = conditions(&i);
+        let e = effects();
+        let opts = short(21, true, 0);
+        let start: Vec<ClosedLoop> = conds
+            .iter()
+            .enumerate()
+            .map(|(j, c)| {
+                let eff = if j % 3 == 0 { Effects::NONE } else { e };
+                let seed = if j < 6 { 5 } else { j as u64 };
+                ClosedLoop::new(&i, c, &eff, &SimOptions { seed, ..opts })
+            })
+            .collect();
+        for k in [1, 4, 16] {
+            step_by_step(&start, Engine::new(k));
+        }
+    }
+
+    /// The checks of [`lanes_step_by_step_match_single_loops`] with `eng`.
+    fn step_by_step(start: &[ClosedLoop], eng: Engine) {
+        let mut single = start.to_vec();
+        let mut lanes = start.to_vec();
+        let lens: Vec<u64> = (0..single.len() as u64).map(|j| 500 + 97 * j).collect();
+        let check = |a: &[ClosedLoop], b: &[ClosedLoop], what: &str| {
+            for (j, (x, y)) in a.iter().zip(b).enumerate() {
+                assert_same_loop(x, y, &format!("K = {}, {what}, lane {j}", eng.lanes()));
+            }
+        };
+        for l in &mut single {
+            l.run(1_234);
+        }
+        eng.run(&mut lanes, 1_234);
+        check(&lanes, &single, "run");
+        for l in &mut single {
+            l.run_fast(777);
+        }
+        eng.run_fast(&mut lanes, 777);
+        check(&lanes, &single, "run_fast");
+        for l in &mut single {
+            l.run(0);
+            l.run_fast(0);
+        }
+        eng.run(&mut lanes, 0);
+        eng.run_fast(&mut lanes, 0);
+        check(&lanes, &single, "no ticks");
+        let want: Vec<_> = single
+            .iter_mut()
+            .zip(&lens)
+            .map(|(l, &n)| result_bits(&l.measure(n)))
+            .collect();
+        let got: Vec<_> = eng
+            .measure_each(&mut lanes, &lens)
+            .iter()
+            .map(result_bits)
+            .collect();
+        assert_eq!(got, want);
+        check(&lanes, &single, "measure_each");
+        let want: Vec<_> = single
+            .iter_mut()
+            .map(|l| result_bits(&l.measure(640)))
+            .collect();
+        let got: Vec<_> = eng
+            .measure(&mut lanes, 640)
+            .iter()
+            .map(result_bits)
+            .collect();
+        assert_eq!(got, want);
+        check(&lanes, &single, "measure");
+    }
+
+    #[test]
+    fn lanes_with_different_core_configurations_match() {
+        // The interleaved kernels share the core's configuration: lanes are grouped by it.
+        let i = instr();
+        let conds = conditions(&i);
+        let configs = [
+            ptsa_core::Config::DEFAULT,
+            ptsa_core::Config {
+                noise_shaping: true,
+                gate_ticks: 6400,
+                ..ptsa_core::Config::DEFAULT
+            },
+        ];
+        let start: Vec<ClosedLoop> = conds
+            .iter()
+            .enumerate()
+            .map(|(j, c)| {
+                let opts = SimOptions {
+                    config: configs[j % 2],
+                    ..short(8, true, 0)
+                };
+                ClosedLoop::new(&i, c, &Effects::NONE, &opts)
+            })
+            .collect();
+        for k in [1, 2, 8] {
+            let mut single = start.clone();
+            let mut lanes = start.clone();
+            for l in &mut single {
+                l.run(3_000);
+                l.run_fast(1_000);
+            }
+            Engine::new(k).run(&mut lanes, 3_000);
+            Engine::new(k).run_fast(&mut lanes, 1_000);
+            for (j, (a, b)) in lanes.iter().zip(&single).enumerate() {
+                assert_same_loop(a, b, &format!("K = {k}, lane {j}"));
+            }
+        }
+    }
+
+    #[test]
+    fn batch_rates_runs_both_and_agrees() {
+        // Only that it runs and that the batch agrees (no timing is asserted).
+        let i = instr();
+        let r = batch_rates(&i, &short(1, true, 0), 5, 1, 640, 1).expect("rates");
+        assert_eq!((r.conditions, r.lanes, r.ticks), (5, 1, 640));
+        assert!(r.single_ticks_per_s > 0.0 && r.batch_ticks_per_s_per_core > 0.0);
+        assert!(r.ratio() > 0.0);
+    }
+
+    #[test]
+    fn same_stream_is_the_same_numbers() {
+        let (a, b, c) = (
+            NoiseSource::new(5),
+            NoiseSource::new(5),
+            NoiseSource::new(6),
+        );
+        assert!(a.same_stream(&b) && a.same_stream(&a.clone()) && !a.same_stream(&c));
+        let mut d = a.clone();
+        let _ = d.normal();
+        assert!(!a.same_stream(&d));
+    }
+
+    #[test]
+    fn one_thread_and_the_pool_agree() {
+        // Groups fill to K on one thread and split across the pool's threads otherwise.
+        let i = instr();
+        let jobs: Vec<(Condition, Effects)> =
+            conditions(&i).into_iter().map(|c| (c, effects())).collect();
+        let opts = short(4, true, 0);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("a pool");
+        for e in [Engine::new(8), Engine::new(16)] {
+            let one = pool.install(|| e.simulate_conditions(&i, &jobs, &opts));
+            let all = e.simulate_conditions(&i, &jobs, &opts);
+            let bits = |v: &[SimResult]| v.iter().map(result_bits).collect::<Vec<_>>();
+            assert_eq!(bits(&one), bits(&all));
+        }
+    }
+
+    #[test]
+    fn empty_batches() {
+        let i = instr();
+        let opts = short(1, true, 0);
+        assert!(run_static(&i, &[], 100, &opts).is_empty());
+        assert!(simulate_conditions(&i, &[], &opts).is_empty());
+        assert!(simulate_differences(&i, &[], &opts).is_empty());
+        Engine::new(4).run(&mut [], 10);
+    }
+
+    #[test]
+    fn spread_covers_nine_tenths_of_full_scale() {
+        let i = instr();
+        let a = spread_accels(&i, 16);
+        assert_eq!(a.len(), 16);
+        assert!((a[0] + 0.9 * i.sf_cm_s2).abs() < 1e-9);
+        assert!((a[15] - 0.9 * i.sf_cm_s2).abs() < 1e-9);
+        assert_eq!(spread_accels(&i, 1), vec![0.0]);
+    }
+
+    fn arb_condition() -> impl Strategy<Value = Condition> {
+        (
+            prop::array::uniform3(-1.6f64..1.6),
+            prop::array::uniform3(-0.5f64..0.5),
+            prop_oneof![Just(0.0), 2.0f64..80.0],
+            prop::array::uniform3(prop_oneof![Just(0.0), -800.0f64..800.0]),
+            prop::array::uniform3(prop_oneof![Just(0.0), -4.0f64..4.0]),
+            prop::array::uniform3(-180.0f64..180.0),
+        )
+            .prop_map(|(g, w, f, lin, ang, deg)| Condition {
+                label: "random".into(),
+                g,
+                w_rad_s: w,
+                freq_hz: f,
+                lin_cm_s2: lin,
+                lin_deg: deg,
+                ang_mrad: ang,
+                ang_deg: [deg[1], deg[2], deg[0]],
+                ..Condition::default()
+            })
+    }
+
+    fn arb_effects() -> impl Strategy<Value = Effects> {
+        prop::collection::vec(prop_oneof![Just(0.0), -1e-2f64..1e-2], 8).prop_map(|c| {
+            let mut e = Effects::NONE;
+            for (id, v) in CandidateId::ALL.iter().zip(c) {
+                e.set(*id, v);
+            }
+            e
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+
+        /// Random batches of random conditions (static and dynamic, inside and beyond full
+        /// scale), effects, seeds and lane counts.
+        #[test]
+        fn random_batches_match_the_single_loop(
+            jobs in prop::collection::vec((arb_condition(), arb_effects()), 1..12),
+            seed in 0u64..1000,
+            noise in any::<bool>(),
+            lanes in prop::sample::select(vec![1usize, 2, 4, 8, 16]),
+        ) {
+            let i = instr();
+            let opts = SimOptions { warmup_s: 0.005, min_window_s: 0.005, ..short(seed, noise, 0) };
+            let got = Engine::new(lanes).simulate_conditions(&i, &jobs, &opts);
+            for ((c, e), g) in jobs.iter().zip(&got) {
+                let w = simulate_condition(&i, c, e, &opts);
+                prop_assert_eq!(result_bits(g), result_bits(&w), "{:?}", c);
+            }
+        }
+    }
+}
