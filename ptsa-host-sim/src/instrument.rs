@@ -804,6 +804,96 @@ impl Instrument {
         })
     }
 
+    /// The text of instrument file `src` with new values for toleranced parameters,
+    /// everything else (comments, order, other entries) kept: each `(key, value, note)`
+    /// rewrites that entry's inline table with the new `value` in the same tolerance form
+    /// (`tol_pct` and `tol_abs` keep their figure, so a percentage band now centres on the
+    /// new value; a `min`/`max` band is widened to hold it) and puts `# note` on the line
+    /// above. The result is parsed again and must give each value back exactly.
+    ///
+    /// # Errors
+    /// `src` is not a valid instrument file, a key is not a toleranced parameter, or the
+    /// new text does not give the values back (a value the file refuses, e.g. a negative
+    /// inertia).
+    pub fn rewrite(
+        src: &str,
+        file: &str,
+        changes: &[(&str, f64, String)],
+    ) -> Result<String, InstrumentError> {
+        let src = src.strip_prefix('\u{feff}').unwrap_or(src);
+        Self::parse(src, file)?;
+        let cx = Ctx { file, src };
+        let f: FileT = toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
+        let entry = |key: &str| -> Option<&Spanned<Param>> {
+            Some(match key {
+                "pendulum.pendulosity_dyn_cm_per_g" => &f.pendulum.pendulosity_dyn_cm_per_g,
+                "pendulum.freedom_mrad" => &f.pendulum.freedom_mrad,
+                "pendulum.inertia_oa_g_cm2" => &f.pendulum.inertia_oa_g_cm2,
+                "pendulum.spring_dyn_cm_per_rad" => &f.pendulum.spring_dyn_cm_per_rad,
+                "pendulum.damping_dyn_cm_s" => &f.pendulum.damping_dyn_cm_s,
+                "pendulum.anisoinertia_g_cm2" => &f.pendulum.anisoinertia_g_cm2,
+                "pickoff.scale_factor_v_per_rad" => &f.pickoff.scale_factor_v_per_rad,
+                "pickoff.quadrature_null_uv" => &f.pickoff.quadrature_null_uv,
+                "pickoff.phase_angle_deg" => &f.pickoff.phase_angle_deg,
+                "pickoff.noise_uv_rms" => &f.pickoff.noise_uv_rms,
+                "torquer.current_scale_factor_ma_per_g" => &f.torquer.current_scale_factor_ma_per_g,
+                "torquer.time_constant_us" => &f.torquer.time_constant_us,
+                _ => return None,
+            })
+        };
+        let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
+        for (key, v, note) in changes {
+            let e = entry(key).ok_or_else(|| InstrumentError {
+                file: file.to_string(),
+                line: 0,
+                column: 0,
+                message: format!("{key}: not a toleranced parameter of the file"),
+            })?;
+            let q = e.get_ref();
+            let table = if let Some(Num(t)) = q.tol_pct {
+                format!("{{ value = {v:?}, tol_pct = {t:?} }}")
+            } else if let Some(Num(t)) = q.tol_abs {
+                format!("{{ value = {v:?}, tol_abs = {t:?} }}")
+            } else {
+                let (lo, hi) = (q.min.map_or(*v, |n| n.0), q.max.map_or(*v, |n| n.0));
+                format!(
+                    "{{ value = {v:?}, min = {:?}, max = {:?} }}",
+                    lo.min(*v),
+                    hi.max(*v)
+                )
+            };
+            let span = e.span();
+            let line_start = src[..span.start].rfind('\n').map_or(0, |i| i + 1);
+            let indent: String = src[line_start..]
+                .chars()
+                .take_while(|c| *c == ' ' || *c == '\t')
+                .collect();
+            let note = note.replace('\n', " ");
+            edits.push((line_start..line_start, format!("{indent}# {note}\n")));
+            edits.push((span.start..span.end, table));
+        }
+        edits.sort_by_key(|(r, _)| std::cmp::Reverse((r.start, r.end)));
+        let mut out = src.to_string();
+        for (r, t) in edits {
+            out.replace_range(r, &t);
+        }
+        let back = Self::parse(&out, file)?;
+        for (key, v, _) in changes {
+            if back
+                .get(key)
+                .is_none_or(|b| (b - v).abs() > 1e-12 * v.abs().max(1e-300))
+            {
+                return Err(InstrumentError {
+                    file: file.to_string(),
+                    line: 0,
+                    column: 0,
+                    message: format!("{key}: the rewritten file does not give {v} back"),
+                });
+            }
+        }
+        Ok(out)
+    }
+
     /// Pendulosity `m·l`, g·cm: torque per unit specific force, dyn·cm per cm/s².
     #[must_use]
     pub fn pendulosity_g_cm(&self) -> f64 {
@@ -910,6 +1000,48 @@ impl Instrument {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rewrite_changes_only_the_named_entries() {
+        let src = KEARFOTT_2401_TOML;
+        let out = Instrument::rewrite(
+            src,
+            "k.toml",
+            &[
+                ("pendulum.damping_dyn_cm_s", 114_361.25, "fitted".into()),
+                ("torquer.time_constant_us", 38.5, "lag fitted".into()),
+            ],
+        )
+        .unwrap();
+        let i = Instrument::parse(&out, "k.toml").unwrap();
+        assert_eq!(i.get("pendulum.damping_dyn_cm_s"), Some(114_361.25));
+        assert!((i.get("torquer.time_constant_us").unwrap() - 38.5).abs() < 1e-12);
+        // tol_pct keeps its percentage around the new value; min/max widens to hold it.
+        let (lo, _, hi) = i.tolerance("pendulum.damping_dyn_cm_s").unwrap();
+        assert!((lo - 0.6 * 114_361.25).abs() < 1e-6 && (hi - 1.4 * 114_361.25).abs() < 1e-6);
+        assert_eq!(
+            i.tolerance("torquer.time_constant_us"),
+            Some((0.2, 38.5, 38.5))
+        );
+        // Everything else is the same text, line for line, plus the two notes.
+        let removed: Vec<&str> = src
+            .lines()
+            .filter(|l| !out.lines().any(|o| o == *l))
+            .collect();
+        assert_eq!(removed.len(), 2, "{removed:?}");
+        assert!(out.contains("# fitted\ndamping_dyn_cm_s = { value = 114361.25, tol_pct = 40.0 }"));
+        assert_eq!(out.lines().count(), src.lines().count() + 2);
+        // No change, no difference; a refused value is an error, not a bad file.
+        assert_eq!(Instrument::rewrite(src, "k.toml", &[]).unwrap(), src);
+        let e = Instrument::rewrite(
+            src,
+            "k.toml",
+            &[("pendulum.inertia_oa_g_cm2", -1.0, String::new())],
+        )
+        .unwrap_err();
+        assert!(e.message.contains("inertia"), "{e}");
+        assert!(Instrument::rewrite(src, "k.toml", &[("no.such", 1.0, String::new())]).is_err());
+    }
 
     #[test]
     fn shipped_file_parses_with_the_table_values() {

@@ -6,16 +6,18 @@ use ptsa_host_sim::discovery::sim::{ClosedLoopSimulator, response_of};
 use ptsa_host_sim::discovery::{Options, discover, show};
 use ptsa_host_sim::{CandidateId, Condition, Effects, Instrument, SimOptions};
 
-fn table(instr: &Instrument, sigma_gain: f64, sigma_phase: f64) -> Vec<Condition> {
-    let opts = SimOptions {
-        seed: 99,
-        ..SimOptions::default()
-    };
-    let freqs = [
-        2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 120.0, 150.0,
-        180.0, 220.0, 260.0, 300.0, 400.0,
-    ];
-    freqs
+/// The frequencies of the table, Hz.
+const FREQS: [f64; 20] = [
+    2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 120.0, 150.0,
+    180.0, 220.0, 260.0, 300.0, 400.0,
+];
+
+/// A frequency-response table of `instr` measured with noise seed `seed`; each row's
+/// sigma is what a laboratory would state, the scatter of one run at that frequency
+/// (the sample standard deviation of 8 runs of the shipped instrument with other seeds).
+fn table(instr: &Instrument, seed: u64) -> Vec<Condition> {
+    let nominal = Instrument::kearfott_2401();
+    FREQS
         .iter()
         .map(|&f| {
             let mut c = Condition {
@@ -25,11 +27,28 @@ fn table(instr: &Instrument, sigma_gain: f64, sigma_phase: f64) -> Vec<Condition
                 ..Condition::default()
             };
             c.lin_cm_s2[IA] = 2000.0;
+            let runs: Vec<[f64; 2]> = (0..8)
+                .map(|j| {
+                    let o = SimOptions {
+                        seed: 1000 + j,
+                        ..SimOptions::default()
+                    };
+                    response_of(&nominal, &c, &Effects::NONE, &o)
+                })
+                .collect();
+            let sd = |k: usize| {
+                let m = runs.iter().map(|r| r[k]).sum::<f64>() / 8.0;
+                (runs.iter().map(|r| (r[k] - m).powi(2)).sum::<f64>() / 7.0).sqrt()
+            };
+            let opts = SimOptions {
+                seed,
+                ..SimOptions::default()
+            };
             let [g, p] = response_of(instr, &c, &Effects::NONE, &opts);
             c.measured_gain = Some(g);
             c.measured_phase_deg = Some(p);
-            c.sigma_gain = Some(sigma_gain);
-            c.sigma_phase_deg = Some(sigma_phase);
+            c.sigma_gain = Some(sd(0).max(1e-4));
+            c.sigma_phase_deg = Some(sd(1).max(0.01));
             c
         })
         .collect()
@@ -41,7 +60,7 @@ fn damping_off_by_two_tolerances_is_named() {
     let mut truth = nominal.clone();
     let c = nominal.get("pendulum.damping_dyn_cm_s").unwrap();
     truth.set("pendulum.damping_dyn_cm_s", c * 1.5).unwrap();
-    let rows = table(&truth, 0.01, 0.5);
+    let rows = table(&truth, 99);
     let sim = ClosedLoopSimulator {
         instrument: nominal.clone(),
         options: SimOptions::default(),
@@ -55,4 +74,71 @@ fn damping_off_by_two_tolerances_is_named() {
     );
     let named: Vec<CandidateId> = d.selected.iter().map(|s| s.id).collect();
     assert_eq!(named.first(), Some(&CandidateId::ParamDamping), "{named:?}");
+}
+
+/// The same through the binary: `--write-instrument` writes the shipped file with the
+/// identified damping and nothing else changed, and the written file reads back.
+#[test]
+fn write_instrument_holds_the_identified_damping() {
+    let nominal = Instrument::kearfott_2401();
+    let mut truth = nominal.clone();
+    let c = nominal.get("pendulum.damping_dyn_cm_s").unwrap();
+    truth.set("pendulum.damping_dyn_cm_s", c * 1.5).unwrap();
+    let rows = table(&truth, 99);
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().join("response.case.csv");
+    std::fs::write(
+        &data,
+        ptsa_host_sim::discovery::caseframe::to_csv(&rows, &["damping +50 %"]),
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .current_dir(tmp.path())
+        .args([
+            "discover",
+            "--data",
+            "response.case.csv",
+            "--no-plots",
+            "--write-instrument",
+            "fitted.toml",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("wrote fitted.toml"), "{err}");
+    let text = std::fs::read_to_string(tmp.path().join("fitted.toml")).unwrap();
+    let fitted = Instrument::parse(&text, "fitted.toml").unwrap();
+    let got = fitted.get("pendulum.damping_dyn_cm_s").unwrap();
+    assert!((got / (1.5 * c) - 1.0).abs() < 0.01, "{got}");
+    for key in [
+        "pendulum.spring_dyn_cm_per_rad",
+        "pendulum.inertia_oa_g_cm2",
+        "torquer.time_constant_us",
+    ] {
+        assert_eq!(fitted.get(key), nominal.get(key), "{key}");
+    }
+    assert!(text.contains("# ptsa discover --data response.case.csv: fitted"));
+    // Unperturbed data select no parameter: nothing is written.
+    std::fs::write(
+        &data,
+        ptsa_host_sim::discovery::caseframe::to_csv(&table(&nominal, 99), &[]),
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .current_dir(tmp.path())
+        .args([
+            "discover",
+            "--data",
+            "response.case.csv",
+            "--no-plots",
+            "--write-instrument",
+            "none.toml",
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("none.toml not written"), "{err}");
+    assert!(!tmp.path().join("none.toml").exists());
 }

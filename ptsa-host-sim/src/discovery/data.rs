@@ -226,11 +226,21 @@ pub fn build(
         features: Vec::new(),
     };
     let mut keys: Vec<Vec<u64>> = Vec::new();
+    let sim_sigmas: Vec<Vec<f64>> = {
+        use rayon::prelude::*;
+        fitted
+            .par_iter()
+            .map(|&i| sim.observe_sigma(&rows[i]))
+            .collect()
+    };
     for (k, &i) in fitted.iter().enumerate() {
         let r = &rows[i];
         let b = r.block.clone().unwrap_or_else(|| "all".to_string());
         let bi = intern(&mut d.block_names, b.clone());
+        let sim_sigma = &sim_sigmas[k];
         for (q, y, sigma, o) in observations(r, default_sigma) {
+            // A stated sigma is the measurement's; the simulator's own scatter adds to it.
+            let sigma = sigma.map(|s| s.hypot(sim_sigma.get(o).copied().unwrap_or(0.0)));
             let base = observed[i].get(o).copied().unwrap_or(f64::NAN);
             d.rows.push(i);
             d.quantity.push(q);

@@ -369,9 +369,10 @@ fn summary(data: &Data, pred: &dyn Fn(usize) -> f64, sigma: &[f64], p: usize) ->
 /// Gauss–Newton on the selected parameters of the instrument file (the response is not
 /// linear in them): from the linear fit, repeat (sensitivities at the current values, a
 /// weighted least-squares step for the parameters with the additive terms and the nuisance
-/// terms refitted) until the steps fall below a hundredth of their standard errors, at most
-/// [`GAUSS_NEWTON_STEPS`] times. The coefficients and standard errors of `selected` become
-/// those of the last step.
+/// terms refitted) until the steps fall below [`GAUSS_NEWTON_TOLERANCE`] of their standard
+/// errors, at most [`GAUSS_NEWTON_STEPS`] times. The coefficients and standard errors of
+/// `selected` become those of the last step, or without convergence those of the iterate
+/// with the least χ².
 fn refine_parameters(
     rows: &[Condition],
     data: &Data,
@@ -399,6 +400,7 @@ fn refine_parameters(
         theta.set(selected[k].id, selected[k].coef);
     }
     let slot = |k: usize| usize::from(data.quantity[k] == Quantity::Phase);
+    let mut best: Option<(f64, Vec<Selected>)> = None;
     for _ in 0..GAUSS_NEWTON_STEPS {
         let pred: Vec<Vec<f64>> = {
             let mut rs: Vec<usize> = data.rows.clone();
@@ -444,6 +446,13 @@ fn refine_parameters(
             .map(|(c, s)| c.iter().map(|x| x / s).collect())
             .collect();
         let refs: Vec<&[f64]> = unit.iter().map(Vec::as_slice).collect();
+        // χ² here: the residual with the additive and nuisance terms refitted, the
+        // parameters as they stand.
+        let here = lsq(&z, &refs[params.len()..])
+            .map_or_else(|| z.iter().map(|x| x * x).sum(), |h| h.chi2);
+        if best.as_ref().is_none_or(|(c, _)| here < *c) {
+            best = Some((here, selected.to_vec()));
+        }
         let Some(g) = lsq(&z, &refs) else { return };
         let dof = n.saturating_sub(refs.len());
         #[allow(clippy::cast_precision_loss)]
@@ -465,7 +474,7 @@ fn refine_parameters(
             selected[k].coef = theta.get(selected[k].id);
             selected[k].stderr = se;
             selected[k].plausible = within_tolerance(selected[k].id, selected[k].coef, sim);
-            done &= step.abs() < 0.01 * se;
+            done &= step.abs() < GAUSS_NEWTON_TOLERANCE * se;
         }
         for (j, &k) in additive.iter().enumerate() {
             let c = params.len() + j;
@@ -474,10 +483,20 @@ fn refine_parameters(
             selected[k].plausible = selected[k].coef.abs() <= opts.limits[selected[k].id.index()];
         }
         if done {
-            break;
+            return;
         }
     }
+    // No convergence within the steps: the closed loop's response is rough on the scale of
+    // the noise, so the iterates wander; keep the best one seen.
+    if let Some((_, b)) = best {
+        selected.clone_from_slice(&b);
+    }
 }
+
+/// `refine_parameters` stops when every step is below this fraction of its standard
+/// error: the closed loop's noise makes χ² rough on about half a standard error, so finer
+/// steps only wander.
+pub const GAUSS_NEWTON_TOLERANCE: f64 = 0.2;
 
 /// `data` with each selected parameter's signature replaced by its secant: the closed
 /// loop's observations with the fitted change alone, minus the baseline's, over the change

@@ -48,6 +48,19 @@ pub struct Request {
     pub out: Option<PathBuf>,
     /// Write the advised rows here as a case-frame file.
     pub advice_out: Option<PathBuf>,
+    /// Write the instrument file with the fitted parameters here.
+    pub write_instrument: Option<InstrumentOut>,
+}
+
+/// Where `--write-instrument` goes and what it starts from.
+#[derive(Clone, Debug)]
+pub struct InstrumentOut {
+    /// The file to write.
+    pub path: PathBuf,
+    /// The text of the instrument file the analysis used.
+    pub source: String,
+    /// Its name, for messages.
+    pub source_name: String,
 }
 
 /// The analytic simulator with the shipped instrument's gravity, boxed.
@@ -81,6 +94,12 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
     let d = discover(&rows, sim, opts).with_context(|| path.display().to_string())?;
     let elapsed = t0.elapsed();
     let text = show::text_report(&path.display().to_string(), &d);
+    // The corrected instrument file is made before anything is written, so that a value
+    // the file refuses writes nothing.
+    let instrument = match &req.write_instrument {
+        Some(w) => Some((w, corrected_instrument(w, &path.display().to_string(), &d)?)),
+        None => None,
+    };
     if let Some(out) = &req.out {
         let stem = path.file_stem().map_or_else(
             || "discover".to_string(),
@@ -109,6 +128,21 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
             crate::output::count(rows.len() as u64, "advised row")
         );
     }
+    match instrument {
+        Some((w, Some(t))) => {
+            crate::output::write_atomic(&w.path, t.as_bytes())?;
+            eprintln!(
+                "wrote {} ({} with the fitted parameters)",
+                w.path.display(),
+                w.source_name
+            );
+        }
+        Some((w, None)) => eprintln!(
+            "no parameter of the instrument file was selected: {} not written",
+            w.path.display()
+        ),
+        None => {}
+    }
     if req.json {
         eprint!("{text}");
         writeln!(stdout, "{}", serde_json::to_string(&d.json)?)?;
@@ -116,6 +150,37 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         write!(stdout, "{text}")?;
     }
     Ok(())
+}
+
+/// The instrument file of `w` with the selected parameters' fitted values, each with a
+/// note of where it came from; `None` when no parameter was selected.
+fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<Option<String>> {
+    let changes: Vec<(&str, f64, String)> = d
+        .selected
+        .iter()
+        .filter_map(|s| {
+            let p = s.parameter.as_ref()?;
+            let key = s.id.parameter_key()?;
+            let mut note = format!(
+                "ptsa discover --data {data}: fitted {} ± {} (1 σ), was {}",
+                p.fitted, p.sigma, p.nominal
+            );
+            if !s.confounded.is_empty() {
+                let others: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
+                note.push_str(&format!(
+                    "; indistinguishable in these data from {}",
+                    others.join(", ")
+                ));
+            }
+            Some((key, p.fitted, note))
+        })
+        .collect();
+    if changes.is_empty() {
+        return Ok(None);
+    }
+    let t = crate::Instrument::rewrite(&w.source, &w.source_name, &changes)
+        .with_context(|| format!("--write-instrument {}", w.path.display()))?;
+    Ok(Some(t))
 }
 
 /// The effects of a `ptsa discover --json` result (the whole object, or its `effects`
@@ -185,6 +250,7 @@ mod tests {
 
     fn request(data: Option<PathBuf>, out: PathBuf) -> Request {
         Request {
+            write_instrument: None,
             data,
             options: Options::default(),
             json: true,

@@ -38,6 +38,12 @@ pub trait Simulator: Sync {
             RowKind::Response => self.response(cond, effects).to_vec(),
         }
     }
+    /// The 1 σ scatter of the baseline prediction of each of a row's observations (as
+    /// [`Simulator::observe`]), from the simulator's own noise: 0 for a deterministic model.
+    /// The analysis adds it to a stated sigma in quadrature.
+    fn observe_sigma(&self, cond: &Condition) -> Vec<f64> {
+        vec![0.0; if cond.kind == RowKind::Response { 2 } else { 1 }]
+    }
 }
 
 /// Quasi-static model: the instrument indicates exactly the time average of the specific
@@ -229,9 +235,65 @@ impl Simulator for ClosedLoopSimulator {
             .indicated_cm_s2
     }
 
+    /// The mean over [`RESPONSE_SEEDS`] noise seeds (from the options' seed on) of
+    /// [`response_of`]: one run's gain and phase scatter with the pickoff noise and the
+    /// limit cycle's beat against the input about as much as a measured row's.
     fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
-        response_of(&self.instrument, cond, effects, &self.options)
+        response_runs(&self.instrument, cond, effects, &self.options).0
     }
+
+    /// For a response row, the standard error of [`ClosedLoopSimulator::response`]'s mean:
+    /// the sample standard deviation of the [`RESPONSE_SEEDS`] runs over their square root.
+    fn observe_sigma(&self, cond: &Condition) -> Vec<f64> {
+        if cond.kind == RowKind::Response {
+            response_runs(&self.instrument, cond, &Effects::NONE, &self.options)
+                .1
+                .to_vec()
+        } else {
+            vec![0.0]
+        }
+    }
+}
+
+/// Runs averaged per simulated response row (seeds `seed`, `seed + 1`, ...).
+pub const RESPONSE_SEEDS: u64 = 4;
+
+/// The mean `[gain, phase_deg]` of [`RESPONSE_SEEDS`] runs and its standard errors.
+fn response_runs(
+    instr: &Instrument,
+    cond: &Condition,
+    effects: &Effects,
+    opts: &crate::sim::SimOptions,
+) -> ([f64; 2], [f64; 2]) {
+    let runs: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
+        .map(|j| {
+            let o = crate::sim::SimOptions {
+                seed: opts.seed.wrapping_add(j),
+                ..*opts
+            };
+            response_of(instr, cond, effects, &o)
+        })
+        .collect();
+    // The phase about the first run's, so that runs either side of ±180° average right.
+    let p0 = runs[0][1];
+    let rel = |p: f64| (p - p0 + 540.0).rem_euclid(360.0) - 180.0;
+    #[allow(clippy::cast_precision_loss)]
+    let n = runs.len() as f64;
+    let mean = [
+        runs.iter().map(|r| r[0]).sum::<f64>() / n,
+        p0 + runs.iter().map(|r| rel(r[1])).sum::<f64>() / n,
+    ];
+    let se = |k: usize, m: f64| {
+        let d = |r: &[f64; 2]| {
+            if k == 0 {
+                r[0] - m
+            } else {
+                rel(r[1]) - (m - p0)
+            }
+        };
+        (runs.iter().map(|r| d(r).powi(2)).sum::<f64>() / (n - 1.0) / n).sqrt()
+    };
+    (mean, [se(0, mean[0]), se(1, mean[1])])
 }
 
 /// Shortest window of a simulated response row, s (the output's component at the input's

@@ -368,6 +368,12 @@ pub struct DiscoverArgs {
     /// data cannot) to FILE as a case-frame file, ready to measure.
     #[arg(long, value_name = "FILE", requires = "data")]
     pub advice_out: Option<PathBuf>,
+    /// Write the instrument file (--instrument, or the shipped one) to FILE with the
+    /// fitted values of the selected parameters (damping, spring, ...; each with a comment
+    /// of its value ± 1 σ and where it came from), everything else as it was. Not written
+    /// when no parameter is selected.
+    #[arg(long, value_name = "FILE", requires = "data")]
+    pub write_instrument: Option<PathBuf>,
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,

@@ -23,7 +23,7 @@ use flags::{
 };
 use ptsa_host_sim::bench::{BenchPlan, bench};
 use ptsa_host_sim::design::{Design, check_loop};
-use ptsa_host_sim::discovery::{self, Options, Request, Simulator};
+use ptsa_host_sim::discovery::{self, InstrumentOut, Options, Request, Simulator};
 use ptsa_host_sim::effects::{CandidateId, Effects};
 use ptsa_host_sim::experiments::{
     anisoinertia, appendix_a, design, frequency_response, limit_cycle, monte_carlo, oa_coupling,
@@ -178,18 +178,26 @@ impl Write for Stdout {
 }
 
 /// The instrument file (or the shipped one) and the name to show for it.
-fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String)> {
+/// The instrument file, its name for messages and its text.
+fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String, String)> {
     Ok(match path {
-        Some(p) => (Instrument::load(p)?, p.display().to_string()),
+        Some(p) => {
+            let i = Instrument::load(p)?;
+            // Read again for `--write-instrument` (load has validated it as UTF-8).
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("{}: cannot read", p.display()))?;
+            (i, p.display().to_string(), text)
+        }
         None => (
             Instrument::kearfott_2401(),
             "data/kearfott-2401.toml (the shipped file, built in)".to_string(),
+            ptsa_host_sim::instrument::KEARFOTT_2401_TOML.to_string(),
         ),
     })
 }
 
 fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
-    let (instr, name) = load_instrument(cli.instrument.as_deref())?;
+    let (instr, name, instr_text) = load_instrument(cli.instrument.as_deref())?;
     let checked = check_loop(&instr);
     if let Some(Cmd::Design {
         print_core_constants,
@@ -387,7 +395,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             };
             bench(&instr, &opts, &plan, out)
         }
-        Cmd::Discover(a) => discover_cmd(&instr, config, &a, out),
+        Cmd::Discover(a) => discover_cmd(&instr, (&name, &instr_text), config, &a, out),
         Cmd::Predict(a) => predict_cmd(&instr, config, &a, out),
         Cmd::Plan(a) => plan_cmd(&instr, &a, out),
     }
@@ -841,6 +849,7 @@ fn plan_cmd(instr: &Instrument, a: &PlanArgs, out: &mut dyn Write) -> Result<()>
 
 fn discover_cmd(
     instr: &Instrument,
+    (instr_name, instr_text): (&str, &str),
     config: ptsa_core::Config,
     a: &DiscoverArgs,
     out: &mut dyn Write,
@@ -866,6 +875,9 @@ fn discover_cmd(
     if let Some(p) = &a.advice_out {
         paths::file("--advice-out", p)?;
     }
+    if let Some(p) = &a.write_instrument {
+        paths::file("--write-instrument", p)?;
+    }
     let req = Request {
         data: a.data.clone(),
         options: Options {
@@ -877,6 +889,11 @@ fn discover_cmd(
         json: a.json,
         out: (!a.no_plots).then(|| a.out.clone()),
         advice_out: a.advice_out.clone(),
+        write_instrument: a.write_instrument.as_ref().map(|p| InstrumentOut {
+            path: p.clone(),
+            source: instr_text.to_string(),
+            source_name: instr_name.to_string(),
+        }),
     };
     let sim = simulator(instr, config, a.analytic, a.seed);
     let s = work::spinner("discover");
