@@ -156,6 +156,12 @@ pub struct NoiseReport {
 pub struct RowResult {
     /// Row label (a response row's with ` (gain)` or ` (phase)`).
     pub label: String,
+    /// A response row's input frequency, Hz (absent for other rows).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub freq_hz: Option<f64>,
+    /// The row's kind (not in the JSON: `quantity` and `freq_hz` say it there).
+    #[serde(skip)]
+    pub kind: crate::condition::RowKind,
     /// `value_cm_s2`, `gain` or `phase_deg`.
     pub quantity: &'static str,
     /// Measured difference, cm/s² (None = not measured, not fitted).
@@ -325,6 +331,20 @@ pub struct Discovery {
     pub effects: Effects,
     /// The options used.
     pub options: Options,
+    /// The linear loop model's response without and with the selected parameters, over
+    /// the response rows' frequencies (empty without response rows or a loop model).
+    pub bode: Vec<BodePoint>,
+}
+
+/// One frequency of [`Discovery::bode`].
+#[derive(Clone, Copy, Debug)]
+pub struct BodePoint {
+    /// Frequency, Hz.
+    pub freq_hz: f64,
+    /// `[gain, phase_deg]` of the instrument file's loop.
+    pub nominal: [f64; 2],
+    /// The same with the selected parameters' fitted values.
+    pub corrected: [f64; 2],
 }
 
 /// Statement of the test, printed with every result.
@@ -578,6 +598,8 @@ fn row_table(
             };
             out.push(RowResult {
                 label: format!("{}{suffix}", r.label),
+                freq_hz: (r.kind == crate::condition::RowKind::Response).then_some(r.freq_hz),
+                kind: r.kind,
                 quantity,
                 measured_cm_s2: measured,
                 sigma_cm_s2: sigma,
@@ -959,9 +981,37 @@ pub fn discover(
         family: f.family.clone(),
         effects,
         options: opts.clone(),
+        bode: bode(rows, sim, &effects),
     };
     d.json.verdict = verdict(&d);
     Ok(d)
+}
+
+/// Points of the linear loop model's Bode plot, 80 per the response rows' frequency span
+/// (a factor of 2 beyond it either side), log-spaced.
+fn bode(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<BodePoint> {
+    let f: Vec<f64> = rows
+        .iter()
+        .filter(|r| r.kind == crate::condition::RowKind::Response && r.freq_hz > 0.0)
+        .map(|r| r.freq_hz)
+        .collect();
+    let (Some(lo), Some(hi)) = (
+        f.iter().copied().reduce(f64::min),
+        f.iter().copied().reduce(f64::max),
+    ) else {
+        return Vec::new();
+    };
+    let (lo, hi) = ((lo / 2.0).ln(), (hi * 2.0).ln());
+    (0..80)
+        .filter_map(|k| {
+            let freq_hz = (lo + (hi - lo) * f64::from(k) / 79.0).exp();
+            Some(BodePoint {
+                freq_hz,
+                nominal: sim.linear_response(freq_hz, &Effects::NONE)?,
+                corrected: sim.linear_response(freq_hz, effects)?,
+            })
+        })
+        .collect()
 }
 
 /// What the user must know before reading the result.

@@ -106,9 +106,13 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
             |s| s.to_string_lossy().into_owned(),
         );
         let stem = stem.trim_end_matches(".case").to_string();
-        show::write_outputs(out, &stem, &d)
+        let files = show::write_outputs(out, &stem, &d)
             .with_context(|| format!("writing {}", out.display()))?;
-        eprintln!("wrote {}/{stem}.{{csv,png,svg}}", out.display());
+        let names: Vec<String> = files
+            .iter()
+            .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect();
+        eprintln!("wrote {}/{{{}}}", out.display(), names.join(","));
     }
     eprintln!(
         "discover: {} in {:.3} s ({} simulator)",

@@ -370,31 +370,37 @@ pub fn row_table(stem: &str, d: &Discovery) -> Table {
     t
 }
 
-/// The figure (`<stem>.png`, `.svg`): measured (± sigma), baseline and extended per row,
-/// and below it the residuals before and after. Rows are ticked by their labels when there
-/// are few short ones, else by row number; many rows are drawn as points, not lines.
+/// The figure of the rows measured in cm/s² (difference and absolute rows): measured ±
+/// sigma with the baseline and the extended model per row, then the residuals before and
+/// after. `None` when there are no such rows.
 #[must_use]
-pub fn figure(stem: &str, d: &Discovery) -> Figure {
-    let labels: Vec<String> = d.table.iter().map(|r| r.label.clone()).collect();
+pub fn figure(stem: &str, d: &Discovery) -> Option<Figure> {
+    let rows: Vec<&RowResult> = d
+        .table
+        .iter()
+        .filter(|r| r.quantity == "value_cm_s2")
+        .collect();
+    if rows.is_empty() {
+        return None;
+    }
+    let labels: Vec<String> = rows.iter().map(|r| r.label.clone()).collect();
     let few = labels.len() <= 12;
     #[allow(clippy::cast_precision_loss)]
     let at = |i: usize| i as f64;
     let per_row = |f: &dyn Fn(&RowResult) -> Option<f64>| -> Vec<(f64, f64)> {
-        d.table
-            .iter()
+        rows.iter()
             .enumerate()
             .filter_map(|(i, r)| f(r).map(|v| (at(i), v)))
             .collect()
     };
     let base = per_row(&|r| Some(r.baseline_cm_s2));
     let ext = per_row(&|r| Some(r.extended_cm_s2));
-    let measured: Vec<&RowResult> = d
-        .table
+    let meas = per_row(&|r| r.measured_cm_s2);
+    let sig: Vec<f64> = rows
         .iter()
         .filter(|r| r.measured_cm_s2.is_some())
+        .map(|r| r.sigma_cm_s2)
         .collect();
-    let meas = per_row(&|r| r.measured_cm_s2);
-    let sig: Vec<f64> = measured.iter().map(|r| r.sigma_cm_s2).collect();
     let (b, e) = if few {
         (
             Series::line("baseline", base),
@@ -406,6 +412,13 @@ pub fn figure(stem: &str, d: &Discovery) -> Figure {
             Series::triangles("extended", ext),
         )
     };
+    use crate::condition::RowKind;
+    let has = |k: RowKind| rows.iter().any(|r| r.kind == k);
+    let y_label = match (has(RowKind::Difference), has(RowKind::Absolute)) {
+        (true, true) => "condition − reference, or indicated (absolute rows), cm/s²",
+        (false, true) => "mean indicated acceleration, cm/s²",
+        _ => "condition − reference, cm/s²",
+    };
     let top = Plot {
         title: format!("{stem}: measured, baseline and extended"),
         x_label: if few {
@@ -414,7 +427,7 @@ pub fn figure(stem: &str, d: &Discovery) -> Figure {
             "row (1 = first data row)"
         }
         .into(),
-        y_label: "condition − reference, cm/s²".into(),
+        y_label: y_label.into(),
         series: vec![
             Series::crosses("measured ± sigma", meas).with_error_bars(sig),
             b,
@@ -442,10 +455,115 @@ pub fn figure(stem: &str, d: &Discovery) -> Figure {
         x_axis: XAxis::Rows(labels),
         zero_line: true,
     };
-    Figure {
+    Some(Figure {
         stem: stem.into(),
         panels: vec![top, bottom],
+    })
+}
+
+/// The figure of the response rows, `<stem>-bode`: gain and phase against frequency
+/// (measured ± sigma, the closed loop's baseline and extended predictions at the measured
+/// frequencies, and the linear loop model's Bode curves without and with the fitted
+/// parameters), then the residuals of gain and phase over their sigmas before and after.
+/// `None` without response rows.
+#[must_use]
+pub fn response_figure(stem: &str, d: &Discovery) -> Option<Figure> {
+    let of = |q: &str| -> Vec<&RowResult> {
+        d.table
+            .iter()
+            .filter(|r| r.quantity == q && r.freq_hz.is_some())
+            .collect()
+    };
+    let (gain, phase) = (of("gain"), of("phase_deg"));
+    if gain.is_empty() && phase.is_empty() {
+        return None;
     }
+    let corrected = d.selected.iter().any(|s| s.parameter.is_some());
+    let panel = |rows: &[&RowResult], k: usize, title: &str, y: &str| -> Plot {
+        let pts = |f: &dyn Fn(&RowResult) -> Option<f64>| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter_map(|r| Some((r.freq_hz?, f(r)?)))
+                .collect()
+        };
+        let measured: Vec<&&RowResult> =
+            rows.iter().filter(|r| r.measured_cm_s2.is_some()).collect();
+        let mut series = vec![
+            Series::crosses("measured ± sigma", pts(&|r| r.measured_cm_s2))
+                .with_error_bars(measured.iter().map(|r| r.sigma_cm_s2).collect()),
+            Series::markers(
+                "closed loop, instrument file",
+                pts(&|r| Some(r.baseline_cm_s2)),
+            ),
+            Series::triangles("closed loop, extended", pts(&|r| Some(r.extended_cm_s2))),
+        ];
+        if !d.bode.is_empty() {
+            series.push(Series::line(
+                "linear model, instrument file",
+                d.bode.iter().map(|b| (b.freq_hz, b.nominal[k])).collect(),
+            ));
+            if corrected {
+                series.push(Series::line(
+                    "linear model, fitted parameters",
+                    d.bode.iter().map(|b| (b.freq_hz, b.corrected[k])).collect(),
+                ));
+            }
+        }
+        Plot {
+            title: title.into(),
+            x_label: "input frequency, Hz".into(),
+            y_label: y.into(),
+            series,
+            x_axis: XAxis::Log,
+            zero_line: false,
+        }
+    };
+    let resid = |rows: &[&RowResult], name: &str, y: &str| -> Plot {
+        let pts = |f: &dyn Fn(&RowResult) -> Option<f64>| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter_map(|r| Some((r.freq_hz?, f(r)? / r.sigma_cm_s2)))
+                .collect()
+        };
+        Plot {
+            title: format!(
+                "{name} residuals over sigma: before (instrument file) and after (extended)"
+            ),
+            x_label: "input frequency, Hz".into(),
+            y_label: y.into(),
+            series: vec![
+                Series::markers("before", pts(&|r| r.residual_cm_s2)),
+                Series::triangles("after", pts(&|r| r.residual_extended_cm_s2)),
+            ],
+            x_axis: XAxis::Log,
+            zero_line: true,
+        }
+    };
+    let mut panels = Vec::new();
+    if !gain.is_empty() {
+        panels.push(panel(
+            &gain,
+            0,
+            &format!("{stem}: closed-loop gain"),
+            "gain (output amplitude / input amplitude)",
+        ));
+    }
+    if !phase.is_empty() {
+        panels.push(panel(
+            &phase,
+            1,
+            &format!("{stem}: closed-loop phase"),
+            "phase (output − input), deg",
+        ));
+    }
+    if !gain.is_empty() {
+        panels.push(resid(&gain, "gain", "gain residual / sigma"));
+    }
+    if !phase.is_empty() {
+        panels.push(resid(&phase, "phase", "phase residual / sigma"));
+    }
+    Some(Figure {
+        stem: format!("{stem}-bode"),
+        panels,
+    })
 }
 
 /// The table and the figure of one analysis, as an [`Output`].
@@ -453,7 +571,10 @@ pub fn figure(stem: &str, d: &Discovery) -> Figure {
 pub fn output(stem: &str, d: &Discovery) -> Output {
     Output {
         tables: vec![row_table(stem, d)],
-        plots: vec![figure(stem, d)],
+        plots: [figure(stem, d), response_figure(stem, d)]
+            .into_iter()
+            .flatten()
+            .collect(),
         notes: Vec::new(),
     }
 }
@@ -462,9 +583,8 @@ pub fn output(stem: &str, d: &Discovery) -> Output {
 ///
 /// # Errors
 /// The directory or a file cannot be written.
-pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<()> {
-    output(stem, d).write_files(dir)?;
-    Ok(())
+pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<Vec<std::path::PathBuf>> {
+    output(stem, d).write_files(dir)
 }
 
 /// `RMS 0.123 cm/s²`, or with response rows only `RMS 1.23 σ (residual over its

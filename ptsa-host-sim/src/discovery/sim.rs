@@ -44,6 +44,26 @@ pub trait Simulator: Sync {
     fn observe_sigma(&self, cond: &Condition) -> Vec<f64> {
         vec![0.0; if cond.kind == RowKind::Response { 2 } else { 1 }]
     }
+    /// The linear loop model's closed-loop response `L/(1 + L)` at `f_hz` with the
+    /// parameter changes of `effects`: `[gain, phase_deg]` (for Bode plots), if the
+    /// simulator has a loop.
+    fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
+        let _ = (f_hz, effects);
+        None
+    }
+}
+
+/// `L/(1 + L)` of `instr` with `effects`' parameter changes, `[gain, phase_deg]`.
+fn closed_loop_linear(
+    instr: &Instrument,
+    config: &ptsa_core::Config,
+    f_hz: f64,
+    effects: &Effects,
+) -> [f64; 2] {
+    let instr = effects.apply_parameters(instr);
+    let l = crate::design::loop_gain(&instr, config, f_hz);
+    let h = l / (1.0 + l);
+    [h.norm(), h.arg().to_degrees()]
 }
 
 /// Quasi-static model: the instrument indicates exactly the time average of the specific
@@ -179,11 +199,14 @@ impl Simulator for AnalyticSimulator {
         // The linear loop model L/(1 + L) of the instrument's loop (with its parameter
         // changes).
         self.loop_model.as_ref().map_or([f64::NAN; 2], |m| {
-            let instr = effects.apply_parameters(&m.0);
-            let l = crate::design::loop_gain(&instr, &m.1, cond.freq_hz);
-            let h = l / (1.0 + l);
-            [h.norm(), h.arg().to_degrees()]
+            closed_loop_linear(&m.0, &m.1, cond.freq_hz, effects)
         })
+    }
+
+    fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
+        self.loop_model
+            .as_ref()
+            .map(|m| closed_loop_linear(&m.0, &m.1, f_hz, effects))
     }
 }
 
@@ -240,6 +263,15 @@ impl Simulator for ClosedLoopSimulator {
     /// limit cycle's beat against the input about as much as a measured row's.
     fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
         response_runs(&self.instrument, cond, effects, &self.options).0
+    }
+
+    fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
+        Some(closed_loop_linear(
+            &self.instrument,
+            &self.options.config,
+            f_hz,
+            effects,
+        ))
     }
 
     /// For a response row, the standard error of [`ClosedLoopSimulator::response`]'s mean:
