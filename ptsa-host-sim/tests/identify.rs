@@ -80,8 +80,15 @@ fn damping_off_by_two_tolerances_is_named() {
     let fig = show::response_figure("t", &d).unwrap();
     assert_eq!(fig.stem, "t-bode");
     assert_eq!(fig.panels.len(), 4);
-    let names: Vec<&str> = fig.panels[0].series.iter().map(|s| s.name.as_str()).collect();
-    assert!(names.contains(&"linear model, fitted parameters"), "{names:?}");
+    let names: Vec<&str> = fig.panels[0]
+        .series
+        .iter()
+        .map(|s| s.name.as_str())
+        .collect();
+    assert!(
+        names.contains(&"linear model, fitted parameters"),
+        "{names:?}"
+    );
     assert_eq!(fig.panels[0].series[0].points.len(), 20);
 }
 

@@ -237,7 +237,7 @@ pub fn advise(
             let what = if group.len() == 1 {
                 format!("to test {}", names[0])
             } else {
-                format!("to tell {} apart", names.join(" from "))
+                format!("to tell {} apart", and_list(&names))
             };
             if added.is_empty() || best < 1e-6 {
                 return Advice {
@@ -293,4 +293,13 @@ pub fn all_rows(advice: &[Advice]) -> Vec<Condition> {
         }
     }
     out
+}
+
+/// `a`, `a and b`, `a, b and c`.
+fn and_list(names: &[String]) -> String {
+    match names {
+        [] => String::new(),
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    }
 }
