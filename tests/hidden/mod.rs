@@ -19,6 +19,8 @@
 //! in 3–30, where SE is the standard error of that coefficient alone in this design with
 //! the sigma the pipeline is given.
 
+pub mod physics;
+
 use std::fmt::Write as _;
 
 use rayon::prelude::*;
