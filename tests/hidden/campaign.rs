@@ -8,7 +8,9 @@
 //!   candidates together; per candidate it is shown, and marked `!` outside its own band);
 //! * **false selections**: ≤ 5 % of the sets of each null kind select anything;
 //! * **confident misnamings**: ≤ 5 % of the sets of each out-of-vocabulary, bias-shift and
-//!   drift kind have a plausible selection with no warning of unexplained structure;
+//!   drift kind have a plausible selection with no warning of unexplained structure (the
+//!   aliased out-of-vocabulary kinds, whose data no analyser can tell from a candidate's,
+//!   are reported, not asserted);
 //! * **detection**: ≥ 95 % of the candidate sets of ≥ 8 SE name the hidden candidate exactly
 //!   or as a confounded partner (all candidates together).
 //!
@@ -146,8 +148,8 @@ pub struct RowStats {
     pub partner_only: Count,
     /// `|z| ≤ 1.96` among the sets named exactly at ≥ 6 SE.
     pub coverage: Count,
-    /// Candidates: sets with an unrelated extra selection; not nameable: confident
-    /// misnamings; nulls: sets with any selection.
+    /// Candidates: sets with an unrelated extra selection; not nameable and aliased:
+    /// confident misnamings; nulls: sets with any selection.
     pub false_or_misnamed: Count,
     /// Sets with any selection.
     pub any: Count,
@@ -175,7 +177,9 @@ impl RowStats {
                 }
                 self.false_or_misnamed.add(o.others > 0);
             }
-            Class::NotNameable => self.false_or_misnamed.add(o.confident_misnaming),
+            Class::NotNameable | Class::Aliased => {
+                self.false_or_misnamed.add(o.confident_misnaming);
+            }
             Class::Null => self.false_or_misnamed.add(o.any_selection),
         }
     }
@@ -345,11 +349,22 @@ impl Campaign {
                     }
                 }
                 Class::NotNameable => o.confident_misnaming.then_some("confident misnaming"),
+                Class::Aliased => o.confident_misnaming.then_some("(aliased) misnaming"),
                 Class::Null => o.any_selection.then_some("false selection"),
             };
             if let Some(w) = why {
                 let _ = writeln!(s, "{w:<20} {}", o.line(*seed));
             }
+        }
+        s
+    }
+
+    /// Every set, one line each.
+    #[must_use]
+    pub fn log(&self) -> String {
+        let mut s = String::new();
+        for (seed, o) in &self.outcomes {
+            let _ = writeln!(s, "{}", o.line(*seed));
         }
         s
     }
@@ -395,7 +410,7 @@ impl Campaign {
                 format!("{}{mark}", r.coverage.cell())
             };
             let fm = match class {
-                Class::Candidate => format!("({})", r.false_or_misnamed.cell()),
+                Class::Candidate | Class::Aliased => format!("({})", r.false_or_misnamed.cell()),
                 _ => {
                     let c = r.false_or_misnamed;
                     let mark = if c.n > 0 && c.rate() > RATE_MAX + allowance(c.n, ci) {
@@ -442,7 +457,8 @@ impl Campaign {
             "ex>=T: named exactly (selected, plausible) among the sets of >= T SE; e|p: exactly or only as a confounded partner;\n\
              partner: named only as a partner (all strengths); coverage: |z| <= 1.96 among exact namings at >= 6 SE (! outside the\n\
              99% interval of Binomial(n, 0.95)); false/mis: nulls: any selection, oov/bias/drift: confident misnaming (plausible\n\
-             selection, no unexplained-structure warning), candidates (in brackets, not asserted): an unrelated extra selection;\n\
+             selection, no unexplained-structure warning); in brackets, not asserted: candidates: an unrelated extra selection,\n\
+             aliased oov (the design's data are those of an in-vocabulary set): confident misnaming;\n\
              any sel: sets with any selection. Asserted: coverage and e|p>=8 >= 95% over all candidates, false/mis <= 5% per kind{}.",
             if ci {
                 " (each with an allowance of one binomial standard error at this size)"

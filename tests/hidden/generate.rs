@@ -19,6 +19,11 @@ use super::{Draw, Rng, rng};
 /// `a_IA·a_OA`, `a_IA²` and `dw_OA·a_PA`). Keep this the one list: when the vocabulary grows
 /// (`cross_axis_pp` = `a_PA²`, a `bias`, a `cubic` term, ...), move the term it covers out
 /// of here and into [`candidate_physics`].
+///
+/// Each term is hidden twice: [`Kind::OutOfVocabulary`] in designs where at least
+/// [`MIN_PARTIAL`] of its column lies outside the span of the nuisance terms and every
+/// candidate (so the data can tell it from the vocabulary), and [`Kind::Aliased`] in designs
+/// where less than [`ALIASED`] does (the data are those of an in-vocabulary set).
 pub const OUT_OF_VOCABULARY: &[Product] = &[Product::ApaApa, Product::WoaApa];
 
 /// What a set hides.
@@ -26,8 +31,13 @@ pub const OUT_OF_VOCABULARY: &[Product] = &[Product::ApaApa, Product::WoaApa];
 pub enum Kind {
     /// One candidate's physics.
     Candidate(CandidateId),
-    /// Physics no candidate spans ([`OUT_OF_VOCABULARY`]).
+    /// Physics no candidate spans ([`OUT_OF_VOCABULARY`]), in a design that can tell it
+    /// from the vocabulary.
     OutOfVocabulary(Product),
+    /// The same physics in a design where the vocabulary spans it: no analyser can tell it
+    /// from a candidate, and the right answer is a warning the pipeline does not give today.
+    /// Reported, not asserted.
+    Aliased(Product),
     /// A bias change between the condition runs and their reference run, per block.
     BiasShift,
     /// A bias growing with the row's time.
@@ -50,6 +60,9 @@ pub enum Class {
     NotNameable,
     /// Nothing is hidden: false selections.
     Null,
+    /// Out-of-vocabulary physics the design aliases with the vocabulary: confident
+    /// misnamings, reported only.
+    Aliased,
 }
 
 impl Kind {
@@ -61,6 +74,7 @@ impl Kind {
             .map(|&c| Kind::Candidate(c))
             .collect();
         v.extend(OUT_OF_VOCABULARY.iter().map(|&p| Kind::OutOfVocabulary(p)));
+        v.extend(OUT_OF_VOCABULARY.iter().map(|&p| Kind::Aliased(p)));
         v.extend([
             Kind::BiasShift,
             Kind::Drift,
@@ -77,6 +91,7 @@ impl Kind {
         match self {
             Kind::Candidate(c) => c.info().name.to_string(),
             Kind::OutOfVocabulary(p) => format!("oov {}", p.formula()),
+            Kind::Aliased(p) => format!("oov {}, aliased", p.formula()),
             Kind::BiasShift => "bias shift per block".into(),
             Kind::Drift => "drift".into(),
             Kind::Null => "null".into(),
@@ -92,6 +107,7 @@ impl Kind {
             Kind::Candidate(_) => Class::Candidate,
             Kind::OutOfVocabulary(_) | Kind::BiasShift | Kind::Drift => Class::NotNameable,
             Kind::Null | Kind::NullHetGroups | Kind::NullHetRate => Class::Null,
+            Kind::Aliased(_) => Class::Aliased,
         }
     }
 }
@@ -153,6 +169,9 @@ pub struct Truth {
     /// No design allowed the drawn strength at a plausible size: the strength is the
     /// largest plausible one of the best design.
     pub capped: bool,
+    /// Out of vocabulary: the part of the effect's column outside the span of the nuisance
+    /// terms and every candidate's physics, over its part outside the nuisance terms.
+    pub outside_vocabulary: Option<f64>,
 }
 
 /// A synthetic measured set.
@@ -311,8 +330,13 @@ impl Layout {
 const MAX_DESIGN_DRAWS: usize = 200;
 
 /// Smallest part of the hidden effect's column outside the nuisance terms' span (the
-/// pipeline cannot test a candidate below `sqrt(1 − 0.99²)` = 0.14).
-const MIN_PARTIAL: f64 = 0.3;
+/// pipeline cannot test a candidate below `sqrt(1 − 0.99²)` = 0.14), and of an
+/// out-of-vocabulary effect's outside the vocabulary's.
+pub const MIN_PARTIAL: f64 = 0.3;
+
+/// Largest part of an aliased effect's column outside the vocabulary's span: the
+/// pipeline's own threshold of indistinguishable signatures, `sqrt(1 − 0.99²)`.
+pub const ALIASED: f64 = 0.141;
 
 fn pick_design(rng: &mut Rng, kind: Kind) -> (Design, Option<usize>) {
     let u = rng.uniform();
@@ -356,8 +380,8 @@ fn bound(kind: Kind, instr: &ptsa_host_sim::Instrument) -> f64 {
     let b = |b: Bound| b.limit(instr);
     match kind {
         Kind::Candidate(c) => b(c.info().bound),
-        Kind::OutOfVocabulary(Product::WoaApa) => 1.0,
-        Kind::OutOfVocabulary(_) => b(Bound::SecondOrder),
+        Kind::OutOfVocabulary(Product::WoaApa) | Kind::Aliased(Product::WoaApa) => 1.0,
+        Kind::OutOfVocabulary(_) | Kind::Aliased(_) => b(Bound::SecondOrder),
         _ => f64::INFINITY,
     }
 }
@@ -390,6 +414,30 @@ fn unit_column(source: &Generator, rows: &[Condition], unit: &Physics) -> Vec<f6
         .collect()
 }
 
+/// The part of `unit`'s column outside the span of the nuisance terms and every
+/// candidate's physics (this module's own, [`candidate_physics`], by the quasi-static model
+/// `quasi`), over its part outside the nuisance terms: 0 when the vocabulary spans the
+/// effect in this design (no analyser can tell them apart), 1 when it is orthogonal to it.
+fn outside_vocabulary(
+    quasi: &Generator,
+    rows: &[Condition],
+    layout: &Layout,
+    unit: &Physics,
+) -> f64 {
+    let p = quasi.instrument().pendulosity_g_cm();
+    let col = unit_column(quasi, rows, unit);
+    let mut basis = layout.basis();
+    let within = norm(&residualize(&col, &basis));
+    for &c in CandidateId::ALL {
+        basis.push(unit_column(quasi, rows, &candidate_physics(c, p)));
+    }
+    if within == 0.0 {
+        0.0
+    } else {
+        norm(&residualize(&col, &basis)) / within
+    }
+}
+
 /// Build one set of `kind` from `seed` with `source`.
 ///
 /// # Panics
@@ -409,19 +457,24 @@ pub fn generate(seed: u64, kind: Kind, source: &Generator, opts: &GenOptions) ->
     let sign = rng.sign();
     let unit = match kind {
         Kind::Candidate(c) => Some(candidate_physics(c, p)),
-        Kind::OutOfVocabulary(term) => Some(Physics::Product { term, k: 1.0 }),
+        Kind::OutOfVocabulary(term) | Kind::Aliased(term) => {
+            Some(Physics::Product { term, k: 1.0 })
+        }
         _ => None,
     };
     let quasi = Generator::QuasiStatic(instr.clone());
     let limit = bound(kind, &instr);
     // Draw designs until the effect shows outside the nuisance terms at a plausible size:
     // `(strength + 4)·SE` within the bound, so that the estimate stays within it too (judged
-    // on the quick quasi-static column; the size is then set on `source`'s own). Where no
-    // design allows the drawn strength (sculling's bound of 1e-4 s² is tight for these
-    // designs), the design that allows the most is taken at the largest plausible strength
-    // (at least 2 SE), and the set is marked `capped`.
+    // on the quick quasi-static column; the size is then set on `source`'s own); an
+    // out-of-vocabulary effect must also lie outside the vocabulary's span (or, aliased,
+    // inside it). Where no design allows the drawn strength (sculling's bound of 1e-4 s² is
+    // tight for these designs), the design that allows the most is taken at the largest
+    // plausible strength (at least 2 SE); where none has the required aliasing, the one
+    // closest to it. Either way the set is marked `capped`.
     let mut accepted = None;
     let mut best: Option<(f64, Design, Vec<Condition>, Layout)> = None;
+    let mut closest: Option<(f64, Design, Vec<Condition>, Layout)> = None;
     for _ in 0..MAX_DESIGN_DRAWS {
         let (design, plane) = pick_design(&mut rng, kind);
         let rows = design.rows(&mut rng, plane);
@@ -436,6 +489,22 @@ pub fn generate(seed: u64, kind: Kind, source: &Generator, opts: &GenOptions) ->
             if part == 0.0 || part < MIN_PARTIAL * norm(&col) {
                 continue;
             }
+            // How far the design is from the aliasing the kind needs (0 = as needed).
+            let miss = match kind {
+                Kind::OutOfVocabulary(_) => {
+                    (MIN_PARTIAL - outside_vocabulary(&quasi, &rows, &layout, u)).max(0.0)
+                }
+                Kind::Aliased(_) => {
+                    (outside_vocabulary(&quasi, &rows, &layout, u) - ALIASED).max(0.0)
+                }
+                _ => 0.0,
+            };
+            if miss > 0.0 {
+                if closest.as_ref().is_none_or(|c| miss < c.0) {
+                    closest = Some((miss, design, rows, layout));
+                }
+                continue;
+            }
             let allowed = limit * part / sigma - 4.0;
             if allowed < strength {
                 if best.as_ref().is_none_or(|b| allowed > b.0) {
@@ -448,17 +517,25 @@ pub fn generate(seed: u64, kind: Kind, source: &Generator, opts: &GenOptions) ->
         break;
     }
     let mut capped = false;
-    if accepted.is_none()
-        && let Some((allowed, design, rows, layout)) = best
-    {
-        strength = allowed.max(2.0);
+    if accepted.is_none() {
         capped = true;
-        accepted = Some((design, rows, layout));
+        if let Some((allowed, design, rows, layout)) = best {
+            strength = allowed.max(2.0);
+            accepted = Some((design, rows, layout));
+        } else if let Some((_, design, rows, layout)) = closest {
+            accepted = Some((design, rows, layout));
+        }
     }
     let Some((design, mut rows, layout)) = accepted else {
         panic!("seed {seed}: no design shows {}", kind.name());
     };
     let n = rows.len();
+    let outside_vocabulary = match (kind, &unit) {
+        (Kind::OutOfVocabulary(_) | Kind::Aliased(_), Some(u)) => {
+            Some(outside_vocabulary(&quasi, &rows, &layout, u))
+        }
+        _ => None,
+    };
     // Size of the hidden effect in standard errors, from the generator's own unit column.
     let (physics, coef, strength_se) = match &unit {
         Some(u) => {
@@ -567,6 +644,7 @@ pub fn generate(seed: u64, kind: Kind, source: &Generator, opts: &GenOptions) ->
             blocks: layout.blocks,
             time_written: layout.time_written,
             capped,
+            outside_vocabulary,
         },
     }
 }

@@ -114,7 +114,7 @@ impl Outcome {
             "-"
         };
         format!(
-            "{:<26} seed {seed:<20} {:>5.1} SE{} {:<22} {:>2} rows  sigma {}{}{}{} -> [{}]{}  {}{}{}",
+            "{:<26} seed {seed:<20} {:>5.1} SE{} {:<22} {:>2} rows  sigma {}{}{}{}{} -> [{}]{}  {}{}{}",
             t.kind.name(),
             t.strength_se,
             if t.capped { "*" } else { " " },
@@ -132,6 +132,9 @@ impl Outcome {
                 String::new()
             },
             if t.time_written { ", time_s" } else { "" },
+            t.outside_vocabulary.map_or(String::new(), |x| format!(
+                ", {x:.2} outside the vocabulary"
+            )),
             self.selected.join(", "),
             if self.unexplained {
                 " + unexplained"
