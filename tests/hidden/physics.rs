@@ -397,7 +397,7 @@ fn closed_loop_run(
     match physics {
         None => {}
         Some(&Physics::Anisoinertia { delta_i_g_cm2 }) => {
-            instr.anisoinertia_g_cm2 = delta_i_g_cm2;
+            instr.anisoinertia_g_cm2 += delta_i_g_cm2;
         }
         Some(&Physics::LeverArm { r_cm }) => {
             // The constant rates' centripetal acceleration through the row's gravity.
