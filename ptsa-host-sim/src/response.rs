@@ -42,8 +42,20 @@ pub struct Gate {
 /// where there is one.
 pub fn read(path: &Path) -> Result<Vec<Gate>> {
     let name = path.display().to_string();
-    let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read"))?;
-    parse(&name, &text)
+    let bytes = std::fs::read(path).with_context(|| format!("{name}: cannot read"))?;
+    match std::str::from_utf8(&bytes) {
+        Ok(text) => parse(&name, text),
+        Err(e) => {
+            let line = 1 + bytes[..e.valid_up_to()]
+                .iter()
+                .filter(|&&b| b == b'\n')
+                .count();
+            bail!(
+                "{name}:{line}: not UTF-8 text (a bad byte at byte offset {}); expected a CSV of `time_s,pulses,ticks` in UTF-8 (ASCII digits)",
+                e.valid_up_to()
+            )
+        }
+    }
 }
 
 /// The record's columns, in order.
@@ -124,7 +136,8 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Gate>> {
                 )
             })?;
         let whole = |k: usize, col: &str| {
-            cells[k].parse::<u64>().with_context(|| {
+            // Without the parser's own words ("invalid digit found in string").
+            cells[k].parse::<u64>().ok().with_context(|| {
                 format!(
                     "{name}:{line}: column {} (`{col}`) holds `{}`; expected a whole number, 0 or more",
                     k + 1,

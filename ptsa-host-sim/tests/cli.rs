@@ -967,6 +967,7 @@ fn help_exits_0_and_names_units() {
         ("bench", "ticks"),
         ("report", "s ("),
         ("discover", "cm/s²"),
+        ("response", "dimensionless"),
     ] {
         let h = help(&[sub, "--help"]);
         assert!(h.contains(unit), "ptsa {sub} --help lacks `{unit}`:\n{h}");

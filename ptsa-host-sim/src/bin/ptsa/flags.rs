@@ -292,6 +292,60 @@ pub enum Cmd {
     /// Discovery: what the simulation gets wrong in measured data, the effect that explains
     /// it, and the gain of the extended model.
     Discover(DiscoverArgs),
+    /// Reduce a counter record taken under a sine along IA to one case-frame response row:
+    /// gain and phase with their 1-sigma uncertainties, by a least-squares sine fit.
+    ///
+    /// The record is a CSV `time_s,pulses,ticks`, one line per short gate (the gate's start
+    /// in s, the data pulses P and the clock ticks T counted in it, as a counter or the
+    /// firmware's gate reports give them). Each gate indicates SF·(2P/T − 1) cm/s² with the
+    /// instrument file's SF; a sine at --freq-hz is fitted to these values (corrected for the
+    /// averaging over each gate, whose length is T over the file's clock_hz).
+    ///
+    /// Gain: the output's amplitude over --amplitude-cm-s2, dimensionless (cm/s² indicated
+    /// per cm/s² of input; 1 = the loop follows the input). Phase: the output's phase minus
+    /// the input's, in degrees from −180 to 180; an output that lags the input has a
+    /// negative phase. The input is taken as A·sin(2πF·t + --input-phase-deg) on the
+    /// record's time_s.
+    ///
+    /// Prints the row as case-frame CSV with its header (docs/case-frame.md: label, kind,
+    /// freq_hz, lin_ia_cm_s2, measured_gain, measured_phase_deg, sigma_gain,
+    /// sigma_phase_deg), ready to append to a data file for `ptsa discover`, or with --json
+    /// one JSON object; the fit's summary goes to stderr. Writes a plot of the gates and the
+    /// fitted sine, with the residuals below, into --out as STEM-response.png and .svg
+    /// (STEM: the record's file name without its extension).
+    #[command(allow_negative_numbers = true)]
+    Response(ResponseArgs),
+}
+
+/// Arguments of `ptsa response`.
+#[derive(Args, Debug, Clone)]
+pub struct ResponseArgs {
+    /// Counter record: CSV `time_s,pulses,ticks` with that header, one line per gate (start
+    /// in s, data pulses, clock ticks); gates of equal length, times increasing, at least 4
+    /// gates; `#` lines are comments.
+    #[arg(long, value_name = "FILE")]
+    pub counts: PathBuf,
+    /// Frequency of the input sine, Hz (more than 0, below the Nyquist frequency of the
+    /// record: half its gate rate).
+    #[arg(long, value_name = "HZ", value_parser = positive_hz)]
+    pub freq_hz: f64,
+    /// Amplitude of the input sine along IA, cm/s² (more than 0).
+    #[arg(long, value_name = "CM_S2", value_parser = input_amplitude_cm_s2)]
+    pub amplitude_cm_s2: f64,
+    /// Phase of the input sine at time_s = 0, degrees: the input is
+    /// A·sin(2πF·time_s + phase).
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", value_parser = finite)]
+    pub input_phase_deg: f64,
+    /// The row's label (default: the frequency and the record's file name).
+    #[arg(long, value_name = "TEXT", value_parser = label)]
+    pub label: Option<String>,
+    /// Print exactly one JSON object: the row's columns {"label", "kind", "freq_hz",
+    /// "lin_ia_cm_s2", "measured_gain", "measured_phase_deg", "sigma_gain",
+    /// "sigma_phase_deg"} and the fit's "gates", "gate_s", "mean_cm_s2" and "rms_cm_s2".
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub out: OutArgs,
 }
 
 /// Options of the Appendix A set-ups.
@@ -496,6 +550,28 @@ fn rate_rad_s(s: &str) -> Result<f64, String> {
 
 fn amplitude_cm_s2(s: &str) -> Result<f64, String> {
     within(s, 0.0, 1e5, "an amplitude in cm/s² from 0 to 1e5")
+}
+
+fn input_amplitude_cm_s2(s: &str) -> Result<f64, String> {
+    let x = finite(s)?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected an amplitude in cm/s², more than 0, not {}",
+            num(x)
+        ))
+    }
+}
+
+fn label(s: &str) -> Result<String, String> {
+    if s.chars().any(char::is_control) {
+        Err(format!(
+            "expected a label on one line, without control characters (a case-frame cell cannot hold them), not {s:?}"
+        ))
+    } else {
+        Ok(s.to_string())
+    }
 }
 
 fn arm_cm(s: &str) -> Result<f64, String> {

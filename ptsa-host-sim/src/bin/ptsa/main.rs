@@ -18,8 +18,8 @@ use clap::error::ErrorKind;
 use clap::parser::ValueSource;
 use clap::{CommandFactory as _, FromArgMatches as _};
 use flags::{
-    Cli, Cmd, DiscoverArgs, OutArgs, PlanArgs, PlanKind, PredictArgs, ReportArgs, RunArgs,
-    TwoAxisArgs, num,
+    Cli, Cmd, DiscoverArgs, OutArgs, PlanArgs, PlanKind, PredictArgs, ReportArgs, ResponseArgs,
+    RunArgs, TwoAxisArgs, num,
 };
 use ptsa_host_sim::bench::{BenchPlan, bench};
 use ptsa_host_sim::design::{Design, check_loop};
@@ -197,6 +197,10 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
     {
         return design_cmd(&instr, &name, *print_core_constants, checked.as_ref(), out);
     }
+    // The reduction of a record simulates nothing: it needs the file's SF and clock only.
+    if let Some(Cmd::Response(a)) = &cli.cmd {
+        return response_cmd(&instr, a, out);
+    }
     let config = checked.map_err(|e| anyhow::anyhow!("{name}: {e}"))?.config;
     let opts = |r: &RunArgs| SimOptions {
         config,
@@ -326,7 +330,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 out,
             )
         }
-        Cmd::Design { .. } => unreachable!("handled above"),
+        Cmd::Design { .. } | Cmd::Response(_) => unreachable!("handled above"),
         Cmd::MonteCarlo {
             samples,
             run,
@@ -626,6 +630,186 @@ fn static_cmd(
         )?;
     }
     Ok(())
+}
+
+/// `ptsa response`: read and check the record, fit, write the plot, print the row.
+fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Result<()> {
+    use ptsa_host_sim::response;
+    paths::folder("--out", &a.out.out)?;
+    let name = a.counts.display().to_string();
+    let gates = response::read(&a.counts)?;
+    let n = gates.len();
+    let rate = response::gate_rate_hz(&gates);
+    let span_s = gates[n - 1].time_s - gates[0].time_s;
+    if a.freq_hz >= rate / 2.0 {
+        bail!(
+            "--freq-hz {}: expected a frequency below {} Hz, the Nyquist frequency of {name} ({n} gates in {} s, {} gates/s): gates that far apart cannot show a sine of {} Hz",
+            num(a.freq_hz),
+            num(rate / 2.0),
+            num(span_s),
+            num(rate),
+            num(a.freq_hz)
+        );
+    }
+    #[allow(clippy::cast_precision_loss)]
+    let gate_s = gates[0].ticks as f64 / instr.clock_hz;
+    let spacing = gates
+        .windows(2)
+        .map(|w| w[1].time_s - w[0].time_s)
+        .fold(f64::INFINITY, f64::min);
+    if spacing < gate_s * (1.0 - 1e-6) {
+        eprintln!(
+            "warning: {name}: gates start {} s apart but each is {} s long ({} ticks at the instrument file's clock_hz {} Hz): they overlap; if the counter's clock is not {} Hz, the gain's correction for the gate averaging is wrong",
+            num(spacing),
+            num(gate_s),
+            gates[0].ticks,
+            num(instr.clock_hz),
+            num(instr.clock_hz)
+        );
+    }
+    if span_s * a.freq_hz < 1.0 {
+        eprintln!(
+            "warning: {name} spans {} s, less than one period of {} Hz: the fit extrapolates the sine and its uncertainties are large",
+            num(span_s),
+            num(a.freq_hz)
+        );
+    }
+    work::warn_beyond_full_scale(instr, a.amplitude_cm_s2, "--amplitude-cm-s2");
+    let fit = response::fit(
+        &gates,
+        a.freq_hz,
+        a.amplitude_cm_s2,
+        a.input_phase_deg,
+        instr.sf_cm_s2,
+        instr.clock_hz,
+    )
+    .with_context(|| format!("{name} at --freq-hz {}", num(a.freq_hz)))?;
+    if !(fit.gain > 0.0 && fit.gain.is_finite()) {
+        bail!(
+            "{name}: no component at --freq-hz {} in the record (gain {}); expected the response to a sine at that frequency",
+            num(a.freq_hz),
+            fit.gain
+        );
+    }
+    let file = a
+        .counts
+        .file_name()
+        .map_or_else(|| name.clone(), |f| f.to_string_lossy().into_owned());
+    let label = a
+        .label
+        .clone()
+        .unwrap_or_else(|| format!("{} Hz ({file})", a.freq_hz));
+    let stem = format!(
+        "{}-response",
+        a.counts
+            .file_stem()
+            .map_or_else(|| "record".into(), |s| s.to_string_lossy())
+    );
+    let fig = response_figure(&stem, &label, &gates, &fit, instr.sf_cm_s2);
+    let files = ptsa_host_sim::output::write_figure(&a.out.out, &fig)?;
+    eprintln!(
+        "response: {name}: {n} gates of {} s ({} gates/s), {} Hz at {} cm/s^2: gain {:.5} ± {:.5}, phase {:.3} ± {:.3} deg (output lagging: negative), mean {:.3} cm/s^2, residual RMS {:.3} cm/s^2",
+        num(gate_s),
+        num(rate),
+        num(a.freq_hz),
+        num(a.amplitude_cm_s2),
+        fit.gain,
+        fit.sigma_gain,
+        fit.phase_deg,
+        fit.sigma_phase_deg,
+        fit.mean_cm_s2,
+        fit.rms_cm_s2
+    );
+    eprintln!(
+        "wrote {} into {}",
+        plural(files.len() as u64, "file"),
+        a.out.out.display()
+    );
+    let row = fit.row(&label);
+    if a.json {
+        let v = serde_json::json!({
+            "label": row.label,
+            "kind": row.kind.name(),
+            "freq_hz": row.freq_hz,
+            "lin_ia_cm_s2": row.lin_cm_s2[0],
+            "measured_gain": row.measured_gain,
+            "measured_phase_deg": row.measured_phase_deg,
+            "sigma_gain": row.sigma_gain,
+            "sigma_phase_deg": row.sigma_phase_deg,
+            "gates": fit.gates,
+            "gate_s": fit.gate_s,
+            "mean_cm_s2": fit.mean_cm_s2,
+            "rms_cm_s2": fit.rms_cm_s2,
+        });
+        writeln!(out, "{v}")?;
+    } else {
+        write!(out, "{}", response::rows_csv(&[row]))?;
+    }
+    Ok(())
+}
+
+/// The plot of `ptsa response`: the gates' indicated accelerations with the fitted sine
+/// (its gate means) over them, and the residuals below.
+fn response_figure(
+    stem: &str,
+    label: &str,
+    gates: &[ptsa_host_sim::response::Gate],
+    fit: &ptsa_host_sim::response::ResponseFit,
+    sf_cm_s2: f64,
+) -> ptsa_host_sim::output::Figure {
+    use ptsa_host_sim::output::{Figure, Plot, Series};
+    let half = fit.gate_s / 2.0;
+    let mids: Vec<(f64, f64)> = gates
+        .iter()
+        .map(|g| (g.time_s + half, g.indicated_cm_s2(sf_cm_s2)))
+        .collect();
+    let resid: Vec<(f64, f64)> = gates
+        .iter()
+        .zip(&mids)
+        .map(|(g, &(t, y))| (t, y - fit.gate_mean_cm_s2(g.time_s)))
+        .collect();
+    // The fitted gate mean as a curve: 48 points a period, at most 100 000 in all (the
+    // plot thins a long line to its envelope).
+    let (t0, t1) = (mids[0].0, mids[mids.len() - 1].0);
+    let per_period = 48.0 * fit.freq_hz * (t1 - t0);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let k = per_period.clamp(200.0, 100_000.0) as usize;
+    #[allow(clippy::cast_precision_loss)]
+    let curve: Vec<(f64, f64)> = (0..=k)
+        .map(|i| {
+            let t = t0 + (t1 - t0) * i as f64 / k as f64;
+            (t, fit.gate_mean_cm_s2(t - half))
+        })
+        .collect();
+    Figure {
+        stem: stem.to_string(),
+        panels: vec![
+            Plot {
+                title: format!(
+                    "{label}: gain {:.4} ± {:.4}, phase {:.2} ± {:.2}°",
+                    fit.gain, fit.sigma_gain, fit.phase_deg, fit.sigma_phase_deg
+                ),
+                x_label: "time (gate midpoint), s".into(),
+                y_label: "indicated acceleration, cm/s²".into(),
+                series: vec![
+                    Series::crosses("gates: SF·(2P/T − 1)", mids),
+                    Series::line("fitted sine, averaged over each gate", curve),
+                ],
+                ..Plot::default()
+            },
+            Plot {
+                title: format!(
+                    "residuals: gate minus fitted gate mean, RMS {:.3} cm/s²",
+                    fit.rms_cm_s2
+                ),
+                x_label: "time (gate midpoint), s".into(),
+                y_label: "residual, cm/s²".into(),
+                series: vec![Series::crosses("residual", resid)],
+                zero_line: true,
+                ..Plot::default()
+            },
+        ],
+    }
 }
 
 fn design_cmd(
