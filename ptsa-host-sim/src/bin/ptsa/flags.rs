@@ -202,12 +202,16 @@ pub enum Cmd {
     /// The plain closed loop with a constant acceleration along IA (Table 2.1 instrument
     /// with its pickoff noise; the measured bias A_b only with --with-bias): after the
     /// settling time, one gate; prints P, T and SF·(2P/T − 1) with the configured SF.
+    /// Several accelerations run as one batch (the batch engine: each result bit for bit
+    /// that of its own run), one table row or JSON object each.
     #[command(allow_negative_numbers = true)]
     Static {
         /// Acceleration along IA, cm/s² (beyond full scale the loop saturates: the output
-        /// says so).
-        #[arg(long, value_name = "CM_S2", value_parser = finite)]
-        accel_cm_s2: f64,
+        /// says so). Several, comma separated (`-1000,0,1000`), run as one batch, each with
+        /// the same gate, settling and seed.
+        #[arg(long, value_name = "CM_S2", value_delimiter = ',', required = true,
+              value_parser = accel_item)]
+        accel_cm_s2: Vec<f64>,
         /// Gate length, s (at least one limit cycle, 64 ticks = 0.001 s at 64 kHz, and at
         /// most what the core's 32-bit counters hold, 67 108 s at 64 kHz).
         #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = positive_s)]
@@ -224,11 +228,12 @@ pub enum Cmd {
         #[arg(long)]
         with_bias: bool,
         /// Print exactly one JSON object {"ticks", "pulses", "indicated_cm_s2",
-        /// "saturated"}.
+        /// "saturated"}; with several accelerations, one JSON array of such objects, in the
+        /// order given.
         #[arg(long)]
         json: bool,
         /// Write the ADC samples of this very run, settling included (one i16 per line,
-        /// golden-vector style) to FILE.
+        /// golden-vector style) to FILE (one acceleration only).
         #[arg(long, value_name = "FILE")]
         trace: Option<PathBuf>,
         /// Run even when the work is estimated to take more than ten minutes.
@@ -550,6 +555,17 @@ fn rate_rad_s(s: &str) -> Result<f64, String> {
 
 fn amplitude_cm_s2(s: &str) -> Result<f64, String> {
     within(s, 0.0, 1e5, "an amplitude in cm/s² from 0 to 1e5")
+}
+
+/// One acceleration of a comma-separated list, cm/s².
+fn accel_item(s: &str) -> Result<f64, String> {
+    if s.trim().is_empty() {
+        return Err(
+            "an empty value in the list (a stray comma?); expected accelerations in cm/s² separated by commas, such as `-1000,0,1000`"
+                .into(),
+        );
+    }
+    finite(s)
 }
 
 fn input_amplitude_cm_s2(s: &str) -> Result<f64, String> {

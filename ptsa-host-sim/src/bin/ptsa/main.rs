@@ -91,7 +91,8 @@ fn parse_cli() -> Cli {
 /// takes one value is joined to it (`--k-ip-s2-cm=-1e-5`); elsewhere (the second value of
 /// `--lever-cm`) a finite one is written as the plain decimal of the same number. The
 /// command has no positional arguments, so every number is an option's value; a long
-/// option that takes no value then says so.
+/// option that takes no value then says so. A comma-separated list of numbers starting with a
+/// negative one is joined to its option in the same way.
 fn join_negative_numbers(
     cmd: &clap::Command,
     args: impl Iterator<Item = OsString>,
@@ -112,12 +113,19 @@ fn join_negative_numbers(
             out.push(a);
             continue;
         };
+        // A list of numbers, the first negative (`--accel-cm-s2 -1e3,0,1e3`; an empty item is
+        // kept for the option's own refusal): joined to its option like one number.
+        let list = s.starts_with('-')
+            && s.contains(',')
+            && s.split(',')
+                .all(|p| p.trim().is_empty() || p.trim().parse::<f64>().is_ok());
         let plain = s.len() > 1
             && s.starts_with('-')
             && s[1..].bytes().all(|b| b.is_ascii_digit() || b == b'.')
             && s.as_bytes()[1] != b'.';
         let x = match s.parse::<f64>() {
             Ok(x) if s.starts_with('-') && !plain => x,
+            _ if list => f64::NAN,
             _ => {
                 out.push(a);
                 continue;
@@ -132,7 +140,7 @@ fn join_negative_numbers(
         {
             let joined = format!("{p}={s}");
             *prev = joined.into();
-        } else if x.is_finite() {
+        } else if x.is_finite() && !list {
             out.push(format!("{x}").into());
         } else {
             out.push(a);
@@ -315,13 +323,31 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 config,
                 ..SimOptions::default()
             };
+            if let [_, _, ..] = accel_cm_s2[..] {
+                if trace.is_some() {
+                    bail!(
+                        "--trace writes the ADC samples of one run; expected one --accel-cm-s2 value with it, not {}",
+                        accel_cm_s2.len()
+                    );
+                }
+                return static_batch_cmd(
+                    &instr,
+                    &opts,
+                    &accel_cm_s2,
+                    seconds,
+                    json,
+                    with_bias,
+                    force,
+                    out,
+                );
+            }
             if let Some(t) = &trace {
                 paths::file("--trace", t)?;
             }
             static_cmd(
                 &instr,
                 &opts,
-                accel_cm_s2,
+                accel_cm_s2[0],
                 seconds,
                 json,
                 trace.as_deref(),
@@ -810,6 +836,75 @@ fn response_figure(
             },
         ],
     }
+}
+
+/// `ptsa static` with several accelerations: one batch through the batch engine, whose
+/// lanes are bit for bit the single loop's runs (`batch::run_static`).
+#[allow(clippy::too_many_arguments)]
+fn static_batch_cmd(
+    instr: &Instrument,
+    opts: &SimOptions,
+    accels_cm_s2: &[f64],
+    seconds: f64,
+    json: bool,
+    with_bias: bool,
+    force: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let mut instr = instr.clone();
+    if !with_bias {
+        instr.bias_cm_s2 = 0.0;
+    }
+    gate_fits("--seconds", seconds, &instr, opts)?;
+    let ticks_f = (seconds * instr.clock_hz).round();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let ticks = ticks_f as u64;
+    let n = accels_cm_s2.len();
+    #[allow(clippy::cast_precision_loss)]
+    Work::new(&instr, opts)
+        .gate(ticks)
+        .times(n as f64)
+        .check(force, &format!("this batch of {n} gates"))?;
+    let s = work::spinner(&format!("static, {n} accelerations in one batch"));
+    let runs = ptsa_host_sim::batch::run_static(&instr, accels_cm_s2, ticks, opts);
+    s.finish_and_clear();
+    for (a, r) in accels_cm_s2.iter().zip(&runs) {
+        if r.saturated {
+            eprintln!(
+                "warning: the loop saturated during the gate at {a} cm/s^2 (+ bias {} cm/s^2, against a full scale of ±{} cm/s^2): its indicated value is not the input",
+                instr.bias_cm_s2, instr.sf_cm_s2
+            );
+        }
+    }
+    if json {
+        writeln!(out, "{}", serde_json::to_string(&runs)?)?;
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "static: {n} accelerations along IA in one batch (bias {} cm/s^2, loop's own {:.5}), each a gate of T = {} after {} s of settling; indicated SF(2P/T - 1):",
+        instr.bias_cm_s2,
+        instr.loop_bias_cm_s2(0.0),
+        plural(ticks, "tick"),
+        opts.warmup_s
+    )?;
+    writeln!(
+        out,
+        "{:>16} {:>12} {:>12} {:>18}",
+        "input cm/s^2", "T", "P", "indicated cm/s^2"
+    )?;
+    for (a, r) in accels_cm_s2.iter().zip(&runs) {
+        writeln!(
+            out,
+            "{:>16} {:>12} {:>12} {:>18.4}{}",
+            a,
+            r.ticks,
+            r.pulses,
+            r.indicated_cm_s2,
+            if r.saturated { " (SATURATED)" } else { "" }
+        )?;
+    }
+    Ok(())
 }
 
 fn design_cmd(
