@@ -428,6 +428,107 @@ fn bench_refuses_no_work() {
     );
 }
 
+/// `bench --batch N`: both rates and their ratio, from a tiny run (a smoke test of the
+/// command, not a timing); its options refused out of range.
+#[test]
+fn bench_batch_prints_both_rates() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (out, err) = succeeds_in(
+        tmp.path(),
+        &["bench", "--batch", "3", "--ticks", "1000", "--runs", "3"],
+    );
+    assert!(err.is_empty(), "{err}");
+    assert!(
+        out.starts_with("bench --batch 3: 3 static conditions from -19009.0 to 19009.0 cm/s^2 (±0.9 of full scale)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("1000 ticks each after 6400 settling ticks, 3 runs"),
+        "{out}"
+    );
+    let rate = |what: &str| -> f64 {
+        let l = out
+            .lines()
+            .find(|l| l.contains(what))
+            .unwrap_or_else(|| panic!("no `{what}` in {out}"));
+        let x = l
+            .strip_suffix(" Mticks/s")
+            .and_then(|l| l.rsplit(' ').next())
+            .unwrap_or_else(|| panic!("{l}"));
+        x.parse().unwrap()
+    };
+    let single = rate("single loop");
+    let batch = rate("batch engine, 1 lane per core");
+    assert!(single > 0.0 && batch > 0.0, "{out}");
+    let ratio: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("bench: batch / single = "))
+        .and_then(|l| l.split(' ').next())
+        .unwrap_or_else(|| panic!("{out}"))
+        .parse()
+        .unwrap();
+    // The printed rates are rounded to 0.01 Mticks/s.
+    assert!(
+        (ratio - batch / single).abs() < 0.02 * ratio + 0.01 / single,
+        "{ratio} vs {batch}/{single}"
+    );
+    let (out, _) = succeeds_in(
+        tmp.path(),
+        &[
+            "bench",
+            "--batch",
+            "1",
+            "--lanes",
+            "4",
+            "--ticks",
+            "100",
+            "--runs",
+            "1",
+            "--no-noise",
+        ],
+    );
+    assert!(
+        out.contains("1 static condition at 0 cm/s^2, without noise"),
+        "{out}"
+    );
+    assert!(out.contains("batch engine, 4 lanes per core"), "{out}");
+    for (n, needle) in [("0", "not `0`"), ("65", "not `65`"), ("2.5", "not `2.5`")] {
+        refused(
+            &["bench", "--batch", n],
+            2,
+            &[
+                "'--batch <N>'",
+                "expected a number of static conditions: a whole number from 1 to 64",
+                needle,
+            ],
+        );
+    }
+    refused(
+        &["bench", "--batch", "4", "--lanes", "3"],
+        2,
+        &[
+            "expected lanes per core: a power of two from 1 to 16",
+            "not `3`",
+        ],
+    );
+    refused(&["bench", "--lanes", "2"], 2, &["--batch <N>"]);
+    refused(
+        &["bench", "--batch", "2", "--compare-c"],
+        2,
+        &["'--batch <N>' cannot be used with '--compare-c'"],
+    );
+    // The estimate counts both passes over every condition: 64 × 2 × 10 runs of 64e6 ticks
+    // (beyond ten minutes at the estimate's rate even on 4 cores).
+    refused(
+        &[
+            "bench", "--batch", "64", "--ticks", "64000000", "--runs", "10",
+        ],
+        1,
+        &["the benchmark would run about 8.19e10 clock ticks"],
+    );
+    assert!(names(tmp.path()).is_empty());
+}
+
 /// Case 4: the run options, on the report and on a subcommand.
 #[test]
 fn run_options_refuse_nan_everywhere() {

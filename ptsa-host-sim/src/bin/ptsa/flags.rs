@@ -261,11 +261,13 @@ pub enum Cmd {
         out: OutArgs,
     },
     /// Speed of the closed loop: ticks per second of `static` on one core, median of runs.
+    /// With --batch N: the single loop against the batch engine on N static conditions.
     Bench {
-        /// Ticks per run (1 to 4 294 967 295, what the core's 32-bit counters hold).
-        #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::TICKS, value_name = "N",
-              value_parser = ticks)]
-        ticks: u64,
+        /// Ticks per run (1 to 4 294 967 295, what the core's 32-bit counters hold; default
+        /// 64 000 000). With --batch N: ticks per condition (default 64 000 000 / N, a run
+        /// as long as without --batch).
+        #[arg(long, value_name = "N", value_parser = ticks)]
+        ticks: Option<u64>,
         /// Runs (1 to 1000).
         #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::RUNS, value_name = "N",
               value_parser = runs)]
@@ -278,6 +280,19 @@ pub enum Cmd {
         /// the same pulses and plant state bit for bit, and time it in alternation.
         #[arg(long)]
         compare_c: bool,
+        /// Instead: N static conditions (1 to 64, spread over ±0.9 of full scale) run one
+        /// after the other with the single loop and as one batch of the batch engine on one
+        /// thread; prints both rates in Mticks/s (all conditions' ticks, settling included,
+        /// per second of one core) and their ratio, medians of --runs, after checking that
+        /// both give the same pulses.
+        #[arg(long, value_name = "N", value_parser = batch_conditions,
+              conflicts_with = "compare_c")]
+        batch: Option<usize>,
+        /// With --batch: loops interleaved tick by tick per core in the batch (1, 2, 4, 8 or
+        /// 16; 1, the engine's default, runs them one after the other, block by block).
+        #[arg(long, default_value_t = ptsa_host_sim::batch::LANES, value_name = "K",
+              value_parser = lanes, requires = "batch")]
+        lanes: usize,
         /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
         #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
               value_parser = seed)]
@@ -778,6 +793,21 @@ fn cycles(s: &str) -> Result<u64, String> {
 fn count(s: &str) -> Result<usize, String> {
     let n = whole_in(s, 1, 100_000, "a number of corners")?;
     usize::try_from(n).map_err(|e| e.to_string())
+}
+
+fn batch_conditions(s: &str) -> Result<usize, String> {
+    let n = whole_in(s, 1, 64, "a number of static conditions")?;
+    usize::try_from(n).map_err(|e| e.to_string())
+}
+
+fn lanes(s: &str) -> Result<usize, String> {
+    let max = ptsa_host_sim::batch::MAX_LANES;
+    match s.trim().parse::<usize>() {
+        Ok(k) if k.is_power_of_two() && k <= max => Ok(k),
+        _ => Err(format!(
+            "expected lanes per core: a power of two from 1 to {max} (1, 2, 4, 8, 16), not `{s}`"
+        )),
+    }
 }
 
 fn runs(s: &str) -> Result<usize, String> {

@@ -21,7 +21,7 @@ use flags::{
     Cli, Cmd, DiscoverArgs, OutArgs, PlanArgs, PlanKind, PredictArgs, ReportArgs, ResponseArgs,
     RunArgs, TwoAxisArgs, num,
 };
-use ptsa_host_sim::bench::{BenchPlan, bench};
+use ptsa_host_sim::bench::{BenchPlan, bench, bench_batch};
 use ptsa_host_sim::design::{Design, check_loop};
 use ptsa_host_sim::discovery::{self, Options, Request, Simulator};
 use ptsa_host_sim::effects::{CandidateId, Effects};
@@ -391,6 +391,8 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             runs,
             no_noise,
             compare_c,
+            batch,
+            lanes,
             force,
             seed,
         } => {
@@ -399,9 +401,17 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 config,
                 ..SimOptions::default()
             };
-            // Each run settles and then runs its ticks, twice with the C loop; counted in
+            let default_ticks = BenchPlan::TICKS / batch.unwrap_or(1) as u64;
+            let ticks = ticks.unwrap_or(default_ticks);
+            // Each run settles and then runs its ticks, twice with the C loop, and with
+            // --batch N twice (single and batch) for each of N conditions; counted in
             // floating point so that no product of the options can overflow.
-            let per = if compare_c { 2.0 } else { 1.0 };
+            #[allow(clippy::cast_precision_loss)]
+            let per = match batch {
+                Some(n) => 2.0 * n as f64,
+                None if compare_c => 2.0,
+                None => 1.0,
+            };
             #[allow(clippy::cast_precision_loss)]
             let run_s = (ticks as f64 / instr.clock_hz + opts.warmup_s) * per;
             #[allow(clippy::cast_precision_loss)]
@@ -415,7 +425,10 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 no_noise,
                 compare_c,
             };
-            bench(&instr, &opts, &plan, out)
+            match batch {
+                Some(n) => bench_batch(&instr, &opts, &plan, n, lanes, out),
+                None => bench(&instr, &opts, &plan, out),
+            }
         }
         Cmd::Discover(a) => discover_cmd(&instr, config, &a, out),
         Cmd::Predict(a) => predict_cmd(&instr, config, &a, out),
