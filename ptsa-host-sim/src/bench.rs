@@ -103,6 +103,66 @@ pub fn bench(
     Ok(())
 }
 
+/// `ptsa bench --batch N`: [`batch_rates`](crate::batch::batch_rates) on `conditions`
+/// static conditions ([`spread_accels`](crate::batch::spread_accels)) of `plan.ticks` gate
+/// ticks each after the settling, `plan.runs` times, with `lanes` lanes per core; prints the
+/// single loop's and the batch engine's median rates in Mticks/s and their ratio to `out`.
+/// `plan.compare_c` is not used.
+///
+/// # Errors
+/// The one-thread pool cannot be built, the batch disagrees with the single loops (never,
+/// the engine's guarantee, checked every run), or `out` fails.
+///
+/// # Panics
+/// If `lanes` is not a power of two from 1 to [`MAX_LANES`](crate::batch::MAX_LANES).
+pub fn bench_batch(
+    instr: &Instrument,
+    opts: &SimOptions,
+    plan: &BenchPlan,
+    conditions: usize,
+    lanes: usize,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let opts = SimOptions {
+        noise: opts.noise && !plan.no_noise,
+        ..*opts
+    };
+    let r = crate::batch::batch_rates(instr, &opts, conditions, lanes, plan.ticks, plan.runs)?;
+    let settle = opts.warmup_ticks(instr.clock_hz);
+    let accels = crate::batch::spread_accels(instr, conditions);
+    let spread = match (accels.first(), accels.last()) {
+        (Some(lo), Some(hi)) if conditions > 1 => {
+            format!("from {lo:.1} to {hi:.1} cm/s^2 (±0.9 of full scale)")
+        }
+        _ => "at 0 cm/s^2".to_string(),
+    };
+    writeln!(
+        out,
+        "bench --batch {conditions}: {} {spread}{}, {} ticks each after {settle} settling ticks, {}, medians (all conditions' ticks per second of one core):",
+        crate::output::count(conditions as u64, "static condition"),
+        if opts.noise { "" } else { ", without noise" },
+        plan.ticks,
+        crate::output::count(plan.runs.max(1) as u64, "run"),
+    )?;
+    writeln!(
+        out,
+        "bench: single loop, one condition after the other (sim::run_static): {:.2} Mticks/s",
+        r.single_ticks_per_s / 1e6
+    )?;
+    writeln!(
+        out,
+        "bench: batch engine, {} per core, on one thread (Engine::run_static): {:.2} Mticks/s",
+        crate::output::count(lanes as u64, "lane"),
+        r.batch_ticks_per_s_per_core / 1e6
+    )?;
+    writeln!(
+        out,
+        "bench: batch / single = {:.3} (same pulses in every run)",
+        r.ratio()
+    )?;
+    Ok(())
+}
+
 /// The plain C loop, compiled into a temporary folder, with its parameters.
 struct CStaticLoop {
     /// The folder of the source and the executable, removed when the loop is dropped.

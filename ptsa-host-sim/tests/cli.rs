@@ -209,6 +209,105 @@ fn static_refuses_nonsense_and_flags_saturation() {
     );
 }
 
+/// `static` with several accelerations: one batch, one JSON array of the usual objects,
+/// each bit for bit the object of its own single run (the batch engine's guarantee, here
+/// through the command line), with or without the bias and with another seed; one table
+/// row per value in text.
+#[test]
+fn static_batch_is_the_single_runs_bit_for_bit() {
+    for extra in [
+        &[][..],
+        &["--with-bias", "--seed", "3", "--warmup-s", "0.05"][..],
+    ] {
+        let accels = ["-1000", "0.25", "2500.5"];
+        let mut a = vec!["--accel-cm-s2", "-1000,0.25,2500.5", "--seconds", "0.05"];
+        a.extend_from_slice(extra);
+        let (batch, err) = static_json(&a);
+        assert!(err.is_empty(), "{err}");
+        let batch = batch.as_array().expect("an array").clone();
+        assert_eq!(batch.len(), 3);
+        for (x, b) in accels.iter().zip(&batch) {
+            let mut a = vec!["--accel-cm-s2", x, "--seconds", "0.05"];
+            a.extend_from_slice(extra);
+            let (single, _) = static_json(&a);
+            assert!(single.is_object(), "{single}");
+            // JSON numbers are written in their shortest round-trip form: equal values are
+            // equal bits.
+            assert_eq!(b, &single, "{x} cm/s^2 with {extra:?}");
+        }
+        // The inputs differ, so the results do (the test would not see lanes mixed up
+        // otherwise).
+        assert_ne!(batch[0], batch[1]);
+    }
+    // Duplicates are fine, negative first values can be typed, saturation is flagged.
+    let (v, err) = static_json(&["--accel-cm-s2", "-2e3,-2e3,3e4", "--seconds", "0.05"]);
+    let v = v.as_array().unwrap();
+    assert_eq!(v[0], v[1]);
+    assert_eq!(v[2]["saturated"], true);
+    assert!(
+        err.contains("warning: the loop saturated during the gate at 30000 cm/s^2")
+            && err.contains("full scale of ±21121.1 cm/s^2"),
+        "{err}"
+    );
+    // Text: a header line, a column header, one row per value.
+    let tmp = tempfile::tempdir().unwrap();
+    let (out, _) = succeeds_in(
+        tmp.path(),
+        &[
+            "static",
+            "--accel-cm-s2",
+            "-1000,0,1000",
+            "--seconds",
+            "0.05",
+        ],
+    );
+    let lines: Vec<&str> = out.lines().collect();
+    assert_eq!(lines.len(), 5, "{out}");
+    assert!(
+        lines[0].starts_with("static: 3 accelerations along IA in one batch"),
+        "{out}"
+    );
+    for (l, x) in lines[2..].iter().zip(["-1000", "0", "1000"]) {
+        let cells: Vec<&str> = l.split_whitespace().collect();
+        assert_eq!(cells.len(), 4, "{l}");
+        assert_eq!(cells[0], x, "{l}");
+        assert_eq!(cells[1], "3200", "{l}");
+    }
+    // Refused: an empty item, NaN, and --trace with several values.
+    for list in ["1,,2", "1,2,", ",1", "-1,,2"] {
+        refused(
+            &["static", "--accel-cm-s2", list],
+            2,
+            &[
+                "'--accel-cm-s2 <CM_S2>'",
+                "an empty value in the list (a stray comma?)",
+            ],
+        );
+    }
+    refused(
+        &["static", "--accel-cm-s2", "1,NaN"],
+        2,
+        &[
+            "'--accel-cm-s2 <CM_S2>'",
+            "expected a finite number, not NaN",
+        ],
+    );
+    refused(
+        &["static", "--accel-cm-s2", "1,2", "--trace", "t.txt"],
+        1,
+        &[
+            "--trace writes the ADC samples of one run; expected one --accel-cm-s2 value with it, not 2",
+        ],
+    );
+    // The work estimate counts every gate (one of these alone is allowed on 4 cores).
+    let twenty = vec!["0"; 20].join(",");
+    refused(
+        &["static", "--accel-cm-s2", &twenty, "--seconds", "67000"],
+        1,
+        &["this batch of 20 gates would run about 8.58e10 clock ticks"],
+    );
+}
+
 /// Case 1: `static --trace` writes one ADC code per tick, settling included.
 #[test]
 fn static_trace_has_one_sample_per_tick_settling_included() {
@@ -327,6 +426,107 @@ fn bench_refuses_no_work() {
         2,
         &["from 1 to 4294967295"],
     );
+}
+
+/// `bench --batch N`: both rates and their ratio, from a tiny run (a smoke test of the
+/// command, not a timing); its options refused out of range.
+#[test]
+fn bench_batch_prints_both_rates() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (out, err) = succeeds_in(
+        tmp.path(),
+        &["bench", "--batch", "3", "--ticks", "1000", "--runs", "3"],
+    );
+    assert!(err.is_empty(), "{err}");
+    assert!(
+        out.starts_with("bench --batch 3: 3 static conditions from -19009.0 to 19009.0 cm/s^2 (±0.9 of full scale)"),
+        "{out}"
+    );
+    assert!(
+        out.contains("1000 ticks each after 6400 settling ticks, 3 runs"),
+        "{out}"
+    );
+    let rate = |what: &str| -> f64 {
+        let l = out
+            .lines()
+            .find(|l| l.contains(what))
+            .unwrap_or_else(|| panic!("no `{what}` in {out}"));
+        let x = l
+            .strip_suffix(" Mticks/s")
+            .and_then(|l| l.rsplit(' ').next())
+            .unwrap_or_else(|| panic!("{l}"));
+        x.parse().unwrap()
+    };
+    let single = rate("single loop");
+    let batch = rate("batch engine, 1 lane per core");
+    assert!(single > 0.0 && batch > 0.0, "{out}");
+    let ratio: f64 = out
+        .lines()
+        .find_map(|l| l.strip_prefix("bench: batch / single = "))
+        .and_then(|l| l.split(' ').next())
+        .unwrap_or_else(|| panic!("{out}"))
+        .parse()
+        .unwrap();
+    // The printed rates are rounded to 0.01 Mticks/s.
+    assert!(
+        (ratio - batch / single).abs() < 0.02 * ratio + 0.01 / single,
+        "{ratio} vs {batch}/{single}"
+    );
+    let (out, _) = succeeds_in(
+        tmp.path(),
+        &[
+            "bench",
+            "--batch",
+            "1",
+            "--lanes",
+            "4",
+            "--ticks",
+            "100",
+            "--runs",
+            "1",
+            "--no-noise",
+        ],
+    );
+    assert!(
+        out.contains("1 static condition at 0 cm/s^2, without noise"),
+        "{out}"
+    );
+    assert!(out.contains("batch engine, 4 lanes per core"), "{out}");
+    for (n, needle) in [("0", "not `0`"), ("65", "not `65`"), ("2.5", "not `2.5`")] {
+        refused(
+            &["bench", "--batch", n],
+            2,
+            &[
+                "'--batch <N>'",
+                "expected a number of static conditions: a whole number from 1 to 64",
+                needle,
+            ],
+        );
+    }
+    refused(
+        &["bench", "--batch", "4", "--lanes", "3"],
+        2,
+        &[
+            "expected lanes per core: a power of two from 1 to 16",
+            "not `3`",
+        ],
+    );
+    refused(&["bench", "--lanes", "2"], 2, &["--batch <N>"]);
+    refused(
+        &["bench", "--batch", "2", "--compare-c"],
+        2,
+        &["'--batch <N>' cannot be used with '--compare-c'"],
+    );
+    // The estimate counts both passes over every condition: 64 × 2 × 10 runs of 64e6 ticks
+    // (beyond ten minutes at the estimate's rate even on 4 cores).
+    refused(
+        &[
+            "bench", "--batch", "64", "--ticks", "64000000", "--runs", "10",
+        ],
+        1,
+        &["the benchmark would run about 8.19e10 clock ticks"],
+    );
+    assert!(names(tmp.path()).is_empty());
 }
 
 /// Case 4: the run options, on the report and on a subcommand.
@@ -967,6 +1167,7 @@ fn help_exits_0_and_names_units() {
         ("bench", "ticks"),
         ("report", "s ("),
         ("discover", "cm/s²"),
+        ("response", "dimensionless"),
     ] {
         let h = help(&[sub, "--help"]);
         assert!(h.contains(unit), "ptsa {sub} --help lacks `{unit}`:\n{h}");

@@ -202,12 +202,16 @@ pub enum Cmd {
     /// The plain closed loop with a constant acceleration along IA (Table 2.1 instrument
     /// with its pickoff noise; the measured bias A_b only with --with-bias): after the
     /// settling time, one gate; prints P, T and SF·(2P/T − 1) with the configured SF.
+    /// Several accelerations run as one batch (the batch engine: each result bit for bit
+    /// that of its own run), one table row or JSON object each.
     #[command(allow_negative_numbers = true)]
     Static {
         /// Acceleration along IA, cm/s² (beyond full scale the loop saturates: the output
-        /// says so).
-        #[arg(long, value_name = "CM_S2", value_parser = finite)]
-        accel_cm_s2: f64,
+        /// says so). Several, comma separated (`-1000,0,1000`), run as one batch, each with
+        /// the same gate, settling and seed.
+        #[arg(long, value_name = "CM_S2", value_delimiter = ',', required = true,
+              value_parser = accel_item)]
+        accel_cm_s2: Vec<f64>,
         /// Gate length, s (at least one limit cycle, 64 ticks = 0.001 s at 64 kHz, and at
         /// most what the core's 32-bit counters hold, 67 108 s at 64 kHz).
         #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = positive_s)]
@@ -224,11 +228,12 @@ pub enum Cmd {
         #[arg(long)]
         with_bias: bool,
         /// Print exactly one JSON object {"ticks", "pulses", "indicated_cm_s2",
-        /// "saturated"}.
+        /// "saturated"}; with several accelerations, one JSON array of such objects, in the
+        /// order given.
         #[arg(long)]
         json: bool,
         /// Write the ADC samples of this very run, settling included (one i16 per line,
-        /// golden-vector style) to FILE.
+        /// golden-vector style) to FILE (one acceleration only).
         #[arg(long, value_name = "FILE")]
         trace: Option<PathBuf>,
         /// Run even when the work is estimated to take more than ten minutes.
@@ -256,11 +261,13 @@ pub enum Cmd {
         out: OutArgs,
     },
     /// Speed of the closed loop: ticks per second of `static` on one core, median of runs.
+    /// With --batch N: the single loop against the batch engine on N static conditions.
     Bench {
-        /// Ticks per run (1 to 4 294 967 295, what the core's 32-bit counters hold).
-        #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::TICKS, value_name = "N",
-              value_parser = ticks)]
-        ticks: u64,
+        /// Ticks per run (1 to 4 294 967 295, what the core's 32-bit counters hold; default
+        /// 64 000 000). With --batch N: ticks per condition (default 64 000 000 / N, a run
+        /// as long as without --batch).
+        #[arg(long, value_name = "N", value_parser = ticks)]
+        ticks: Option<u64>,
         /// Runs (1 to 1000).
         #[arg(long, default_value_t = ptsa_host_sim::bench::BenchPlan::RUNS, value_name = "N",
               value_parser = runs)]
@@ -273,6 +280,19 @@ pub enum Cmd {
         /// the same pulses and plant state bit for bit, and time it in alternation.
         #[arg(long)]
         compare_c: bool,
+        /// Instead: N static conditions (1 to 64, spread over ±0.9 of full scale) run one
+        /// after the other with the single loop and as one batch of the batch engine on one
+        /// thread; prints both rates in Mticks/s (all conditions' ticks, settling included,
+        /// per second of one core) and their ratio, medians of --runs, after checking that
+        /// both give the same pulses.
+        #[arg(long, value_name = "N", value_parser = batch_conditions,
+              conflicts_with = "compare_c")]
+        batch: Option<usize>,
+        /// With --batch: loops interleaved tick by tick per core in the batch (1, 2, 4, 8 or
+        /// 16; 1, the engine's default, runs them one after the other, block by block).
+        #[arg(long, default_value_t = ptsa_host_sim::batch::LANES, value_name = "K",
+              value_parser = lanes, requires = "batch")]
+        lanes: usize,
         /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
         #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
               value_parser = seed)]
@@ -292,6 +312,60 @@ pub enum Cmd {
     /// Discovery: what the simulation gets wrong in measured data, the effect that explains
     /// it, and the gain of the extended model.
     Discover(DiscoverArgs),
+    /// Reduce a counter record taken under a sine along IA to one case-frame response row:
+    /// gain and phase with their 1-sigma uncertainties, by a least-squares sine fit.
+    ///
+    /// The record is a CSV `time_s,pulses,ticks`, one line per short gate (the gate's start
+    /// in s, the data pulses P and the clock ticks T counted in it, as a counter or the
+    /// firmware's gate reports give them). Each gate indicates SF·(2P/T − 1) cm/s² with the
+    /// instrument file's SF; a sine at --freq-hz is fitted to these values (corrected for the
+    /// averaging over each gate, whose length is T over the file's clock_hz).
+    ///
+    /// Gain: the output's amplitude over --amplitude-cm-s2, dimensionless (cm/s² indicated
+    /// per cm/s² of input; 1 = the loop follows the input). Phase: the output's phase minus
+    /// the input's, in degrees from −180 to 180; an output that lags the input has a
+    /// negative phase. The input is taken as A·sin(2πF·t + --input-phase-deg) on the
+    /// record's time_s.
+    ///
+    /// Prints the row as case-frame CSV with its header (docs/case-frame.md: label, kind,
+    /// freq_hz, lin_ia_cm_s2, measured_gain, measured_phase_deg, sigma_gain,
+    /// sigma_phase_deg), ready to append to a data file for `ptsa discover`, or with --json
+    /// one JSON object; the fit's summary goes to stderr. Writes a plot of the gates and the
+    /// fitted sine, with the residuals below, into --out as STEM-response.png and .svg
+    /// (STEM: the record's file name without its extension).
+    #[command(allow_negative_numbers = true)]
+    Response(ResponseArgs),
+}
+
+/// Arguments of `ptsa response`.
+#[derive(Args, Debug, Clone)]
+pub struct ResponseArgs {
+    /// Counter record: CSV `time_s,pulses,ticks` with that header, one line per gate (start
+    /// in s, data pulses, clock ticks); gates of equal length, times increasing, at least 4
+    /// gates; `#` lines are comments.
+    #[arg(long, value_name = "FILE")]
+    pub counts: PathBuf,
+    /// Frequency of the input sine, Hz (more than 0, below the Nyquist frequency of the
+    /// record: half its gate rate).
+    #[arg(long, value_name = "HZ", value_parser = positive_hz)]
+    pub freq_hz: f64,
+    /// Amplitude of the input sine along IA, cm/s² (more than 0).
+    #[arg(long, value_name = "CM_S2", value_parser = input_amplitude_cm_s2)]
+    pub amplitude_cm_s2: f64,
+    /// Phase of the input sine at time_s = 0, degrees: the input is
+    /// A·sin(2πF·time_s + phase).
+    #[arg(long, default_value_t = 0.0, value_name = "DEG", value_parser = finite)]
+    pub input_phase_deg: f64,
+    /// The row's label (default: the frequency and the record's file name).
+    #[arg(long, value_name = "TEXT", value_parser = label)]
+    pub label: Option<String>,
+    /// Print exactly one JSON object: the row's columns {"label", "kind", "freq_hz",
+    /// "lin_ia_cm_s2", "measured_gain", "measured_phase_deg", "sigma_gain",
+    /// "sigma_phase_deg"} and the fit's "gates", "gate_s", "mean_cm_s2" and "rms_cm_s2".
+    #[arg(long)]
+    pub json: bool,
+    #[command(flatten)]
+    pub out: OutArgs,
 }
 
 /// Options of the Appendix A set-ups.
@@ -504,6 +578,39 @@ fn amplitude_cm_s2(s: &str) -> Result<f64, String> {
     within(s, 0.0, 1e5, "an amplitude in cm/s² from 0 to 1e5")
 }
 
+/// One acceleration of a comma-separated list, cm/s².
+fn accel_item(s: &str) -> Result<f64, String> {
+    if s.trim().is_empty() {
+        return Err(
+            "an empty value in the list (a stray comma?); expected accelerations in cm/s² separated by commas, such as `-1000,0,1000`"
+                .into(),
+        );
+    }
+    finite(s)
+}
+
+fn input_amplitude_cm_s2(s: &str) -> Result<f64, String> {
+    let x = finite(s)?;
+    if x > 0.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected an amplitude in cm/s², more than 0, not {}",
+            num(x)
+        ))
+    }
+}
+
+fn label(s: &str) -> Result<String, String> {
+    if s.chars().any(char::is_control) {
+        Err(format!(
+            "expected a label on one line, without control characters (a case-frame cell cannot hold them), not {s:?}"
+        ))
+    } else {
+        Ok(s.to_string())
+    }
+}
+
 fn arm_cm(s: &str) -> Result<f64, String> {
     let x = within(
         s,
@@ -692,6 +799,21 @@ fn cycles(s: &str) -> Result<u64, String> {
 fn count(s: &str) -> Result<usize, String> {
     let n = whole_in(s, 1, 100_000, "a number of corners")?;
     usize::try_from(n).map_err(|e| e.to_string())
+}
+
+fn batch_conditions(s: &str) -> Result<usize, String> {
+    let n = whole_in(s, 1, 64, "a number of static conditions")?;
+    usize::try_from(n).map_err(|e| e.to_string())
+}
+
+fn lanes(s: &str) -> Result<usize, String> {
+    let max = ptsa_host_sim::batch::MAX_LANES;
+    match s.trim().parse::<usize>() {
+        Ok(k) if k.is_power_of_two() && k <= max => Ok(k),
+        _ => Err(format!(
+            "expected lanes per core: a power of two from 1 to {max} (1, 2, 4, 8, 16), not `{s}`"
+        )),
+    }
 }
 
 fn runs(s: &str) -> Result<usize, String> {

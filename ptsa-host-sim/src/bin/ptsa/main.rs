@@ -18,10 +18,10 @@ use clap::error::ErrorKind;
 use clap::parser::ValueSource;
 use clap::{CommandFactory as _, FromArgMatches as _};
 use flags::{
-    Cli, Cmd, DiscoverArgs, OutArgs, PlanArgs, PlanKind, PredictArgs, ReportArgs, RunArgs,
-    TwoAxisArgs, num,
+    Cli, Cmd, DiscoverArgs, OutArgs, PlanArgs, PlanKind, PredictArgs, ReportArgs, ResponseArgs,
+    RunArgs, TwoAxisArgs, num,
 };
-use ptsa_host_sim::bench::{BenchPlan, bench};
+use ptsa_host_sim::bench::{BenchPlan, bench, bench_batch};
 use ptsa_host_sim::design::{Design, check_loop};
 use ptsa_host_sim::discovery::{self, InstrumentOut, Options, Request, Simulator};
 use ptsa_host_sim::effects::{CandidateId, Effects};
@@ -91,7 +91,8 @@ fn parse_cli() -> Cli {
 /// takes one value is joined to it (`--k-ip-s2-cm=-1e-5`); elsewhere (the second value of
 /// `--lever-cm`) a finite one is written as the plain decimal of the same number. The
 /// command has no positional arguments, so every number is an option's value; a long
-/// option that takes no value then says so.
+/// option that takes no value then says so. A comma-separated list of numbers starting with a
+/// negative one is joined to its option in the same way.
 fn join_negative_numbers(
     cmd: &clap::Command,
     args: impl Iterator<Item = OsString>,
@@ -112,12 +113,19 @@ fn join_negative_numbers(
             out.push(a);
             continue;
         };
+        // A list of numbers, the first negative (`--accel-cm-s2 -1e3,0,1e3`; an empty item is
+        // kept for the option's own refusal): joined to its option like one number.
+        let list = s.starts_with('-')
+            && s.contains(',')
+            && s.split(',')
+                .all(|p| p.trim().is_empty() || p.trim().parse::<f64>().is_ok());
         let plain = s.len() > 1
             && s.starts_with('-')
             && s[1..].bytes().all(|b| b.is_ascii_digit() || b == b'.')
             && s.as_bytes()[1] != b'.';
         let x = match s.parse::<f64>() {
             Ok(x) if s.starts_with('-') && !plain => x,
+            _ if list => f64::NAN,
             _ => {
                 out.push(a);
                 continue;
@@ -132,7 +140,7 @@ fn join_negative_numbers(
         {
             let joined = format!("{p}={s}");
             *prev = joined.into();
-        } else if x.is_finite() {
+        } else if x.is_finite() && !list {
             out.push(format!("{x}").into());
         } else {
             out.push(a);
@@ -204,6 +212,10 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
     }) = &cli.cmd
     {
         return design_cmd(&instr, &name, *print_core_constants, checked.as_ref(), out);
+    }
+    // The reduction of a record simulates nothing: it needs the file's SF and clock only.
+    if let Some(Cmd::Response(a)) = &cli.cmd {
+        return response_cmd(&instr, a, out);
     }
     let config = checked.map_err(|e| anyhow::anyhow!("{name}: {e}"))?.config;
     let opts = |r: &RunArgs| SimOptions {
@@ -319,13 +331,31 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 config,
                 ..SimOptions::default()
             };
+            if let [_, _, ..] = accel_cm_s2[..] {
+                if trace.is_some() {
+                    bail!(
+                        "--trace writes the ADC samples of one run; expected one --accel-cm-s2 value with it, not {}",
+                        accel_cm_s2.len()
+                    );
+                }
+                return static_batch_cmd(
+                    &instr,
+                    &opts,
+                    &accel_cm_s2,
+                    seconds,
+                    json,
+                    with_bias,
+                    force,
+                    out,
+                );
+            }
             if let Some(t) = &trace {
                 paths::file("--trace", t)?;
             }
             static_cmd(
                 &instr,
                 &opts,
-                accel_cm_s2,
+                accel_cm_s2[0],
                 seconds,
                 json,
                 trace.as_deref(),
@@ -334,7 +364,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 out,
             )
         }
-        Cmd::Design { .. } => unreachable!("handled above"),
+        Cmd::Design { .. } | Cmd::Response(_) => unreachable!("handled above"),
         Cmd::MonteCarlo {
             samples,
             run,
@@ -369,6 +399,8 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             runs,
             no_noise,
             compare_c,
+            batch,
+            lanes,
             force,
             seed,
         } => {
@@ -377,9 +409,17 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 config,
                 ..SimOptions::default()
             };
-            // Each run settles and then runs its ticks, twice with the C loop; counted in
+            let default_ticks = BenchPlan::TICKS / batch.unwrap_or(1) as u64;
+            let ticks = ticks.unwrap_or(default_ticks);
+            // Each run settles and then runs its ticks, twice with the C loop, and with
+            // --batch N twice (single and batch) for each of N conditions; counted in
             // floating point so that no product of the options can overflow.
-            let per = if compare_c { 2.0 } else { 1.0 };
+            #[allow(clippy::cast_precision_loss)]
+            let per = match batch {
+                Some(n) => 2.0 * n as f64,
+                None if compare_c => 2.0,
+                None => 1.0,
+            };
             #[allow(clippy::cast_precision_loss)]
             let run_s = (ticks as f64 / instr.clock_hz + opts.warmup_s) * per;
             #[allow(clippy::cast_precision_loss)]
@@ -393,7 +433,10 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 no_noise,
                 compare_c,
             };
-            bench(&instr, &opts, &plan, out)
+            match batch {
+                Some(n) => bench_batch(&instr, &opts, &plan, n, lanes, out),
+                None => bench(&instr, &opts, &plan, out),
+            }
         }
         Cmd::Discover(a) => discover_cmd(&instr, (&name, &instr_text), config, &a, out),
         Cmd::Predict(a) => predict_cmd(&instr, config, &a, out),
@@ -629,6 +672,255 @@ fn static_cmd(
             instr.loop_bias_cm_s2(0.0),
             plural(r.ticks, "tick"),
             plural(r.pulses, "pulse"),
+            r.indicated_cm_s2,
+            if r.saturated { " (SATURATED)" } else { "" }
+        )?;
+    }
+    Ok(())
+}
+
+/// `ptsa response`: read and check the record, fit, write the plot, print the row.
+fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Result<()> {
+    use ptsa_host_sim::response;
+    paths::folder("--out", &a.out.out)?;
+    let name = a.counts.display().to_string();
+    let gates = response::read(&a.counts)?;
+    let n = gates.len();
+    let rate = response::gate_rate_hz(&gates);
+    let span_s = gates[n - 1].time_s - gates[0].time_s;
+    if a.freq_hz >= rate / 2.0 {
+        bail!(
+            "--freq-hz {}: expected a frequency below {} Hz, the Nyquist frequency of {name} ({n} gates in {} s, {} gates/s): gates that far apart cannot show a sine of {} Hz",
+            num(a.freq_hz),
+            num(rate / 2.0),
+            num(span_s),
+            num(rate),
+            num(a.freq_hz)
+        );
+    }
+    #[allow(clippy::cast_precision_loss)]
+    let gate_s = gates[0].ticks as f64 / instr.clock_hz;
+    let spacing = gates
+        .windows(2)
+        .map(|w| w[1].time_s - w[0].time_s)
+        .fold(f64::INFINITY, f64::min);
+    if spacing < gate_s * (1.0 - 1e-6) {
+        eprintln!(
+            "warning: {name}: gates start {} s apart but each is {} s long ({} ticks at the instrument file's clock_hz {} Hz): they overlap; if the counter's clock is not {} Hz, the gain's correction for the gate averaging is wrong",
+            num(spacing),
+            num(gate_s),
+            gates[0].ticks,
+            num(instr.clock_hz),
+            num(instr.clock_hz)
+        );
+    }
+    if span_s * a.freq_hz < 1.0 {
+        eprintln!(
+            "warning: {name} spans {} s, less than one period of {} Hz: the fit extrapolates the sine and its uncertainties are large",
+            num(span_s),
+            num(a.freq_hz)
+        );
+    }
+    work::warn_beyond_full_scale(instr, a.amplitude_cm_s2, "--amplitude-cm-s2");
+    let fit = response::fit(
+        &gates,
+        a.freq_hz,
+        a.amplitude_cm_s2,
+        a.input_phase_deg,
+        instr.sf_cm_s2,
+        instr.clock_hz,
+    )
+    .with_context(|| format!("{name} at --freq-hz {}", num(a.freq_hz)))?;
+    if !(fit.gain > 0.0 && fit.gain.is_finite()) {
+        bail!(
+            "{name}: no component at --freq-hz {} in the record (gain {}); expected the response to a sine at that frequency",
+            num(a.freq_hz),
+            fit.gain
+        );
+    }
+    let file = a
+        .counts
+        .file_name()
+        .map_or_else(|| name.clone(), |f| f.to_string_lossy().into_owned());
+    let label = a
+        .label
+        .clone()
+        .unwrap_or_else(|| format!("{} Hz ({file})", a.freq_hz));
+    let stem = format!(
+        "{}-response",
+        a.counts
+            .file_stem()
+            .map_or_else(|| "record".into(), |s| s.to_string_lossy())
+    );
+    let fig = response_figure(&stem, &label, &gates, &fit, instr.sf_cm_s2);
+    let files = ptsa_host_sim::output::write_figure(&a.out.out, &fig)?;
+    eprintln!(
+        "response: {name}: {n} gates of {} s ({} gates/s), {} Hz at {} cm/s^2: gain {:.5} ± {:.5}, phase {:.3} ± {:.3} deg (output lagging: negative), mean {:.3} cm/s^2, residual RMS {:.3} cm/s^2",
+        num(gate_s),
+        num(rate),
+        num(a.freq_hz),
+        num(a.amplitude_cm_s2),
+        fit.gain,
+        fit.sigma_gain,
+        fit.phase_deg,
+        fit.sigma_phase_deg,
+        fit.mean_cm_s2,
+        fit.rms_cm_s2
+    );
+    eprintln!(
+        "wrote {} into {}",
+        plural(files.len() as u64, "file"),
+        a.out.out.display()
+    );
+    let row = fit.row(&label);
+    if a.json {
+        let v = serde_json::json!({
+            "label": row.label,
+            "kind": row.kind.name(),
+            "freq_hz": row.freq_hz,
+            "lin_ia_cm_s2": row.lin_cm_s2[0],
+            "measured_gain": row.measured_gain,
+            "measured_phase_deg": row.measured_phase_deg,
+            "sigma_gain": row.sigma_gain,
+            "sigma_phase_deg": row.sigma_phase_deg,
+            "gates": fit.gates,
+            "gate_s": fit.gate_s,
+            "mean_cm_s2": fit.mean_cm_s2,
+            "rms_cm_s2": fit.rms_cm_s2,
+        });
+        writeln!(out, "{v}")?;
+    } else {
+        write!(out, "{}", response::rows_csv(&[row]))?;
+    }
+    Ok(())
+}
+
+/// The plot of `ptsa response`: the gates' indicated accelerations with the fitted sine
+/// (its gate means) over them, and the residuals below.
+fn response_figure(
+    stem: &str,
+    label: &str,
+    gates: &[ptsa_host_sim::response::Gate],
+    fit: &ptsa_host_sim::response::ResponseFit,
+    sf_cm_s2: f64,
+) -> ptsa_host_sim::output::Figure {
+    use ptsa_host_sim::output::{Figure, Plot, Series};
+    let half = fit.gate_s / 2.0;
+    let mids: Vec<(f64, f64)> = gates
+        .iter()
+        .map(|g| (g.time_s + half, g.indicated_cm_s2(sf_cm_s2)))
+        .collect();
+    let resid: Vec<(f64, f64)> = gates
+        .iter()
+        .zip(&mids)
+        .map(|(g, &(t, y))| (t, y - fit.gate_mean_cm_s2(g.time_s)))
+        .collect();
+    // The fitted gate mean as a curve: 48 points a period, at most 100 000 in all (the
+    // plot thins a long line to its envelope).
+    let (t0, t1) = (mids[0].0, mids[mids.len() - 1].0);
+    let per_period = 48.0 * fit.freq_hz * (t1 - t0);
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let k = per_period.clamp(200.0, 100_000.0) as usize;
+    #[allow(clippy::cast_precision_loss)]
+    let curve: Vec<(f64, f64)> = (0..=k)
+        .map(|i| {
+            let t = t0 + (t1 - t0) * i as f64 / k as f64;
+            (t, fit.gate_mean_cm_s2(t - half))
+        })
+        .collect();
+    Figure {
+        stem: stem.to_string(),
+        panels: vec![
+            Plot {
+                title: format!(
+                    "{label}: gain {:.4} ± {:.4}, phase {:.2} ± {:.2}°",
+                    fit.gain, fit.sigma_gain, fit.phase_deg, fit.sigma_phase_deg
+                ),
+                x_label: "time (gate midpoint), s".into(),
+                y_label: "indicated acceleration, cm/s²".into(),
+                series: vec![
+                    Series::crosses("gates: SF·(2P/T − 1)", mids),
+                    Series::line("fitted sine, averaged over each gate", curve),
+                ],
+                ..Plot::default()
+            },
+            Plot {
+                title: format!(
+                    "residuals: gate minus fitted gate mean, RMS {:.3} cm/s²",
+                    fit.rms_cm_s2
+                ),
+                x_label: "time (gate midpoint), s".into(),
+                y_label: "residual, cm/s²".into(),
+                series: vec![Series::crosses("residual", resid)],
+                zero_line: true,
+                ..Plot::default()
+            },
+        ],
+    }
+}
+
+/// `ptsa static` with several accelerations: one batch through the batch engine, whose
+/// lanes are bit for bit the single loop's runs (`batch::run_static`).
+#[allow(clippy::too_many_arguments)]
+fn static_batch_cmd(
+    instr: &Instrument,
+    opts: &SimOptions,
+    accels_cm_s2: &[f64],
+    seconds: f64,
+    json: bool,
+    with_bias: bool,
+    force: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let mut instr = instr.clone();
+    if !with_bias {
+        instr.bias_cm_s2 = 0.0;
+    }
+    gate_fits("--seconds", seconds, &instr, opts)?;
+    let ticks_f = (seconds * instr.clock_hz).round();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let ticks = ticks_f as u64;
+    let n = accels_cm_s2.len();
+    #[allow(clippy::cast_precision_loss)]
+    Work::new(&instr, opts)
+        .gate(ticks)
+        .times(n as f64)
+        .check(force, &format!("this batch of {n} gates"))?;
+    let s = work::spinner(&format!("static, {n} accelerations in one batch"));
+    let runs = ptsa_host_sim::batch::run_static(&instr, accels_cm_s2, ticks, opts);
+    s.finish_and_clear();
+    for (a, r) in accels_cm_s2.iter().zip(&runs) {
+        if r.saturated {
+            eprintln!(
+                "warning: the loop saturated during the gate at {a} cm/s^2 (+ bias {} cm/s^2, against a full scale of ±{} cm/s^2): its indicated value is not the input",
+                instr.bias_cm_s2, instr.sf_cm_s2
+            );
+        }
+    }
+    if json {
+        writeln!(out, "{}", serde_json::to_string(&runs)?)?;
+        return Ok(());
+    }
+    writeln!(
+        out,
+        "static: {n} accelerations along IA in one batch (bias {} cm/s^2, loop's own {:.5}), each a gate of T = {} after {} s of settling; indicated SF(2P/T - 1):",
+        instr.bias_cm_s2,
+        instr.loop_bias_cm_s2(0.0),
+        plural(ticks, "tick"),
+        opts.warmup_s
+    )?;
+    writeln!(
+        out,
+        "{:>16} {:>12} {:>12} {:>18}",
+        "input cm/s^2", "T", "P", "indicated cm/s^2"
+    )?;
+    for (a, r) in accels_cm_s2.iter().zip(&runs) {
+        writeln!(
+            out,
+            "{:>16} {:>12} {:>12} {:>18.4}{}",
+            a,
+            r.ticks,
+            r.pulses,
             r.indicated_cm_s2,
             if r.saturated { " (SATURATED)" } else { "" }
         )?;

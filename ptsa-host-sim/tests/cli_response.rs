@@ -1,0 +1,518 @@
+//! `ptsa response`: a counter record reduced to one case-frame response row. A record made
+//! here from a known sine with noise (seeded) comes back within its uncertainties; every
+//! bad record and option is refused naming what was wrong, with nothing written and nothing
+//! on stdout.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use rand::{Rng as _, SeedableRng as _};
+use rand_chacha::ChaCha8Rng;
+
+/// The shipped file's SF, cm/s², and clock, Hz.
+const SF: f64 = 21121.1;
+const CLOCK_HZ: f64 = 64000.0;
+
+fn ptsa_in(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn names(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+/// Nothing a user should see in a message: a panic, Rust's or the OS's internals.
+fn assert_clean(err: &str) {
+    for bad in [
+        "panicked",
+        "RUST_BACKTRACE",
+        "os error",
+        "invalid digit",
+        "ParseIntError",
+        "ParseFloatError",
+    ] {
+        assert!(!err.contains(bad), "`{bad}` in: {err}");
+    }
+}
+
+/// Run `args` in a fresh folder holding `files`; it must exit with `code`, say every one of
+/// `needles` on stderr, print nothing on stdout and leave the folder as it was.
+fn refused_with(files: &[(&str, &str)], args: &[&str], code: i32, needles: &[&str]) {
+    let tmp = tempfile::tempdir().unwrap();
+    for (n, b) in files {
+        std::fs::write(tmp.path().join(n), b).unwrap();
+    }
+    let before = names(tmp.path());
+    let o = ptsa_in(tmp.path(), args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(code), "ptsa {args:?}: {err}");
+    for n in needles {
+        assert!(err.contains(n), "ptsa {args:?}: `{n}` not in: {err}");
+    }
+    assert_clean(&err);
+    assert!(
+        o.stdout.is_empty(),
+        "ptsa {args:?} printed {}",
+        String::from_utf8_lossy(&o.stdout)
+    );
+    assert_eq!(names(tmp.path()), before, "ptsa {args:?} wrote something");
+}
+
+/// A record of `n` contiguous gates of `ticks` clock ticks under the input
+/// `amp·sin(2πf·t + input_deg)`, to which the instrument responds with `gain` and
+/// `phase_deg` and a `mean` offset, each gate's mean output with white noise of
+/// `noise_cm_s2` (rms), counted as a charge-balancing loop counts (what one gate leaves
+/// over goes into the next).
+#[allow(clippy::too_many_arguments)]
+fn record(
+    seed: u64,
+    n: u32,
+    ticks: u32,
+    f: f64,
+    amp: f64,
+    input_deg: f64,
+    gain: f64,
+    phase_deg: f64,
+    mean: f64,
+    noise_cm_s2: f64,
+) -> String {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let normal = rand_distr::Normal::new(0.0, noise_cm_s2).unwrap();
+    let tau = f64::from(ticks) / CLOCK_HZ;
+    let w = std::f64::consts::TAU * f;
+    let x = w * tau / 2.0;
+    let (mut total, mut counted) = (0.0f64, 0.0f64);
+    let mut s = String::from("# made by cli_response.rs\ntime_s,pulses,ticks\n");
+    for k in 0..n {
+        let t0 = f64::from(k) * tau;
+        let out = mean
+            + gain
+                * amp
+                * (x.sin() / x)
+                * (w * (t0 + tau / 2.0) + (input_deg + phase_deg).to_radians()).sin()
+            + rng.sample(normal);
+        total += (out / SF + 1.0) / 2.0 * f64::from(ticks);
+        let p = total.floor() - counted;
+        counted += p;
+        s.push_str(&format!("{t0},{p},{ticks}\n"));
+    }
+    s
+}
+
+/// A known response comes back: gain and phase within four of their sigmas, the sigmas of
+/// the size the scatter implies, the input's phase taken off; the CSV row is a case-frame
+/// row with the same numbers; the plot is written.
+#[test]
+fn a_known_response_comes_back_within_its_uncertainty() {
+    let (f, amp, gain, phase) = (20.0, 2000.0, 0.8, -30.0);
+    // 400 gates of 5 ms (2 s, 40 periods), 20 cm/s² of noise per gate on top of the
+    // counting's quantization (132 cm/s² per pulse in a 320-tick gate).
+    let text = record(7, 400, 320, f, amp, 40.0, gain, phase, 5.0, 20.0);
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::write(d.join("shaker.csv"), &text).unwrap();
+    let args = [
+        "response",
+        "--counts",
+        "shaker.csv",
+        "--freq-hz",
+        "20",
+        "--amplitude-cm-s2",
+        "2000",
+        "--input-phase-deg",
+        "40",
+        "--label",
+        "shaker 20 Hz, run \"1\"",
+    ];
+    let mut json_args = args.to_vec();
+    json_args.push("--json");
+    let o = ptsa_in(d, &json_args);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert_clean(&err);
+    assert!(
+        err.contains("400 gates of 0.005 s (200 gates/s)")
+            && err.contains("wrote 2 files into out"),
+        "{err}"
+    );
+    let out = String::from_utf8(o.stdout).unwrap();
+    assert_eq!(out.lines().count(), 1, "{out}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+    assert_eq!(
+        keys.len(),
+        12,
+        "{keys:?}: the row's 8 columns and gates, gate_s, mean_cm_s2, rms_cm_s2"
+    );
+    assert_eq!(v["kind"], "response");
+    assert_eq!(v["label"], "shaker 20 Hz, run \"1\"");
+    assert_eq!(v["freq_hz"], 20.0);
+    assert_eq!(v["lin_ia_cm_s2"], 2000.0);
+    assert_eq!(v["gates"], 400);
+    assert_eq!(v["gate_s"], 0.005);
+    let g = v["measured_gain"].as_f64().unwrap();
+    let sg = v["sigma_gain"].as_f64().unwrap();
+    let p = v["measured_phase_deg"].as_f64().unwrap();
+    let sp = v["sigma_phase_deg"].as_f64().unwrap();
+    assert!((g - gain).abs() < 4.0 * sg, "gain {g} ± {sg}");
+    assert!((p - phase).abs() < 4.0 * sp, "phase {p} ± {sp}");
+    // The output lags: the phase is negative (not 360° − 30°, nor +30°).
+    assert!(p < 0.0, "{p}");
+    // The sigmas are those of the scatter: a residual rms r over n gates gives
+    // σ_gain ≈ r·√(2/n)/(A·sinc) and σ_phase ≈ σ_gain/gain rad.
+    let rms = v["rms_cm_s2"].as_f64().unwrap();
+    let x = std::f64::consts::PI * f * 0.005;
+    let expect = rms * (2.0f64 / 400.0).sqrt() / (amp * x.sin() / x);
+    assert!(
+        (0.8..1.25).contains(&(sg / expect)),
+        "σ_gain {sg} vs {expect}"
+    );
+    let expect_deg = (sg / g).to_degrees();
+    assert!(
+        (0.8..1.25).contains(&(sp / expect_deg)),
+        "σ_phase {sp} vs {expect_deg}"
+    );
+    assert!((v["mean_cm_s2"].as_f64().unwrap() - 5.0).abs() < 4.0 * rms / 20.0);
+    assert_eq!(
+        names(&d.join("out")),
+        ["shaker-response.png", "shaker-response.svg"]
+    );
+
+    // Without --json: the row as case-frame CSV with its header, the same numbers.
+    let o = ptsa_in(d, &args);
+    assert!(o.status.success());
+    let csv = String::from_utf8(o.stdout).unwrap();
+    assert!(
+        csv.starts_with(
+            "label,kind,freq_hz,lin_ia_cm_s2,measured_gain,measured_phase_deg,sigma_gain,sigma_phase_deg\n\"shaker 20 Hz, run \"\"1\"\"\",response,20,2000,"
+        ),
+        "{csv}"
+    );
+    let rows = ptsa_host_sim::discovery::caseframe::parse("stdout", &csv).unwrap();
+    assert_eq!(rows.len(), 1);
+    let r = &rows[0];
+    assert_eq!(r.kind, ptsa_host_sim::condition::RowKind::Response);
+    assert_eq!(r.label, "shaker 20 Hz, run \"1\"");
+    assert_eq!(r.measured_gain, Some(g));
+    assert_eq!(r.measured_phase_deg, Some(p));
+    assert_eq!(r.sigma_gain, Some(sg));
+    assert_eq!(r.sigma_phase_deg, Some(sp));
+}
+
+/// A gain well away from 1 and a leading phase come back as well (the fit is not biased
+/// toward the loop's own response), with a negative input phase; the default label names
+/// the frequency and the file.
+#[test]
+fn a_leading_response_has_a_positive_phase() {
+    let text = record(11, 300, 640, 5.0, 1500.0, -10.0, 1.3, 60.0, 0.0, 10.0);
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::write(d.join("lead.csv"), &text).unwrap();
+    let o = ptsa_in(
+        d,
+        &[
+            "response",
+            "--counts",
+            "lead.csv",
+            "--freq-hz",
+            "5",
+            "--amplitude-cm-s2",
+            "1500",
+            // Typed as a negative number in exponent form (see `ptsa`'s main.rs).
+            "--input-phase-deg",
+            "-1e1",
+            "--json",
+            "--out",
+            "plots",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let g = v["measured_gain"].as_f64().unwrap();
+    let p = v["measured_phase_deg"].as_f64().unwrap();
+    assert!(
+        (g - 1.3).abs() < 4.0 * v["sigma_gain"].as_f64().unwrap(),
+        "{v}"
+    );
+    assert!(
+        (p - 60.0).abs() < 4.0 * v["sigma_phase_deg"].as_f64().unwrap(),
+        "{v}"
+    );
+    assert_eq!(v["label"], "5 Hz (lead.csv)");
+    assert_eq!(
+        names(&d.join("plots")),
+        ["lead-response.png", "lead-response.svg"]
+    );
+}
+
+/// Bad records, named by file, line and column, and bad options; nothing written.
+#[test]
+fn response_refuses_bad_records_and_options() {
+    let good = record(3, 40, 320, 20.0, 2000.0, 0.0, 0.8, -30.0, 0.0, 20.0);
+    let lines: Vec<&str> = good.lines().collect();
+    fn run(file: &str) -> Vec<&str> {
+        vec![
+            "response",
+            "--counts",
+            file,
+            "--freq-hz",
+            "20",
+            "--amplitude-cm-s2",
+            "2000",
+        ]
+    }
+    // Line 5 (the fourth gate) earlier than line 4.
+    let mut v = lines.clone();
+    v.swap(3, 4);
+    refused_with(
+        &[("bad.csv", &v.join("\n"))],
+        &run("bad.csv"),
+        1,
+        &[
+            "bad.csv:5: column 1 (`time_s`) holds 0.005, not after the previous gate's 0.01; expected increasing times",
+        ],
+    );
+    // A missing column, in the header and on a line.
+    let no_ticks = good.replace("time_s,pulses,ticks", "time_s,pulses");
+    refused_with(
+        &[("bad.csv", &no_ticks)],
+        &run("bad.csv"),
+        1,
+        &[
+            "bad.csv:2: header `time_s,pulses`: column 3 (`ticks`) is missing; expected `time_s,pulses,ticks`",
+        ],
+    );
+    let mut v = lines.clone();
+    v[6] = "0.025,70";
+    refused_with(
+        &[("bad.csv", &v.join("\n"))],
+        &run("bad.csv"),
+        1,
+        &["bad.csv:7: column 3 (`ticks`) is missing (2 cells); expected 3 cells"],
+    );
+    // A cell that is not a number.
+    let mut v = lines.clone();
+    v[2] = "0,abc,320";
+    refused_with(
+        &[("bad.csv", &v.join("\n"))],
+        &run("bad.csv"),
+        1,
+        &["bad.csv:3: column 2 (`pulses`) holds `abc`; expected a whole number, 0 or more"],
+    );
+    let mut v = lines.clone();
+    v[3] = "x,150,320";
+    refused_with(
+        &[("bad.csv", &v.join("\n"))],
+        &run("bad.csv"),
+        1,
+        &["bad.csv:4: column 1 (`time_s`) holds `x`; expected a finite time in s"],
+    );
+    // More pulses than ticks, gates of different lengths.
+    let mut v = lines.clone();
+    v[3] = "0.005,400,320";
+    refused_with(
+        &[("bad.csv", &v.join("\n"))],
+        &run("bad.csv"),
+        1,
+        &["bad.csv:4: column 2 (`pulses`) holds 400, more than the gate's 320 ticks"],
+    );
+    let mut v = lines.clone();
+    v[3] = "0.005,150,321";
+    refused_with(
+        &[("bad.csv", &v.join("\n"))],
+        &run("bad.csv"),
+        1,
+        &[
+            "bad.csv:4: column 3 (`ticks`) holds 321, not the first gate's 320 (line 3); expected gates of equal length",
+        ],
+    );
+    // Too few gates.
+    refused_with(
+        &[("few.csv", &lines[..5].join("\n"))],
+        &run("few.csv"),
+        1,
+        &["few.csv:5: the record ends after 3 gates; expected at least 4 gates"],
+    );
+    refused_with(&[], &run("nope.csv"), 1, &["nope.csv: cannot read"]);
+    let latin1 = format!("{}\n0.2,\u{b5},320\n", lines.join("\n"));
+    let tmp = tempfile::tempdir().unwrap();
+    let mut bytes = latin1.into_bytes();
+    // µ in Latin-1: one byte, 0xB5, not UTF-8.
+    let at = bytes.iter().position(|&b| b == 0xC2).unwrap();
+    bytes.remove(at);
+    std::fs::write(tmp.path().join("latin1.csv"), &bytes).unwrap();
+    let o = ptsa_in(tmp.path(), &run("latin1.csv"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("latin1.csv:43: not UTF-8 text (a bad byte at byte offset")
+            && err.contains("expected a CSV of `time_s,pulses,ticks` in UTF-8"),
+        "{err}"
+    );
+    assert!(o.stdout.is_empty());
+    assert_eq!(names(tmp.path()), ["latin1.csv"]);
+    // The frequency: more than 0 (an option: exit 2), below the record's Nyquist frequency
+    // (200 gates/s: 100 Hz; exactly 100 Hz cannot be fitted either).
+    for (f, needle) in [
+        ("0", "expected a frequency in Hz, more than 0, not 0"),
+        ("-5", "expected a frequency in Hz, more than 0, not -5"),
+        ("nan", "expected a finite number, not NaN"),
+    ] {
+        let mut a = run("good.csv");
+        a[4] = f;
+        refused_with(&[("good.csv", &good)], &a, 2, &["'--freq-hz <HZ>'", needle]);
+    }
+    for f in ["100", "150"] {
+        let mut a = run("good.csv");
+        a[4] = f;
+        refused_with(
+            &[("good.csv", &good)],
+            &a,
+            1,
+            &[&format!(
+                "--freq-hz {f}: expected a frequency below 100 Hz, the Nyquist frequency of good.csv (40 gates in 0.195 s, 200 gates/s)"
+            )],
+        );
+    }
+    // The amplitude: more than 0.
+    for (amp, needle) in [
+        ("0", "expected an amplitude in cm/s², more than 0, not 0"),
+        (
+            "-2000",
+            "expected an amplitude in cm/s², more than 0, not -2000",
+        ),
+        ("inf", "expected a finite number, not inf"),
+    ] {
+        let mut a = run("good.csv");
+        a[6] = amp;
+        refused_with(
+            &[("good.csv", &good)],
+            &a,
+            2,
+            &["'--amplitude-cm-s2 <CM_S2>'", needle],
+        );
+    }
+    // A label that cannot be one case-frame cell; an --out that is a file.
+    let mut a = run("good.csv");
+    a.extend(["--label", "two\nlines"]);
+    refused_with(
+        &[("good.csv", &good)],
+        &a,
+        2,
+        &["'--label <TEXT>'", "expected a label on one line"],
+    );
+    let mut a = run("good.csv");
+    a.extend(["--out", "good.csv"]);
+    refused_with(
+        &[("good.csv", &good)],
+        &a,
+        1,
+        &["--out good.csv: this is a file; expected a folder"],
+    );
+    refused_with(
+        &[],
+        &["response", "--freq-hz", "20", "--amplitude-cm-s2", "1"],
+        2,
+        &["--counts <FILE>"],
+    );
+}
+
+/// The help states the units and the phase's sign.
+#[test]
+fn response_help_explains_gain_and_phase() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(tmp.path(), &["response", "--help"]);
+    assert!(o.status.success());
+    let h = String::from_utf8(o.stdout).unwrap();
+    for needle in [
+        "dimensionless",
+        "lags the input has a negative phase",
+        "degrees",
+        "cm/s²",
+        "Hz",
+        "time_s,pulses,ticks",
+        "Nyquist",
+    ] {
+        assert!(h.contains(needle), "`{needle}` not in:\n{h}");
+    }
+    assert!(names(tmp.path()).is_empty());
+}
+
+/// A record counted from the simulated closed loop (gates of 5 ms over 1 s under a 20 Hz,
+/// 2000 cm/s² sine along IA, after the settling) reduces to the loop's own frequency
+/// response: the component at 20 Hz of the same second's pulse train
+/// (`SimResult::harmonic_amp_cm_s2`, `harmonic_deg`, as `ptsa waveform`'s table measures
+/// it), within the fit's uncertainty. Run with `--nocapture` for the figures.
+#[test]
+fn a_record_of_the_simulated_loop_gives_its_frequency_response() {
+    use ptsa_host_sim::condition::{Condition, IA};
+    use ptsa_host_sim::sim::{ClosedLoop, SimOptions};
+    use ptsa_host_sim::{Effects, Instrument};
+    let instr = Instrument::kearfott_2401();
+    let (f, amp, gate) = (20.0, 2000.0, 320u64);
+    let mut c = Condition {
+        freq_hz: f,
+        ..Condition::default()
+    };
+    c.lin_cm_s2[IA] = amp;
+    let opts = SimOptions {
+        harmonic: 1,
+        ..SimOptions::default()
+    };
+    let mut l = ClosedLoop::new(&instr, &c, &Effects::NONE, &opts);
+    l.run(opts.warmup_ticks(instr.clock_hz));
+    let mut text = String::from("time_s,pulses,ticks\n");
+    let mut record = l.clone();
+    // The record: 200 gates; the input's phase is 0 at tick 0, so a gate starts at its
+    // tick over the clock.
+    for _ in 0..200 {
+        #[allow(clippy::cast_precision_loss)]
+        let t0 = record.ticks() as f64 / instr.clock_hz;
+        let p0 = record.core().total_pulses();
+        record.run(gate);
+        let p = (record.core().total_pulses() - p0).0;
+        text.push_str(&format!("{t0},{p},{gate}\n"));
+    }
+    // The same second (the same loop, the same noise) measured by the simulator.
+    let r = l.measure(200 * gate);
+    let (sim_gain, sim_deg) = (r.harmonic_amp_cm_s2 / amp, r.harmonic_deg);
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("sim.csv"), &text).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "response",
+            "--counts",
+            "sim.csv",
+            "--freq-hz",
+            "20",
+            "--amplitude-cm-s2",
+            "2000",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let g = v["measured_gain"].as_f64().unwrap();
+    let sg = v["sigma_gain"].as_f64().unwrap();
+    let p = v["measured_phase_deg"].as_f64().unwrap();
+    let sp = v["sigma_phase_deg"].as_f64().unwrap();
+    eprintln!(
+        "record: gain {g:.5} ± {sg:.5} ({:.3} dB), phase {p:.3} ± {sp:.3} deg; simulator: gain {sim_gain:.5} ({:.3} dB), phase {sim_deg:.3} deg",
+        20.0 * g.log10(),
+        20.0 * sim_gain.log10()
+    );
+    assert!((g - sim_gain).abs() < 4.0 * sg, "{g} ± {sg} vs {sim_gain}");
+    assert!((p - sim_deg).abs() < 4.0 * sp, "{p} ± {sp} vs {sim_deg}");
+    // And it is the loop's response, not a unit one: above 1 and lagging at 20 Hz.
+    assert!(g > 1.1 && p < -5.0, "{g} {p}");
+}
