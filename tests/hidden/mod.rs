@@ -22,6 +22,7 @@
 pub mod campaign;
 pub mod designs;
 pub mod generate;
+pub mod params;
 pub mod physics;
 pub mod score;
 

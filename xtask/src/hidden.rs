@@ -8,38 +8,50 @@
 //! and confident misnamings per kind), and fails if an asserted rate is not met. It runs
 //! the ignored test `hidden_effects_campaign` of `tests/hidden_effects.rs` (the test
 //! profile is optimised).
+//!
+//! `cargo xtask hidden --parameters [--sets N] [--seed S]`: the hidden-parameter campaign
+//! instead (`tests/hidden_params.rs`, `hidden_parameters_campaign`): response tables and
+//! saturation rows of an instrument file with one parameter changed, or none, identified
+//! blind through the closed loop of the shipped file; N sets (default 10) per parameter and
+//! design.
 
 use crate::util::{self, Error};
 
 /// `cargo xtask hidden --help`.
 pub const USAGE: &str = "\
-hidden [--sets N] [--seed S] [--analytic]
+hidden [--parameters] [--sets N] [--seed S] [--analytic]
     The full hidden-effect campaign of the discovery pipeline (the ignored test
     hidden_effects_campaign): N sets per candidate effect and N null sets, generated,
     analysed blind; prints every set and the rates, fails if the contract's are not met.
-    --sets N     sets per candidate and null sets, a whole number > 0 (default 50)
+    --parameters the hidden-parameter campaign instead (hidden_parameters_campaign): the
+                 loop's parameters changed in the instrument file, identified from
+                 response tables and saturation rows through the closed loop
+    --sets N     sets per candidate and null sets, a whole number > 0 (default 50;
+                 10 per parameter and design with --parameters)
     --seed S     seed of the campaign, a whole number (default 4242)
     --analytic   generate with the quasi-static model instead of the closed-loop
-                 simulator (faster, no loop dynamics)";
+                 simulator (faster, no loop dynamics; not with --parameters)";
 
 /// `cargo xtask hidden`.
 pub fn run(args: &[String]) -> Result<(), Error> {
-    let mut sets = "50".to_string();
+    let mut sets: Option<String> = None;
     let mut seed: Option<String> = None;
     let mut analytic = false;
+    let mut parameters = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
             "--sets" => {
-                sets.clone_from(
-                    it.next()
-                        .ok_or_else(|| Error::Usage("--sets needs a number".into()))?,
-                );
-                if sets.parse::<usize>().map_or(true, |n| n == 0) {
+                let n = it
+                    .next()
+                    .ok_or_else(|| Error::Usage("--sets needs a number".into()))?
+                    .clone();
+                if n.parse::<usize>().map_or(true, |n| n == 0) {
                     return Err(Error::Usage(format!(
-                        "--sets {sets}: expected a whole number > 0"
+                        "--sets {n}: expected a whole number > 0"
                     )));
                 }
+                sets = Some(n);
             }
             "--seed" => {
                 let s = it
@@ -51,9 +63,22 @@ pub fn run(args: &[String]) -> Result<(), Error> {
                 seed = Some(s);
             }
             "--analytic" => analytic = true,
+            "--parameters" => parameters = true,
             other => return Err(Error::Usage(format!("unknown option `{other}`"))),
         }
     }
+    if parameters && analytic {
+        return Err(Error::Usage(
+            "--analytic with --parameters: the parameters are seen through the closed loop only"
+                .into(),
+        ));
+    }
+    let (test, name, default_sets) = if parameters {
+        ("hidden_params", "hidden_parameters_campaign", "10")
+    } else {
+        ("hidden_effects", "hidden_effects_campaign", "50")
+    };
+    let sets = sets.unwrap_or_else(|| default_sets.to_string());
     let root = util::root();
     let mut cmd = std::process::Command::new(util::cargo());
     cmd.current_dir(&root)
@@ -62,8 +87,8 @@ pub fn run(args: &[String]) -> Result<(), Error> {
             "-p",
             "ptsa-tests",
             "--test",
-            "hidden_effects",
-            "hidden_effects_campaign",
+            test,
+            name,
             "--",
             "--ignored",
             "--nocapture",
@@ -76,7 +101,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         cmd.env("PTSA_HIDDEN_ANALYTIC", "1");
     }
     eprintln!(
-        "+ PTSA_HIDDEN_SETS={sets}{}{} cargo test -p ptsa-tests --test hidden_effects hidden_effects_campaign -- --ignored --nocapture",
+        "+ PTSA_HIDDEN_SETS={sets}{}{} cargo test -p ptsa-tests --test {test} {name} -- --ignored --nocapture",
         seed.as_ref()
             .map_or(String::new(), |s| format!(" PTSA_HIDDEN_SEED={s}")),
         if analytic {

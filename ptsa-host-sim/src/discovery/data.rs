@@ -337,9 +337,14 @@ fn parameter_signatures(
     sensitivities(rows, d, params, sim, &Effects::NONE)
 }
 
+/// Step of the parameters' central differences, in tolerance half-widths: large enough that
+/// the closed loop's noise (a changed parameter decorrelates the limit cycle's beat even
+/// with the same seed) does not pass for a sensitivity, small enough to stay local.
+pub const SENSITIVITY_STEP: f64 = 0.25;
+
 /// The observations' sensitivities to each parameter around the effects `at` (central
-/// differences, step a tenth of the tolerance half-width); `null` when the parameter, off by
-/// its whole tolerance, moves no observation by a tenth of its noise.
+/// differences, step [`SENSITIVITY_STEP`] tolerance half-widths); `null` when the
+/// parameter, off by its whole tolerance, moves no observation by a tenth of its noise.
 pub fn sensitivities(
     rows: &[Condition],
     d: &Data,
@@ -358,7 +363,12 @@ pub fn sensitivities(
             let h = sim
                 .instrument()
                 .and_then(|i| i.tolerance(key))
-                .map_or(0.0, |(lo, nom, hi)| 0.1 * (hi - nom).max(nom - lo));
+                .map_or(0.0, |(lo, nom, hi)| {
+                    // Inside the band on both sides (an asymmetric band, the torquer lag's
+                    // 0.2 to 20 µs about 2 µs, would otherwise step below zero).
+                    (SENSITIVITY_STEP * (hi - nom).max(nom - lo))
+                        .min(0.9 * (hi - nom).min(nom - lo))
+                });
             if h == 0.0 {
                 return Signature {
                     id,

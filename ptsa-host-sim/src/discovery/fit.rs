@@ -14,7 +14,9 @@
 //!   `P(|t_{n−p}| > |β/SE_HC3|)`, valid whatever the rows' variances.
 
 use super::data::{Data, TimeUnit, replicate_sets};
-use super::stats::{LsqFit, chi2_sf, f_sf, lsq, norm, residualize, sandwich_se, t_two_sided};
+use super::stats::{
+    LsqFit, birge_ratio, chi2_sf, f_sf, lsq, norm, residualize, sandwich_se, t_two_sided,
+};
 use crate::effects::CandidateId;
 
 /// Settings of the selection.
@@ -100,7 +102,8 @@ pub struct Fitted {
     pub fit: LsqFit,
     /// Coefficients in physical units, same order as the fit's columns.
     pub coef: Vec<f64>,
-    /// Their standard errors (scaled by the Birge ratio `max(1, sqrt(χ²/dof))`, or HC3 when
+    /// Their standard errors (scaled by the Birge ratio when χ² rejects the sigmas, see
+    /// [`super::stats::birge_ratio`], or HC3 when
     /// the sigmas are estimated, whichever is larger).
     pub se: Vec<f64>,
     /// Settings used.
@@ -108,6 +111,13 @@ pub struct Fitted {
     cols: Vec<Col>,
     cand_cols: Vec<Option<Col>>,
 }
+
+/// Weight, in degrees of freedom, of the pooled residual variance in each variance group's
+/// estimate (when the sigmas are estimated from the residuals).
+pub const PRIOR_DOF: f64 = 4.0;
+
+/// Fewest residual degrees of freedom the step test's reference model keeps.
+pub const MIN_REFERENCE_DOF: usize = 2;
 
 /// The noise reference of a step: the residual scale and residuals of the largest model
 /// that holds the step's (the current model and every remaining candidate that adds an
@@ -311,13 +321,12 @@ fn estimate_sigma(
         }
     }
     let pooled = ss_r.iter().sum::<f64>() / df_r.iter().sum::<f64>().max(1e-9);
+    // Each group's residual variance shrunk towards the pooled one with the weight of
+    // [`PRIOR_DOF`] degrees of freedom: a group of a few rows alone can come out at a tenth
+    // of its true noise and make a chance pattern look significant.
     for g in 0..var.len() {
         if var[g].is_nan() {
-            var[g] = if df_r[g] >= 2.0 {
-                ss_r[g] / df_r[g]
-            } else {
-                pooled
-            };
+            var[g] = (ss_r[g] + PRIOR_DOF * pooled) / (df_r[g] + PRIOR_DOF);
         }
     }
     let floor = pooled.max(f64::MIN_POSITIVE) * 1e-6;
@@ -419,12 +428,28 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
         let Some(cur_fit) = d.fit(&cur_refs) else {
             break;
         };
-        // The reference: the current model plus every remaining candidate that adds an
-        // independent column.
+        // The reference: the current model plus the remaining candidates that add an
+        // independent column, those nearest the current residual first, while it keeps
+        // [`MIN_REFERENCE_DOF`] residual degrees of freedom (without a cap a small design
+        // runs out of them and the test falls back to the trial's own residuals, which hold
+        // every other real effect).
         let basis: Vec<&[f64]> = cur.iter().map(|c| c.unit.as_slice()).collect();
         let mut big: Vec<&[f64]> = basis.clone();
-        for &k in &family {
-            if let (false, Some(c)) = (set.contains(&k), &cand[k])
+        let mut rest: Vec<(f64, usize)> = family
+            .iter()
+            .filter(|k| !set.contains(k))
+            .filter_map(|&k| {
+                let c = cand[k].as_ref()?;
+                let d: f64 = c.unit.iter().zip(&cur_fit.resid).map(|(a, b)| a * b).sum();
+                Some((d.abs(), k))
+            })
+            .collect();
+        rest.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        for &(_, k) in &rest {
+            if big.len() + MIN_REFERENCE_DOF >= n {
+                break;
+            }
+            if let Some(c) = &cand[k]
                 && norm(&residualize(&c.unit, &big)) >= min_partial
             {
                 big.push(&c.unit);
@@ -539,12 +564,7 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
         lsq(&d.z, &[]).unwrap_or_else(|| unreachable!("an empty fit always succeeds"))
     });
     let dof = n.saturating_sub(fit.beta.len());
-    #[allow(clippy::cast_precision_loss)]
-    let birge = if dof > 0 {
-        (fit.chi2 / dof as f64).sqrt().max(1.0)
-    } else {
-        1.0
-    };
+    let birge = birge_ratio(fit.chi2, dof);
     let (coef, se): (Vec<f64>, Vec<f64>) = cols
         .iter()
         .enumerate()

@@ -475,12 +475,7 @@ fn refine_parameters(
         }
         let Some(g) = lsq(&z, &refs) else { return };
         let dof = n.saturating_sub(refs.len());
-        #[allow(clippy::cast_precision_loss)]
-        let birge = if dof > 0 {
-            (g.chi2 / dof as f64).sqrt().max(1.0)
-        } else {
-            1.0
-        };
+        let birge = super::stats::birge_ratio(g.chi2, dof);
         let mut done = true;
         for (j, &k) in params.iter().enumerate() {
             let step = g.beta[j] / scales[j];
@@ -1044,8 +1039,8 @@ fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
             )
         } else {
             format!(
-                "{name} = {:.4} {unit} is beyond its plausibility bound: the data's structure is real, but this cause is unlikely",
-                s.coef
+                "{name} = {} {unit} is beyond its plausibility bound: the data's structure is real, but this cause is unlikely",
+                super::show::estimate(s.coef, s.stderr)
             )
         });
     }

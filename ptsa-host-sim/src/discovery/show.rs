@@ -648,7 +648,7 @@ pub fn report_section_json(
             let c: Vec<String> = d
                 .selected
                 .iter()
-                .map(|x| format!("{:.2} ± {:.2} {}", x.coef, x.stderr, x.id.info().key))
+                .map(|x| format!("{} {}", estimate(x.coef, x.stderr), x.id.info().key))
                 .collect();
             let f: Vec<String> = d
                 .selected

@@ -137,6 +137,22 @@ pub fn residualize(v: &[f64], basis: &[&[f64]]) -> Vec<f64> {
     lsq(v, basis).map_or_else(|| v.to_vec(), |f| f.resid)
 }
 
+/// The factor on a weighted fit's classical standard errors: the Birge ratio
+/// `sqrt(χ²/dof)` when the residuals are inconsistent with the sigmas (`P(χ²_dof ≥ chi2)`
+/// below 0.05: the sigmas are too small, so the errors are scaled up to the scatter), else
+/// 1 (the sigmas are believed; scaling by a ratio that only fluctuates about 1 would make
+/// the intervals too wide, about 96 % instead of 95 %).
+#[must_use]
+pub fn birge_ratio(chi2: f64, dof: usize) -> f64 {
+    #[allow(clippy::cast_precision_loss)]
+    let nu = dof as f64;
+    if dof == 0 || chi2_sf(chi2, nu) >= 0.05 {
+        1.0
+    } else {
+        (chi2 / nu).sqrt().max(1.0)
+    }
+}
+
 /// Euclidean norm.
 #[must_use]
 pub fn norm(v: &[f64]) -> f64 {

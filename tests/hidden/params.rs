@@ -1,0 +1,720 @@
+//! The hidden-parameter campaign: the loop's own parameters identified blind through the
+//! closed loop.
+//!
+//! A set is a frequency-response table (and, in one design, saturation rows) measured on an
+//! instrument whose file differs from the shipped one in one parameter (damping, spring,
+//! inertia, pendulosity, torquer scale factor, torquer lag, pickoff gain or pickoff phase),
+//! or in none. The analysis ([`discover`] with the closed-loop simulator of the *shipped*
+//! file) never sees the perturbed file; it must name the parameter, or say that it is
+//! indistinguishable from the one it names.
+//!
+//! * **Measurement**: each row is one closed-loop run of the perturbed instrument with its
+//!   own noise seed; its stated sigma is what a laboratory would state, the scatter of one
+//!   run at that condition (the sample standard deviation of [`CALIBRATION_RUNS`] runs of
+//!   the shipped instrument with other seeds, floored at 1e-4 in gain, 0.01° in phase and
+//!   0.01 cm/s²).
+//! * **Strength**: the offset is `±s·SE`, `s` uniform in 2–24, where SE is the parameter's
+//!   standard error alone in this design (central differences of the closed loop a quarter
+//!   of a tolerance half-width either side, each the mean of 8 runs, against the stated
+//!   sigmas, with the loop noise's expected share of the information taken off).
+//!   The issue's "2–10 tolerance widths" would put every parameter at hundreds of standard
+//!   errors (a 20-frequency table measures the damping to 0.2 %), where nothing can fail,
+//!   and some below zero; the strength in SE is what decides detection, so it is drawn,
+//!   and the offset in tolerance half-widths is reported beside it.
+//! * **Scored**: named exactly (selected), or as a confounded partner of what is selected;
+//!   coverage of `|fitted − true| ≤ 1.96·SE` among exact namings at ≥ 6 SE; any selection in
+//!   an unperturbed set is a false selection.
+//!
+//! Asserted in the full campaign (`cargo xtask hidden --parameters`): exact-or-partner
+//! naming at ≥ 6 SE in ≥ 95 % of the sets, coverage in the 99 % band of Binomial(n, 0.95)
+//! when there are at least 20 exact namings, confident misnamings and false selections on
+//! unperturbed sets each consistent with at most 5 % (one-sided binomial test at 1 %). The
+//! CI subset asserts the false selections only. **Today the full campaign fails**: the
+//! pipeline names the torquer lag and the pickoff phase in none of their sets and often
+//! names the pickoff gain for the damping or the pendulosity without saying they are
+//! indistinguishable (`docs/discovery.md`, "Where it fails"); the campaign is the measure of
+//! that work, not a claim that it is done.
+
+use std::fmt::Write as _;
+use std::sync::OnceLock;
+use std::time::Instant;
+
+use ptsa_host_sim::condition::{IA, RowKind};
+use ptsa_host_sim::discovery::sim::{ClosedLoopSimulator, response_of};
+use ptsa_host_sim::discovery::{Options, discover};
+use ptsa_host_sim::{CandidateId, Condition, Effects, Instrument, SimOptions};
+use rayon::prelude::*;
+
+use super::campaign::{binomial_interval, binomial_upper_tail};
+use rand::Rng as _;
+
+use super::{Draw, rng};
+
+/// Runs of the shipped instrument behind each row's stated sigma.
+pub const CALIBRATION_RUNS: u64 = 8;
+
+/// The parameters hidden, in table order.
+pub const PARAMETERS: [CandidateId; 8] = [
+    CandidateId::ParamDamping,
+    CandidateId::ParamSpring,
+    CandidateId::ParamInertia,
+    CandidateId::ParamPendulosity,
+    CandidateId::ParamTorquerSf,
+    CandidateId::ParamTorquerLag,
+    CandidateId::ParamPickoffGain,
+    CandidateId::ParamPickoffPhase,
+];
+
+/// A design's rows, without measurements.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ParamDesign {
+    /// 20 frequencies from 2 to 400 Hz at 2000 cm/s² along IA.
+    Response20,
+    /// 10 of those frequencies and 3 saturation rows (absolute rows under vibration along
+    /// IA at 1.2, 1.5 and 2 times the loop's full scale, 50 Hz).
+    Response10Saturation,
+}
+
+impl ParamDesign {
+    /// Both, in order.
+    pub const ALL: [ParamDesign; 2] = [ParamDesign::Response20, ParamDesign::Response10Saturation];
+
+    /// Name in tables.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            ParamDesign::Response20 => "20 freq",
+            ParamDesign::Response10Saturation => "10 freq + 3 sat",
+        }
+    }
+
+    /// The rows, unmeasured.
+    #[must_use]
+    pub fn rows(self, instr: &Instrument) -> Vec<Condition> {
+        const F20: [f64; 20] = [
+            2.0, 5.0, 10.0, 15.0, 20.0, 30.0, 40.0, 50.0, 60.0, 70.0, 80.0, 90.0, 100.0, 120.0,
+            150.0, 180.0, 220.0, 260.0, 300.0, 400.0,
+        ];
+        let response = |f: f64| {
+            let mut c = Condition {
+                label: format!("{f} Hz"),
+                kind: RowKind::Response,
+                freq_hz: f,
+                ..Condition::default()
+            };
+            c.lin_cm_s2[IA] = 2000.0;
+            c
+        };
+        match self {
+            ParamDesign::Response20 => F20.iter().map(|&f| response(f)).collect(),
+            ParamDesign::Response10Saturation => {
+                let mut v: Vec<Condition> = F20.iter().step_by(2).map(|&f| response(f)).collect();
+                for x in [1.2, 1.5, 2.0] {
+                    let mut c = Condition {
+                        label: format!("saturation {x} FS at 50 Hz"),
+                        kind: RowKind::Absolute,
+                        freq_hz: 50.0,
+                        ..Condition::default()
+                    };
+                    c.g[IA] = 1.0;
+                    c.lin_cm_s2[IA] = x * instr.actual_sf_cm_s2();
+                    v.push(c);
+                }
+                v
+            }
+        }
+    }
+}
+
+/// One row measured with `seed`: `[value]` or `[gain, phase_deg]`.
+fn measure_row(instr: &Instrument, row: &Condition, seed: u64) -> Vec<f64> {
+    let opts = SimOptions {
+        seed,
+        ..SimOptions::default()
+    };
+    if row.kind == RowKind::Response {
+        response_of(instr, row, &Effects::NONE, &opts).to_vec()
+    } else {
+        vec![
+            ptsa_host_sim::sim::simulate_condition(instr, row, &Effects::NONE, &opts)
+                .indicated_cm_s2,
+        ]
+    }
+}
+
+/// Each row's stated sigmas (see the module docs), computed once per design.
+fn calibration(design: ParamDesign) -> &'static Vec<Vec<f64>> {
+    static CAL: [OnceLock<Vec<Vec<f64>>>; 2] = [OnceLock::new(), OnceLock::new()];
+    let k = ParamDesign::ALL
+        .iter()
+        .position(|&d| d == design)
+        .unwrap_or(0);
+    CAL[k].get_or_init(|| {
+        let instr = Instrument::kearfott_2401();
+        design
+            .rows(&instr)
+            .par_iter()
+            .map(|r| {
+                let runs: Vec<Vec<f64>> = (0..CALIBRATION_RUNS)
+                    .map(|j| measure_row(&instr, r, 7000 + j))
+                    .collect();
+                let floor = if r.kind == RowKind::Response {
+                    vec![1e-4, 0.01]
+                } else {
+                    vec![0.01]
+                };
+                #[allow(clippy::cast_precision_loss)]
+                let n = runs.len() as f64;
+                (0..runs[0].len())
+                    .map(|q| {
+                        let m = runs.iter().map(|v| v[q]).sum::<f64>() / n;
+                        let var = runs.iter().map(|v| (v[q] - m).powi(2)).sum::<f64>() / (n - 1.0);
+                        var.sqrt().max(floor[q])
+                    })
+                    .collect()
+            })
+            .collect()
+    })
+}
+
+/// What a set hides.
+#[derive(Clone, Debug)]
+pub struct ParamTruth {
+    /// The parameter, or `None` (unperturbed).
+    pub id: Option<CandidateId>,
+    /// Its true change from the file's value, in the file's unit.
+    pub change: f64,
+    /// `|change|` in standard errors of the parameter alone in this design.
+    pub strength_se: f64,
+    /// `|change|` in tolerance half-widths.
+    pub tolerances: f64,
+    /// The design.
+    pub design: ParamDesign,
+}
+
+/// A set: rows with measurements and stated sigmas, and the truth.
+#[derive(Clone, Debug)]
+pub struct ParamSet {
+    /// Rows.
+    pub rows: Vec<Condition>,
+    /// What was hidden.
+    pub truth: ParamTruth,
+}
+
+/// Runs averaged per side of the strength's differences (`se_alone`).
+pub const STRENGTH_RUNS: u64 = 8;
+
+/// The step of the strength's differences (`se_alone`), in tolerance half-widths.
+pub const STRENGTH_STEP: f64 = 0.25;
+
+/// The standard error of parameter `id` alone in `rows` with sigmas `cal`, from central
+/// differences of the closed loop [`STRENGTH_STEP`] tolerance half-widths either side of the
+/// file's value, each side the mean of [`STRENGTH_RUNS`] runs with the same seeds; the
+/// loop's noise passes into the difference (a changed parameter decorrelates the limit
+/// cycle's beat even with the same seed), so its expected share of the information,
+/// `2/(runs·(2h)²)` per observation, is taken off. `None` when nothing is left: the rows do
+/// not see the parameter.
+fn se_alone(
+    instr: &Instrument,
+    id: CandidateId,
+    rows: &[Condition],
+    cal: &[Vec<f64>],
+) -> Option<f64> {
+    let key = id.parameter_key()?;
+    let (lo, nom, hi) = instr.tolerance(key)?;
+    // Both sides inside the band (an asymmetric band would otherwise step below zero).
+    let h = (STRENGTH_STEP * (hi - nom).max(nom - lo)).min(0.9 * (hi - nom).min(nom - lo));
+    let (mut up, mut dn) = (instr.clone(), instr.clone());
+    up.set(key, nom + h).ok()?;
+    dn.set(key, nom - h).ok()?;
+    let mean = |i: &Instrument, r: &Condition| -> Vec<f64> {
+        let runs: Vec<Vec<f64>> = (0..STRENGTH_RUNS)
+            .map(|j| measure_row(i, r, 11 + j))
+            .collect();
+        #[allow(clippy::cast_precision_loss)]
+        let n = runs.len() as f64;
+        (0..runs[0].len())
+            .map(|q| runs.iter().map(|v| v[q]).sum::<f64>() / n)
+            .collect()
+    };
+    let (info, obs): (f64, usize) = rows
+        .par_iter()
+        .zip(cal)
+        .map(|(r, s)| {
+            let (a, b) = (mean(&up, r), mean(&dn, r));
+            let i: f64 = a
+                .iter()
+                .zip(&b)
+                .zip(s)
+                .map(|((a, b), s)| ((a - b) / (2.0 * h) / s).powi(2))
+                .sum();
+            (i, a.len())
+        })
+        .reduce(|| (0.0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
+    #[allow(clippy::cast_precision_loss)]
+    let noise = obs as f64 * 2.0 / (STRENGTH_RUNS as f64 * (2.0 * h).powi(2));
+    let info = info - noise;
+    // Less than the noise's own share again: not seen.
+    (info > noise && info.is_finite()).then(|| 1.0 / info.sqrt())
+}
+
+/// Make set `seed` hiding `id` (or nothing) in `design`.
+///
+/// # Panics
+/// The shipped file refuses a value of its own band (a bug).
+#[must_use]
+pub fn generate(seed: u64, id: Option<CandidateId>, design: ParamDesign) -> ParamSet {
+    let mut r = rng(seed);
+    let nominal = Instrument::kearfott_2401();
+    let cal = calibration(design);
+    let mut rows = design.rows(&nominal);
+    let mut truth_instr = nominal.clone();
+    let mut truth = ParamTruth {
+        id,
+        change: 0.0,
+        strength_se: 0.0,
+        tolerances: 0.0,
+        design,
+    };
+    if let Some(id) = id {
+        let key = id.parameter_key().expect("a parameter");
+        let (lo, nom, hi) = nominal.tolerance(key).expect("a toleranced parameter");
+        let half = (hi - nom).max(nom - lo);
+        let se = se_alone(&nominal, id, &rows, cal).unwrap_or(f64::INFINITY);
+        let s = r.range(2.0, 24.0);
+        let mut change = r.sign() * s * se;
+        // Keep it physical: never through zero for a positive quantity.
+        if nom > 0.0 && nom + change <= 0.1 * nom {
+            change = -change;
+        }
+        truth_instr
+            .set(key, nom + change)
+            .expect("a settable parameter");
+        truth.change = change;
+        truth.strength_se = s;
+        truth.tolerances = change.abs() / half;
+    }
+    let noise_seed = r.random::<u64>();
+    let measured: Vec<Vec<f64>> = rows
+        .par_iter()
+        .enumerate()
+        .map(|(k, row)| measure_row(&truth_instr, row, noise_seed.wrapping_add(k as u64)))
+        .collect();
+    for ((row, m), s) in rows.iter_mut().zip(&measured).zip(cal) {
+        if row.kind == RowKind::Response {
+            row.measured_gain = Some(m[0]);
+            row.measured_phase_deg = Some(m[1]);
+            row.sigma_gain = Some(s[0]);
+            row.sigma_phase_deg = Some(s[1]);
+        } else {
+            row.measured_cm_s2 = Some(m[0]);
+            row.sigma_cm_s2 = Some(s[0]);
+        }
+    }
+    ParamSet { rows, truth }
+}
+
+/// A set's result.
+#[derive(Clone, Debug)]
+pub struct ParamOutcome {
+    /// The set's seed.
+    pub seed: u64,
+    /// The truth.
+    pub truth: ParamTruth,
+    /// What was selected.
+    pub selected: Vec<CandidateId>,
+    /// The hidden parameter is selected.
+    pub exact: bool,
+    /// It is only named as a partner of a selected candidate.
+    pub partner: bool,
+    /// `(fitted change − true change)/SE` when named exactly.
+    pub z: Option<f64>,
+    /// The analysis failed.
+    pub error: Option<String>,
+}
+
+/// Analyse a set blind and score it.
+#[must_use]
+pub fn analyse(seed: u64, set: &ParamSet) -> ParamOutcome {
+    let nominal = Instrument::kearfott_2401();
+    let sim = ClosedLoopSimulator {
+        instrument: nominal.clone(),
+        options: SimOptions::default(),
+    };
+    let mut o = ParamOutcome {
+        seed,
+        truth: set.truth.clone(),
+        selected: Vec::new(),
+        exact: false,
+        partner: false,
+        z: None,
+        error: None,
+    };
+    match discover(&set.rows, &sim, &Options::for_instrument(&nominal)) {
+        Ok(d) => {
+            o.selected = d.selected.iter().map(|s| s.id).collect();
+            if let Some(id) = set.truth.id {
+                if let Some(s) = d.selected.iter().find(|s| s.id == id) {
+                    o.exact = true;
+                    o.z = Some((s.coef - set.truth.change) / s.stderr);
+                } else {
+                    o.partner = d
+                        .selected
+                        .iter()
+                        .any(|s| s.confounded.iter().any(|(c, _)| *c == id));
+                }
+            }
+        }
+        Err(e) => o.error = Some(format!("{e:#}")),
+    }
+    o
+}
+
+/// A campaign's outcomes.
+#[derive(Clone, Debug)]
+pub struct ParamCampaign {
+    /// Sets per parameter (and of unperturbed sets), per design.
+    pub sets: usize,
+    /// Seed.
+    pub seed: u64,
+    /// Outcomes.
+    pub outcomes: Vec<ParamOutcome>,
+    /// Parameters no design sees (not hidden).
+    pub unseen: Vec<CandidateId>,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+/// Run `sets` sets of every parameter and `sets` unperturbed sets in each design.
+#[must_use]
+pub fn run(sets: usize, seed: u64) -> ParamCampaign {
+    let t0 = Instant::now();
+    let nominal = Instrument::kearfott_2401();
+    // A parameter no design sees is reported, not hidden.
+    let unseen: Vec<CandidateId> = PARAMETERS
+        .iter()
+        .copied()
+        .filter(|&id| {
+            ParamDesign::ALL.iter().all(|&d| {
+                let rows = d.rows(&nominal);
+                se_alone(&nominal, id, &rows, calibration(d)).is_none_or(|se| {
+                    let key = id.parameter_key().unwrap_or_default();
+                    let (lo, nom, hi) = nominal.tolerance(key).unwrap_or((0.0, 0.0, 0.0));
+                    // More than the whole tolerance band per standard error: unseen.
+                    se > (hi - nom).max(nom - lo)
+                })
+            })
+        })
+        .collect();
+    let kinds: Vec<Option<CandidateId>> = PARAMETERS
+        .iter()
+        .filter(|id| !unseen.contains(id))
+        .map(|&id| Some(id))
+        .chain(std::iter::once(None))
+        .collect();
+    let jobs: Vec<(u64, Option<CandidateId>, ParamDesign)> = kinds
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &k)| {
+            ParamDesign::ALL
+                .iter()
+                .enumerate()
+                .flat_map(move |(j, &d)| {
+                    (0..sets).map(move |n| {
+                        let s = seed
+                            .wrapping_mul(1_000_003)
+                            .wrapping_add(((i * 2 + j) as u64 + 1) * 100_000 + n as u64);
+                        (s, k, d)
+                    })
+                })
+        })
+        .collect();
+    let outcomes = jobs
+        .iter()
+        .map(|&(s, k, d)| analyse(s, &generate(s, k, d)))
+        .collect();
+    ParamCampaign {
+        sets,
+        seed,
+        outcomes,
+        unseen,
+        seconds: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// `k/n` counts.
+#[derive(Clone, Copy, Debug, Default)]
+struct Count {
+    k: usize,
+    n: usize,
+}
+
+impl Count {
+    fn add(&mut self, yes: bool) {
+        self.n += 1;
+        self.k += usize::from(yes);
+    }
+    fn rate(self) -> f64 {
+        #[allow(clippy::cast_precision_loss)]
+        let r = self.k as f64 / self.n.max(1) as f64;
+        r
+    }
+    fn cell(self) -> String {
+        format!("{}/{}", self.k, self.n)
+    }
+}
+
+impl ParamCampaign {
+    /// Sets of `id` that name something else with no word of the truth: a selection,
+    /// the hidden parameter neither selected nor named as a partner.
+    fn misnamed(&self, id: Option<CandidateId>) -> Count {
+        let mut c = Count::default();
+        for o in self
+            .outcomes
+            .iter()
+            .filter(|o| o.truth.id == id && id.is_some())
+        {
+            c.add(!o.selected.is_empty() && !o.exact && !o.partner);
+        }
+        c
+    }
+
+    fn counts(&self, id: Option<CandidateId>) -> (Count, Count, Count, Count, Count) {
+        let (mut exact6, mut either6, mut partner, mut coverage, mut any) = (
+            Count::default(),
+            Count::default(),
+            Count::default(),
+            Count::default(),
+            Count::default(),
+        );
+        for o in self.outcomes.iter().filter(|o| o.truth.id == id) {
+            if o.truth.id.is_none() {
+                any.add(!o.selected.is_empty());
+                continue;
+            }
+            any.add(!o.selected.is_empty());
+            partner.add(o.partner);
+            if o.truth.strength_se >= 6.0 {
+                exact6.add(o.exact);
+                either6.add(o.exact || o.partner);
+                if let Some(z) = o.z {
+                    coverage.add(z.abs() <= 1.96);
+                }
+            }
+        }
+        (exact6, either6, partner, coverage, any)
+    }
+
+    fn perturbed(&self) -> (Count, Count) {
+        let (mut either6, mut coverage) = (Count::default(), Count::default());
+        for o in self.outcomes.iter().filter(|o| o.truth.id.is_some()) {
+            if o.truth.strength_se >= 6.0 {
+                either6.add(o.exact || o.partner);
+                if let Some(z) = o.z {
+                    coverage.add(z.abs() <= 1.96);
+                }
+            }
+        }
+        (either6, coverage)
+    }
+
+    /// The asserted rates that are not met. `ci`: only what the CI subset asserts, the
+    /// false selections on unperturbed sets (the detection, coverage and misnaming rates of
+    /// a few sets per parameter are shown, not asserted: see the module docs).
+    #[must_use]
+    pub fn failures(&self, ci: bool) -> Vec<String> {
+        let mut f = self.null_failures();
+        for o in &self.outcomes {
+            if let Some(e) = &o.error {
+                f.push(format!("set {} refused: {e}", o.seed));
+            }
+        }
+        if ci {
+            return f;
+        }
+        let mis = PARAMETERS.iter().fold(Count::default(), |mut a, &id| {
+            let c = self.misnamed(Some(id));
+            a.k += c.k;
+            a.n += c.n;
+            a
+        });
+        if mis.rate() > 0.05 && binomial_upper_tail(mis.n, 0.05, mis.k) < 0.01 {
+            f.push(format!(
+                "confident misnamings (a selection, the hidden parameter neither selected nor named as a partner): {} = {:.1}%",
+                mis.cell(),
+                100.0 * mis.rate()
+            ));
+        }
+        let (either6, coverage) = self.perturbed();
+        if either6.n == 0 || either6.rate() < 0.95 {
+            f.push(format!(
+                "named (exactly or as a partner) at >= 6 SE: {} = {:.1}% < 95%",
+                either6.cell(),
+                100.0 * either6.rate()
+            ));
+        }
+        if coverage.n >= 20 {
+            let (lo, hi) = binomial_interval(coverage.n, 0.95, 0.99);
+            if coverage.k < lo || coverage.k > hi {
+                f.push(format!(
+                    "coverage: |z| <= 1.96 in {} = {:.1}%, outside [{lo}, {hi}] (99% of Binomial({}, 0.95))",
+                    coverage.cell(),
+                    100.0 * coverage.rate(),
+                    coverage.n
+                ));
+            }
+        }
+        f
+    }
+
+    /// False selections on the unperturbed sets beyond what 5 % explains (one-sided
+    /// binomial test at 1 %).
+    fn null_failures(&self) -> Vec<String> {
+        let (.., nulls) = self.counts(None);
+        if nulls.rate() > 0.05 && binomial_upper_tail(nulls.n, 0.05, nulls.k) < 0.01 {
+            vec![format!(
+                "false selections on unperturbed sets: {} = {:.1}%: P(>= {} of {}) = {:.4} at 5%",
+                nulls.cell(),
+                100.0 * nulls.rate(),
+                nulls.k,
+                nulls.n,
+                binomial_upper_tail(nulls.n, 0.05, nulls.k)
+            )]
+        } else {
+            Vec::new()
+        }
+    }
+
+    /// The table, the sets that matter and the verdict.
+    #[must_use]
+    pub fn table(&self, ci: bool) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "hidden-parameter campaign: {} sets per parameter and design ({}), seed {}; data: closed loop of the perturbed file; pipeline: closed loop of the shipped file; {:.1} s",
+            self.sets,
+            ParamDesign::ALL.map(ParamDesign::name).join(", "),
+            self.seed,
+            self.seconds
+        );
+        let _ = writeln!(
+            s,
+            "{:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} | {:>8} | {:>14}",
+            "hidden",
+            "sets",
+            "ex>=6",
+            "e|p>=6",
+            "partner",
+            "coverage",
+            "misnamed",
+            "any sel",
+            "tol widths"
+        );
+        let mut rows: Vec<Option<CandidateId>> = PARAMETERS
+            .iter()
+            .filter(|id| !self.unseen.contains(id))
+            .map(|&id| Some(id))
+            .collect();
+        rows.push(None);
+        for id in rows {
+            let (ex6, e6, partner, cov, any) = self.counts(id);
+            let n = self.outcomes.iter().filter(|o| o.truth.id == id).count();
+            let tol: Vec<f64> = self
+                .outcomes
+                .iter()
+                .filter(|o| o.truth.id == id && id.is_some())
+                .map(|o| o.truth.tolerances)
+                .collect();
+            let range = if tol.is_empty() {
+                "-".to_string()
+            } else {
+                format!(
+                    "{:.1e}–{:.1e}",
+                    tol.iter().copied().fold(f64::INFINITY, f64::min),
+                    tol.iter().copied().fold(0.0, f64::max)
+                )
+            };
+            let name = id.map_or("unperturbed", |i| i.info().name);
+            if id.is_some() {
+                let _ = writeln!(
+                    s,
+                    "{name:<14} {n:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} | {:>8} | {range:>14}",
+                    ex6.cell(),
+                    e6.cell(),
+                    partner.cell(),
+                    cov.cell(),
+                    self.misnamed(id).cell(),
+                    any.cell()
+                );
+            } else {
+                let _ = writeln!(
+                    s,
+                    "{name:<14} {n:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} | {:>8} | {range:>14}",
+                    "-",
+                    "-",
+                    "-",
+                    "-",
+                    "-",
+                    any.cell()
+                );
+            }
+        }
+        if !self.unseen.is_empty() {
+            let names: Vec<&str> = self.unseen.iter().map(|c| c.info().name).collect();
+            let _ = writeln!(
+                s,
+                "not hidden (no design sees them to better than their whole tolerance band per standard error): {}",
+                names.join(", ")
+            );
+        }
+        let _ = writeln!(
+            s,
+            "ex>=6: selected, among sets of >= 6 SE; e|p: selected or named as a confounded partner; coverage: |z| <= 1.96 among\n\
+             exact namings at >= 6 SE; any sel: sets with a selection (unperturbed: false selections); tol widths: the hidden\n\
+             change in tolerance half-widths. Asserted: e|p>=6 >= 95% over all parameters{}; coverage in the 99% band of\n\
+             Binomial(n, 0.95) from 20 namings; false selections consistent with at most 5% (one-sided binomial test at 1%).",
+            if ci {
+                " (less one binomial standard error)"
+            } else {
+                ""
+            }
+        );
+        for o in &self.outcomes {
+            let miss =
+                o.truth.id.is_some() && o.truth.strength_se >= 6.0 && !(o.exact || o.partner);
+            let cover = o.z.is_some_and(|z| z.abs() > 1.96) && o.truth.strength_se >= 6.0;
+            let falsely = o.truth.id.is_none() && !o.selected.is_empty();
+            if miss || cover || falsely || o.error.is_some() {
+                let names: Vec<&str> = o.selected.iter().map(|c| c.info().name).collect();
+                let _ = writeln!(
+                    s,
+                    "{:<16} {:<14} seed {:<12} {:>5.1} SE  {:<16} -> [{}]{}",
+                    if miss {
+                        "missed"
+                    } else if cover {
+                        "|z| > 1.96"
+                    } else if falsely {
+                        "false selection"
+                    } else {
+                        "refused"
+                    },
+                    o.truth.id.map_or("unperturbed", |i| i.info().name),
+                    o.seed,
+                    o.truth.strength_se,
+                    o.truth.design.name(),
+                    names.join(", "),
+                    o.z.map_or(String::new(), |z| format!("  z {z:+.2}"))
+                );
+            }
+        }
+        let failures = self.failures(ci);
+        if failures.is_empty() {
+            let _ = writeln!(s, "asserted rates: all met");
+        } else {
+            for f in &failures {
+                let _ = writeln!(s, "NOT MET: {f}");
+            }
+        }
+        s
+    }
+}

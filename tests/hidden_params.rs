@@ -1,0 +1,47 @@
+//! Hidden-parameter tests (`ptsa_tests::hidden::params`): response tables (and saturation
+//! rows) measured on an instrument file with one parameter changed, or none, identified
+//! blind through the closed loop of the shipped file; the rates asserted.
+//!
+//! * `hidden_parameters_ci`: [`CI_SETS`] sets per parameter and design, and as many
+//!   unperturbed ones (in `cargo test --workspace`, so in `cargo xtask ci`); asserts that
+//!   the unperturbed sets select nothing beyond what 5 % explains, and prints the table.
+//! * `hidden_parameters_campaign` (ignored): `PTSA_HIDDEN_SETS` per parameter and design
+//!   (default 10), seed `PTSA_HIDDEN_SEED`, run by `cargo xtask hidden --parameters`.
+
+use ptsa_tests::hidden::params::{self, ParamCampaign};
+
+/// Sets per parameter and design in CI: 7 hidden parameters × 2 designs + 2 unperturbed =
+/// 16 sets per unit, about a second each on two cores.
+const CI_SETS: usize = 2;
+
+fn env<T: std::str::FromStr>(key: &str, default: T) -> T {
+    std::env::var(key)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn check(c: &ParamCampaign, ci: bool) {
+    use std::io::Write as _;
+    let table = c.table(ci);
+    let _ = writeln!(std::io::stderr(), "{table}");
+    let failures = c.failures(ci);
+    assert!(
+        failures.is_empty(),
+        "hidden-parameter rates not met:\n{}",
+        failures.join("\n")
+    );
+}
+
+#[test]
+fn hidden_parameters_ci() {
+    check(&params::run(CI_SETS, 2026), true);
+}
+
+#[test]
+#[ignore = "full campaign: cargo xtask hidden --parameters --sets 10"]
+fn hidden_parameters_campaign() {
+    let n: usize = env("PTSA_HIDDEN_SETS", 10);
+    let seed: u64 = env("PTSA_HIDDEN_SEED", 4242);
+    check(&params::run(n, seed), false);
+}
