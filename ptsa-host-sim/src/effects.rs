@@ -265,6 +265,19 @@ impl CandidateId {
         )
     }
 
+    /// Order of simplicity when two candidates fit alike: 0 for a first-order
+    /// model-equation term, 1 for another additive term, 2 for a parameter of the loop.
+    #[must_use]
+    pub fn rank(self) -> u8 {
+        if self.first_order() {
+            0
+        } else if self.parameter_key().is_some() {
+            2
+        } else {
+            1
+        }
+    }
+
     /// The instrument-file key of a parameter candidate.
     #[must_use]
     pub fn parameter_key(self) -> Option<&'static str> {

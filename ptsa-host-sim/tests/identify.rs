@@ -187,3 +187,42 @@ fn synthetic_response_file_is_what_the_generator_makes() {
         "data/synthetic-response.case.csv differs from the generator"
     );
 }
+
+/// In a tumble a scale-factor change and a torquer scale-factor change are the same
+/// column; the model-equation term is named, the parameter said to be indistinguishable
+/// (the closed loop's sensitivity to the parameter carries a little noise, which must not
+/// decide between them). Six noise draws of a 24-point tumble with a bias, a scale-factor
+/// change, a misalignment and a nonlinearity.
+#[test]
+fn a_tumble_names_the_scale_factor_before_the_torquer_parameter() {
+    use ptsa_host_sim::discovery::sim::Simulator as _;
+    use ptsa_host_sim::plan::{self, Axis};
+    use rand::SeedableRng as _;
+    use rand_distr::Distribution as _;
+    let nominal = Instrument::kearfott_2401();
+    let sim = ClosedLoopSimulator {
+        instrument: nominal.clone(),
+        options: SimOptions::default(),
+    };
+    let truth = Effects::only(CandidateId::Bias, 2.0)
+        .with(CandidateId::ScaleFactor, 300.0)
+        .with(CandidateId::MisalignmentP, 2e-4)
+        .with(CandidateId::Nonlinearity, 1e-7);
+    let noise = rand_distr::Normal::new(0.0, 0.02).unwrap();
+    for seed in 1..=6 {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut rows = plan::tumble(24, Axis::Oa);
+        for r in &mut rows {
+            r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + noise.sample(&mut rng));
+            r.sigma_cm_s2 = Some(0.02);
+        }
+        let d = discover(&rows, &sim, &Options::for_instrument(&nominal)).unwrap();
+        let named: Vec<CandidateId> = d.selected.iter().map(|s| s.id).collect();
+        assert!(
+            named.contains(&CandidateId::ScaleFactor)
+                && !named.contains(&CandidateId::ParamTorquerSf),
+            "seed {seed}: {named:?}\n{}",
+            show::text_report("tumble", &d)
+        );
+    }
+}

@@ -15,7 +15,7 @@
 
 use super::data::{Data, TimeUnit, replicate_sets};
 use super::stats::{
-    LsqFit, birge_ratio, chi2_sf, f_sf, lsq, norm, residualize, sandwich_se, t_two_sided,
+    LsqFit, abs_cos, birge_ratio, chi2_sf, f_sf, lsq, norm, residualize, sandwich_se, t_two_sided,
 };
 use crate::effects::CandidateId;
 
@@ -111,6 +111,10 @@ pub struct Fitted {
     cols: Vec<Col>,
     cand_cols: Vec<Option<Col>>,
 }
+
+/// Partial |cos| above which two candidates count as the same step (the simpler one,
+/// [`CandidateId::rank`], is taken).
+pub const EQUIVALENT_COS: f64 = 0.999;
 
 /// Fewest residual degrees of freedom the step test's reference model keeps.
 pub const MIN_REFERENCE_DOF: usize = 2;
@@ -459,7 +463,7 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
         }
         let reference = lsq(&d.z, &big).and_then(|f| Reference::of(&f));
         // Forward.
-        let mut best: Option<(usize, f64, f64)> = None;
+        let mut trials: Vec<(usize, f64, f64)> = Vec::new();
         for &k in &family {
             if set.contains(&k) || cur.len() + 2 > n {
                 continue;
@@ -480,8 +484,30 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
                 stated,
                 reference.as_ref(),
             );
-            if best.is_none_or(|(_, bp, _)| p < bp * (1.0 - 1e-9)) {
-                best = Some((k, p, cur_fit.chi2 - f.chi2));
+            trials.push((k, p, cur_fit.chi2 - f.chi2));
+        }
+        let mut best: Option<(usize, f64, f64)> = None;
+        for &t in &trials {
+            if best.is_none_or(|(_, bp, _)| t.1 < bp * (1.0 - 1e-9)) {
+                best = Some(t);
+            }
+        }
+        // Among the candidates these data cannot tell from the best one (partial columns
+        // parallel to within 0.1 %), the simplest: a model-equation term before another
+        // additive term, an additive term before a parameter of the loop (whose
+        // closed-loop sensitivity carries a little noise that would otherwise decide).
+        if let Some((kb, ..)) = best
+            && let Some(cb) = &cand[kb]
+        {
+            let ub = residualize(&cb.unit, &basis);
+            let rank = |k: usize| (data.signatures[k].id.rank(), k);
+            for &t in &trials {
+                let Some(c) = &cand[t.0] else { continue };
+                if rank(t.0) < rank(best.map_or(kb, |b| b.0))
+                    && abs_cos(&residualize(&c.unit, &basis), &ub) > EQUIVALENT_COS
+                {
+                    best = Some(t);
+                }
             }
         }
         #[allow(clippy::cast_precision_loss)]
