@@ -92,6 +92,26 @@ fn damping_off_by_two_tolerances_is_named() {
     assert_eq!(fig.panels[0].series[0].points.len(), 20);
 }
 
+/// `ptsa discover --data response.case.csv --no-plots --write-instrument FILE` in `dir`;
+/// it must succeed. Returns its stderr.
+fn write_instrument(dir: &std::path::Path, file: &str) -> String {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .current_dir(dir)
+        .args([
+            "discover",
+            "--data",
+            "response.case.csv",
+            "--no-plots",
+            "--write-instrument",
+            file,
+        ])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{err}");
+    err
+}
+
 /// The same through the binary: `--write-instrument` writes the shipped file with the
 /// identified damping and nothing else changed, and the written file reads back.
 #[test]
@@ -108,20 +128,7 @@ fn write_instrument_holds_the_identified_damping() {
         ptsa_host_sim::discovery::caseframe::to_csv(&rows, &["damping +50 %"]),
     )
     .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .current_dir(tmp.path())
-        .args([
-            "discover",
-            "--data",
-            "response.case.csv",
-            "--no-plots",
-            "--write-instrument",
-            "fitted.toml",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    let err = write_instrument(tmp.path(), "fitted.toml");
     assert!(err.contains("wrote fitted.toml"), "{err}");
     let text = std::fs::read_to_string(tmp.path().join("fitted.toml")).unwrap();
     let fitted = Instrument::parse(&text, "fitted.toml").unwrap();
@@ -141,20 +148,7 @@ fn write_instrument_holds_the_identified_damping() {
         ptsa_host_sim::discovery::caseframe::to_csv(&table(&nominal, 99), &[]),
     )
     .unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .current_dir(tmp.path())
-        .args([
-            "discover",
-            "--data",
-            "response.case.csv",
-            "--no-plots",
-            "--write-instrument",
-            "none.toml",
-        ])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{err}");
+    let err = write_instrument(tmp.path(), "none.toml");
     assert!(err.contains("none.toml not written"), "{err}");
     assert!(!tmp.path().join("none.toml").exists());
 }
