@@ -63,6 +63,11 @@ fn anisoinertia_table_follows_the_coefficient() {
         "{k}"
     );
     assert!((k - s62.coefficient_cm).abs() < 0.1);
+    // A negative I_PA − I_IA gives a negative coefficient (the report's magnitudes lose the
+    // sign; the simulated rows' correlation with w_IA·w_PA keeps it).
+    let r = anisoinertia::run(&i, &SimOptions::default(), -3.4, [0.0; 3]).unwrap();
+    let k = r.k_simulated_cm;
+    assert!((k + 3.4 / i.pendulosity_g_cm()).abs() < 0.01, "{k}");
 }
 
 /// Tables 6.2/6.3: no rectified OA coupling.

@@ -99,7 +99,15 @@ pub fn run(
             .filter_map(|r| r.report.map(f64::abs))
             .collect(),
     );
-    let k_sim = sim_mean / w45;
+    // As the report derives it (the mean magnitude at 45°), with the sign of the simulated
+    // rows' correlation with w_IA·w_PA, which the magnitudes lose.
+    // (w_IA·w_PA goes as sin 2φ with the IA position φ on the table.)
+    let sign = rows
+        .iter()
+        .map(|r| r.simulated * (2.0 * r.ia_deg).to_radians().sin())
+        .sum::<f64>()
+        .signum();
+    let k_sim = sign * sim_mean / w45;
     let mut t = Table::new(
         "anisoinertia-table-6-1",
         &format!(
