@@ -1267,4 +1267,23 @@ fn plan_and_predict() {
         .output()
         .unwrap();
     assert!(!bad.status.success());
+    // A response row predicts a gain and a phase, not an acceleration.
+    let resp = dir.path().join("resp.csv");
+    std::fs::write(
+        &resp,
+        "label,kind,freq_hz,lin_ia_cm_s2\nlow,response,2,2000\n",
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .args(["predict", "--analytic", "--json", "--data"])
+        .arg(&resp)
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    let r = &v["rows"][0];
+    assert!(r["predicted_cm_s2"].is_null(), "{r}");
+    let g = r["predicted_gain"].as_f64().unwrap();
+    let ph = r["predicted_phase_deg"].as_f64().unwrap();
+    // Well inside the loop's bandwidth: gain near 1, a small lag.
+    assert!((g - 1.0).abs() < 0.05 && ph < 0.0 && ph > -5.0, "{r}");
 }

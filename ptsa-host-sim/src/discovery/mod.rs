@@ -234,14 +234,12 @@ pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
 }
 
 /// What the instrument should read in each row (`ptsa predict`): the simulator's prediction
-/// with `effects` put into the plant, cm/s² (a difference or an absolute value by the row's
-/// kind).
+/// with `effects` put into the plant, as [`Simulator::observe`] gives it: `[cm/s²]` for a
+/// difference or absolute row, `[gain, phase_deg]` for a response row.
 #[must_use]
-pub fn predict(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<f64> {
+pub fn predict(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<Vec<f64>> {
     use rayon::prelude::*;
-    rows.par_iter()
-        .map(|r| sim.predict_cm_s2(r, effects))
-        .collect()
+    rows.par_iter().map(|r| sim.observe(r, effects)).collect()
 }
 
 pub use show::report_section;

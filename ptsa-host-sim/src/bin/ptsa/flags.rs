@@ -464,7 +464,8 @@ pub struct PredictArgs {
     /// `effects` array). Without it, the baseline model.
     #[arg(long, value_name = "FILE.json")]
     pub effects: Option<PathBuf>,
-    /// Print exactly one JSON object {"rows": [{"label", "predicted_cm_s2"}]}.
+    /// Print exactly one JSON object {"rows": [{"label", "predicted_cm_s2"}]} (a response
+    /// row: `predicted_cm_s2` null, and `predicted_gain`, `predicted_phase_deg`).
     #[arg(long)]
     pub json: bool,
     /// Seed of the simulator's pickoff noise (closed loop).

@@ -1006,11 +1006,26 @@ fn predict_cmd(
     let s = work::spinner("predict");
     let pred = discovery::predict(&rows, &*sim, &effects);
     s.finish_and_clear();
+    let response =
+        |r: &ptsa_host_sim::Condition| r.kind == ptsa_host_sim::condition::RowKind::Response;
     if a.json {
+        // A response row has no acceleration to predict: `predicted_cm_s2` is null and its
+        // gain and phase come as `predicted_gain`, `predicted_phase_deg`.
         let rows: Vec<serde_json::Value> = rows
             .iter()
             .zip(&pred)
-            .map(|(r, p)| serde_json::json!({"label": r.label, "predicted_cm_s2": p}))
+            .map(|(r, p)| {
+                if response(r) {
+                    serde_json::json!({
+                        "label": r.label,
+                        "predicted_cm_s2": null,
+                        "predicted_gain": p.first(),
+                        "predicted_phase_deg": p.get(1),
+                    })
+                } else {
+                    serde_json::json!({"label": r.label, "predicted_cm_s2": p.first()})
+                }
+            })
             .collect();
         writeln!(out, "{}", serde_json::json!({ "rows": rows }))?;
         return Ok(());
@@ -1038,25 +1053,46 @@ fn predict_cmd(
         "{:<48} {:>10} {:>14} {:>12} {:>10}",
         "row", "kind", "predicted", "measured", "residual"
     )?;
-    for (r, p) in rows.iter().zip(&pred) {
-        let (m, res) = r
-            .measured_cm_s2
-            .map_or(("-".to_string(), "-".to_string()), |m| {
-                (format!("{m:.3}"), format!("{:.3}", m - p))
-            });
+    let line = |out: &mut dyn Write, label: &str, kind: &str, p: f64, m: Option<f64>, d: usize| {
+        let (ms, res) = m.map_or(("-".to_string(), "-".to_string()), |m| {
+            (format!("{m:.d$}"), format!("{:.d$}", m - p))
+        });
         writeln!(
             out,
             "{:<48} {:>10} {:>14.4} {:>12} {:>10}",
-            r.label.chars().take(48).collect::<String>(),
-            r.kind.name(),
+            label.chars().take(48).collect::<String>(),
+            kind,
             p,
-            m,
+            ms,
             res
-        )?;
+        )
+    };
+    for (r, p) in rows.iter().zip(&pred) {
+        let v = |k: usize| p.get(k).copied().unwrap_or(f64::NAN);
+        if response(r) {
+            line(
+                out,
+                &format!("{} (gain)", r.label),
+                "response",
+                v(0),
+                r.measured_gain,
+                4,
+            )?;
+            line(
+                out,
+                &format!("{} (phase, deg)", r.label),
+                "response",
+                v(1),
+                r.measured_phase_deg,
+                3,
+            )?;
+        } else {
+            line(out, &r.label, r.kind.name(), v(0), r.measured_cm_s2, 3)?;
+        }
     }
     writeln!(
         out,
-        "(cm/s²; a difference row is condition − reference, an absolute row the indicated acceleration)"
+        "(cm/s²; a difference row is condition − reference, an absolute row the indicated acceleration; a response row's gain is output over input amplitude, its phase output minus input in degrees)"
     )?;
     Ok(())
 }
