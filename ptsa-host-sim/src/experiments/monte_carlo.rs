@@ -18,7 +18,7 @@ use crate::effects::Effects;
 use crate::fixtures;
 use crate::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num, text};
-use crate::sim::{SimOptions, simulate_condition};
+use crate::sim::SimOptions;
 
 /// Up to this many toleranced parameters every corner is visited.
 pub const MAX_EXHAUSTIVE: usize = 14;
@@ -115,16 +115,34 @@ pub fn run(instr: &Instrument, opts: &SimOptions, samples: usize) -> Result<Mont
         .iter()
         .map(|r| r.gain_margin_db)
         .fold(f64::INFINITY, f64::min);
-    let checks: Vec<CornerCheck> = corners
+    // The worst corners in the closed loop, as one batch (per-lane instruments; every lane
+    // bit-identical to its own `simulate_condition`).
+    let worst: Vec<(Instrument, f64, crate::Condition)> = corners
         .iter()
         .take(8)
-        .collect::<Vec<_>>()
-        .par_iter()
         .map(|r| {
             let i = corner(instr, r.bits);
+            let a = CHECK_FRACTION * i.actual_sf_cm_s2() - i.bias_cm_s2;
+            let c = fixtures::along_ia(a, i.g_cm_s2);
+            (i, a, c)
+        })
+        .collect();
+    let jobs: Vec<crate::batch::Job<'_>> = worst
+        .iter()
+        .map(|(i, _, c)| crate::batch::Job {
+            instr: i,
+            cond: c,
+            effects: Effects::NONE,
+            seed: opts.seed,
+        })
+        .collect();
+    let results = crate::batch::simulate_jobs(&jobs, opts);
+    let checks: Vec<CornerCheck> = worst
+        .iter()
+        .zip(&results)
+        .map(|((i, a, _), s)| {
+            let (i, a) = (i, *a);
             let sf_corner = i.actual_sf_cm_s2();
-            let a = CHECK_FRACTION * sf_corner - i.bias_cm_s2;
-            let s = simulate_condition(&i, &fixtures::along_ia(a, i.g_cm_s2), &Effects::NONE, opts);
             let truth = a + i.bias_cm_s2 + i.loop_bias_cm_s2(0.0);
             CornerCheck {
                 sf_change_ppm: (sf_corner / i.sf_cm_s2 - 1.0) * 1e6,
