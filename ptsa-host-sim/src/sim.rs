@@ -129,7 +129,7 @@ pub struct SimDifference {
 }
 
 /// The per-tick noise source: wyrand (one multiply per draw) indexing a table of 4096
-/// standard-normal values drawn once (Box-Muller from ChaCha8, normalised to mean 0 and
+/// standard-normal values drawn once (Box-Muller from `ChaCha8`, normalised to mean 0 and
 /// variance 1), all from the seed. Cheap enough for the hot loop; the table's 4096 levels
 /// are far finer than the ADC's.
 #[derive(Clone, Debug)]

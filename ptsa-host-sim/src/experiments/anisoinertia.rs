@@ -32,7 +32,7 @@ pub struct AnisoRow {
 pub struct AnisoRun {
     /// One row per IA position of Table 6.1.
     pub rows: Vec<AnisoRow>,
-    /// The coefficient as the report derives it from the simulated table (mean |A_in| at the
+    /// The coefficient as the report derives it from the simulated table (mean `|A_in|` at the
     /// 45° positions over `w_IA·w_PA`), cm.
     pub k_simulated_cm: f64,
     /// The configured coefficient `(I_PA − I_IA)/(m·l)`, cm.

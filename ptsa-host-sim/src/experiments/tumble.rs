@@ -40,7 +40,7 @@ pub struct Tumble {
     pub bias: f64,
     /// The SF the simulation was configured with, cm/s².
     pub sf_configured: f64,
-    /// The bias it was configured with (instrument A_b plus the loop's own), cm/s².
+    /// The bias it was configured with (instrument `A_b` plus the loop's own), cm/s².
     pub bias_configured: f64,
 }
 

@@ -134,7 +134,7 @@ impl Figure {
 
 static FONT: OnceLock<bool> = OnceLock::new();
 
-/// Register a system TrueType font (DejaVu Sans or Liberation Sans) as the plots'
+/// Register a system TrueType font (`DejaVu Sans` or `Liberation Sans`) as the plots'
 /// `sans-serif`, once for the program. Returns whether text can be drawn; without a font the
 /// plots are drawn unlabelled.
 pub fn font_ready() -> bool {
