@@ -296,7 +296,7 @@ impl Engine {
     /// Run program `prog(i)` on loop `i`, every loop: sort the lanes into groups, the groups
     /// across rayon's threads. Returns each lane's output.
     fn execute(
-        &self,
+        self,
         loops: &mut [ClosedLoop],
         prog: impl Fn(usize) -> Vec<Step>,
     ) -> Vec<Option<Out>> {

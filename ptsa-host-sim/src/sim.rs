@@ -144,7 +144,8 @@ impl NoiseSource {
     /// The source of `seed`: its table and the generator's first state.
     pub(crate) fn new(seed: u64) -> Self {
         let mut c = ChaCha8Rng::seed_from_u64(seed);
-        let mut t = [0.0f64; NOISE_TABLE];
+        // Built on the heap: 32 KiB is too much for a stack frame (`large_stack_arrays`).
+        let mut t = vec![0.0f64; NOISE_TABLE];
         let unit = |x: u64| {
             #[allow(clippy::cast_precision_loss)]
             let u = ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
@@ -166,9 +167,12 @@ impl NoiseSource {
         for x in &mut t {
             *x = (*x - mean) / sd;
         }
+        let table = std::sync::Arc::<[f64]>::from(t)
+            .try_into()
+            .expect("the table has NOISE_TABLE entries");
         Self {
             state: c.next_u64(),
-            table: std::sync::Arc::new(t),
+            table,
         }
     }
     /// Whether `other` draws the same numbers from now on (the same generator state and the
