@@ -55,6 +55,7 @@ fn dynamic_conditions() -> Vec<(Condition, Effects)> {
         .collect()
 }
 
+#[allow(clippy::too_many_lines)] // one benchmark group after another
 fn bench(c: &mut Criterion) {
     let instr = Instrument::kearfott_2401();
     let opts = SimOptions::default();

@@ -257,6 +257,7 @@ fn a_leading_response_has_a_positive_phase() {
 
 /// Bad records, named by file, line and column, and bad options; nothing written.
 #[test]
+#[allow(clippy::too_many_lines)] // one refused case after another
 fn response_refuses_bad_records_and_options() {
     fn run(file: &str) -> Vec<&str> {
         vec![

@@ -435,6 +435,7 @@ fn blank_before_quote(cell: &str) -> bool {
 }
 
 /// One data row.
+#[allow(clippy::too_many_lines)] // one row: its cells, then the checks across its columns
 fn parse_row(
     name: &str,
     line: usize,

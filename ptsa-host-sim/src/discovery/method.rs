@@ -394,6 +394,7 @@ fn summary(data: &Data, pred: &dyn Fn(usize) -> f64, sigma: &[f64], p: usize) ->
 /// errors, at most [`GAUSS_NEWTON_STEPS`] times. The coefficients and standard errors of
 /// `selected` become those of the last step, or without convergence those of the iterate
 /// with the least χ².
+#[allow(clippy::too_many_lines)] // one Gauss-Newton iteration and its bookkeeping
 fn refine_parameters(
     rows: &[Condition],
     data: &Data,
@@ -869,6 +870,7 @@ fn names(ids: &[CandidateId]) -> Vec<String> {
 ///
 /// # Errors
 /// No row has a measurement, or `time_s` is given on some measured rows only.
+#[allow(clippy::too_many_lines)] // the method's steps, in order
 pub fn discover(
     rows: &[Condition],
     sim: &dyn Simulator,

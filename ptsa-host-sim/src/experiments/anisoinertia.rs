@@ -100,28 +100,7 @@ pub fn run(
             .collect(),
     );
     let k_sim = sim_mean / w45;
-    let mut t = Table::new(
-        "anisoinertia-table-6-1",
-        &format!(
-            "Table 6.1: error due to anisoinertia (I_PA - I_IA = {aniso_g_cm2} g cm^2, k = {k:.3} cm)"
-        ),
-        &[
-            "IA deg",
-            "report cm/s^2",
-            "simulated cm/s^2",
-            "baseline cm/s^2",
-            "k w_IA w_PA cm/s^2",
-        ],
-    );
-    for r in &rows {
-        t.rows.push(vec![
-            num(r.ia_deg, 0),
-            opt(r.report, 2),
-            num(r.simulated, 3),
-            num(r.baseline, 3),
-            num(r.predicted, 3),
-        ]);
-    }
+    let t = error_table(&rows, aniso_g_cm2, k);
     let plot = Plot {
         title: "Table 6.1: anisoinertia error vs IA position".into(),
         x_label: "IA position, deg".into(),
@@ -167,4 +146,31 @@ pub fn run(
             notes,
         },
     })
+}
+
+/// Table 6.1 of `rows`, for anisoinertia `aniso_g_cm2` (g·cm²) and its coefficient `k` (cm).
+fn error_table(rows: &[AnisoRow], aniso_g_cm2: f64, k: f64) -> Table {
+    let mut t = Table::new(
+        "anisoinertia-table-6-1",
+        &format!(
+            "Table 6.1: error due to anisoinertia (I_PA - I_IA = {aniso_g_cm2} g cm^2, k = {k:.3} cm)"
+        ),
+        &[
+            "IA deg",
+            "report cm/s^2",
+            "simulated cm/s^2",
+            "baseline cm/s^2",
+            "k w_IA w_PA cm/s^2",
+        ],
+    );
+    for r in rows {
+        t.rows.push(vec![
+            num(r.ia_deg, 0),
+            opt(r.report, 2),
+            num(r.simulated, 3),
+            num(r.baseline, 3),
+            num(r.predicted, 3),
+        ]);
+    }
+    t
 }

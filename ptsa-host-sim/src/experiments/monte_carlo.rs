@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use crate::design::margins;
 use crate::effects::Effects;
 use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::instrument::{Instrument, Tolerance};
 use crate::output::{Figure, Output, Plot, Series, Table, num, text};
 use crate::sim::{SimOptions, simulate_condition};
 
@@ -135,51 +135,8 @@ pub fn run(instr: &Instrument, opts: &SimOptions, samples: usize) -> Result<Mont
             }
         })
         .collect();
-    let mut t = Table::new(
-        "monte-carlo-worst-corners",
-        &format!(
-            "Monte Carlo over the Table 2.1 tolerance box: {} corners, worst 8 (closed loop at {CHECK_FRACTION} of each corner's full scale)",
-            corners.len()
-        ),
-        &[
-            "corner",
-            "phase margin deg",
-            "gain margin dB",
-            "crossover Hz",
-            "limit cycle",
-            "SF change ppm",
-            "indicated - input cm/s^2",
-            "after the corner's SF cm/s^2",
-            "max |theta| urad",
-        ],
-    );
-    for (r, c) in corners.iter().zip(&checks) {
-        t.rows.push(vec![
-            text(format!("{:#06x}", r.bits)),
-            num(r.phase_margin_deg, 2),
-            num(r.gain_margin_db, 2),
-            num(r.crossover_hz, 1),
-            text(if c.ok { "2 reversals/cycle" } else { "FAILED" }),
-            num(c.sf_change_ppm, 0),
-            num(c.error_cm_s2, 2),
-            num(c.residual_cm_s2, 4),
-            num(c.theta_max_rad * 1e6, 1),
-        ]);
-    }
-    let mut keys = Table::new(
-        "monte-carlo-corner-bits",
-        "Corner bits (bit k set = parameter k at its upper limit)",
-        &["bit", "parameter", "low", "nominal", "high"],
-    );
-    for (k, tl) in tol.iter().enumerate() {
-        keys.rows.push(vec![
-            text(k.to_string()),
-            text(tl.key),
-            num(tl.lo, 4),
-            num(tl.nominal, 4),
-            num(tl.hi, 4),
-        ]);
-    }
+    let t = worst_table(&corners, &checks);
+    let keys = keys_table(tol);
     #[allow(clippy::cast_precision_loss)]
     let ranked: Vec<(f64, f64)> = corners
         .iter()
@@ -221,4 +178,59 @@ pub fn run(instr: &Instrument, opts: &SimOptions, samples: usize) -> Result<Mont
             notes,
         },
     })
+}
+
+/// The worst `corners` with their closed-loop `checks`.
+fn worst_table(corners: &[Corner], checks: &[CornerCheck]) -> Table {
+    let mut t = Table::new(
+        "monte-carlo-worst-corners",
+        &format!(
+            "Monte Carlo over the Table 2.1 tolerance box: {} corners, worst 8 (closed loop at {CHECK_FRACTION} of each corner's full scale)",
+            corners.len()
+        ),
+        &[
+            "corner",
+            "phase margin deg",
+            "gain margin dB",
+            "crossover Hz",
+            "limit cycle",
+            "SF change ppm",
+            "indicated - input cm/s^2",
+            "after the corner's SF cm/s^2",
+            "max |theta| urad",
+        ],
+    );
+    for (r, c) in corners.iter().zip(checks) {
+        t.rows.push(vec![
+            text(format!("{:#06x}", r.bits)),
+            num(r.phase_margin_deg, 2),
+            num(r.gain_margin_db, 2),
+            num(r.crossover_hz, 1),
+            text(if c.ok { "2 reversals/cycle" } else { "FAILED" }),
+            num(c.sf_change_ppm, 0),
+            num(c.error_cm_s2, 2),
+            num(c.residual_cm_s2, 4),
+            num(c.theta_max_rad * 1e6, 1),
+        ]);
+    }
+    t
+}
+
+/// What each corner bit stands for.
+fn keys_table(tol: &[Tolerance]) -> Table {
+    let mut keys = Table::new(
+        "monte-carlo-corner-bits",
+        "Corner bits (bit k set = parameter k at its upper limit)",
+        &["bit", "parameter", "low", "nominal", "high"],
+    );
+    for (k, tl) in tol.iter().enumerate() {
+        keys.rows.push(vec![
+            text(k.to_string()),
+            text(tl.key),
+            num(tl.lo, 4),
+            num(tl.nominal, 4),
+            num(tl.hi, 4),
+        ]);
+    }
+    keys
 }
