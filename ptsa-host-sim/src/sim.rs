@@ -194,7 +194,6 @@ impl NoiseSource {
         let t = u128::from(self.state) * u128::from(self.state ^ 0xe703_7ed1_a0b4_28db);
         #[allow(clippy::cast_possible_truncation)]
         let r = ((t >> 64) as u64) ^ (t as u64);
-        #[allow(clippy::cast_possible_truncation)]
         let j = (r >> 52) as usize;
         self.table[j & (NOISE_TABLE - 1)]
     }
@@ -579,7 +578,6 @@ impl ClosedLoop {
         }
     }
 
-    #[allow(clippy::needless_range_loop)]
     fn run_static<F: FnMut(&TickView), const OBSERVE: bool, const STATS: bool>(
         &mut self,
         n: u64,
@@ -648,7 +646,6 @@ impl ClosedLoop {
     /// predicted branch instead of a data dependency, which takes the core's decision off
     /// the per-tick dependency chain (the predictor misses at the two switches of a limit
     /// cycle, not on the ticks between them).
-    #[allow(clippy::needless_range_loop)]
     fn run_static_fast(&mut self, n: u64) {
         let add = add_vectors(&self.plant, self.d0);
         let ptsa = self.ptsa;
@@ -891,7 +888,6 @@ impl ClosedLoop {
     /// the per-region, per-polarity plant inputs, the plant state and the noise table.
     /// `None` for a dynamic condition or a core that is not at reset.
     #[must_use]
-    #[allow(clippy::needless_range_loop)]
     pub(crate) fn c_static_params(&self) -> Option<String> {
         use std::fmt::Write as _;
         if self.dynamic || self.harmonic != 0 || self.core != self.ptsa.initial_state() {
@@ -1252,7 +1248,6 @@ pub(crate) const BIAS_BLOCK: usize = 512;
 /// tick included) or one tick per entry of `bias` (the ADC's additive terms, see
 /// [`Adc::bias`]) has run; returns the run and the polarity decided last.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn static_phase<const POSITIVE: bool>(
     ptsa: &Ptsa,
     plant: &Plant,

@@ -562,7 +562,6 @@ fn within_tolerance(id: CandidateId, change: f64, sim: &dyn Simulator) -> bool {
 }
 
 /// The per-observation table: every observation of every row (measured or not).
-#[allow(clippy::too_many_arguments)]
 fn row_table(
     rows: &[Condition],
     data: &Data,
