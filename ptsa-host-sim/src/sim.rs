@@ -188,6 +188,7 @@ impl NoiseSource {
     }
 
     /// One standard-normal draw.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn normal(&mut self) -> f64 {
         self.state = self.state.wrapping_add(0xa076_1d64_78bd_642f);
@@ -256,6 +257,7 @@ impl Adc {
     /// without noise). Drawn apart from the plant state (ahead, in blocks, or shared between
     /// the lanes of a batch), so that the chain from the plant state to the code is one
     /// multiply-add ([`Adc::quantize`]).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn bias(&self, rng: &mut NoiseSource) -> f64 {
         let mut bias = self.offset + 32768.5;
@@ -266,6 +268,7 @@ impl Adc {
     }
 
     /// The code of `y` with the additive term `bias` (see [`Adc::bias`]).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn quantize(&self, y: f64, bias: f64) -> i16 {
         // Round half up and clip to the i16 range without a libm call: `as u16` truncates
@@ -294,6 +297,7 @@ pub(crate) struct Acc {
 }
 
 impl Acc {
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn tick(
         &mut self,
@@ -448,6 +452,7 @@ impl ClosedLoop {
     }
 
     /// The θ-independent torque for inputs `i`, dyn·cm.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     fn static_torque(&self, i: &CaseInputs) -> f64 {
         let eff: f64 = self.effect_terms.iter().map(|&(f, c)| c * f(i)).sum();
@@ -569,6 +574,7 @@ impl ClosedLoop {
         self.run_inner::<_, false>(n, &mut |_| {});
     }
 
+    #[allow(clippy::inline_always, reason = "the tick loop, one copy per caller")]
     #[inline(always)]
     fn run_inner<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         if self.dynamic || self.harmonic != 0 {
@@ -771,6 +777,7 @@ impl ClosedLoop {
     /// ticks, advanced by a rotation in between), the ADC, the core, the disturbance torque
     /// of the inputs at mid-tick, the plant step, the harmonic sums and the statistics.
     /// Returns the code, the core's tick and the command applied over the tick.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn dynamic_tick(
         &self,
@@ -783,6 +790,7 @@ impl ClosedLoop {
 
     /// [`ClosedLoop::dynamic_tick`] with the ADC's additive term `bias` of the tick given
     /// (drawn from `r.rng` by the caller, see [`Adc::bias`]).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn dynamic_tick_with(
         &self,
@@ -801,6 +809,7 @@ impl ClosedLoop {
     /// and the condition's inputs there; advances `sc` to the next tick. It depends on the
     /// condition, the clock and `k`, `j`, `sc` only, so lanes in step with the same ones may
     /// share it.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn dynamic_inputs(
         &self,
@@ -824,6 +833,7 @@ impl ClosedLoop {
     /// The rest of a dynamic tick, its phasor and inputs `ti` given (see
     /// [`ClosedLoop::dynamic_inputs`]): the ADC with the additive term `bias`, the core, the
     /// disturbance torque, the plant step, the harmonic sums and the statistics.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     #[allow(clippy::needless_range_loop)]
     pub(crate) fn dynamic_tick_given(
@@ -1076,6 +1086,7 @@ pub(crate) struct StaticParams {
 /// [`Adc::bias`]), let the core decide, step the plant with the applied polarity `ui`
 /// (0 = positive), count a tick on a stop, the per-tick statistics with `STATS`, and make
 /// the decided polarity the applied one. Returns the code and the core's tick.
+#[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 pub(crate) fn static_tick<const STATS: bool>(
     p: &StaticParams,
@@ -1206,6 +1217,7 @@ pub(crate) struct GateStart {
 /// run without statistics, split by the applied polarity `positive` (see
 /// `ClosedLoop::run_static_fast`): the body of the single loop's fast path and of the batch
 /// engine's static lanes. Adds the ticks on a stop to `stop`.
+#[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fast_block(
@@ -1247,6 +1259,7 @@ pub(crate) const BIAS_BLOCK: usize = 512;
 /// Ticks with the applied polarity `POSITIVE` until the core decides the other one (that
 /// tick included) or one tick per entry of `bias` (the ADC's additive terms, see
 /// [`Adc::bias`]) has run; returns the run and the polarity decided last.
+#[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 fn static_phase<const POSITIVE: bool>(
     ptsa: &Ptsa,
