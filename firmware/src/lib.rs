@@ -150,7 +150,7 @@ pub struct Board {
 impl Board {
     /// Set up GPIO, ADC, TIM2 (stopped) and TIM5 (running). Call [`clocks_160mhz`] first on
     /// the board; nothing here waits on a flag, so it also runs under QEMU.
-    ///
+    #[must_use]
     pub fn new(dp: pac::Peripherals, ptsa: Ptsa) -> Self {
         let rcc = &dp.RCC;
         rcc.ahb1enr()

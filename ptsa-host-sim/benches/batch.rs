@@ -32,6 +32,7 @@ const TICKS: u64 = 64_000;
 const N: usize = 16;
 const LANES: [usize; 5] = [1, 2, 4, 8, 16];
 
+#[allow(clippy::cast_precision_loss, reason = "j < N = 16")]
 fn dynamic_conditions() -> Vec<(Condition, Effects)> {
     (0..N)
         .map(|j| {
@@ -54,6 +55,7 @@ fn dynamic_conditions() -> Vec<(Condition, Effects)> {
         .collect()
 }
 
+#[allow(clippy::too_many_lines)] // one benchmark group after another
 fn bench(c: &mut Criterion) {
     let instr = Instrument::kearfott_2401();
     let opts = SimOptions::default();
@@ -124,6 +126,7 @@ fn bench(c: &mut Criterion) {
         ..Condition::default()
     };
     oa.ang_mrad[OA] = 2.0;
+    #[allow(clippy::cast_precision_loss, reason = "j < N = 16")]
     let instrs: Vec<Instrument> = (0..N)
         .map(|j| {
             let mut i = instr.clone();

@@ -296,7 +296,7 @@ impl Engine {
     /// Run program `prog(i)` on loop `i`, every loop: sort the lanes into groups, the groups
     /// across rayon's threads. Returns each lane's output.
     fn execute(
-        &self,
+        self,
         loops: &mut [ClosedLoop],
         prog: impl Fn(usize) -> Vec<Step>,
     ) -> Vec<Option<Out>> {
@@ -979,6 +979,7 @@ fn adc_bits(a: &Adc) -> [u64; 3] {
 
 /// Whether the pendulum at `theta` is free of the stops at `±theta_stop` (NaN is not), as the
 /// single loop tests it (`sim::static_tick`).
+#[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 fn in_free_region(theta: f64, theta_stop: f64) -> bool {
     theta.abs() <= theta_stop

@@ -60,6 +60,8 @@ impl<'de> Deserialize<'de> for Num {
 
 struct NumVisitor;
 
+// An integer reads as the float it is written as.
+#[allow(clippy::cast_precision_loss)]
 impl<'de> Visitor<'de> for NumVisitor {
     type Value = Num;
 

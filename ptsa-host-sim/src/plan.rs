@@ -103,7 +103,9 @@ pub fn rate_table(
     ref_rate_rad_s: f64,
     radius_cm: f64,
 ) -> Vec<Condition> {
-    angles(positions, 360.0 / positions.max(1) as f64)
+    #[allow(clippy::cast_precision_loss)]
+    let step = 360.0 / positions.max(1) as f64;
+    angles(positions, step)
         .into_iter()
         .map(|deg| {
             let u = up(axis, deg);

@@ -147,6 +147,7 @@ impl Zoh {
     /// and the current `i` depends only on itself, so `Φ[0..3][3]` and the off-diagonal
     /// entries of row 2 are exactly zero (the exponential of a block-triangular matrix is
     /// block-triangular; a unit test checks it).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     #[must_use]
     pub fn step(&self, x: &[f64; NX], add: &[f64; NX]) -> [f64; NX] {
@@ -198,6 +199,7 @@ impl<const K: usize> ZohLanes<K> {
 
     /// One step of every lane: `x[j][lane]` (state `j`) to `Φ x + add` ([`Zoh::step`]'s
     /// expression).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     #[must_use]
     pub fn step(&self, x: &[[f64; K]; NX], add: &[[f64; K]; NX]) -> [[f64; K]; NX] {
@@ -247,6 +249,7 @@ impl Plant {
     }
 
     /// Region of the state: 0 free, 1 beyond `+θ_s`, 2 beyond `−θ_s`.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     #[must_use]
     pub fn region(&self, theta: f64) -> usize {

@@ -1,7 +1,7 @@
 //! The report's measurements, read from the transcriptions in `data/` (the only copy), and
 //! their conversion into the case-frame format by the fixture geometry of [`crate::fixtures`].
 //!
-//! * `data/r890-section-6.1.csv`: SF, A_b, local g and the test uncertainty ([`Section61`]);
+//! * `data/r890-section-6.1.csv`: SF, `A_b`, local g and the test uncertainty ([`Section61`]);
 //! * `data/r890-section-6.2.csv`: the anisoinertia measurement's rates and results
 //!   ([`Section62`]);
 //! * `data/r890-table-6.{1,2,3}.csv`: Tables 6.1–6.3 ([`table_6_1`], [`table_6_2`],
@@ -92,7 +92,7 @@ fn quantity(q: &[(String, f64)], name: &str, key: &str) -> Result<f64> {
 pub struct Section61 {
     /// SF by eq. 6.3, cm/s².
     pub sf_cm_s2: f64,
-    /// A_b by eq. 6.4, cm/s².
+    /// `A_b` by eq. 6.4, cm/s².
     pub bias_cm_s2: f64,
     /// Local gravity used there, cm/s².
     pub g_cm_s2: f64,
@@ -122,7 +122,7 @@ pub struct Section62 {
     pub rate_rad_s: f64,
     /// Table rate of the reference run, rad/s.
     pub reference_rate_rad_s: f64,
-    /// Mean |A_in| at the 45° positions, cm/s².
+    /// Mean `|A_in|` at the 45° positions, cm/s².
     pub mean_error_45_cm_s2: f64,
     /// Anisoinertia error coefficient `(I_PA − I_IA)/(m·l)`, cm.
     pub coefficient_cm: f64,
@@ -151,7 +151,7 @@ pub fn section_6_2() -> Result<Section62> {
 pub struct Table61Row {
     /// IA position above horizontal, deg.
     pub ia_deg: f64,
-    /// Eq. 6.5 as tabulated (A_in at 1.0 − at 0.05 rad/s), cm/s².
+    /// Eq. 6.5 as tabulated (`A_in` at 1.0 − at 0.05 rad/s), cm/s².
     pub a_in_cm_s2: Option<f64>,
 }
 

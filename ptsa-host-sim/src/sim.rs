@@ -129,7 +129,7 @@ pub struct SimDifference {
 }
 
 /// The per-tick noise source: wyrand (one multiply per draw) indexing a table of 4096
-/// standard-normal values drawn once (Box-Muller from ChaCha8, normalised to mean 0 and
+/// standard-normal values drawn once (Box-Muller from `ChaCha8`, normalised to mean 0 and
 /// variance 1), all from the seed. Cheap enough for the hot loop; the table's 4096 levels
 /// are far finer than the ADC's.
 #[derive(Clone, Debug)]
@@ -144,7 +144,8 @@ impl NoiseSource {
     /// The source of `seed`: its table and the generator's first state.
     pub(crate) fn new(seed: u64) -> Self {
         let mut c = ChaCha8Rng::seed_from_u64(seed);
-        let mut t = [0.0f64; NOISE_TABLE];
+        // Built on the heap: 32 KiB is too much for a stack frame (`large_stack_arrays`).
+        let mut t = vec![0.0f64; NOISE_TABLE];
         let unit = |x: u64| {
             #[allow(clippy::cast_precision_loss)]
             let u = ((x >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
@@ -166,9 +167,12 @@ impl NoiseSource {
         for x in &mut t {
             *x = (*x - mean) / sd;
         }
+        let table = std::sync::Arc::<[f64]>::from(t)
+            .try_into()
+            .expect("the table has NOISE_TABLE entries");
         Self {
             state: c.next_u64(),
-            table: std::sync::Arc::new(t),
+            table,
         }
     }
     /// Whether `other` draws the same numbers from now on (the same generator state and the
@@ -184,13 +188,13 @@ impl NoiseSource {
     }
 
     /// One standard-normal draw.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn normal(&mut self) -> f64 {
         self.state = self.state.wrapping_add(0xa076_1d64_78bd_642f);
         let t = u128::from(self.state) * u128::from(self.state ^ 0xe703_7ed1_a0b4_28db);
         #[allow(clippy::cast_possible_truncation)]
         let r = ((t >> 64) as u64) ^ (t as u64);
-        #[allow(clippy::cast_possible_truncation)]
         let j = (r >> 52) as usize;
         self.table[j & (NOISE_TABLE - 1)]
     }
@@ -253,6 +257,7 @@ impl Adc {
     /// without noise). Drawn apart from the plant state (ahead, in blocks, or shared between
     /// the lanes of a batch), so that the chain from the plant state to the code is one
     /// multiply-add ([`Adc::quantize`]).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn bias(&self, rng: &mut NoiseSource) -> f64 {
         let mut bias = self.offset + 32768.5;
@@ -263,6 +268,7 @@ impl Adc {
     }
 
     /// The code of `y` with the additive term `bias` (see [`Adc::bias`]).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn quantize(&self, y: f64, bias: f64) -> i16 {
         // Round half up and clip to the i16 range without a libm call: `as u16` truncates
@@ -291,6 +297,7 @@ pub(crate) struct Acc {
 }
 
 impl Acc {
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn tick(
         &mut self,
@@ -445,6 +452,7 @@ impl ClosedLoop {
     }
 
     /// The θ-independent torque for inputs `i`, dyn·cm.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     fn static_torque(&self, i: &CaseInputs) -> f64 {
         let eff: f64 = self.effect_terms.iter().map(|&(f, c)| c * f(i)).sum();
@@ -566,6 +574,7 @@ impl ClosedLoop {
         self.run_inner::<_, false>(n, &mut |_| {});
     }
 
+    #[allow(clippy::inline_always, reason = "the tick loop, one copy per caller")]
     #[inline(always)]
     fn run_inner<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         if self.dynamic || self.harmonic != 0 {
@@ -575,7 +584,6 @@ impl ClosedLoop {
         }
     }
 
-    #[allow(clippy::needless_range_loop)]
     fn run_static<F: FnMut(&TickView), const OBSERVE: bool, const STATS: bool>(
         &mut self,
         n: u64,
@@ -644,7 +652,6 @@ impl ClosedLoop {
     /// predicted branch instead of a data dependency, which takes the core's decision off
     /// the per-tick dependency chain (the predictor misses at the two switches of a limit
     /// cycle, not on the ticks between them).
-    #[allow(clippy::needless_range_loop)]
     fn run_static_fast(&mut self, n: u64) {
         let add = add_vectors(&self.plant, self.d0);
         let ptsa = self.ptsa;
@@ -770,6 +777,7 @@ impl ClosedLoop {
     /// ticks, advanced by a rotation in between), the ADC, the core, the disturbance torque
     /// of the inputs at mid-tick, the plant step, the harmonic sums and the statistics.
     /// Returns the code, the core's tick and the command applied over the tick.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn dynamic_tick(
         &self,
@@ -782,6 +790,7 @@ impl ClosedLoop {
 
     /// [`ClosedLoop::dynamic_tick`] with the ADC's additive term `bias` of the tick given
     /// (drawn from `r.rng` by the caller, see [`Adc::bias`]).
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn dynamic_tick_with(
         &self,
@@ -800,6 +809,7 @@ impl ClosedLoop {
     /// and the condition's inputs there; advances `sc` to the next tick. It depends on the
     /// condition, the clock and `k`, `j`, `sc` only, so lanes in step with the same ones may
     /// share it.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn dynamic_inputs(
         &self,
@@ -823,6 +833,7 @@ impl ClosedLoop {
     /// The rest of a dynamic tick, its phasor and inputs `ti` given (see
     /// [`ClosedLoop::dynamic_inputs`]): the ADC with the additive term `bias`, the core, the
     /// disturbance torque, the plant step, the harmonic sums and the statistics.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     #[allow(clippy::needless_range_loop)]
     pub(crate) fn dynamic_tick_given(
@@ -887,7 +898,6 @@ impl ClosedLoop {
     /// the per-region, per-polarity plant inputs, the plant state and the noise table.
     /// `None` for a dynamic condition or a core that is not at reset.
     #[must_use]
-    #[allow(clippy::needless_range_loop)]
     pub(crate) fn c_static_params(&self) -> Option<String> {
         use std::fmt::Write as _;
         if self.dynamic || self.harmonic != 0 || self.core != self.ptsa.initial_state() {
@@ -1076,6 +1086,7 @@ pub(crate) struct StaticParams {
 /// [`Adc::bias`]), let the core decide, step the plant with the applied polarity `ui`
 /// (0 = positive), count a tick on a stop, the per-tick statistics with `STATS`, and make
 /// the decided polarity the applied one. Returns the code and the core's tick.
+#[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 pub(crate) fn static_tick<const STATS: bool>(
     p: &StaticParams,
@@ -1206,6 +1217,7 @@ pub(crate) struct GateStart {
 /// run without statistics, split by the applied polarity `positive` (see
 /// `ClosedLoop::run_static_fast`): the body of the single loop's fast path and of the batch
 /// engine's static lanes. Adds the ticks on a stop to `stop`.
+#[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn fast_block(
@@ -1247,8 +1259,8 @@ pub(crate) const BIAS_BLOCK: usize = 512;
 /// Ticks with the applied polarity `POSITIVE` until the core decides the other one (that
 /// tick included) or one tick per entry of `bias` (the ADC's additive terms, see
 /// [`Adc::bias`]) has run; returns the run and the polarity decided last.
+#[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn static_phase<const POSITIVE: bool>(
     ptsa: &Ptsa,
     plant: &Plant,

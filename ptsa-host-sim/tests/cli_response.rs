@@ -3,6 +3,7 @@
 //! bad record and option is refused naming what was wrong, with nothing written and nothing
 //! on stdout.
 
+use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Command, Output};
 
@@ -100,10 +101,10 @@ fn record(
                 * (x.sin() / x)
                 * (w * (t0 + tau / 2.0) + (input_deg + phase_deg).to_radians()).sin()
             + rng.sample(normal);
-        total += (out / SF + 1.0) / 2.0 * f64::from(ticks);
+        total += f64::midpoint(out / SF, 1.0) * f64::from(ticks);
         let p = total.floor() - counted;
         counted += p;
-        s.push_str(&format!("{t0},{p},{ticks}\n"));
+        let _ = writeln!(s, "{t0},{p},{ticks}");
     }
     s
 }
@@ -256,9 +257,8 @@ fn a_leading_response_has_a_positive_phase() {
 
 /// Bad records, named by file, line and column, and bad options; nothing written.
 #[test]
+#[allow(clippy::too_many_lines)] // one refused case after another
 fn response_refuses_bad_records_and_options() {
-    let good = record(3, 40, 320, 20.0, 2000.0, 0.0, 0.8, -30.0, 0.0, 20.0);
-    let lines: Vec<&str> = good.lines().collect();
     fn run(file: &str) -> Vec<&str> {
         vec![
             "response",
@@ -270,6 +270,8 @@ fn response_refuses_bad_records_and_options() {
             "2000",
         ]
     }
+    let good = record(3, 40, 320, 20.0, 2000.0, 0.0, 0.8, -30.0, 0.0, 20.0);
+    let lines: Vec<&str> = good.lines().collect();
     // Line 5 (the fourth gate) earlier than line 4.
     let mut v = lines.clone();
     v.swap(3, 4);
@@ -480,7 +482,7 @@ fn a_record_of_the_simulated_loop_gives_its_frequency_response() {
         let p0 = record.core().total_pulses();
         record.run(gate);
         let p = (record.core().total_pulses() - p0).0;
-        text.push_str(&format!("{t0},{p},{gate}\n"));
+        let _ = writeln!(text, "{t0},{p},{gate}");
     }
     // The same second (the same loop, the same noise) measured by the simulator.
     let r = l.measure(200 * gate);

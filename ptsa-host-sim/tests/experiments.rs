@@ -45,8 +45,8 @@ fn tumble_recovers_configured_sf_and_bias() {
     }
 }
 
-/// Table 6.1: with the report's anisoinertia the table follows k·w_IA·w_PA; the baseline
-/// (I_PA = I_IA, CG on the axis) shows nothing.
+/// Table 6.1: with the report's anisoinertia the table follows `k·w_IA·w_PA`; the baseline
+/// (`I_PA = I_IA`, CG on the axis) shows nothing.
 #[test]
 fn anisoinertia_table_follows_the_coefficient() {
     let i = Instrument::kearfott_2401();
@@ -89,7 +89,7 @@ fn oa_coupling_is_null() {
 
 /// Appendix A: the closed loop's rectified error follows the linear loop model (within the
 /// model's neglect of the quantizer) and an injected anisoelastic coefficient shows up at
-/// k·a_IA·a_OA/2·cos(Δφ).
+/// `k·a_IA·a_OA/2·cos(Δφ)`.
 #[test]
 fn appendix_a_follows_the_linear_model() {
     let i = Instrument::kearfott_2401();

@@ -13,7 +13,7 @@
 //! selections and confident misnamings in one table, and asserts the rates.
 //!
 //! Noise: one sigma per set, uniform in 0.1–0.3 cm/s² (the heteroscedastic nulls have their
-//! own), from the seeded ChaCha8 generator, on top of the loop's own pickoff noise; in a
+//! own), from the seeded `ChaCha8` generator, on top of the loop's own pickoff noise; in a
 //! quarter of the sets (and in every heteroscedastic null) `sigma_cm_s2` is left out, so
 //! the pipeline estimates it. The hidden coefficient is `±s·SE`, `s` uniform in 2–24, where
 //! SE is that coefficient's standard error in this design with the nuisance terms the
@@ -37,7 +37,7 @@ pub use generate::{
 pub use physics::{Generator, Injection, Physics, Product};
 pub use score::{Outcome, score};
 
-/// The seeded generator of the sets (ChaCha8: the same stream on every machine).
+/// The seeded generator of the sets (`ChaCha8`: the same stream on every machine).
 pub type Rng = rand_chacha::ChaCha8Rng;
 
 /// The draws the generator makes, on any [`rand::Rng`].

@@ -587,6 +587,7 @@ impl ParamCampaign {
 
     /// The table, the sets that matter and the verdict.
     #[must_use]
+    #[allow(clippy::too_many_lines)] // one report table, row by row
     pub fn table(&self, ci: bool) -> String {
         let mut s = String::new();
         let _ = writeln!(

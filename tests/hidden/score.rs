@@ -6,6 +6,8 @@ use super::generate::{HiddenSet, Truth};
 
 /// How the pipeline did on one set.
 #[derive(Clone, Debug)]
+// Independent yes/no outcomes, each counted.
+#[allow(clippy::struct_excessive_bools)]
 pub struct Outcome {
     /// What was hidden.
     pub truth: Truth,

@@ -180,6 +180,7 @@ fn unwrap_phase(y: f64, base: f64) -> f64 {
 ///
 /// # Errors
 /// `time_s` given on some measured rows but not on others.
+#[allow(clippy::too_many_lines)] // observations, then signatures, over the same rows
 pub fn build(
     rows: &[Condition],
     observed: &[Vec<f64>],

@@ -195,7 +195,7 @@ struct Design {
 }
 
 impl Design {
-    fn col(&self, raw: Vec<f64>) -> Col {
+    fn col(&self, raw: &[f64]) -> Col {
         let w: Vec<f64> = raw.iter().zip(&self.sigma).map(|(x, s)| x / s).collect();
         let scale = norm(&w);
         let unit = if scale > 0.0 {
@@ -372,7 +372,7 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
     if !stated {
         // Two reweighting passes under the nuisance-only model.
         for _ in 0..2 {
-            let ncols: Vec<Col> = nraw.iter().map(|r| d.col(r.clone())).collect();
+            let ncols: Vec<Col> = nraw.iter().map(|r| d.col(r)).collect();
             let refs: Vec<&Col> = ncols.iter().collect();
             if let Some(f) = d.fit(&refs) {
                 let e: Vec<f64> = f.resid.iter().zip(&d.sigma).map(|(z, s)| z * s).collect();
@@ -385,13 +385,13 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
         .max(0.0)
         .sqrt();
     let build = |d: &Design| -> (Vec<Col>, Vec<Option<Col>>) {
-        let ncols: Vec<Col> = nraw.iter().map(|r| d.col(r.clone())).collect();
+        let ncols: Vec<Col> = nraw.iter().map(|r| d.col(r)).collect();
         let cand: Vec<Option<Col>> = data
             .signatures
             .iter()
             .map(|s| {
                 let raw: Vec<f64> = subset.iter().map(|&i| s.col[i]).collect();
-                (!s.null).then(|| d.col(raw)).filter(|c| c.scale > 0.0)
+                (!s.null).then(|| d.col(&raw)).filter(|c| c.scale > 0.0)
             })
             .collect();
         (ncols, cand)
@@ -658,9 +658,8 @@ impl Fitted {
             .enumerate()
             .map(|(j, t)| match *t {
                 Nuisance::Block(b) if data.block[i] == b && data.shift[i] => self.coef[j],
-                Nuisance::Block(_) => 0.0,
                 Nuisance::Drift if data.drifts[i] => self.coef[j] * (data.time[i] - self.t0),
-                Nuisance::Drift => 0.0,
+                Nuisance::Block(_) | Nuisance::Drift => 0.0,
             })
             .sum()
     }

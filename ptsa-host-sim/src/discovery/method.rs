@@ -4,6 +4,7 @@
 //! ([`super::crossval`]) and the re-simulated extended model.
 
 use std::collections::BTreeMap;
+use std::fmt::Write as _;
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -393,6 +394,7 @@ fn summary(data: &Data, pred: &dyn Fn(usize) -> f64, sigma: &[f64], p: usize) ->
 /// errors, at most [`GAUSS_NEWTON_STEPS`] times. The coefficients and standard errors of
 /// `selected` become those of the last step, or without convergence those of the iterate
 /// with the least χ².
+#[allow(clippy::too_many_lines)] // one Gauss-Newton iteration and its bookkeeping
 fn refine_parameters(
     rows: &[Condition],
     data: &Data,
@@ -560,7 +562,6 @@ fn within_tolerance(id: CandidateId, change: f64, sim: &dyn Simulator) -> bool {
 }
 
 /// The per-observation table: every observation of every row (measured or not).
-#[allow(clippy::too_many_arguments)]
 fn row_table(
     rows: &[Condition],
     data: &Data,
@@ -868,6 +869,7 @@ fn names(ids: &[CandidateId]) -> Vec<String> {
 ///
 /// # Errors
 /// No row has a measurement, or `time_s` is given on some measured rows only.
+#[allow(clippy::too_many_lines)] // the method's steps, in order
 pub fn discover(
     rows: &[Condition],
     sim: &dyn Simulator,
@@ -1056,11 +1058,12 @@ pub fn verdict(d: &Discovery) -> String {
     if d.family.is_empty() {
         v.push_str("Nothing could be tested in these rows (no candidate has a signature here).");
     } else if d.selected.is_empty() {
-        v.push_str(&format!(
+        let _ = write!(
+            v,
             "No candidate of the {} tested ({}) is significant at familywise 5 %.",
             d.family_size,
             names(&d.family).join(", ")
-        ));
+        );
     } else {
         let named: Vec<String> = d
             .selected
@@ -1081,21 +1084,23 @@ pub fn verdict(d: &Discovery) -> String {
                 }
                 if !s.confounded.is_empty() {
                     let o: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
-                    t.push_str(&format!(" (indistinguishable here from {})", o.join(", ")));
+                    let _ = write!(t, " (indistinguishable here from {})", o.join(", "));
                 }
                 t
             })
             .collect();
-        v.push_str(&format!("Selected: {}.", named.join("; ")));
+        let _ = write!(v, "Selected: {}.", named.join("; "));
     }
     if j.unexplained.detected {
-        v.push_str(&format!(
+        let _ = write!(
+            v,
             " The simulation still gets something wrong that no candidate explains: {} (p = {:.2e}).",
             j.unexplained.hint, j.unexplained.p_value
-        ));
+        );
     }
     let g = &j.gain;
-    v.push_str(&format!(
+    let _ = write!(
+        v,
         " Out of sample ({}): RMS {:.3} {u} with the selected terms against {:.3} for the baseline with its nuisance terms; gain {:.3} {u}, 95 % interval [{:.3}, {:.3}].",
         g.method,
         g.rms_cross_validated_cm_s2,
@@ -1104,7 +1109,7 @@ pub fn verdict(d: &Discovery) -> String {
         g.ci95_rms_cm_s2[0],
         g.ci95_rms_cm_s2[1],
         u = g.unit
-    ));
+    );
     v
 }
 

@@ -11,6 +11,7 @@
 //! * [`crossval`]: the gain out of sample.
 //! * [`show`]: text table, plots and the report section.
 
+use std::fmt::Write as _;
 use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -171,10 +172,11 @@ fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<
             );
             if !s.confounded.is_empty() {
                 let others: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
-                note.push_str(&format!(
+                let _ = write!(
+                    note,
                     "; indistinguishable in these data from {}",
                     others.join(", ")
-                ));
+                );
             }
             Some((key, p.fitted, note))
         })

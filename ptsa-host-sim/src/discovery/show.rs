@@ -8,6 +8,7 @@ use anyhow::Result;
 
 use super::method::{Discovery, Options, RowResult, TEST_STATEMENT, discover};
 use super::sim::Simulator;
+use crate::condition::RowKind;
 use crate::effects::CandidateId;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num, opt, text};
 use crate::r890;
@@ -412,7 +413,6 @@ pub fn figure(stem: &str, d: &Discovery) -> Option<Figure> {
             Series::triangles("extended", ext),
         )
     };
-    use crate::condition::RowKind;
     let has = |k: RowKind| rows.iter().any(|r| r.kind == k);
     let y_label = match (has(RowKind::Difference), has(RowKind::Absolute)) {
         (true, true) => "condition − reference, or indicated (absolute rows), cm/s²",
@@ -710,9 +710,7 @@ mod tests {
             for ext in ["csv", "png", "svg"] {
                 let p = dir.join(format!("{stem}.{ext}"));
                 assert!(
-                    std::fs::metadata(&p)
-                        .map(|m| m.len() > 100)
-                        .unwrap_or(false),
+                    std::fs::metadata(&p).is_ok_and(|m| m.len() > 100),
                     "{}",
                     p.display()
                 );

@@ -46,6 +46,7 @@ pub struct UnexplainedTest {
 
 /// Run the tests on `f` (the full-data model).
 #[must_use]
+#[allow(clippy::too_many_lines)] // the tests in turn, on one fit
 pub fn test(data: &Data, f: &Fitted, selected: &[Selected], alpha: f64) -> Unexplained {
     // The model without its implausible terms.
     let cols = f.unit_columns();

@@ -32,7 +32,7 @@ pub struct AnisoRow {
 pub struct AnisoRun {
     /// One row per IA position of Table 6.1.
     pub rows: Vec<AnisoRow>,
-    /// The coefficient as the report derives it from the simulated table (mean |A_in| at the
+    /// The coefficient as the report derives it from the simulated table (mean `|A_in|` at the
     /// 45° positions over `w_IA·w_PA`), cm.
     pub k_simulated_cm: f64,
     /// The configured coefficient `(I_PA − I_IA)/(m·l)`, cm.
@@ -108,28 +108,7 @@ pub fn run(
         .sum::<f64>()
         .signum();
     let k_sim = sign * sim_mean / w45;
-    let mut t = Table::new(
-        "anisoinertia-table-6-1",
-        &format!(
-            "Table 6.1: error due to anisoinertia (I_PA - I_IA = {aniso_g_cm2} g cm^2, k = {k:.3} cm)"
-        ),
-        &[
-            "IA deg",
-            "report cm/s^2",
-            "simulated cm/s^2",
-            "baseline cm/s^2",
-            "k w_IA w_PA cm/s^2",
-        ],
-    );
-    for r in &rows {
-        t.rows.push(vec![
-            num(r.ia_deg, 0),
-            opt(r.report, 2),
-            num(r.simulated, 3),
-            num(r.baseline, 3),
-            num(r.predicted, 3),
-        ]);
-    }
+    let t = error_table(&rows, aniso_g_cm2, k);
     let plot = Plot {
         title: "Table 6.1: anisoinertia error vs IA position".into(),
         x_label: "IA position, deg".into(),
@@ -175,4 +154,31 @@ pub fn run(
             notes,
         },
     })
+}
+
+/// Table 6.1 of `rows`, for anisoinertia `aniso_g_cm2` (g·cm²) and its coefficient `k` (cm).
+fn error_table(rows: &[AnisoRow], aniso_g_cm2: f64, k: f64) -> Table {
+    let mut t = Table::new(
+        "anisoinertia-table-6-1",
+        &format!(
+            "Table 6.1: error due to anisoinertia (I_PA - I_IA = {aniso_g_cm2} g cm^2, k = {k:.3} cm)"
+        ),
+        &[
+            "IA deg",
+            "report cm/s^2",
+            "simulated cm/s^2",
+            "baseline cm/s^2",
+            "k w_IA w_PA cm/s^2",
+        ],
+    );
+    for r in rows {
+        t.rows.push(vec![
+            num(r.ia_deg, 0),
+            opt(r.report, 2),
+            num(r.simulated, 3),
+            num(r.baseline, 3),
+            num(r.predicted, 3),
+        ]);
+    }
+    t
 }

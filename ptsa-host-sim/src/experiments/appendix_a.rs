@@ -22,9 +22,9 @@ pub struct TwoAxisPlan {
     pub kind: TwoAxisKind,
     /// Oscillation frequency, Hz.
     pub freq_hz: f64,
-    /// Y-axis amplitude θ_my, mrad.
+    /// Y-axis amplitude `θ_my`, mrad.
     pub theta_my_mrad: f64,
-    /// Z-axis amplitude θ_mz, mrad.
+    /// Z-axis amplitude `θ_mz`, mrad.
     pub theta_mz_mrad: f64,
     /// Radius of the proof mass from the oscillator axes, cm.
     pub r_cm: f64,

@@ -73,28 +73,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<ResponseRun> {
             }
         })
         .collect();
-    let mut t = Table::new(
-        "frequency-response",
-        &format!(
-            "Small-signal frequency response of the pulse output, indicated / input ({AMPLITUDE_CM_S2} cm/s^2 sine along IA, 1 s windows)"
-        ),
-        &[
-            "freq Hz",
-            "simulated dB",
-            "simulated deg",
-            "model dB",
-            "model deg",
-        ],
-    );
-    for r in &rows {
-        t.rows.push(vec![
-            num(r.freq_hz, 0),
-            num(r.sim_db, 2),
-            num(r.sim_deg, 1),
-            num(r.model_db, 2),
-            num(r.model_deg, 1),
-        ]);
-    }
+    let t = table(&rows);
     // The model on a dense log grid from the first to the last frequency.
     let (f0, f1) = (FREQS_HZ[0], FREQS_HZ[FREQS_HZ.len() - 1]);
     let model: Vec<(f64, f64, f64)> = (0..=200)
@@ -152,4 +131,31 @@ pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<ResponseRun> {
         },
         rows,
     })
+}
+
+/// The table of `rows`.
+fn table(rows: &[ResponseRow]) -> Table {
+    let mut t = Table::new(
+        "frequency-response",
+        &format!(
+            "Small-signal frequency response of the pulse output, indicated / input ({AMPLITUDE_CM_S2} cm/s^2 sine along IA, 1 s windows)"
+        ),
+        &[
+            "freq Hz",
+            "simulated dB",
+            "simulated deg",
+            "model dB",
+            "model deg",
+        ],
+    );
+    for r in rows {
+        t.rows.push(vec![
+            num(r.freq_hz, 0),
+            num(r.sim_db, 2),
+            num(r.sim_deg, 1),
+            num(r.model_db, 2),
+            num(r.model_deg, 1),
+        ]);
+    }
+    t
 }

@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use crate::design::margins;
 use crate::effects::Effects;
 use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::instrument::{Instrument, Tolerance};
 use crate::output::{Figure, Output, Plot, Series, Table, num, text};
 use crate::sim::SimOptions;
 
@@ -115,89 +115,9 @@ pub fn run(instr: &Instrument, opts: &SimOptions, samples: usize) -> Result<Mont
         .iter()
         .map(|r| r.gain_margin_db)
         .fold(f64::INFINITY, f64::min);
-    // The worst corners in the closed loop, as one batch (per-lane instruments; every lane
-    // bit-identical to its own `simulate_condition`).
-    let worst: Vec<(Instrument, f64, crate::Condition)> = corners
-        .iter()
-        .take(8)
-        .map(|r| {
-            let i = corner(instr, r.bits);
-            let a = CHECK_FRACTION * i.actual_sf_cm_s2() - i.bias_cm_s2;
-            let c = fixtures::along_ia(a, i.g_cm_s2);
-            (i, a, c)
-        })
-        .collect();
-    let jobs: Vec<crate::batch::Job<'_>> = worst
-        .iter()
-        .map(|(i, _, c)| crate::batch::Job {
-            instr: i,
-            cond: c,
-            effects: Effects::NONE,
-            seed: opts.seed,
-        })
-        .collect();
-    let results = crate::batch::simulate_jobs(&jobs, opts);
-    let checks: Vec<CornerCheck> = worst
-        .iter()
-        .zip(&results)
-        .map(|((i, a, _), s)| {
-            let (i, a) = (i, *a);
-            let sf_corner = i.actual_sf_cm_s2();
-            let truth = a + i.bias_cm_s2 + i.loop_bias_cm_s2(0.0);
-            CornerCheck {
-                sf_change_ppm: (sf_corner / i.sf_cm_s2 - 1.0) * 1e6,
-                error_cm_s2: s.indicated_cm_s2 - truth,
-                residual_cm_s2: s.indicated_cm_s2 * sf_corner / i.sf_cm_s2 - truth,
-                theta_max_rad: s.theta_max_rad,
-                ok: s.cycles == s.cycles_two_reversals && s.stop_ticks == 0,
-            }
-        })
-        .collect();
-    let mut t = Table::new(
-        "monte-carlo-worst-corners",
-        &format!(
-            "Monte Carlo over the Table 2.1 tolerance box: {} corners, worst 8 (closed loop at {CHECK_FRACTION} of each corner's full scale)",
-            corners.len()
-        ),
-        &[
-            "corner",
-            "phase margin deg",
-            "gain margin dB",
-            "crossover Hz",
-            "limit cycle",
-            "SF change ppm",
-            "indicated - input cm/s^2",
-            "after the corner's SF cm/s^2",
-            "max |theta| urad",
-        ],
-    );
-    for (r, c) in corners.iter().zip(&checks) {
-        t.rows.push(vec![
-            text(format!("{:#06x}", r.bits)),
-            num(r.phase_margin_deg, 2),
-            num(r.gain_margin_db, 2),
-            num(r.crossover_hz, 1),
-            text(if c.ok { "2 reversals/cycle" } else { "FAILED" }),
-            num(c.sf_change_ppm, 0),
-            num(c.error_cm_s2, 2),
-            num(c.residual_cm_s2, 4),
-            num(c.theta_max_rad * 1e6, 1),
-        ]);
-    }
-    let mut keys = Table::new(
-        "monte-carlo-corner-bits",
-        "Corner bits (bit k set = parameter k at its upper limit)",
-        &["bit", "parameter", "low", "nominal", "high"],
-    );
-    for (k, tl) in tol.iter().enumerate() {
-        keys.rows.push(vec![
-            text(k.to_string()),
-            text(tl.key),
-            num(tl.lo, 4),
-            num(tl.nominal, 4),
-            num(tl.hi, 4),
-        ]);
-    }
+    let checks = check_worst(instr, &corners, opts);
+    let t = worst_table(&corners, &checks);
+    let keys = keys_table(tol);
     #[allow(clippy::cast_precision_loss)]
     let ranked: Vec<(f64, f64)> = corners
         .iter()
@@ -239,4 +159,100 @@ pub fn run(instr: &Instrument, opts: &SimOptions, samples: usize) -> Result<Mont
             notes,
         },
     })
+}
+
+/// The closed-loop check of the worst corners (the first 8 of `corners`), as one batch
+/// (per-lane instruments; every lane bit-identical to its own `simulate_condition`).
+fn check_worst(instr: &Instrument, corners: &[Corner], opts: &SimOptions) -> Vec<CornerCheck> {
+    let worst: Vec<(Instrument, f64, crate::Condition)> = corners
+        .iter()
+        .take(8)
+        .map(|r| {
+            let i = corner(instr, r.bits);
+            let a = CHECK_FRACTION * i.actual_sf_cm_s2() - i.bias_cm_s2;
+            let c = fixtures::along_ia(a, i.g_cm_s2);
+            (i, a, c)
+        })
+        .collect();
+    let jobs: Vec<crate::batch::Job<'_>> = worst
+        .iter()
+        .map(|(i, _, c)| crate::batch::Job {
+            instr: i,
+            cond: c,
+            effects: Effects::NONE,
+            seed: opts.seed,
+        })
+        .collect();
+    let results = crate::batch::simulate_jobs(&jobs, opts);
+    worst
+        .iter()
+        .zip(&results)
+        .map(|((i, a, _), s)| {
+            let (i, a) = (i, *a);
+            let sf_corner = i.actual_sf_cm_s2();
+            let truth = a + i.bias_cm_s2 + i.loop_bias_cm_s2(0.0);
+            CornerCheck {
+                sf_change_ppm: (sf_corner / i.sf_cm_s2 - 1.0) * 1e6,
+                error_cm_s2: s.indicated_cm_s2 - truth,
+                residual_cm_s2: s.indicated_cm_s2 * sf_corner / i.sf_cm_s2 - truth,
+                theta_max_rad: s.theta_max_rad,
+                ok: s.cycles == s.cycles_two_reversals && s.stop_ticks == 0,
+            }
+        })
+        .collect()
+}
+
+/// The worst `corners` with their closed-loop `checks`.
+fn worst_table(corners: &[Corner], checks: &[CornerCheck]) -> Table {
+    let mut t = Table::new(
+        "monte-carlo-worst-corners",
+        &format!(
+            "Monte Carlo over the Table 2.1 tolerance box: {} corners, worst 8 (closed loop at {CHECK_FRACTION} of each corner's full scale)",
+            corners.len()
+        ),
+        &[
+            "corner",
+            "phase margin deg",
+            "gain margin dB",
+            "crossover Hz",
+            "limit cycle",
+            "SF change ppm",
+            "indicated - input cm/s^2",
+            "after the corner's SF cm/s^2",
+            "max |theta| urad",
+        ],
+    );
+    for (r, c) in corners.iter().zip(checks) {
+        t.rows.push(vec![
+            text(format!("{:#06x}", r.bits)),
+            num(r.phase_margin_deg, 2),
+            num(r.gain_margin_db, 2),
+            num(r.crossover_hz, 1),
+            text(if c.ok { "2 reversals/cycle" } else { "FAILED" }),
+            num(c.sf_change_ppm, 0),
+            num(c.error_cm_s2, 2),
+            num(c.residual_cm_s2, 4),
+            num(c.theta_max_rad * 1e6, 1),
+        ]);
+    }
+    t
+}
+
+/// What each corner bit stands for.
+fn keys_table(tol: &[Tolerance]) -> Table {
+    let mut keys = Table::new(
+        "monte-carlo-corner-bits",
+        "Corner bits (bit k set = parameter k at its upper limit)",
+        &["bit", "parameter", "low", "nominal", "high"],
+    );
+    for (k, tl) in tol.iter().enumerate() {
+        keys.rows.push(vec![
+            text(k.to_string()),
+            text(tl.key),
+            num(tl.lo, 4),
+            num(tl.nominal, 4),
+            num(tl.hi, 4),
+        ]);
+    }
+    keys
 }

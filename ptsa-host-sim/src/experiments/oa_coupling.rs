@@ -126,52 +126,9 @@ pub fn run(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) -> Result<
             "Table 6.3: OA coupling, IA vertical (dynamic − static)",
         ),
     ] {
-        let mut t = Table::new(
-            stem,
-            title,
-            &[
-                "freq Hz",
-                "amp mrad",
-                "report dynamic-static cm/s^2",
-                "simulated dynamic-static cm/s^2",
-                "max |theta| urad",
-            ],
-        );
-        let mine: Vec<&OaRow> = rows.iter().filter(|r| r.ia_vertical == v).collect();
-        for r in &mine {
-            t.rows.push(vec![
-                num(r.freq_hz, 1),
-                opt(r.amp_mrad, 1),
-                opt(r.report, 2),
-                opt(r.simulated, 4),
-                opt(r.theta_max_rad.map(|x| x * 1e6), 1),
-            ]);
-        }
+        let (t, figure) = table_and_figure(&rows, v, stem, title);
         tables.push(t);
-        plots.push(Figure::single(
-            stem,
-            Plot {
-                title: title.into(),
-                x_label: "frequency, Hz".into(),
-                y_label: "dynamic − static output, cm/s^2".into(),
-                series: vec![
-                    Series::crosses(
-                        "report (negated: dynamic − static)",
-                        mine.iter()
-                            .filter_map(|r| r.report.map(|x| (r.freq_hz, x)))
-                            .collect(),
-                    ),
-                    Series::markers(
-                        "simulated",
-                        mine.iter()
-                            .filter_map(|r| r.simulated.map(|x| (r.freq_hz, x)))
-                            .collect(),
-                    ),
-                ],
-                x_axis: XAxis::Log,
-                zero_line: true,
-            },
-        ));
+        plots.push(figure);
     }
     let max_sim = rows
         .iter()
@@ -199,4 +156,54 @@ pub fn run(instr: &Instrument, opts: &SimOptions, lever_cm: [f64; 3]) -> Result<
         .notes
         .push(format!("oa-coupling: {}", run.verdict()));
     Ok(run)
+}
+
+/// The table and figure of the `rows` with IA vertical (`v`) or horizontal.
+fn table_and_figure(rows: &[OaRow], v: bool, stem: &str, title: &str) -> (Table, Figure) {
+    let mut t = Table::new(
+        stem,
+        title,
+        &[
+            "freq Hz",
+            "amp mrad",
+            "report dynamic-static cm/s^2",
+            "simulated dynamic-static cm/s^2",
+            "max |theta| urad",
+        ],
+    );
+    let mine: Vec<&OaRow> = rows.iter().filter(|r| r.ia_vertical == v).collect();
+    for r in &mine {
+        t.rows.push(vec![
+            num(r.freq_hz, 1),
+            opt(r.amp_mrad, 1),
+            opt(r.report, 2),
+            opt(r.simulated, 4),
+            opt(r.theta_max_rad.map(|x| x * 1e6), 1),
+        ]);
+    }
+    let figure = Figure::single(
+        stem,
+        Plot {
+            title: title.into(),
+            x_label: "frequency, Hz".into(),
+            y_label: "dynamic − static output, cm/s^2".into(),
+            series: vec![
+                Series::crosses(
+                    "report (negated: dynamic − static)",
+                    mine.iter()
+                        .filter_map(|r| r.report.map(|x| (r.freq_hz, x)))
+                        .collect(),
+                ),
+                Series::markers(
+                    "simulated",
+                    mine.iter()
+                        .filter_map(|r| r.simulated.map(|x| (r.freq_hz, x)))
+                        .collect(),
+                ),
+            ],
+            x_axis: XAxis::Log,
+            zero_line: true,
+        },
+    );
+    (t, figure)
 }

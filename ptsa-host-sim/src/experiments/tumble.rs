@@ -40,7 +40,7 @@ pub struct Tumble {
     pub bias: f64,
     /// The SF the simulation was configured with, cm/s².
     pub sf_configured: f64,
-    /// The bias it was configured with (instrument A_b plus the loop's own), cm/s².
+    /// The bias it was configured with (instrument `A_b` plus the loop's own), cm/s².
     pub bias_configured: f64,
 }
 
@@ -117,52 +117,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
         sf_configured: instr.actual_sf_cm_s2(),
         bias_configured: instr.bias_cm_s2 + instr.loop_bias_cm_s2(0.0),
     };
-    let mut tab = Table::new(
-        "tumble-sf-bias",
-        &format!(
-            "Tumble (section 6.1), gate T = {ticks} ticks ({} s)",
-            gate_used_s(instr, ticks)
-        ),
-        &[
-            "quantity",
-            "plain count",
-            "charge balance",
-            "configured",
-            "report",
-        ],
-    );
-    #[allow(clippy::cast_precision_loss)]
-    let rows = vec![
-        vec![
-            text("P1 (IA up), pulses"),
-            num(t.p1 as f64, 0),
-            num(f1 * ticks as f64, 3),
-            Cell::Missing,
-            Cell::Missing,
-        ],
-        vec![
-            text("P2 (IA down), pulses"),
-            num(t.p2 as f64, 0),
-            num(f2 * ticks as f64, 3),
-            Cell::Missing,
-            Cell::Missing,
-        ],
-        vec![
-            text("SF, cm/s^2 (eq. 6.3)"),
-            num(sf_count, 2),
-            num(sf, 4),
-            num(t.sf_configured, 4),
-            num(report.sf_cm_s2, 1),
-        ],
-        vec![
-            text("A_b, cm/s^2 (eq. 6.4)"),
-            num(bias_count, 3),
-            num(bias, 4),
-            num(t.bias_configured, 4),
-            num(report.bias_cm_s2, 1),
-        ],
-    ];
-    tab.rows = rows;
+    let tab = sf_bias_table(instr, &t, &report);
     let sweep = sweep(instr, opts);
     let expected = |a: f64| g * a.to_radians().sin() + t.bias_configured;
     let mut tab2 = Table::new(
@@ -230,6 +185,58 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
             notes,
         },
     })
+}
+
+/// The tumble's SF and bias table: `t` against the configured values and the `report`'s.
+fn sf_bias_table(instr: &Instrument, t: &Tumble, report: &r890::Section61) -> Table {
+    let mut tab = Table::new(
+        "tumble-sf-bias",
+        &format!(
+            "Tumble (section 6.1), gate T = {} ticks ({} s)",
+            t.ticks,
+            gate_used_s(instr, t.ticks)
+        ),
+        &[
+            "quantity",
+            "plain count",
+            "charge balance",
+            "configured",
+            "report",
+        ],
+    );
+    #[allow(clippy::cast_precision_loss)]
+    let rows = vec![
+        vec![
+            text("P1 (IA up), pulses"),
+            num(t.p1 as f64, 0),
+            num(t.p1_frac * t.ticks as f64, 3),
+            Cell::Missing,
+            Cell::Missing,
+        ],
+        vec![
+            text("P2 (IA down), pulses"),
+            num(t.p2 as f64, 0),
+            num(t.p2_frac * t.ticks as f64, 3),
+            Cell::Missing,
+            Cell::Missing,
+        ],
+        vec![
+            text("SF, cm/s^2 (eq. 6.3)"),
+            num(t.sf_count, 2),
+            num(t.sf, 4),
+            num(t.sf_configured, 4),
+            num(report.sf_cm_s2, 1),
+        ],
+        vec![
+            text("A_b, cm/s^2 (eq. 6.4)"),
+            num(t.bias_count, 3),
+            num(t.bias, 4),
+            num(t.bias_configured, 4),
+            num(report.bias_cm_s2, 1),
+        ],
+    ];
+    tab.rows = rows;
+    tab
 }
 
 /// IA through 360° in 15° steps: the indicated acceleration at each angle.

@@ -134,7 +134,7 @@ impl Figure {
 
 static FONT: OnceLock<bool> = OnceLock::new();
 
-/// Register a system TrueType font (DejaVu Sans or Liberation Sans) as the plots'
+/// Register a system TrueType font (`DejaVu Sans` or `Liberation Sans`) as the plots'
 /// `sans-serif`, once for the program. Returns whether text can be drawn; without a font the
 /// plots are drawn unlabelled.
 pub fn font_ready() -> bool {
@@ -445,7 +445,7 @@ fn legend_mark<DB: DrawingBackend>(
 }
 
 /// Draw `fig` on `root`, its panels stacked with equal heights.
-fn draw_figure<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, fig: &Figure) -> Result<()>
+fn draw_figure<DB: DrawingBackend>(root: &DrawingArea<DB, Shift>, fig: &Figure) -> Result<()>
 where
     DB::ErrorType: 'static,
 {
@@ -475,10 +475,13 @@ pub fn write_figure(dir: &Path, fig: &Figure) -> Result<Vec<PathBuf>> {
     let svg = dir.join(format!("{}.svg", fig.stem));
     let wh = size(fig.panels.len());
     let tmp = temp_beside(&png)?;
-    draw_figure(BitMapBackend::new(tmp.path(), wh).into_drawing_area(), fig)?;
+    draw_figure(&BitMapBackend::new(tmp.path(), wh).into_drawing_area(), fig)?;
     persist(tmp, &png)?;
     let mut s = String::new();
-    draw_figure(SVGBackend::with_string(&mut s, wh).into_drawing_area(), fig)?;
+    draw_figure(
+        &SVGBackend::with_string(&mut s, wh).into_drawing_area(),
+        fig,
+    )?;
     write_atomic(&svg, s.as_bytes())?;
     Ok(vec![png, svg])
 }
@@ -489,9 +492,8 @@ mod tests {
 
     #[test]
     fn decimation_keeps_the_envelope() {
-        #[allow(clippy::cast_precision_loss)]
         let pts: Vec<(f64, f64)> = (0..100_000)
-            .map(|k| (k as f64, if k == 54_321 { 9.0 } else { (k % 7) as f64 }))
+            .map(|k| (f64::from(k), f64::from(if k == 54_321 { 9 } else { k % 7 })))
             .collect();
         let d = decimate(&pts);
         assert!(d.len() <= MAX_LINE_POINTS);

@@ -1,5 +1,8 @@
 //! The command line: clap types only (they never leave the binary), and the value parsers
 //! that refuse nonsense before anything runs. Units are in every option's name and help.
+// The doc comments here are clap's `--help` text, printed as plain text: backticks around
+// column names and symbols (time_s, A_b, θ_my) would show up in the help verbatim.
+#![allow(clippy::doc_markdown, reason = "clap help text, not rustdoc")]
 
 use std::path::PathBuf;
 

@@ -204,6 +204,7 @@ fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String, String)> 
     })
 }
 
+#[allow(clippy::too_many_lines)] // one match arm per subcommand
 fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
     let (instr, name, instr_text) = load_instrument(cli.instrument.as_deref())?;
     let checked = check_loop(&instr);
@@ -772,8 +773,18 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         plural(files.len() as u64, "file"),
         a.out.out.display()
     );
-    let row = fit.row(&label);
-    if a.json {
+    print_response_row(out, fit.row(&label), &fit, a.json)
+}
+
+/// Print `ptsa response`'s `row` as case-frame CSV with its header, or with `json` as one
+/// JSON object with `fit`'s summary.
+fn print_response_row(
+    out: &mut dyn Write,
+    row: ptsa_host_sim::condition::Condition,
+    fit: &ptsa_host_sim::response::ResponseFit,
+    json: bool,
+) -> Result<()> {
+    if json {
         let v = serde_json::json!({
             "label": row.label,
             "kind": row.kind.name(),
@@ -790,7 +801,7 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         });
         writeln!(out, "{v}")?;
     } else {
-        write!(out, "{}", response::rows_csv(&[row]))?;
+        write!(out, "{}", ptsa_host_sim::response::rows_csv(&[row]))?;
     }
     Ok(())
 }
@@ -979,6 +990,21 @@ fn simulator(
     }
 }
 
+/// The effects of a `ptsa discover --json` result file (`predict --effects`).
+fn load_effects(p: &Path) -> Result<Effects> {
+    let text =
+        std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+        anyhow::anyhow!(
+            "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
+            p.display(),
+            e.line(),
+            e.column()
+        )
+    })?;
+    discovery::effects_from_json(&v).with_context(|| p.display().to_string())
+}
+
 fn predict_cmd(
     instr: &Instrument,
     config: ptsa_core::Config,
@@ -987,19 +1013,7 @@ fn predict_cmd(
 ) -> Result<()> {
     let rows = discovery::caseframe::read(&a.data)?;
     let effects = match &a.effects {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("{}: cannot read", p.display()))?;
-            let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-                anyhow::anyhow!(
-                    "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
-                    p.display(),
-                    e.line(),
-                    e.column()
-                )
-            })?;
-            discovery::effects_from_json(&v).with_context(|| p.display().to_string())?
-        }
+        Some(p) => load_effects(p)?,
         None => Effects::NONE,
     };
     let sim = simulator(instr, config, a.analytic, a.seed);
