@@ -343,9 +343,14 @@ fn parameter_signatures(
 /// with the same seed) does not pass for a sensitivity, small enough to stay local.
 pub const SENSITIVITY_STEP: f64 = 0.25;
 
+/// Fraction of an observation's noise that a parameter off by its whole tolerance must
+/// move it by to have a signature.
+pub const PARAMETER_MIN_MOVE: f64 = 0.5;
+
 /// The observations' sensitivities to each parameter around the effects `at` (central
 /// differences, step [`SENSITIVITY_STEP`] tolerance half-widths); `null` when the
-/// parameter, off by its whole tolerance, moves no observation by a tenth of its noise.
+/// parameter, off by its whole tolerance, moves no observation by
+/// [`PARAMETER_MIN_MOVE`] of its noise.
 pub fn sensitivities(
     rows: &[Condition],
     d: &Data,
@@ -361,15 +366,19 @@ pub fn sensitivities(
         .iter()
         .map(|&id| {
             let key = id.parameter_key().unwrap_or_default();
-            let h = sim
-                .instrument()
-                .and_then(|i| i.tolerance(key))
-                .map_or(0.0, |(lo, nom, hi)| {
-                    // Inside the band on both sides (an asymmetric band, the torquer lag's
-                    // 0.2 to 20 µs about 2 µs, would otherwise step below zero).
-                    (SENSITIVITY_STEP * (hi - nom).max(nom - lo))
-                        .min(0.9 * (hi - nom).min(nom - lo))
-                });
+            // The tolerance half-width, and the step: inside the band on both sides (an
+            // asymmetric band, the torquer lag's 0.2 to 20 µs about 2 µs, would otherwise
+            // step below zero).
+            let (half, h) = sim.instrument().and_then(|i| i.tolerance(key)).map_or(
+                (0.0, 0.0),
+                |(lo, nom, hi)| {
+                    let half = (hi - nom).max(nom - lo);
+                    (
+                        half,
+                        (SENSITIVITY_STEP * half).min(0.9 * (hi - nom).min(nom - lo)),
+                    )
+                },
+            );
             if h == 0.0 {
                 return Signature {
                     id,
@@ -410,8 +419,10 @@ pub fn sensitivities(
                 })
                 .collect();
             // A signature only if the parameter, off by its whole tolerance, moves some
-            // observation by a tenth of that observation's noise.
-            let moves = (0..d.n()).any(|k| col[k].abs() * 10.0 * h >= 0.1 * scale(d, k));
+            // observation by half that observation's noise: below that the difference is the
+            // closed loop's own scatter (about 1e-4 cm/s² in a static row), which would
+            // otherwise pass for a sensitivity and crowd the family.
+            let moves = (0..d.n()).any(|k| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale(d, k));
             let null = !moves;
             Signature { id, col, null }
         })
