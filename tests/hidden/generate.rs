@@ -163,7 +163,8 @@ pub fn candidate_physics(id: CandidateId, p_g_cm: f64) -> Option<Physics> {
 /// difference column is not identically zero or a multiple of another's in every design.
 /// The model equation's static terms (bias, scale factor, misalignment) cancel between a
 /// condition and its reference, and the cubic's difference under vibration along IA is the
-/// nonlinearity's; they are hidden in absolute data by the tumble campaign.
+/// nonlinearity's; they are hidden in absolute data by the hidden-statics campaign
+/// ([`super::statics`]).
 #[must_use]
 pub fn hidden_in_difference_data(id: CandidateId) -> bool {
     candidate_physics(id, 1.0).is_some()

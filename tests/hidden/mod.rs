@@ -12,6 +12,11 @@
 //! detection power at 3, 4, 6 and 8 standard errors, coverage of the coefficients, false
 //! selections and confident misnamings in one table, and asserts the rates.
 //!
+//! Two campaigns of their own follow the same scoring: [`params`] hides a change of the
+//! loop's parameters in the instrument file (response tables), [`statics`] the model
+//! equation's static terms (an IA tilt, a quadratic or cubic term, a bias change, a
+//! scale-factor error) as physics in the plant, measured in tumbles and on a centrifuge.
+//!
 //! Noise: one sigma per set, uniform in 0.1–0.3 cm/s² (the heteroscedastic nulls have their
 //! own), from the seeded `ChaCha8` generator, on top of the loop's own pickoff noise; in a
 //! quarter of the sets (and in every heteroscedastic null) `sigma_cm_s2` is left out, so
@@ -25,6 +30,7 @@ pub mod generate;
 pub mod params;
 pub mod physics;
 pub mod score;
+pub mod statics;
 
 #[cfg(test)]
 mod tests;

@@ -9,8 +9,9 @@
 //!   the C twin against every vector.
 //! * `firmware [--vector NAME]...` — build the firmware and run the golden vectors (all, or
 //!   the named ones) and the budgets on the emulated Cortex-M4.
-//! * `hidden [--parameters] [--sets N] [--seed S] [--analytic]` — the full hidden-effect
-//!   campaign of the discovery pipeline, or with `--parameters` the hidden-parameter one.
+//! * `hidden [--parameters | --statics [--additive]] [--sets N] [--seed S] [--analytic]` —
+//!   the full hidden-effect campaign of the discovery pipeline, or with `--parameters` the
+//!   hidden-parameter one, or with `--statics` the hidden-statics one.
 //!
 //! Exit status: 0 on success (and for help), 1 when a check fails, 2 for an unknown command
 //! or option (after printing the usage).

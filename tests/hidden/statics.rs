@@ -1,0 +1,1280 @@
+//! The hidden-statics campaign: the model equation's static terms hidden as physics in the
+//! closed loop's plant and recovered blind from tumbles and a centrifuge.
+//!
+//! A set is a design of absolute rows ([`StaticDesign`]: an 8-, 12- or 24-point tumble about
+//! OA or PA, or a 50 cm centrifuge at 2, 5 and 10 g, IA in and out, after an 8-point tumble)
+//! measured on an instrument with one static effect ([`StaticKind`]), or none:
+//!
+//! | kind | physics, written here from its equation | the candidate that names it |
+//! |---|---|---|
+//! | IA tilted toward PA by δ (about OA) | the sensed specific force is `a·IA'`, `IA' = cos δ·IA + sin δ·PA`: an extra torque `P·(a·IA' − a_IA)` | `misalignment.delta_p_rad` = δ (first order; the `−δ²/2·a_IA` rest is below 1e-3 ppm here) |
+//! | IA tilted toward OA by δ (about PA) | the same with OA | `misalignment.delta_o_rad` = δ |
+//! | quadratic torquer/pendulum term | a torque `P·k2·a_IA²` | `nonlinearity` = k2 |
+//! | cubic term | a torque `P·k3·a_IA³` | `cubic` = k3 |
+//! | bias change | a constant torque `P·Δb` | `bias` = Δb |
+//! | scale-factor error | the instrument file's `torquer.current_scale_factor_ma_per_g` changed by Δc in the generator's instrument only, the regulated current held | `scale_factor` = 1e6·Δc/c ppm, or `torquer_sf` = Δc mA/g |
+//! | unperturbed | nothing | nothing |
+//!
+//! The torques enter the plant of eq. 4.2 through [`ExtraPhysics`], from the case inputs the
+//! plant itself feels; nothing here calls the candidate code (`CandidateId::term_cm_s2`,
+//! `Effects` with a coefficient, a signature). The scale-factor error's truth follows from
+//! charge balance: the loop indicates `mean(T_ext)/F·SF`, the torque at full current is
+//! `F = (P/c)·I` with the regulated current `I = SF·c₀/g` held, so the indication is
+//! `(a_IA + A_b)·c/c₀`: a scale-factor change of `1e6·Δc/c₀` ppm, plus a bias change of
+//! `A_b·Δc/c₀` (18.7 cm/s² × Δc/c₀, a fraction of one standard error at these strengths, and
+//! orthogonal to `a_IA` once the drift is partialled out in these designs: it does not bias
+//! the scale factor's estimate).
+//!
+//! * **Measurement**: each row is one closed-loop run ([`simulate_condition_with`], or
+//!   [`simulate_condition`] of the changed instrument) with its own pickoff-noise seed, plus
+//!   Gaussian noise of one sigma per set, uniform in 0.005–0.02 cm/s², from the seeded
+//!   `ChaCha8` generator (the loop's own scatter on these rows is about 1e-4 cm/s²).
+//!   `sigma_cm_s2` is written in three sets of four; in the fourth the pipeline estimates it.
+//! * **Strength**: the coefficient is `±s·SE`, `s` uniform in 2–24, where SE is the hidden
+//!   coefficient's standard error alone in the design with the drift in row order partialled
+//!   out (the only nuisance term the pipeline fits to absolute rows without `time_s`), from
+//!   the design simulated noise-free in the closed loop by central differences of the hidden
+//!   physics. Designs are drawn (uniformly among the four, the tumble axis at random) until
+//!   the effect has at least [`MIN_PARTIAL`] of its column outside the drift and
+//!   `(s + 4)·SE` lies within the instrument file's plausibility bound; where none does in
+//!   [`MAX_DESIGN_DRAWS`] draws (the cubic's 1e-10 s⁴/cm² at the larger sigmas, in tumbles) the
+//!   design that allows the most is taken at the largest plausible strength (at least 2 SE),
+//!   marked `capped`. The design mix per kind is in the table.
+//! * **Analysis**: [`discover`] with the closed-loop simulator of the shipped instrument and
+//!   its whole vocabulary, the loop's parameters included (their signatures are central
+//!   differences through the loop; on these static rows the whole analysis takes 0.01–0.1 s,
+//!   so nothing is left out for speed), or with the additive terms only (`with_parameters`
+//!   false) for comparison.
+//! * **Scored** as the other campaigns: named exactly (an accepted candidate selected), or as
+//!   a confounded partner of what is selected (`Selected::confounded`); coverage
+//!   `|z| ≤ 1.96` among exact namings at ≥ 6 SE, with the truth in the named candidate's
+//!   unit; a confident misnaming is a selection that neither is nor names the truth; any
+//!   selection in an unperturbed set is a false selection.
+//!
+//! Testable or not ([`testability`], printed with the full campaign): a tilt toward PA is
+//! seen only about OA (`a_PA = 0` in a tumble about PA and on the centrifuge), a tilt toward
+//! OA only about PA or on the centrifuge; the cubic's column is three quarters outside the
+//! drift in every tumble but its plausibility bound (1e-10 s⁴/cm²) allows 6 SE in an 8-point
+//! tumble only at the smaller sigmas, so most cubic sets are drawn on the centrifuge. A
+//! centrifuge alone (OA up, `a_OA = g` on every row) cannot tell a bias change from a tilt
+//! toward OA, `cross_axis_oo` or (whole vocabulary) `pickoff_phase`, nor a scale-factor
+//! change from anisoelasticity (`a_IA·a_OA = g·a_IA`) or `torquer_sf`; the campaign's
+//! centrifuge design therefore starts with an 8-point tumble, after which a bias is
+//! testable on its own, the scale factor stays indistinguishable from anisoelasticity (the
+//! centrifuge's rows, up to 10 g, dominate both columns: |cos| > 0.99) and, with the tumble about
+//! OA, the tilt toward OA from `cross_axis_oo` (both are the centrifuge rows' constant). In
+//! every tumble about PA the bias is indistinguishable from `pickoff_phase` (the loop bias a
+//! demodulator phase error makes, `−K·θ0/P`, is constant where `a_PA = 0`), and everywhere
+//! the scale factor from `torquer_sf`. These are named as partners and scored as such.
+//!
+//! # Asserted
+//!
+//! [`StaticCampaign::failures`]: a selection that neither is nor names the truth in at most
+//! 5 % of the hidden sets, any selection in at most 5 % of the unperturbed sets (one-sided
+//! binomial tests at 1 %), coverage in the 99 % band of Binomial(n, 0.95) from 20 exact
+//! namings, and exact-or-partner naming at ≥ 6 SE in ≥ 95 % of the hidden sets of every
+//! design. The CI subset (`hidden_statics_ci`, both vocabularies) asserts all of these but
+//! detection, which it asserts (less one binomial standard error) only with the additive
+//! vocabulary and only in the 12- and 24-point tumbles and the centrifuge design
+//! ([`CI_DETECTION_FAMILIES`]); the rest is shown, not asserted, because it fails today on a
+//! weakness of the method, below.
+//!
+//! # What fails
+//!
+//! Measured (`cargo xtask hidden --statics --sets 200`, seed 4242; `docs/discovery.md`,
+//! "Hidden-statics tests"): detection at ≥ 6 SE is 91.6 % with the additive vocabulary and
+//! 75.5 % with the whole one, against 95 %. False selections (1 and 2 of 200), misnamings and
+//! coverage (96 %) are met. The misses are structural, not noise in the estimates:
+//!
+//! * **The 8-point tumble** (68 % with the additive vocabulary; 98–100 % in the other
+//!   designs). Each step of the selection takes the larger of the χ² p-value and an F test
+//!   against a reference model: the current model plus the remaining candidates that add an
+//!   independent column, until 2 residual degrees of freedom are left
+//!   (`discovery::fit::MIN_REFERENCE_DOF`). Eight rows hold the drift and six independent
+//!   columns of the vocabulary (1, sin φ, cos φ, sin 2φ, cos 2φ, sin 3φ), so the test is
+//!   F(1, 2): at Holm's first level 0.05/7 its critical value is about 139, which a 6-SE
+//!   effect (Δχ² ≈ 36) passes only when the reference's residual variance (χ²₂/2) falls
+//!   below 0.26 (23 % of sets), and an 18-SE one only in 90 %.
+//! * **The loop's parameters in the vocabulary** (75.5 % overall; the 12-point tumble 78 %,
+//!   the centrifuge design 70 %, the 8-point tumble 59 %, the 24-point tumble 99 %). On
+//!   static rows damping, spring, inertia, pendulosity, torquer lag and the pickoff's gain
+//!   and phase have no effect beyond the loop's noise (charge balance), yet their central
+//!   differences through the closed loop (about 1e-4 cm/s² of loop noise over a quarter of a
+//!   tolerance) pass `discovery::data::sensitivities`' test of a signature, so they enter the
+//!   family, raise Holm's m, and each adds an independent noise column to the step test's
+//!   reference model, which is filled to 2 residual degrees of freedom in every design below
+//!   about 20 rows. The cost is power, not time: the whole analysis of a set takes
+//!   0.03–0.09 s with them and 0.004–0.01 s without.
+//!
+//! * **Names decided by loop noise** (whole vocabulary). Where the bias and `pickoff_phase`
+//!   are indistinguishable (every tumble about PA), the selection's tie-break to the
+//!   first-order term applies only to an exact tie, and the parameter's finite-difference
+//!   signature, with the loop's noise in it, often fits a hair better: 31 of 200 bias-change
+//!   sets (29 about PA) select `pickoff_phase`, refined to 16°–573° (tolerance ±10°, flagged out of
+//!   tolerance), the bias named only as its partner (scored as a partner naming).
+//!
+//! The misses are not silent: nearly all come with the unexplained-structure warning
+//! (column `warned`), whose test does not use that reference model. Both causes are in
+//! `ptsa-host-sim`'s discovery (`fit.rs`, `data.rs`), outside this campaign's remit: the
+//! campaign is the measure of that work.
+
+use std::fmt::Write as _;
+use std::sync::Arc;
+use std::time::Instant;
+
+use ptsa_host_sim::condition::{CaseInputs, Condition, IA, OA, PA};
+use ptsa_host_sim::discovery::sim::ClosedLoopSimulator;
+use ptsa_host_sim::discovery::{Options, discover};
+use ptsa_host_sim::plan::{self, Axis};
+use ptsa_host_sim::plant::NX;
+use ptsa_host_sim::sim::{ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with};
+use ptsa_host_sim::{CandidateId, Effects, Instrument};
+use rand::RngCore as _;
+use rayon::prelude::*;
+
+use super::campaign::{binomial_interval, binomial_upper_tail};
+use super::generate::residualize;
+use super::{Draw, Rng, rng};
+
+/// The instrument file's key of the torquer's current scale factor, mA/g.
+const TORQUER_SF_KEY: &str = "torquer.current_scale_factor_ma_per_g";
+
+/// What a set hides.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StaticKind {
+    /// IA tilted toward PA by δ (about OA), rad.
+    TiltTowardPa,
+    /// IA tilted toward OA by δ (about PA), rad.
+    TiltTowardOa,
+    /// A torque `P·k2·a_IA²`, k2 in s²/cm.
+    Quadratic,
+    /// A torque `P·k3·a_IA³`, k3 in s⁴/cm².
+    Cubic,
+    /// A constant torque `P·Δb`, Δb in cm/s².
+    BiasChange,
+    /// The torquer's current scale factor changed by Δc mA/g (the regulated current held).
+    ScaleFactorError,
+    /// Nothing.
+    Unperturbed,
+}
+
+impl StaticKind {
+    /// Every kind, in table order.
+    pub const ALL: [StaticKind; 7] = [
+        StaticKind::TiltTowardPa,
+        StaticKind::TiltTowardOa,
+        StaticKind::Quadratic,
+        StaticKind::Cubic,
+        StaticKind::BiasChange,
+        StaticKind::ScaleFactorError,
+        StaticKind::Unperturbed,
+    ];
+
+    /// Name in tables.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            StaticKind::TiltTowardPa => "IA tilt to PA",
+            StaticKind::TiltTowardOa => "IA tilt to OA",
+            StaticKind::Quadratic => "quadratic",
+            StaticKind::Cubic => "cubic",
+            StaticKind::BiasChange => "bias change",
+            StaticKind::ScaleFactorError => "scale factor",
+            StaticKind::Unperturbed => "unperturbed",
+        }
+    }
+
+    /// The hidden coefficient's unit.
+    #[must_use]
+    pub fn unit(self) -> &'static str {
+        match self {
+            StaticKind::TiltTowardPa | StaticKind::TiltTowardOa => "rad",
+            StaticKind::Quadratic => "s²/cm",
+            StaticKind::Cubic => "s⁴/cm²",
+            StaticKind::BiasChange => "cm/s²",
+            StaticKind::ScaleFactorError => "mA/g",
+            StaticKind::Unperturbed => "",
+        }
+    }
+
+    /// The candidates that name it (empty: nothing is hidden).
+    #[must_use]
+    pub fn names(self) -> &'static [CandidateId] {
+        match self {
+            StaticKind::TiltTowardPa => &[CandidateId::MisalignmentP],
+            StaticKind::TiltTowardOa => &[CandidateId::MisalignmentO],
+            StaticKind::Quadratic => &[CandidateId::Nonlinearity],
+            StaticKind::Cubic => &[CandidateId::Cubic],
+            StaticKind::BiasChange => &[CandidateId::Bias],
+            StaticKind::ScaleFactorError => {
+                &[CandidateId::ScaleFactor, CandidateId::ParamTorquerSf]
+            }
+            StaticKind::Unperturbed => &[],
+        }
+    }
+
+    /// The true value of candidate `id` (one of [`StaticKind::names`]) for a hidden
+    /// coefficient `x` in this kind's unit, in the candidate's unit; `c0` is the file's
+    /// current scale factor, mA/g.
+    #[must_use]
+    pub fn truth_as(self, id: CandidateId, x: f64, c0: f64) -> Option<f64> {
+        match (self, id) {
+            (StaticKind::ScaleFactorError, CandidateId::ScaleFactor) => Some(1e6 * x / c0),
+            (StaticKind::ScaleFactorError, CandidateId::ParamTorquerSf) => Some(x),
+            (k, id) if k.names().contains(&id) => Some(x),
+            _ => None,
+        }
+    }
+
+    /// The largest plausible hidden coefficient, in this kind's unit: the named candidate's
+    /// bound from the instrument file (the scale factor's ppm as a change of `c`).
+    fn bound(self, instr: &Instrument) -> f64 {
+        let b = |id: CandidateId| id.info().bound.limit(instr);
+        match self {
+            StaticKind::ScaleFactorError => {
+                b(CandidateId::ScaleFactor) * 1e-6 * instr.current_sf_ma_per_g
+            }
+            StaticKind::Unperturbed => f64::INFINITY,
+            k => b(k.names()[0]),
+        }
+    }
+}
+
+/// A design of absolute rows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StaticDesign {
+    /// A tumble of `positions` equally spaced positions about `axis` (OA or PA).
+    Tumble {
+        /// 8, 12 or 24.
+        positions: usize,
+        /// OA or PA.
+        axis: Axis,
+    },
+    /// An 8-point tumble about `axis`, then a 50 cm centrifuge at 2, 5 and 10 g, IA in and
+    /// out (14 rows).
+    CentrifugeTumble {
+        /// The tumble's axis.
+        axis: Axis,
+    },
+}
+
+/// The centrifuge's arm, cm.
+pub const CENTRIFUGE_ARM_CM: f64 = 50.0;
+/// The centrifuge's g levels.
+pub const CENTRIFUGE_G: [f64; 3] = [2.0, 5.0, 10.0];
+
+impl StaticDesign {
+    /// The design families of the table, in order.
+    pub const FAMILIES: [&'static str; 4] = ["t8", "t12", "t24", "cf+t8"];
+
+    /// Its family's index in [`StaticDesign::FAMILIES`].
+    #[must_use]
+    pub fn family(self) -> usize {
+        match self {
+            StaticDesign::Tumble { positions: 8, .. } => 0,
+            StaticDesign::Tumble { positions: 12, .. } => 1,
+            StaticDesign::Tumble { .. } => 2,
+            StaticDesign::CentrifugeTumble { .. } => 3,
+        }
+    }
+
+    /// Name in tables.
+    #[must_use]
+    pub fn name(self) -> String {
+        let ax = |a: Axis| if a == Axis::Oa { "OA" } else { "PA" };
+        match self {
+            StaticDesign::Tumble { positions, axis } => {
+                format!("{positions}-pt tumble {}", ax(axis))
+            }
+            StaticDesign::CentrifugeTumble { axis } => {
+                format!("centrifuge + 8-pt {}", ax(axis))
+            }
+        }
+    }
+
+    /// The rows, unmeasured.
+    #[must_use]
+    pub fn rows(self, g_cm_s2: f64) -> Vec<Condition> {
+        match self {
+            StaticDesign::Tumble { positions, axis } => plan::tumble(positions, axis),
+            StaticDesign::CentrifugeTumble { axis } => {
+                let mut v = plan::tumble(8, axis);
+                v.extend(plan::centrifuge(CENTRIFUGE_ARM_CM, &CENTRIFUGE_G, g_cm_s2));
+                v
+            }
+        }
+    }
+
+    /// One of the four families at random, the tumble about OA or PA at random.
+    fn draw(rng: &mut Rng) -> Self {
+        let axis = if rng.uniform() < 0.5 {
+            Axis::Oa
+        } else {
+            Axis::Pa
+        };
+        match rng.int(0, 3) {
+            0 => StaticDesign::Tumble { positions: 8, axis },
+            1 => StaticDesign::Tumble {
+                positions: 12,
+                axis,
+            },
+            2 => StaticDesign::Tumble {
+                positions: 24,
+                axis,
+            },
+            _ => StaticDesign::CentrifugeTumble { axis },
+        }
+    }
+
+    /// Every design, for the testability table.
+    #[must_use]
+    pub fn all() -> Vec<StaticDesign> {
+        let mut v = Vec::new();
+        for positions in [8, 12, 24] {
+            for axis in [Axis::Oa, Axis::Pa] {
+                v.push(StaticDesign::Tumble { positions, axis });
+            }
+        }
+        for axis in [Axis::Oa, Axis::Pa] {
+            v.push(StaticDesign::CentrifugeTumble { axis });
+        }
+        v
+    }
+}
+
+/// A static law of extra torque on the pendulum, as an extra specific force along IA.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Law {
+    /// IA rotated by `delta_rad` toward case axis `toward`: `a·IA' − a_IA`.
+    Tilt { toward: usize, delta_rad: f64 },
+    /// `k·a_IA^n`.
+    Power { k: f64, n: i32 },
+    /// `Δb`.
+    Constant { db: f64 },
+}
+
+impl Law {
+    /// The extra specific force along IA for the specific force `a` (case axes), cm/s².
+    fn extra_cm_s2(self, a: [f64; 3]) -> f64 {
+        match self {
+            Law::Tilt { toward, delta_rad } => {
+                let (s, c) = delta_rad.sin_cos();
+                // IA' = cos δ·IA + sin δ·(toward); the sensed force is a·IA'.
+                a[IA] * c + a[toward] * s - a[IA]
+            }
+            Law::Power { k, n } => k * a[IA].powi(n),
+            Law::Constant { db } => db,
+        }
+    }
+}
+
+/// `P·law(a)` on the pendulum, from the inputs the plant feels.
+#[derive(Debug)]
+struct StaticTorque {
+    p_g_cm: f64,
+    law: Law,
+}
+
+impl ExtraPhysics for StaticTorque {
+    fn torque_dyn_cm(&self, _t_s: f64, inputs: &CaseInputs, _x: &[f64; NX]) -> f64 {
+        self.p_g_cm * self.law.extra_cm_s2(inputs.a_cm_s2)
+    }
+}
+
+/// The specific force a static row applies, cm/s², by this module's own kinematics:
+/// gravity, and a centrifuge arm's `|w|²·radius` along the part of IA perpendicular to the
+/// spin axis (IA mounted pointing at the axis for a positive radius; `docs/case-frame.md`).
+#[must_use]
+pub fn static_force(row: &Condition, g_cm_s2: f64) -> [f64; 3] {
+    let mut a = row.g.map(|x| x * g_cm_s2);
+    let w = row.w_rad_s;
+    let w2: f64 = w.iter().map(|x| x * x).sum();
+    if row.radius_cm != 0.0 && w2 > 0.0 {
+        let wn = w2.sqrt();
+        let mut u = [1.0, 0.0, 0.0];
+        for (j, uj) in u.iter_mut().enumerate() {
+            *uj -= w[IA] / wn * w[j] / wn;
+        }
+        let nu = u.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if nu > 1e-9 {
+            for (aj, uj) in a.iter_mut().zip(u) {
+                *aj += w2 * row.radius_cm * uj / nu;
+            }
+        }
+    }
+    a
+}
+
+/// The law of `kind` with hidden coefficient `x` (`None` for the scale-factor error, made
+/// in the instrument, and for the unperturbed sets).
+fn law(kind: StaticKind, x: f64) -> Option<Law> {
+    match kind {
+        StaticKind::TiltTowardPa => Some(Law::Tilt {
+            toward: PA,
+            delta_rad: x,
+        }),
+        StaticKind::TiltTowardOa => Some(Law::Tilt {
+            toward: OA,
+            delta_rad: x,
+        }),
+        StaticKind::Quadratic => Some(Law::Power { k: x, n: 2 }),
+        StaticKind::Cubic => Some(Law::Power { k: x, n: 3 }),
+        StaticKind::BiasChange => Some(Law::Constant { db: x }),
+        StaticKind::ScaleFactorError | StaticKind::Unperturbed => None,
+    }
+}
+
+/// One closed-loop run of `row` with `kind`'s physics at coefficient `x`: the mean indicated
+/// acceleration, `SF·(2P/T − 1)` with the file's SF in the limit, cm/s². `seed`: the
+/// pickoff-noise seed (`None`: no pickoff noise).
+///
+/// # Panics
+/// The instrument refuses its own torquer key (a bug).
+#[must_use]
+pub fn closed_loop_row(kind: StaticKind, x: f64, row: &Condition, seed: Option<u64>) -> f64 {
+    let mut instr = Instrument::kearfott_2401();
+    let opts = SimOptions {
+        seed: seed.unwrap_or(1),
+        noise: seed.is_some(),
+        ..SimOptions::default()
+    };
+    if kind == StaticKind::ScaleFactorError {
+        let c0 = instr.current_sf_ma_per_g;
+        instr
+            .set(TORQUER_SF_KEY, c0 + x)
+            .expect("the torquer's key");
+    }
+    let none = Effects::NONE;
+    match law(kind, x) {
+        Some(l) => {
+            let hook = Arc::new(StaticTorque {
+                p_g_cm: instr.pendulosity_g_cm(),
+                law: l,
+            });
+            simulate_condition_with(&instr, row, &none, &opts, hook)
+        }
+        None => simulate_condition(&instr, row, &none, &opts),
+    }
+    .indicated_cm_s2
+}
+
+/// Largest `|extra specific force|` of a unit coefficient of `kind` over `rows`, cm/s²
+/// (own kinematics; the scale-factor error's is `|a_IA + A_b|/c₀` per mA/g).
+fn unit_peak(kind: StaticKind, rows: &[Condition], instr: &Instrument) -> f64 {
+    let g = instr.g_cm_s2;
+    rows.iter()
+        .map(|r| {
+            let a = static_force(r, g);
+            match law(kind, 1.0) {
+                // A unit tilt's sine is not its first-order size: use the small-angle law.
+                Some(Law::Tilt { toward, .. }) => a[toward].abs(),
+                Some(l) => l.extra_cm_s2(a).abs(),
+                None => (a[IA] + instr.bias_cm_s2).abs() / instr.current_sf_ma_per_g,
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
+/// The closed loop's sensitivity of every row to the hidden coefficient of `kind`, by
+/// central differences of noise-free runs with a step that moves the largest row by
+/// 20 cm/s² (the even part of a tilt, `−δ²/2·a_IA`, cancels in them).
+#[must_use]
+pub fn unit_column(kind: StaticKind, rows: &[Condition]) -> Vec<f64> {
+    let instr = Instrument::kearfott_2401();
+    let pk = unit_peak(kind, rows, &instr);
+    if pk == 0.0 || kind == StaticKind::Unperturbed {
+        return vec![0.0; rows.len()];
+    }
+    let h = 20.0 / pk;
+    rows.par_iter()
+        .map(|r| {
+            (closed_loop_row(kind, h, r, None) - closed_loop_row(kind, -h, r, None)) / (2.0 * h)
+        })
+        .collect()
+}
+
+/// The nuisance term the pipeline fits to `n` absolute rows without `time_s`: a drift in
+/// row order about its mean (when it leaves a degree of freedom).
+#[must_use]
+pub fn drift_basis(n: usize) -> Vec<Vec<f64>> {
+    if n < 2 {
+        return Vec::new();
+    }
+    #[allow(clippy::cast_precision_loss)]
+    let m = (n - 1) as f64 / 2.0;
+    #[allow(clippy::cast_precision_loss)]
+    let drift = (0..n).map(|i| i as f64 - m).collect();
+    vec![drift]
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// Designs drawn at most for one set.
+pub const MAX_DESIGN_DRAWS: usize = 200;
+
+/// Smallest part of the hidden effect's column outside the drift.
+pub const MIN_PARTIAL: f64 = 0.3;
+
+/// What a set hides.
+#[derive(Clone, Debug)]
+pub struct StaticTruth {
+    /// The kind.
+    pub kind: StaticKind,
+    /// The hidden coefficient, in the kind's unit (0 unperturbed).
+    pub coef: f64,
+    /// `|coef|` in standard errors of it alone in this design.
+    pub strength_se: f64,
+    /// The design.
+    pub design: StaticDesign,
+    /// The noise sigma, cm/s².
+    pub sigma: f64,
+    /// `sigma_cm_s2` written.
+    pub sigma_written: bool,
+    /// No design allowed the drawn strength within the plausibility bound.
+    pub capped: bool,
+}
+
+/// A set: measured rows and the truth.
+#[derive(Clone, Debug)]
+pub struct StaticSet {
+    /// Absolute rows with `measured_cm_s2` (and `sigma_cm_s2` where written).
+    pub rows: Vec<Condition>,
+    /// What was hidden.
+    pub truth: StaticTruth,
+}
+
+/// Make set `seed` hiding `kind`.
+///
+/// # Panics
+/// No design of the campaign shows the effect outside the drift (a generator bug).
+#[must_use]
+pub fn generate(seed: u64, kind: StaticKind) -> StaticSet {
+    let mut r = rng(seed);
+    let instr = Instrument::kearfott_2401();
+    let g = instr.g_cm_s2;
+    let sigma = r.range(0.005, 0.02);
+    let sigma_written = r.uniform() >= 0.25;
+    let mut strength = r.range(2.0, 24.0);
+    let sign = r.sign();
+    let limit = kind.bound(&instr);
+    let mut accepted: Option<(StaticDesign, Vec<Condition>, f64)> = None;
+    let mut best: Option<(f64, StaticDesign, Vec<Condition>, f64)> = None;
+    for _ in 0..MAX_DESIGN_DRAWS {
+        let design = StaticDesign::draw(&mut r);
+        let rows = design.rows(g);
+        if kind == StaticKind::Unperturbed {
+            accepted = Some((design, rows, 0.0));
+            break;
+        }
+        let col = unit_column(kind, &rows);
+        let part = norm(&residualize(&col, &drift_basis(rows.len())));
+        if part == 0.0 || part < MIN_PARTIAL * norm(&col) {
+            continue;
+        }
+        let allowed = limit * part / sigma - 4.0;
+        if allowed < strength {
+            if best.as_ref().is_none_or(|b| allowed > b.0) {
+                best = Some((allowed, design, rows, part));
+            }
+            continue;
+        }
+        accepted = Some((design, rows, part));
+        break;
+    }
+    let mut capped = false;
+    if accepted.is_none()
+        && let Some((allowed, design, rows, part)) = best
+    {
+        capped = true;
+        strength = allowed.max(2.0);
+        accepted = Some((design, rows, part));
+    }
+    let Some((design, mut rows, part)) = accepted else {
+        panic!("seed {seed}: no design shows {}", kind.name());
+    };
+    let (coef, strength_se) = if kind == StaticKind::Unperturbed {
+        (0.0, 0.0)
+    } else {
+        (sign * strength * sigma / part, strength)
+    };
+    let seeds: Vec<u64> = (0..rows.len()).map(|_| r.next_u64()).collect();
+    let clean: Vec<f64> = rows
+        .par_iter()
+        .zip(&seeds)
+        .map(|(row, &s)| closed_loop_row(kind, coef, row, Some(s)))
+        .collect();
+    for (row, y) in rows.iter_mut().zip(clean) {
+        row.measured_cm_s2 = Some(y + sigma * r.normal());
+        row.sigma_cm_s2 = sigma_written.then_some(sigma);
+    }
+    StaticSet {
+        rows,
+        truth: StaticTruth {
+            kind,
+            coef,
+            strength_se,
+            design,
+            sigma,
+            sigma_written,
+            capped,
+        },
+    }
+}
+
+/// One selection as the scoring keeps it.
+#[derive(Clone, Debug)]
+pub struct Named {
+    /// The candidate.
+    pub id: CandidateId,
+    /// Its coefficient and standard error, in its unit.
+    pub coef: f64,
+    /// Standard error.
+    pub stderr: f64,
+    /// Within its plausibility bound (or tolerance).
+    pub plausible: bool,
+    /// Its confounded partners.
+    pub partners: Vec<CandidateId>,
+}
+
+/// A set's result.
+#[derive(Clone, Debug)]
+pub struct StaticOutcome {
+    /// The set's seed.
+    pub seed: u64,
+    /// The truth.
+    pub truth: StaticTruth,
+    /// What was selected.
+    pub selected: Vec<Named>,
+    /// An accepted name of the truth is selected.
+    pub exact: bool,
+    /// The truth is only named as a partner of a selection.
+    pub partner: bool,
+    /// `(fitted − true)/SE` of the exact naming, in the named candidate's unit.
+    pub z: Option<f64>,
+    /// Selections that neither are nor name the truth.
+    pub extra: usize,
+    /// The unexplained-structure test fired.
+    pub unexplained: bool,
+    /// The analysis failed.
+    pub error: Option<String>,
+}
+
+impl StaticOutcome {
+    /// A selection, the truth neither selected nor named as a partner.
+    #[must_use]
+    pub fn misnamed(&self) -> bool {
+        self.truth.kind != StaticKind::Unperturbed
+            && !self.selected.is_empty()
+            && !self.exact
+            && !self.partner
+    }
+
+    /// One line for the log.
+    #[must_use]
+    pub fn line(&self) -> String {
+        let t = &self.truth;
+        let sel: Vec<String> = self
+            .selected
+            .iter()
+            .map(|s| {
+                let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
+                if !s.plausible {
+                    x.push('?');
+                }
+                if !s.partners.is_empty() {
+                    let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();
+                    let _ = write!(x, " ~ {}", p.join("/"));
+                }
+                x
+            })
+            .collect();
+        format!(
+            "{:<14} seed {:<12} {:>5.1} SE{} {:.3e} {:<6} {:<20} sigma {:.4}{} -> [{}]{}{}{}",
+            t.kind.name(),
+            self.seed,
+            t.strength_se,
+            if t.capped { "*" } else { " " },
+            t.coef,
+            t.kind.unit(),
+            t.design.name(),
+            t.sigma,
+            if t.sigma_written { "" } else { " (est.)" },
+            sel.join("; "),
+            if self.unexplained {
+                " + unexplained"
+            } else {
+                ""
+            },
+            self.z.map_or(String::new(), |z| format!("  z {z:+.2}")),
+            self.error
+                .as_ref()
+                .map_or(String::new(), |e| format!("  error: {e}"))
+        )
+    }
+}
+
+/// The pipeline's options: the whole vocabulary, or the additive terms only.
+#[must_use]
+pub fn options(with_parameters: bool) -> Options {
+    let mut o = Options::for_instrument(&Instrument::kearfott_2401());
+    if !with_parameters {
+        o.candidates.retain(|c| c.parameter_key().is_none());
+    }
+    o
+}
+
+/// Analyse a set blind (closed loop of the shipped file) and score it.
+#[must_use]
+pub fn analyse(seed: u64, set: &StaticSet, with_parameters: bool) -> StaticOutcome {
+    let nominal = Instrument::kearfott_2401();
+    let c0 = nominal.current_sf_ma_per_g;
+    let sim = ClosedLoopSimulator {
+        instrument: nominal,
+        options: SimOptions::default(),
+    };
+    let t = &set.truth;
+    let mut o = StaticOutcome {
+        seed,
+        truth: t.clone(),
+        selected: Vec::new(),
+        exact: false,
+        partner: false,
+        z: None,
+        extra: 0,
+        unexplained: false,
+        error: None,
+    };
+    let names = t.kind.names();
+    match discover(&set.rows, &sim, &options(with_parameters)) {
+        Ok(d) => {
+            o.unexplained = d.json.unexplained.detected;
+            for s in &d.selected {
+                let partners: Vec<CandidateId> = s.confounded.iter().map(|(c, _)| *c).collect();
+                if names.contains(&s.id) {
+                    o.exact = true;
+                    if let Some(truth) = t.kind.truth_as(s.id, t.coef, c0) {
+                        o.z = Some((s.coef - truth) / s.stderr);
+                    }
+                } else if partners.iter().any(|c| names.contains(c)) {
+                    o.partner = true;
+                } else {
+                    o.extra += 1;
+                }
+                o.selected.push(Named {
+                    id: s.id,
+                    coef: s.coef,
+                    stderr: s.stderr,
+                    plausible: s.plausible,
+                    partners,
+                });
+            }
+            o.partner &= !o.exact;
+        }
+        Err(e) => o.error = Some(format!("{e:#}")),
+    }
+    o
+}
+
+/// A campaign's outcomes.
+#[derive(Clone, Debug)]
+pub struct StaticCampaign {
+    /// Sets per kind.
+    pub sets: usize,
+    /// Seed.
+    pub seed: u64,
+    /// The loop's parameters were candidates.
+    pub with_parameters: bool,
+    /// Outcomes, kinds in table order.
+    pub outcomes: Vec<StaticOutcome>,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+/// Seed of set `k` of the kind at `kind_index`.
+#[must_use]
+pub fn set_seed(seed: u64, kind_index: usize, k: usize) -> u64 {
+    seed.wrapping_mul(1_000_003)
+        .wrapping_add((kind_index as u64 + 1) * 100_000 + k as u64)
+}
+
+/// Run `sets` sets of every kind (the unperturbed included).
+#[must_use]
+pub fn run(sets: usize, seed: u64, with_parameters: bool) -> StaticCampaign {
+    let t0 = Instant::now();
+    let jobs: Vec<(u64, StaticKind)> = StaticKind::ALL
+        .iter()
+        .enumerate()
+        .flat_map(|(i, &k)| (0..sets).map(move |n| (set_seed(seed, i, n), k)))
+        .collect();
+    let outcomes = jobs
+        .par_iter()
+        .map(|&(s, k)| analyse(s, &generate(s, k), with_parameters))
+        .collect();
+    StaticCampaign {
+        sets,
+        seed,
+        with_parameters,
+        outcomes,
+        seconds: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// Strength from which detection and coverage are asserted, SE.
+pub const ASSERT_FROM_SE: f64 = 6.0;
+/// Asserted detection rate.
+pub const DETECTION_MIN: f64 = 0.95;
+/// Largest asserted false-selection and misnaming rate.
+pub const RATE_MAX: f64 = 0.05;
+/// Level of the one-sided binomial tests.
+pub const RATE_TEST_LEVEL: f64 = 0.01;
+
+/// The design families ([`StaticDesign::FAMILIES`]) over which the CI subset asserts
+/// detection, with the additive vocabulary only: the 12- and 24-point tumbles and the
+/// centrifuge with its tumble (12, 24 and 14 rows). Left out, shown but not asserted: the
+/// 8-point tumble, where the step test's reference model keeps 2 residual degrees of
+/// freedom (an F(1, 2) test), and every design with the whole vocabulary, whose
+/// loop-parameter candidates fill the reference model below 24 rows (module docs).
+pub const CI_DETECTION_FAMILIES: [usize; 3] = [1, 2, 3];
+
+/// `k/n` counts.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Count {
+    /// Hits.
+    pub k: usize,
+    /// Trials.
+    pub n: usize,
+}
+
+impl Count {
+    fn add(&mut self, yes: bool) {
+        self.n += 1;
+        self.k += usize::from(yes);
+    }
+    /// `k/n` (0 when `n = 0`).
+    #[must_use]
+    pub fn rate(self) -> f64 {
+        #[allow(clippy::cast_precision_loss)]
+        let r = self.k as f64 / self.n.max(1) as f64;
+        r
+    }
+    fn cell(self) -> String {
+        if self.n == 0 {
+            "-".into()
+        } else {
+            format!("{}/{}", self.k, self.n)
+        }
+    }
+    /// More than [`RATE_MAX`] by the one-sided binomial test at [`RATE_TEST_LEVEL`].
+    fn too_many(self) -> bool {
+        self.n > 0
+            && self.rate() > RATE_MAX
+            && binomial_upper_tail(self.n, RATE_MAX, self.k) < RATE_TEST_LEVEL
+    }
+}
+
+/// One kind's (or the hidden kinds') figures.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct KindStats {
+    /// Sets.
+    pub sets: usize,
+    /// Named exactly, among sets of ≥ 6 SE.
+    pub exact6: Count,
+    /// Named exactly or as a partner, among sets of ≥ 6 SE.
+    pub either6: Count,
+    /// Named only as a partner (all strengths).
+    pub partner: Count,
+    /// `|z| ≤ 1.96` among exact namings at ≥ 6 SE.
+    pub coverage: Count,
+    /// Hidden kinds: a selection, the truth neither selected nor a partner.
+    pub misnamed: Count,
+    /// Hidden kinds: the truth named, and a selection beside it that neither is nor names
+    /// it.
+    pub extra: Count,
+    /// Hidden kinds: a selection that neither is nor names the truth (`misnamed` or
+    /// `extra`); unperturbed: any selection. Asserted.
+    pub wrong: Count,
+    /// Among the misses at ≥ 6 SE: the unexplained-structure test fired.
+    pub warned: Count,
+    /// Sets whose strength was capped at the plausibility bound.
+    pub capped: usize,
+    /// Sets per design family ([`StaticDesign::FAMILIES`]).
+    pub designs: [usize; 4],
+}
+
+impl KindStats {
+    fn add(&mut self, o: &StaticOutcome) {
+        let t = &o.truth;
+        self.sets += 1;
+        self.designs[t.design.family()] += 1;
+        self.capped += usize::from(t.capped);
+        if t.kind == StaticKind::Unperturbed {
+            self.wrong.add(!o.selected.is_empty());
+            return;
+        }
+        self.misnamed.add(o.misnamed());
+        self.extra.add(o.extra > 0 && (o.exact || o.partner));
+        self.wrong.add(o.extra > 0);
+        self.partner.add(o.partner);
+        if t.strength_se >= ASSERT_FROM_SE {
+            let named = o.exact || o.partner;
+            self.exact6.add(o.exact);
+            self.either6.add(named);
+            if !named {
+                self.warned.add(o.unexplained);
+            }
+            if o.exact
+                && let Some(z) = o.z
+            {
+                self.coverage.add(z.abs() <= 1.96);
+            }
+        }
+    }
+}
+
+impl StaticCampaign {
+    /// The figures of the sets that `keep` keeps.
+    fn stats_of(&self, keep: impl Fn(&StaticOutcome) -> bool) -> KindStats {
+        let mut s = KindStats::default();
+        for o in self.outcomes.iter().filter(|o| keep(o)) {
+            s.add(o);
+        }
+        s
+    }
+
+    /// The figures of `kind`.
+    #[must_use]
+    pub fn stats(&self, kind: StaticKind) -> KindStats {
+        self.stats_of(|o| o.truth.kind == kind)
+    }
+
+    /// The hidden kinds together, in the design families `families`.
+    #[must_use]
+    pub fn hidden(&self, families: &[usize]) -> KindStats {
+        self.stats_of(|o| {
+            o.truth.kind != StaticKind::Unperturbed && families.contains(&o.truth.design.family())
+        })
+    }
+
+    /// The design families over which detection is asserted: all of them in a full
+    /// campaign; in CI, [`CI_DETECTION_FAMILIES`] with the additive vocabulary and none with
+    /// the whole one.
+    #[must_use]
+    pub fn detection_scope(&self, ci: bool) -> &'static [usize] {
+        match (ci, self.with_parameters) {
+            (false, _) => &[0, 1, 2, 3],
+            (true, false) => &CI_DETECTION_FAMILIES,
+            (true, true) => &[],
+        }
+    }
+
+    /// The asserted rates that are not met. `ci`: the CI subset's assertions (detection
+    /// only over [`StaticCampaign::detection_scope`], with an allowance of one binomial
+    /// standard error at 5 %).
+    #[must_use]
+    pub fn failures(&self, ci: bool) -> Vec<String> {
+        let mut f = Vec::new();
+        for o in &self.outcomes {
+            if let Some(e) = &o.error {
+                f.push(format!("set {} refused: {e}", o.seed));
+            }
+        }
+        let tail = |c: Count| binomial_upper_tail(c.n, RATE_MAX, c.k);
+        let nulls = self.stats(StaticKind::Unperturbed).wrong;
+        if nulls.too_many() {
+            f.push(format!(
+                "false selections on unperturbed sets: {} = {:.1}%: P(>= {} of {}) = {:.4} at 5%",
+                nulls.cell(),
+                100.0 * nulls.rate(),
+                nulls.k,
+                nulls.n,
+                tail(nulls)
+            ));
+        }
+        let h = self.hidden(&[0, 1, 2, 3]);
+        if h.wrong.too_many() {
+            f.push(format!(
+                "misnamings (a selection that neither is nor names the truth): {} = {:.1}%: P(>= {} of {}) = {:.4} at 5%",
+                h.wrong.cell(),
+                100.0 * h.wrong.rate(),
+                h.wrong.k,
+                h.wrong.n,
+                tail(h.wrong)
+            ));
+        }
+        let c = h.coverage;
+        if c.n >= 20 {
+            let (lo, hi) = binomial_interval(c.n, 0.95, 0.99);
+            if c.k < lo || c.k > hi {
+                f.push(format!(
+                    "coverage: |z| <= 1.96 in {} = {:.1}%, outside [{lo}, {hi}] (99% of Binomial({}, 0.95))",
+                    c.cell(),
+                    100.0 * c.rate(),
+                    c.n
+                ));
+            }
+        }
+        let scope = self.detection_scope(ci);
+        if !scope.is_empty() {
+            let e = self.hidden(scope).either6;
+            #[allow(clippy::cast_precision_loss)]
+            let allow = if ci {
+                (RATE_MAX * (1.0 - RATE_MAX) / e.n.max(1) as f64).sqrt()
+            } else {
+                0.0
+            };
+            if e.n == 0 || e.rate() < DETECTION_MIN - allow {
+                f.push(format!(
+                    "named (exactly or as a partner) at >= 6 SE in {}: {} = {:.1}% < {:.1}%",
+                    scope
+                        .iter()
+                        .map(|&i| StaticDesign::FAMILIES[i])
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    e.cell(),
+                    100.0 * e.rate(),
+                    100.0 * (DETECTION_MIN - allow)
+                ));
+            }
+        }
+        f
+    }
+
+    /// The sets that matter: misses at ≥ 6 SE, coverage outliers, misnamings and extra
+    /// selections, false selections, refusals.
+    #[must_use]
+    pub fn notable(&self) -> String {
+        let mut s = String::new();
+        for o in &self.outcomes {
+            let strong = o.truth.strength_se >= ASSERT_FROM_SE;
+            let why = if o.error.is_some() {
+                Some("refused")
+            } else if o.truth.kind == StaticKind::Unperturbed {
+                (!o.selected.is_empty()).then_some("false selection")
+            } else if o.misnamed() {
+                Some("misnamed")
+            } else if strong && !(o.exact || o.partner) {
+                Some("missed")
+            } else if o.extra > 0 {
+                Some("extra selection")
+            } else if strong && o.z.is_some_and(|z| z.abs() > 1.96) {
+                Some("|z| > 1.96")
+            } else {
+                None
+            };
+            if let Some(w) = why {
+                let _ = writeln!(s, "{w:<16} {}", o.line());
+            }
+        }
+        s
+    }
+
+    /// Every set, one line each.
+    #[must_use]
+    pub fn log(&self) -> String {
+        self.outcomes.iter().fold(String::new(), |mut s, o| {
+            let _ = writeln!(s, "{}", o.line());
+            s
+        })
+    }
+
+    /// What the table's columns mean and what the campaign asserts.
+    fn legend(&self, ci: bool) -> String {
+        let mut s = String::new();
+        let scope = self.detection_scope(ci);
+        let _ = writeln!(
+            s,
+            "ex>=6: an accepted name selected (scale factor: scale_factor or torquer_sf), among the sets of >= 6 SE; e|p: exactly or\n\
+             only as a confounded partner; partner: only as a partner (all strengths); coverage: |z| <= 1.96 among exact namings at\n\
+             >= 6 SE; misnamed: a selection, the truth neither selected nor a partner; extra: the truth named and a selection beside\n\
+             it that neither is nor names it; wrong: either (unperturbed: any selection; ! when P(>= k of n) at 5% is below 0.01);\n\
+             warned: misses at >= 6 SE with the unexplained-structure warning; capped: strength cut to the plausibility bound;\n\
+             t8/t12/t24/cf+t8: sets per design (8-, 12-, 24-point tumble, centrifuge after an 8-point tumble), and per design below.\n\
+             Asserted: wrong over all hidden kinds and over the unperturbed sets consistent with at most 5%; coverage in the 99% band\n\
+             of Binomial(n, 0.95) from 20 exact namings; e|p>=6 >= 95%{} {}.",
+            if ci {
+                " less one binomial standard error"
+            } else {
+                ""
+            },
+            if scope.is_empty() {
+                "not asserted with this vocabulary in CI (shown)".to_string()
+            } else {
+                format!(
+                    "over {}",
+                    scope
+                        .iter()
+                        .map(|&i| StaticDesign::FAMILIES[i])
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            }
+        );
+        s
+    }
+
+    /// The one table (per kind, then per design family) and the verdict.
+    #[must_use]
+    pub fn table(&self, ci: bool) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "hidden-statics campaign: {} sets per kind, seed {}; data: closed loop with the physics in the plant + noise 0.005-0.02 cm/s²; \
+             pipeline: closed loop of the shipped file, {}; {:.1} s",
+            self.sets,
+            self.seed,
+            if self.with_parameters {
+                "whole vocabulary (loop parameters included)"
+            } else {
+                "additive terms only"
+            },
+            self.seconds
+        );
+        let _ = writeln!(
+            s,
+            "{:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {:>16}",
+            "hidden",
+            "sets",
+            "ex>=6",
+            "e|p>=6",
+            "partner",
+            "coverage",
+            "misnamed",
+            "extra",
+            "wrong",
+            "warned",
+            "capped",
+            "t8/t12/t24/cf+t8"
+        );
+        let row = |s: &mut String, name: &str, k: &KindStats, null: bool| {
+            let designs = k.designs.map(|x| x.to_string()).join("/");
+            let dash = |c: Count| if null { "-".to_string() } else { c.cell() };
+            let mark = if k.wrong.too_many() { "!" } else { "" };
+            let _ = writeln!(
+                s,
+                "{name:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {designs:>16}",
+                k.sets,
+                dash(k.exact6),
+                dash(k.either6),
+                dash(k.partner),
+                dash(k.coverage),
+                dash(k.misnamed),
+                dash(k.extra),
+                format!("{}{mark}", k.wrong.cell()),
+                dash(k.warned),
+                if null {
+                    "-".to_string()
+                } else {
+                    k.capped.to_string()
+                },
+            );
+        };
+        for kind in StaticKind::ALL {
+            if kind != StaticKind::Unperturbed {
+                row(&mut s, kind.name(), &self.stats(kind), false);
+            }
+        }
+        row(&mut s, "all hidden", &self.hidden(&[0, 1, 2, 3]), false);
+        row(
+            &mut s,
+            "unperturbed",
+            &self.stats(StaticKind::Unperturbed),
+            true,
+        );
+        for (f, name) in StaticDesign::FAMILIES.iter().enumerate() {
+            row(&mut s, &format!("  in {name}"), &self.hidden(&[f]), false);
+            row(
+                &mut s,
+                &format!("  unpert. {name}"),
+                &self.stats_of(|o| {
+                    o.truth.kind == StaticKind::Unperturbed && o.truth.design.family() == f
+                }),
+                true,
+            );
+        }
+        s.push_str(&self.legend(ci));
+        let failures = self.failures(ci);
+        if failures.is_empty() {
+            let _ = writeln!(s, "asserted rates: all met");
+        } else {
+            for f in &failures {
+                let _ = writeln!(s, "NOT MET: {f}");
+            }
+        }
+        s
+    }
+}
+
+/// What each design can test: for every design and hidden kind, the part of the effect's
+/// closed-loop column outside the drift (over its whole norm; `-` when the column is zero),
+/// and the groups of candidates the pipeline finds indistinguishable there before any fit
+/// (`Discovery::confounded_groups`, on the design's noise-free rows); and a centrifuge alone
+/// for comparison.
+#[must_use]
+pub fn testability(with_parameters: bool) -> String {
+    let instr = Instrument::kearfott_2401();
+    let g = instr.g_cm_s2;
+    let sim = ClosedLoopSimulator {
+        instrument: instr.clone(),
+        options: SimOptions::default(),
+    };
+    let mut designs: Vec<(String, Vec<Condition>)> = StaticDesign::all()
+        .into_iter()
+        .map(|d| (d.name(), d.rows(g)))
+        .collect();
+    designs.push((
+        "centrifuge alone".into(),
+        plan::centrifuge(CENTRIFUGE_ARM_CM, &CENTRIFUGE_G, g),
+    ));
+    let kinds: Vec<StaticKind> = StaticKind::ALL
+        .iter()
+        .copied()
+        .filter(|&k| k != StaticKind::Unperturbed)
+        .collect();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "testability: part of each effect's column outside the drift in row order; groups the pipeline cannot tell apart there"
+    );
+    let _ = write!(s, "{:<24}", "design");
+    for k in &kinds {
+        let _ = write!(s, " {:>13}", k.name());
+    }
+    let _ = writeln!(s, "  indistinguishable");
+    for (name, rows) in designs {
+        let _ = write!(s, "{name:<24}");
+        for &k in &kinds {
+            let col = unit_column(k, &rows);
+            let n = norm(&col);
+            if n == 0.0 {
+                let _ = write!(s, " {:>13}", "-");
+            } else {
+                let part = norm(&residualize(&col, &drift_basis(rows.len()))) / n;
+                let _ = write!(s, " {part:>13.2}");
+            }
+        }
+        let mut measured = rows.clone();
+        for r in &mut measured {
+            r.measured_cm_s2 = Some(closed_loop_row(StaticKind::Unperturbed, 0.0, r, None));
+            r.sigma_cm_s2 = Some(0.01);
+        }
+        let groups = discover(&measured, &sim, &options(with_parameters)).map_or_else(
+            |e| format!("error: {e}"),
+            |d| {
+                d.confounded_groups
+                    .iter()
+                    .map(|gr| {
+                        gr.iter()
+                            .map(|c| c.info().name)
+                            .collect::<Vec<_>>()
+                            .join(" = ")
+                    })
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            },
+        );
+        let _ = writeln!(s, "  {groups}");
+    }
+    s
+}
