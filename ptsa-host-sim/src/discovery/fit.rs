@@ -116,6 +116,16 @@ pub struct Fitted {
 /// [`CandidateId::rank`], is taken).
 pub const EQUIVALENT_COS: f64 = 0.999;
 
+/// Degrees of freedom a stated sigma counts for when the step test pools it with the
+/// reference model's residual scale (only when those residuals do not reject it,
+/// [`STATED_SIGMA_CHECK`]): a sigma known to about 25 % (the relative standard
+/// error of a sigma estimated with ν degrees of freedom is about 1/√(2ν)).
+pub const STATED_SIGMA_DOF: f64 = 8.0;
+
+/// Level of the χ² test (upper tail) by which the reference model's residuals reject a
+/// stated sigma; a sigma not rejected is pooled ([`STATED_SIGMA_DOF`]).
+pub const STATED_SIGMA_CHECK: f64 = 0.05;
+
 /// Fewest residual degrees of freedom the step test's reference model keeps.
 pub const MIN_REFERENCE_DOF: usize = 2;
 
@@ -174,10 +184,25 @@ pub(crate) fn step_p(
     };
     let r = reference.unwrap_or(&own);
     let delta = (chi2_without - with.chi2).max(0.0);
-    let p_f = f_sf(delta / r.s2.max(f64::MIN_POSITIVE), 1.0, r.dof);
     if stated {
+        // A stated sigma the reference's residuals do not reject (χ² at
+        // STATED_SIGMA_CHECK) is pooled with their scale as if it were an estimate with
+        // STATED_SIGMA_DOF degrees of freedom, so that a small design's few residual
+        // degrees of freedom no longer make the test F(1, 2); a rejected one is replaced
+        // by the residuals' scale alone.
+        let consistent = chi2_sf(r.dof * r.s2, r.dof) >= STATED_SIGMA_CHECK;
+        let (s2, dof) = if consistent {
+            (
+                (r.dof * r.s2 + STATED_SIGMA_DOF) / (r.dof + STATED_SIGMA_DOF),
+                r.dof + STATED_SIGMA_DOF,
+            )
+        } else {
+            (r.s2, r.dof)
+        };
+        let p_f = f_sf(delta / s2.max(f64::MIN_POSITIVE), 1.0, dof);
         chi2_sf(delta, 1.0).max(p_f)
     } else {
+        let p_f = f_sf(delta / r.s2.max(f64::MIN_POSITIVE), 1.0, r.dof);
         let se = if r.resid.is_empty() {
             with.se_hc3[j]
         } else {
@@ -754,5 +779,42 @@ impl Fitted {
     #[must_use]
     pub fn time_unit(data: &Data) -> TimeUnit {
         data.time_unit
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Reference, STATED_SIGMA_DOF, step_p};
+    use crate::discovery::stats::{f_sf, lsq};
+
+    /// A 6-SE step (Δχ² = 36) tested against a reference model with 2 residual degrees of
+    /// freedom, as in an 8-point tumble: with a stated sigma those residuals do not reject,
+    /// it passes Holm's first level 0.05/7 (it would not as F(1, 2)); with a stated sigma
+    /// they reject (χ²₂ = 40), the residuals' scale alone decides and it does not pass;
+    /// with the sigma estimated, F(1, 2) decides.
+    #[test]
+    fn a_small_design_pools_a_stated_sigma_it_does_not_reject() {
+        let z = [0.3, -0.1, 0.2, -0.4, 0.1, 0.0, -0.2, 0.1];
+        let ones = [1.0; 8];
+        let with = lsq(&z, &[&ones]).unwrap();
+        let level = 0.05 / 7.0;
+        let reference = |s2: f64| Reference {
+            s2,
+            dof: 2.0,
+            resid: Vec::new(),
+        };
+        let without = with.chi2 + 36.0;
+        assert!(f_sf(36.0, 1.0, 2.0) > level);
+        let pooled = step_p(&with, &[&ones], 0, without, true, Some(&reference(1.0)));
+        assert!(pooled < level, "{pooled}");
+        let expected = f_sf(36.0, 1.0, 2.0 + STATED_SIGMA_DOF);
+        assert!(
+            (pooled - expected).abs() <= 1e-12 * expected,
+            "{pooled} {expected}"
+        );
+        let rejected = step_p(&with, &[&ones], 0, without, true, Some(&reference(20.0)));
+        assert!(rejected > level, "{rejected}");
+        let estimated = step_p(&with, &[&ones], 0, without, false, Some(&reference(1.0)));
+        assert!(estimated > level, "{estimated}");
     }
 }
