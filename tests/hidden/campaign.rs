@@ -127,7 +127,8 @@ pub struct Count {
 }
 
 impl Count {
-    fn add(&mut self, hit: bool) {
+    /// One more trial, a hit or not.
+    pub(crate) fn add(&mut self, hit: bool) {
         self.n += 1;
         self.k += usize::from(hit);
     }
@@ -144,12 +145,20 @@ impl Count {
         }
     }
 
-    fn cell(self) -> String {
+    /// `k/n`, or `-` when `n = 0`.
+    pub(crate) fn cell(self) -> String {
         if self.n == 0 {
             "-".into()
         } else {
             format!("{}/{}", self.k, self.n)
         }
+    }
+
+    /// More than [`RATE_MAX`] by the one-sided binomial test at [`RATE_TEST_LEVEL`].
+    pub(crate) fn too_many(self) -> bool {
+        self.n > 0
+            && self.rate() > RATE_MAX
+            && binomial_upper_tail(self.n, RATE_MAX, self.k) < RATE_TEST_LEVEL
     }
 }
 
@@ -291,11 +300,7 @@ impl Campaign {
         for (name, class, r) in self.rows() {
             let c = r.false_or_misnamed;
             match class {
-                Class::Null | Class::NotNameable
-                    if c.n > 0
-                        && c.rate() > RATE_MAX
-                        && binomial_upper_tail(c.n, RATE_MAX, c.k) < RATE_TEST_LEVEL =>
-                {
+                Class::Null | Class::NotNameable if c.too_many() => {
                     f.push(format!(
                         "{name}: {} {} = {:.1}%: P(>= {} of {}) = {:.4} at a true rate of 5%, below {RATE_TEST_LEVEL}",
                         if class == Class::Null {

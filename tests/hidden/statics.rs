@@ -111,7 +111,7 @@ use ptsa_host_sim::{CandidateId, Effects, Instrument};
 use rand::RngCore as _;
 use rayon::prelude::*;
 
-use super::campaign::{binomial_interval, binomial_upper_tail};
+use super::campaign::{Count, DETECTION_MIN, RATE_MAX, binomial_interval, binomial_upper_tail};
 use super::generate::residualize;
 use super::{Draw, Rng, rng};
 
@@ -802,49 +802,6 @@ pub fn run(sets: usize, seed: u64, with_parameters: bool) -> StaticCampaign {
 
 /// Strength from which detection and coverage are asserted, SE.
 pub const ASSERT_FROM_SE: f64 = 6.0;
-/// Asserted detection rate.
-pub const DETECTION_MIN: f64 = 0.95;
-/// Largest asserted false-selection and misnaming rate.
-pub const RATE_MAX: f64 = 0.05;
-/// Level of the one-sided binomial tests.
-pub const RATE_TEST_LEVEL: f64 = 0.01;
-
-/// `k/n` counts.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct Count {
-    /// Hits.
-    pub k: usize,
-    /// Trials.
-    pub n: usize,
-}
-
-impl Count {
-    fn add(&mut self, yes: bool) {
-        self.n += 1;
-        self.k += usize::from(yes);
-    }
-    /// `k/n` (0 when `n = 0`).
-    #[must_use]
-    pub fn rate(self) -> f64 {
-        #[allow(clippy::cast_precision_loss)]
-        let r = self.k as f64 / self.n.max(1) as f64;
-        r
-    }
-    fn cell(self) -> String {
-        if self.n == 0 {
-            "-".into()
-        } else {
-            format!("{}/{}", self.k, self.n)
-        }
-    }
-    /// More than [`RATE_MAX`] by the one-sided binomial test at [`RATE_TEST_LEVEL`].
-    fn too_many(self) -> bool {
-        self.n > 0
-            && self.rate() > RATE_MAX
-            && binomial_upper_tail(self.n, RATE_MAX, self.k) < RATE_TEST_LEVEL
-    }
-}
-
 /// One kind's (or the hidden kinds') figures.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct KindStats {
