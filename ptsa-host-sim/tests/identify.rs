@@ -220,3 +220,33 @@ fn a_tumble_names_the_scale_factor_before_the_torquer_parameter() {
         );
     }
 }
+
+/// A demodulator phase error of 15° (tolerance ±10°) acts as `cos φ` on the pickoff's gain
+/// and has no first-order effect at the file's 0°, so its central-difference signature is
+/// the loop's noise and the selection names another parameter; the check of the other
+/// parameters over their bands (`discovery::alternatives`) must name the phase, selected
+/// or as an indistinguishable partner of what is selected.
+#[test]
+fn a_pickoff_phase_error_is_named_though_it_has_no_first_order_effect() {
+    let nominal = Instrument::kearfott_2401();
+    let mut truth = nominal.clone();
+    truth.set("pickoff.phase_angle_deg", 15.0).unwrap();
+    let rows = table(&truth, 7);
+    let sim = ClosedLoopSimulator {
+        instrument: nominal.clone(),
+        options: SimOptions::default(),
+    };
+    let d = discover(&rows, &sim, &Options::for_instrument(&nominal)).unwrap();
+    eprintln!("{}", show::text_report("response", &d));
+    let phase = CandidateId::ParamPickoffPhase;
+    assert!(
+        d.selected
+            .iter()
+            .any(|s| s.id == phase || s.confounded.iter().any(|(o, _)| *o == phase)),
+        "{:?}",
+        d.selected
+            .iter()
+            .map(|s| (s.id, s.coef, s.confounded.clone()))
+            .collect::<Vec<_>>()
+    );
+}

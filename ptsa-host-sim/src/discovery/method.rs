@@ -903,6 +903,9 @@ pub fn discover(
     let f = fit::fit(&data, &all, settings);
     let mut selected = selected_report(&data, &f, opts, sim);
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
+    if super::alternatives::check(rows, &data, &f, &mut selected, sim, opts.alpha) {
+        refine_parameters(rows, &data, &f, &mut selected, sim, opts);
+    }
     parameter_values(&mut selected, sim);
     let mut effects = Effects::NONE;
     for s in &selected {

@@ -7,6 +7,7 @@
 //! * [`method`]: baseline, the model, confounding, plausibility, extension, the verdict.
 //! * [`data`]: the fitted rows, signatures and the generic basis of the case inputs.
 //! * [`fit`]: nuisance terms, noise, stepwise selection with familywise error control.
+//! * [`alternatives`]: the other loop parameters that could explain what a selected one does.
 //! * [`unexplained`]: lack of fit and the search of the residuals.
 //! * [`crossval`]: the gain out of sample.
 //! * [`show`]: text table, plots and the report section.
@@ -22,6 +23,7 @@ use crate::condition::Condition;
 use crate::effects::Effects;
 
 pub mod advice;
+pub mod alternatives;
 pub mod caseframe;
 pub mod crossval;
 pub mod data;

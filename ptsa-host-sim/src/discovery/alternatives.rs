@@ -1,0 +1,277 @@
+//! Which other parameter of the loop could explain the data as well as a selected one.
+//!
+//! A parameter's signature in the selection is its central-difference sensitivity at the
+//! instrument file's value. Some parameters act far from linearly over their tolerance band:
+//! the pickoff's phase error acts as `cos φ` about φ = 0 (no first-order effect at all),
+//! the torquer's lag changes the pulse shape once it nears the 15.6 µs clock period. Their
+//! data then look like another parameter's sensitivity, which the selection takes. So for
+//! every selected parameter, each other parameter of the instrument file is put in its
+//! place through the closed loop, on a grid over and beyond its tolerance band (the other
+//! selected parameters at their fitted values, the additive and nuisance terms refitted),
+//! and its best χ² compared with the selected one's:
+//!
+//! * significantly better (the selected one's χ² increase over it has p ≤ α/m, and by at
+//!   least [`SWAP_MARGIN`]): the other parameter is named instead, and Gauss–Newton refines
+//!   it from the grid's best (the best of some fifty noisy closed-loop χ² values is biased
+//!   low, so a mere improvement is not enough);
+//! * not significantly worse (the χ² increase has p > α/m by the selection's step test,
+//!   the larger of the χ² and the F p-value, at its first Holm level): it is named as a
+//!   partner ("indistinguishable here"), with the ratio of the
+//!   two changes as its factor;
+//! * otherwise the data tell them apart and nothing changes.
+//!
+//! Cost: about seven closed-loop passes over the rows per other parameter, only when a
+//! parameter is selected.
+
+use rayon::prelude::*;
+
+use super::data::{Data, Quantity};
+use super::fit::{self, Fitted};
+use super::method::Selected;
+use super::sim::Simulator;
+use super::stats::{chi2_sf, f_sf, lsq, norm};
+use crate::condition::Condition;
+use crate::effects::{CandidateId, Effects};
+
+/// χ² by which another parameter must fit better than the selected one to be named in its
+/// place (a likelihood ratio of e^1.5; below it the two are partners and the selection's
+/// choice stands, so that the closed loop's own scatter does not flip names).
+pub const SWAP_MARGIN: f64 = 3.0;
+
+/// Golden-section steps after the grid (the bracket shrinks to 0.618^n of two grid
+/// intervals).
+const GOLDEN_STEPS: usize = 6;
+
+/// Grid of changes tried for a parameter, as multiples of the distance from the file's
+/// value to the band's edge on that side.
+const GRID: [f64; 6] = [-2.0, -1.0, -0.5, 0.5, 1.0, 2.0];
+
+/// The χ² of the data with the parameters at `theta` (the additive selected terms and the
+/// nuisance terms refitted linearly), or `None` if an observation is not finite.
+struct Scorer<'a> {
+    rows: &'a [Condition],
+    data: &'a Data,
+    sim: &'a dyn Simulator,
+    sigma: &'a [f64],
+    /// Unit columns of the additive selected terms and the nuisance terms (weighted).
+    linear: Vec<Vec<f64>>,
+}
+
+impl<'a> Scorer<'a> {
+    /// The scorer of `data`, with the additive selected terms and the nuisance terms as the
+    /// linear part.
+    fn new(
+        rows: &'a [Condition],
+        data: &'a Data,
+        f: &'a Fitted,
+        selected: &[Selected],
+        sim: &'a dyn Simulator,
+    ) -> Self {
+        let all: Vec<usize> = (0..data.n()).collect();
+        let (_, nuis, _) = fit::nuisance_columns(data, &all);
+        let sigma = &f.sigma;
+        let w = |c: &[f64]| -> Vec<f64> {
+            let v: Vec<f64> = c.iter().zip(sigma).map(|(x, s)| x / s).collect();
+            let s = norm(&v).max(f64::MIN_POSITIVE);
+            v.iter().map(|x| x / s).collect()
+        };
+        let mut linear: Vec<Vec<f64>> = selected
+            .iter()
+            .filter(|s| s.id.parameter_key().is_none())
+            .filter_map(|s| data.signatures.iter().find(|g| g.id == s.id))
+            .map(|g| w(&g.col))
+            .collect();
+        linear.extend(nuis.iter().map(|c| w(c)));
+        Scorer {
+            rows,
+            data,
+            sim,
+            sigma,
+            linear,
+        }
+    }
+}
+
+impl Scorer<'_> {
+    fn chi2(&self, theta: &Effects) -> Option<f64> {
+        let mut rs: Vec<usize> = self.data.rows.clone();
+        rs.dedup();
+        let obs: Vec<(usize, Vec<f64>)> = rs
+            .par_iter()
+            .map(|&i| (i, self.sim.observe(&self.rows[i], theta)))
+            .collect();
+        let z: Vec<f64> = (0..self.data.n())
+            .map(|k| {
+                let i = self.data.rows[k];
+                let slot = usize::from(self.data.quantity[k] == Quantity::Phase);
+                let p = obs
+                    .iter()
+                    .find(|(r, _)| *r == i)
+                    .and_then(|(_, v)| v.get(slot).copied())
+                    .unwrap_or(f64::NAN);
+                (self.data.y[k] - p) / self.sigma[k]
+            })
+            .collect();
+        if z.iter().any(|x| !x.is_finite()) {
+            return None;
+        }
+        let refs: Vec<&[f64]> = self.linear.iter().map(Vec::as_slice).collect();
+        Some(lsq(&z, &refs).map_or_else(|| z.iter().map(|x| x * x).sum(), |g| g.chi2))
+    }
+}
+
+/// The best change of `id` in place of the parameters left in `rest`, over the grid and a
+/// golden-section search between the grid's best point's neighbours: `(change, χ²)`.
+fn best_change(scorer: &Scorer<'_>, rest: &Effects, id: CandidateId) -> Option<(f64, f64)> {
+    let key = id.parameter_key()?;
+    let (lo, nom, hi) = scorer.sim.instrument()?.tolerance(key)?;
+    // Changes that keep a positive parameter positive (the torquer lag's band is 0.2 to
+    // 20 µs about 2 µs).
+    let valid = |d: f64| !(nom > 0.0 && lo >= 0.0) || nom + d >= 0.05 * nom;
+    let mut grid: Vec<f64> = GRID
+        .iter()
+        .map(|&s| {
+            if s < 0.0 {
+                -s * (lo - nom)
+            } else {
+                s * (hi - nom)
+            }
+        })
+        .filter(|&d| d != 0.0 && valid(d))
+        .collect();
+    grid.push(0.0);
+    grid.sort_by(f64::total_cmp);
+    grid.dedup_by(|a, b| (*a - *b).abs() <= 1e-12 * (hi - lo).abs());
+    let score = |d: f64| {
+        let mut t = *rest;
+        t.add(id, d);
+        scorer.chi2(&t)
+    };
+    let chi: Vec<Option<f64>> = grid.iter().map(|&d| score(d)).collect();
+    let (i, c) = chi
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| c.map(|c| (i, c)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    // Golden-section search between the grid's best point's neighbours (the χ² of a
+    // parameter acting as cos φ is far from a parabola in it).
+    let mut best = (grid[i], c);
+    let (mut lo_x, mut hi_x) = (grid[i.saturating_sub(1)], grid[(i + 1).min(grid.len() - 1)]);
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let mut x1 = hi_x - r * (hi_x - lo_x);
+    let mut x2 = lo_x + r * (hi_x - lo_x);
+    let mut f1 = score(x1).unwrap_or(f64::INFINITY);
+    let mut f2 = score(x2).unwrap_or(f64::INFINITY);
+    for _ in 0..GOLDEN_STEPS {
+        if f1 < f2 {
+            hi_x = x2;
+            (x2, f2) = (x1, f1);
+            x1 = hi_x - r * (hi_x - lo_x);
+            f1 = score(x1).unwrap_or(f64::INFINITY);
+        } else {
+            lo_x = x1;
+            (x1, f1) = (x2, f2);
+            x2 = lo_x + r * (hi_x - lo_x);
+            f2 = score(x2).unwrap_or(f64::INFINITY);
+        }
+    }
+    for (x, fx) in [(x1, f1), (x2, f2)] {
+        if fx < best.1 {
+            best = (x, fx);
+        }
+    }
+    Some(best)
+}
+
+/// For every selected parameter, the other parameters that explain the data as well
+/// (added to its partners) or clearly better (named instead); returns whether a name
+/// changed (the caller then refines the parameters again).
+pub(crate) fn check(
+    rows: &[Condition],
+    data: &Data,
+    f: &Fitted,
+    selected: &mut [Selected],
+    sim: &dyn Simulator,
+    alpha: f64,
+) -> bool {
+    let params: Vec<usize> = (0..selected.len())
+        .filter(|&k| selected[k].id.parameter_key().is_some())
+        .collect();
+    if params.is_empty() {
+        return false;
+    }
+    let n = data.n();
+    let scorer = Scorer::new(rows, data, f, selected, sim);
+    let mut theta = Effects::NONE;
+    for &k in &params {
+        theta.set(selected[k].id, selected[k].coef);
+    }
+    let others: Vec<CandidateId> = data
+        .signatures
+        .iter()
+        .map(|s| s.id)
+        .filter(|id| id.parameter_key().is_some())
+        .filter(|id| !params.iter().any(|&k| selected[k].id == *id))
+        .collect();
+    #[allow(clippy::cast_precision_loss)]
+    let level = alpha / f.family.len().max(1) as f64;
+    let dof = n.saturating_sub(scorer.linear.len() + params.len()).max(1);
+    let mut changed = false;
+    for &k in &params {
+        let a = selected[k].id;
+        let Some(chi_a) = scorer.chi2(&theta) else {
+            continue;
+        };
+        let mut rest = theta;
+        rest.set(a, 0.0);
+        let tried: Vec<(CandidateId, f64, f64)> = others
+            .iter()
+            .filter(|&&b| !params.iter().any(|&j| selected[j].id == b))
+            .filter_map(|&b| best_change(&scorer, &rest, b).map(|(d, c)| (b, d, c)))
+            .collect();
+        // Not significantly worse than `chi`, by the selection's step test (the larger of
+        // the χ² p-value with stated sigmas and the F test against the residual scale) at
+        // its first Holm level α/m.
+        #[allow(clippy::cast_precision_loss)]
+        let similar = |c: f64, chi: f64| {
+            let delta = (c - chi).max(0.0);
+            let s2 = (chi / dof as f64).max(f64::MIN_POSITIVE);
+            let p_f = f_sf(delta / s2, 1.0, dof as f64);
+            let p = if f.stated() {
+                chi2_sf(delta, 1.0).max(p_f)
+            } else {
+                p_f
+            };
+            p > level
+        };
+        let best = tried
+            .iter()
+            .copied()
+            .min_by(|x, y| x.2.total_cmp(&y.2))
+            .filter(|&(_, _, c)| c < chi_a - SWAP_MARGIN && !similar(chi_a, c));
+        let s = &mut selected[k];
+        if let Some((b, d, chi_b)) = best {
+            let old = s.id;
+            s.id = b;
+            s.coef = d;
+            s.confounded
+                .retain(|(o, _)| *o != b && o.parameter_key().is_none());
+            for &(o, od, oc) in &tried {
+                if o != b && similar(oc, chi_b) {
+                    s.confounded.push((o, od / d));
+                }
+            }
+            theta.set(old, 0.0);
+            theta.set(b, d);
+            changed = true;
+        } else {
+            for &(o, od, oc) in &tried {
+                if similar(oc, chi_a) && !s.confounded.iter().any(|(c, _)| *c == o) {
+                    let factor = if s.coef == 0.0 { 0.0 } else { od / s.coef };
+                    s.confounded.push((o, factor));
+                }
+            }
+        }
+    }
+    changed
+}
