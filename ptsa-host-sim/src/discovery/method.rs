@@ -903,6 +903,9 @@ pub fn discover(
     let f = fit::fit(&data, &all, settings);
     let mut selected = selected_report(&data, &f, opts, sim);
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
+    if super::alternatives::scan(rows, &data, &f, &mut selected, sim, opts.alpha) {
+        refine_parameters(rows, &data, &f, &mut selected, sim, opts);
+    }
     if super::alternatives::check(rows, &data, &f, &mut selected, sim, opts.alpha) {
         refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     }
