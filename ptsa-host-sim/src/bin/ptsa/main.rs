@@ -596,6 +596,25 @@ fn two_axis(
     emit(&r.output, &a.out, out)
 }
 
+/// `ptsa static`'s instrument (its bias left out unless `with_bias`) and its gate in clock
+/// ticks, `--seconds` checked against the clock.
+fn static_gate(
+    instr: &Instrument,
+    opts: &SimOptions,
+    seconds: f64,
+    with_bias: bool,
+) -> Result<(Instrument, u64)> {
+    let mut instr = instr.clone();
+    if !with_bias {
+        instr.bias_cm_s2 = 0.0;
+    }
+    gate_fits("--seconds", seconds, &instr, opts)?;
+    let ticks_f = (seconds * instr.clock_hz).round();
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    let ticks = ticks_f as u64;
+    Ok((instr, ticks))
+}
+
 #[allow(clippy::too_many_arguments)]
 fn static_cmd(
     instr: &Instrument,
@@ -608,14 +627,7 @@ fn static_cmd(
     force: bool,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let mut instr = instr.clone();
-    if !with_bias {
-        instr.bias_cm_s2 = 0.0;
-    }
-    gate_fits("--seconds", seconds, &instr, opts)?;
-    let ticks_f = (seconds * instr.clock_hz).round();
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let ticks = ticks_f as u64;
+    let (instr, ticks) = static_gate(instr, opts, seconds, with_bias)?;
     Work::new(&instr, opts)
         .gate(ticks)
         .check(force, "this gate")?;
@@ -883,14 +895,7 @@ fn static_batch_cmd(
     force: bool,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let mut instr = instr.clone();
-    if !with_bias {
-        instr.bias_cm_s2 = 0.0;
-    }
-    gate_fits("--seconds", seconds, &instr, opts)?;
-    let ticks_f = (seconds * instr.clock_hz).round();
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let ticks = ticks_f as u64;
+    let (instr, ticks) = static_gate(instr, opts, seconds, with_bias)?;
     let n = accels_cm_s2.len();
     #[allow(clippy::cast_precision_loss)]
     Work::new(&instr, opts)
