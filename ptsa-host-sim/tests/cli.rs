@@ -6,7 +6,7 @@
 //! default `--out out` lands there) and a refused run must leave that folder as it was.
 
 use std::path::Path;
-use std::process::{Command, Output, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The report's SF, cm/s².
@@ -15,71 +15,21 @@ const SF: f64 = 21121.1;
 /// Options that keep the closed-loop subcommands fast.
 const FAST: [&str; 4] = ["--window-s", "0.01", "--warmup-s", "0.01"];
 
-fn ptsa_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod common;
+use common::{names, ptsa_in, stderr, stdout};
 
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
+/// Beyond a panic and Rust's or the OS's internals, a refusal here never shows a closed
+/// pipe or a `file:0:0` position.
+const ALSO_FORBIDDEN: [&str; 2] = ["Broken pipe", ":0:0"];
 
-fn stdout(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stdout).into_owned()
-}
-
-/// The names in `dir`, sorted.
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
-
-/// Nothing a user should ever see in a refusal: a panic, Rust's or the OS's internals.
+/// Nothing a user should ever see in a refusal.
 fn assert_clean(err: &str) {
-    for bad in [
-        "panicked",
-        "RUST_BACKTRACE",
-        "os error",
-        "invalid digit",
-        "ParseIntError",
-        "ParseFloatError",
-        "Broken pipe",
-        ":0:0",
-    ] {
-        assert!(!err.contains(bad), "`{bad}` in: {err}");
-    }
+    common::assert_clean_of(err, &ALSO_FORBIDDEN);
 }
 
-/// Run `args` in a fresh folder holding `files` (name, contents); `{dir}` in an argument
-/// stands for that folder. It must be refused with exit `code`, a message on stderr holding
-/// every one of `needles`, nothing on stdout, and the folder must hold only `files` after.
-/// Returns stderr.
+/// [`common::refused_in_folder`] with this file's forbidden words. Returns stderr.
 fn refused_with(files: &[(&str, &[u8])], args: &[&str], code: i32, needles: &[&str]) -> String {
-    let tmp = tempfile::tempdir().unwrap();
-    for (n, b) in files {
-        std::fs::write(tmp.path().join(n), b).unwrap();
-    }
-    let before = names(tmp.path());
-    let d = tmp.path().to_str().unwrap();
-    let args: Vec<String> = args.iter().map(|a| a.replace("{dir}", d)).collect();
-    let args: Vec<&str> = args.iter().map(String::as_str).collect();
-    let o = ptsa_in(tmp.path(), &args);
-    let err = stderr(&o);
-    assert_eq!(o.status.code(), Some(code), "ptsa {args:?}: {err}");
-    for n in needles {
-        assert!(err.contains(n), "ptsa {args:?}: `{n}` not in: {err}");
-    }
-    assert_clean(&err);
-    assert!(o.stdout.is_empty(), "ptsa {args:?} printed {}", stdout(&o));
-    assert_eq!(names(tmp.path()), before, "ptsa {args:?} wrote something");
-    err
+    common::refused_in_folder(files, args, code, needles, &ALSO_FORBIDDEN)
 }
 
 /// [`refused_with`] in an empty folder.

@@ -4,8 +4,6 @@
 //! on stdout.
 
 use std::fmt::Write as _;
-use std::path::Path;
-use std::process::{Command, Output};
 
 use rand::{Rng as _, SeedableRng as _};
 use rand_chacha::ChaCha8Rng;
@@ -14,58 +12,19 @@ use rand_chacha::ChaCha8Rng;
 const SF: f64 = 21121.1;
 const CLOCK_HZ: f64 = 64000.0;
 
-fn ptsa_in(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ptsa"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod common;
+use common::{assert_clean_of, names, ptsa_in};
 
-fn names(dir: &Path) -> Vec<String> {
-    let mut v: Vec<String> = std::fs::read_dir(dir)
-        .unwrap()
-        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-        .collect();
-    v.sort();
-    v
-}
-
-/// Nothing a user should see in a message: a panic, Rust's or the OS's internals.
+/// Nothing a user should see in a message.
 fn assert_clean(err: &str) {
-    for bad in [
-        "panicked",
-        "RUST_BACKTRACE",
-        "os error",
-        "invalid digit",
-        "ParseIntError",
-        "ParseFloatError",
-    ] {
-        assert!(!err.contains(bad), "`{bad}` in: {err}");
-    }
+    assert_clean_of(err, &[]);
 }
 
 /// Run `args` in a fresh folder holding `files`; it must exit with `code`, say every one of
 /// `needles` on stderr, print nothing on stdout and leave the folder as it was.
 fn refused_with(files: &[(&str, &str)], args: &[&str], code: i32, needles: &[&str]) {
-    let tmp = tempfile::tempdir().unwrap();
-    for (n, b) in files {
-        std::fs::write(tmp.path().join(n), b).unwrap();
-    }
-    let before = names(tmp.path());
-    let o = ptsa_in(tmp.path(), args);
-    let err = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(o.status.code(), Some(code), "ptsa {args:?}: {err}");
-    for n in needles {
-        assert!(err.contains(n), "ptsa {args:?}: `{n}` not in: {err}");
-    }
-    assert_clean(&err);
-    assert!(
-        o.stdout.is_empty(),
-        "ptsa {args:?} printed {}",
-        String::from_utf8_lossy(&o.stdout)
-    );
-    assert_eq!(names(tmp.path()), before, "ptsa {args:?} wrote something");
+    let files: Vec<(&str, &[u8])> = files.iter().map(|(n, b)| (*n, b.as_bytes())).collect();
+    common::refused_in_folder(&files, args, code, needles, &[]);
 }
 
 /// A record of `n` contiguous gates of `ticks` clock ticks under the input
