@@ -234,21 +234,7 @@ pub(crate) fn check(
             .filter(|&&b| !params.iter().any(|&j| selected[j].id == b))
             .filter_map(|&b| best_change(&scorer, &rest, b).map(|(d, c)| (b, d, c)))
             .collect();
-        // Not significantly worse than `chi`, by the selection's step test (the larger of
-        // the χ² p-value with stated sigmas and the F test against the residual scale) at
-        // its first Holm level α/m.
-        #[allow(clippy::cast_precision_loss)]
-        let similar = |c: f64, chi: f64| {
-            let delta = (c - chi).max(0.0);
-            let s2 = (chi / dof as f64).max(f64::MIN_POSITIVE);
-            let p_f = f_sf(delta / s2, 1.0, dof as f64);
-            let p = if f.stated() {
-                chi2_sf(delta, 1.0).max(p_f)
-            } else {
-                p_f
-            };
-            p > level
-        };
+        let similar = |c: f64, chi: f64| not_worse(c, chi, dof, f.stated(), level);
         let best = tried
             .iter()
             .copied()
@@ -279,6 +265,65 @@ pub(crate) fn check(
         }
     }
     changed
+}
+
+/// Whether χ² `c` is not significantly worse than `chi`, by the selection's step test (the
+/// larger of the χ² p-value with stated sigmas and the F test against the residual scale
+/// with `dof` degrees of freedom) at `level`.
+fn not_worse(c: f64, chi: f64, dof: usize, stated: bool, level: f64) -> bool {
+    let delta = (c - chi).max(0.0);
+    #[allow(clippy::cast_precision_loss)]
+    let dof = dof as f64;
+    let s2 = (chi / dof).max(f64::MIN_POSITIVE);
+    let p_f = f_sf(delta / s2, 1.0, dof);
+    let p = if stated {
+        chi2_sf(delta, 1.0).max(p_f)
+    } else {
+        p_f
+    };
+    p > level
+}
+
+/// For every selected parameter, whether the opposite change (the fitted value mirrored
+/// about the file's) fits the data not significantly worse, by the test of [`check`]:
+/// then the response is even about the file's value and the data give the size of the
+/// change, not its sign (a pickoff phase error enters as its cosine). One closed-loop pass
+/// over the rows per selected parameter.
+pub(crate) fn mirror(
+    rows: &[Condition],
+    data: &Data,
+    f: &Fitted,
+    selected: &mut [Selected],
+    sim: &dyn Simulator,
+    alpha: f64,
+) {
+    let params: Vec<usize> = (0..selected.len())
+        .filter(|&k| selected[k].id.parameter_key().is_some() && selected[k].coef != 0.0)
+        .collect();
+    if params.is_empty() {
+        return;
+    }
+    let scorer = Scorer::new(rows, data, f, selected, sim);
+    let mut theta = Effects::NONE;
+    for &k in &params {
+        theta.set(selected[k].id, selected[k].coef);
+    }
+    let Some(chi) = scorer.chi2(&theta) else {
+        return;
+    };
+    #[allow(clippy::cast_precision_loss)]
+    let level = alpha / f.family.len().max(1) as f64;
+    let dof = data
+        .n()
+        .saturating_sub(scorer.linear.len() + params.len())
+        .max(1);
+    for &k in &params {
+        let mut m = theta;
+        m.set(selected[k].id, -selected[k].coef);
+        selected[k].mirror = scorer
+            .chi2(&m)
+            .is_some_and(|c| not_worse(c, chi, dof, f.stated(), level));
+    }
 }
 
 /// The standard error of a change `d` of `id` from the curvature of its χ² profile (steps
@@ -387,6 +432,7 @@ pub(crate) fn scan(
         plausible: true,
         parameter: None,
         confounded: Vec::new(),
+        mirror: false,
     });
     true
 }

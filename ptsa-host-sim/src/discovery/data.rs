@@ -67,6 +67,9 @@ pub struct Data {
     pub base: Vec<f64>,
     /// Stated sigmas (the row's `sigma_*`, else the explicit `--sigma` for cm/s² values).
     pub stated: Vec<Option<f64>>,
+    /// The simulator's own scatter of each observation's prediction (the standard error of
+    /// its mean of runs; 0 where the simulator gives none).
+    pub sim_sigma: Vec<f64>,
     /// Whether each observation takes its block's bias shift (a difference row's value).
     pub shift: Vec<bool>,
     /// Whether each observation takes the drift (a difference or absolute row's value).
@@ -214,6 +217,7 @@ pub fn build(
         y: Vec::new(),
         base: Vec::new(),
         stated: Vec::new(),
+        sim_sigma: Vec::new(),
         shift: Vec::new(),
         drifts: Vec::new(),
         block: Vec::new(),
@@ -241,7 +245,9 @@ pub fn build(
         let sim_sigma = &sim_sigmas[k];
         for (q, y, sigma, o) in observations(r, default_sigma) {
             // A stated sigma is the measurement's; the simulator's own scatter adds to it.
-            let sigma = sigma.map(|s| s.hypot(sim_sigma.get(o).copied().unwrap_or(0.0)));
+            let own = sim_sigma.get(o).copied().unwrap_or(0.0);
+            let sigma = sigma.map(|s| s.hypot(own));
+            d.sim_sigma.push(own);
             let base = observed[i].get(o).copied().unwrap_or(f64::NAN);
             d.rows.push(i);
             d.quantity.push(q);
@@ -423,10 +429,49 @@ pub fn sensitivities(
             // closed loop's own scatter (about 1e-4 cm/s² in a static row), which would
             // otherwise pass for a sensitivity and crowd the family.
             let moves = (0..d.n()).any(|k| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale(d, k));
-            let null = !moves;
+            let null = !moves || noise_only(d, &col, h);
             Signature { id, col, null }
         })
         .collect()
+}
+
+/// Significance level below which a parameter's central difference counts as more than
+/// the simulator's own scatter (see `sensitivities`).
+pub const SENSITIVITY_ALPHA: f64 = 1e-3;
+
+/// Whether a central difference `col` (step `h` either side) is no more than the
+/// simulator's scatter of its two means, where the simulator states one (`sim_sigma`). The
+/// differences over each observation's noise scale, `N = Σ (2h·col/s)²`, are held against
+/// what the scatter alone would give, `D = Σ 2·sim_sigma²/s²`, estimated from
+/// [`RESPONSE_SEEDS`](super::sim::RESPONSE_SEEDS) runs per row; `N/D` is tested as
+/// `F(ν, (runs − 1)·ν)` with Satterthwaite's `ν = (Σa)²/Σa²`, `a = sim_sigma²/s²`, at
+/// [`SENSITIVITY_ALPHA`]. A parameter whose response is even about the file's value (a
+/// pickoff phase error, which enters as its cosine) has only scatter here: it is no
+/// first-order candidate, and only `discovery::alternatives` can name it. An observation
+/// without a simulator scatter (a static value) counts as a signal when it moves: the
+/// [`PARAMETER_MIN_MOVE`] rule decides there.
+fn noise_only(d: &Data, col: &[f64], h: f64) -> bool {
+    let noisy: Vec<usize> = (0..d.n()).filter(|&k| d.sim_sigma[k] > 0.0).collect();
+    if noisy.is_empty()
+        || noisy.len() < d.n() && (0..d.n()).any(|k| d.sim_sigma[k] == 0.0 && col[k] != 0.0)
+    {
+        return false;
+    }
+    let (mut num, mut a_sum, mut a2_sum) = (0.0, 0.0, 0.0);
+    for &k in &noisy {
+        let s = scale(d, k);
+        num += (2.0 * h * col[k] / s).powi(2);
+        let a = (d.sim_sigma[k] / s).powi(2);
+        a_sum += a;
+        a2_sum += a * a;
+    }
+    if a_sum <= 0.0 {
+        return false;
+    }
+    let nu = a_sum * a_sum / a2_sum;
+    #[allow(clippy::cast_precision_loss)]
+    let dof_d = (super::sim::RESPONSE_SEEDS - 1) as f64 * nu;
+    super::stats::f_sf(num / (2.0 * a_sum), nu, dof_d) > SENSITIVITY_ALPHA
 }
 
 /// The noise scale of observation `k`: its stated sigma, else the median absolute

@@ -262,6 +262,10 @@ pub struct ParameterValue {
     pub tolerance: [f64; 2],
     /// The fitted value lies in the band.
     pub within_tolerance: bool,
+    /// The value mirrored about the file's (`2·nominal − fitted`) when it fits the data not
+    /// significantly worse: the response is even about the file's value (a pickoff phase
+    /// error enters as its cosine), so the data give the size of the change, not its sign.
+    pub mirror: Option<f64>,
 }
 
 impl ParameterValue {
@@ -269,9 +273,16 @@ impl ParameterValue {
     /// tolerance"`, in words.
     #[must_use]
     pub fn sentence(&self, name: &str, unit: &str) -> String {
+        let value = match self.mirror {
+            Some(m) => format!(
+                "{} {unit} or {} {unit} (the mirror image about the nominal fits as well: these data give the size of the change, not its sign)",
+                super::show::estimate(self.fitted, self.sigma),
+                super::show::estimate(m, self.sigma)
+            ),
+            None => format!("{} {unit}", super::show::estimate(self.fitted, self.sigma)),
+        };
         format!(
-            "{name} {} {unit}, nominal {} {unit}, tolerance {} to {} {unit}: {}",
-            super::show::estimate(self.fitted, self.sigma),
+            "{name} {value}, nominal {} {unit}, tolerance {} to {} {unit}: {}",
             self.nominal,
             self.tolerance[0],
             self.tolerance[1],
@@ -303,6 +314,9 @@ pub struct Selected {
     /// and those that would fit the data not significantly worse in its place (the swap's
     /// χ² increase has p > alpha/m, with `|cos| ≥ 0.5`).
     pub confounded: Vec<(CandidateId, f64)>,
+    /// For a parameter: the opposite change fits the data not significantly worse
+    /// (`discovery::alternatives::mirror`).
+    pub mirror: bool,
 }
 
 /// Everything the method found.
@@ -546,6 +560,8 @@ fn secant_signatures(
             && let Some(sig) = out.signatures.iter_mut().find(|x| x.id == s.id)
         {
             sig.col = col;
+            // A parameter found by the scan had no first-order signature; its secant is one.
+            sig.null = false;
         }
     }
     out
@@ -672,6 +688,7 @@ fn selected_report(data: &Data, f: &Fitted, opts: &Options, sim: &dyn Simulator)
                 },
                 confounded,
                 parameter: None,
+                mirror: false,
             }
         })
         .collect()
@@ -694,6 +711,7 @@ fn parameter_values(selected: &mut [Selected], sim: &dyn Simulator) {
             sigma: s.stderr,
             tolerance: [lo, hi],
             within_tolerance: (lo..=hi).contains(&fitted),
+            mirror: s.mirror.then_some(nom - s.coef),
         });
     }
 }
@@ -909,6 +927,7 @@ pub fn discover(
     if super::alternatives::check(rows, &data, &f, &mut selected, sim, opts.alpha) {
         refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     }
+    super::alternatives::mirror(rows, &data, &f, &mut selected, sim, opts.alpha);
     parameter_values(&mut selected, sim);
     let mut effects = Effects::NONE;
     for s in &selected {
@@ -1029,9 +1048,15 @@ fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
             if f.n_nuisance() == 1 { "" } else { "s" }
         ));
     }
-    if f.family.is_empty() {
+    if f.family.is_empty() && selected.is_empty() {
         w.push(format!(
             "nothing could be tested: no candidate has a signature in these rows outside the nuisance terms (not testable: {})",
+            names(&[f.untestable.clone(), f.untestable_nuisance.clone()].concat()).join(", ")
+        ));
+    }
+    if f.family.is_empty() && !selected.is_empty() {
+        w.push(format!(
+            "no candidate has a first-order signature in these rows (not testable to first order: {}); the loop's parameters were scanned through the closed loop over their tolerance bands, and what is selected comes from that scan",
             names(&[f.untestable.clone(), f.untestable_nuisance.clone()].concat()).join(", ")
         ));
     }
@@ -1061,7 +1086,7 @@ fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
 pub fn verdict(d: &Discovery) -> String {
     let j = &d.json;
     let mut v = String::new();
-    if d.family.is_empty() {
+    if d.family.is_empty() && d.selected.is_empty() {
         v.push_str("Nothing could be tested in these rows (no candidate has a signature here).");
     } else if d.selected.is_empty() {
         let _ = write!(
@@ -1077,7 +1102,12 @@ pub fn verdict(d: &Discovery) -> String {
             .map(|s| {
                 let c = s.id.info();
                 if let Some(p) = &s.parameter {
-                    return p.sentence(c.name, c.unit);
+                    let mut t = p.sentence(c.name, c.unit);
+                    if !s.confounded.is_empty() {
+                        let o: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
+                        let _ = write!(t, " (indistinguishable here from {})", o.join(", "));
+                    }
+                    return t;
                 }
                 let mut t = format!(
                     "{} = {} {}",

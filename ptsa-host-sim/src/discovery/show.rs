@@ -202,7 +202,16 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         let c = sel.id.info();
         let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| o.info().name).collect();
         if let Some(p) = &sel.parameter {
-            let _ = writeln!(s, "selected: {}", p.sentence(c.name, c.unit));
+            let _ = writeln!(
+                s,
+                "selected: {}{}",
+                p.sentence(c.name, c.unit),
+                if conf.is_empty() {
+                    String::new()
+                } else {
+                    format!("  (indistinguishable here from: {})", conf.join(", "))
+                }
+            );
             continue;
         }
         let _ = writeln!(

@@ -348,9 +348,20 @@ pub fn response_of(
         min_window_s: opts.min_window_s.max(RESPONSE_WINDOW_S),
         ..*opts
     };
-    let r = crate::sim::simulate_condition(instr, cond, effects, &o);
+    // A laboratory's sine is not synchronised to the loop's clock: its phase at the start
+    // of the run is drawn from the seed, so the beat of the input against the limit cycle
+    // and the 64 kHz clock is part of the run-to-run scatter, not a fixed error that moves
+    // erratically with every parameter.
+    let start_deg = {
+        use rand::{Rng as _, SeedableRng as _};
+        rand_chacha::ChaCha8Rng::seed_from_u64(opts.seed ^ START_PHASE_STREAM)
+            .random_range(0.0..360.0)
+    };
+    let mut c = cond.clone();
+    c.lin_deg[IA] += start_deg;
+    let r = crate::sim::simulate_condition(instr, &c, effects, &o);
     let amp = cond.lin_cm_s2[IA].abs();
-    let mut ph = (r.harmonic_deg - cond.lin_deg[IA]) % 360.0;
+    let mut ph = (r.harmonic_deg - c.lin_deg[IA]) % 360.0;
     if ph > 180.0 {
         ph -= 360.0;
     } else if ph <= -180.0 {
@@ -358,6 +369,9 @@ pub fn response_of(
     }
     [r.harmonic_amp_cm_s2 / amp, ph]
 }
+
+/// Mixed into a run's seed to draw its input's start phase in [`response_of`].
+const START_PHASE_STREAM: u64 = 0x5747_2d70_6861_7365;
 
 /// The closed-loop simulator of the shipped instrument, boxed.
 #[must_use]
