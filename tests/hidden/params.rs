@@ -51,7 +51,7 @@ use rand::Rng as _;
 use super::{Draw, rng};
 
 /// Runs of the shipped instrument behind each row's stated sigma.
-pub const CALIBRATION_RUNS: u64 = 8;
+pub const CALIBRATION_RUNS: u64 = 32;
 
 /// The parameters hidden, in table order.
 pub const PARAMETERS: [CandidateId; 8] = [
@@ -188,6 +188,9 @@ pub struct ParamTruth {
     pub strength_se: f64,
     /// `|change|` in tolerance half-widths.
     pub tolerances: f64,
+    /// The parameter shows only to second order ([`Seen::Even`]): its sign is not in the
+    /// data, and it is scored on `|change|`.
+    pub even: bool,
     /// The design.
     pub design: ParamDesign,
 }
@@ -201,61 +204,101 @@ pub struct ParamSet {
     pub truth: ParamTruth,
 }
 
-/// Runs averaged per side of the strength's differences (`se_alone`).
+/// Runs averaged per side of the strength's differences (`seen`).
 pub const STRENGTH_RUNS: u64 = 8;
 
-/// The step of the strength's differences (`se_alone`), in tolerance half-widths.
+/// The step of the strength's differences (`seen`), in tolerance half-widths.
 pub const STRENGTH_STEP: f64 = 0.25;
 
-/// The standard error of parameter `id` alone in `rows` with sigmas `cal`, from central
-/// differences of the closed loop [`STRENGTH_STEP`] tolerance half-widths either side of the
-/// file's value, each side the mean of [`STRENGTH_RUNS`] runs with the same seeds; the
-/// loop's noise passes into the difference (a changed parameter decorrelates the limit
-/// cycle's beat even with the same seed), so its expected share of the information,
-/// `2/(runs·(2h)²)` per observation, is taken off. `None` when nothing is left: the rows do
-/// not see the parameter.
-fn se_alone(
-    instr: &Instrument,
-    id: CandidateId,
-    rows: &[Condition],
-    cal: &[Vec<f64>],
-) -> Option<f64> {
+/// How a parameter shows in a design, from the closed loop about the file's value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Seen {
+    /// To first order: the standard error of the parameter alone, in its unit.
+    Linear(f64),
+    /// Only to second order (the response is even about the file's value, as a pickoff
+    /// phase error that enters as its cosine): `‖∂²y/∂p²/σ‖`, in σ per unit².
+    Even(f64),
+}
+
+impl Seen {
+    /// The change, in the parameter's unit, whose effect is `s` noise standard deviations
+    /// in χ² distance (`s·SE` to first order; `√(2s/‖∂²y/∂p²/σ‖)` to second).
+    #[must_use]
+    pub fn change_for(self, s: f64) -> f64 {
+        match self {
+            Seen::Linear(se) => s * se,
+            Seen::Even(c) => (2.0 * s / c).sqrt(),
+        }
+    }
+}
+
+/// Each row's mean observations.
+type Means = Vec<Vec<f64>>;
+
+/// The mean observations of `STRENGTH_RUNS` runs (seeds 11, 12, ...) of each row.
+fn mean_rows(instr: &Instrument, rows: &[Condition]) -> Means {
+    rows.par_iter()
+        .map(|r| {
+            let runs: Vec<Vec<f64>> = (0..STRENGTH_RUNS)
+                .map(|j| measure_row(instr, r, 11 + j))
+                .collect();
+            #[allow(clippy::cast_precision_loss)]
+            let n = runs.len() as f64;
+            (0..runs[0].len())
+                .map(|q| runs.iter().map(|v| v[q]).sum::<f64>() / n)
+                .collect()
+        })
+        .collect()
+}
+
+/// `Σ (combination of the sides / σ)²` over every observation, less its expected share
+/// of the runs' noise (`weight` = the sum of the squared combination coefficients, over
+/// [`STRENGTH_RUNS`]); `None` when no more than that share again is left.
+fn information(sides: &[&Vec<Vec<f64>>], coef: &[f64], cal: &[Vec<f64>]) -> Option<f64> {
+    let mut sum = 0.0;
+    let mut obs = 0usize;
+    for (k, s) in cal.iter().enumerate() {
+        for (q, sq) in s.iter().enumerate() {
+            let v: f64 = sides.iter().zip(coef).map(|(x, c)| c * x[k][q]).sum();
+            sum += (v / sq).powi(2);
+            obs += 1;
+        }
+    }
+    #[allow(clippy::cast_precision_loss)]
+    let noise = obs as f64 * coef.iter().map(|c| c * c).sum::<f64>() / STRENGTH_RUNS as f64;
+    let info = sum - noise;
+    (info > noise && info.is_finite()).then_some(info)
+}
+
+/// How parameter `id` shows in `rows` with sigmas `cal`: central differences of the
+/// closed loop [`STRENGTH_STEP`] tolerance half-widths either side of the file's value give
+/// its standard error alone; when they see nothing, the second difference over 0.9 of the
+/// narrower side of the band tells whether the parameter shows to second order. Each side
+/// is the mean of [`STRENGTH_RUNS`] runs with the same seeds; the loop's noise passes into
+/// the differences (a changed parameter decorrelates the limit cycle's beat even with the
+/// same seed), so its expected share of the information is taken off. `None` when nothing
+/// is left: the rows do not see the parameter.
+fn seen(instr: &Instrument, id: CandidateId, rows: &[Condition], cal: &[Vec<f64>]) -> Option<Seen> {
     let key = id.parameter_key()?;
     let (lo, nom, hi) = instr.tolerance(key)?;
-    // Both sides inside the band (an asymmetric band would otherwise step below zero).
-    let h = (STRENGTH_STEP * (hi - nom).max(nom - lo)).min(0.9 * (hi - nom).min(nom - lo));
-    let (mut up, mut dn) = (instr.clone(), instr.clone());
-    up.set(key, nom + h).ok()?;
-    dn.set(key, nom - h).ok()?;
-    let mean = |i: &Instrument, r: &Condition| -> Vec<f64> {
-        let runs: Vec<Vec<f64>> = (0..STRENGTH_RUNS)
-            .map(|j| measure_row(i, r, 11 + j))
-            .collect();
-        #[allow(clippy::cast_precision_loss)]
-        let n = runs.len() as f64;
-        (0..runs[0].len())
-            .map(|q| runs.iter().map(|v| v[q]).sum::<f64>() / n)
-            .collect()
+    let side = |h: f64| -> Option<(Means, Means)> {
+        let (mut up, mut dn) = (instr.clone(), instr.clone());
+        up.set(key, nom + h).ok()?;
+        dn.set(key, nom - h).ok()?;
+        Some((mean_rows(&up, rows), mean_rows(&dn, rows)))
     };
-    let (info, obs): (f64, usize) = rows
-        .par_iter()
-        .zip(cal)
-        .map(|(r, s)| {
-            let (a, b) = (mean(&up, r), mean(&dn, r));
-            let i: f64 = a
-                .iter()
-                .zip(&b)
-                .zip(s)
-                .map(|((a, b), s)| ((a - b) / (2.0 * h) / s).powi(2))
-                .sum();
-            (i, a.len())
-        })
-        .reduce(|| (0.0, 0), |x, y| (x.0 + y.0, x.1 + y.1));
-    #[allow(clippy::cast_precision_loss)]
-    let noise = obs as f64 * 2.0 / (STRENGTH_RUNS as f64 * (2.0 * h).powi(2));
-    let info = info - noise;
-    // Less than the noise's own share again: not seen.
-    (info > noise && info.is_finite()).then(|| 1.0 / info.sqrt())
+    // Both sides inside the band (an asymmetric band would otherwise step below zero).
+    let narrow = 0.9 * (hi - nom).min(nom - lo);
+    let h = (STRENGTH_STEP * (hi - nom).max(nom - lo)).min(narrow);
+    let (a, b) = side(h)?;
+    let d = 1.0 / (2.0 * h);
+    if let Some(info) = information(&[&a, &b], &[d, -d], cal) {
+        return Some(Seen::Linear(1.0 / info.sqrt()));
+    }
+    let (a, b) = side(narrow)?;
+    let m = mean_rows(instr, rows);
+    let c = 1.0 / (narrow * narrow);
+    information(&[&a, &b, &m], &[c, c, -2.0 * c], cal).map(|i| Seen::Even(i.sqrt()))
 }
 
 /// Make set `seed` hiding `id` (or nothing) in `design`.
@@ -274,15 +317,16 @@ pub fn generate(seed: u64, id: Option<CandidateId>, design: ParamDesign) -> Para
         change: 0.0,
         strength_se: 0.0,
         tolerances: 0.0,
+        even: false,
         design,
     };
     if let Some(id) = id {
         let key = id.parameter_key().expect("a parameter");
         let (lo, nom, hi) = nominal.tolerance(key).expect("a toleranced parameter");
         let half = (hi - nom).max(nom - lo);
-        let se = se_alone(&nominal, id, &rows, cal).unwrap_or(f64::INFINITY);
+        let how = seen(&nominal, id, &rows, cal).unwrap_or(Seen::Linear(f64::INFINITY));
         let s = r.range(2.0, 24.0);
-        let mut change = r.sign() * s * se;
+        let mut change = r.sign() * how.change_for(s);
         // Keep it physical: never through zero for a positive quantity.
         if nom > 0.0 && nom + change <= 0.1 * nom {
             change = -change;
@@ -293,6 +337,7 @@ pub fn generate(seed: u64, id: Option<CandidateId>, design: ParamDesign) -> Para
         truth.change = change;
         truth.strength_se = s;
         truth.tolerances = change.abs() / half;
+        truth.even = matches!(how, Seen::Even(_));
     }
     let noise_seed = r.random::<u64>();
     let measured: Vec<Vec<f64>> = rows
@@ -356,7 +401,11 @@ pub fn analyse(seed: u64, set: &ParamSet) -> ParamOutcome {
             if let Some(id) = set.truth.id {
                 if let Some(s) = d.selected.iter().find(|s| s.id == id) {
                     o.exact = true;
-                    o.z = Some((s.coef - set.truth.change) / s.stderr);
+                    o.z = Some(if set.truth.even {
+                        (s.coef.abs() - set.truth.change.abs()) / s.stderr
+                    } else {
+                        (s.coef - set.truth.change) / s.stderr
+                    });
                 } else {
                     o.partner = d
                         .selected
@@ -397,12 +446,11 @@ pub fn run(sets: usize, seed: u64) -> ParamCampaign {
         .filter(|&id| {
             ParamDesign::ALL.iter().all(|&d| {
                 let rows = d.rows(&nominal);
-                se_alone(&nominal, id, &rows, calibration(d)).is_none_or(|se| {
-                    let key = id.parameter_key().unwrap_or_default();
-                    let (lo, nom, hi) = nominal.tolerance(key).unwrap_or((0.0, 0.0, 0.0));
-                    // More than the whole tolerance band per standard error: unseen.
-                    se > (hi - nom).max(nom - lo)
-                })
+                let key = id.parameter_key().unwrap_or_default();
+                let (lo, nom, hi) = nominal.tolerance(key).unwrap_or((0.0, 0.0, 0.0));
+                // A change of the whole tolerance band is not 1 SE: unseen.
+                seen(&nominal, id, &rows, calibration(d))
+                    .is_none_or(|how| how.change_for(1.0) > (hi - nom).max(nom - lo))
             })
         })
         .collect();
