@@ -101,9 +101,12 @@ impl Scorer<'_> {
     fn chi2(&self, theta: &Effects) -> Option<f64> {
         let mut rs: Vec<usize> = self.data.rows.clone();
         rs.dedup();
+        let jobs: Vec<(&Condition, &Effects)> =
+            rs.iter().map(|&i| (&self.rows[i], theta)).collect();
         let obs: Vec<(usize, Vec<f64>)> = rs
-            .par_iter()
-            .map(|&i| (i, self.sim.observe(&self.rows[i], theta)))
+            .iter()
+            .copied()
+            .zip(self.sim.observe_all(&jobs))
             .collect();
         let z: Vec<f64> = (0..self.data.n())
             .map(|k| {
@@ -230,7 +233,7 @@ pub(crate) fn check(
         let mut rest = theta;
         rest.set(a, 0.0);
         let tried: Vec<(CandidateId, f64, f64)> = others
-            .iter()
+            .par_iter()
             .filter(|&&b| !params.iter().any(|&j| selected[j].id == b))
             .filter_map(|&b| best_change(&scorer, &rest, b).map(|(d, c)| (b, d, c)))
             .collect();
@@ -282,6 +285,69 @@ fn not_worse(c: f64, chi: f64, dof: usize, stated: bool, level: f64) -> bool {
         p_f
     };
     p > level
+}
+
+/// Drop selected parameters the data do not need once the others are refined through the
+/// closed loop: the selection tests each parameter by its sensitivity at the file's value,
+/// and a change far beyond the band (the damping off by half its value) leaves a curvature
+/// that a second parameter's sensitivity takes up; refined together, the two settle in a
+/// wrong valley. So while two or more parameters are selected, each is dropped in turn and
+/// the others refined without it (`refine`, Gauss–Newton); the one whose absence costs
+/// least goes if the χ² is not significantly worse by the test of [`check`] (at α/m).
+/// Returns whether something was dropped.
+pub(crate) fn prune(
+    rows: &[Condition],
+    data: &Data,
+    f: &Fitted,
+    selected: &mut Vec<Selected>,
+    sim: &dyn Simulator,
+    alpha: f64,
+    refine: &(dyn Fn(&mut Vec<Selected>) + Sync),
+) -> bool {
+    #[allow(clippy::cast_precision_loss)]
+    let level = alpha / f.family.len().max(1) as f64;
+    let theta = |sel: &[Selected]| {
+        let mut t = Effects::NONE;
+        for s in sel.iter().filter(|s| s.id.parameter_key().is_some()) {
+            t.set(s.id, s.coef);
+        }
+        t
+    };
+    let mut dropped = false;
+    loop {
+        let params: Vec<usize> = (0..selected.len())
+            .filter(|&k| selected[k].id.parameter_key().is_some())
+            .collect();
+        if params.len() < 2 {
+            return dropped;
+        }
+        let scorer = Scorer::new(rows, data, f, selected, sim);
+        let Some(chi) = scorer.chi2(&theta(selected)) else {
+            return dropped;
+        };
+        let dof = data
+            .n()
+            .saturating_sub(scorer.linear.len() + params.len())
+            .max(1);
+        let best = params
+            .par_iter()
+            .filter_map(|&j| {
+                let mut reduced = selected.clone();
+                reduced.remove(j);
+                refine(&mut reduced);
+                scorer.chi2(&theta(&reduced)).map(|c| (c, reduced))
+            })
+            .collect::<Vec<_>>()
+            .into_iter()
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        match best {
+            Some((c, reduced)) if not_worse(c, chi, dof, f.stated(), level) => {
+                *selected = reduced;
+                dropped = true;
+            }
+            _ => return dropped,
+        }
+    }
 }
 
 /// For every selected parameter, whether the opposite change (the fitted value mirrored

@@ -6,7 +6,6 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
-use rayon::prelude::*;
 use serde::Serialize;
 
 use super::advice::{self, Advice};
@@ -441,10 +440,10 @@ fn refine_parameters(
         let pred: Vec<Vec<f64>> = {
             let mut rs: Vec<usize> = data.rows.clone();
             rs.dedup();
-            let obs: Vec<(usize, Vec<f64>)> = rs
-                .par_iter()
-                .map(|&i| (i, sim.observe(&rows[i], &theta)))
-                .collect();
+            let jobs: Vec<(&Condition, &Effects)> =
+                rs.iter().map(|&i| (&rows[i], &theta)).collect();
+            let obs: Vec<(usize, Vec<f64>)> =
+                rs.iter().copied().zip(sim.observe_all(&jobs)).collect();
             (0..rows.len())
                 .map(|i| {
                     obs.iter()
@@ -547,7 +546,8 @@ fn secant_signatures(
             continue;
         }
         let e = Effects::only(s.id, s.coef);
-        let obs: Vec<Vec<f64>> = rows.par_iter().map(|r| sim.observe(r, &e)).collect();
+        let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &e)).collect();
+        let obs = sim.observe_all(&jobs);
         let col: Vec<f64> = (0..data.n())
             .map(|k| {
                 let (i, q) = (data.rows[k], slot(data.quantity[k]));
@@ -899,10 +899,10 @@ pub fn discover(
         );
     }
     // 1. Baseline: every row's observations (measured or not, for the table).
-    let baseline: Vec<Vec<f64>> = rows
-        .par_iter()
-        .map(|r| sim.observe(r, &Effects::NONE))
-        .collect();
+    let baseline: Vec<Vec<f64>> = {
+        let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &Effects::NONE)).collect();
+        sim.observe_all(&jobs)
+    };
     let data = data::build(
         rows,
         &baseline,
@@ -921,6 +921,9 @@ pub fn discover(
     let f = fit::fit(&data, &all, settings);
     let mut selected = selected_report(&data, &f, opts, sim);
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
+    super::alternatives::prune(rows, &data, &f, &mut selected, sim, opts.alpha, &|s| {
+        refine_parameters(rows, &data, &f, s, sim, opts);
+    });
     if super::alternatives::scan(rows, &data, &f, &mut selected, sim, opts.alpha) {
         refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     }
@@ -937,7 +940,8 @@ pub fn discover(
     let resim: Vec<Vec<f64>> = if effects.is_zero() {
         baseline.clone()
     } else {
-        rows.par_iter().map(|r| sim.observe(r, &effects)).collect()
+        let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &effects)).collect();
+        sim.observe_all(&jobs)
     };
     let slot = |q: Quantity| usize::from(q == Quantity::Phase);
     let extended: Vec<f64> = (0..n)
@@ -1158,6 +1162,33 @@ mod tests {
 
     fn analytic() -> AnalyticSimulator {
         AnalyticSimulator::for_instrument(&Instrument::kearfott_2401())
+    }
+
+    #[test]
+    fn a_parameter_whose_mirror_fits_is_given_without_its_sign() {
+        let mut p = ParameterValue {
+            key: "pickoff.phase_angle_deg".into(),
+            nominal: 0.0,
+            fitted: 15.0,
+            sigma: 0.5,
+            tolerance: [-10.0, 10.0],
+            within_tolerance: false,
+            mirror: None,
+        };
+        let one = p.sentence("pickoff_phase", "deg");
+        assert!(
+            one.starts_with("pickoff_phase 15.00 ± 0.50 deg, nominal 0 deg"),
+            "{one}"
+        );
+        p.mirror = Some(-15.0);
+        let both = p.sentence("pickoff_phase", "deg");
+        assert!(
+            both.starts_with(
+                "pickoff_phase 15.00 ± 0.50 deg or -15.00 ± 0.50 deg (the mirror image"
+            ),
+            "{both}"
+        );
+        assert!(both.contains("not its sign"), "{both}");
     }
 
     #[test]

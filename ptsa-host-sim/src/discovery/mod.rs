@@ -242,8 +242,8 @@ pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
 /// difference or absolute row, `[gain, phase_deg]` for a response row.
 #[must_use]
 pub fn predict(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<Vec<f64>> {
-    use rayon::prelude::*;
-    rows.par_iter().map(|r| sim.observe(r, effects)).collect()
+    let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, effects)).collect();
+    sim.observe_all(&jobs)
 }
 
 pub use show::report_section;

@@ -38,6 +38,12 @@ pub trait Simulator: Sync {
             RowKind::Response => self.response(cond, effects).to_vec(),
         }
     }
+    /// [`Simulator::observe`] of every `(row, effects)` pair, in order. The closed loop
+    /// runs them all at once on the batch engine ([`crate::batch`]), bit for bit the same.
+    fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
+        use rayon::prelude::*;
+        jobs.par_iter().map(|(c, e)| self.observe(c, e)).collect()
+    }
     /// The 1 σ scatter of the baseline prediction of each of a row's observations (as
     /// [`Simulator::observe`]), from the simulator's own noise: 0 for a deterministic model.
     /// The analysis adds it to a stated sigma in quadrature.
@@ -265,6 +271,96 @@ impl Simulator for ClosedLoopSimulator {
         response_runs(&self.instrument, cond, effects, &self.options).0
     }
 
+    /// Every run of every row on the batch engine (a response row's [`RESPONSE_SEEDS`]
+    /// runs, a difference row's condition and reference, an absolute row's run), in two
+    /// calls (response runs have their own window and harmonic); the lanes are the single
+    /// loop's runs bit for bit, so this is [`Simulator::observe`] row by row.
+    fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
+        let opts = &self.options;
+        let instr = &self.instrument;
+        let ropts = response_options(opts);
+        // Response rows' runs: (job, conditions with their start phases).
+        let shifted: Vec<(usize, Vec<Condition>)> = jobs
+            .iter()
+            .enumerate()
+            .filter(|(_, (c, _))| c.kind == RowKind::Response)
+            .map(|(k, (c, _))| {
+                let runs = (0..RESPONSE_SEEDS)
+                    .map(|j| started(c, opts.seed.wrapping_add(j)))
+                    .collect();
+                (k, runs)
+            })
+            .collect();
+        let mut rjobs = Vec::new();
+        for (k, runs) in &shifted {
+            for (j, c) in (0u64..).zip(runs) {
+                rjobs.push(crate::batch::Job {
+                    instr,
+                    cond: c,
+                    effects: *jobs[*k].1,
+                    seed: opts.seed.wrapping_add(j),
+                });
+            }
+        }
+        // Other rows: the condition (and a difference row's reference) with the options'
+        // seed.
+        let refs: Vec<(usize, Condition)> = jobs
+            .iter()
+            .enumerate()
+            .filter(|(_, (c, _))| c.kind == RowKind::Difference)
+            .map(|(k, (c, _))| (k, c.reference()))
+            .collect();
+        let mut ojobs = Vec::new();
+        let mut slots: Vec<(usize, bool)> = Vec::new();
+        for (k, (c, e)) in jobs.iter().enumerate() {
+            if c.kind != RowKind::Response {
+                ojobs.push(crate::batch::Job {
+                    instr,
+                    cond: c,
+                    effects: **e,
+                    seed: opts.seed,
+                });
+                slots.push((k, false));
+            }
+        }
+        for (k, r) in &refs {
+            ojobs.push(crate::batch::Job {
+                instr,
+                cond: r,
+                effects: *jobs[*k].1,
+                seed: opts.seed,
+            });
+            slots.push((*k, true));
+        }
+        let rres = crate::batch::simulate_jobs(&rjobs, &ropts);
+        let ores = crate::batch::simulate_jobs(&ojobs, opts);
+        let mut out: Vec<Vec<f64>> = vec![Vec::new(); jobs.len()];
+        let mut next = 0;
+        for (k, runs) in &shifted {
+            let r: Vec<[f64; 2]> = runs
+                .iter()
+                .zip(&rres[next..next + runs.len()])
+                .map(|(c, res)| response_from(jobs[*k].0, c, res))
+                .collect();
+            next += runs.len();
+            out[*k] = mean_of_runs(&r).0.to_vec();
+        }
+        let mut value = vec![0.0; jobs.len()];
+        for ((k, reference), res) in slots.iter().zip(&ores) {
+            if *reference {
+                value[*k] -= res.indicated_cm_s2;
+            } else {
+                value[*k] += res.indicated_cm_s2;
+            }
+        }
+        for (k, (c, _)) in jobs.iter().enumerate() {
+            if c.kind != RowKind::Response {
+                out[k] = vec![value[k]];
+            }
+        }
+        out
+    }
+
     fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
         Some(closed_loop_linear(
             &self.instrument,
@@ -306,6 +402,12 @@ fn response_runs(
             response_of(instr, cond, effects, &o)
         })
         .collect();
+    mean_of_runs(&runs)
+}
+
+/// The mean `[gain, phase_deg]` of runs and its standard errors (the sample standard
+/// deviation over the square root of the number of runs).
+fn mean_of_runs(runs: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
     // The phase about the first run's, so that runs either side of ±180° average right.
     let p0 = runs[0][1];
     let rel = |p: f64| (p - p0 + 540.0).rem_euclid(360.0) - 180.0;
@@ -343,25 +445,41 @@ pub fn response_of(
     effects: &Effects,
     opts: &crate::sim::SimOptions,
 ) -> [f64; 2] {
-    let o = crate::sim::SimOptions {
+    let c = started(cond, opts.seed);
+    let r = crate::sim::simulate_condition(instr, &c, effects, &response_options(opts));
+    response_from(cond, &c, &r)
+}
+
+/// The options of a response run: the first harmonic measured, the window at least
+/// [`RESPONSE_WINDOW_S`].
+fn response_options(opts: &crate::sim::SimOptions) -> crate::sim::SimOptions {
+    crate::sim::SimOptions {
         harmonic: 1,
         min_window_s: opts.min_window_s.max(RESPONSE_WINDOW_S),
         ..*opts
-    };
-    // A laboratory's sine is not synchronised to the loop's clock: its phase at the start
-    // of the run is drawn from the seed, so the beat of the input against the limit cycle
-    // and the 64 kHz clock is part of the run-to-run scatter, not a fixed error that moves
-    // erratically with every parameter.
-    let start_deg = {
-        use rand::{Rng as _, SeedableRng as _};
-        rand_chacha::ChaCha8Rng::seed_from_u64(opts.seed ^ START_PHASE_STREAM)
-            .random_range(0.0..360.0)
-    };
+    }
+}
+
+/// `cond` with its sine started at the phase drawn from `seed` and the row's frequency. A
+/// laboratory's sine is not synchronised to the loop's clock, so the beat of the input
+/// against the limit cycle and the 64 kHz clock is part of the run-to-run scatter, not a
+/// fixed error that moves erratically with every parameter. The frequency enters the draw so
+/// that the runs of different rows start at unrelated phases: with the same few phases for
+/// every row, a simulated table's errors (and its runs' scatter) would be alike from row to
+/// row, and the χ² of a right model would not be χ².
+fn started(cond: &Condition, seed: u64) -> Condition {
+    use rand::{Rng as _, SeedableRng as _};
+    let stream = seed ^ START_PHASE_STREAM ^ cond.freq_hz.to_bits().rotate_left(29);
+    let start_deg: f64 = rand_chacha::ChaCha8Rng::seed_from_u64(stream).random_range(0.0..360.0);
     let mut c = cond.clone();
     c.lin_deg[IA] += start_deg;
-    let r = crate::sim::simulate_condition(instr, &c, effects, &o);
+    c
+}
+
+/// `[gain, phase_deg]` of the run `r` of `started` (the row `cond` started at its phase).
+fn response_from(cond: &Condition, started: &Condition, r: &crate::sim::SimResult) -> [f64; 2] {
     let amp = cond.lin_cm_s2[IA].abs();
-    let mut ph = (r.harmonic_deg - c.lin_deg[IA]) % 360.0;
+    let mut ph = (r.harmonic_deg - started.lin_deg[IA]) % 360.0;
     if ph > 180.0 {
         ph -= 360.0;
     } else if ph <= -180.0 {
@@ -403,5 +521,56 @@ mod tests {
         let e2 = Effects::only(CandidateId::Nonlinearity, 1e-6);
         let d2 = sim.difference_cm_s2(&c, &e2);
         assert!((d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * g, "{d2}");
+    }
+
+    /// The batched `observe_all` of the closed loop is `observe` row by row, bit for bit:
+    /// response rows (each of its runs with its start phase), a difference row with a
+    /// vibration, an absolute row, with and without a parameter change.
+    #[test]
+    #[allow(clippy::float_cmp)]
+    fn observe_all_is_observe_bit_for_bit() {
+        let sim = ClosedLoopSimulator {
+            instrument: Instrument::kearfott_2401(),
+            options: crate::sim::SimOptions {
+                seed: 5,
+                warmup_s: 0.02,
+                min_window_s: 0.02,
+                ..crate::sim::SimOptions::default()
+            },
+        };
+        let mut rows = Vec::new();
+        for f in [20.0, 150.0] {
+            let mut c = Condition {
+                kind: RowKind::Response,
+                freq_hz: f,
+                ..Condition::default()
+            };
+            c.lin_cm_s2[IA] = 2000.0;
+            rows.push(c);
+        }
+        let mut d = Condition {
+            g: [1.0, 0.0, 0.0],
+            freq_hz: 50.0,
+            ..Condition::default()
+        };
+        d.lin_cm_s2[IA] = 500.0;
+        rows.push(d.clone());
+        d.kind = RowKind::Absolute;
+        rows.push(d);
+        let none = Effects::NONE;
+        let damp = Effects::only(CandidateId::ParamDamping, 5000.0);
+        let jobs: Vec<(&Condition, &Effects)> =
+            rows.iter().flat_map(|r| [(r, &none), (r, &damp)]).collect();
+        let all = sim.observe_all(&jobs);
+        for ((c, e), got) in jobs.iter().zip(&all) {
+            let want = sim.observe(c, e);
+            assert_eq!(
+                got.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                want.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                "{:?} at {} Hz: {got:?} against {want:?}",
+                c.kind,
+                c.freq_hz
+            );
+        }
     }
 }
