@@ -205,6 +205,12 @@ candidates! {
     ParamPickoffPhase = "pickoff_phase", "phase_angle_deg", "pickoff_phase", "deg",
         "the pickoff phase angle (Table 2.1: 0 ± 10): the ADC offset it makes of the quadrature null",
         Signature::Parameter("pickoff.phase_angle_deg"), Bound::Tolerance, ("φ_po", "deg", |_| 1.0);
+    ParamAmplifierGain = "amplifier_gain", "amplifier_gain", "amplifier_gain", "V/V",
+        "the amplifier gain ahead of the ADC (a candidate when the instrument file gives it a tolerance; it multiplies the pickoff scale factor and cannot be told from it)",
+        Signature::Parameter("electronics.amplifier_gain"), Bound::Tolerance, ("G_amp", "V/V", |_| 1.0);
+    ParamAdcOffset = "adc_offset", "adc_offset_mv", "adc_offset", "mV",
+        "the offset at the ADC's input (a candidate when the instrument file gives electronics.adc_offset_mv with a tolerance): a constant code offset, as the quadrature a pickoff phase error leaks",
+        Signature::Parameter("electronics.adc_offset_mv"), Bound::Tolerance, ("V_adc", "mV", |_| 1.0);
 }
 
 /// IA component of `dw × r + w × (w × r)` for a unit `r` along case axis `axis`.
@@ -489,7 +495,9 @@ mod tests {
                 "torquer_sf",
                 "torquer_lag",
                 "pickoff_gain",
-                "pickoff_phase"
+                "pickoff_phase",
+                "amplifier_gain",
+                "adc_offset"
             ]
         );
         for c in REGISTRY {
@@ -535,9 +543,18 @@ mod tests {
         let instr = crate::instrument::Instrument::kearfott_2401();
         for &id in CandidateId::ALL {
             if let Some(key) = id.parameter_key() {
-                // A parameter: a key the instrument file has, with a tolerance band.
+                // A parameter: a key the instrument file has, with a tolerance band (the
+                // shipped file gives the amplifier gain and the ADC offset none: Table 2.1
+                // does not).
                 assert!(instr.get(key).is_some(), "{id}");
-                assert!(instr.tolerance(key).is_some(), "{id}");
+                assert_eq!(
+                    instr.tolerance(key).is_some(),
+                    !matches!(
+                        id,
+                        CandidateId::ParamAmplifierGain | CandidateId::ParamAdcOffset
+                    ),
+                    "{id}"
+                );
                 assert!(Effects::only(id, 1.0).indicated_cm_s2(&i) == 0.0, "{id}");
                 continue;
             }

@@ -133,6 +133,55 @@ struct Param {
     max: Option<Num>,
 }
 
+/// A bare number (no tolerance: the value is taken as exact and never identified) or a
+/// toleranced parameter's table: `electronics.amplifier_gain`, which files older than its
+/// tolerance give as a number.
+#[derive(Debug, Clone)]
+enum NumOrParam {
+    Num(Num),
+    Param(Param),
+}
+
+impl<'de> Deserialize<'de> for NumOrParam {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        d.deserialize_any(NumOrParamVisitor)
+    }
+}
+
+struct NumOrParamVisitor;
+
+impl<'de> Visitor<'de> for NumOrParamVisitor {
+    type Value = NumOrParam;
+
+    fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str("a number, or a table { value = ..., tol_pct = ... }")
+    }
+
+    fn visit_f64<E: de::Error>(self, v: f64) -> Result<NumOrParam, E> {
+        NumVisitor.visit_f64(v).map(NumOrParam::Num)
+    }
+
+    fn visit_i64<E: de::Error>(self, v: i64) -> Result<NumOrParam, E> {
+        NumVisitor.visit_i64(v).map(NumOrParam::Num)
+    }
+
+    fn visit_u64<E: de::Error>(self, v: u64) -> Result<NumOrParam, E> {
+        NumVisitor.visit_u64(v).map(NumOrParam::Num)
+    }
+
+    fn visit_str<E: de::Error>(self, v: &str) -> Result<NumOrParam, E> {
+        NumVisitor.visit_str(v).map(NumOrParam::Num)
+    }
+
+    fn visit_bool<E: de::Error>(self, v: bool) -> Result<NumOrParam, E> {
+        NumVisitor.visit_bool(v).map(NumOrParam::Num)
+    }
+
+    fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<NumOrParam, A::Error> {
+        Param::deserialize(de::value::MapAccessDeserializer::new(map)).map(NumOrParam::Param)
+    }
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [pendulum] table")]
 struct PendulumT {
@@ -165,7 +214,9 @@ struct TorquerT {
 struct ElectronicsT {
     scale_factor_cm_s2: Spanned<Num>,
     bias_cm_s2: Spanned<Num>,
-    amplifier_gain: Spanned<Num>,
+    amplifier_gain: Spanned<NumOrParam>,
+    #[serde(default)]
+    adc_offset_mv: Option<Spanned<Param>>,
     demodulator_bandwidth_hz: Spanned<Num>,
     adc_full_scale_v: Spanned<Num>,
     clock_hz: Spanned<Num>,
@@ -282,6 +333,9 @@ pub struct Instrument {
     pub bias_cm_s2: f64,
     /// Amplifier gain, V/V.
     pub amp_gain: f64,
+    /// Offset at the ADC's input, V (after the amplifier): a constant code offset, as the
+    /// quadrature the pickoff phase leaks.
+    pub adc_offset_v: f64,
     /// Demodulator low-pass corner, Hz.
     pub demod_bandwidth_hz: f64,
     /// ADC full scale, ±V.
@@ -520,7 +574,11 @@ impl Ctx<'_> {
 
     /// `[electronics]`: scale factor cm/s², bias cm/s², amplifier gain V/V, demodulator
     /// bandwidth Hz, ADC full scale V, clock Hz, local gravity cm/s².
-    fn electronics(&self, e: &ElectronicsT) -> Result<[f64; 7], InstrumentError> {
+    fn electronics(
+        &self,
+        e: &ElectronicsT,
+        t: &mut Vec<Tolerance>,
+    ) -> Result<[f64; 8], InstrumentError> {
         let sf = self.scalar(
             "electronics.scale_factor_cm_s2",
             &e.scale_factor_cm_s2,
@@ -535,12 +593,21 @@ impl Ctx<'_> {
                 |x| x.abs() < sf,
                 "|bias| below the scale factor",
             )?,
-            self.scalar(
-                "electronics.amplifier_gain",
-                &e.amplifier_gain,
-                positive,
-                "a gain > 0",
-            )?,
+            match e.amplifier_gain.get_ref() {
+                NumOrParam::Num(n) => self.scalar(
+                    "electronics.amplifier_gain",
+                    &Spanned::new(e.amplifier_gain.span(), *n),
+                    positive,
+                    "a gain > 0",
+                )?,
+                NumOrParam::Param(q) => self.param(
+                    "electronics.amplifier_gain",
+                    &Spanned::new(e.amplifier_gain.span(), q.clone()),
+                    positive,
+                    "a gain > 0",
+                    t,
+                )?,
+            },
             self.scalar(
                 "electronics.demodulator_bandwidth_hz",
                 &e.demodulator_bandwidth_hz,
@@ -565,6 +632,15 @@ impl Ctx<'_> {
                 positive,
                 "gravity > 0 cm/s²",
             )?,
+            e.adc_offset_mv.as_ref().map_or(Ok(0.0), |p| {
+                self.param(
+                    "electronics.adc_offset_mv",
+                    p,
+                    |x| x.abs() < 1e3 * e.adc_full_scale_v.get_ref().0,
+                    "an offset within the ADC's full scale, mV",
+                    t,
+                )
+            })?,
         ])
     }
 
@@ -775,7 +851,8 @@ impl Instrument {
             cx.pendulum(&f.pendulum, &mut tol)?;
         let [pickoff, quad_uv, phase_deg, noise_uv] = cx.pickoff(&f.pickoff, &mut tol)?;
         let [csf, tau_us] = cx.torquer(&f.torquer, &mut tol)?;
-        let [sf, bias, amp, bw, fs, clock, g] = cx.electronics(&f.electronics)?;
+        let [sf, bias, amp, bw, fs, clock, g, adc_offset_mv] =
+            cx.electronics(&f.electronics, &mut tol)?;
         let [ks, cs] = cx.stops(&f.stops)?;
         let plausibility = cx.plausibility(f.plausibility.as_ref(), inertia)?;
         Ok(Self {
@@ -795,6 +872,7 @@ impl Instrument {
             sf_cm_s2: sf,
             bias_cm_s2: bias,
             amp_gain: amp,
+            adc_offset_v: adc_offset_mv * 1e-3,
             demod_bandwidth_hz: bw,
             adc_full_scale_v: fs,
             clock_hz: clock,
@@ -826,8 +904,8 @@ impl Instrument {
         Self::parse(src, file)?;
         let cx = Ctx { file, src };
         let f: FileT = toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
-        let entry = |key: &str| -> Option<&Spanned<Param>> {
-            Some(match key {
+        let entry = |key: &str| -> Option<(std::ops::Range<usize>, &Param)> {
+            let p: &Spanned<Param> = match key {
                 "pendulum.pendulosity_dyn_cm_per_g" => &f.pendulum.pendulosity_dyn_cm_per_g,
                 "pendulum.freedom_mrad" => &f.pendulum.freedom_mrad,
                 "pendulum.inertia_oa_g_cm2" => &f.pendulum.inertia_oa_g_cm2,
@@ -840,8 +918,17 @@ impl Instrument {
                 "pickoff.noise_uv_rms" => &f.pickoff.noise_uv_rms,
                 "torquer.current_scale_factor_ma_per_g" => &f.torquer.current_scale_factor_ma_per_g,
                 "torquer.time_constant_us" => &f.torquer.time_constant_us,
+                "electronics.adc_offset_mv" => f.electronics.adc_offset_mv.as_ref()?,
+                "electronics.amplifier_gain" => {
+                    let g = &f.electronics.amplifier_gain;
+                    return match g.get_ref() {
+                        NumOrParam::Param(q) => Some((g.span(), q)),
+                        NumOrParam::Num(_) => None,
+                    };
+                }
                 _ => return None,
-            })
+            };
+            Some((p.span(), p.get_ref()))
         };
         let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
         for (key, v, note) in changes {
@@ -851,7 +938,7 @@ impl Instrument {
                 column: 0,
                 message: format!("{key}: not a toleranced parameter of the file"),
             })?;
-            let q = e.get_ref();
+            let (span, q) = e;
             let table = if let Some(Num(t)) = q.tol_pct {
                 format!("{{ value = {v:?}, tol_pct = {t:?} }}")
             } else if let Some(Num(t)) = q.tol_abs {
@@ -864,7 +951,6 @@ impl Instrument {
                     hi.max(*v)
                 )
             };
-            let span = e.span();
             let line_start = src[..span.start].rfind('\n').map_or(0, |i| i + 1);
             let indent: String = src[line_start..]
                 .chars()
@@ -951,6 +1037,8 @@ impl Instrument {
             "pickoff.noise_uv_rms" => self.noise_v_rms = v * 1e-6,
             "torquer.current_scale_factor_ma_per_g" => self.current_sf_ma_per_g = v,
             "torquer.time_constant_us" => self.torquer_tau_s = v * 1e-6,
+            "electronics.amplifier_gain" => self.amp_gain = v,
+            "electronics.adc_offset_mv" => self.adc_offset_v = v * 1e-3,
             _ => return Err(format!("unknown parameter {key}")),
         }
         Ok(())
@@ -973,6 +1061,8 @@ impl Instrument {
             "pickoff.noise_uv_rms" => self.noise_v_rms * 1e6,
             "torquer.current_scale_factor_ma_per_g" => self.current_sf_ma_per_g,
             "torquer.time_constant_us" => self.torquer_tau_s * 1e6,
+            "electronics.amplifier_gain" => self.amp_gain,
+            "electronics.adc_offset_mv" => self.adc_offset_v * 1e3,
             _ => return None,
         })
     }
@@ -1043,6 +1133,63 @@ mod tests {
         .unwrap_err();
         assert!(e.message.contains("inertia"), "{e}");
         assert!(Instrument::rewrite(src, "k.toml", &[("no.such", 1.0, String::new())]).is_err());
+    }
+
+    /// The amplifier gain is a bare number (exact, not identified) or a toleranced table;
+    /// the ADC offset is optional (0 without a tolerance) or a toleranced table; both are
+    /// set, read and rewritten like the other parameters.
+    #[test]
+    fn amplifier_gain_and_adc_offset_take_a_tolerance_when_the_file_gives_one() {
+        let shipped = Instrument::kearfott_2401();
+        assert_eq!(shipped.tolerance("electronics.amplifier_gain"), None);
+        assert_eq!(shipped.tolerance("electronics.adc_offset_mv"), None);
+        assert_eq!(shipped.get("electronics.adc_offset_mv"), Some(0.0));
+        let src = KEARFOTT_2401_TOML
+            .replace(
+                "amplifier_gain = 100.0",
+                "amplifier_gain = { value = 100.0, tol_pct = 5.0 }\nadc_offset_mv = { value = 0.5, tol_abs = 2.0 }",
+            );
+        let mut i = Instrument::parse(&src, "t.toml").unwrap();
+        let (lo, nom, hi) = i.tolerance("electronics.amplifier_gain").unwrap();
+        assert!(
+            (lo - 95.0).abs() < 1e-9 && (nom - 100.0).abs() < 1e-12 && (hi - 105.0).abs() < 1e-9
+        );
+        assert_eq!(
+            i.tolerance("electronics.adc_offset_mv"),
+            Some((-1.5, 0.5, 2.5))
+        );
+        assert!((i.adc_offset_v - 0.5e-3).abs() < 1e-15);
+        i.set("electronics.amplifier_gain", 90.0).unwrap();
+        assert!((i.lsb_per_rad() / shipped.lsb_per_rad() - 0.9).abs() < 1e-12);
+        let out = Instrument::rewrite(
+            &src,
+            "t.toml",
+            &[("electronics.amplifier_gain", 97.5, "fitted".into())],
+        )
+        .unwrap();
+        let r = Instrument::parse(&out, "t.toml").unwrap();
+        assert_eq!(r.get("electronics.amplifier_gain"), Some(97.5));
+        // Errors name the line and what was expected.
+        let e = Instrument::parse(
+            &KEARFOTT_2401_TOML.replace("amplifier_gain = 100.0", "amplifier_gain = \"high\""),
+            "m.toml",
+        )
+        .unwrap_err();
+        assert_eq!(e.line, line_of("amplifier_gain"), "{e}");
+        assert!(e.message.contains("expected a number"), "{e}");
+        let e = Instrument::parse(
+            &KEARFOTT_2401_TOML.replace(
+                "amplifier_gain = 100.0",
+                "amplifier_gain = 100.0\nadc_offset_mv = { value = 4000.0, tol_abs = 1.0 }",
+            ),
+            "m.toml",
+        )
+        .unwrap_err();
+        assert!(
+            e.message.contains("electronics.adc_offset_mv = 4000"),
+            "{e}"
+        );
+        assert!(e.message.contains("within the ADC's full scale"), "{e}");
     }
 
     #[test]

@@ -414,7 +414,9 @@ impl ClosedLoop {
             rng,
             noise_codes: noise * instr.amp_gain / lsb_v,
             code_per_rad: instr.lsb_per_rad() * instr.phase_error_rad.cos(),
-            code_offset: instr.quadrature_v * instr.phase_error_rad.sin() * instr.amp_gain / lsb_v,
+            code_offset: (instr.quadrature_v * instr.phase_error_rad.sin() * instr.amp_gain
+                + instr.adc_offset_v)
+                / lsb_v,
             d0: 0.0,
             a_pa0: 0.0,
             wq0: 0.0,

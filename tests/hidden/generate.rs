@@ -155,7 +155,9 @@ pub fn candidate_physics(id: CandidateId, p_g_cm: f64) -> Option<Physics> {
         | CandidateId::ParamTorquerSf
         | CandidateId::ParamTorquerLag
         | CandidateId::ParamPickoffGain
-        | CandidateId::ParamPickoffPhase => None,
+        | CandidateId::ParamPickoffPhase
+        | CandidateId::ParamAmplifierGain
+        | CandidateId::ParamAdcOffset => None,
     }
 }
 

@@ -9,16 +9,22 @@
 //! indistinguishable from the one it names.
 //!
 //! * **Measurement**: each row is one closed-loop run of the perturbed instrument with its
-//!   own noise seed; its stated sigma is what a laboratory would state, the scatter of one
-//!   run at that condition (the sample standard deviation of [`CALIBRATION_RUNS`] runs of
-//!   the shipped instrument with other seeds, floored at 1e-4 in gain, 0.01° in phase and
-//!   0.01 cm/s²).
-//! * **Strength**: the offset is `±s·SE`, `s` uniform in 2–24, where SE is the parameter's
-//!   standard error alone in this design (central differences of the closed loop a quarter
-//!   of a tolerance half-width either side, each the mean of 8 runs, against the stated
-//!   sigmas, with the loop noise's expected share of the information taken off).
+//!   own noise seed (its sine started at a phase drawn from the seed, as the analysis's own
+//!   runs); its stated sigma is what a laboratory would state, the scatter of one run at
+//!   that condition (the sample standard deviation of [`CALIBRATION_RUNS`] runs of the
+//!   shipped instrument with other seeds, floored at 1e-4 in gain, 0.01° in phase and
+//!   0.01 cm/s²; with 8 runs the χ² of a right model averaged 1.4 times its dof).
+//! * **Strength**: the offset's effect is `s` noise standard deviations in χ² distance, `s`
+//!   uniform in 2–24 ([`Seen::change_for`]): `±s·SE` where the parameter shows to first
+//!   order (SE its standard error alone in this design, from central differences of the
+//!   closed loop a quarter of a tolerance half-width either side, each the mean of 8 runs,
+//!   against the stated sigmas, with the loop noise's expected share of the information
+//!   taken off), `±√(2s/‖∂²y/∂p²/σ‖)` where it shows only to second order (the pickoff
+//!   phase, whose response is even about 0°; scored on `|change|`). A parameter a design
+//!   does not see (a change of its whole tolerance band is less than 1 SE: the spring, the
+//!   inertia and the torquer lag in both designs) is not hidden there and is listed.
 //!   The "2–10 tolerance widths" would put every parameter at hundreds of standard
-//!   errors (a 20-frequency table measures the damping to 0.2 %), where nothing can fail,
+//!   errors (a 20-frequency table measures the damping to 0.3 %), where nothing can fail,
 //!   and some below zero; the strength in SE is what decides detection, so it is drawn,
 //!   and the offset in tolerance half-widths is reported beside it.
 //! * **Scored**: named exactly (selected), or as a confounded partner of what is selected;
@@ -29,11 +35,8 @@
 //! naming at ≥ 6 SE in ≥ 95 % of the sets, coverage in the 99 % band of Binomial(n, 0.95)
 //! when there are at least 20 exact namings, confident misnamings and false selections on
 //! unperturbed sets each consistent with at most 5 % (one-sided binomial test at 1 %). The
-//! CI subset asserts the false selections only. **Today the full campaign fails**: the
-//! pipeline names the torquer lag and the pickoff phase in none of their sets and often
-//! names the pickoff gain for the damping or the pendulosity without saying they are
-//! indistinguishable (`docs/discovery.md`, "Where it fails"); the campaign is the measure of
-//! that work, not a claim that it is done.
+//! CI subset asserts the false selections only. What the full campaign measures today is in
+//! `docs/discovery.md` ("Where it fails").
 
 use std::fmt::Write as _;
 use std::sync::OnceLock;

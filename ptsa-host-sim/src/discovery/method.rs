@@ -335,6 +335,10 @@ pub struct Discovery {
     pub untestable: Vec<CandidateId>,
     /// Candidates the nuisance terms make untestable.
     pub untestable_nuisance: Vec<CandidateId>,
+    /// Parameters the simulated instrument's file gives no tolerance (the amplifier gain
+    /// and the ADC offset of the shipped file): never candidates, whatever the data
+    /// (also in `untestable`).
+    pub untoleranced: Vec<CandidateId>,
     /// Groups of testable candidates with pairwise `|cos| > confound_cos` (before any fit).
     pub confounded_groups: Vec<Vec<CandidateId>>,
     /// The family (testable candidates).
@@ -1002,6 +1006,13 @@ pub fn discover(
         steps: f.steps.clone(),
         untestable: f.untestable.clone(),
         untestable_nuisance: f.untestable_nuisance.clone(),
+        untoleranced: sim.instrument().map_or_else(Vec::new, |i| {
+            f.untestable
+                .iter()
+                .copied()
+                .filter(|id| id.parameter_key().is_some_and(|k| i.tolerance(k).is_none()))
+                .collect()
+        }),
         confounded_groups: groups,
         family_size: f.family.len(),
         family: f.family.clone(),

@@ -148,11 +148,24 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             parts.join(", ")
         }
     );
-    if !d.untestable.is_empty() {
+    let unseen: Vec<CandidateId> = d
+        .untestable
+        .iter()
+        .copied()
+        .filter(|id| !d.untoleranced.contains(id))
+        .collect();
+    if !unseen.is_empty() {
         let _ = writeln!(
             s,
             "not testable here (no signature in this data set): {}",
-            names(&d.untestable)
+            names(&unseen)
+        );
+    }
+    if !d.untoleranced.is_empty() {
+        let _ = writeln!(
+            s,
+            "not candidates (the instrument file gives them no tolerance): {}",
+            names(&d.untoleranced)
         );
     }
     if !d.untestable_nuisance.is_empty() {

@@ -44,6 +44,12 @@ pub trait Simulator: Sync {
         use rayon::prelude::*;
         jobs.par_iter().map(|(c, e)| self.observe(c, e)).collect()
     }
+    /// The same simulator with its runs' seeds moved by `offset` (an independent draw of
+    /// its scatter), if it has a scatter; `None` for a deterministic model.
+    fn reseeded(&self, offset: u64) -> Option<Box<dyn Simulator>> {
+        let _ = offset;
+        None
+    }
     /// The 1 σ scatter of the baseline prediction of each of a row's observations (as
     /// [`Simulator::observe`]), from the simulator's own noise: 0 for a deterministic model.
     /// The analysis adds it to a stated sigma in quadrature.
@@ -269,6 +275,16 @@ impl Simulator for ClosedLoopSimulator {
     /// limit cycle's beat against the input about as much as a measured row's.
     fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
         response_runs(&self.instrument, cond, effects, &self.options).0
+    }
+
+    fn reseeded(&self, offset: u64) -> Option<Box<dyn Simulator>> {
+        Some(Box::new(ClosedLoopSimulator {
+            instrument: self.instrument.clone(),
+            options: crate::sim::SimOptions {
+                seed: self.options.seed.wrapping_add(offset),
+                ..self.options
+            },
+        }))
     }
 
     /// Every run of every row on the batch engine (a response row's [`RESPONSE_SEEDS`]
