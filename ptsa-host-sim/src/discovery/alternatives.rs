@@ -48,6 +48,10 @@ pub const SWAP_MARGIN: f64 = 3.0;
 /// 20-frequency table, where six steps left three and cost partners their χ²).
 pub const GOLDEN_STEPS: usize = 10;
 
+/// Times the grid of a search may grow outward by half again on a side whose end is the
+/// best there (to 2·1.5³ ≈ 6.8 times the distance to the band's edge).
+pub const GRID_EXTENSIONS: usize = 3;
+
 /// Offset of the seeds of the fresh evaluations of the check (the module docs) from the
 /// simulator's own.
 pub const FRESH_SEEDS: u64 = 1000;
@@ -172,7 +176,36 @@ fn best_change(
         t.add(id, d);
         scorer.chi2(&t)
     };
-    let chi: Vec<Option<f64>> = grid.iter().map(|&d| score(d)).collect();
+    let mut chi: Vec<Option<f64>> = grid.iter().map(|&d| score(d)).collect();
+    // While an end of the grid is the best on its side, the grid goes on outward by half
+    // again (a change beyond twice the distance to the band's edge: a 21° phase error
+    // against a ±10° band), at most [`GRID_EXTENSIONS`] times a side.
+    for _ in 0..GRID_EXTENSIONS {
+        let mut grew = false;
+        for end in [0, grid.len() - 1] {
+            let inner = if end == 0 { 1 } else { end - 1 };
+            let better = match (chi[end], chi.get(inner).copied().flatten()) {
+                (Some(a), Some(b)) => a < b,
+                _ => false,
+            };
+            let d = 1.5 * grid[end];
+            if better && grid[end] != 0.0 && valid(d) {
+                let c = score(d);
+                if end == 0 {
+                    grid.insert(0, d);
+                    chi.insert(0, c);
+                } else {
+                    grid.push(d);
+                    chi.push(c);
+                }
+                grew = true;
+                break;
+            }
+        }
+        if !grew {
+            break;
+        }
+    }
     let (i, c) = chi
         .iter()
         .enumerate()
@@ -277,46 +310,54 @@ pub(crate) fn check(
             .filter(|&&b| !params.iter().any(|&j| selected[j].id == b))
             .filter_map(|&b| best_change(&scorer, &rest, b, chi_a + REACH).map(|(d, c)| (b, d, c)))
             .collect();
-        // Each χ² found is the least of some thirty evaluations with the loop's own scatter
-        // in them, and the selected parameter's the least of Gauss–Newton's iterates: both
-        // biased low, by different amounts. The decisions use a fresh evaluation of each
-        // point with runs of other seeds (`Simulator::reseeded`), where the simulator has a
-        // scatter.
-        let (chi_a, tried) = match &fresh {
+        // Each χ² found is the least of some thirty evaluations with the loop's scatter in
+        // them, and the selected parameter's the least of Gauss–Newton's iterates: both
+        // biased low, by different amounts, and two seeds' χ² of one model differ by about
+        // ten. So a swap needs a fresh evaluation of both points with runs of other seeds
+        // (`Simulator::reseeded`) to agree, and a partner is judged on the mean of the two
+        // evaluations' differences.
+        let (chi_a2, fresh_c): (f64, Vec<f64>) = match &fresh {
             Some(f2) => {
                 let Some(chi_a2) = f2.chi2(&theta) else {
                     continue;
                 };
-                let again: Vec<(CandidateId, f64, f64)> = found
+                let again: Vec<f64> = found
                     .par_iter()
-                    .filter_map(|&(b, d, c)| {
+                    .map(|&(b, d, c)| {
                         if c > chi_a + REACH {
-                            return Some((b, d, c - chi_a + chi_a2));
+                            return c - chi_a + chi_a2;
                         }
                         let mut t = rest;
                         t.add(b, d);
-                        f2.chi2(&t).map(|c2| (b, d, c2))
+                        f2.chi2(&t).unwrap_or(f64::INFINITY)
                     })
                     .collect();
                 (chi_a2, again)
             }
-            None => (chi_a, found),
+            None => (chi_a, found.iter().map(|x| x.2).collect()),
         };
         let similar = |c: f64, chi: f64| not_worse(c, chi, dof, f.stated(), level);
+        // (other, its change, its χ² relative to the selected one's: mean of both
+        // evaluations, and the fresh one alone)
+        let tried: Vec<(CandidateId, f64, f64, f64)> = found
+            .iter()
+            .zip(&fresh_c)
+            .map(|(&(b, d, c1), &c2)| (b, d, 0.5 * ((c1 - chi_a) + (c2 - chi_a2)), c2 - chi_a2))
+            .collect();
         let best = tried
             .iter()
             .copied()
-            .min_by(|x, y| x.2.total_cmp(&y.2))
-            .filter(|&(_, _, c)| c < chi_a - SWAP_MARGIN && !similar(chi_a, c));
+            .min_by(|x, y| x.3.total_cmp(&y.3))
+            .filter(|&(_, _, _, dc)| dc < -SWAP_MARGIN && !similar(chi_a2, chi_a2 + dc));
         let s = &mut selected[k];
-        if let Some((b, d, chi_b)) = best {
+        if let Some((b, d, mean_b, _)) = best {
             let old = s.id;
             s.id = b;
             s.coef = d;
             s.confounded
                 .retain(|(o, _)| *o != b && o.parameter_key().is_none());
-            for &(o, od, oc) in &tried {
-                if o != b && similar(oc, chi_b) {
+            for &(o, od, mean_o, _) in &tried {
+                if o != b && similar(chi_a + mean_o, chi_a + mean_b) {
                     s.confounded.push((o, od / d));
                 }
             }
@@ -324,8 +365,8 @@ pub(crate) fn check(
             theta.set(b, d);
             changed = true;
         } else {
-            for &(o, od, oc) in &tried {
-                if similar(oc, chi_a) && !s.confounded.iter().any(|(c, _)| *c == o) {
+            for &(o, od, mean_o, _) in &tried {
+                if similar(chi_a + mean_o, chi_a) && !s.confounded.iter().any(|(c, _)| *c == o) {
                     let factor = if s.coef == 0.0 { 0.0 } else { od / s.coef };
                     s.confounded.push((o, factor));
                 }
