@@ -1,32 +1,40 @@
-//! Which other parameter of the loop could explain the data as well as a selected one.
+//! Which other parameter of the loop could explain the data as well as a selected one, and
+//! what the data do not say about the selected ones.
 //!
 //! A parameter's signature in the selection is its central-difference sensitivity at the
 //! instrument file's value. Some parameters act far from linearly over their tolerance band:
-//! the pickoff's phase error acts as `cos φ` about φ = 0 (no first-order effect at all),
-//! the torquer's lag changes the pulse shape once it nears the 15.6 µs clock period. Their
-//! data then look like another parameter's sensitivity, which the selection takes. So for
-//! every selected parameter, each other parameter of the instrument file is put in its
-//! place through the closed loop, on a grid over and beyond its tolerance band (the other
-//! selected parameters at their fitted values, the additive and nuisance terms refitted),
-//! and its best χ² compared with the selected one's:
+//! the pickoff's phase error acts as `cos φ` about φ = 0 (no first-order effect at all), and
+//! in a response table the loop gain's three factors (pendulosity, pickoff scale factor,
+//! amplifier gain) and the damping move the response alike. So for every selected
+//! parameter, each other parameter of the instrument file is put in its place through the
+//! closed loop, on a grid over and beyond its tolerance band (the other selected parameters
+//! at their fitted values, the additive and nuisance terms refitted), and its best χ²
+//! compared with the selected one's on a fresh evaluation with runs of other seeds (each
+//! χ² found is the least of many noisy ones, and two seeds' χ² of one model differ by
+//! about ten):
 //!
-//! * significantly better (the selected one's χ² increase over it has p ≤ α/m, and by at
-//!   least [`SWAP_MARGIN`]): the other parameter is named instead, and Gauss–Newton refines
-//!   it from the search's best (the least of about a hundred noisy closed-loop χ² values is
-//!   biased low, so a mere improvement is not enough);
-//! * not significantly worse (the χ² increase has p > α/m by the selection's step test,
-//!   the larger of the χ² and the F p-value, at its first Holm level): it is named as a
-//!   partner ("indistinguishable here"), with the ratio of the two changes as its factor;
+//! * significantly better in the fresh evaluation (the selected one's χ² increase over it
+//!   has p ≤ α/m, and by at least [`SWAP_MARGIN`]): the other parameter is named instead,
+//!   and Gauss–Newton refines it from the search's best;
+//! * not significantly worse on the mean of the two evaluations' differences (p > α/m by
+//!   the selection's step test, the larger of the χ² and the F p-value, at its first Holm
+//!   level): it is named as a partner ("indistinguishable here"), with the ratio of the two
+//!   changes as its factor;
 //! * otherwise the data tell them apart and nothing changes.
 //!
-//! The search: the grid [`GRID`], then [`GOLDEN_STEPS`] golden-section steps between the
-//! grid's best point's neighbours. Cost: about fifteen closed-loop passes over the rows per
-//! other parameter, only when a parameter is selected (or scanned for, when none is).
+//! The search: the grid [`GRID`], grown outward while an end is the best on its side (at
+//! most [`GRID_EXTENSIONS`] times), then [`GOLDEN_STEPS`] golden-section steps between the
+//! neighbours of the grid's best point and of the best on the other side of the file's
+//! value, for parameters within [`REACH`]. Cost: about fifteen to thirty closed-loop passes
+//! over the rows per other parameter, only when a parameter is selected (or scanned for,
+//! when none is).
 //!
-//! Measured (`cargo xtask hidden --parameters --sets 10`, `docs/discovery.md`): with the
-//! check and the scan the hidden parameter is named at ≥ 6 SE in 105 of 115 sets (61 %
-//! before), another named outright in 10 of 140 (31 before), but the refined intervals
-//! cover the truth in only 80 % of the exact namings.
+//! Also here: `prune` drops a second selected parameter that only took up the first's
+//! curvature, `scan` searches every parameter when none is selected and the model fails
+//! its χ² test, and `mirror` says when the fitted value mirrored about the file's fits
+//! as well (the sign of the change is not in the data).
+//!
+//! Measured: `docs/discovery.md`, "Where it fails" (`cargo xtask hidden --parameters`).
 
 use rayon::prelude::*;
 
