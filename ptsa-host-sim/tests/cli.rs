@@ -1014,7 +1014,9 @@ fn discover_reads_case_frames_and_refuses_bad_ones() {
     refused(
         &["discover", "--candidates", "foo", "--out", "out"],
         2,
-        &["unknown candidate `foo`; expected one of: anisoelasticity, anisoinertia, bias,"],
+        &[
+            "unknown candidate `foo`; expected one of: adc_offset, amplifier_gain, anisoelasticity, anisoinertia, bias,",
+        ],
     );
     refused(
         &["discover", "--candidates", "anisoinertia,", "--out", "out"],

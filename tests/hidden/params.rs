@@ -35,8 +35,9 @@
 //! naming at ≥ 6 SE in ≥ 95 % of the sets, coverage in the 99 % band of Binomial(n, 0.95)
 //! when there are at least 20 exact namings, confident misnamings and false selections on
 //! unperturbed sets each consistent with at most 5 % (one-sided binomial test at 1 %). The
-//! CI subset asserts the false selections only. What the full campaign measures today is in
-//! `docs/discovery.md` ("Where it fails").
+//! CI subset (2 sets per parameter and design) asserts the same, detection less one
+//! binomial standard error. What the full campaign measures is in `docs/discovery.md`
+//! ("Where it fails").
 
 use std::fmt::Write as _;
 use std::sync::OnceLock;
@@ -580,9 +581,9 @@ impl ParamCampaign {
         (either6, coverage)
     }
 
-    /// The asserted rates that are not met. `ci`: only what the CI subset asserts, the
-    /// false selections on unperturbed sets (the detection, coverage and misnaming rates of
-    /// a few sets per parameter are shown, not asserted: see the module docs).
+    /// The asserted rates that are not met. `ci`: the CI subset's few sets, where the
+    /// detection floor is 95 % less one binomial standard error (coverage is asserted from
+    /// 20 exact namings, which the subset does not reach).
     #[must_use]
     pub fn failures(&self, ci: bool) -> Vec<String> {
         let mut f = self.null_failures();
@@ -590,9 +591,6 @@ impl ParamCampaign {
             if let Some(e) = &o.error {
                 f.push(format!("set {} refused: {e}", o.seed));
             }
-        }
-        if ci {
-            return f;
         }
         let mis = PARAMETERS.iter().fold(Count::default(), |mut a, &id| {
             let c = self.misnamed(Some(id));
@@ -608,11 +606,19 @@ impl ParamCampaign {
             ));
         }
         let (either6, coverage) = self.perturbed();
-        if either6.n == 0 || either6.rate() < 0.95 {
+        // The CI subset's few sets: 95 % less one binomial standard error.
+        #[allow(clippy::cast_precision_loss)]
+        let floor = if ci {
+            0.95 - (0.05 * 0.95 / either6.n.max(1) as f64).sqrt()
+        } else {
+            0.95
+        };
+        if either6.n == 0 || either6.rate() < floor {
             f.push(format!(
-                "named (exactly or as a partner) at >= 6 SE: {} = {:.1}% < 95%",
+                "named (exactly or as a partner) at >= 6 SE: {} = {:.1}% < {:.1}%",
                 either6.cell(),
-                100.0 * either6.rate()
+                100.0 * either6.rate(),
+                100.0 * floor
             ));
         }
         if coverage.n >= 20 {
