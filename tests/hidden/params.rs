@@ -44,10 +44,9 @@ use std::sync::OnceLock;
 use std::time::Instant;
 
 use ptsa_host_sim::condition::{IA, RowKind};
-use ptsa_host_sim::discovery::sim::{ClosedLoopSimulator, response_of};
+use ptsa_host_sim::discovery::sim::{ClosedLoopSimulator, runs_of};
 use ptsa_host_sim::discovery::{Options, discover};
 use ptsa_host_sim::{CandidateId, Condition, Effects, Instrument, SimOptions};
-use rayon::prelude::*;
 
 use super::campaign::{binomial_interval, binomial_upper_tail};
 use rand::Rng as _;
@@ -130,20 +129,24 @@ impl ParamDesign {
     }
 }
 
-/// One row measured with `seed`: `[value]` or `[gain, phase_deg]`.
-fn measure_row(instr: &Instrument, row: &Condition, seed: u64) -> Vec<f64> {
-    let opts = SimOptions {
-        seed,
-        ..SimOptions::default()
-    };
-    if row.kind == RowKind::Response {
-        response_of(instr, row, &Effects::NONE, &opts).to_vec()
-    } else {
-        vec![
-            ptsa_host_sim::sim::simulate_condition(instr, row, &Effects::NONE, &opts)
-                .indicated_cm_s2,
-        ]
-    }
+/// Each `(row, seed)` measured once: `[value]` or `[gain, phase_deg]`, all on the batch
+/// engine ([`runs_of`]; bit for bit the single runs).
+fn measure_rows(instr: &Instrument, jobs: &[(&Condition, u64)]) -> Vec<Vec<f64>> {
+    let runs: Vec<(&Condition, &Effects, u64)> =
+        jobs.iter().map(|&(r, s)| (r, &Effects::NONE, s)).collect();
+    runs_of(instr, &runs, &SimOptions::default())
+}
+
+/// Each of `rows` measured with seeds `first`, `first + 1`, ... (`n` runs): per row, its
+/// runs.
+fn repeated(instr: &Instrument, rows: &[Condition], first: u64, n: u64) -> Vec<Vec<Vec<f64>>> {
+    let jobs: Vec<(&Condition, u64)> = rows
+        .iter()
+        .flat_map(|r| (0..n).map(move |j| (r, first + j)))
+        .collect();
+    let all = measure_rows(instr, &jobs);
+    #[allow(clippy::cast_possible_truncation)]
+    all.chunks(n as usize).map(<[Vec<f64>]>::to_vec).collect()
 }
 
 /// Each row's stated sigmas (see the module docs), computed once per design.
@@ -155,13 +158,10 @@ fn calibration(design: ParamDesign) -> &'static Vec<Vec<f64>> {
         .unwrap_or(0);
     CAL[k].get_or_init(|| {
         let instr = Instrument::kearfott_2401();
-        design
-            .rows(&instr)
-            .par_iter()
-            .map(|r| {
-                let runs: Vec<Vec<f64>> = (0..CALIBRATION_RUNS)
-                    .map(|j| measure_row(&instr, r, 7000 + j))
-                    .collect();
+        let rows = design.rows(&instr);
+        rows.iter()
+            .zip(repeated(&instr, &rows, 7000, CALIBRATION_RUNS))
+            .map(|(r, runs)| {
                 let floor = if r.kind == RowKind::Response {
                     vec![1e-4, 0.01]
                 } else {
@@ -241,11 +241,9 @@ type Means = Vec<Vec<f64>>;
 
 /// The mean observations of `STRENGTH_RUNS` runs (seeds 11, 12, ...) of each row.
 fn mean_rows(instr: &Instrument, rows: &[Condition]) -> Means {
-    rows.par_iter()
-        .map(|r| {
-            let runs: Vec<Vec<f64>> = (0..STRENGTH_RUNS)
-                .map(|j| measure_row(instr, r, 11 + j))
-                .collect();
+    repeated(instr, rows, 11, STRENGTH_RUNS)
+        .into_iter()
+        .map(|runs| {
             #[allow(clippy::cast_precision_loss)]
             let n = runs.len() as f64;
             (0..runs[0].len())
@@ -365,11 +363,12 @@ pub fn generate(seed: u64, id: Option<CandidateId>, design: ParamDesign) -> Para
         truth.even = matches!(how, Seen::Even(_));
     }
     let noise_seed = r.random::<u64>();
-    let measured: Vec<Vec<f64>> = rows
-        .par_iter()
+    let jobs: Vec<(&Condition, u64)> = rows
+        .iter()
         .enumerate()
-        .map(|(k, row)| measure_row(&truth_instr, row, noise_seed.wrapping_add(k as u64)))
+        .map(|(k, row)| (row, noise_seed.wrapping_add(k as u64)))
         .collect();
+    let measured = measure_rows(&truth_instr, &jobs);
     for ((row, m), s) in rows.iter_mut().zip(&measured).zip(cal) {
         if row.kind == RowKind::Response {
             row.measured_gain = Some(m[0]);

@@ -287,103 +287,38 @@ impl Simulator for ClosedLoopSimulator {
         }))
     }
 
-    /// Every run of every row on the batch engine (a response row's [`RESPONSE_SEEDS`]
-    /// runs, a difference row's condition and reference, an absolute row's run), in two
-    /// calls (response runs have their own window and harmonic); the lanes are the single
-    /// loop's runs bit for bit, so this is [`Simulator::observe`] row by row.
+    /// Every run of every row on the batch engine in one [`runs_of`] call (a response row's
+    /// [`RESPONSE_SEEDS`] runs, a difference or absolute row's run); the lanes are the
+    /// single loop's runs bit for bit, so this is [`Simulator::observe`] row by row.
     fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
-        let opts = &self.options;
-        let instr = &self.instrument;
-        let ropts = response_options(opts);
-        // Response rows' runs: (job, conditions with their start phases).
-        let shifted: Vec<(usize, Vec<Condition>)> = jobs
-            .iter()
-            .enumerate()
-            .filter(|(_, (c, _))| c.kind == RowKind::Response)
-            .map(|(k, (c, _))| {
-                let runs = (0..RESPONSE_SEEDS)
-                    .map(|j| started(c, opts.seed.wrapping_add(j)))
-                    .collect();
-                (k, runs)
-            })
-            .collect();
-        let mut rjobs = Vec::new();
-        for (k, runs) in &shifted {
-            for (j, c) in (0u64..).zip(runs) {
-                rjobs.push(crate::batch::Job {
-                    instr,
-                    cond: c,
-                    effects: *jobs[*k].1,
-                    seed: opts.seed.wrapping_add(j),
-                });
-            }
-        }
-        // Other rows: the condition (and a difference row's reference) with the options'
-        // seed.
-        let refs: Vec<(usize, Condition)> = jobs
-            .iter()
-            .enumerate()
-            .filter(|(_, (c, _))| c.kind == RowKind::Difference)
-            .map(|(k, (c, _))| (k, c.reference()))
-            .collect();
-        let mut ojobs = Vec::new();
-        let mut slots: Vec<(usize, bool)> = Vec::new();
-        for (k, (c, e)) in jobs.iter().enumerate() {
-            if c.kind != RowKind::Response {
-                ojobs.push(crate::batch::Job {
-                    instr,
-                    cond: c,
-                    effects: **e,
-                    seed: opts.seed,
-                });
-                slots.push((k, false));
-            }
-        }
-        for (k, r) in &refs {
-            ojobs.push(crate::batch::Job {
-                instr,
-                cond: r,
-                effects: *jobs[*k].1,
-                seed: opts.seed,
-            });
-            slots.push((*k, true));
-        }
-        let rres = crate::batch::simulate_jobs(&rjobs, &ropts);
-        let ores = crate::batch::simulate_jobs(&ojobs, opts);
-        let mut out: Vec<Vec<f64>> = vec![Vec::new(); jobs.len()];
-        let mut next = 0;
-        for (k, runs) in &shifted {
-            let r: Vec<[f64; 2]> = runs
-                .iter()
-                .zip(&rres[next..next + runs.len()])
-                .map(|(c, res)| response_from(jobs[*k].0, c, res))
-                .collect();
-            next += runs.len();
-            out[*k] = mean_of_runs(&r).0.to_vec();
-        }
-        let mut value = vec![0.0; jobs.len()];
-        for ((k, reference), res) in slots.iter().zip(&ores) {
-            if *reference {
-                value[*k] -= res.indicated_cm_s2;
+        let seed = self.options.seed;
+        let mut runs: Vec<(&Condition, &Effects, u64)> = Vec::new();
+        for &(c, e) in jobs {
+            if c.kind == RowKind::Response {
+                runs.extend((0..RESPONSE_SEEDS).map(|j| (c, e, seed.wrapping_add(j))));
             } else {
-                value[*k] += res.indicated_cm_s2;
+                runs.push((c, e, seed));
             }
         }
-        for (k, (c, _)) in jobs.iter().enumerate() {
-            if c.kind != RowKind::Response {
-                out[k] = vec![value[k]];
-            }
-        }
-        out
-    }
-
-    fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
-        Some(closed_loop_linear(
-            &self.instrument,
-            &self.options.config,
-            f_hz,
-            effects,
-        ))
+        let mut out = runs_of(&self.instrument, &runs, &self.options).into_iter();
+        jobs.iter()
+            .map(|(c, _)| {
+                if c.kind == RowKind::Response {
+                    let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
+                        .map(|_| {
+                            let v = out.next().unwrap_or_default();
+                            [
+                                v.first().copied().unwrap_or(f64::NAN),
+                                v.get(1).copied().unwrap_or(f64::NAN),
+                            ]
+                        })
+                        .collect();
+                    mean_of_runs(&r).0.to_vec()
+                } else {
+                    out.next().unwrap_or_default()
+                }
+            })
+            .collect()
     }
 
     /// For a response row, the standard error of [`ClosedLoopSimulator::response`]'s mean:
@@ -490,6 +425,87 @@ fn started(cond: &Condition, seed: u64) -> Condition {
     let mut c = cond.clone();
     c.lin_deg[IA] += start_deg;
     c
+}
+
+/// One closed-loop run of each `(row, effects, seed)` of `instr` with `opts` (its seed
+/// replaced), all on the batch engine ([`crate::batch`]) in two calls (response runs have
+/// their own window and harmonic): `[gain, phase_deg]` for a response row, as
+/// [`response_of`]; `[indicated cm/s²]` for an absolute row and `[difference cm/s²]` for a
+/// difference row (the condition minus its reference), as
+/// [`crate::sim::simulate_condition`] and [`crate::sim::simulate_difference`]; bit for
+/// bit those single runs.
+#[must_use]
+pub fn runs_of(
+    instr: &Instrument,
+    jobs: &[(&Condition, &Effects, u64)],
+    opts: &crate::sim::SimOptions,
+) -> Vec<Vec<f64>> {
+    let ropts = response_options(opts);
+    // Response runs with their conditions started at their phases.
+    let shifted: Vec<(usize, Condition)> = jobs
+        .iter()
+        .enumerate()
+        .filter(|(_, (c, _, _))| c.kind == RowKind::Response)
+        .map(|(k, &(c, _, seed))| (k, started(c, seed)))
+        .collect();
+    let rjobs: Vec<crate::batch::Job<'_>> = shifted
+        .iter()
+        .map(|(k, c)| crate::batch::Job {
+            instr,
+            cond: c,
+            effects: *jobs[*k].1,
+            seed: jobs[*k].2,
+        })
+        .collect();
+    // The other rows' conditions, then the difference rows' references.
+    let refs: Vec<(usize, Condition)> = jobs
+        .iter()
+        .enumerate()
+        .filter(|(_, (c, _, _))| c.kind == RowKind::Difference)
+        .map(|(k, (c, _, _))| (k, c.reference()))
+        .collect();
+    let mut ojobs = Vec::new();
+    let mut slots: Vec<(usize, bool)> = Vec::new();
+    for (k, &(c, e, seed)) in jobs.iter().enumerate() {
+        if c.kind != RowKind::Response {
+            ojobs.push(crate::batch::Job {
+                instr,
+                cond: c,
+                effects: *e,
+                seed,
+            });
+            slots.push((k, false));
+        }
+    }
+    for (k, r) in &refs {
+        ojobs.push(crate::batch::Job {
+            instr,
+            cond: r,
+            effects: *jobs[*k].1,
+            seed: jobs[*k].2,
+        });
+        slots.push((*k, true));
+    }
+    let rres = crate::batch::simulate_jobs(&rjobs, &ropts);
+    let ores = crate::batch::simulate_jobs(&ojobs, opts);
+    let mut out: Vec<Vec<f64>> = vec![Vec::new(); jobs.len()];
+    for ((k, c), r) in shifted.iter().zip(&rres) {
+        out[*k] = response_from(jobs[*k].0, c, r).to_vec();
+    }
+    let mut value = vec![0.0; jobs.len()];
+    for ((k, reference), res) in slots.iter().zip(&ores) {
+        if *reference {
+            value[*k] -= res.indicated_cm_s2;
+        } else {
+            value[*k] += res.indicated_cm_s2;
+        }
+    }
+    for (k, (c, _, _)) in jobs.iter().enumerate() {
+        if c.kind != RowKind::Response {
+            out[k] = vec![value[k]];
+        }
+    }
+    out
 }
 
 /// `[gain, phase_deg]` of the run `r` of `started` (the row `cond` started at its phase).
