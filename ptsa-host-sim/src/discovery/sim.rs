@@ -321,6 +321,15 @@ impl Simulator for ClosedLoopSimulator {
             .collect()
     }
 
+    fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
+        Some(closed_loop_linear(
+            &self.instrument,
+            &self.options.config,
+            f_hz,
+            effects,
+        ))
+    }
+
     /// For a response row, the standard error of [`ClosedLoopSimulator::response`]'s mean:
     /// the sample standard deviation of the [`RESPONSE_SEEDS`] runs over their square root.
     fn observe_sigma(&self, cond: &Condition) -> Vec<f64> {
