@@ -75,6 +75,37 @@ pub const REACH: f64 = 400.0;
 /// value to the band's edge on that side.
 pub const GRID: [f64; 6] = [-2.0, -1.0, -0.5, 0.5, 1.0, 2.0];
 
+/// What every search here works on: the rows, their observations and the fit, the
+/// simulator, and the familywise α.
+#[derive(Clone, Copy)]
+pub(crate) struct Problem<'a> {
+    /// The caller's rows.
+    pub rows: &'a [Condition],
+    /// Their observations.
+    pub data: &'a Data,
+    /// The linear fit (nuisance terms, noise, family).
+    pub f: &'a Fitted,
+    /// The simulator.
+    pub sim: &'a dyn Simulator,
+    /// Familywise error rate.
+    pub alpha: f64,
+}
+
+impl<'a> Problem<'a> {
+    /// Rows, data, fit, simulator and α.
+    fn parts(
+        &self,
+    ) -> (
+        &'a [Condition],
+        &'a Data,
+        &'a Fitted,
+        &'a dyn Simulator,
+        f64,
+    ) {
+        (self.rows, self.data, self.f, self.sim, self.alpha)
+    }
+}
+
 /// The χ² of the data with the parameters at `theta` (the additive selected terms and the
 /// nuisance terms refitted linearly), or `None` if an observation is not finite.
 struct Scorer<'a> {
@@ -271,14 +302,8 @@ fn best_change(
 /// For every selected parameter, the other parameters that explain the data as well
 /// (added to its partners) or clearly better (named instead); returns whether a name
 /// changed (the caller then refines the parameters again).
-pub(crate) fn check(
-    rows: &[Condition],
-    data: &Data,
-    f: &Fitted,
-    selected: &mut [Selected],
-    sim: &dyn Simulator,
-    alpha: f64,
-) -> bool {
+pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected]) -> bool {
+    let (rows, data, f, sim, alpha) = p.parts();
     let params: Vec<usize> = (0..selected.len())
         .filter(|&k| selected[k].id.parameter_key().is_some())
         .collect();
@@ -410,14 +435,11 @@ fn not_worse(c: f64, chi: f64, dof: usize, stated: bool, level: f64) -> bool {
 /// least goes if the χ² is not significantly worse by the test of [`check`] (at α/m).
 /// Returns whether something was dropped.
 pub(crate) fn prune(
-    rows: &[Condition],
-    data: &Data,
-    f: &Fitted,
+    p: &Problem<'_>,
     selected: &mut Vec<Selected>,
-    sim: &dyn Simulator,
-    alpha: f64,
     refine: &(dyn Fn(&mut Vec<Selected>) + Sync),
 ) -> bool {
+    let (rows, data, f, sim, alpha) = p.parts();
     #[allow(clippy::cast_precision_loss)]
     let level = alpha / f.family.len().max(1) as f64;
     let theta = |sel: &[Selected]| {
@@ -469,14 +491,8 @@ pub(crate) fn prune(
 /// then the response is even about the file's value and the data give the size of the
 /// change, not its sign (a pickoff phase error enters as its cosine). One closed-loop pass
 /// over the rows per selected parameter.
-pub(crate) fn mirror(
-    rows: &[Condition],
-    data: &Data,
-    f: &Fitted,
-    selected: &mut [Selected],
-    sim: &dyn Simulator,
-    alpha: f64,
-) {
+pub(crate) fn mirror(p: &Problem<'_>, selected: &mut [Selected]) {
+    let (rows, data, f, sim, alpha) = p.parts();
     let params: Vec<usize> = (0..selected.len())
         .filter(|&k| selected[k].id.parameter_key().is_some() && selected[k].coef != 0.0)
         .collect();
@@ -539,14 +555,8 @@ fn profile_se(scorer: &Scorer<'_>, id: CandidateId, d: f64, chi: f64, dof: f64) 
 /// from linearly (a torquer lag near the clock period, a phase error about 0°) may have no
 /// usable sensitivity at the file's value, so the linear selection passes it by. Returns
 /// whether one was selected (the caller then refines it and runs [`check`]).
-pub(crate) fn scan(
-    rows: &[Condition],
-    data: &Data,
-    f: &Fitted,
-    selected: &mut Vec<Selected>,
-    sim: &dyn Simulator,
-    alpha: f64,
-) -> bool {
+pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>) -> bool {
+    let (rows, data, f, sim, alpha) = p.parts();
     let dynamic = data
         .quantity
         .iter()

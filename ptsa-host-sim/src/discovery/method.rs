@@ -925,16 +925,23 @@ pub fn discover(
     let f = fit::fit(&data, &all, settings);
     let mut selected = selected_report(&data, &f, opts, sim);
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
-    super::alternatives::prune(rows, &data, &f, &mut selected, sim, opts.alpha, &|s| {
+    let problem = super::alternatives::Problem {
+        rows,
+        data: &data,
+        f: &f,
+        sim,
+        alpha: opts.alpha,
+    };
+    super::alternatives::prune(&problem, &mut selected, &|s| {
         refine_parameters(rows, &data, &f, s, sim, opts);
     });
-    if super::alternatives::scan(rows, &data, &f, &mut selected, sim, opts.alpha) {
+    if super::alternatives::scan(&problem, &mut selected) {
         refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     }
-    if super::alternatives::check(rows, &data, &f, &mut selected, sim, opts.alpha) {
+    if super::alternatives::check(&problem, &mut selected) {
         refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     }
-    super::alternatives::mirror(rows, &data, &f, &mut selected, sim, opts.alpha);
+    super::alternatives::mirror(&problem, &mut selected);
     parameter_values(&mut selected, sim);
     let mut effects = Effects::NONE;
     for s in &selected {
