@@ -452,7 +452,7 @@ pub fn sensitivities(
             // closed loop's own scatter (about 1e-4 cm/s² in a static row), which would
             // otherwise pass for a sensitivity and crowd the family.
             let moves = (0..d.n()).any(|k| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale(d, k));
-            let null = !moves || noise_only(d, &col, h);
+            let null = !moves || noise_only(d, &col, h, half);
             Signature { id, col, null }
         })
         .collect()
@@ -473,11 +473,10 @@ pub const SENSITIVITY_ALPHA: f64 = 1e-3;
 /// first-order candidate, and only `discovery::alternatives` can name it. An observation
 /// without a simulator scatter (a static value) counts as a signal when it moves: the
 /// [`PARAMETER_MIN_MOVE`] rule decides there.
-fn noise_only(d: &Data, col: &[f64], h: f64) -> bool {
+fn noise_only(d: &Data, col: &[f64], h: f64, half: f64) -> bool {
     let noisy: Vec<usize> = (0..d.n()).filter(|&k| d.sim_sigma[k] > 0.0).collect();
-    if noisy.is_empty()
-        || noisy.len() < d.n() && (0..d.n()).any(|k| d.sim_sigma[k] == 0.0 && col[k] != 0.0)
-    {
+    let moved = |k: usize| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale(d, k);
+    if noisy.is_empty() || (0..d.n()).any(|k| d.sim_sigma[k] == 0.0 && moved(k)) {
         return false;
     }
     let (mut num, mut a_sum, mut a2_sum) = (0.0, 0.0, 0.0);
