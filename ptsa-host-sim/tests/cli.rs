@@ -985,7 +985,10 @@ fn discover_reads_case_frames_and_refuses_bad_ones() {
     );
     assert!(out.contains("selected: anisoinertia"), "{out}");
     assert!(err.contains("8 rows"), "{err}");
-    assert_eq!(names(&d.join("out")), ["bom.csv", "bom.png", "bom.svg"]);
+    assert_eq!(
+        names(&d.join("out")),
+        ["bom-discover.csv", "bom-discover.png", "bom-discover.svg"]
+    );
 
     let semi = body.replace(',', ";");
     refused_with(

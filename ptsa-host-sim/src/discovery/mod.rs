@@ -55,6 +55,19 @@ pub struct Request {
     pub write_instrument: Option<InstrumentOut>,
 }
 
+/// The stem of `ptsa discover`'s files for the data file `data` (`<name>-discover`, the name
+/// without `.case.csv` or `.csv`): the per-row table `<stem>.csv`, the plots `<stem>.png`,
+/// `.svg` and `<stem>-bode.*`. The suffix keeps them apart from the user's own files in the
+/// same folder (above all the data file itself, whose name they share).
+#[must_use]
+pub fn output_stem(data: Option<&std::path::Path>) -> String {
+    let name = data.and_then(std::path::Path::file_stem).map_or_else(
+        || "report".to_string(),
+        |s| s.to_string_lossy().into_owned(),
+    );
+    format!("{}-discover", name.trim_end_matches(".case"))
+}
+
 /// Where `--write-instrument` goes and what it starts from.
 #[derive(Clone, Debug)]
 pub struct InstrumentOut {
@@ -104,11 +117,7 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         None => None,
     };
     if let Some(out) = &req.out {
-        let stem = path.file_stem().map_or_else(
-            || "discover".to_string(),
-            |s| s.to_string_lossy().into_owned(),
-        );
-        let stem = stem.trim_end_matches(".case").to_string();
+        let stem = output_stem(Some(path));
         let files = show::write_outputs(out, &stem, &d)
             .with_context(|| format!("writing {}", out.display()))?;
         let names: Vec<String> = files
@@ -275,7 +284,10 @@ mod tests {
         let v: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
         assert_eq!(v["effects"][0]["name"], "anisoinertia");
         for ext in ["csv", "png", "svg"] {
-            assert!(out.join(format!("r890-table-6.1.{ext}")).exists(), "{ext}");
+            assert!(
+                out.join(format!("r890-table-6.1-discover.{ext}")).exists(),
+                "{ext}"
+            );
         }
         let bad = base.path().join("bad.case.csv");
         std::fs::write(&bad, "label,g_ia,measured_cm_s2\nx,1,0.5\ny,1,zz\n").unwrap();

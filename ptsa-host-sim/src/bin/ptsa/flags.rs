@@ -3,6 +3,10 @@
 // The doc comments here are clap's `--help` text, printed as plain text: backticks around
 // column names and symbols (time_s, A_b, θ_my) would show up in the help verbatim.
 #![allow(clippy::doc_markdown, reason = "clap help text, not rustdoc")]
+#![allow(
+    clippy::struct_excessive_bools,
+    reason = "each bool is a command-line switch of its own"
+)]
 
 use std::path::PathBuf;
 
@@ -427,7 +431,9 @@ pub struct DiscoverArgs {
     /// --data, the object maps each report table's file name to its result.
     #[arg(long)]
     pub json: bool,
-    /// Folder for the per-row table (CSV) and plots (PNG, SVG).
+    /// Folder for the per-row table and plots, STEM-discover.csv, .png and .svg (STEM: the
+    /// data file's name without .case.csv or .csv; with response rows also
+    /// STEM-discover-bode.png and .svg); relative to the current folder.
     #[arg(long, value_name = "DIR", default_value = "out/discover")]
     pub out: PathBuf,
     /// Do not write the table and plots.
@@ -454,6 +460,10 @@ pub struct DiscoverArgs {
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,
+    /// Replace an existing --advice-out or --write-instrument file (never an input of the
+    /// run).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `ptsa predict`.
@@ -562,9 +572,13 @@ pub struct PlanArgs {
 /// Where `ptsa plan` writes.
 #[derive(Args, Debug, Clone)]
 pub struct PlanOut {
-    /// Write the case-frame file here (default: standard output).
+    /// Write the case-frame file here (default: standard output). An existing file is not
+    /// replaced without --force: it may hold the lab's measurements.
     #[arg(long, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// Replace an existing --out file (a warning says how many measured rows it held).
+    #[arg(long, requires = "out")]
+    pub force: bool,
 }
 
 fn positions(s: &str) -> Result<usize, String> {

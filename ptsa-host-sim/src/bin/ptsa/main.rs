@@ -6,6 +6,7 @@
 
 mod flags;
 mod paths;
+mod signals;
 mod work;
 
 use std::ffi::OsString;
@@ -37,6 +38,7 @@ use ptsa_host_sim::{Instrument, report};
 use work::Work;
 
 fn main() -> ExitCode {
+    signals::clean_up_on_signals();
     let cli = parse_cli();
     let mut out = Stdout::default();
     let result = run(cli, &mut out);
@@ -185,8 +187,22 @@ impl Write for Stdout {
     }
 }
 
-/// The instrument file (or the shipped one) and the name to show for it.
-/// The instrument file, its name for messages and its text.
+/// The files the command line names as inputs, by their flags: no output may replace them.
+fn inputs(cli: &Cli) -> Vec<(&'static str, Option<&Path>)> {
+    let mut v = vec![("--instrument", cli.instrument.as_deref())];
+    match &cli.cmd {
+        Some(Cmd::Discover(a)) => v.push(("--data", a.data.as_deref())),
+        Some(Cmd::Predict(a)) => {
+            v.push(("--data", Some(&a.data)));
+            v.push(("--effects", a.effects.as_deref()));
+        }
+        Some(Cmd::Response(a)) => v.push(("--counts", Some(&a.counts))),
+        _ => {}
+    }
+    v
+}
+
+/// The instrument file (or the shipped one), its name for messages and its text.
 fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String, String)> {
     Ok(match path {
         Some(p) => {
@@ -206,6 +222,7 @@ fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String, String)> 
 
 #[allow(clippy::too_many_lines)] // one match arm per subcommand
 fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
+    paths::inputs(inputs(&cli));
     let (instr, name, instr_text) = load_instrument(cli.instrument.as_deref())?;
     let checked = check_loop(&instr);
     if let Some(Cmd::Design {
@@ -351,7 +368,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 );
             }
             if let Some(t) = &trace {
-                paths::file("--trace", t)?;
+                paths::output_file("--trace", t, force)?;
             }
             static_cmd(
                 &instr,
@@ -457,7 +474,7 @@ fn emit_counting(o: &Output, dir: &OutArgs, already: usize, out: &mut dyn Write)
     eprintln!(
         "wrote {} into {}",
         plural((files.len() + already) as u64, "file"),
-        dir.out.display()
+        paths::shown(&dir.out)
     );
     Ok(())
 }
@@ -543,7 +560,11 @@ fn report_cmd(
         out,
     )?;
     bar.finish_and_clear();
-    eprintln!("report written to {} in {:.2} s", dir.display(), p.wall_s);
+    eprintln!(
+        "report written to {} in {:.2} s",
+        paths::shown(&dir),
+        p.wall_s
+    );
     Ok(())
 }
 
@@ -695,7 +716,17 @@ fn static_cmd(
 /// `ptsa response`: read and check the record, fit, write the plot, print the row.
 fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Result<()> {
     use ptsa_host_sim::response;
-    paths::folder("--out", &a.out.out)?;
+    let stem = format!(
+        "{}-response",
+        a.counts
+            .file_stem()
+            .map_or_else(|| "record".into(), |s| s.to_string_lossy())
+    );
+    paths::folder_with(
+        "--out",
+        &a.out.out,
+        &[format!("{stem}.png"), format!("{stem}.svg")],
+    )?;
     let name = a.counts.display().to_string();
     let gates = response::read(&a.counts)?;
     let n = gates.len();
@@ -759,12 +790,6 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         .label
         .clone()
         .unwrap_or_else(|| format!("{} Hz ({file})", a.freq_hz));
-    let stem = format!(
-        "{}-response",
-        a.counts
-            .file_stem()
-            .map_or_else(|| "record".into(), |s| s.to_string_lossy())
-    );
     let fig = response_figure(&stem, &label, &gates, &fit, instr.sf_cm_s2);
     let files = ptsa_host_sim::output::write_figure(&a.out.out, &fig)?;
     eprintln!(
@@ -783,7 +808,7 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
     eprintln!(
         "wrote {} into {}",
         plural(files.len() as u64, "file"),
-        a.out.out.display()
+        paths::shown(&a.out.out)
     );
     print_response_row(out, fit.row(&label), &fit, a.json)
 }
@@ -1181,13 +1206,17 @@ fn plan_cmd(instr: &Instrument, a: &PlanArgs, out: &mut dyn Write) -> Result<()>
     let text = discovery::caseframe::to_csv(&rows, &refs);
     match &dest.out {
         Some(p) => {
-            paths::file("--out", p)?;
+            let replaced =
+                paths::output_file("--out", p, dest.force)?.then(|| paths::what_is_replaced(p));
             ptsa_host_sim::output::write_atomic(p, text.as_bytes())?;
             eprintln!(
                 "wrote {} ({})",
                 p.display(),
                 ptsa_host_sim::output::count(rows.len() as u64, "row")
             );
+            if let Some(w) = replaced {
+                eprintln!("warning: --out {}: replaced {w} (--force)", p.display());
+            }
         }
         None => write!(out, "{text}")?,
     }
@@ -1202,7 +1231,11 @@ fn discover_cmd(
     out: &mut dyn Write,
 ) -> Result<()> {
     if let Some(dir) = &a.convert_report_data {
-        paths::folder("--convert-report-data", dir)?;
+        let names: Vec<String> = ptsa_host_sim::r890::case_files()?
+            .iter()
+            .map(|f| f.name.to_string())
+            .collect();
+        paths::folder_with("--convert-report-data", dir, &names)?;
         for p in ptsa_host_sim::r890::write_case_files(dir)? {
             eprintln!("wrote {}", p.display());
         }
@@ -1217,13 +1250,24 @@ fn discover_cmd(
         v
     };
     if !a.no_plots {
-        paths::folder("--out", &a.out)?;
+        let stem = discovery::output_stem(a.data.as_deref());
+        let names: Vec<String> = [".csv", ".png", ".svg", "-bode.png", "-bode.svg"]
+            .iter()
+            .map(|e| format!("{stem}{e}"))
+            .collect();
+        paths::folder_with("--out", &a.out, &names)?;
     }
-    if let Some(p) = &a.advice_out {
-        paths::file("--advice-out", p)?;
-    }
-    if let Some(p) = &a.write_instrument {
-        paths::file("--write-instrument", p)?;
+    let mut replaced = Vec::new();
+    for (flag, p) in [
+        ("--advice-out", &a.advice_out),
+        ("--write-instrument", &a.write_instrument),
+    ] {
+        if let Some(p) = p
+            && paths::output_file(flag, p, a.force)?
+        {
+            let before = std::fs::metadata(p).and_then(|m| m.modified()).ok();
+            replaced.push((flag, p, before, paths::what_is_replaced(p)));
+        }
     }
     let req = Request {
         data: a.data.clone(),
@@ -1246,5 +1290,12 @@ fn discover_cmd(
     let s = work::spinner("discover");
     let r = discovery::run(&req, &*sim, out);
     s.finish_and_clear();
+    if r.is_ok() {
+        for (flag, p, before, w) in replaced {
+            if std::fs::metadata(p).and_then(|m| m.modified()).ok() != before {
+                eprintln!("warning: {flag} {}: replaced {w} (--force)", p.display());
+            }
+        }
+    }
     r
 }

@@ -1,10 +1,80 @@
 //! Checks of the paths the program will write, made before any work runs: a run that
 //! cannot write its files is refused at once, with nothing written, instead of failing after
-//! the simulation with the operating system's words.
+//! the simulation with the operating system's words; an output is never one of the run's
+//! inputs (after links are resolved), and an existing single-file output is replaced only
+//! with `--force`.
 
 use std::path::Path;
 
 use anyhow::{Result, bail};
+use ptsa_host_sim::output::fs::{input_inside, input_named, protect};
+
+/// Record the files the run reads (`flag` names each in messages): no output may replace
+/// them, whatever the command (checked here before any work, and again by every write in
+/// `ptsa_host_sim::output::fs`).
+pub fn inputs<'a>(files: impl IntoIterator<Item = (&'a str, Option<&'a Path>)>) {
+    for (flag, p) in files {
+        if let Some(p) = p {
+            protect(p, &format!("the file given to {flag} ({})", p.display()));
+        }
+    }
+}
+
+/// Refuse `path` (an output of `flag`) when it is an input of the run.
+///
+/// # Errors
+/// `path` is the same file as an input.
+pub fn not_an_input(flag: &str, path: &Path) -> Result<()> {
+    if let Some(what) = input_named(path) {
+        bail!(
+            "{flag} {}: this is {what}; an output never replaces an input (expected another name for the output)",
+            path.display()
+        );
+    }
+    Ok(())
+}
+
+/// Outputs named `names` inside the folder `dir` (of `flag`): [`folder`]'s checks, and none
+/// of them may be an input of the run.
+///
+/// # Errors
+/// As [`folder`] and [`not_an_input`].
+pub fn folder_with(flag: &str, dir: &Path, names: &[String]) -> Result<()> {
+    folder(flag, dir)?;
+    for n in names {
+        let p = dir.join(n);
+        if let Some(what) = input_named(&p) {
+            bail!(
+                "{flag} {}: the output {} would be {what}; an output never replaces an input (expected another folder)",
+                dir.display(),
+                p.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// A single file to write (`plan --out`, `--advice-out`, `--write-instrument`, `--trace`):
+/// [`file()`]'s checks; never an input of the run, even with `--force`; an existing file only
+/// with `force` (the user's measurements are often in just such a file). Returns whether an
+/// existing file will be replaced.
+///
+/// # Errors
+/// As [`file()`]; the path is an input; it exists and `force` is off.
+pub fn output_file(flag: &str, path: &Path, force: bool) -> Result<bool> {
+    file(flag, path)?;
+    not_an_input(flag, path)?;
+    if std::fs::symlink_metadata(path).is_err() {
+        return Ok(false);
+    }
+    if !force {
+        bail!(
+            "{flag} {}: the file exists and is not replaced without --force (expected a new file name, or --force to replace it)",
+            path.display()
+        );
+    }
+    Ok(true)
+}
 
 /// The nearest part of `path` (itself or a parent) that exists and is not a folder, if any:
 /// nothing can be created below a file.
@@ -64,6 +134,44 @@ pub fn file(flag: &str, path: &Path) -> Result<()> {
     }
 }
 
+/// A folder for a message saying what was written: as given, and for a relative path also
+/// where it is (`report (/home/lab/ptsa/report)`), since outputs go below the current folder,
+/// which may be a sub-folder of the workspace (`cd ptsa-host-sim && cargo ptsa`).
+pub fn shown(p: &Path) -> String {
+    if p.is_absolute() {
+        return p.display().to_string();
+    }
+    match std::path::absolute(p) {
+        Ok(a) => format!("{} ({})", p.display(), a.display()),
+        Err(_) => p.display().to_string(),
+    }
+}
+
+/// What a file about to be replaced holds, for the warning of a forced replacement: the
+/// measured rows of a case-frame file (a day's measurements are often in just such a file),
+/// or its size in lines.
+pub fn what_is_replaced(path: &Path) -> String {
+    match ptsa_host_sim::discovery::caseframe::read(path) {
+        Ok(rows) => {
+            let m = rows.iter().filter(|r| r.is_measured()).count();
+            format!(
+                "a case-frame file of {}, {m} of them measured",
+                ptsa_host_sim::output::count(rows.len() as u64, "row"),
+            )
+        }
+        Err(_) => match std::fs::read(path) {
+            Ok(b) => format!(
+                "a file of {} that is not a case-frame file",
+                ptsa_host_sim::output::count(
+                    String::from_utf8_lossy(&b).lines().count() as u64,
+                    "line"
+                )
+            ),
+            Err(_) => "a file that cannot be read".to_string(),
+        },
+    }
+}
+
 /// The report folder, which the report replaces as a whole: besides [`folder`]'s checks,
 /// an existing folder must be empty or an earlier report (it holds `summary.md` and
 /// `design.txt`), so that no other folder is ever deleted by mistake (`--out .`,
@@ -76,6 +184,13 @@ pub fn report_folder(flag: &str, path: &Path) -> Result<()> {
     folder(flag, path)?;
     if !path.is_dir() {
         return Ok(());
+    }
+    if let Some((p, what)) = input_inside(path) {
+        bail!(
+            "{flag} {}: holds {} ({what}); the report replaces its folder as a whole and would delete it (expected another folder)",
+            path.display(),
+            p.display()
+        );
     }
     let empty = std::fs::read_dir(path).map_or(true, |mut d| d.next().is_none());
     let earlier = path.join("summary.md").is_file() && path.join("design.txt").is_file();
