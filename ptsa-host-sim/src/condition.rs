@@ -243,6 +243,35 @@ pub struct Prepared {
 }
 
 impl Prepared {
+    /// Every field's bits, for grouping conditions that feel the same inputs (the batch
+    /// engine computes such lanes' inputs once). The destructuring names every field, so a
+    /// field added to the struct does not compile here until it is part of the key (a key
+    /// that listed the fields by hand once left out `centripetal`: two centrifuge arms came
+    /// back with one's value).
+    #[must_use]
+    pub fn key_bits(&self) -> Vec<u64> {
+        let Prepared {
+            omega,
+            g,
+            centripetal,
+            w0,
+            lin_s,
+            lin_c,
+            phi_s,
+            phi_c,
+        } = self;
+        std::iter::once(omega)
+            .chain(g)
+            .chain(centripetal)
+            .chain(w0)
+            .chain(lin_s)
+            .chain(lin_c)
+            .chain(phi_s)
+            .chain(phi_c)
+            .map(|x| x.to_bits())
+            .collect()
+    }
+
     /// Case-frame inputs given `s = sin(ωt)`, `c = cos(ωt)` (same model as
     /// [`Condition::inputs_at`]).
     #[inline]
