@@ -3,6 +3,7 @@
 use std::process::Command;
 use std::time::Instant;
 
+use crate::needs::{self, Need};
 use crate::util::{self, Error};
 use crate::{firmware, golden};
 
@@ -14,6 +15,10 @@ ci [--no-firmware]
     (in cargo's target directory, then again in a fresh temporary CARGO_TARGET_DIR), host
     tests and doctests, ptsa-core built for thumbv7em-none-eabihf with and without defmt,
     and the firmware checks of `firmware` (QEMU).
+    Needs rustfmt, clippy, a C compiler, the thumbv7em-none-eabihf target and (unless
+    --no-firmware) qemu-system-arm; it looks for all of them first and, if any is
+    missing, says how to install each and stops (it installs nothing; `.ci/run` does, on
+    a throwaway CI machine).
     --no-firmware  skip the firmware checks (no QEMU needed)";
 
 /// The embedded target of the firmware and of the ptsa-core cross build (installed with the
@@ -28,6 +33,22 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         [a] => return Err(Error::Usage(format!("unknown option `{a}`"))),
         _ => return Err(Error::Usage("expected at most --no-firmware".into())),
     };
+    // Everything the steps below need, looked for before the first one runs.
+    let mut wanted = vec![Need::Rustfmt, Need::Clippy, Need::CCompiler, Need::Thumb];
+    if !skip_firmware {
+        for need in firmware::NEEDS {
+            if !wanted.contains(&need) {
+                wanted.push(need);
+            }
+        }
+    }
+    needs::check(
+        &wanted,
+        Some((
+            Need::Qemu,
+            "`cargo xtask ci --no-firmware` skips the firmware checks, and QEMU with them",
+        )),
+    )?;
     let root = util::root();
     let cargo = util::cargo();
     let t0 = Instant::now();
