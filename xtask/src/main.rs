@@ -1,7 +1,8 @@
 //! Project automation. `cargo xtask <command> [options]`; `cargo xtask help` (or `--help`,
 //! `-h`) prints what follows, `cargo xtask <command> --help` one command's part:
 //!
-//! * `ci [--no-firmware]` — everything CI runs: format and lint checks, rustdoc, the golden
+//! * `ci [--no-firmware]` — everything CI runs: format and lint checks, rustdoc, ptsa-core
+//!   as a crates.io package (`cargo package --list`, `cargo publish --dry-run`), the golden
 //!   vectors, the C twin (also once in a fresh `CARGO_TARGET_DIR`), host tests, the
 //!   thumbv7em cross build of ptsa-core, and (unless `--no-firmware`) the firmware under QEMU.
 //! * `golden [--overwrite | --c-twin]` — regenerate `tests/golden/*` and check that the files
