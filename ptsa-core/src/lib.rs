@@ -50,6 +50,12 @@ pub use config::{Coef, Config, ConfigError, Level, Pole};
 pub use counter::{Count, Gate, GateFifo};
 pub use ptsa::{Polarity, Ptsa, Saturations, State, Tick};
 
+/// The crate's README (the page crates.io shows), compiled and run as a doctest so that its
+/// example keeps working; it exists only under `cargo test --doc`.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
 /// Fraction bits of the comparator domain ([`Level`]): the ramp amplitude, which is the
 /// loop's full scale, is `1 << LEVEL_FRAC` comparator LSBs.
 pub const LEVEL_FRAC: u32 = 24;

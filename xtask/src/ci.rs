@@ -3,6 +3,7 @@
 use std::process::Command;
 use std::time::Instant;
 
+use crate::needs::{self, Need};
 use crate::util::{self, Error};
 use crate::{firmware, golden};
 
@@ -10,10 +11,16 @@ use crate::{firmware, golden};
 pub const USAGE: &str = "\
 ci [--no-firmware]
     Everything CI runs, in order, stopping at the first failure: rustfmt, clippy (all
-    targets, warnings denied), rustdoc (warnings denied), the golden vectors, the C twin
-    (in cargo's target directory, then again in a fresh temporary CARGO_TARGET_DIR), host
-    tests and doctests, ptsa-core built for thumbv7em-none-eabihf with and without defmt,
-    and the firmware checks of `firmware` (QEMU).
+    targets, warnings denied), rustdoc (warnings denied), ptsa-core as a crates.io package
+    (`cargo package --list`, its README's links in it, `cargo publish --dry-run`), the
+    golden vectors, the C twin (in cargo's target directory, then again in a fresh
+    temporary CARGO_TARGET_DIR), host tests and doctests, ptsa-core built for
+    thumbv7em-none-eabihf with and without defmt, and the firmware checks of `firmware`
+    (QEMU).
+    Needs rustfmt, clippy, a C compiler, the thumbv7em-none-eabihf target and (unless
+    --no-firmware) qemu-system-arm; it looks for all of them first and, if any is
+    missing, says how to install each and stops (it installs nothing; `.ci/run` does, on
+    a throwaway CI machine). The dry-run publish needs crates.io over the network.
     --no-firmware  skip the firmware checks (no QEMU needed)";
 
 /// The embedded target of the firmware and of the ptsa-core cross build (installed with the
@@ -28,6 +35,22 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         [a] => return Err(Error::Usage(format!("unknown option `{a}`"))),
         _ => return Err(Error::Usage("expected at most --no-firmware".into())),
     };
+    // Everything the steps below need, looked for before the first one runs.
+    let mut wanted = vec![Need::Rustfmt, Need::Clippy, Need::CCompiler, Need::Thumb];
+    if !skip_firmware {
+        for need in firmware::NEEDS {
+            if !wanted.contains(&need) {
+                wanted.push(need);
+            }
+        }
+    }
+    needs::check(
+        &wanted,
+        Some((
+            Need::Qemu,
+            "`cargo xtask ci --no-firmware` skips the firmware checks, and QEMU with them",
+        )),
+    )?;
     let root = util::root();
     let cargo = util::cargo();
     let t0 = Instant::now();
@@ -60,6 +83,9 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     if !status.success() {
         return Err(format!("cargo doc failed ({status})").into());
     }
+
+    step("ptsa-core as a crates.io package (its files, then a dry-run publish that builds it)");
+    package_ptsa_core(&root, &cargo)?;
 
     step("golden vectors are what the generator makes");
     golden::run(&[])?;
@@ -142,4 +168,134 @@ fn c_twin_in_fresh_target_dir() -> Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// `cargo package -p ptsa-core --list` (and every file its README links to is in the list),
+/// then `cargo publish --dry-run -p ptsa-core` (packs, builds the packed crate on its own,
+/// checks its dependencies against crates.io; uploads nothing).
+///
+/// On a tree whose ptsa-core has uncommitted changes (a developer's, before committing) both
+/// get `--allow-dirty`, with a warning: cargo refuses such a tree otherwise. CI's fresh
+/// checkout is clean, so there the package is made from the commit, without the flag.
+fn package_ptsa_core(root: &std::path::Path, cargo: &str) -> Result<(), String> {
+    let dirty = uncommitted(root, &["ptsa-core", "Cargo.toml"]);
+    let allow: &[&str] = if dirty.is_empty() {
+        &[]
+    } else {
+        eprintln!(
+            "warning: uncommitted changes in {} (and maybe more): packaging the working tree \
+             with --allow-dirty (a clean checkout, as in CI, needs no flag)",
+            dirty.join(", ")
+        );
+        &["--allow-dirty"]
+    };
+    let list_args = [&["package", "-p", "ptsa-core", "--list"][..], allow].concat();
+    eprintln!("+ {cargo} {}", list_args.join(" "));
+    let out = Command::new(cargo)
+        .args(&list_args)
+        .current_dir(root)
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot run cargo package: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "`cargo {}` failed ({})",
+            list_args.join(" "),
+            out.status
+        ));
+    }
+    let list = String::from_utf8_lossy(&out.stdout);
+    let readme_path = root.join("ptsa-core").join("README.md");
+    let readme = std::fs::read_to_string(&readme_path)
+        .map_err(|e| format!("cannot read {}: {e}", readme_path.display()))?;
+    let absent = links_not_in_package(&readme, &list);
+    if !absent.is_empty() {
+        return Err(format!(
+            "ptsa-core/README.md links to {} but the package does not contain {} (link by \
+             repository path instead, or include the file)",
+            absent.join(", "),
+            if absent.len() == 1 { "it" } else { "them" }
+        ));
+    }
+    eprintln!(
+        "ptsa-core package: {} files, README's links all inside",
+        list.lines().count()
+    );
+    let publish_args = [&["publish", "--dry-run", "-p", "ptsa-core"][..], allow].concat();
+    util::run(root, cargo, &publish_args)
+}
+
+/// Paths among `paths` (relative to `root`) with uncommitted changes or untracked files, by
+/// `git status --porcelain`; none when git is not there or `root` is not a repository.
+fn uncommitted(root: &std::path::Path, paths: &[&str]) -> Vec<String> {
+    let out = Command::new("git")
+        .args(["status", "--porcelain", "--untracked-files=all", "--"])
+        .args(paths)
+        .current_dir(root)
+        .stderr(std::process::Stdio::null())
+        .output();
+    match out {
+        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter_map(|l| l.get(3..))
+            .map(str::to_string)
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The relative link targets of a Markdown text (`[text](target)`, without an anchor) that
+/// are not lines of `list` (`cargo package --list`'s output). Links with a scheme
+/// (`https:`, `mailto:`) and anchors within the page are not files of the package.
+fn links_not_in_package(markdown: &str, list: &str) -> Vec<String> {
+    let files: Vec<&str> = list.lines().map(str::trim).collect();
+    let mut absent = Vec::new();
+    let mut rest = markdown;
+    while let Some(i) = rest.find("](") {
+        rest = &rest[i + 2..];
+        let Some(end) = rest.find(')') else { break };
+        let target = rest[..end].split('#').next().unwrap_or("").trim();
+        rest = &rest[end..];
+        if target.is_empty() || target.contains(':') {
+            continue;
+        }
+        let path = target.trim_start_matches("./");
+        if !files.contains(&path) && !absent.iter().any(|a: &String| a == path) {
+            absent.push(path.to_string());
+        }
+    }
+    absent
+}
+
+#[cfg(test)]
+mod tests {
+    use super::links_not_in_package;
+
+    #[test]
+    fn readme_links_are_checked_against_the_package_list() {
+        let md = "See [ARITHMETIC.md](ARITHMETIC.md), [twin](./c-twin/ptsa_twin.c#L3), \
+                  [site](https://example.org/x), [top](#the-tick-api), [v](../tests/golden) \
+                  and [again](ARITHMETIC.md) and [gone](docs/x.md).";
+        let list = "Cargo.toml\nARITHMETIC.md\nc-twin/ptsa_twin.c\nsrc/lib.rs\n";
+        assert_eq!(
+            links_not_in_package(md, list),
+            ["../tests/golden", "docs/x.md"]
+        );
+        assert!(links_not_in_package("no links [here] (at all)", list).is_empty());
+    }
+
+    #[test]
+    fn the_shipped_readme_links_only_to_files_that_exist_in_the_crate() {
+        // The list here is the crate's files on disk: `ci` checks against cargo's own list.
+        let dir = crate::util::root().join("ptsa-core");
+        let md = std::fs::read_to_string(dir.join("README.md")).unwrap();
+        let mut files = String::new();
+        for link in links_not_in_package(&md, "") {
+            assert!(dir.join(&link).is_file(), "README links to missing {link}");
+            files.push_str(&link);
+            files.push('\n');
+        }
+        assert!(links_not_in_package(&md, &files).is_empty());
+        assert!(files.contains("ARITHMETIC.md"), "{files}");
+    }
 }

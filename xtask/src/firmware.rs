@@ -22,22 +22,27 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+use crate::needs::{self, Need};
 use crate::util::{self, Error};
 
 /// `cargo xtask firmware --help`.
 pub const USAGE: &str = "\
 firmware [--vector NAME]...
     Build the firmware (firmware/, its own workspace) for thumbv7em-none-eabihf into
-    <cargo's target directory>/firmware and check it on QEMU's netduinoplus2 (installs
-    Debian's qemu-system-arm when missing and root): rustfmt and clippy of the firmware
-    crate, every golden vector bit-exact on the emulated Cortex-M4, instructions per tick
-    (limit 150), flash and static RAM of the production image (16 KiB, 2 KiB), and the
-    production image under QEMU (64 kHz tick, gate counts, stack within 2 KiB). Closes
-    with `N passed, M failed`.
+    <cargo's target directory>/firmware and check it on QEMU's netduinoplus2: rustfmt and
+    clippy of the firmware crate, every golden vector bit-exact on the emulated Cortex-M4,
+    instructions per tick (limit 150), flash and static RAM of the production image
+    (16 KiB, 2 KiB), and the production image under QEMU (64 kHz tick, gate counts, stack
+    within 2 KiB). Closes with `N passed, M failed`.
+    Needs qemu-system-arm (Debian package), the thumbv7em-none-eabihf target, rustfmt and
+    clippy; it looks for all of them first and, if any is missing, says how to install
+    each and stops (it installs nothing).
     --vector NAME  run only this golden vector (tests/golden/NAME.in); repeatable";
 
 /// Rust target of the firmware (listed in `rust-toolchain.toml`).
-pub const TARGET: &str = "thumbv7em-none-eabihf";
+pub const TARGET: &str = crate::ci::THUMB;
+/// What the firmware checks need from the machine ([`needs`]).
+pub const NEEDS: [Need; 4] = [Need::Rustfmt, Need::Clippy, Need::Thumb, Need::Qemu];
 /// Budget: instructions per tick of the whole interrupt handler, worst case.
 pub const MAX_TICK_INSTRUCTIONS: u32 = 150;
 /// Budget: flash of the production image, bytes (`.vector_table`, `.text`, `.rodata`,
@@ -71,6 +76,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
             other => return Err(Error::Usage(format!("unknown option `{other}`"))),
         }
     }
+    needs::check(&NEEDS, None)?;
     Ok(check(&only)?)
 }
 
@@ -80,8 +86,9 @@ fn firmware_target_dir() -> Result<PathBuf, String> {
     Ok(util::target_dir()?.join("firmware"))
 }
 
-/// The firmware part of `cargo xtask ci`: set-up, builds, every golden vector on the
-/// emulated MCU, budgets, the production image under QEMU. Prints `N passed, M failed`.
+/// The firmware part of `cargo xtask ci`: builds, every golden vector on the emulated MCU,
+/// budgets, the production image under QEMU. Prints `N passed, M failed`. `ci` has checked
+/// [`NEEDS`] before its first step.
 pub fn ci() -> Result<(), String> {
     check(&[])
 }
@@ -90,7 +97,12 @@ fn check(only: &[String]) -> Result<(), String> {
     let root = util::root();
     let fw = root.join("firmware");
     let t0 = Instant::now();
-    let qemu = ensure_qemu()?;
+    let qemu = qemu_version().ok_or_else(|| {
+        // Checked before (NEEDS); this is for a QEMU that went away in the meantime.
+        "`qemu-system-arm --version` does not run (QEMU's Arm emulator, which runs the \
+         firmware): install Debian's package qemu-system-arm"
+            .to_string()
+    })?;
     eprintln!("firmware: using {qemu}");
 
     let fw_target = firmware_target_dir()?;
@@ -203,44 +215,7 @@ impl Report {
     }
 }
 
-/// Make sure `qemu-system-arm` runs: install Debian's package when missing and root,
-/// otherwise fail saying what to install. Returns its version line.
-fn ensure_qemu() -> Result<String, String> {
-    if let Some(v) = qemu_version() {
-        return Ok(v);
-    }
-    let uid = Command::new("id")
-        .arg("-u")
-        .output()
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .unwrap_or_default();
-    if uid != "0" {
-        return Err(
-            "qemu-system-arm is missing: install Debian's `qemu-system-arm` package \
-             (`sudo apt-get install qemu-system-arm`) and rerun"
-                .into(),
-        );
-    }
-    let apt = |args: &[&str]| -> Result<(), String> {
-        eprintln!("+ apt-get {}", args.join(" "));
-        let status = Command::new("apt-get")
-            .args(args)
-            .env("DEBIAN_FRONTEND", "noninteractive")
-            .status()
-            .map_err(|e| format!("cannot run apt-get: {e}"))?;
-        if status.success() {
-            Ok(())
-        } else {
-            Err(format!("`apt-get {}` failed ({status})", args.join(" ")))
-        }
-    };
-    apt(&["update", "-qq"])?;
-    apt(&["install", "-y", "-qq", "qemu-system-arm"])?;
-    qemu_version().ok_or_else(|| {
-        "qemu-system-arm still does not run after installing Debian's qemu-system-arm".into()
-    })
-}
-
+/// The first line of `qemu-system-arm --version`, if it runs.
 fn qemu_version() -> Option<String> {
     let out = Command::new("qemu-system-arm")
         .arg("--version")

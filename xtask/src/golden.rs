@@ -15,6 +15,7 @@ use std::path::Path;
 use ptsa_core::trace::{self, GoldenRunner};
 use ptsa_core::{Coef, Config, Polarity, Pole};
 
+use crate::needs::{self, Need};
 use crate::util::{self, Error};
 
 /// `cargo xtask golden --help`.
@@ -26,7 +27,8 @@ golden [--overwrite | --c-twin]
                  the host closed-loop vector the simulator records
     --c-twin     instead build the C twin (ptsa-core/c-twin, written from ARITHMETIC.md)
                  with $CC (default cc) into cargo's target directory and check it against
-                 every vector";
+                 every vector; if that compiler is missing, say how to install one and
+                 stop (xtask installs nothing)";
 
 /// One golden case: a name, a description, and its input text.
 struct Case {
@@ -350,7 +352,10 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     let overwrite = match args {
         [] => false,
         [a] if a == "--overwrite" => true,
-        [a] if a == "--c-twin" => return Ok(check_c_twin()?),
+        [a] if a == "--c-twin" => {
+            needs::check(&[Need::CCompiler], None)?;
+            return Ok(check_c_twin()?);
+        }
         [a] => return Err(Error::Usage(format!("unknown option `{a}`"))),
         _ => {
             return Err(Error::Usage(
@@ -431,7 +436,7 @@ pub fn check_c_twin() -> Result<(), String> {
     fs::create_dir_all(&out_dir)
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
     let exe = out_dir.join("ptsa_twin");
-    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".into());
+    let cc = needs::c_compiler();
     util::run(
         &root,
         &cc,

@@ -1,7 +1,8 @@
 //! Project automation. `cargo xtask <command> [options]`; `cargo xtask help` (or `--help`,
 //! `-h`) prints what follows, `cargo xtask <command> --help` one command's part:
 //!
-//! * `ci [--no-firmware]` — everything CI runs: format and lint checks, rustdoc, the golden
+//! * `ci [--no-firmware]` — everything CI runs: format and lint checks, rustdoc, ptsa-core
+//!   as a crates.io package (`cargo package --list`, `cargo publish --dry-run`), the golden
 //!   vectors, the C twin (also once in a fresh `CARGO_TARGET_DIR`), host tests, the
 //!   thumbv7em cross build of ptsa-core, and (unless `--no-firmware`) the firmware under QEMU.
 //! * `golden [--overwrite | --c-twin]` — regenerate `tests/golden/*` and check that the files
@@ -13,8 +14,13 @@
 //!   the full hidden-effect campaign of the discovery pipeline, or with `--parameters` the
 //!   hidden-parameter one, or with `--statics` the hidden-statics one.
 //!
-//! Exit status: 0 on success (and for help), 1 when a check fails, 2 for an unknown command
-//! or option (after printing the usage).
+//! Before its first step, each command looks for everything it needs from the machine
+//! (`needs`: QEMU, the thumbv7em target, rustfmt, clippy, a C compiler) and, if anything is
+//! missing, names each missing thing with the command that installs it and exits 1. xtask
+//! never installs anything itself; only `.ci/run`, on a throwaway CI machine, does.
+//!
+//! Exit status: 0 on success (and for help), 1 when a check fails or something the command
+//! needs is missing, 2 for an unknown command or option (after printing the usage).
 
 use std::process::ExitCode;
 
@@ -24,6 +30,7 @@ mod ci;
 mod firmware;
 mod golden;
 mod hidden;
+mod needs;
 mod util;
 
 /// The commands: name and usage (first line the synopsis, then what it does).
@@ -49,7 +56,13 @@ fn usage() -> String {
         }
         s.push('\n');
     }
-    s.push_str("exit status: 0 passed, 1 a check failed, 2 unknown command or option\n");
+    s.push_str(
+        "before any work, each command looks for what it needs (QEMU, the thumbv7em target,\n\
+         rustfmt, clippy, a C compiler) and, if any is missing, says how to install it and\n\
+         stops; xtask installs nothing (only .ci/run does, on a throwaway CI machine)\n\n\
+         exit status: 0 passed, 1 a check failed or something needed is missing, 2 unknown\n\
+         command or option\n",
+    );
     s
 }
 
