@@ -364,9 +364,18 @@ pub struct ResponseArgs {
     pub label: Option<String>,
     /// Print exactly one JSON object: the row's columns {"label", "kind", "freq_hz",
     /// "lin_ia_cm_s2", "measured_gain", "measured_phase_deg", "sigma_gain",
-    /// "sigma_phase_deg"} and the fit's "gates", "gate_s", "mean_cm_s2" and "rms_cm_s2".
+    /// "sigma_phase_deg"}, the fit's "gates", "gate_s", "mean_cm_s2" and "rms_cm_s2", the
+    /// check's "expected_rms_cm_s2" (what counting leaves, cm/s²), "predicted_gain" and
+    /// "predicted_phase_deg" (the instrument file's loop; null if it has none) and
+    /// "warnings" (a list of the warnings' texts, empty if none).
     #[arg(long)]
     pub json: bool,
+    /// Write the row even when the fit makes no physical sense: a gain above 2 (no loop the
+    /// simulator accepts gets there) or an uncertainty larger than the gain (no sine at
+    /// --freq-hz); refused without it, naming the likely slip (an amplitude in g, another
+    /// frequency).
+    #[arg(long)]
+    pub force: bool,
     #[command(flatten)]
     pub out: OutArgs,
 }

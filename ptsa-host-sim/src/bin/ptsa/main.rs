@@ -692,8 +692,11 @@ fn static_cmd(
     Ok(())
 }
 
-/// `ptsa response`: read and check the record, fit, write the plot, print the row.
+/// `ptsa response`: read and check the record, fit, check the fit, write the plot, print
+/// the row.
+#[allow(clippy::too_many_lines)] // the record's checks, the fit's, then the output
 fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Result<()> {
+    use ptsa_host_sim::output::significant as sig;
     use ptsa_host_sim::response;
     paths::folder("--out", &a.out.out)?;
     let name = a.counts.display().to_string();
@@ -705,12 +708,14 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         bail!(
             "--freq-hz {}: expected a frequency below {} Hz, the Nyquist frequency of {name} ({n} gates in {} s, {} gates/s): gates that far apart cannot show a sine of {} Hz",
             num(a.freq_hz),
-            num(rate / 2.0),
-            num(span_s),
-            num(rate),
+            sig(rate / 2.0, 8),
+            sig(span_s, 8),
+            sig(rate, 8),
             num(a.freq_hz)
         );
     }
+    // Every warning, for stderr and for the JSON's "warnings".
+    let mut warnings: Vec<String> = Vec::new();
     #[allow(clippy::cast_precision_loss)]
     let gate_s = gates[0].ticks as f64 / instr.clock_hz;
     let spacing = gates
@@ -718,23 +723,29 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         .map(|w| w[1].time_s - w[0].time_s)
         .fold(f64::INFINITY, f64::min);
     if spacing < gate_s * (1.0 - 1e-6) {
-        eprintln!(
-            "warning: {name}: gates start {} s apart but each is {} s long ({} ticks at the instrument file's clock_hz {} Hz): they overlap; if the counter's clock is not {} Hz, the gain's correction for the gate averaging is wrong",
-            num(spacing),
-            num(gate_s),
+        warnings.push(format!(
+            "{name}: gates start {} s apart but each is {} s long ({} ticks at the instrument file's clock_hz {} Hz): they overlap; if the counter's clock is not {} Hz, the gain's correction for the gate averaging is wrong",
+            sig(spacing, 8),
+            sig(gate_s, 8),
             gates[0].ticks,
             num(instr.clock_hz),
             num(instr.clock_hz)
-        );
+        ));
     }
     if span_s * a.freq_hz < 1.0 {
-        eprintln!(
-            "warning: {name} spans {} s, less than one period of {} Hz: the fit extrapolates the sine and its uncertainties are large",
-            num(span_s),
+        warnings.push(format!(
+            "{name} spans {} s, less than one period of {} Hz: the fit extrapolates the sine and its uncertainties are large",
+            sig(span_s, 8),
             num(a.freq_hz)
-        );
+        ));
     }
-    work::warn_beyond_full_scale(instr, a.amplitude_cm_s2, "--amplitude-cm-s2");
+    if a.amplitude_cm_s2.abs() > instr.sf_cm_s2 {
+        warnings.push(format!(
+            "--amplitude-cm-s2 = {} cm/s^2 is beyond the loop's full scale of ±{} cm/s^2: the loop saturates and the results are not measurements of the input",
+            num(a.amplitude_cm_s2),
+            num(instr.sf_cm_s2)
+        ));
+    }
     let fit = response::fit(
         &gates,
         a.freq_hz,
@@ -751,6 +762,25 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
             fit.gain
         );
     }
+    let checked = response::check(
+        &response::CheckContext {
+            name: &name,
+            gates: &gates,
+            instrument: instr,
+            ticks_per_cycle: u32::from(Design::for_instrument(instr).config().ticks_per_cycle),
+        },
+        &fit,
+    );
+    if let Some(r) = &checked.refusal {
+        if !a.force {
+            for w in &warnings {
+                eprintln!("warning: {w}");
+            }
+            bail!("{r}; --force writes the row anyway");
+        }
+        warnings.push(format!("{r} (written because of --force)"));
+    }
+    warnings.extend(checked.warnings.iter().cloned());
     let file = a
         .counts
         .file_name()
@@ -767,10 +797,13 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
     );
     let fig = response_figure(&stem, &label, &gates, &fit, instr.sf_cm_s2);
     let files = ptsa_host_sim::output::write_figure(&a.out.out, &fig)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     eprintln!(
-        "response: {name}: {n} gates of {} s ({} gates/s), {} Hz at {} cm/s^2: gain {:.5} ± {:.5}, phase {:.3} ± {:.3} deg (output lagging: negative), mean {:.3} cm/s^2, residual RMS {:.3} cm/s^2",
-        num(gate_s),
-        num(rate),
+        "response: {name}: {n} gates of {} s ({} gates/s), {} Hz at {} cm/s^2: gain {:.5} ± {:.5}, phase {:.3} ± {:.3} deg (output lagging: negative), mean {:.3} cm/s^2, residual RMS {:.3} cm/s^2 (counting leaves {:.3}){}",
+        sig(gate_s, 8),
+        sig(rate, 8),
         num(a.freq_hz),
         num(a.amplitude_cm_s2),
         fit.gain,
@@ -778,22 +811,29 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         fit.phase_deg,
         fit.sigma_phase_deg,
         fit.mean_cm_s2,
-        fit.rms_cm_s2
+        fit.rms_cm_s2,
+        checked.expected.rms_cm_s2,
+        checked.prediction.map_or(String::new(), |p| format!(
+            "; the instrument file's loop predicts gain {:.5}, phase {:.3} deg",
+            p.gain, p.phase_deg
+        ))
     );
     eprintln!(
         "wrote {} into {}",
         plural(files.len() as u64, "file"),
         a.out.out.display()
     );
-    print_response_row(out, fit.row(&label), &fit, a.json)
+    print_response_row(out, fit.row(&label), &fit, &checked, &warnings, a.json)
 }
 
 /// Print `ptsa response`'s `row` as case-frame CSV with its header, or with `json` as one
-/// JSON object with `fit`'s summary.
+/// JSON object with `fit`'s summary, the check's figures and the `warnings`.
 fn print_response_row(
     out: &mut dyn Write,
     row: ptsa_host_sim::condition::Condition,
     fit: &ptsa_host_sim::response::ResponseFit,
+    checked: &ptsa_host_sim::response::FitCheck,
+    warnings: &[String],
     json: bool,
 ) -> Result<()> {
     if json {
@@ -810,6 +850,10 @@ fn print_response_row(
             "gate_s": fit.gate_s,
             "mean_cm_s2": fit.mean_cm_s2,
             "rms_cm_s2": fit.rms_cm_s2,
+            "expected_rms_cm_s2": checked.expected.rms_cm_s2,
+            "predicted_gain": checked.prediction.map(|p| p.gain),
+            "predicted_phase_deg": checked.prediction.map(|p| p.phase_deg),
+            "warnings": warnings,
         });
         writeln!(out, "{v}")?;
     } else {
