@@ -511,8 +511,10 @@ pub enum PlanKind {
         /// IA positions (2 to 360).
         #[arg(long, default_value_t = 8, value_name = "N", value_parser = positions)]
         positions: usize,
-        /// The dividing head's horizontal axis (oa or pa).
-        #[arg(long, value_enum, default_value = "oa")]
+        /// The dividing head's horizontal axis: oa (IA in the IA–PA plane, Table 6.1) or pa
+        /// (IA in the IA–OA plane). Not ia: with IA along the head's axis the table's rate
+        /// never reaches IA.
+        #[arg(long, default_value = "oa", value_name = "oa|pa", value_parser = rate_table_axis)]
         axis: Axis,
         /// Table rate, rad/s.
         #[arg(long, default_value_t = 1.0, value_name = "RAD_S", value_parser = rate_rad_s)]
@@ -580,6 +582,24 @@ fn positions(s: &str) -> Result<usize, String> {
     match s.trim().parse::<usize>() {
         Ok(n @ 2..=360) => Ok(n),
         _ => Err(format!("expected a whole number from 2 to 360, not `{s}`")),
+    }
+}
+
+/// The dividing head's axis on the rate table: `oa` or `pa`. `ia` is refused: IA would
+/// lie along the head's horizontal axis, so the table's rate (about the vertical) has no
+/// component along IA at any position, and the rows' differences carry no anisoinertia
+/// (`w_IA·w_PA`), which is what the rate table measures.
+fn rate_table_axis(s: &str) -> Result<Axis, String> {
+    match s.trim() {
+        "oa" => Ok(Axis::Oa),
+        "pa" => Ok(Axis::Pa),
+        "ia" => Err(
+            "ia is not a rate-table set-up: with IA along the dividing head's axis the table's rate never reaches IA (w_IA = 0 at every position), so the rows would measure no anisoinertia (w_IA·w_PA); expected oa (IA in the IA–PA plane) or pa (IA in the IA–OA plane)"
+                .into(),
+        ),
+        other => Err(format!(
+            "expected oa (IA in the IA–PA plane) or pa (IA in the IA–OA plane), not `{other}`"
+        )),
     }
 }
 

@@ -759,7 +759,7 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         bail!(
             "{name}: no component at --freq-hz {} in the record (gain {}); expected the response to a sine at that frequency",
             num(a.freq_hz),
-            fit.gain
+            sig(fit.gain, 4)
         );
     }
     let checked = response::check(
@@ -1039,8 +1039,9 @@ fn simulator(
     }
 }
 
-/// The effects of a `ptsa discover --json` result file (`predict --effects`).
-fn load_effects(p: &Path) -> Result<Effects> {
+/// The effects of a `ptsa discover --json` result file (`predict --effects`), and the
+/// standard error of each coefficient the file gives one for (its `"stderr"`).
+fn load_effects(p: &Path) -> Result<(Effects, Vec<(CandidateId, f64)>)> {
     let text =
         std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
@@ -1051,7 +1052,41 @@ fn load_effects(p: &Path) -> Result<Effects> {
             e.column()
         )
     })?;
-    discovery::effects_from_json(&v).with_context(|| p.display().to_string())
+    let effects = discovery::effects_from_json(&v).with_context(|| p.display().to_string())?;
+    let list = v.get("effects").unwrap_or(&v);
+    let mut sigmas = Vec::new();
+    for item in list.as_array().into_iter().flatten() {
+        let name = item.get("name").and_then(serde_json::Value::as_str);
+        let errs = item.get("stderr").and_then(serde_json::Value::as_object);
+        for (key, se) in errs.into_iter().flatten() {
+            let id = ptsa_host_sim::effects::REGISTRY
+                .iter()
+                .find(|c| Some(c.effect) == name && c.key == key);
+            if let (Some(c), Some(se)) = (id, se.as_f64().filter(|x| x.is_finite() && *x > 0.0)) {
+                sigmas.push((c.id, se));
+            }
+        }
+    }
+    Ok((effects, sigmas))
+}
+
+/// What `predict` runs with: `baseline model`, or `with NAME = VALUE UNIT, ...`, each
+/// coefficient with the digits its standard error in `sigmas` warrants, else four.
+fn effects_text(effects: &Effects, sigmas: &[(CandidateId, f64)]) -> String {
+    if effects.is_zero() {
+        return "baseline model".to_string();
+    }
+    let list: Vec<String> = effects
+        .nonzero()
+        .map(|(id, c)| {
+            let value = sigmas.iter().find(|s| s.0 == id).map_or_else(
+                || ptsa_host_sim::output::significant(c, 4),
+                |s| discovery::show::estimate(c, s.1),
+            );
+            format!("{} = {value} {}", id.info().name, id.info().unit)
+        })
+        .collect();
+    format!("with {}", list.join(", "))
 }
 
 fn predict_cmd(
@@ -1061,9 +1096,9 @@ fn predict_cmd(
     out: &mut dyn Write,
 ) -> Result<()> {
     let rows = discovery::caseframe::read(&a.data)?;
-    let effects = match &a.effects {
+    let (effects, sigmas) = match &a.effects {
         Some(p) => load_effects(p)?,
-        None => Effects::NONE,
+        None => (Effects::NONE, Vec::new()),
     };
     let sim = simulator(instr, config, a.analytic, a.seed);
     let s = work::spinner("predict");
@@ -1098,18 +1133,7 @@ fn predict_cmd(
         "predict: {} ({} simulator, {})",
         a.data.display(),
         sim.name(),
-        if effects.is_zero() {
-            "baseline model".to_string()
-        } else {
-            format!(
-                "with {}",
-                effects
-                    .nonzero()
-                    .map(|(id, c)| format!("{} = {c}", id.info().name))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        }
+        effects_text(&effects, &sigmas)
     )?;
     writeln!(
         out,
