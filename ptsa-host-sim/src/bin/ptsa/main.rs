@@ -795,7 +795,14 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
             .file_stem()
             .map_or_else(|| "record".into(), |s| s.to_string_lossy())
     );
-    let fig = response_figure(&stem, &label, &gates, &fit, instr.sf_cm_s2);
+    let fig = response_figure(
+        &stem,
+        &label,
+        &gates,
+        &fit,
+        instr.sf_cm_s2,
+        checked.expected.rms_cm_s2,
+    );
     let files = ptsa_host_sim::output::write_figure(&a.out.out, &fig)?;
     for w in &warnings {
         eprintln!("warning: {w}");
@@ -863,13 +870,15 @@ fn print_response_row(
 }
 
 /// The plot of `ptsa response`: the gates' indicated accelerations with the fitted sine
-/// (its gate means) over them, and the residuals below.
+/// (its gate means) over them, and the residuals below, their RMS against the
+/// `expected_rms` counting leaves (cm/s²).
 fn response_figure(
     stem: &str,
     label: &str,
     gates: &[ptsa_host_sim::response::Gate],
     fit: &ptsa_host_sim::response::ResponseFit,
     sf_cm_s2: f64,
+    expected_rms: f64,
 ) -> ptsa_host_sim::output::Figure {
     use ptsa_host_sim::output::{Figure, Plot, Series};
     let half = fit.gate_s / 2.0;
@@ -913,8 +922,8 @@ fn response_figure(
             },
             Plot {
                 title: format!(
-                    "residuals: gate minus fitted gate mean, RMS {:.3} cm/s²",
-                    fit.rms_cm_s2
+                    "residuals: gate minus fitted gate mean, RMS {:.3} cm/s² (counting leaves {:.3})",
+                    fit.rms_cm_s2, expected_rms
                 ),
                 x_label: "time (gate midpoint), s".into(),
                 y_label: "residual, cm/s²".into(),
