@@ -1242,3 +1242,135 @@ fn plan_and_predict() {
     // Well inside the loop's bandwidth: gain near 1, a small lag.
     assert!((g - 1.0).abs() < 0.05 && ph < 0.0 && ph > -5.0, "{r}");
 }
+
+/// `ptsa predict` names a discover result's coefficients with the digits their standard
+/// errors warrant (four significant digits where the file gives none), with their units,
+/// never as a raw `0.00000002990511374147487`.
+#[test]
+fn predict_prints_coefficients_with_their_significant_digits() {
+    let data = b"label,g_ia\nup,1\n".as_slice();
+    for (effects, want, not) in [
+        (
+            r#"{"effects": [{"name": "anisoinertia", "coefficients": {"k_ai_cm": 2.990511374147487e-8}}]}"#,
+            "with anisoinertia = 2.991e-8 cm)",
+            "0.0000000299",
+        ),
+        (
+            r#"{"effects": [{"name": "anisoinertia", "coefficients": {"k_ai_cm": 3.00312345}, "stderr": {"k_ai_cm": 0.3234}}, {"name": "bias", "coefficients": {"k0_cm_s2": 0.1234567}}]}"#,
+            "with anisoinertia = 3.00 ± 0.32 cm, bias = 0.1235 cm/s²)",
+            "3.00312345",
+        ),
+    ] {
+        let tmp = tempfile::tempdir().unwrap();
+        std::fs::write(tmp.path().join("d.csv"), data).unwrap();
+        std::fs::write(tmp.path().join("fx.json"), effects).unwrap();
+        let o = ptsa_in(
+            tmp.path(),
+            &[
+                "predict",
+                "--analytic",
+                "--data",
+                "d.csv",
+                "--effects",
+                "fx.json",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let first = stdout(&o).lines().next().unwrap_or_default().to_string();
+        assert!(
+            first.contains(want) && !first.contains(not),
+            "`{want}` not in: {first}"
+        );
+    }
+}
+
+/// A case-frame header cell in the wrong case or a near miss of a column is refused by
+/// every command that reads one, with its `file:line:column` and the column it was meant to
+/// be; nothing written.
+#[test]
+fn a_near_miss_header_gets_a_did_you_mean() {
+    let data = b"# my tumble\nLabel,G_IA,measured_cm_s2\nup,1,999.1\n".as_slice();
+    for cmd in [
+        &["predict", "--analytic", "--data", "t.csv"][..],
+        &["discover", "--analytic", "--data", "t.csv"][..],
+    ] {
+        refused_with(
+            &[("t.csv", data)],
+            cmd,
+            1,
+            &[
+                "t.csv:2:1: column 1 of the header is `Label`, which is not a case-frame column (did you mean `label`? column names are lower case); expected one of: label, kind,",
+            ],
+        );
+    }
+    let data = b"label,g-ia,mesured_cm_s2\nup,1,999.1\n".as_slice();
+    refused_with(
+        &[("t.csv", data)],
+        &["predict", "--analytic", "--data", "t.csv"],
+        1,
+        &[
+            "t.csv:1:7: column 2 of the header is `g-ia`, which is not a case-frame column (did you mean `g_ia`?)",
+        ],
+    );
+    let data = b"label,g_ia,mesured_cm_s2\nup,1,999.1\n".as_slice();
+    refused_with(
+        &[("t.csv", data)],
+        &["predict", "--analytic", "--data", "t.csv"],
+        1,
+        &[
+            "t.csv:1:12: column 3 of the header is `mesured_cm_s2`, which is not a case-frame column (did you mean `measured_cm_s2`?)",
+        ],
+    );
+}
+
+/// `plan rate-table --help` lists the axes the rate table takes (oa, pa); `--axis ia`, which
+/// `plan tumble` takes, is refused with the reason (exit 2, nothing written); `--axis pa`
+/// writes the IA–OA plane.
+#[test]
+fn rate_table_axes_are_the_ones_its_help_lists() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(tmp.path(), &["plan", "rate-table", "--help"]);
+    assert!(o.status.success());
+    let h = stdout(&o);
+    let axis: String = h
+        .lines()
+        .skip_while(|l| !l.contains("--axis"))
+        .take_while(|l| !l.trim_start().starts_with("--rate-rad-s"))
+        .collect::<Vec<_>>()
+        .join(" ");
+    assert!(
+        axis.contains("--axis <oa|pa>")
+            && axis.contains("oa (IA in the IA–PA plane")
+            && axis.contains("pa (IA in the IA–OA plane)")
+            && axis.contains("Not ia")
+            && axis.contains("[default: oa]"),
+        "{axis}"
+    );
+    refused(
+        &["plan", "rate-table", "--axis", "ia", "--out", "p.csv"],
+        2,
+        &[
+            "'--axis <oa|pa>'",
+            "ia is not a rate-table set-up: with IA along the dividing head's axis the table's rate never reaches IA",
+            "expected oa (IA in the IA–PA plane) or pa (IA in the IA–OA plane)",
+        ],
+    );
+    refused(
+        &["plan", "rate-table", "--axis", "xa"],
+        2,
+        &["expected oa (IA in the IA–PA plane) or pa (IA in the IA–OA plane), not `xa`"],
+    );
+    let o = ptsa_in(tmp.path(), &["plan", "rate-table", "--axis", "pa"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("(IA-OA plane, about PA)"),
+        "{}",
+        stdout(&o)
+    );
+    // The tumble takes all three.
+    let o = ptsa_in(
+        tmp.path(),
+        &["plan", "tumble", "--axis", "ia", "--positions", "4"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+}

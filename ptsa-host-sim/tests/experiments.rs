@@ -171,3 +171,42 @@ fn outputs_are_written() {
     assert!(dir.path().join("oa-coupling-table-6-3.svg").exists());
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 6);
 }
+
+/// The limit-cycle figure shows the errors within the range on their own axis (a few
+/// cm/s² at most) and the saturated inputs beyond full scale (errors of thousands of cm/s²)
+/// in a second panel, so that they do not squash the first.
+#[test]
+fn limit_cycle_figure_keeps_saturated_points_on_their_own_axis() {
+    use ptsa_host_sim::experiments::limit_cycle;
+    let r = limit_cycle::run(
+        &Instrument::kearfott_2401(),
+        &SimOptions {
+            warmup_s: 0.02,
+            ..SimOptions::default()
+        },
+    )
+    .unwrap();
+    let fig = &r.output.plots[0];
+    assert_eq!(fig.panels.len(), 2, "{fig:?}");
+    let points = |k: usize| -> Vec<(f64, f64)> {
+        fig.panels[k]
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter().copied())
+            .collect()
+    };
+    let (within, beyond) = (points(0), points(1));
+    assert!(!within.is_empty() && !beyond.is_empty());
+    assert!(
+        within.iter().all(|p| p.0 <= 1.0 && p.1.abs() < 100.0),
+        "{within:?}"
+    );
+    assert!(
+        beyond.iter().all(|p| p.0 > 1.0 && p.1.abs() > 500.0),
+        "{beyond:?}"
+    );
+    assert_eq!(
+        within.len() + beyond.len(),
+        2 * limit_cycle::FRACTIONS.len()
+    );
+}

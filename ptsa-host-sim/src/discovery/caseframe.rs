@@ -284,7 +284,10 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
             );
         }
         match &header {
-            None => header = Some(parse_header(name, line, &record)?),
+            None => {
+                let raw = text.lines().nth(line.saturating_sub(1)).unwrap_or_default();
+                header = Some(parse_header(name, line, raw, &record)?);
+            }
             Some(cols) => rows.push(parse_row(name, line, &record, cols)?),
         }
     }
@@ -382,8 +385,14 @@ impl DataLines {
     }
 }
 
-/// The header: the column index (into [`COLUMNS`]) of every cell.
-fn parse_header(name: &str, line: usize, record: &csv::StringRecord) -> Result<Vec<usize>> {
+/// The header: the column index (into [`COLUMNS`]) of every cell. `raw` is the header's
+/// line as written (for the column of a bad cell).
+fn parse_header(
+    name: &str,
+    line: usize,
+    raw: &str,
+    record: &csv::StringRecord,
+) -> Result<Vec<usize>> {
     if record.len() == 1 {
         let cell = record[0].trim();
         if let Some(kind) = separator_hint(cell) {
@@ -395,23 +404,110 @@ fn parse_header(name: &str, line: usize, record: &csv::StringRecord) -> Result<V
             );
         }
     }
+    let at = header_columns(raw, record);
     let mut cols = Vec::with_capacity(record.len());
     for (i, cell) in record.iter().enumerate() {
         let cell = cell.trim();
+        let place = at
+            .get(i)
+            .copied()
+            .flatten()
+            .map_or(String::new(), |c| format!(":{c}"));
         let Some(k) = column_index(cell) else {
+            let hint = near_column(cell).map_or(String::new(), |near| {
+                if near.eq_ignore_ascii_case(cell) {
+                    format!(" (did you mean `{near}`? column names are lower case)")
+                } else {
+                    format!(" (did you mean `{near}`?)")
+                }
+            });
             bail!(
-                "{name}:{line}: column {} of the header is `{cell}`, which is not a \
-                 case-frame column; expected one of: {}",
+                "{name}:{line}{place}: column {} of the header is `{cell}`, which is not a \
+                 case-frame column{hint}; expected one of: {}",
                 i + 1,
                 column_names().join(", ")
             );
         };
         if cols.contains(&k) {
-            bail!("{name}:{line}: column `{cell}` appears twice in the header");
+            bail!("{name}:{line}{place}: column `{cell}` appears twice in the header");
         }
         cols.push(k);
     }
     Ok(cols)
+}
+
+/// The 1-based character column at which each header cell's name starts in `raw`, the
+/// header's line as written (`None` where it cannot be found, e.g. a quoted cell with
+/// doubled quotes).
+fn header_columns(raw: &str, record: &csv::StringRecord) -> Vec<Option<usize>> {
+    let mut from = 0;
+    record
+        .iter()
+        .map(|cell| {
+            let cell = cell.trim();
+            let at = raw.get(from..)?.find(cell)? + from;
+            from = at + cell.len();
+            Some(raw[..at].chars().count() + 1)
+        })
+        .collect()
+}
+
+/// The case-frame column a header cell that is none was probably meant to be: the same name
+/// in another case or with `-`, `.` or blanks for `_`, or the one column within a small
+/// edit distance (a letter wrong, missing, extra or two swapped: at most 1 for names up to
+/// 5 characters, 2 beyond), when no other column is as near.
+fn near_column(cell: &str) -> Option<&'static str> {
+    let norm: String = cell
+        .trim()
+        .chars()
+        .map(|c| match c {
+            '-' | '.' | ' ' => '_',
+            c => c.to_ascii_lowercase(),
+        })
+        .collect();
+    if let Some(k) = column_index(&norm) {
+        return Some(COLUMNS[k].name);
+    }
+    let limit = if norm.chars().count() <= 5 { 1 } else { 2 };
+    let mut best: Option<(usize, &'static str)> = None;
+    let mut tied = false;
+    for c in COLUMNS {
+        let d = edit_distance(&norm, c.name);
+        match best {
+            Some((b, _)) if d > b => {}
+            Some((b, _)) if d == b => tied = true,
+            _ => {
+                best = Some((d, c.name));
+                tied = false;
+            }
+        }
+    }
+    best.filter(|&(d, _)| d <= limit && !tied).map(|(_, n)| n)
+}
+
+/// Edit distance between `a` and `b` counting a substitution, an insertion, a deletion or a
+/// swap of two neighbouring characters as one edit (optimal string alignment).
+fn edit_distance(a: &str, b: &str) -> usize {
+    let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
+    let w = b.len() + 1;
+    let mut d = vec![0usize; (a.len() + 1) * w];
+    for i in 0..=a.len() {
+        for j in 0..=b.len() {
+            d[i * w + j] = if i == 0 || j == 0 {
+                i + j
+            } else {
+                let cost = usize::from(a[i - 1] != b[j - 1]);
+                let mut v = (d[(i - 1) * w + j] + 1)
+                    .min(d[i * w + j - 1] + 1)
+                    .min(d[(i - 1) * w + j - 1] + cost);
+                if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
+                    v = v.min(d[(i - 2) * w + j - 2] + 1);
+                }
+                v
+            };
+        }
+    }
+    d[a.len() * w + b.len()]
 }
 
 /// `Some("semicolon")` or `Some("tab")` when a header cell is several case-frame column
@@ -783,6 +879,57 @@ mod tests {
         // A single unknown column without those separators gets the ordinary message.
         let m = err("bogus\n1\n");
         assert!(m.contains("column 1 of the header is `bogus`") && !m.contains("looks like"));
+    }
+
+    /// A header cell in the wrong case or a near miss of a column's name is refused with
+    /// its `file:line:column` and the column it was probably meant to be; a name near none, or
+    /// as near two columns, gets no guess.
+    #[test]
+    fn near_miss_header_cells_get_a_did_you_mean() {
+        for (text, want) in [
+            (
+                "# c\nLabel,g_ia\nx,1\n",
+                "t.csv:2:1: column 1 of the header is `Label`, which is not a case-frame column (did you mean `label`? column names are lower case); expected one of: label, kind,",
+            ),
+            (
+                "label,G_IA\nx,1\n",
+                "t.csv:1:7: column 2 of the header is `G_IA`, which is not a case-frame column (did you mean `g_ia`? column names are lower case)",
+            ),
+            (
+                "label, g-ia ,measured_cm_s2\nx,1,2\n",
+                "t.csv:1:8: column 2 of the header is `g-ia`, which is not a case-frame column (did you mean `g_ia`?)",
+            ),
+            (
+                "lable,g_ia\nx,1\n",
+                "t.csv:1:1: column 1 of the header is `lable`, which is not a case-frame column (did you mean `label`?)",
+            ),
+            (
+                "label,g_ia,measured_cm_s\nx,1,2\n",
+                "t.csv:1:12: column 3 of the header is `measured_cm_s`, which is not a case-frame column (did you mean `measured_cm_s2`?)",
+            ),
+            (
+                "\u{feff}\"label\",\"µ\",\"Sigma_cm_s2\"\nx,1,2\n",
+                "t.csv:1:10: column 2 of the header is `µ`, which is not a case-frame column; expected one of:",
+            ),
+            (
+                "label,g_ia,g_ia\nx,1,2\n",
+                "t.csv:1:12: column `g_ia` appears twice in the header",
+            ),
+        ] {
+            let m = err(text);
+            assert!(m.starts_with(want), "{text:?}: {m}");
+        }
+        // Equally near two columns (g_ia, g_pa, g_oa): no guess.
+        let m = err("label,g_xa\nx,1\n");
+        assert!(
+            m.contains("`g_xa`, which is not a case-frame column; expected"),
+            "{m}"
+        );
+        assert_eq!(near_column("Sigma_CM_S2"), Some("sigma_cm_s2"));
+        assert_eq!(near_column("bogus"), None);
+        assert_eq!(edit_distance("lable", "label"), 1);
+        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
     }
 
     #[test]

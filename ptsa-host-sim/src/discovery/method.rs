@@ -1089,8 +1089,10 @@ fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
         let (name, unit) = (s.id.info().name, s.id.info().unit);
         w.push(if let Some(p) = &s.parameter {
             format!(
-                "{name} = {:.6} {unit} lies outside the instrument file's tolerance ({:.6} to {:.6} {unit}): either this instrument is out of its specification, or another cause imitates the change",
-                p.fitted, p.tolerance[0], p.tolerance[1]
+                "{name} = {} {unit} lies outside the instrument file's tolerance ({} to {} {unit}): either this instrument is out of its specification, or another cause imitates the change",
+                super::show::estimate(p.fitted, p.sigma),
+                crate::output::significant(p.tolerance[0], 6),
+                crate::output::significant(p.tolerance[1], 6)
             )
         } else {
             format!(

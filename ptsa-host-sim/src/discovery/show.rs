@@ -244,7 +244,7 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             } else {
                 format!(
                     "  IMPLAUSIBLE (bound ±{} {}): the data's structure is real, but this cause is unlikely",
-                    d.options.limits[sel.id.index()],
+                    crate::output::significant(d.options.limits[sel.id.index()], 4),
                     c.unit
                 )
             }

@@ -71,27 +71,6 @@ pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<LimitCycleRun> {
             num(r.indicated_cm_s2, 4),
         ]);
     }
-    let plot = Plot {
-        title: "Across and beyond the range: indicated − input".into(),
-        x_label: "input, fraction of full scale".into(),
-        y_label: "indicated − input, cm/s^2".into(),
-        series: vec![
-            Series::markers(
-                "1 s plain count",
-                rows.iter()
-                    .map(|(a, r)| (a / nb.sf_cm_s2, r.count_cm_s2 - a))
-                    .collect(),
-            ),
-            Series::triangles(
-                "charge-balance estimate",
-                rows.iter()
-                    .map(|(a, r)| (a / nb.sf_cm_s2, r.indicated_cm_s2 - a))
-                    .collect(),
-            ),
-        ],
-        zero_line: true,
-        ..Plot::default()
-    };
     let fs = nb.sf_cm_s2;
     let last_two = rows
         .iter()
@@ -107,11 +86,12 @@ pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<LimitCycleRun> {
         .iter()
         .find(|(_, r)| r.stop_ticks > 0)
         .map(|(a, _)| a / fs);
+    let fig = figure(&rows, nb.sf_cm_s2);
     Ok(LimitCycleRun {
         rows,
         output: Output {
             tables: vec![t],
-            plots: vec![Figure::single("limit-cycle-range", plot)],
+            plots: vec![fig],
             notes: vec![format!(
                 "limit cycle: two reversals in every cycle up to {last_two:.5} of full scale; closer to full scale cycles lose a reversal but the charge-balance estimate stays within {worst_in_range:.3} cm/s^2 of the input up to full scale; {}",
                 first_stop.map_or_else(
@@ -121,4 +101,49 @@ pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<LimitCycleRun> {
             )],
         },
     })
+}
+
+/// The figure of the sweep `rows` (input cm/s², result) for a full scale of `sf_cm_s2`.
+/// Two panels: the errors within the range, where the plain count and the estimate differ
+/// by a few cm/s² at most, on their own axis; and beyond it, where the pendulum sits on its
+/// stop and the output clips at full scale (errors of thousands of cm/s², which would
+/// squash the first panel to a line).
+fn figure(rows: &[(f64, SimResult)], sf_cm_s2: f64) -> Figure {
+    let saturated = |a: f64, r: &SimResult| r.stop_ticks > 0 || a > sf_cm_s2;
+    let panel = |title: &str, beyond: bool| Plot {
+        title: title.into(),
+        x_label: "input, fraction of full scale".into(),
+        y_label: "indicated − input, cm/s^2".into(),
+        series: vec![
+            Series::markers(
+                "1 s plain count",
+                rows.iter()
+                    .filter(|(a, r)| saturated(*a, r) == beyond)
+                    .map(|(a, r)| (a / sf_cm_s2, r.count_cm_s2 - a))
+                    .collect(),
+            ),
+            Series::triangles(
+                "charge-balance estimate",
+                rows.iter()
+                    .filter(|(a, r)| saturated(*a, r) == beyond)
+                    .map(|(a, r)| (a / sf_cm_s2, r.indicated_cm_s2 - a))
+                    .collect(),
+            ),
+        ],
+        zero_line: true,
+        ..Plot::default()
+    };
+    let within = panel("Within the range: indicated − input", false);
+    let beyond = panel(
+        "Beyond full scale (pendulum on its stop, output clipped): indicated − input",
+        true,
+    );
+    Figure {
+        stem: "limit-cycle-range".into(),
+        panels: if beyond.series.iter().all(|s| s.points.is_empty()) {
+            vec![within]
+        } else {
+            vec![within, beyond]
+        },
+    }
 }

@@ -166,23 +166,42 @@ const COLORS: [RGBColor; 6] = [
     RGBColor(0, 0, 0),
 ];
 
-/// Tick labels for an axis spanning `span`: enough decimals for about ten ticks, and no
-/// "-0.0".
-pub fn value_tick(span: f64) -> impl Fn(&f64) -> String {
-    let step = (span / 10.0).abs().max(1e-12);
-    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-    let decimals = (-step.log10().floor()).clamp(0.0, 9.0) as usize;
+/// Labelled ticks per axis (plotters' default).
+const TICKS: usize = 11;
+
+/// The labelled ticks of a linear axis over `range` (where plotters draws them).
+fn linear_ticks(range: &Range<f64>) -> Vec<f64> {
+    RangedCoordf64::from(range.clone()).key_points(TICKS)
+}
+
+/// Tick labels for a linear axis whose labelled ticks are `ticks`: every label with the
+/// same number of decimals, the fewest (at most 9) that write every tick exactly, so an
+/// axis of whole numbers reads `0, 500, 1000` (no `.0`), one of half steps `0.0, 0.5,
+/// 1.0` and one of 0.0001 steps `0.0001`, not `0.00010`; no `-0`.
+pub fn tick_format(ticks: &[f64]) -> impl Fn(&f64) -> String + use<> {
+    let exact = |d: i32| {
+        let p = 10f64.powi(d);
+        ticks.iter().all(|t| {
+            let x = t * p;
+            (x.round() - x).abs() <= 1e-6_f64.max(1e-12 * x.abs())
+        })
+    };
+    #[allow(clippy::cast_sign_loss)]
+    let decimals = (0..=9).find(|&d| exact(d)).unwrap_or(9) as usize;
     move |y: &f64| {
         let t = format!("{y:.decimals$}");
-        if t.trim_start_matches('-')
-            .chars()
-            .all(|c| c == '0' || c == '.')
-        {
-            t.trim_start_matches('-').to_string()
+        if t.starts_with('-') && t[1..].chars().all(|c| c == '0' || c == '.') {
+            t[1..].to_string()
         } else {
             t
         }
     }
+}
+
+/// The width of the y-label area for tick labels up to `chars` characters long at the
+/// plots' 13-pixel font, with room for the axis title: at least 75 pixels.
+fn y_label_area(chars: usize) -> u32 {
+    u32::try_from(chars).map_or(200, |c| (34 + 8 * c).clamp(75, 200))
 }
 
 /// Most points a line series is drawn with; longer series are thinned to the minimum and
@@ -300,13 +319,17 @@ where
 {
     let fonts = font_ready();
     let (xr, yr) = bounds(plot);
-    let ytick = value_tick(yr.end - yr.start);
+    let yticks = linear_ticks(&yr);
+    let ytick = tick_format(&yticks);
+    let xtick = tick_format(&linear_ticks(&xr));
+    let widest = yticks.iter().map(|y| ytick(y).chars().count()).max();
     let mut b = ChartBuilder::on(area);
-    b.margin(12);
+    // Room on the right for half of the last x label.
+    b.margin(12).margin_right(30);
     if fonts {
         b.caption(&plot.title, ("sans-serif", 18))
             .x_label_area_size(40)
-            .y_label_area_size(75);
+            .y_label_area_size(y_label_area(widest.unwrap_or(0)));
     }
     // The mesh: labels and units with a font, a bare frame without one.
     macro_rules! mesh {
@@ -328,12 +351,14 @@ where
         XAxis::Log => {
             let x = (xr.start.max(1e-12)..xr.end.max(2e-12)).log_scale();
             let mut chart = b.build_cartesian_2d(x, yr).map_err(err)?;
-            mesh!(chart);
+            // Four significant digits: `1`, `10`, `0.5`, `2e4`.
+            let log_tick = |x: &f64| super::table::significant(*x, 4);
+            mesh!(chart, m => m.x_label_formatter(&log_tick));
             draw_series(&mut chart, plot, fonts)
         }
         XAxis::Linear => {
             let mut chart = b.build_cartesian_2d(xr, yr).map_err(err)?;
-            mesh!(chart);
+            mesh!(chart, m => m.x_label_formatter(&xtick));
             draw_series(&mut chart, plot, fonts)
         }
         XAxis::Rows(labels) => {
@@ -500,6 +525,41 @@ mod tests {
         assert!(d.iter().any(|p| (p.1 - 9.0).abs() < 1e-12));
         assert!(d.iter().any(|p| p.1.abs() < 1e-12));
         assert!(d.windows(2).all(|w| w[0].0 < w[1].0));
+    }
+
+    /// Tick labels: whole-number axes without `.0`, the same decimals along an axis, the
+    /// fewest that write every tick (plotters' floating-point ticks included), no `-0`; and
+    /// the ticks plotters draws for a few ranges read as expected.
+    #[test]
+    fn tick_labels_have_the_digits_their_ticks_need() {
+        let show = |ticks: &[f64]| -> Vec<String> {
+            let f = tick_format(ticks);
+            ticks.iter().map(f).collect()
+        };
+        assert_eq!(
+            show(&[0.0, 500.0, 1000.0, 4000.0]),
+            ["0", "500", "1000", "4000"]
+        );
+        assert_eq!(show(&[0.0, 0.5, 1.0, 1.5]), ["0.0", "0.5", "1.0", "1.5"]);
+        assert_eq!(
+            show(&[-0.0001, 0.0, 0.000_1, 0.000_2 + 1e-19, 0.1 * 0.003]),
+            ["-0.0001", "0.0000", "0.0001", "0.0002", "0.0003"]
+        );
+        assert_eq!(show(&[-0.0, 2.0]), ["0", "2"]);
+        assert_eq!(tick_format(&[0.0, 0.5])(&-0.0001), "0.0");
+        // plotters' own ticks over ranges of the report's figures.
+        for (range, want) in [
+            (-120.0..4100.0, vec!["0", "500", "1000"]),
+            (0.0..360.0, vec!["0", "50", "100"]),
+            (-0.000_12..0.000_45, vec!["-0.0001", "0.0000", "0.0001"]),
+            (-2.2..2.8, vec!["-2.0", "-1.5", "-1.0"]),
+        ] {
+            let ticks = linear_ticks(&range);
+            let labels = show(&ticks);
+            assert_eq!(labels[..want.len()], want[..], "{range:?}: {labels:?}");
+        }
+        assert_eq!(y_label_area(4), 75);
+        assert!(y_label_area(12) > 75);
     }
 
     #[test]

@@ -368,9 +368,18 @@ pub struct ResponseArgs {
     pub label: Option<String>,
     /// Print exactly one JSON object: the row's columns {"label", "kind", "freq_hz",
     /// "lin_ia_cm_s2", "measured_gain", "measured_phase_deg", "sigma_gain",
-    /// "sigma_phase_deg"} and the fit's "gates", "gate_s", "mean_cm_s2" and "rms_cm_s2".
+    /// "sigma_phase_deg"}, the fit's "gates", "gate_s", "mean_cm_s2" and "rms_cm_s2", the
+    /// check's "expected_rms_cm_s2" (what counting leaves, cm/s²), "predicted_gain" and
+    /// "predicted_phase_deg" (the instrument file's loop; null if it has none) and
+    /// "warnings" (a list of the warnings' texts, empty if none).
     #[arg(long)]
     pub json: bool,
+    /// Write the row even when the fit makes no physical sense: a gain above 2 (no loop the
+    /// simulator accepts gets there) or an uncertainty larger than the gain (no sine at
+    /// --freq-hz); refused without it, naming the likely slip (an amplitude in g, another
+    /// frequency).
+    #[arg(long)]
+    pub force: bool,
     #[command(flatten)]
     pub out: OutArgs,
 }
@@ -512,8 +521,10 @@ pub enum PlanKind {
         /// IA positions (2 to 360).
         #[arg(long, default_value_t = 8, value_name = "N", value_parser = positions)]
         positions: usize,
-        /// The dividing head's horizontal axis (oa or pa).
-        #[arg(long, value_enum, default_value = "oa")]
+        /// The dividing head's horizontal axis: oa (IA in the IA–PA plane, Table 6.1) or pa
+        /// (IA in the IA–OA plane). Not ia: with IA along the head's axis the table's rate
+        /// never reaches IA.
+        #[arg(long, default_value = "oa", value_name = "oa|pa", value_parser = rate_table_axis)]
         axis: Axis,
         /// Table rate, rad/s.
         #[arg(long, default_value_t = 1.0, value_name = "RAD_S", value_parser = rate_rad_s)]
@@ -585,6 +596,24 @@ fn positions(s: &str) -> Result<usize, String> {
     match s.trim().parse::<usize>() {
         Ok(n @ 2..=360) => Ok(n),
         _ => Err(format!("expected a whole number from 2 to 360, not `{s}`")),
+    }
+}
+
+/// The dividing head's axis on the rate table: `oa` or `pa`. `ia` is refused: IA would
+/// lie along the head's horizontal axis, so the table's rate (about the vertical) has no
+/// component along IA at any position, and the rows' differences carry no anisoinertia
+/// (`w_IA·w_PA`), which is what the rate table measures.
+fn rate_table_axis(s: &str) -> Result<Axis, String> {
+    match s.trim() {
+        "oa" => Ok(Axis::Oa),
+        "pa" => Ok(Axis::Pa),
+        "ia" => Err(
+            "ia is not a rate-table set-up: with IA along the dividing head's axis the table's rate never reaches IA (w_IA = 0 at every position), so the rows would measure no anisoinertia (w_IA·w_PA); expected oa (IA in the IA–PA plane) or pa (IA in the IA–OA plane)"
+                .into(),
+        ),
+        other => Err(format!(
+            "expected oa (IA in the IA–PA plane) or pa (IA in the IA–OA plane), not `{other}`"
+        )),
     }
 }
 

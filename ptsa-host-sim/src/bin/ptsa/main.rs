@@ -713,8 +713,11 @@ fn static_cmd(
     Ok(())
 }
 
-/// `ptsa response`: read and check the record, fit, write the plot, print the row.
+/// `ptsa response`: read and check the record, fit, check the fit, write the plot, print
+/// the row.
+#[allow(clippy::too_many_lines)] // the record's checks, the fit's, then the output
 fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Result<()> {
+    use ptsa_host_sim::output::significant as sig;
     use ptsa_host_sim::response;
     let stem = format!(
         "{}-response",
@@ -736,12 +739,14 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         bail!(
             "--freq-hz {}: expected a frequency below {} Hz, the Nyquist frequency of {name} ({n} gates in {} s, {} gates/s): gates that far apart cannot show a sine of {} Hz",
             num(a.freq_hz),
-            num(rate / 2.0),
-            num(span_s),
-            num(rate),
+            sig(rate / 2.0, 8),
+            sig(span_s, 8),
+            sig(rate, 8),
             num(a.freq_hz)
         );
     }
+    // Every warning, for stderr and for the JSON's "warnings".
+    let mut warnings: Vec<String> = Vec::new();
     #[allow(clippy::cast_precision_loss)]
     let gate_s = gates[0].ticks as f64 / instr.clock_hz;
     let spacing = gates
@@ -749,23 +754,29 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         .map(|w| w[1].time_s - w[0].time_s)
         .fold(f64::INFINITY, f64::min);
     if spacing < gate_s * (1.0 - 1e-6) {
-        eprintln!(
-            "warning: {name}: gates start {} s apart but each is {} s long ({} ticks at the instrument file's clock_hz {} Hz): they overlap; if the counter's clock is not {} Hz, the gain's correction for the gate averaging is wrong",
-            num(spacing),
-            num(gate_s),
+        warnings.push(format!(
+            "{name}: gates start {} s apart but each is {} s long ({} ticks at the instrument file's clock_hz {} Hz): they overlap; if the counter's clock is not {} Hz, the gain's correction for the gate averaging is wrong",
+            sig(spacing, 8),
+            sig(gate_s, 8),
             gates[0].ticks,
             num(instr.clock_hz),
             num(instr.clock_hz)
-        );
+        ));
     }
     if span_s * a.freq_hz < 1.0 {
-        eprintln!(
-            "warning: {name} spans {} s, less than one period of {} Hz: the fit extrapolates the sine and its uncertainties are large",
-            num(span_s),
+        warnings.push(format!(
+            "{name} spans {} s, less than one period of {} Hz: the fit extrapolates the sine and its uncertainties are large",
+            sig(span_s, 8),
             num(a.freq_hz)
-        );
+        ));
     }
-    work::warn_beyond_full_scale(instr, a.amplitude_cm_s2, "--amplitude-cm-s2");
+    if a.amplitude_cm_s2.abs() > instr.sf_cm_s2 {
+        warnings.push(format!(
+            "--amplitude-cm-s2 = {} cm/s^2 is beyond the loop's full scale of ±{} cm/s^2: the loop saturates and the results are not measurements of the input",
+            num(a.amplitude_cm_s2),
+            num(instr.sf_cm_s2)
+        ));
+    }
     let fit = response::fit(
         &gates,
         a.freq_hz,
@@ -779,9 +790,28 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         bail!(
             "{name}: no component at --freq-hz {} in the record (gain {}); expected the response to a sine at that frequency",
             num(a.freq_hz),
-            fit.gain
+            sig(fit.gain, 4)
         );
     }
+    let checked = response::check(
+        &response::CheckContext {
+            name: &name,
+            gates: &gates,
+            instrument: instr,
+            ticks_per_cycle: u32::from(Design::for_instrument(instr).config().ticks_per_cycle),
+        },
+        &fit,
+    );
+    if let Some(r) = &checked.refusal {
+        if !a.force {
+            for w in &warnings {
+                eprintln!("warning: {w}");
+            }
+            bail!("{r}; --force writes the row anyway");
+        }
+        warnings.push(format!("{r} (written because of --force)"));
+    }
+    warnings.extend(checked.warnings.iter().cloned());
     let file = a
         .counts
         .file_name()
@@ -790,12 +820,22 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         .label
         .clone()
         .unwrap_or_else(|| format!("{} Hz ({file})", a.freq_hz));
-    let fig = response_figure(&stem, &label, &gates, &fit, instr.sf_cm_s2);
+    let fig = response_figure(
+        &stem,
+        &label,
+        &gates,
+        &fit,
+        instr.sf_cm_s2,
+        checked.expected.rms_cm_s2,
+    );
     let files = ptsa_host_sim::output::write_figure(&a.out.out, &fig)?;
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
     eprintln!(
-        "response: {name}: {n} gates of {} s ({} gates/s), {} Hz at {} cm/s^2: gain {:.5} ± {:.5}, phase {:.3} ± {:.3} deg (output lagging: negative), mean {:.3} cm/s^2, residual RMS {:.3} cm/s^2",
-        num(gate_s),
-        num(rate),
+        "response: {name}: {n} gates of {} s ({} gates/s), {} Hz at {} cm/s^2: gain {:.5} ± {:.5}, phase {:.3} ± {:.3} deg (output lagging: negative), mean {:.3} cm/s^2, residual RMS {:.3} cm/s^2 (counting leaves {:.3}){}",
+        sig(gate_s, 8),
+        sig(rate, 8),
         num(a.freq_hz),
         num(a.amplitude_cm_s2),
         fit.gain,
@@ -803,22 +843,29 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
         fit.phase_deg,
         fit.sigma_phase_deg,
         fit.mean_cm_s2,
-        fit.rms_cm_s2
+        fit.rms_cm_s2,
+        checked.expected.rms_cm_s2,
+        checked.prediction.map_or(String::new(), |p| format!(
+            "; the instrument file's loop predicts gain {:.5}, phase {:.3} deg",
+            p.gain, p.phase_deg
+        ))
     );
     eprintln!(
         "wrote {} into {}",
         plural(files.len() as u64, "file"),
         paths::shown(&a.out.out)
     );
-    print_response_row(out, fit.row(&label), &fit, a.json)
+    print_response_row(out, fit.row(&label), &fit, &checked, &warnings, a.json)
 }
 
 /// Print `ptsa response`'s `row` as case-frame CSV with its header, or with `json` as one
-/// JSON object with `fit`'s summary.
+/// JSON object with `fit`'s summary, the check's figures and the `warnings`.
 fn print_response_row(
     out: &mut dyn Write,
     row: ptsa_host_sim::condition::Condition,
     fit: &ptsa_host_sim::response::ResponseFit,
+    checked: &ptsa_host_sim::response::FitCheck,
+    warnings: &[String],
     json: bool,
 ) -> Result<()> {
     if json {
@@ -835,6 +882,10 @@ fn print_response_row(
             "gate_s": fit.gate_s,
             "mean_cm_s2": fit.mean_cm_s2,
             "rms_cm_s2": fit.rms_cm_s2,
+            "expected_rms_cm_s2": checked.expected.rms_cm_s2,
+            "predicted_gain": checked.prediction.map(|p| p.gain),
+            "predicted_phase_deg": checked.prediction.map(|p| p.phase_deg),
+            "warnings": warnings,
         });
         writeln!(out, "{v}")?;
     } else {
@@ -844,13 +895,15 @@ fn print_response_row(
 }
 
 /// The plot of `ptsa response`: the gates' indicated accelerations with the fitted sine
-/// (its gate means) over them, and the residuals below.
+/// (its gate means) over them, and the residuals below, their RMS against the
+/// `expected_rms` counting leaves (cm/s²).
 fn response_figure(
     stem: &str,
     label: &str,
     gates: &[ptsa_host_sim::response::Gate],
     fit: &ptsa_host_sim::response::ResponseFit,
     sf_cm_s2: f64,
+    expected_rms: f64,
 ) -> ptsa_host_sim::output::Figure {
     use ptsa_host_sim::output::{Figure, Plot, Series};
     let half = fit.gate_s / 2.0;
@@ -894,8 +947,8 @@ fn response_figure(
             },
             Plot {
                 title: format!(
-                    "residuals: gate minus fitted gate mean, RMS {:.3} cm/s²",
-                    fit.rms_cm_s2
+                    "residuals: gate minus fitted gate mean, RMS {:.3} cm/s² (counting leaves {:.3})",
+                    fit.rms_cm_s2, expected_rms
                 ),
                 x_label: "time (gate midpoint), s".into(),
                 y_label: "residual, cm/s²".into(),
@@ -1020,8 +1073,9 @@ fn simulator(
     }
 }
 
-/// The effects of a `ptsa discover --json` result file (`predict --effects`).
-fn load_effects(p: &Path) -> Result<Effects> {
+/// The effects of a `ptsa discover --json` result file (`predict --effects`), and the
+/// standard error of each coefficient the file gives one for (its `"stderr"`).
+fn load_effects(p: &Path) -> Result<(Effects, Vec<(CandidateId, f64)>)> {
     let text =
         std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
     let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
@@ -1032,7 +1086,41 @@ fn load_effects(p: &Path) -> Result<Effects> {
             e.column()
         )
     })?;
-    discovery::effects_from_json(&v).with_context(|| p.display().to_string())
+    let effects = discovery::effects_from_json(&v).with_context(|| p.display().to_string())?;
+    let list = v.get("effects").unwrap_or(&v);
+    let mut sigmas = Vec::new();
+    for item in list.as_array().into_iter().flatten() {
+        let name = item.get("name").and_then(serde_json::Value::as_str);
+        let errs = item.get("stderr").and_then(serde_json::Value::as_object);
+        for (key, se) in errs.into_iter().flatten() {
+            let id = ptsa_host_sim::effects::REGISTRY
+                .iter()
+                .find(|c| Some(c.effect) == name && c.key == key);
+            if let (Some(c), Some(se)) = (id, se.as_f64().filter(|x| x.is_finite() && *x > 0.0)) {
+                sigmas.push((c.id, se));
+            }
+        }
+    }
+    Ok((effects, sigmas))
+}
+
+/// What `predict` runs with: `baseline model`, or `with NAME = VALUE UNIT, ...`, each
+/// coefficient with the digits its standard error in `sigmas` warrants, else four.
+fn effects_text(effects: &Effects, sigmas: &[(CandidateId, f64)]) -> String {
+    if effects.is_zero() {
+        return "baseline model".to_string();
+    }
+    let list: Vec<String> = effects
+        .nonzero()
+        .map(|(id, c)| {
+            let value = sigmas.iter().find(|s| s.0 == id).map_or_else(
+                || ptsa_host_sim::output::significant(c, 4),
+                |s| discovery::show::estimate(c, s.1),
+            );
+            format!("{} = {value} {}", id.info().name, id.info().unit)
+        })
+        .collect();
+    format!("with {}", list.join(", "))
 }
 
 fn predict_cmd(
@@ -1042,9 +1130,9 @@ fn predict_cmd(
     out: &mut dyn Write,
 ) -> Result<()> {
     let rows = discovery::caseframe::read(&a.data)?;
-    let effects = match &a.effects {
+    let (effects, sigmas) = match &a.effects {
         Some(p) => load_effects(p)?,
-        None => Effects::NONE,
+        None => (Effects::NONE, Vec::new()),
     };
     let sim = simulator(instr, config, a.analytic, a.seed);
     let s = work::spinner("predict");
@@ -1079,18 +1167,7 @@ fn predict_cmd(
         "predict: {} ({} simulator, {})",
         a.data.display(),
         sim.name(),
-        if effects.is_zero() {
-            "baseline model".to_string()
-        } else {
-            format!(
-                "with {}",
-                effects
-                    .nonzero()
-                    .map(|(id, c)| format!("{} = {c}", id.info().name))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )
-        }
+        effects_text(&effects, &sigmas)
     )?;
     writeln!(
         out,
