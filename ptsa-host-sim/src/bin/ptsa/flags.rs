@@ -406,6 +406,9 @@ pub struct TwoAxisArgs {
 }
 
 /// Arguments of `ptsa discover`.
+// Independent on/off flags of a command line (--json, --no-plots, --analytic,
+// --keep-outliers), each its own clap switch.
+#[allow(clippy::struct_excessive_bools)]
 #[derive(Args, Debug, Clone)]
 #[command(allow_negative_numbers = true)]
 pub struct DiscoverArgs {
@@ -451,6 +454,11 @@ pub struct DiscoverArgs {
     /// when no parameter is selected.
     #[arg(long, value_name = "FILE", requires = "data")]
     pub write_instrument: Option<PathBuf>,
+    /// Keep the rows the outlier test flags as suspected gross errors in the fit (they are
+    /// still reported and warned about). Without it such a row (its value many sigma from
+    /// what the model selected without it expects, familywise 1 %) is set aside.
+    #[arg(long)]
+    pub keep_outliers: bool,
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,

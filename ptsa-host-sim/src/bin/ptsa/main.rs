@@ -1231,6 +1231,7 @@ fn discover_cmd(
             default_sigma_cm_s2: a.sigma,
             candidates,
             seed: a.seed,
+            keep_outliers: a.keep_outliers,
             ..Options::for_instrument(instr)
         },
         json: a.json,
