@@ -275,6 +275,14 @@ fn values_in_another_unit_are_refused_as_a_unit_slip() {
                 "a sign slip is not analysed as physics",
             ],
         ),
+        (
+            1.0 / G,
+            [
+                "error: data.csv",
+                "run again (or, if the values are right as they are, `--units-as-given` analyses them with a warning)",
+                "a unit slip",
+            ],
+        ),
     ] {
         let mut slipped = rows.clone();
         for r in &mut slipped {
@@ -289,6 +297,43 @@ fn values_in_another_unit_are_refused_as_a_unit_slip() {
             refused_in_folder(&[("data.csv", text.as_bytes())], &args, 1, &needles, &[]);
         }
     }
+}
+
+/// `--units-as-given` analyses such values as they are (an instrument mounted with IA
+/// reversed reads the negative of its simulation), with the slip named in the first
+/// warning, in the text and in the JSON.
+#[test]
+fn units_as_given_analyses_a_slip_with_a_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let mut rows = tumble(d, 24, 0.01, 6);
+    for r in &mut rows {
+        r.measured_cm_s2 = r.measured_cm_s2.map(|m| -m);
+    }
+    std::fs::write(d.join("data.csv"), csv(&rows)).unwrap();
+    let args = [
+        "discover",
+        "--data",
+        "data.csv",
+        "--no-plots",
+        "--units-as-given",
+    ];
+    let (out, err) = succeeds(d, &args);
+    let text = format!("{out}{err}");
+    assert!(
+        text.contains("warning: the measured values are the negative of the simulated ones")
+            && text.contains("analysed as given (--units-as-given): if this is a sign slip"),
+        "{text}"
+    );
+    let mut json = args.to_vec();
+    json.push("--json");
+    let (out, _) = succeeds(d, &json);
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let first = v["warnings"][0].as_str().unwrap();
+    assert!(
+        first.contains("were they entered with the sign reversed"),
+        "{first}"
+    );
 }
 
 /// A few rows typed in another unit, among right ones: each is a suspected gross error with

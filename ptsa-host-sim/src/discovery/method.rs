@@ -60,6 +60,11 @@ pub struct Options {
     /// Keep the rows the outlier test flags in the fit (`--keep-outliers`): they are still
     /// reported, but not set aside.
     pub keep_outliers: bool,
+    /// Analyse values that look like another unit's or the sign's multiple of the
+    /// simulated ones as they are (`--units-as-given`), with a warning, instead of refusing
+    /// them: an instrument mounted with its input axis reversed reads the negative of its
+    /// simulation.
+    pub units_as_given: bool,
 }
 
 impl Options {
@@ -78,6 +83,7 @@ impl Options {
             limits,
             seed: 1,
             keep_outliers: false,
+            units_as_given: false,
         }
     }
 }
@@ -1073,7 +1079,8 @@ pub fn discover_with(
         sim,
     )?;
     // Values in another unit, or with the sign reversed: not physics.
-    if let Some(slip) = slips::unit_slip(&every, sim.g_cm_s2()) {
+    let unit_slip = slips::unit_slip(&every, sim.g_cm_s2());
+    if let Some(slip) = unit_slip.as_ref().filter(|_| !opts.units_as_given) {
         anyhow::bail!("{}", slip.message());
     }
     let settings = Settings {
@@ -1226,6 +1233,9 @@ pub fn discover_with(
         &selected,
         sim,
     );
+    if let Some(slip) = &unit_slip {
+        warnings.insert(0, slip.kept_message());
+    }
     warnings.extend(self::warnings(&data, &f, &selected));
     let effects_json = effect_reports(&selected, opts, sim);
     let mut noise = noise_report(&data, &f);

@@ -459,6 +459,11 @@ pub struct DiscoverArgs {
     /// what the model selected without it expects, familywise 1 %) is set aside.
     #[arg(long)]
     pub keep_outliers: bool,
+    /// Analyse measured values that are a unit's multiple of the simulated ones (1/980.4:
+    /// typed in g; 1/100: m/s²; 1020: µg; ...) or their negative as they are, with a
+    /// warning. Without it such data are refused (exit 1) as a unit or sign slip.
+    #[arg(long)]
+    pub units_as_given: bool,
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,

@@ -1232,6 +1232,7 @@ fn discover_cmd(
             candidates,
             seed: a.seed,
             keep_outliers: a.keep_outliers,
+            units_as_given: a.units_as_given,
             ..Options::for_instrument(instr)
         },
         json: a.json,
