@@ -180,6 +180,9 @@ pub struct RowStats {
     pub false_or_misnamed: Count,
     /// Sets with any selection.
     pub any: Count,
+    /// Sets with a row flagged as a suspected gross error (no gross error is injected: a
+    /// false alarm of the outlier test).
+    pub outliers: Count,
 }
 
 impl RowStats {
@@ -187,6 +190,7 @@ impl RowStats {
         let t = &o.truth;
         self.sets += 1;
         self.any.add(o.any_selection);
+        self.outliers.add(!o.outliers.is_empty());
         match t.kind.class() {
             Class::Candidate => {
                 for (j, &th) in THRESHOLDS.iter().enumerate() {
@@ -353,7 +357,8 @@ impl Campaign {
     }
 
     /// The sets that matter for the rates: misses at ≥ 6 SE, implausible namings, coverage
-    /// outliers, false selections, confident misnamings, refusals.
+    /// outliers, false selections, confident misnamings, refusals, rows flagged as gross
+    /// errors.
     #[must_use]
     pub fn notable(&self) -> String {
         let mut s = String::new();
@@ -381,6 +386,7 @@ impl Campaign {
                 Class::Aliased => o.confident_misnaming.then_some("(aliased) misnaming"),
                 Class::Null => o.any_selection.then_some("false selection"),
             };
+            let why = why.or_else(|| (!o.outliers.is_empty()).then_some("outlier flagged"));
             if let Some(w) = why {
                 let _ = writeln!(s, "{w:<20} {}", o.line(*seed));
             }
@@ -410,7 +416,7 @@ impl Campaign {
         );
         let _ = writeln!(
             s,
-            "{:<26} {:>4} | {:>9} {:>9} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} | {:>9} | {:>9} | {:>9}",
+            "{:<26} {:>4} | {:>9} {:>9} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} | {:>9} | {:>9} | {:>9} | {:>9}",
             "hidden kind",
             "sets",
             "ex>=3",
@@ -424,7 +430,8 @@ impl Campaign {
             "partner",
             "coverage",
             "false/mis",
-            "any sel"
+            "any sel",
+            "outliers"
         );
         let failing = self.failures(ci);
         for (name, class, r) in self.rows() {
@@ -465,7 +472,7 @@ impl Campaign {
             let ei = cells(&r.either);
             let _ = writeln!(
                 s,
-                "{name:<26} {:>4} | {:>9} {:>9} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} | {:>9} | {:>9} | {:>9}",
+                "{name:<26} {:>4} | {:>9} {:>9} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} | {:>9} | {:>9} | {:>9} | {:>9}",
                 r.sets,
                 ex[0],
                 ex[1],
@@ -482,7 +489,8 @@ impl Campaign {
                 },
                 cov,
                 fm,
-                r.any.cell()
+                r.any.cell(),
+                r.outliers.cell()
             );
         }
         let _ = writeln!(
@@ -492,7 +500,7 @@ impl Campaign {
              99% interval of Binomial(n, 0.95)); false/mis: nulls: any selection, oov/bias/drift: confident misnaming (plausible\n\
              selection, no unexplained-structure warning); in brackets, not asserted: candidates: an unrelated extra selection,\n\
              aliased oov (the design's data are those of an in-vocabulary set): confident misnaming;\n\
-             any sel: sets with any selection. Asserted: coverage over all candidates; e|p>=8 >= 95% over all candidates{}; false/mis per kind\n\
+             any sel: sets with any selection; outliers: sets with a row flagged as a suspected gross error (none is injected). Asserted: coverage over all candidates; e|p>=8 >= 95% over all candidates{}; false/mis per kind\n\
              consistent with at most 5% (! when P(>= k of n) at 5% is below 0.01).",
             if ci {
                 " (less one binomial standard error at this size)"

@@ -33,6 +33,8 @@ pub mod score;
 pub mod statics;
 
 #[cfg(test)]
+mod outliers;
+#[cfg(test)]
 mod tests;
 
 pub use campaign::{Campaign, binomial_interval};

@@ -398,6 +398,8 @@ pub struct ParamOutcome {
     pub partner: bool,
     /// `(fitted change − true change)/SE` when named exactly.
     pub z: Option<f64>,
+    /// Rows flagged as suspected gross errors (none is injected: false alarms).
+    pub outliers: usize,
     /// The analysis failed.
     pub error: Option<String>,
 }
@@ -417,10 +419,12 @@ pub fn analyse(seed: u64, set: &ParamSet) -> ParamOutcome {
         exact: false,
         partner: false,
         z: None,
+        outliers: 0,
         error: None,
     };
     match discover(&set.rows, &sim, &Options::for_instrument(&nominal)) {
         Ok(d) => {
+            o.outliers = d.json.outliers.len();
             o.selected = d.selected.iter().map(|s| s.id).collect();
             if let Some(id) = set.truth.id {
                 if let Some(s) = d.selected.iter().find(|s| s.id == id) {
@@ -727,6 +731,12 @@ impl ParamCampaign {
                 );
             }
         }
+        let _ = writeln!(
+            s,
+            "sets with a row flagged as a suspected gross error (none is injected): {} of {}",
+            self.outcomes.iter().filter(|o| o.outliers > 0).count(),
+            self.outcomes.len()
+        );
         if !self.unseen.is_empty() {
             let names: Vec<String> = self
                 .unseen

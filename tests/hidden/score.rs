@@ -30,6 +30,9 @@ pub struct Outcome {
     pub unexplained: bool,
     /// What was selected (`?` after an implausible one), for the log.
     pub selected: Vec<String>,
+    /// Rows the pipeline flagged as suspected gross errors (none was injected: every one
+    /// is a false alarm of the outlier test).
+    pub outliers: Vec<String>,
     /// The pipeline refused the set.
     pub error: Option<String>,
 }
@@ -61,6 +64,7 @@ pub fn score(set: &HiddenSet, d: &Discovery) -> Outcome {
     o.any_selection = !d.selected.is_empty();
     o.unexplained = d.json.unexplained.detected;
     o.confident_misnaming = d.selected.iter().any(|s| s.plausible) && !o.unexplained;
+    o.outliers = d.json.outliers.iter().map(|x| x.row.clone()).collect();
     o.selected = d
         .selected
         .iter()
@@ -90,6 +94,7 @@ impl Outcome {
             confident_misnaming: false,
             unexplained: false,
             selected: Vec::new(),
+            outliers: Vec::new(),
             error: None,
         }
     }
@@ -116,7 +121,7 @@ impl Outcome {
             "-"
         };
         format!(
-            "{:<26} seed {seed:<20} {:>5.1} SE{} {:<22} {:>2} rows  sigma {}{}{}{}{} -> [{}]{}  {}{}{}",
+            "{:<26} seed {seed:<20} {:>5.1} SE{} {:<22} {:>2} rows  sigma {}{}{}{}{} -> [{}]{}  {}{}{}{}",
             t.kind.name(),
             t.strength_se,
             if t.capped { "*" } else { " " },
@@ -145,6 +150,11 @@ impl Outcome {
             },
             verdict,
             self.z.map_or(String::new(), |z| format!(" z {z:+.2}")),
+            if self.outliers.is_empty() {
+                String::new()
+            } else {
+                format!("  outliers: {}", self.outliers.join(", "))
+            },
             self.error
                 .as_ref()
                 .map_or(String::new(), |e| format!(" error: {e}"))

@@ -636,6 +636,8 @@ pub struct StaticOutcome {
     pub extra: usize,
     /// The unexplained-structure test fired.
     pub unexplained: bool,
+    /// Rows flagged as suspected gross errors (none is injected: false alarms).
+    pub outliers: Vec<String>,
     /// The analysis failed.
     pub error: Option<String>,
 }
@@ -670,7 +672,7 @@ impl StaticOutcome {
             })
             .collect();
         format!(
-            "{:<14} seed {:<12} {:>5.1} SE{} {:.3e} {:<6} {:<20} sigma {:.4}{} -> [{}]{}{}{}",
+            "{:<14} seed {:<12} {:>5.1} SE{} {:.3e} {:<6} {:<20} sigma {:.4}{} -> [{}]{}{}{}{}",
             t.kind.name(),
             self.seed,
             t.strength_se,
@@ -687,6 +689,11 @@ impl StaticOutcome {
                 ""
             },
             self.z.map_or(String::new(), |z| format!("  z {z:+.2}")),
+            if self.outliers.is_empty() {
+                String::new()
+            } else {
+                format!("  outliers: {}", self.outliers.join(", "))
+            },
             self.error
                 .as_ref()
                 .map_or(String::new(), |e| format!("  error: {e}"))
@@ -723,12 +730,14 @@ pub fn analyse(seed: u64, set: &StaticSet, with_parameters: bool) -> StaticOutco
         z: None,
         extra: 0,
         unexplained: false,
+        outliers: Vec::new(),
         error: None,
     };
     let names = t.kind.names();
     match discover(&set.rows, &sim, &options(with_parameters)) {
         Ok(d) => {
             o.unexplained = d.json.unexplained.detected;
+            o.outliers = d.json.outliers.iter().map(|x| x.row.clone()).collect();
             for s in &d.selected {
                 let partners: Vec<CandidateId> = s.confounded.iter().map(|(c, _)| *c).collect();
                 if names.contains(&s.id) {
@@ -829,6 +838,8 @@ pub struct KindStats {
     pub capped: usize,
     /// Sets per design family ([`StaticDesign::FAMILIES`]).
     pub designs: [usize; 4],
+    /// Sets with a row flagged as a suspected gross error (none is injected).
+    pub outliers: Count,
 }
 
 impl KindStats {
@@ -837,6 +848,7 @@ impl KindStats {
         self.sets += 1;
         self.designs[t.design.family()] += 1;
         self.capped += usize::from(t.capped);
+        self.outliers.add(!o.outliers.is_empty());
         if t.kind == StaticKind::Unperturbed {
             self.wrong.add(!o.selected.is_empty());
             return;
@@ -981,6 +993,8 @@ impl StaticCampaign {
                 Some("extra selection")
             } else if strong && o.z.is_some_and(|z| z.abs() > 1.96) {
                 Some("|z| > 1.96")
+            } else if !o.outliers.is_empty() {
+                Some("outlier flagged")
             } else {
                 None
             };
@@ -1011,7 +1025,8 @@ impl StaticCampaign {
              >= 6 SE; misnamed: a selection, the truth neither selected nor a partner; extra: the truth named and a selection beside\n\
              it that neither is nor names it; wrong: either (unperturbed: any selection; ! when P(>= k of n) at 5% is below 0.01);\n\
              warned: misses at >= 6 SE with the unexplained-structure warning; capped: strength cut to the plausibility bound;\n\
-             t8/t12/t24/cf+t8: sets per design (8-, 12-, 24-point tumble, centrifuge after an 8-point tumble), and per design below.\n\
+             t8/t12/t24/cf+t8: sets per design (8-, 12-, 24-point tumble, centrifuge after an 8-point tumble), and per design below;\n\
+             outliers: sets with a row flagged as a suspected gross error (none is injected).\n\
              Asserted: wrong over all hidden kinds and over the unperturbed sets consistent with at most 5%; coverage in the 99% band\n\
              of Binomial(n, 0.95) from 20 exact namings; e|p>=6 >= 95%{} {}.",
             if ci {
@@ -1054,7 +1069,7 @@ impl StaticCampaign {
         );
         let _ = writeln!(
             s,
-            "{:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {:>16}",
+            "{:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {:>16} | {:>8}",
             "hidden",
             "sets",
             "ex>=6",
@@ -1066,7 +1081,8 @@ impl StaticCampaign {
             "wrong",
             "warned",
             "capped",
-            "t8/t12/t24/cf+t8"
+            "t8/t12/t24/cf+t8",
+            "outliers"
         );
         let row = |s: &mut String, name: &str, k: &KindStats, null: bool| {
             let designs = k.designs.map(|x| x.to_string()).join("/");
@@ -1074,7 +1090,7 @@ impl StaticCampaign {
             let mark = if k.wrong.too_many() { "!" } else { "" };
             let _ = writeln!(
                 s,
-                "{name:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {designs:>16}",
+                "{name:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {designs:>16} | {:>8}",
                 k.sets,
                 dash(k.exact6),
                 dash(k.either6),
@@ -1089,6 +1105,7 @@ impl StaticCampaign {
                 } else {
                     k.capped.to_string()
                 },
+                k.outliers.cell(),
             );
         };
         for kind in StaticKind::ALL {

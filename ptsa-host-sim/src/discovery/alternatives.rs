@@ -39,7 +39,7 @@
 use rayon::prelude::*;
 
 use super::data::{Data, Quantity};
-use super::fit::{self, Fitted};
+use super::fit::{self, Fitted, Step};
 use super::method::Selected;
 use super::sim::Simulator;
 use super::stats::{chi2_sf, f_sf, lsq, norm};
@@ -184,18 +184,22 @@ impl Scorer<'_> {
 }
 
 /// The best change of `id` in place of the parameters left in `rest`, over the grid and a
-/// golden-section search between the grid's best point's neighbours: `(change, χ²)`.
+/// golden-section search between the grid's best point's neighbours: `(change, χ², limit)`,
+/// `limit` the change at the end of the grid when the best lies there (within
+/// [`AT_LIMIT`] of the last interval): the grid could not go further (its extensions used
+/// up, or the parameter would leave [`MIN_FRACTION`] of its value), so the data may want
+/// more than the search could give.
 fn best_change(
     scorer: &Scorer<'_>,
     rest: &Effects,
     id: CandidateId,
     reach: f64,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, f64, Option<f64>)> {
     let key = id.parameter_key()?;
     let (lo, nom, hi) = scorer.sim.instrument()?.tolerance(key)?;
     // Changes that keep a positive parameter positive (the torquer lag's band is 0.2 to
     // 20 µs about 2 µs).
-    let valid = |d: f64| !(nom > 0.0 && lo >= 0.0) || nom + d >= 0.05 * nom;
+    let valid = |d: f64| !(nom > 0.0 && lo >= 0.0) || nom + d >= MIN_FRACTION * nom;
     let mut grid: Vec<f64> = GRID
         .iter()
         .map(|&s| {
@@ -256,7 +260,7 @@ fn best_change(
     // small odd part has a valley on each side), unless the grid's best is beyond reach.
     let best = (grid[i], c);
     if c > reach {
-        return Some(best);
+        return Some((best.0, best.1, grid_end(&grid, best.0)));
     }
     let zero = grid.iter().position(|&d| d == 0.0).unwrap_or(0);
     let other = chi
@@ -296,13 +300,74 @@ fn best_change(
             best = g;
         }
     }
-    Some(best)
+    Some((best.0, best.1, grid_end(&grid, best.0)))
+}
+
+/// The end of `grid` that `x` lies at (within [`AT_LIMIT`] of the last interval), if any.
+fn grid_end(grid: &[f64], x: f64) -> Option<f64> {
+    let last = grid.len().checked_sub(1)?;
+    [(0, 1.min(last)), (last, last.saturating_sub(1))]
+        .into_iter()
+        .find(|&(e, inner)| {
+            grid[e] != 0.0 && (x - grid[e]).abs() <= AT_LIMIT * (grid[e] - grid[inner]).abs()
+        })
+        .map(|(e, _)| grid[e])
+}
+
+/// Fraction of the last grid interval within which a search's best counts as lying at the
+/// grid's end (the golden-section search brackets it to 0.8 % of two intervals).
+pub const AT_LIMIT: f64 = 0.02;
+
+/// Smallest value, as a fraction of the file's, a positive parameter is searched down to.
+pub const MIN_FRACTION: f64 = 0.05;
+
+/// In words, where the search of `id` stopped: the change `limit` at its grid's end.
+#[must_use]
+pub fn limit_note(id: CandidateId, limit: f64, sim: &dyn Simulator) -> String {
+    let c = id.info();
+    match id
+        .parameter_key()
+        .and_then(|k| sim.instrument()?.tolerance(k))
+    {
+        Some((lo, nom, hi)) => {
+            let at = nom + limit;
+            let side = if limit < 0.0 { nom - lo } else { hi - nom };
+            let why = if limit < 0.0
+                && nom > 0.0
+                && lo >= 0.0
+                && nom + 1.5 * limit < MIN_FRACTION * nom
+            {
+                format!("further would take it below {MIN_FRACTION} of its value")
+            } else {
+                format!(
+                    "the grid reaches {} times the distance to the band's edge and no further",
+                    super::slips::round_sig(limit.abs() / side, 4)
+                )
+            };
+            format!(
+                "{} = {} {} ({} × the file's {}) is the end of the search grid ({why}): the data may want a larger change than the search could try, and the comparison with the other parameters is made at that end",
+                c.name,
+                super::slips::round_sig(at, 4),
+                c.unit,
+                super::slips::round_sig(at / nom, 4),
+                super::slips::round_sig(nom, 4)
+            )
+        }
+        None => format!(
+            "{} = {} {} is the end of the search grid: the data may want a larger change",
+            c.name,
+            super::slips::round_sig(limit, 4),
+            c.unit
+        ),
+    }
 }
 
 /// For every selected parameter, the other parameters that explain the data as well
-/// (added to its partners) or clearly better (named instead); returns whether a name
-/// changed (the caller then refines the parameters again).
-pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected]) -> bool {
+/// (added to its partners) or clearly better (named instead, with a step in `steps` that
+/// says so); returns whether a name changed (the caller then refines the parameters
+/// again).
+#[allow(clippy::too_many_lines)] // each selected parameter against every other, then the verdict
+pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected], steps: &mut Vec<Step>) -> bool {
     let (rows, data, f, sim, alpha) = p.parts();
     let params: Vec<usize> = (0..selected.len())
         .filter(|&k| selected[k].id.parameter_key().is_some())
@@ -338,10 +403,12 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected]) -> bool {
         };
         let mut rest = theta;
         rest.set(a, 0.0);
-        let found: Vec<(CandidateId, f64, f64)> = others
+        let found: Vec<(CandidateId, f64, f64, Option<f64>)> = others
             .par_iter()
             .filter(|&&b| !params.iter().any(|&j| selected[j].id == b))
-            .filter_map(|&b| best_change(&scorer, &rest, b, chi_a + REACH).map(|(d, c)| (b, d, c)))
+            .filter_map(|&b| {
+                best_change(&scorer, &rest, b, chi_a + REACH).map(|(d, c, l)| (b, d, c, l))
+            })
             .collect();
         // Each χ² found is the least of some thirty evaluations with the loop's scatter in
         // them, and the selected parameter's the least of Gauss–Newton's iterates: both
@@ -356,7 +423,7 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected]) -> bool {
                 };
                 let again: Vec<f64> = found
                     .par_iter()
-                    .map(|&(b, d, c)| {
+                    .map(|&(b, d, c, _)| {
                         if c > chi_a + REACH {
                             return c - chi_a + chi_a2;
                         }
@@ -375,7 +442,7 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected]) -> bool {
         let tried: Vec<(CandidateId, f64, f64, f64)> = found
             .iter()
             .zip(&fresh_c)
-            .map(|(&(b, d, c1), &c2)| (b, d, 0.5 * ((c1 - chi_a) + (c2 - chi_a2)), c2 - chi_a2))
+            .map(|(&(b, d, c1, _), &c2)| (b, d, 0.5 * ((c1 - chi_a) + (c2 - chi_a2)), c2 - chi_a2))
             .collect();
         let best = tried
             .iter()
@@ -383,8 +450,18 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected]) -> bool {
             .min_by(|x, y| x.3.total_cmp(&y.3))
             .filter(|&(_, _, _, dc)| dc < -SWAP_MARGIN && !similar(chi_a2, chi_a2 + dc));
         let s = &mut selected[k];
-        if let Some((b, d, mean_b, _)) = best {
+        if let Some((b, d, mean_b, dc)) = best {
             let old = s.id;
+            let limit = found.iter().find(|x| x.0 == b).and_then(|x| x.3);
+            steps.push(swap_step(
+                old,
+                b,
+                -dc,
+                worse_p(chi_a2, chi_a2 + dc, dof, f.stated()),
+                level,
+                limit.map(|l| limit_note(b, l, sim)),
+            ));
+            s.search_limit = limit;
             s.id = b;
             s.coef = d;
             s.confounded
@@ -409,21 +486,56 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected]) -> bool {
     changed
 }
 
+/// The step of a swap of `old` for `new`, worth `delta` in χ² in the fresh evaluation
+/// with p-value `p` at `level`; `limit`: where the search of `new` ended, if at its grid's
+/// end.
+fn swap_step(
+    old: CandidateId,
+    new: CandidateId,
+    delta: f64,
+    p: f64,
+    level: f64,
+    limit: Option<String>,
+) -> Step {
+    Step {
+        added: true,
+        id: new,
+        delta_chi2: delta,
+        p_value: p,
+        threshold: level,
+        replaces: Some(old),
+        note: Some(format!(
+            "{} was selected by its sensitivity at the instrument file's value; put through the simulator over and beyond its band in its place, {} fits the data better by delta chi2 {delta:.1} in a fresh evaluation with other seeds (the swap needs p <= {} and at least {SWAP_MARGIN}), so {} is named instead{}",
+            old.info().name,
+            new.info().name,
+            super::slips::round_sig(level, 2),
+            new.info().name,
+            limit.map_or_else(String::new, |l| format!(
+                "; its best lies at the end of the search grid: {l}"
+            ))
+        )),
+    }
+}
+
 /// Whether χ² `c` is not significantly worse than `chi`, by the selection's step test (the
 /// larger of the χ² p-value with stated sigmas and the F test against the residual scale
 /// with `dof` degrees of freedom) at `level`.
 fn not_worse(c: f64, chi: f64, dof: usize, stated: bool, level: f64) -> bool {
+    worse_p(c, chi, dof, stated) > level
+}
+
+/// The p-value of χ² `c` being worse than `chi` by the test of [`not_worse`].
+fn worse_p(c: f64, chi: f64, dof: usize, stated: bool) -> f64 {
     let delta = (c - chi).max(0.0);
     #[allow(clippy::cast_precision_loss)]
     let dof = dof as f64;
     let s2 = (chi / dof).max(f64::MIN_POSITIVE);
     let p_f = f_sf(delta / s2, 1.0, dof);
-    let p = if stated {
+    if stated {
         chi2_sf(delta, 1.0).max(p_f)
     } else {
         p_f
-    };
-    p > level
+    }
 }
 
 /// Drop selected parameters the data do not need once the others are refined through the
@@ -433,11 +545,12 @@ fn not_worse(c: f64, chi: f64, dof: usize, stated: bool, level: f64) -> bool {
 /// wrong valley. So while two or more parameters are selected, each is dropped in turn and
 /// the others refined without it (`refine`, Gauss–Newton); the one whose absence costs
 /// least goes if the χ² is not significantly worse by the test of [`check`] (at α/m).
-/// Returns whether something was dropped.
+/// Returns whether something was dropped (each drop a step in `steps`).
 pub(crate) fn prune(
     p: &Problem<'_>,
     selected: &mut Vec<Selected>,
     refine: &(dyn Fn(&mut Vec<Selected>) + Sync),
+    steps: &mut Vec<Step>,
 ) -> bool {
     let (rows, data, f, sim, alpha) = p.parts();
     #[allow(clippy::cast_precision_loss)]
@@ -478,6 +591,23 @@ pub(crate) fn prune(
             .min_by(|a, b| a.0.total_cmp(&b.0));
         match best {
             Some((c, reduced)) if not_worse(c, chi, dof, f.stated(), level) => {
+                if let Some(gone) = selected
+                    .iter()
+                    .find(|s| !reduced.iter().any(|r| r.id == s.id))
+                {
+                    steps.push(Step {
+                        added: false,
+                        id: gone.id,
+                        delta_chi2: c - chi,
+                        p_value: worse_p(c, chi, dof, f.stated()),
+                        threshold: level,
+                        replaces: None,
+                        note: Some(format!(
+                            "refined through the simulator without {}, the other parameters fit the data not significantly worse: it only took up their curvature",
+                            gone.id.info().name
+                        )),
+                    });
+                }
                 *selected = reduced;
                 dropped = true;
             }
@@ -554,8 +684,9 @@ fn profile_se(scorer: &Scorer<'_>, id: CandidateId, d: f64, chi: f64, dof: f64) 
 /// the family and the parameters outside it, and by at least [`SWAP_MARGIN`] in χ²). A parameter acting far
 /// from linearly (a torquer lag near the clock period, a phase error about 0°) may have no
 /// usable sensitivity at the file's value, so the linear selection passes it by. Returns
-/// whether one was selected (the caller then refines it and runs [`check`]).
-pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>) -> bool {
+/// whether one was selected (the caller then refines it and runs [`check`]), with a step in
+/// `steps` that says so.
+pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>, steps: &mut Vec<Step>) -> bool {
     let (rows, data, f, sim, alpha) = p.parts();
     let dynamic = data
         .quantity
@@ -592,10 +723,10 @@ pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>) -> bool {
     if !f.stated() || chi2_sf(chi_0, dof_0) >= level {
         return false;
     }
-    let Some((id, d, chi)) = family
+    let Some((id, d, chi, limit)) = family
         .par_iter()
         .filter_map(|&b| {
-            best_change(&scorer, &Effects::NONE, b, f64::INFINITY).map(|(d, c)| (b, d, c))
+            best_change(&scorer, &Effects::NONE, b, f64::INFINITY).map(|(d, c, l)| (b, d, c, l))
         })
         .collect::<Vec<_>>()
         .into_iter()
@@ -617,6 +748,22 @@ pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>) -> bool {
     if delta < SWAP_MARGIN || p > level {
         return false;
     }
+    steps.push(Step {
+        added: true,
+        id,
+        delta_chi2: delta,
+        p_value: p,
+        threshold: level,
+        replaces: None,
+        note: Some(format!(
+            "no candidate passed the linear test and the model fails its chi2 test; the simulator, scanned over every parameter's band, fits the data best with {}{}",
+            id.info().name,
+            limit.map_or_else(String::new, |l| format!(
+                "; its best lies at the end of the search grid: {}",
+                limit_note(id, l, sim)
+            ))
+        )),
+    });
     selected.push(Selected {
         id,
         coef: d,
@@ -625,6 +772,7 @@ pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>) -> bool {
         parameter: None,
         confounded: Vec::new(),
         mirror: false,
+        search_limit: limit,
     });
     true
 }

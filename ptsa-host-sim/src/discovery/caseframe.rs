@@ -242,6 +242,42 @@ fn column_index(name: &str) -> Option<usize> {
 /// How to get UTF-8 out of a spreadsheet (used in encoding errors).
 const SAVE_AS_UTF8: &str = "in a spreadsheet, save the file as \"CSV UTF-8\"";
 
+/// The cells of one row that were left empty in a column where an empty cell means 0 (an
+/// input column such as `g_ia`, `w_pa_rad_s`, `freq_hz` or `radius_cm`; not `time_s`,
+/// `measured_cm_s2` or a sigma, where an empty cell means "not given"). A side record of
+/// the reader, kept out of [`Condition`] (the physics): `ptsa discover` names such a cell
+/// as the likely cause of a row that fits nothing.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct EmptyCells {
+    /// Index of the row in the rows read.
+    pub row: usize,
+    /// The row's 1-based line in the file.
+    pub line: usize,
+    /// The columns whose cell was empty and read as 0, in header order.
+    pub columns: Vec<&'static str>,
+}
+
+/// A case-frame file as read: its rows, and which of their input cells were empty and read
+/// as 0 (one entry per row that has any).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Frame {
+    /// The rows.
+    pub rows: Vec<Condition>,
+    /// The empty input cells read as 0, by row.
+    pub empty: Vec<EmptyCells>,
+}
+
+/// Whether an empty cell of `col` reads as the number 0 (an input column), rather than as
+/// "not given".
+fn empty_reads_as_zero(col: &Column) -> bool {
+    if col.is_text() {
+        return false;
+    }
+    let mut c = Condition::default();
+    (col.set)(&mut c, Value::Num(None));
+    matches!((col.get)(&c), Value::Num(Some(x)) if x == 0.0)
+}
+
 /// Parse case-frame CSV text. `name` is the file name used in error messages.
 ///
 /// A leading UTF-8 byte-order mark is ignored; lines may end in LF or CRLF.
@@ -253,6 +289,14 @@ const SAVE_AS_UTF8: &str = "in a spreadsheet, save the file as \"CSV UTF-8\"";
 /// oscillation amplitude in a row whose `freq_hz` is 0: each error names `name`, the
 /// 1-based line and, for a cell, the column.
 pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
+    parse_frame(name, text).map(|f| f.rows)
+}
+
+/// [`parse`], with the record of the empty input cells read as 0.
+///
+/// # Errors
+/// As [`parse`].
+pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
     if let Some(off) = text.find('\0') {
         bail!(
             "{name}:{}: the file holds a NUL character (byte offset {off}); expected UTF-8 \
@@ -268,6 +312,7 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
         .from_reader(data.text.as_bytes());
     let mut header: Option<Vec<usize>> = None;
     let mut rows = Vec::new();
+    let mut empty = Vec::new();
     for record in reader.records() {
         let record = match record {
             Ok(r) => r,
@@ -288,7 +333,17 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
                 let raw = text.lines().nth(line.saturating_sub(1)).unwrap_or_default();
                 header = Some(parse_header(name, line, raw, &record)?);
             }
-            Some(cols) => rows.push(parse_row(name, line, &record, cols)?),
+            Some(cols) => {
+                let (row, columns) = parse_row(name, line, &record, cols)?;
+                if !columns.is_empty() {
+                    empty.push(EmptyCells {
+                        row: rows.len(),
+                        line,
+                        columns,
+                    });
+                }
+                rows.push(row);
+            }
         }
     }
     if header.is_none() {
@@ -297,7 +352,7 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
              lines); expected a CSV header of case-frame columns"
         );
     }
-    Ok(rows)
+    Ok(Frame { rows, empty })
 }
 
 /// Parse the bytes of a case-frame file: [`parse`] after checking that they are UTF-8.
@@ -307,6 +362,14 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
 /// the first bad byte; a UTF-16 byte-order mark is named as such), or any error of
 /// [`parse`].
 pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Condition>> {
+    parse_bytes_frame(name, bytes).map(|f| f.rows)
+}
+
+/// [`parse_bytes`], with the record of the empty input cells read as 0.
+///
+/// # Errors
+/// As [`parse_bytes`].
+pub fn parse_bytes_frame(name: &str, bytes: &[u8]) -> Result<Frame> {
     if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
         bail!(
             "{name}:1: the file is UTF-16 text (it starts with a UTF-16 byte-order mark); \
@@ -314,7 +377,7 @@ pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Condition>> {
         );
     }
     match std::str::from_utf8(bytes) {
-        Ok(text) => parse(name, text),
+        Ok(text) => parse_frame(name, text),
         Err(e) => {
             let off = e.valid_up_to();
             let byte = bytes.get(off).copied().unwrap_or_default();
@@ -530,14 +593,14 @@ fn blank_before_quote(cell: &str) -> bool {
     cell.starts_with(char::is_whitespace) && cell.trim_start().starts_with('"')
 }
 
-/// One data row.
+/// One data row, and the columns whose cell was empty and read as 0.
 #[allow(clippy::too_many_lines)] // one row: its cells, then the checks across its columns
 fn parse_row(
     name: &str,
     line: usize,
     record: &csv::StringRecord,
     cols: &[usize],
-) -> Result<Condition> {
+) -> Result<(Condition, Vec<&'static str>)> {
     if record.len() != cols.len() {
         let hint = match record.iter().position(blank_before_quote) {
             Some(j) => format!(
@@ -554,6 +617,7 @@ fn parse_row(
         );
     }
     let mut c = Condition::default();
+    let mut empty = Vec::new();
     for (j, (cell, &k)) in record.iter().zip(cols).enumerate() {
         let col = &COLUMNS[k];
         let check = match col.check {
@@ -583,6 +647,9 @@ fn parse_row(
         };
         let s = cell.trim();
         if s.is_empty() {
+            if empty_reads_as_zero(col) {
+                empty.push(col.name);
+            }
             continue;
         }
         let v = s.parse::<f64>().ok().filter(|v| {
@@ -661,7 +728,7 @@ fn parse_row(
     if c.label.is_empty() {
         c.label = format!("line {line}");
     }
-    Ok(c)
+    Ok((c, empty))
 }
 
 /// Read a case-frame file.
@@ -669,8 +736,16 @@ fn parse_row(
 /// # Errors
 /// The file cannot be read, or [`parse_bytes`] fails (the message names the file).
 pub fn read(path: &Path) -> Result<Vec<Condition>> {
+    read_frame(path).map(|f| f.rows)
+}
+
+/// [`read`], with the record of the empty input cells read as 0.
+///
+/// # Errors
+/// As [`read`].
+pub fn read_frame(path: &Path) -> Result<Frame> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    parse_bytes(&path.display().to_string(), &bytes)
+    parse_bytes_frame(&path.display().to_string(), &bytes)
 }
 
 fn fmt_num(v: f64) -> String {
@@ -796,6 +871,35 @@ mod tests {
         let text = to_csv(std::slice::from_ref(&c), &["test"]);
         let back = parse("t.csv", &text).unwrap();
         assert_eq!(back, vec![c]);
+    }
+
+    #[test]
+    fn empty_input_cells_read_as_zero_are_recorded_beside_the_rows() {
+        let text = "# c\nlabel,time_s,g_ia,g_pa,freq_hz,measured_cm_s2,sigma_cm_s2\n\
+                    a,1,0.5,0.5,,1.0,\n\
+                    b,,, 0.7,0,2.0,0.1\n\
+                    c,3,1,0,0,,0.1\n";
+        let f = parse_frame("t.csv", text).unwrap();
+        assert_eq!(f.rows, parse("t.csv", text).unwrap());
+        assert_eq!(f.rows[1].g, [0.0, 0.7, 0.0]);
+        // Empty `time_s`, `measured_cm_s2` and `sigma_cm_s2` mean "not given", not 0; a
+        // column left out of the header is no empty cell.
+        assert_eq!(
+            f.empty,
+            vec![
+                EmptyCells {
+                    row: 0,
+                    line: 3,
+                    columns: vec!["freq_hz"],
+                },
+                EmptyCells {
+                    row: 1,
+                    line: 4,
+                    columns: vec!["g_ia"],
+                },
+            ]
+        );
+        assert_eq!(parse_bytes_frame("t.csv", text.as_bytes()).unwrap(), f);
     }
 
     #[test]

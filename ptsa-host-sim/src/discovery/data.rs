@@ -107,6 +107,55 @@ impl Data {
     pub fn resid(&self, i: usize) -> f64 {
         self.y[i] - self.base[i]
     }
+
+    /// The same observations without those at the indices `drop` (rows set aside as
+    /// suspected gross errors): every per-observation column loses them, a signature or a
+    /// generic-basis column that is zero on the rest becomes one without a signature (or is
+    /// left out), and the rest keep their blocks, variance groups, replicate sets and
+    /// times (the drift's time of a row is where it was measured, whatever is set aside).
+    #[must_use]
+    pub fn without(&self, drop: &[usize]) -> Data {
+        fn pick<T: Clone>(v: &[T], keep: &[usize]) -> Vec<T> {
+            keep.iter().map(|&i| v[i].clone()).collect()
+        }
+        let keep: Vec<usize> = (0..self.n()).filter(|i| !drop.contains(i)).collect();
+        Data {
+            rows: pick(&self.rows, &keep),
+            quantity: pick(&self.quantity, &keep),
+            y: pick(&self.y, &keep),
+            base: pick(&self.base, &keep),
+            stated: pick(&self.stated, &keep),
+            sim_sigma: pick(&self.sim_sigma, &keep),
+            shift: pick(&self.shift, &keep),
+            drifts: pick(&self.drifts, &keep),
+            block: pick(&self.block, &keep),
+            block_names: self.block_names.clone(),
+            time: pick(&self.time, &keep),
+            time_unit: self.time_unit,
+            group: pick(&self.group, &keep),
+            group_names: self.group_names.clone(),
+            replicate: pick(&self.replicate, &keep),
+            signatures: self
+                .signatures
+                .iter()
+                .map(|s| {
+                    let col = pick(&s.col, &keep);
+                    let null = s.null || col.iter().all(|&x| x == 0.0);
+                    Signature {
+                        id: s.id,
+                        col,
+                        null,
+                    }
+                })
+                .collect(),
+            features: self
+                .features
+                .iter()
+                .map(|(n, c)| (n.clone(), pick(c, &keep)))
+                .filter(|(_, c)| c.iter().any(|&x| x != 0.0))
+                .collect(),
+        }
+    }
 }
 
 /// The excitation of a row, for its variance group.

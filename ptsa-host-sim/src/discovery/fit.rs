@@ -64,6 +64,12 @@ pub struct Step {
     pub p_value: f64,
     /// The Holm–Bonferroni threshold it was compared with.
     pub threshold: f64,
+    /// The candidate `id` was put in place of, for a swap found through the closed loop
+    /// (`discovery::alternatives::check`).
+    pub replaces: Option<CandidateId>,
+    /// How the step was decided when not by the linear stepwise test (a search through
+    /// the closed loop), in words.
+    pub note: Option<String>,
 }
 
 /// A column of the weighted design, normalised, and its norm before.
@@ -551,6 +557,8 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
                     delta_chi2: delta,
                     p_value: p,
                     threshold: thr_add,
+                    replaces: None,
+                    note: None,
                 });
                 if !stated {
                     // Re-estimate the noise with the new model.
@@ -604,6 +612,8 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
                     delta_chi2: delta,
                     p_value: p,
                     threshold: thr_keep,
+                    replaces: None,
+                    note: None,
                 });
                 continue;
             }
@@ -678,12 +688,20 @@ impl Fitted {
     /// the row's block shift (0 for a block the subset does not hold) plus the drift.
     #[must_use]
     pub fn nuisance_at(&self, data: &Data, i: usize) -> f64 {
+        self.nuisance_for(data.block[i], data.shift[i], data.drifts[i], data.time[i])
+    }
+
+    /// The nuisance part of the model for an observation of block `block` (index into
+    /// `Data::block_names`) that takes the block's shift (`shift`) and the drift (`drifts`)
+    /// at time `time`, cm/s².
+    #[must_use]
+    pub fn nuisance_for(&self, block: usize, shift: bool, drifts: bool, time: f64) -> f64 {
         self.nuisance
             .iter()
             .enumerate()
             .map(|(j, t)| match *t {
-                Nuisance::Block(b) if data.block[i] == b && data.shift[i] => self.coef[j],
-                Nuisance::Drift if data.drifts[i] => self.coef[j] * (data.time[i] - self.t0),
+                Nuisance::Block(b) if block == b && shift => self.coef[j],
+                Nuisance::Drift if drifts => self.coef[j] * (time - self.t0),
                 Nuisance::Block(_) | Nuisance::Drift => 0.0,
             })
             .sum()
@@ -700,6 +718,54 @@ impl Fitted {
             }
         }
         v
+    }
+
+    /// The sigma the model gives observation `i` of `data`, which need not be in the
+    /// subset: its own in the subset, else its stated sigma, else its variance group's
+    /// estimate (`None` when the subset holds no row of that group).
+    #[must_use]
+    pub fn sigma_at(&self, data: &Data, i: usize) -> Option<f64> {
+        if let Some(k) = self.subset.iter().position(|&j| j == i) {
+            return Some(self.sigma[k]);
+        }
+        data.stated[i].or_else(|| {
+            self.group_sigma
+                .iter()
+                .find(|(g, _)| *g == data.group[i])
+                .map(|&(_, s)| s)
+        })
+    }
+
+    /// Observation `i`'s row of the final model's design in the fit's coordinates (the
+    /// unit-norm columns, the row weighted by `1/sigma`), for an observation that need not
+    /// be in the subset; `None` when it takes a block shift the model does not hold (then
+    /// nothing in the model predicts it).
+    #[must_use]
+    pub fn unit_row(&self, data: &Data, i: usize, sigma: f64) -> Option<Vec<f64>> {
+        if self.cols.len() != self.fit.beta.len()
+            || (data.shift[i] && !self.nuisance.contains(&Nuisance::Block(data.block[i])))
+        {
+            return None;
+        }
+        let nn = self.nuisance.len();
+        let mut x: Vec<f64> = self
+            .nuisance
+            .iter()
+            .map(|t| match *t {
+                Nuisance::Block(b) if data.block[i] == b && data.shift[i] => 1.0,
+                Nuisance::Drift if data.drifts[i] => data.time[i] - self.t0,
+                Nuisance::Block(_) | Nuisance::Drift => 0.0,
+            })
+            .collect();
+        for &id in &self.selected {
+            x.push(data.signatures.iter().find(|s| s.id == id)?.col[i]);
+        }
+        for (j, v) in x.iter_mut().enumerate() {
+            let scale = self.cols[j].scale;
+            *v = if scale > 0.0 { *v / sigma / scale } else { 0.0 };
+        }
+        debug_assert_eq!(x.len(), nn + self.selected.len());
+        Some(x)
     }
 
     /// The weighted, unit-norm design columns of the final model (nuisance then selected).

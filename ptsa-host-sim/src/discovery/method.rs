@@ -9,10 +9,13 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::advice::{self, Advice};
+use super::caseframe::EmptyCells;
 use super::crossval::{self, Gain};
 use super::data::{self, Data, Quantity, TimeUnit};
 use super::fit::{self, Fitted, NoiseSource, Nuisance, Settings};
+use super::outliers;
 use super::sim::Simulator;
+use super::slips;
 use super::stats::{abs_cos, chi2_sf, lsq, norm, residualize};
 use super::unexplained::{self, Unexplained};
 use crate::condition::Condition;
@@ -54,6 +57,14 @@ pub struct Options {
     pub limits: [f64; N_CANDIDATES],
     /// Seed of the cross-validation folds and the bootstrap.
     pub seed: u64,
+    /// Keep the rows the outlier test flags in the fit (`--keep-outliers`): they are still
+    /// reported, but not set aside.
+    pub keep_outliers: bool,
+    /// Analyse values that look like another unit's or the sign's multiple of the
+    /// simulated ones as they are (`--units-as-given`), with a warning, instead of refusing
+    /// them: an instrument mounted with its input axis reversed reads the negative of its
+    /// simulation.
+    pub units_as_given: bool,
 }
 
 impl Options {
@@ -71,6 +82,8 @@ impl Options {
             candidates: CandidateId::ALL.to_vec(),
             limits,
             seed: 1,
+            keep_outliers: false,
+            units_as_given: false,
         }
     }
 }
@@ -120,6 +133,71 @@ pub struct EffectReport {
     /// For a parameter of the instrument file: its fitted value against the file's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub parameter: Option<ParameterValue>,
+    /// For a parameter found by a search through the closed loop whose best lies at the end
+    /// of the search grid: that end and what it means (`null` otherwise).
+    pub search_limit: Option<SearchLimit>,
+}
+
+/// Where a search through the closed loop stopped, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct SearchLimit {
+    /// The candidate whose search it is.
+    pub name: String,
+    /// The parameter's value at the end of the grid, in the instrument file's unit.
+    pub value: f64,
+    /// In words.
+    pub note: String,
+}
+
+/// A row set aside as a suspected gross error (or kept with `--keep-outliers`), in the
+/// `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutlierReport {
+    /// The row's label.
+    pub row: String,
+    /// `measured − expected`, cm/s²: the row's value against the model selected without
+    /// it (baseline, nuisance terms and selected terms).
+    pub residual_cm_s2: f64,
+    /// The familywise p-value: the row's two-sided p-value times the number of rows tested
+    /// (Bonferroni), at most 1; a row is flagged at 0.01 or less.
+    pub p_value: f64,
+    /// The externally studentized residual.
+    pub studentized: f64,
+    /// Its degrees of freedom.
+    pub dof: usize,
+    /// The rows the test was over (the Bonferroni factor).
+    pub rows_tested: usize,
+    /// The measured value, cm/s².
+    pub measured_cm_s2: f64,
+    /// What the model selected without the row expects, cm/s², and its 1 σ (the noise and
+    /// the prediction's uncertainty).
+    pub expected_cm_s2: f64,
+    /// 1 σ of `residual_cm_s2`, cm/s².
+    pub sigma_cm_s2: f64,
+    /// The likely cause, in words (an empty input cell read as 0, a unit or sign slip,
+    /// another row's value, or none found).
+    pub cause: String,
+    /// `true` with `--keep-outliers`: reported but fitted; `false`: set aside.
+    pub kept: bool,
+}
+
+/// One step of the selection, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct StepReport {
+    /// `add`, `drop` or `swap`.
+    pub action: &'static str,
+    /// The candidate added, dropped or swapped in.
+    pub name: String,
+    /// For a swap, the candidate it replaced.
+    pub replaces: Option<String>,
+    /// The change of χ² the step is worth.
+    pub delta_chi2: f64,
+    /// Its p-value.
+    pub p_value: f64,
+    /// The level it was held against.
+    pub threshold: f64,
+    /// How it was decided, when not by the linear stepwise test.
+    pub note: Option<String>,
 }
 
 /// The nuisance terms' values, in the `--json` shape.
@@ -148,6 +226,11 @@ pub struct NoiseReport {
     pub sigma_cm_s2: BTreeMap<String, f64>,
     /// What to keep in mind.
     pub caveat: Option<String>,
+    /// With stated sigmas and values in cm/s² only: the stated sigmas over the scatter of
+    /// the residuals (of the better-fitting, per degree of freedom, of the largest model,
+    /// nuisance terms and every testable candidate, and the selected one); about 1 when they
+    /// are right (`null` when a sigma is estimated or the data hold response rows).
+    pub stated_over_scatter: Option<f64>,
 }
 
 /// One observation of a row in the result (a response row has two: its gain and its
@@ -177,6 +260,9 @@ pub struct RowResult {
     pub extended_cm_s2: f64,
     /// `measured − extended`, cm/s².
     pub residual_extended_cm_s2: Option<f64>,
+    /// A suspected gross error (`outliers`): set aside from the fit unless
+    /// `--keep-outliers`.
+    pub outlier: bool,
 }
 
 /// One term of the model equation.
@@ -242,8 +328,14 @@ pub struct JsonReport {
     pub table: Vec<RowResult>,
     /// The conclusion in one paragraph.
     pub verdict: String,
-    /// Warnings (too few rows, nothing testable, estimated noise, ...).
+    /// Warnings (suspected gross errors, stated sigmas far from the scatter, too few rows,
+    /// nothing testable, estimated noise, ...).
     pub warnings: Vec<String>,
+    /// Rows flagged as suspected gross errors (empty when none).
+    pub outliers: Vec<OutlierReport>,
+    /// The selection's steps in order: the linear stepwise test's, then those of the
+    /// searches through the closed loop (a swap, a scan, a prune).
+    pub steps: Vec<StepReport>,
 }
 
 /// A parameter of the instrument file as fitted, in the file's unit.
@@ -316,6 +408,9 @@ pub struct Selected {
     /// For a parameter: the opposite change fits the data not significantly worse
     /// (`discovery::alternatives::mirror`).
     pub mirror: bool,
+    /// For a parameter found by a search through the closed loop: the change at the end of
+    /// the search grid when its best lies there (`discovery::alternatives`).
+    pub search_limit: Option<f64>,
 }
 
 /// Everything the method found.
@@ -329,7 +424,8 @@ pub struct Discovery {
     pub selected: Vec<Selected>,
     /// Per-row values (the same as `json.table`).
     pub table: Vec<RowResult>,
-    /// The stepwise decisions in order.
+    /// The decisions in order: the linear stepwise test's, then those of the searches
+    /// through the closed loop.
     pub steps: Vec<Step>,
     /// Candidates whose signature is identically zero in this data set (not testable).
     pub untestable: Vec<CandidateId>,
@@ -352,6 +448,8 @@ pub struct Discovery {
     /// The linear loop model's response without and with the selected parameters, over
     /// the response rows' frequencies (empty without response rows or a loop model).
     pub bode: Vec<BodePoint>,
+    /// Stated sigmas far from the scatter of the data, if so.
+    pub sigma_slip: Option<slips::SigmaSlip>,
 }
 
 /// One frequency of [`Discovery::bode`].
@@ -581,7 +679,9 @@ fn within_tolerance(id: CandidateId, change: f64, sim: &dyn Simulator) -> bool {
         .is_none_or(|(lo, nom, hi)| (lo..=hi).contains(&(nom + change)))
 }
 
-/// The per-observation table: every observation of every row (measured or not).
+/// The per-observation table: every observation of every row (measured or not; a row set
+/// aside as a suspected gross error with its measurement and the model's values, marked).
+#[allow(clippy::too_many_arguments)] // the model's pieces the table shows
 fn row_table(
     rows: &[Condition],
     data: &Data,
@@ -590,6 +690,7 @@ fn row_table(
     resim: &[Vec<f64>],
     extended: &[f64],
     opts: &Options,
+    set_aside: &[SetAside],
 ) -> Vec<RowResult> {
     let mut out = Vec::new();
     for (i, r) in rows.iter().enumerate() {
@@ -602,9 +703,23 @@ fn row_table(
             let k = (0..data.n()).find(|&k| {
                 data.rows[k] == i && usize::from(data.quantity[k] == Quantity::Phase) == o
             });
-            let (measured, sigma, ext) = match k {
-                Some(k) => (Some(data.y[k]), f.sigma[k], extended[k]),
-                None => (
+            let aside = set_aside.iter().find(|a| a.row == i && o == 0);
+            let (measured, sigma, ext) = match (k, aside) {
+                (Some(k), _) => (Some(data.y[k]), f.sigma[k], extended[k]),
+                (None, Some(a)) => (
+                    Some(a.y),
+                    a.stated
+                        .or_else(|| {
+                            f.group_sigma
+                                .iter()
+                                .find(|(g, _)| *g == a.group)
+                                .map(|&(_, s)| s)
+                        })
+                        .unwrap_or(f64::NAN),
+                    resim[i].get(o).copied().unwrap_or(f64::NAN)
+                        + f.nuisance_for(a.block, a.shift, a.drifts, a.time),
+                ),
+                (None, None) => (
                     None,
                     r.sigma_cm_s2
                         .or(opts.default_sigma_cm_s2)
@@ -612,6 +727,7 @@ fn row_table(
                     resim[i].get(o).copied().unwrap_or(f64::NAN),
                 ),
             };
+            debug_assert!(aside.is_none_or(|a| (a.base - b).abs() <= 1e-9 * a.base.abs().max(1.0)));
             out.push(RowResult {
                 label: format!("{}{suffix}", r.label),
                 freq_hz: (r.kind == crate::condition::RowKind::Response).then_some(r.freq_hz),
@@ -623,6 +739,7 @@ fn row_table(
                 residual_cm_s2: measured.map(|m| m - b),
                 extended_cm_s2: ext,
                 residual_extended_cm_s2: measured.map(|m| m - ext),
+                outlier: aside.is_some(),
             });
         }
     }
@@ -693,6 +810,7 @@ fn selected_report(data: &Data, f: &Fitted, opts: &Options, sim: &dyn Simulator)
                 confounded,
                 parameter: None,
                 mirror: false,
+                search_limit: None,
             }
         })
         .collect()
@@ -805,6 +923,7 @@ fn noise_report(data: &Data, f: &Fitted) -> NoiseReport {
         source,
         sigma_cm_s2,
         caveat,
+        stated_over_scatter: None,
     }
 }
 
@@ -846,7 +965,7 @@ fn model_equation(f: &Fitted, selected: &[Selected], g_cm_s2: f64) -> ModelEquat
 }
 
 /// Group selected coefficients by effect for the JSON.
-fn effect_reports(selected: &[Selected], opts: &Options) -> Vec<EffectReport> {
+fn effect_reports(selected: &[Selected], opts: &Options, sim: &dyn Simulator) -> Vec<EffectReport> {
     let mut reports: Vec<EffectReport> = Vec::new();
     for s in selected {
         let cand = s.id.info();
@@ -862,6 +981,7 @@ fn effect_reports(selected: &[Selected], opts: &Options) -> Vec<EffectReport> {
                     plausible: true,
                     bounds: BTreeMap::new(),
                     parameter: s.parameter.clone(),
+                    search_limit: None,
                 });
                 reports.len() - 1
             });
@@ -873,6 +993,13 @@ fn effect_reports(selected: &[Selected], opts: &Options) -> Vec<EffectReport> {
                 .insert(cand.key.to_string(), opts.limits[s.id.index()]);
         }
         r.plausible &= s.plausible;
+        if let Some(l) = s.search_limit {
+            r.search_limit = Some(SearchLimit {
+                name: cand.name.to_string(),
+                value: s.parameter.as_ref().map_or(l, |p| p.nominal + l),
+                note: super::alternatives::limit_note(s.id, l, sim),
+            });
+        }
         for &(o, _) in &s.confounded {
             let name = o.info().name.to_string();
             if !r.confounded_with.contains(&name) {
@@ -890,10 +1017,47 @@ fn names(ids: &[CandidateId]) -> Vec<String> {
 /// Run the method on `rows` with `sim` for baseline and re-simulation.
 ///
 /// # Errors
-/// No row has a measurement, or `time_s` is given on some measured rows only.
-#[allow(clippy::too_many_lines)] // the method's steps, in order
+/// No row has a measurement, `time_s` is given on some measured rows only, or the measured
+/// values are a unit or sign slip's multiple of the simulated ones
+/// ([`slips::unit_slip`]).
 pub fn discover(
     rows: &[Condition],
+    sim: &dyn Simulator,
+    opts: &Options,
+) -> anyhow::Result<Discovery> {
+    discover_with(rows, &[], sim, opts)
+}
+
+/// A row set aside as a suspected gross error, with what the rest of the method needs of
+/// it (it is no observation of the data the model is fitted to).
+#[derive(Clone, Debug)]
+struct SetAside {
+    /// The search's finding (its `obs` indexes the data with every row).
+    found: outliers::Found,
+    /// The row (index into the caller's rows).
+    row: usize,
+    /// Its measured value and baseline, cm/s².
+    y: f64,
+    base: f64,
+    /// Its block, whether it takes the block's shift and the drift, and its time.
+    block: usize,
+    shift: bool,
+    drifts: bool,
+    time: f64,
+    /// Its stated sigma and variance group.
+    stated: Option<f64>,
+    group: usize,
+}
+
+/// [`discover`], with the reader's record of the input cells that were empty and read as 0
+/// (`caseframe::Frame::empty`), which names the likely cause of a suspected gross error.
+///
+/// # Errors
+/// As [`discover`].
+#[allow(clippy::too_many_lines)] // the method's steps, in order
+pub fn discover_with(
+    rows: &[Condition],
+    empty: &[EmptyCells],
     sim: &dyn Simulator,
     opts: &Options,
 ) -> anyhow::Result<Discovery> {
@@ -907,22 +1071,81 @@ pub fn discover(
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &Effects::NONE)).collect();
         sim.observe_all(&jobs)
     };
-    let data = data::build(
+    let every = data::build(
         rows,
         &baseline,
         opts.default_sigma_cm_s2,
         &opts.candidates,
         sim,
     )?;
-    let n = data.n();
-    let all: Vec<usize> = (0..n).collect();
+    // Values in another unit, or with the sign reversed: not physics.
+    let unit_slip = slips::unit_slip(&every, sim.g_cm_s2());
+    if let Some(slip) = unit_slip.as_ref().filter(|_| !opts.units_as_given) {
+        anyhow::bail!("{}", slip.message());
+    }
     let settings = Settings {
         alpha: opts.alpha,
         confound_cos: opts.confound_cos,
         select: true,
     };
-    // 2. The model: nuisance terms, noise, selection.
+    // 2. Suspected gross errors, found before the selection can explain them.
+    let recorded: Vec<usize> = (0..every.n())
+        .filter(|&k| {
+            every.quantity[k] == Quantity::Value
+                && empty
+                    .iter()
+                    .any(|e| e.row == every.rows[k] && !e.columns.is_empty())
+        })
+        .collect();
+    let plausible = |id: CandidateId, coef: f64| {
+        if id.parameter_key().is_some() {
+            within_tolerance(id, coef, sim)
+        } else {
+            coef.abs() <= opts.limits[id.index()]
+        }
+    };
+    let search = outliers::search(
+        &every,
+        settings,
+        outliers::ALPHA,
+        outliers::MAX_OUTLIERS,
+        &slips::row_slips(&every, sim.g_cm_s2()),
+        &recorded,
+        &plausible,
+    );
+    let set_aside: Vec<SetAside> = search
+        .found
+        .iter()
+        .map(|&found| {
+            let k = found.obs;
+            SetAside {
+                found,
+                row: every.rows[k],
+                y: every.y[k],
+                base: every.base[k],
+                block: every.block[k],
+                shift: every.shift[k],
+                drifts: every.drifts[k],
+                time: every.time[k],
+                stated: every.stated[k],
+                group: every.group[k],
+            }
+        })
+        .collect();
+    let beyond_cap = search
+        .beyond_cap
+        .map(|b| (rows[every.rows[b.obs]].label.clone(), b));
+    let data = if opts.keep_outliers || set_aside.is_empty() {
+        every
+    } else {
+        let drop: Vec<usize> = set_aside.iter().map(|a| a.found.obs).collect();
+        every.without(&drop)
+    };
+    let n = data.n();
+    let all: Vec<usize> = (0..n).collect();
+    // 3. The model: nuisance terms, noise, selection.
     let f = fit::fit(&data, &all, settings);
+    let mut steps = f.steps.clone();
     let mut selected = selected_report(&data, &f, opts, sim);
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     let problem = super::alternatives::Problem {
@@ -932,22 +1155,35 @@ pub fn discover(
         sim,
         alpha: opts.alpha,
     };
-    super::alternatives::prune(&problem, &mut selected, &|s| {
-        refine_parameters(rows, &data, &f, s, sim, opts);
-    });
-    if super::alternatives::scan(&problem, &mut selected) {
+    super::alternatives::prune(
+        &problem,
+        &mut selected,
+        &|s| {
+            refine_parameters(rows, &data, &f, s, sim, opts);
+        },
+        &mut steps,
+    );
+    if super::alternatives::scan(&problem, &mut selected, &mut steps) {
         refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     }
-    if super::alternatives::check(&problem, &mut selected) {
+    if super::alternatives::check(&problem, &mut selected, &mut steps) {
         refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     }
     super::alternatives::mirror(&problem, &mut selected);
     parameter_values(&mut selected, sim);
+    // A search's end counts only where the refined value still lies.
+    for s in &mut selected {
+        if let Some(l) = s.search_limit
+            && (s.coef - l).abs() > (0.01 * l.abs()).max(s.stderr)
+        {
+            s.search_limit = None;
+        }
+    }
     let mut effects = Effects::NONE;
     for s in &selected {
         effects.add(s.id, s.coef);
     }
-    // 3. Extend and re-simulate; the nuisance terms are part of the fitted model.
+    // 4. Extend and re-simulate; the nuisance terms are part of the fitted model.
     let resim: Vec<Vec<f64>> = if effects.is_zero() {
         baseline.clone()
     } else {
@@ -970,7 +1206,7 @@ pub fn discover(
         .collect();
     let base_summary = summary(&data, &|k| data.base[k], &f.sigma, 0);
     let ext_summary = summary(&data, &|k| extended[k], &f.sigma, f.fit.beta.len());
-    // 4. What is left, and the gain out of sample.
+    // 5. What is left, and the gain out of sample.
     let unexplained = unexplained::test(&data, &f, &selected, opts.alpha);
     let gain = crossval::gain(
         &secant_signatures(rows, &data, &selected, &baseline, sim),
@@ -984,9 +1220,26 @@ pub fn discover(
     );
     let groups = indistinguishable(&data, &f, opts);
     let advice = advice::advise(&data, rows, &f, &selected, &groups, sim.g_cm_s2());
-    let table = row_table(rows, &data, &f, &baseline, &resim, &extended, opts);
-    let warnings = warnings(&data, &f, &selected);
-    let effects_json = effect_reports(&selected, opts);
+    let outliers_json = outlier_reports(rows, empty, &data, &f, &set_aside, opts, sim.g_cm_s2());
+    let table = row_table(
+        rows, &data, &f, &baseline, &resim, &extended, opts, &set_aside,
+    );
+    let scatter = slips::sigma_check(&data, &f, opts.default_sigma_cm_s2, sim.g_cm_s2());
+    let sigma_slip = scatter.clone().filter(|s| s.far);
+    let mut warnings = slip_warnings(
+        &outliers_json,
+        beyond_cap.as_ref().map(|(l, b)| (l.as_str(), *b)),
+        sigma_slip.as_ref(),
+        &selected,
+        sim,
+    );
+    if let Some(slip) = &unit_slip {
+        warnings.insert(0, slip.kept_message());
+    }
+    warnings.extend(self::warnings(&data, &f, &selected));
+    let effects_json = effect_reports(&selected, opts, sim);
+    let mut noise = noise_report(&data, &f);
+    noise.stated_over_scatter = scatter.as_ref().map(|s| s.factor);
     let mut d = Discovery {
         simulator: sim.name(),
         json: JsonReport {
@@ -999,7 +1252,7 @@ pub fn discover(
             nuisance: nuisance_report(&data, &f),
             unexplained,
             gain,
-            noise: noise_report(&data, &f),
+            noise,
             family: names(&f.family),
             not_testable: names(&f.untestable),
             not_testable_nuisance: names(&f.untestable_nuisance),
@@ -1007,10 +1260,12 @@ pub fn discover(
             table: table.clone(),
             verdict: String::new(),
             warnings,
+            outliers: outliers_json,
+            steps: steps.iter().map(step_report).collect(),
         },
         selected,
         table,
-        steps: f.steps.clone(),
+        steps,
         untestable: f.untestable.clone(),
         untestable_nuisance: f.untestable_nuisance.clone(),
         untoleranced: sim.instrument().map_or_else(Vec::new, |i| {
@@ -1026,9 +1281,127 @@ pub fn discover(
         effects,
         options: opts.clone(),
         bode: bode(rows, sim, &effects),
+        sigma_slip,
     };
     d.json.verdict = verdict(&d);
     Ok(d)
+}
+
+/// The outlier search's findings in the `--json` shape, with their likely causes.
+fn outlier_reports(
+    rows: &[Condition],
+    empty: &[EmptyCells],
+    data: &Data,
+    f: &Fitted,
+    set_aside: &[SetAside],
+    opts: &Options,
+    g: f64,
+) -> Vec<OutlierReport> {
+    set_aside
+        .iter()
+        .map(|a| {
+            let t = &a.found.test;
+            let expected = a.y - t.error;
+            let others: Vec<(&str, f64)> = (0..data.n())
+                .filter(|&k| data.quantity[k] == Quantity::Value && data.rows[k] != a.row)
+                .map(|k| {
+                    (
+                        rows[data.rows[k]].label.as_str(),
+                        data.base[k] + f.predict(data, k),
+                    )
+                })
+                .collect();
+            OutlierReport {
+                row: rows[a.row].label.clone(),
+                residual_cm_s2: t.error,
+                p_value: a.found.p_family,
+                studentized: t.t,
+                dof: t.dof,
+                rows_tested: a.found.tested,
+                measured_cm_s2: a.y,
+                expected_cm_s2: expected,
+                sigma_cm_s2: t.error_se,
+                cause: slips::cause(
+                    a.y,
+                    expected,
+                    t.error_se,
+                    empty.iter().find(|e| e.row == a.row),
+                    &others,
+                    g,
+                ),
+                kept: opts.keep_outliers,
+            }
+        })
+        .collect()
+}
+
+/// The warnings of the slips, first in the report: each suspected gross error, more of
+/// them than the search sets aside, stated sigmas far from the scatter, a search through
+/// the closed loop that ended at its grid's end.
+fn slip_warnings(
+    outliers: &[OutlierReport],
+    beyond_cap: Option<(&str, outliers::Found)>,
+    sigma: Option<&slips::SigmaSlip>,
+    selected: &[Selected],
+    sim: &dyn Simulator,
+) -> Vec<String> {
+    let mut w = Vec::new();
+    for o in outliers {
+        w.push(format!(
+            "row `{}` is a suspected gross error: measured {} cm/s², but the model selected without it expects {} (residual {} cm/s², {} σ; p = {} over the {} rows tested, familywise); likely cause: {}; {}",
+            o.row,
+            slips::round_sig(o.measured_cm_s2, 6),
+            super::show::estimate(o.expected_cm_s2, o.sigma_cm_s2),
+            slips::round_sig(o.residual_cm_s2, 4),
+            slips::round_sig(o.studentized.abs(), 3),
+            super::show::pfmt(o.p_value),
+            o.rows_tested,
+            o.cause,
+            if o.kept {
+                "kept in the fit (--keep-outliers)"
+            } else {
+                "the selection is made without it (--keep-outliers keeps it)"
+            }
+        ));
+    }
+    if let Some((label, b)) = beyond_cap {
+        w.push(format!(
+            "more than {} rows look like gross errors: after setting aside {}, row `{label}` still does (p = {}): the model, not a few rows, fails these data; check the file as a whole (a unit or sign slip in part of it, a shifted column, the wrong instrument file)",
+            outliers::MAX_OUTLIERS,
+            outliers
+                .iter()
+                .map(|o| format!("`{}`", o.row))
+                .collect::<Vec<_>>()
+                .join(", "),
+            super::show::pfmt(b.p_family)
+        ));
+    }
+    if let Some(s) = sigma {
+        w.push(s.message());
+    }
+    for s in selected {
+        if let Some(l) = s.search_limit {
+            w.push(super::alternatives::limit_note(s.id, l, sim));
+        }
+    }
+    w
+}
+
+/// A step in the `--json` shape.
+fn step_report(s: &Step) -> StepReport {
+    StepReport {
+        action: match (s.added, s.replaces) {
+            (_, Some(_)) => "swap",
+            (true, None) => "add",
+            (false, None) => "drop",
+        },
+        name: s.id.info().name.to_string(),
+        replaces: s.replaces.map(|r| r.info().name.to_string()),
+        delta_chi2: s.delta_chi2,
+        p_value: s.p_value,
+        threshold: s.threshold,
+        note: s.note.clone(),
+    }
 }
 
 /// Points of the linear loop model's Bode plot, 80 per the response rows' frequency span
@@ -1110,6 +1483,41 @@ fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
 pub fn verdict(d: &Discovery) -> String {
     let j = &d.json;
     let mut v = String::new();
+    if !j.outliers.is_empty() {
+        let one = j.outliers.len() == 1;
+        let rows: Vec<String> = j.outliers.iter().map(|o| format!("`{}`", o.row)).collect();
+        let causes: Vec<&str> = j
+            .outliers
+            .iter()
+            .map(|o| o.cause.split([':', ';']).next().unwrap_or_default())
+            .collect();
+        let _ = write!(
+            v,
+            "{} {} {} a suspected gross error{} ({}); {}. ",
+            if one { "Row" } else { "Rows" },
+            rows.join(", "),
+            if one { "is" } else { "are" },
+            if one { "" } else { "s" },
+            causes.join("; "),
+            match (d.options.keep_outliers, one) {
+                (true, _) => "kept in the fit (--keep-outliers)",
+                (false, true) => "set aside: what follows is without it",
+                (false, false) => "set aside: what follows is without them",
+            }
+        );
+    }
+    if let Some(sg) = &d.sigma_slip {
+        let _ = write!(
+            v,
+            "The stated sigmas are {} times the scatter of the residuals: {} ",
+            super::slips::round_sig(sg.factor, 2),
+            if sg.factor >= 1.0 {
+                "too large to see effects of the size of the scatter."
+            } else {
+                "too small, or the data hold structure no candidate explains."
+            }
+        );
+    }
     if d.family.is_empty() && d.selected.is_empty() {
         v.push_str("Nothing could be tested in these rows (no candidate has a signature here).");
     } else if d.selected.is_empty() {

@@ -7,6 +7,10 @@
 //! * [`method`]: baseline, the model, confounding, plausibility, extension, the verdict.
 //! * [`data`]: the fitted rows, signatures and the generic basis of the case inputs.
 //! * [`fit`]: nuisance terms, noise, stepwise selection with familywise error control.
+//! * [`outliers`]: rows far beyond what the model and the noise allow, set aside before the
+//!   selection can explain them.
+//! * [`slips`]: values in another unit or with the sign reversed, stated sigmas far from
+//!   the scatter, and the likely cause of a gross error.
 //! * [`alternatives`]: the other loop parameters that could explain what a selected one does.
 //! * [`unexplained`]: lack of fit and the search of the residuals.
 //! * [`crossval`]: the gain out of sample.
@@ -29,8 +33,10 @@ pub mod crossval;
 pub mod data;
 pub mod fit;
 pub mod method;
+pub mod outliers;
 pub mod show;
 pub mod sim;
+pub mod slips;
 pub mod stats;
 pub mod unexplained;
 
@@ -105,9 +111,11 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         }
         return Ok(());
     };
-    let rows = caseframe::read(path)?;
+    let frame = caseframe::read_frame(path)?;
+    let rows = frame.rows;
     let t0 = Instant::now();
-    let d = discover(&rows, sim, opts).with_context(|| path.display().to_string())?;
+    let d = method::discover_with(&rows, &frame.empty, sim, opts)
+        .with_context(|| path.display().to_string())?;
     let elapsed = t0.elapsed();
     let text = show::text_report(&path.display().to_string(), &d);
     // The corrected instrument file is made before anything is written, so that a value

@@ -91,11 +91,16 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         };
         let _ = writeln!(
             s,
-            "{:<48} {m} {:7.3} {:9.3} {rb} {:9.3} {re}",
+            "{:<48} {m} {:7.3} {:9.3} {rb} {:9.3} {re}{}",
             truncate(&r.label, 48),
             r.sigma_cm_s2,
             nz(r.baseline_cm_s2),
-            nz(r.extended_cm_s2)
+            nz(r.extended_cm_s2),
+            match (r.outlier, d.options.keep_outliers) {
+                (false, _) => "",
+                (true, false) => "  <- suspected gross error, set aside",
+                (true, true) => "  <- suspected gross error, kept",
+            }
         );
     }
     let _ = writeln!(
@@ -183,6 +188,30 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             names(g)
         );
     }
+    if j.outliers.is_empty() {
+        let _ = writeln!(
+            s,
+            "suspected gross errors: none (each value against the model selected without it, externally studentized, familywise {})",
+            super::outliers::ALPHA
+        );
+    } else {
+        for o in &j.outliers {
+            let _ = writeln!(
+                s,
+                "suspected gross error: `{}` residual {} cm/s² ({} σ), p = {} over {} rows (familywise), {}",
+                o.row,
+                super::slips::round_sig(o.residual_cm_s2, 4),
+                super::slips::round_sig(o.studentized.abs(), 3),
+                pfmt(o.p_value),
+                o.rows_tested,
+                if o.kept {
+                    "kept in the fit (--keep-outliers)"
+                } else {
+                    "set aside: the selection below is made without it (--keep-outliers keeps it)"
+                }
+            );
+        }
+    }
     let _ = writeln!(s, "test: {TEST_STATEMENT}");
     if d.family.is_empty() {
         let _ = writeln!(s, "family: empty: nothing could be tested in these rows");
@@ -195,15 +224,26 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         );
     }
     for st in &d.steps {
+        let name = match st.replaces {
+            Some(old) => format!("{} -> {}", old.info().name, st.id.info().name),
+            None => st.id.info().name.to_string(),
+        };
         let _ = writeln!(
             s,
             "  {} {:<20} delta chi2 {:8.2}  p = {} (level {})",
-            if st.added { "add " } else { "drop" },
-            st.id.info().name,
+            match (st.added, st.replaces) {
+                (_, Some(_)) => "swap",
+                (true, None) => "add ",
+                (false, None) => "drop",
+            },
+            name,
             st.delta_chi2,
             pfmt(st.p_value),
             pfmt(st.threshold)
         );
+        if let Some(note) = &st.note {
+            let _ = writeln!(s, "       ({note})");
+        }
     }
     if d.selected.is_empty() && !d.family.is_empty() {
         let _ = writeln!(
@@ -217,12 +257,17 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         if let Some(p) = &sel.parameter {
             let _ = writeln!(
                 s,
-                "selected: {}{}",
+                "selected: {}{}{}",
                 p.sentence(c.name, c.unit),
                 if conf.is_empty() {
                     String::new()
                 } else {
                     format!("  (indistinguishable here from: {})", conf.join(", "))
+                },
+                if sel.search_limit.is_some() {
+                    "  AT THE END OF THE SEARCH GRID (see the warning)"
+                } else {
+                    ""
                 }
             );
             continue;
@@ -345,7 +390,7 @@ fn nz(x: f64) -> f64 {
 }
 
 /// A probability for humans: 3 decimals, or scientific below 0.001.
-fn pfmt(p: f64) -> String {
+pub(crate) fn pfmt(p: f64) -> String {
     if p < 1e-3 {
         format!("{p:.2e}")
     } else {

@@ -419,6 +419,9 @@ pub struct TwoAxisArgs {
 }
 
 /// Arguments of `ptsa discover`.
+// Independent on/off flags of a command line (--json, --no-plots, --analytic,
+// --keep-outliers), each its own clap switch.
+#[allow(clippy::struct_excessive_bools)]
 #[derive(Args, Debug, Clone)]
 #[command(allow_negative_numbers = true)]
 pub struct DiscoverArgs {
@@ -466,6 +469,16 @@ pub struct DiscoverArgs {
     /// when no parameter is selected.
     #[arg(long, value_name = "FILE", requires = "data")]
     pub write_instrument: Option<PathBuf>,
+    /// Keep the rows the outlier test flags as suspected gross errors in the fit (they are
+    /// still reported and warned about). Without it such a row (its value many sigma from
+    /// what the model selected without it expects, familywise 1 %) is set aside.
+    #[arg(long)]
+    pub keep_outliers: bool,
+    /// Analyse measured values that are a unit's multiple of the simulated ones (1/980.4:
+    /// typed in g; 1/100: m/s²; 1020: µg; ...) or their negative as they are, with a
+    /// warning. Without it such data are refused (exit 1) as a unit or sign slip.
+    #[arg(long)]
+    pub units_as_given: bool,
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,

@@ -1352,6 +1352,8 @@ fn discover_cmd(
             default_sigma_cm_s2: a.sigma,
             candidates,
             seed: a.seed,
+            keep_outliers: a.keep_outliers,
+            units_as_given: a.units_as_given,
             ..Options::for_instrument(instr)
         },
         json: a.json,
