@@ -446,16 +446,11 @@ fn refine_parameters(
             rs.dedup();
             let jobs: Vec<(&Condition, &Effects)> =
                 rs.iter().map(|&i| (&rows[i], &theta)).collect();
-            let obs: Vec<(usize, Vec<f64>)> =
-                rs.iter().copied().zip(sim.observe_all(&jobs)).collect();
-            (0..rows.len())
-                .map(|i| {
-                    obs.iter()
-                        .find(|(r, _)| *r == i)
-                        .map(|(_, v)| v.clone())
-                        .unwrap_or_default()
-                })
-                .collect()
+            let mut by_row: Vec<Vec<f64>> = vec![Vec::new(); rows.len()];
+            for (&i, v) in rs.iter().zip(sim.observe_all(&jobs)) {
+                by_row[i] = v;
+            }
+            by_row
         };
         let jac = data::sensitivities(rows, data, &ids, sim, &theta);
         let z: Vec<f64> = (0..n)
@@ -592,6 +587,11 @@ fn row_table(
     opts: &Options,
 ) -> Vec<RowResult> {
     let mut out = Vec::new();
+    // The observation of each (row, slot), if fitted.
+    let mut fitted: Vec<[Option<usize>; 2]> = vec![[None; 2]; rows.len()];
+    for k in (0..data.n()).rev() {
+        fitted[data.rows[k]][usize::from(data.quantity[k] == Quantity::Phase)] = Some(k);
+    }
     for (i, r) in rows.iter().enumerate() {
         for (o, &b) in baseline[i].iter().enumerate() {
             let (quantity, suffix) = match (r.kind, o) {
@@ -599,9 +599,7 @@ fn row_table(
                 (crate::condition::RowKind::Response, _) => ("phase_deg", " (phase)"),
                 _ => ("value_cm_s2", ""),
             };
-            let k = (0..data.n()).find(|&k| {
-                data.rows[k] == i && usize::from(data.quantity[k] == Quantity::Phase) == o
-            });
+            let k = fitted[i].get(o).copied().flatten();
             let (measured, sigma, ext) = match k {
                 Some(k) => (Some(data.y[k]), f.sigma[k], extended[k]),
                 None => (

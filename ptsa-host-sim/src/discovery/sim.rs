@@ -247,6 +247,45 @@ impl ClosedLoopSimulator {
     }
 }
 
+impl ClosedLoopSimulator {
+    /// [`Simulator::observe_all`] of a chunk of jobs: every run on the batch engine in one
+    /// [`runs_of`] call.
+    fn observe_chunk(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
+        let seed = self.options.seed;
+        let mut runs: Vec<(&Condition, &Effects, u64)> = Vec::new();
+        for &(c, e) in jobs {
+            if c.kind == RowKind::Response {
+                runs.extend((0..RESPONSE_SEEDS).map(|j| (c, e, seed.wrapping_add(j))));
+            } else {
+                runs.push((c, e, seed));
+            }
+        }
+        let mut out = runs_of(&self.instrument, &runs, &self.options).into_iter();
+        jobs.iter()
+            .map(|(c, _)| {
+                if c.kind == RowKind::Response {
+                    let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
+                        .map(|_| {
+                            let v = out.next().unwrap_or_default();
+                            [
+                                v.first().copied().unwrap_or(f64::NAN),
+                                v.get(1).copied().unwrap_or(f64::NAN),
+                            ]
+                        })
+                        .collect();
+                    mean_of_runs(&r).0.to_vec()
+                } else {
+                    out.next().unwrap_or_default()
+                }
+            })
+            .collect()
+    }
+}
+
+/// Jobs of one batch-engine call of [`ClosedLoopSimulator::observe_all`]: enough runs to
+/// keep every core busy, few enough that their loops take a few megabytes.
+pub const OBSERVE_CHUNK: usize = 2048;
+
 impl Simulator for ClosedLoopSimulator {
     fn name(&self) -> &'static str {
         "closed-loop"
@@ -290,34 +329,11 @@ impl Simulator for ClosedLoopSimulator {
     /// Every run of every row on the batch engine in one [`runs_of`] call (a response row's
     /// [`RESPONSE_SEEDS`] runs, a difference or absolute row's run); the lanes are the
     /// single loop's runs bit for bit, so this is [`Simulator::observe`] row by row.
+    /// Taken [`OBSERVE_CHUNK`] jobs at a time, so that the loops in memory at once do not
+    /// grow with the table (each run is independent of the others in its call).
     fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
-        let seed = self.options.seed;
-        let mut runs: Vec<(&Condition, &Effects, u64)> = Vec::new();
-        for &(c, e) in jobs {
-            if c.kind == RowKind::Response {
-                runs.extend((0..RESPONSE_SEEDS).map(|j| (c, e, seed.wrapping_add(j))));
-            } else {
-                runs.push((c, e, seed));
-            }
-        }
-        let mut out = runs_of(&self.instrument, &runs, &self.options).into_iter();
-        jobs.iter()
-            .map(|(c, _)| {
-                if c.kind == RowKind::Response {
-                    let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
-                        .map(|_| {
-                            let v = out.next().unwrap_or_default();
-                            [
-                                v.first().copied().unwrap_or(f64::NAN),
-                                v.get(1).copied().unwrap_or(f64::NAN),
-                            ]
-                        })
-                        .collect();
-                    mean_of_runs(&r).0.to_vec()
-                } else {
-                    out.next().unwrap_or_default()
-                }
-            })
+        jobs.chunks(OBSERVE_CHUNK)
+            .flat_map(|c| self.observe_chunk(c))
             .collect()
     }
 
