@@ -302,6 +302,7 @@ pub fn build(
         .iter()
         .any(|&i| rows[i].kind != crate::condition::RowKind::Difference || !rows[i].is_static());
     if dynamic {
+        crate::work::set_stage("the loop parameters' central differences");
         sigs.extend(parameter_signatures(rows, &d, &params, sim));
     } else {
         sigs.extend(params.iter().map(|&id| Signature {

@@ -901,6 +901,7 @@ pub fn discover(
         );
     }
     // 1. Baseline: every row's observations (measured or not, for the table).
+    crate::work::set_stage("baseline");
     let baseline: Vec<Vec<f64>> = {
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &Effects::NONE)).collect();
         sim.observe_all(&jobs)
@@ -920,8 +921,18 @@ pub fn discover(
         select: true,
     };
     // 2. The model: nuisance terms, noise, selection.
+    crate::work::set_stage("selection");
     let f = fit::fit(&data, &all, settings);
     let mut selected = selected_report(&data, &f, opts, sim);
+    let k = selected
+        .iter()
+        .filter(|s| s.id.parameter_key().is_some())
+        .count();
+    let search = super::cost::Cost::of(rows, sim, &opts.candidates).search(k);
+    if search.total() > 0.0 {
+        crate::work::ahead("the closed-loop search of the loop's parameters", search)?;
+        crate::work::set_stage("search of the loop's parameters");
+    }
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     let problem = super::alternatives::Problem {
         rows,
@@ -946,6 +957,7 @@ pub fn discover(
         effects.add(s.id, s.coef);
     }
     // 3. Extend and re-simulate; the nuisance terms are part of the fitted model.
+    crate::work::set_stage("re-simulation");
     let resim: Vec<Vec<f64>> = if effects.is_zero() {
         baseline.clone()
     } else {
@@ -969,6 +981,7 @@ pub fn discover(
     let base_summary = summary(&data, &|k| data.base[k], &f.sigma, 0);
     let ext_summary = summary(&data, &|k| extended[k], &f.sigma, f.fit.beta.len());
     // 4. What is left, and the gain out of sample.
+    crate::work::set_stage("cross-validation");
     let unexplained = unexplained::test(&data, &f, &selected, opts.alpha);
     let gain = crossval::gain(
         &secant_signatures(rows, &data, &selected, &baseline, sim),

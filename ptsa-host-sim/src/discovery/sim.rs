@@ -63,6 +63,17 @@ pub trait Simulator: Sync {
         let _ = (f_hz, effects);
         None
     }
+    /// The closed-loop ticks of one [`Simulator::observe`] of a row (none for a model that
+    /// runs no loop), for the estimate of a discovery's work (`discovery::cost`).
+    fn cost(&self, cond: &Condition) -> crate::work::Ticks {
+        let _ = cond;
+        crate::work::Ticks::ZERO
+    }
+    /// The closed-loop ticks of [`Simulator::observe_sigma`] of a row.
+    fn sigma_cost(&self, cond: &Condition) -> crate::work::Ticks {
+        let _ = cond;
+        crate::work::Ticks::ZERO
+    }
 }
 
 /// `L/(1 + L)` of `instr` with `effects`' parameter changes, `[gain, phase_deg]`.
@@ -344,6 +355,34 @@ impl Simulator for ClosedLoopSimulator {
             f_hz,
             effects,
         ))
+    }
+
+    /// A response row's [`RESPONSE_SEEDS`] runs, a difference row's condition and
+    /// reference, an absolute row's run.
+    fn cost(&self, cond: &Condition) -> crate::work::Ticks {
+        let (i, o) = (&self.instrument, &self.options);
+        match cond.kind {
+            RowKind::Response => (0..RESPONSE_SEEDS)
+                .map(|j| {
+                    crate::work::condition(
+                        i,
+                        &started(cond, o.seed.wrapping_add(j)),
+                        &response_options(o),
+                    )
+                })
+                .sum(),
+            RowKind::Difference => crate::work::difference(i, cond, o),
+            RowKind::Absolute => crate::work::condition(i, cond, o),
+        }
+    }
+
+    /// A response row's [`RESPONSE_SEEDS`] runs again; nothing for the other rows.
+    fn sigma_cost(&self, cond: &Condition) -> crate::work::Ticks {
+        if cond.kind == RowKind::Response {
+            self.cost(cond)
+        } else {
+            crate::work::Ticks::ZERO
+        }
     }
 
     /// For a response row, the standard error of [`ClosedLoopSimulator::response`]'s mean:
