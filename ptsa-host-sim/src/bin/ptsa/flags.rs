@@ -407,6 +407,10 @@ pub struct TwoAxisArgs {
 
 /// Arguments of `ptsa discover`.
 #[derive(Args, Debug, Clone)]
+#[allow(
+    clippy::struct_excessive_bools,
+    reason = "each is a switch of the command line"
+)]
 #[command(allow_negative_numbers = true)]
 pub struct DiscoverArgs {
     /// Case-frame CSV file of measured conditions (docs/case-frame.md). Without it, the
@@ -454,6 +458,11 @@ pub struct DiscoverArgs {
     /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,
+    /// Run even when the work is estimated to take more than ten minutes (before it starts,
+    /// or, when a parameter of the loop is selected, before the closed-loop search of the
+    /// other parameters).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// Arguments of `ptsa predict`.
@@ -478,6 +487,9 @@ pub struct PredictArgs {
     /// Use the quasi-static analytic model instead of the closed loop.
     #[arg(long)]
     pub analytic: bool,
+    /// Run even when the work is estimated to take more than ten minutes.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// What `ptsa plan` writes.
