@@ -552,6 +552,7 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
                 .count();
             let (now, later) = rest.split_at_mut(same);
             run_mode(now, mode, m, k);
+            crate::work::count(m * now.len() as u64, mode == Mode::Dynamic);
             rest = later;
         }
         for l in &mut active {

@@ -10,6 +10,7 @@
 //!   [`simulate_difference`] are the entry points.
 //! * [`batch`]: many independent closed loops, lanes interleaved per core, all cores.
 //! * [`design`]: the default compensator (`Config::DEFAULT`) and the loop's margins.
+//! * [`work`]: work estimated before it runs and counted while it runs (ticks, stages).
 
 pub mod batch;
 pub mod bench;
@@ -27,6 +28,7 @@ pub mod r890;
 pub mod report;
 pub mod response;
 pub mod sim;
+pub mod work;
 
 pub use condition::{CaseInputs, Condition};
 pub use effects::{CandidateId, Effects};

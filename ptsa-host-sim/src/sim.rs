@@ -568,6 +568,7 @@ impl ClosedLoop {
             self.run(n);
         } else {
             self.run_static::<_, false, false>(n, &mut |_| {});
+            crate::work::count(n, false);
         }
     }
 
@@ -581,8 +582,10 @@ impl ClosedLoop {
     fn run_inner<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         if self.dynamic || self.harmonic != 0 {
             self.run_dynamic::<F, OBSERVE>(n, obs);
+            crate::work::count(n, true);
         } else {
             self.run_static::<F, OBSERVE, true>(n, obs);
+            crate::work::count(n, false);
         }
     }
 

@@ -249,12 +249,13 @@ fn static_batch_is_the_single_runs_bit_for_bit() {
             "--trace writes the ADC samples of one run; expected one --accel-cm-s2 value with it, not 2",
         ],
     );
-    // The work estimate counts every gate (one of these alone is allowed on 4 cores).
-    let twenty = vec!["0"; 20].join(",");
+    // The work estimate counts every gate (one of these alone is allowed; forty are
+    // refused even on 4 cores).
+    let forty = vec!["0"; 40].join(",");
     refused(
-        &["static", "--accel-cm-s2", &twenty, "--seconds", "67000"],
+        &["static", "--accel-cm-s2", &forty, "--seconds", "67000"],
         1,
-        &["this batch of 20 gates would run about 8.58e10 clock ticks"],
+        &["this batch of 40 gates would run about 1.72e11 clock ticks"],
     );
 }
 
@@ -467,14 +468,14 @@ fn bench_batch_prints_both_rates() {
         2,
         &["'--batch <N>' cannot be used with '--compare-c'"],
     );
-    // The estimate counts both passes over every condition: 64 × 2 × 10 runs of 64e6 ticks
+    // The estimate counts both passes over every condition: 64 × 2 × 20 runs of 64e6 ticks
     // (beyond ten minutes at the estimate's rate even on 4 cores).
     refused(
         &[
-            "bench", "--batch", "64", "--ticks", "64000000", "--runs", "10",
+            "bench", "--batch", "64", "--ticks", "64000000", "--runs", "20",
         ],
         1,
-        &["the benchmark would run about 8.19e10 clock ticks"],
+        &["the benchmark would run about 1.64e11 clock ticks"],
     );
     assert!(names(tmp.path()).is_empty());
 }

@@ -158,20 +158,16 @@ impl Scorer<'_> {
         rs.dedup();
         let jobs: Vec<(&Condition, &Effects)> =
             rs.iter().map(|&i| (&self.rows[i], theta)).collect();
-        let obs: Vec<(usize, Vec<f64>)> = rs
-            .iter()
-            .copied()
-            .zip(self.sim.observe_all(&jobs))
-            .collect();
+        // Each measured row's observations, by the row's index.
+        let mut obs: Vec<Vec<f64>> = vec![Vec::new(); self.rows.len()];
+        for (&i, v) in rs.iter().zip(self.sim.observe_all(&jobs)) {
+            obs[i] = v;
+        }
         let z: Vec<f64> = (0..self.data.n())
             .map(|k| {
                 let i = self.data.rows[k];
                 let slot = usize::from(self.data.quantity[k] == Quantity::Phase);
-                let p = obs
-                    .iter()
-                    .find(|(r, _)| *r == i)
-                    .and_then(|(_, v)| v.get(slot).copied())
-                    .unwrap_or(f64::NAN);
+                let p = obs[i].get(slot).copied().unwrap_or(f64::NAN);
                 (self.data.y[k] - p) / self.sigma[k]
             })
             .collect();

@@ -71,7 +71,11 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
     let errors: Vec<(f64, f64)> = folds
         .par_iter()
         .flat_map_iter(|held| {
-            let train: Vec<usize> = (0..n).filter(|i| !held.contains(i)).collect();
+            let mut out = vec![false; n];
+            for &i in held {
+                out[i] = true;
+            }
+            let train: Vec<usize> = (0..n).filter(|&i| !out[i]).collect();
             let with = fit::fit(data, &train, settings);
             let without = fit::fit(
                 data,

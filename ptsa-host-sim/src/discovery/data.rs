@@ -279,7 +279,8 @@ pub fn build(
         signatures: Vec::new(),
         features: Vec::new(),
     };
-    let mut keys: Vec<Vec<u64>> = Vec::new();
+    // Replicate sets numbered in order of first appearance.
+    let mut keys: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
     let sim_sigmas: Vec<Vec<f64>> = {
         use rayon::prelude::*;
         fitted
@@ -321,13 +322,8 @@ pub fn build(
             let mut key = replicate_key(r);
             key.push(bi as u64);
             key.push(q as u64);
-            d.replicate
-                .push(if let Some(p) = keys.iter().position(|x| *x == key) {
-                    p
-                } else {
-                    keys.push(key);
-                    keys.len() - 1
-                });
+            let next = keys.len();
+            d.replicate.push(*keys.entry(key).or_insert(next));
             #[allow(clippy::cast_precision_loss)]
             d.time.push(r.time_s.unwrap_or(k as f64));
         }
@@ -355,6 +351,7 @@ pub fn build(
         .iter()
         .any(|&i| rows[i].kind != crate::condition::RowKind::Difference || !rows[i].is_static());
     if dynamic {
+        crate::work::set_stage("the loop parameters' central differences");
         sigs.extend(parameter_signatures(rows, &d, &params, sim));
     } else {
         sigs.extend(params.iter().map(|&id| Signature {
@@ -418,21 +415,7 @@ pub fn sensitivities(
     // Each parameter's tolerance half-width and step: inside the band on both sides (an
     // asymmetric band, the torquer lag's 0.2 to 20 µs about 2 µs, would otherwise step
     // below zero).
-    let steps: Vec<(f64, f64)> = params
-        .iter()
-        .map(|&id| {
-            let key = id.parameter_key().unwrap_or_default();
-            sim.instrument()
-                .and_then(|i| i.tolerance(key))
-                .map_or((0.0, 0.0), |(lo, nom, hi)| {
-                    let half = (hi - nom).max(nom - lo);
-                    (
-                        half,
-                        (SENSITIVITY_STEP * half).min(0.9 * (hi - nom).min(nom - lo)),
-                    )
-                })
-        })
-        .collect();
+    let steps: Vec<(f64, f64)> = params.iter().map(|&id| step(sim, id)).collect();
     // Every parameter's two sides at every measured row, in one batch.
     let sides: Vec<Effects> = params
         .iter()
@@ -456,6 +439,7 @@ pub fn sensitivities(
         })
         .collect();
     let mut obs = sim.observe_all(&jobs).into_iter();
+    let scale = scales(d);
     params
         .iter()
         .zip(&steps)
@@ -467,31 +451,26 @@ pub fn sensitivities(
                     null: true,
                 };
             }
-            let per_row: Vec<(usize, Vec<f64>)> = measured
-                .iter()
-                .map(|&i| {
-                    let up = obs.next().unwrap_or_default();
-                    let dn = obs.next().unwrap_or_default();
-                    (
-                        i,
-                        up.iter()
-                            .zip(&dn)
-                            .map(|(u, v)| (u - v) / (2.0 * h))
-                            .collect(),
-                    )
-                })
-                .collect();
+            // Each measured row's differences, by the row's index.
+            let mut per_row: Vec<Vec<f64>> = vec![Vec::new(); rows.len()];
+            for &i in &measured {
+                let up = obs.next().unwrap_or_default();
+                let dn = obs.next().unwrap_or_default();
+                per_row[i] = up
+                    .iter()
+                    .zip(&dn)
+                    .map(|(u, v)| (u - v) / (2.0 * h))
+                    .collect();
+            }
             let col: Vec<f64> = (0..d.n())
                 .map(|k| {
-                    let i = d.rows[k];
                     let o = match d.quantity[k] {
                         Quantity::Phase => 1,
                         _ => 0,
                     };
-                    per_row
-                        .iter()
-                        .find(|(r, _)| *r == i)
-                        .and_then(|(_, v)| v.get(o).copied())
+                    per_row[d.rows[k]]
+                        .get(o)
+                        .copied()
                         .filter(|x| x.is_finite())
                         .unwrap_or(0.0)
                 })
@@ -500,11 +479,26 @@ pub fn sensitivities(
             // observation by half that observation's noise: below that the difference is the
             // closed loop's own scatter (about 1e-4 cm/s² in a static row), which would
             // otherwise pass for a sensitivity and crowd the family.
-            let moves = (0..d.n()).any(|k| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale(d, k));
-            let null = !moves || noise_only(d, &col, h, half);
+            let moves = (0..d.n()).any(|k| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale[k]);
+            let null = !moves || noise_only(d, &scale, &col, h, half);
             Signature { id, col, null }
         })
         .collect()
+}
+
+/// A parameter's tolerance half-width and the step of its central differences (0 when the
+/// simulator's instrument gives it no tolerance, or its value sits on the band's edge).
+pub(crate) fn step(sim: &dyn Simulator, id: CandidateId) -> (f64, f64) {
+    let key = id.parameter_key().unwrap_or_default();
+    sim.instrument()
+        .and_then(|i| i.tolerance(key))
+        .map_or((0.0, 0.0), |(lo, nom, hi)| {
+            let half = (hi - nom).max(nom - lo);
+            (
+                half,
+                (SENSITIVITY_STEP * half).min(0.9 * (hi - nom).min(nom - lo)),
+            )
+        })
 }
 
 /// Significance level below which a parameter's central difference counts as more than
@@ -522,15 +516,15 @@ pub const SENSITIVITY_ALPHA: f64 = 1e-3;
 /// first-order candidate, and only `discovery::alternatives` can name it. An observation
 /// without a simulator scatter (a static value) counts as a signal when it moves: the
 /// [`PARAMETER_MIN_MOVE`] rule decides there.
-fn noise_only(d: &Data, col: &[f64], h: f64, half: f64) -> bool {
+fn noise_only(d: &Data, scale: &[f64], col: &[f64], h: f64, half: f64) -> bool {
     let noisy: Vec<usize> = (0..d.n()).filter(|&k| d.sim_sigma[k] > 0.0).collect();
-    let moved = |k: usize| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale(d, k);
+    let moved = |k: usize| col[k].abs() * half >= PARAMETER_MIN_MOVE * scale[k];
     if noisy.is_empty() || (0..d.n()).any(|k| d.sim_sigma[k] == 0.0 && moved(k)) {
         return false;
     }
     let (mut num, mut a_sum, mut a2_sum) = (0.0, 0.0, 0.0);
     for &k in &noisy {
-        let s = scale(d, k);
+        let s = scale[k];
         num += (2.0 * h * col[k] / s).powi(2);
         let a = (d.sim_sigma[k] / s).powi(2);
         a_sum += a;
@@ -545,21 +539,32 @@ fn noise_only(d: &Data, col: &[f64], h: f64, half: f64) -> bool {
     super::stats::f_sf(num / (2.0 * a_sum), nu, dof_d) > SENSITIVITY_ALPHA
 }
 
-/// The noise scale of observation `k`: its stated sigma, else the median absolute
-/// deviation (× 1.4826) of the residuals of its quantity.
-fn scale(d: &Data, k: usize) -> f64 {
-    if let Some(s) = d.stated[k] {
-        return s;
-    }
-    let mut r: Vec<f64> = (0..d.n())
-        .filter(|&j| d.quantity[j] == d.quantity[k])
-        .map(|j| d.resid(j))
-        .collect();
-    r.sort_by(f64::total_cmp);
-    let med = r[r.len() / 2];
-    let mut dev: Vec<f64> = r.iter().map(|x| (x - med).abs()).collect();
-    dev.sort_by(f64::total_cmp);
-    (1.4826 * dev[dev.len() / 2]).max(f64::MIN_POSITIVE)
+/// The noise scale of every observation: its stated sigma, else the median absolute
+/// deviation (× 1.4826) of the residuals of its quantity (computed once per quantity).
+fn scales(d: &Data) -> Vec<f64> {
+    let mut mad: Vec<(Quantity, f64)> = Vec::new();
+    (0..d.n())
+        .map(|k| {
+            if let Some(s) = d.stated[k] {
+                return s;
+            }
+            let q = d.quantity[k];
+            if let Some(&(_, s)) = mad.iter().find(|(x, _)| *x == q) {
+                return s;
+            }
+            let mut r: Vec<f64> = (0..d.n())
+                .filter(|&j| d.quantity[j] == q)
+                .map(|j| d.resid(j))
+                .collect();
+            r.sort_by(f64::total_cmp);
+            let med = r[r.len() / 2];
+            let mut dev: Vec<f64> = r.iter().map(|x| (x - med).abs()).collect();
+            dev.sort_by(f64::total_cmp);
+            let s = (1.4826 * dev[dev.len() / 2]).max(f64::MIN_POSITIVE);
+            mad.push((q, s));
+            s
+        })
+        .collect()
 }
 
 /// Signature columns: the analytic effect of each row with a unit coefficient (a difference

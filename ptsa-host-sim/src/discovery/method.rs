@@ -544,16 +544,11 @@ fn refine_parameters(
             rs.dedup();
             let jobs: Vec<(&Condition, &Effects)> =
                 rs.iter().map(|&i| (&rows[i], &theta)).collect();
-            let obs: Vec<(usize, Vec<f64>)> =
-                rs.iter().copied().zip(sim.observe_all(&jobs)).collect();
-            (0..rows.len())
-                .map(|i| {
-                    obs.iter()
-                        .find(|(r, _)| *r == i)
-                        .map(|(_, v)| v.clone())
-                        .unwrap_or_default()
-                })
-                .collect()
+            let mut by_row: Vec<Vec<f64>> = vec![Vec::new(); rows.len()];
+            for (&i, v) in rs.iter().zip(sim.observe_all(&jobs)) {
+                by_row[i] = v;
+            }
+            by_row
         };
         let jac = data::sensitivities(rows, data, &ids, sim, &theta);
         let z: Vec<f64> = (0..n)
@@ -693,6 +688,11 @@ fn row_table(
     set_aside: &[SetAside],
 ) -> Vec<RowResult> {
     let mut out = Vec::new();
+    // The observation of each (row, slot), if fitted.
+    let mut fitted: Vec<[Option<usize>; 2]> = vec![[None; 2]; rows.len()];
+    for k in (0..data.n()).rev() {
+        fitted[data.rows[k]][usize::from(data.quantity[k] == Quantity::Phase)] = Some(k);
+    }
     for (i, r) in rows.iter().enumerate() {
         for (o, &b) in baseline[i].iter().enumerate() {
             let (quantity, suffix) = match (r.kind, o) {
@@ -700,9 +700,7 @@ fn row_table(
                 (crate::condition::RowKind::Response, _) => ("phase_deg", " (phase)"),
                 _ => ("value_cm_s2", ""),
             };
-            let k = (0..data.n()).find(|&k| {
-                data.rows[k] == i && usize::from(data.quantity[k] == Quantity::Phase) == o
-            });
+            let k = fitted[i].get(o).copied().flatten();
             let aside = set_aside.iter().find(|a| a.row == i && o == 0);
             let (measured, sigma, ext) = match (k, aside) {
                 (Some(k), _) => (Some(data.y[k]), f.sigma[k], extended[k]),
@@ -1067,6 +1065,7 @@ pub fn discover_with(
         );
     }
     // 1. Baseline: every row's observations (measured or not, for the table).
+    crate::work::set_stage("baseline");
     let baseline: Vec<Vec<f64>> = {
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &Effects::NONE)).collect();
         sim.observe_all(&jobs)
@@ -1144,9 +1143,19 @@ pub fn discover_with(
     let n = data.n();
     let all: Vec<usize> = (0..n).collect();
     // 3. The model: nuisance terms, noise, selection.
+    crate::work::set_stage("selection");
     let f = fit::fit(&data, &all, settings);
     let mut steps = f.steps.clone();
     let mut selected = selected_report(&data, &f, opts, sim);
+    let k = selected
+        .iter()
+        .filter(|s| s.id.parameter_key().is_some())
+        .count();
+    let search = super::cost::Cost::of(rows, sim, &opts.candidates).search(k);
+    if search.total() > 0.0 {
+        crate::work::ahead("the closed-loop search of the loop's parameters", search)?;
+        crate::work::set_stage("search of the loop's parameters");
+    }
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     let problem = super::alternatives::Problem {
         rows,
@@ -1184,6 +1193,7 @@ pub fn discover_with(
         effects.add(s.id, s.coef);
     }
     // 4. Extend and re-simulate; the nuisance terms are part of the fitted model.
+    crate::work::set_stage("re-simulation");
     let resim: Vec<Vec<f64>> = if effects.is_zero() {
         baseline.clone()
     } else {
@@ -1207,6 +1217,7 @@ pub fn discover_with(
     let base_summary = summary(&data, &|k| data.base[k], &f.sigma, 0);
     let ext_summary = summary(&data, &|k| extended[k], &f.sigma, f.fit.beta.len());
     // 5. What is left, and the gain out of sample.
+    crate::work::set_stage("cross-validation");
     let unexplained = unexplained::test(&data, &f, &selected, opts.alpha);
     let gain = crossval::gain(
         &secant_signatures(rows, &data, &selected, &baseline, sim),

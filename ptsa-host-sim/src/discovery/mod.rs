@@ -14,6 +14,7 @@
 //! * [`alternatives`]: the other loop parameters that could explain what a selected one does.
 //! * [`unexplained`]: lack of fit and the search of the residuals.
 //! * [`crossval`]: the gain out of sample.
+//! * [`cost`]: what a discovery costs, counted before it runs.
 //! * [`show`]: text table, plots and the report section.
 
 use std::fmt::Write as _;
@@ -29,6 +30,7 @@ use crate::effects::Effects;
 pub mod advice;
 pub mod alternatives;
 pub mod caseframe;
+pub mod cost;
 pub mod crossval;
 pub mod data;
 pub mod fit;

@@ -63,6 +63,17 @@ pub trait Simulator: Sync {
         let _ = (f_hz, effects);
         None
     }
+    /// The closed-loop ticks of one [`Simulator::observe`] of a row (none for a model that
+    /// runs no loop), for the estimate of a discovery's work (`discovery::cost`).
+    fn cost(&self, cond: &Condition) -> crate::work::Ticks {
+        let _ = cond;
+        crate::work::Ticks::ZERO
+    }
+    /// The closed-loop ticks of [`Simulator::observe_sigma`] of a row.
+    fn sigma_cost(&self, cond: &Condition) -> crate::work::Ticks {
+        let _ = cond;
+        crate::work::Ticks::ZERO
+    }
 }
 
 /// `L/(1 + L)` of `instr` with `effects`' parameter changes, `[gain, phase_deg]`.
@@ -247,6 +258,45 @@ impl ClosedLoopSimulator {
     }
 }
 
+impl ClosedLoopSimulator {
+    /// [`Simulator::observe_all`] of a chunk of jobs: every run on the batch engine in one
+    /// [`runs_of`] call.
+    fn observe_chunk(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
+        let seed = self.options.seed;
+        let mut runs: Vec<(&Condition, &Effects, u64)> = Vec::new();
+        for &(c, e) in jobs {
+            if c.kind == RowKind::Response {
+                runs.extend((0..RESPONSE_SEEDS).map(|j| (c, e, seed.wrapping_add(j))));
+            } else {
+                runs.push((c, e, seed));
+            }
+        }
+        let mut out = runs_of(&self.instrument, &runs, &self.options).into_iter();
+        jobs.iter()
+            .map(|(c, _)| {
+                if c.kind == RowKind::Response {
+                    let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
+                        .map(|_| {
+                            let v = out.next().unwrap_or_default();
+                            [
+                                v.first().copied().unwrap_or(f64::NAN),
+                                v.get(1).copied().unwrap_or(f64::NAN),
+                            ]
+                        })
+                        .collect();
+                    mean_of_runs(&r).0.to_vec()
+                } else {
+                    out.next().unwrap_or_default()
+                }
+            })
+            .collect()
+    }
+}
+
+/// Jobs of one batch-engine call of [`ClosedLoopSimulator::observe_all`]: enough runs to
+/// keep every core busy, few enough that their loops take a few megabytes.
+pub const OBSERVE_CHUNK: usize = 2048;
+
 impl Simulator for ClosedLoopSimulator {
     fn name(&self) -> &'static str {
         "closed-loop"
@@ -290,34 +340,11 @@ impl Simulator for ClosedLoopSimulator {
     /// Every run of every row on the batch engine in one [`runs_of`] call (a response row's
     /// [`RESPONSE_SEEDS`] runs, a difference or absolute row's run); the lanes are the
     /// single loop's runs bit for bit, so this is [`Simulator::observe`] row by row.
+    /// Taken [`OBSERVE_CHUNK`] jobs at a time, so that the loops in memory at once do not
+    /// grow with the table (each run is independent of the others in its call).
     fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
-        let seed = self.options.seed;
-        let mut runs: Vec<(&Condition, &Effects, u64)> = Vec::new();
-        for &(c, e) in jobs {
-            if c.kind == RowKind::Response {
-                runs.extend((0..RESPONSE_SEEDS).map(|j| (c, e, seed.wrapping_add(j))));
-            } else {
-                runs.push((c, e, seed));
-            }
-        }
-        let mut out = runs_of(&self.instrument, &runs, &self.options).into_iter();
-        jobs.iter()
-            .map(|(c, _)| {
-                if c.kind == RowKind::Response {
-                    let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
-                        .map(|_| {
-                            let v = out.next().unwrap_or_default();
-                            [
-                                v.first().copied().unwrap_or(f64::NAN),
-                                v.get(1).copied().unwrap_or(f64::NAN),
-                            ]
-                        })
-                        .collect();
-                    mean_of_runs(&r).0.to_vec()
-                } else {
-                    out.next().unwrap_or_default()
-                }
-            })
+        jobs.chunks(OBSERVE_CHUNK)
+            .flat_map(|c| self.observe_chunk(c))
             .collect()
     }
 
@@ -328,6 +355,34 @@ impl Simulator for ClosedLoopSimulator {
             f_hz,
             effects,
         ))
+    }
+
+    /// A response row's [`RESPONSE_SEEDS`] runs, a difference row's condition and
+    /// reference, an absolute row's run.
+    fn cost(&self, cond: &Condition) -> crate::work::Ticks {
+        let (i, o) = (&self.instrument, &self.options);
+        match cond.kind {
+            RowKind::Response => (0..RESPONSE_SEEDS)
+                .map(|j| {
+                    crate::work::condition(
+                        i,
+                        &started(cond, o.seed.wrapping_add(j)),
+                        &response_options(o),
+                    )
+                })
+                .sum(),
+            RowKind::Difference => crate::work::difference(i, cond, o),
+            RowKind::Absolute => crate::work::condition(i, cond, o),
+        }
+    }
+
+    /// A response row's [`RESPONSE_SEEDS`] runs again; nothing for the other rows.
+    fn sigma_cost(&self, cond: &Condition) -> crate::work::Ticks {
+        if cond.kind == RowKind::Response {
+            self.cost(cond)
+        } else {
+            crate::work::Ticks::ZERO
+        }
     }
 
     /// For a response row, the standard error of [`ClosedLoopSimulator::response`]'s mean:

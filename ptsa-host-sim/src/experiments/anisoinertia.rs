@@ -41,6 +41,27 @@ pub struct AnisoRun {
     pub output: Output,
 }
 
+/// The closed-loop ticks [`run`] runs: each row of Table 6.1 as a difference, with and
+/// without the anisoinertia.
+///
+/// # Errors
+/// The report's transcription is malformed.
+pub fn work(
+    instr: &Instrument,
+    opts: &SimOptions,
+    lever_cm: [f64; 3],
+) -> Result<crate::work::Ticks> {
+    let s62 = r890::section_6_2()?;
+    Ok(r890::table_6_1()?
+        .iter()
+        .map(|r| {
+            let s =
+                fixtures::rate_table(r.ia_deg, s62.rate_rad_s, s62.reference_rate_rad_s, lever_cm);
+            crate::work::difference(instr, &s.cond, opts).times(2.0)
+        })
+        .sum())
+}
+
 /// Table 6.1's procedure with the instrument's anisoinertia set to `aniso_g_cm2` (g·cm²)
 /// and with the baseline (0); `lever_cm` is the CG's offset from the table axis (IA, PA, OA),
 /// cm.

@@ -93,12 +93,41 @@ pub fn name(kind: TwoAxisKind) -> &'static str {
     }
 }
 
+/// The phases ψ of the sweep, deg.
+fn psis() -> Vec<f64> {
+    (0..=12).map(|k| f64::from(k) * 15.0).collect()
+}
+
+/// The closed-loop ticks [`run`] runs: a difference at every ψ, with the second harmonic
+/// measured (so on the dynamic path).
+#[must_use]
+pub fn work(instr: &Instrument, opts: &SimOptions, plan: &TwoAxisPlan) -> crate::work::Ticks {
+    let o = SimOptions {
+        harmonic: 2,
+        ..*opts
+    };
+    psis()
+        .into_iter()
+        .map(|psi| {
+            let c = fixtures::two_axis(
+                plan.kind,
+                plan.freq_hz,
+                plan.theta_my_mrad,
+                plan.theta_mz_mrad,
+                psi,
+                plan.r_cm,
+            );
+            crate::work::difference(instr, &c, &o)
+        })
+        .sum()
+}
+
 /// The sweep over ψ for one set-up.
 ///
 /// # Errors
 /// None today (kept for symmetry with the other experiments).
 pub fn run(instr: &Instrument, opts: &SimOptions, plan: &TwoAxisPlan) -> Result<AppendixRun> {
-    let psis: Vec<f64> = (0..=12).map(|k| f64::from(k) * 15.0).collect();
+    let psis = psis();
     let o = SimOptions {
         harmonic: 2,
         ..*opts

@@ -42,25 +42,46 @@ pub struct ResponseRun {
     pub output: Output,
 }
 
+/// The options of the runs: the first harmonic, windows of at least 1 s.
+fn options(opts: &SimOptions) -> SimOptions {
+    SimOptions {
+        harmonic: 1,
+        min_window_s: 1.0,
+        ..*opts
+    }
+}
+
+/// The sine along IA at `f` Hz.
+fn sine(f: f64) -> Condition {
+    let mut c = Condition {
+        label: format!("{f} Hz sine along IA"),
+        freq_hz: f,
+        ..Condition::default()
+    };
+    c.lin_cm_s2[IA] = AMPLITUDE_CM_S2;
+    c
+}
+
+/// The closed-loop ticks [`run`] runs.
+#[must_use]
+pub fn work(instr: &Instrument, opts: &SimOptions) -> crate::work::Ticks {
+    let o = options(opts);
+    FREQS_HZ
+        .iter()
+        .map(|&f| crate::work::condition(instr, &sine(f), &o))
+        .sum()
+}
+
 /// The response at [`FREQS_HZ`] with 1 s windows.
 ///
 /// # Errors
 /// None today (kept for symmetry with the other experiments).
 pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<ResponseRun> {
-    let o = SimOptions {
-        harmonic: 1,
-        min_window_s: 1.0,
-        ..*opts
-    };
+    let o = options(opts);
     let rows: Vec<ResponseRow> = FREQS_HZ
         .par_iter()
         .map(|&f| {
-            let mut c = Condition {
-                label: format!("{f} Hz sine along IA"),
-                freq_hz: f,
-                ..Condition::default()
-            };
-            c.lin_cm_s2[IA] = AMPLITUDE_CM_S2;
+            let c = sine(f);
             let r = simulate_condition(instr, &c, &Effects::NONE, &o);
             let l = loop_gain(instr, &opts.config, f);
             let h = l / (1.0 + l);

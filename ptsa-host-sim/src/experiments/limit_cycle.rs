@@ -25,17 +25,37 @@ pub struct LimitCycleRun {
     pub output: Output,
 }
 
+/// The instrument without its bias and the options of the runs (1 s windows).
+fn setup(instr: &Instrument, opts: &SimOptions) -> (Instrument, SimOptions) {
+    let mut nb = instr.clone();
+    nb.bias_cm_s2 = 0.0;
+    (
+        nb,
+        SimOptions {
+            min_window_s: 1.0,
+            ..*opts
+        },
+    )
+}
+
+/// The closed-loop ticks [`run`] runs.
+#[must_use]
+pub fn work(instr: &Instrument, opts: &SimOptions) -> crate::work::Ticks {
+    let (nb, o) = setup(instr, opts);
+    FRACTIONS
+        .iter()
+        .map(|&fr| {
+            crate::work::condition(&nb, &fixtures::along_ia(fr * nb.sf_cm_s2, nb.g_cm_s2), &o)
+        })
+        .sum()
+}
+
 /// The sweep with 1 s windows.
 ///
 /// # Errors
 /// None today (kept for symmetry with the other experiments).
 pub fn run(instr: &Instrument, opts: &SimOptions) -> Result<LimitCycleRun> {
-    let mut nb = instr.clone();
-    nb.bias_cm_s2 = 0.0;
-    let o = SimOptions {
-        min_window_s: 1.0,
-        ..*opts
-    };
+    let (nb, o) = setup(instr, opts);
     let rows: Vec<(f64, SimResult)> = FRACTIONS
         .par_iter()
         .map(|&fr| {

@@ -83,6 +83,24 @@ fn corner(instr: &Instrument, bits: u64) -> Instrument {
     i
 }
 
+/// Corners [`run`] visits: every one up to [`MAX_EXHAUSTIVE`] toleranced parameters, else
+/// `samples`.
+#[must_use]
+pub fn corners(instr: &Instrument, samples: usize) -> usize {
+    let n = instr.tolerances.len();
+    if n <= MAX_EXHAUSTIVE { 1 << n } else { samples }
+}
+
+/// The closed-loop ticks [`run`] runs: the checks of the worst eight corners (each at its
+/// own corner's settings, which leave the clock and the window as they are).
+#[must_use]
+pub fn work(instr: &Instrument, opts: &SimOptions, samples: usize) -> crate::work::Ticks {
+    let c = fixtures::along_ia(CHECK_FRACTION * instr.actual_sf_cm_s2(), instr.g_cm_s2);
+    #[allow(clippy::cast_precision_loss)]
+    let n = corners(instr, samples).min(8) as f64;
+    crate::work::condition(instr, &c, opts).times(n)
+}
+
 /// The Monte Carlo; `samples` random corners (seeded by `opts.seed`) when the box has more
 /// than [`MAX_EXHAUSTIVE`] parameters.
 ///

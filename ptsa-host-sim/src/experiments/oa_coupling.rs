@@ -79,6 +79,28 @@ impl OaRun {
     }
 }
 
+/// The closed-loop ticks [`run`] runs: every row of Tables 6.2 and 6.3 with an amplitude,
+/// as a difference.
+///
+/// # Errors
+/// The report's transcriptions are malformed.
+pub fn work(
+    instr: &Instrument,
+    opts: &SimOptions,
+    lever_cm: [f64; 3],
+) -> Result<crate::work::Ticks> {
+    let mut t = crate::work::Ticks::ZERO;
+    for (v, rows) in [(false, r890::table_6_2()?), (true, r890::table_6_3()?)] {
+        for r in rows {
+            if let Some(a) = r.amp_mrad {
+                let s = fixtures::angular_oscillator(r.freq_hz, a, v, lever_cm);
+                t += crate::work::difference(instr, &s.cond, opts);
+            }
+        }
+    }
+    Ok(t)
+}
+
 /// Tables 6.2 and 6.3 with the proof mass at `lever_cm` (IA, PA, OA) from the table axis, cm.
 ///
 /// # Errors

@@ -78,6 +78,24 @@ pub fn gate_ticks(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> u64 {
     t
 }
 
+/// The closed-loop ticks [`run`] runs: the two gates after their settling, and the
+/// sweep's conditions.
+#[must_use]
+pub fn work(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> crate::work::Ticks {
+    #[allow(clippy::cast_precision_loss)]
+    let gates = 2.0 * (opts.warmup_ticks(instr.clock_hz) + gate_ticks(instr, opts, gate_s)) as f64;
+    crate::work::Ticks::of(gates, false)
+        + sweep_deg()
+            .into_iter()
+            .map(|a| crate::work::condition(instr, &fixtures::dividing_head(a), opts))
+            .sum()
+}
+
+/// The sweep's IA angles, deg: 0° to 345° in 15° steps.
+fn sweep_deg() -> Vec<f64> {
+    (0..24).map(|k| f64::from(k) * 15.0).collect()
+}
+
 /// The ±1 g tumble of section 6.1 over a gate of `gate_s` seconds, and a sweep of IA
 /// through 360° in the vertical plane.
 ///
@@ -241,8 +259,7 @@ fn sf_bias_table(instr: &Instrument, t: &Tumble, report: &r890::Section61) -> Ta
 
 /// IA through 360° in 15° steps: the indicated acceleration at each angle.
 fn sweep(instr: &Instrument, opts: &SimOptions) -> Vec<(f64, f64)> {
-    let angles: Vec<f64> = (0..24).map(|k| f64::from(k) * 15.0).collect();
-    angles
+    sweep_deg()
         .par_iter()
         .map(|&a| {
             let c = fixtures::dividing_head(a);

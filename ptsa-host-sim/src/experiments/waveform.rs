@@ -23,6 +23,20 @@ pub const PLOTTED_CYCLES: u64 = 8;
 /// File stem of the trace and its figure.
 pub const STEM: &str = "waveform-limit-cycle";
 
+/// The closed-loop ticks [`run`] runs: the settling and the trace (each traced tick is
+/// also written out, which takes far longer than the tick: [`TRACE_S_PER_TICK`]).
+#[must_use]
+pub fn work(instr: &Instrument, opts: &SimOptions, cycles: u64) -> crate::work::Ticks {
+    #[allow(clippy::cast_precision_loss)]
+    let n = (opts.warmup_ticks(instr.clock_hz)
+        + cycles.saturating_mul(u64::from(opts.config.ticks_per_cycle))) as f64;
+    crate::work::Ticks::of(n, false)
+}
+
+/// Seconds to write one traced tick's row (`docs/host-sim.md`, "Work estimates"), on the
+/// slow side.
+pub const TRACE_S_PER_TICK: f64 = 2e-6;
+
 /// Trace `cycles` limit cycles at `accel_cm_s2` along IA after the run's settling time;
 /// writes `<dir>/waveform-limit-cycle.csv` (one row per tick) as it runs.
 ///

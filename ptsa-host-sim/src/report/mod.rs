@@ -84,6 +84,45 @@ pub struct Programme {
 
 /// Run the programme into `target` (a folder that appears whole at the end, replacing an
 /// older one, or not at all), printing each experiment's tables to `out` and calling
+/// Seconds of the programme beyond its closed-loop ticks and its discovery's least squares
+/// (the figures, the files, the margins of the tolerance box's corners), on the slow side
+/// (`docs/host-sim.md`, "Work estimates").
+pub const OVERHEAD_S: f64 = 1.0;
+
+/// The work of [`run`] with `instr` and `opts`, counted before it runs: every experiment's
+/// closed-loop ticks ([`tumble::work`], ...) and the part of the discovery section that
+/// always runs ([`crate::discovery::cost`]).
+///
+/// # Errors
+/// The report's transcriptions are malformed.
+pub fn work(instr: &Instrument, opts: &SimOptions) -> Result<crate::work::Estimate> {
+    let mut t = tumble::work(instr, opts, tumble::DEFAULT_GATE_S)
+        + anisoinertia::work(instr, opts, [0.0; 3])?
+        + oa_coupling::work(instr, opts, [0.0; 3])?
+        + waveform::work(instr, opts, waveform::DEFAULT_CYCLES)
+        + frequency_response::work(instr, opts)
+        + limit_cycle::work(instr, opts)
+        + monte_carlo::work(instr, opts, monte_carlo::DEFAULT_SAMPLES);
+    for kind in [
+        TwoAxisKind::Vibropendulous,
+        TwoAxisKind::Anisoelastic,
+        TwoAxisKind::Sculling,
+    ] {
+        t += appendix_a::work(instr, opts, &appendix_a::TwoAxisPlan::report(kind));
+    }
+    let sim = ClosedLoopSimulator {
+        instrument: instr.clone(),
+        options: *opts,
+    };
+    let mut other_s = OVERHEAD_S;
+    for f in r890::case_files()? {
+        let c = crate::discovery::cost::Cost::of(&f.rows, &sim, crate::effects::CandidateId::ALL);
+        t += c.ticks;
+        other_s += c.seconds() - c.ticks.seconds();
+    }
+    Ok(crate::work::Estimate { ticks: t, other_s })
+}
+
 /// `step(k, name)` before step `k` of [`STEPS`].
 ///
 /// # Errors

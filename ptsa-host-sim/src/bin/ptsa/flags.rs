@@ -419,9 +419,6 @@ pub struct TwoAxisArgs {
 }
 
 /// Arguments of `ptsa discover`.
-// Independent on/off flags of a command line (--json, --no-plots, --analytic,
-// --keep-outliers), each its own clap switch.
-#[allow(clippy::struct_excessive_bools)]
 #[derive(Args, Debug, Clone)]
 #[command(allow_negative_numbers = true)]
 pub struct DiscoverArgs {
@@ -483,7 +480,9 @@ pub struct DiscoverArgs {
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,
     /// Replace an existing --advice-out or --write-instrument file (never an input of the
-    /// run).
+    /// run), and run even when the work is estimated to take more than ten minutes (before
+    /// it starts, or, when a parameter of the loop is selected, before the closed-loop
+    /// search of the other parameters).
     #[arg(long)]
     pub force: bool,
 }
@@ -510,6 +509,9 @@ pub struct PredictArgs {
     /// Use the quasi-static analytic model instead of the closed loop.
     #[arg(long)]
     pub analytic: bool,
+    /// Run even when the work is estimated to take more than ten minutes.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// What `ptsa plan` writes.

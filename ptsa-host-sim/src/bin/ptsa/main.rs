@@ -253,14 +253,12 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             let opts = opts(&run);
             gate_fits("--gate-s", gate_s, &instr, &opts)?;
             paths::folder("--out", &o.out)?;
-            let gate = tumble::gate_ticks(&instr, &opts, gate_s);
-            Work::new(&instr, &opts)
-                .gate(2 * gate)
-                .conditions(24)
+            let est = Work::new(&instr, &opts)
+                .ticks(tumble::work(&instr, &opts, gate_s))
                 .check(run.force, "the tumble")?;
-            let s = work::spinner("tumble");
+            let p = work::Progress::start("tumble", &est);
             let r = tumble::run(&instr, &opts, gate_s)?;
-            s.finish_and_clear();
+            p.finish();
             emit(&r.output, &o, out)
         }
         Cmd::Anisoinertia {
@@ -271,10 +269,13 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
         } => {
             let opts = opts(&run);
             paths::folder("--out", &o.out)?;
-            Work::new(&instr, &opts)
-                .conditions(32)
+            let lever = [0.0, lever_pa_cm, 0.0];
+            let est = Work::new(&instr, &opts)
+                .ticks(anisoinertia::work(&instr, &opts, lever)?)
                 .check(run.force, "Table 6.1")?;
-            let r = anisoinertia::run(&instr, &opts, anisoinertia_g_cm2, [0.0, lever_pa_cm, 0.0])?;
+            let p = work::Progress::start("Table 6.1", &est);
+            let r = anisoinertia::run(&instr, &opts, anisoinertia_g_cm2, lever)?;
+            p.finish();
             emit(&r.output, &o, out)
         }
         Cmd::OaCoupling {
@@ -284,11 +285,13 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
         } => {
             let opts = opts(&run);
             paths::folder("--out", &o.out)?;
-            Work::new(&instr, &opts)
-                .dynamic_conditions(34)
-                .check(run.force, "Tables 6.2 and 6.3")?;
             let l = [lever_cm[0], lever_cm[1], lever_cm[2]];
+            let est = Work::new(&instr, &opts)
+                .ticks(oa_coupling::work(&instr, &opts, l)?)
+                .check(run.force, "Tables 6.2 and 6.3")?;
+            let p = work::Progress::start("Tables 6.2 and 6.3", &est);
             let r = oa_coupling::run(&instr, &opts, l)?;
+            p.finish();
             emit(&r.output, &o, out)
         }
         Cmd::Vibropendulosity(a) => two_axis(&instr, config, TwoAxisKind::Vibropendulous, &a, out),
@@ -321,15 +324,20 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             work::warn_beyond_full_scale(&instr, accel_cm_s2, "--accel-cm-s2");
             // The trace after its settling, then the frequency response (11 frequencies)
             // and the limit-cycle sweep (11 inputs), each a settling and a 1 s window.
-            Work::new(&instr, &opts)
-                .gate(ticks)
-                .window_s(opts.warmup_s + 1.0, 22)
+            #[allow(clippy::cast_precision_loss)]
+            let est = Work::new(&instr, &opts)
+                .ticks(
+                    waveform::work(&instr, &opts, cycles)
+                        + frequency_response::work(&instr, &opts)
+                        + limit_cycle::work(&instr, &opts),
+                )
+                .seconds(waveform::TRACE_S_PER_TICK * ticks as f64)
                 .check(run.force, "the waveform")?;
-            let s = work::spinner("waveform, frequency response, limit cycle");
+            let p = work::Progress::start("waveform, frequency response, limit cycle", &est);
             let mut all = waveform::run(&instr, &opts, accel_cm_s2, cycles, &o.out)?;
             all.extend(frequency_response::run(&instr, &opts)?.output);
             all.extend(limit_cycle::run(&instr, &opts)?.output);
-            s.finish_and_clear();
+            p.finish();
             // The trace's CSV was streamed into the folder by `waveform::run`.
             emit_counting(&all, &o, 1, out)
         }
@@ -400,16 +408,18 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 );
             }
             paths::folder("--out", &o.out)?;
-            Work::new(&instr, &opts)
-                .conditions(8)
+            let samples = samples.unwrap_or(monte_carlo::DEFAULT_SAMPLES);
+            #[allow(clippy::cast_precision_loss)]
+            let est = Work::new(&instr, &opts)
+                .ticks(monte_carlo::work(&instr, &opts, samples))
+                .seconds(
+                    work::MARGINS_S_PER_CORNER * monte_carlo::corners(&instr, samples) as f64
+                        / ptsa_host_sim::work::cores(),
+                )
                 .check(run.force, "the Monte Carlo")?;
-            let s = work::spinner("monte carlo");
-            let r = monte_carlo::run(
-                &instr,
-                &opts,
-                samples.unwrap_or(monte_carlo::DEFAULT_SAMPLES),
-            )?;
-            s.finish_and_clear();
+            let p = work::Progress::start("monte carlo", &est);
+            let r = monte_carlo::run(&instr, &opts, samples)?;
+            p.finish();
             emit(&r.output, &o, out)
         }
         Cmd::Bench {
@@ -442,7 +452,10 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             let run_s = (ticks as f64 / instr.clock_hz + opts.warmup_s) * per;
             #[allow(clippy::cast_precision_loss)]
             Work::new(&instr, &opts)
-                .window_s(run_s, 1)
+                .ticks(ptsa_host_sim::work::Ticks::of(
+                    run_s * instr.clock_hz,
+                    false,
+                ))
                 .times(runs as f64)
                 .check(force, "the benchmark")?;
             let plan = BenchPlan {
@@ -537,12 +550,16 @@ fn report_cmd(
         ..a.run.options()
     };
     paths::report_folder("--out", &a.out)?;
-    Work::new(instr, &opts)
-        .conditions(200)
-        .dynamic_conditions(100)
-        .window_s(1.0, 22)
-        .check(a.run.force, "the report programme")?;
-    let bar = work::steps(report::STEPS.len());
+    let est = work::check(
+        report::work(instr, &opts)?,
+        a.run.force,
+        "the report programme",
+        None,
+        "shorten the times asked for",
+    )?;
+    // Its discovery section holds its search of the loop's parameters to the limit.
+    ptsa_host_sim::work::set_limit((!a.run.force).then(work::limit_s));
+    let bar = work::Progress::start("the report programme", &est);
     let info = report::RunInfo {
         instrument: name.to_string(),
         options: opts,
@@ -554,12 +571,15 @@ fn report_cmd(
         info,
         &a.out,
         &mut |k, step| {
-            bar.set_position(k as u64);
-            bar.set_message(step.to_string());
+            bar.set_step(&format!(
+                "step {} of {}, {step}",
+                k + 1,
+                report::STEPS.len()
+            ));
         },
         out,
     )?;
-    bar.finish_and_clear();
+    bar.finish();
     eprintln!(
         "report written to {} in {:.2} s",
         paths::shown(&dir),
@@ -610,10 +630,12 @@ fn two_axis(
     );
     let peak = c.lin_cm_s2.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     work::warn_beyond_full_scale(instr, peak, "the vibration (r·θ·ω²)");
-    Work::new(instr, &opts)
-        .dynamic_conditions(26)
+    let est = Work::new(instr, &opts)
+        .ticks(appendix_a::work(instr, &opts, &plan))
         .check(a.run.force, appendix_a::name(kind))?;
+    let p = work::Progress::start(appendix_a::name(kind), &est);
     let r = appendix_a::run(instr, &opts, &plan)?;
+    p.finish();
     emit(&r.output, &a.out, out)
 }
 
@@ -649,12 +671,11 @@ fn static_cmd(
     out: &mut dyn Write,
 ) -> Result<()> {
     let (instr, ticks) = static_gate(instr, opts, seconds, with_bias)?;
-    Work::new(&instr, opts)
+    let est = Work::new(&instr, opts)
         .gate(ticks)
         .check(force, "this gate")?;
-    let total = opts.warmup_ticks(instr.clock_hz) + ticks;
-    let bar = work::ticks_bar(total);
-    let mut progress = |done: u64, _: u64| bar.set_position(done);
+    let bar = work::Progress::start("static", &est);
+    let mut progress = |_: u64, _: u64| {};
     let r = if let Some(path) = trace {
         let tmp = temp_beside(path)?;
         let mut w = std::io::BufWriter::new(tmp.as_file());
@@ -689,7 +710,7 @@ fn static_cmd(
     } else {
         run_static_with(&instr, accel_cm_s2, ticks, opts, None, &mut progress)
     };
-    bar.finish_and_clear();
+    bar.finish();
     if r.saturated {
         eprintln!(
             "warning: the loop saturated during the gate ({accel_cm_s2} cm/s^2 + bias {} cm/s^2 against a full scale of ±{} cm/s^2): the indicated value is not the input",
@@ -976,13 +997,13 @@ fn static_batch_cmd(
     let (instr, ticks) = static_gate(instr, opts, seconds, with_bias)?;
     let n = accels_cm_s2.len();
     #[allow(clippy::cast_precision_loss)]
-    Work::new(&instr, opts)
+    let est = Work::new(&instr, opts)
         .gate(ticks)
         .times(n as f64)
         .check(force, &format!("this batch of {n} gates"))?;
-    let s = work::spinner(&format!("static, {n} accelerations in one batch"));
+    let p = work::Progress::start(&format!("static, {n} accelerations in one batch"), &est);
     let runs = ptsa_host_sim::batch::run_static(&instr, accels_cm_s2, ticks, opts);
-    s.finish_and_clear();
+    p.finish();
     for (a, r) in accels_cm_s2.iter().zip(&runs) {
         if r.saturated {
             eprintln!(
@@ -1123,6 +1144,26 @@ fn effects_text(effects: &Effects, sigmas: &[(CandidateId, f64)]) -> String {
     format!("with {}", list.join(", "))
 }
 
+/// The work of `ptsa predict`: one observation of every row, refused beyond the limit
+/// without `--force`.
+fn predict_estimate(
+    rows: &[ptsa_host_sim::Condition],
+    sim: &dyn Simulator,
+    force: bool,
+) -> Result<ptsa_host_sim::work::Estimate> {
+    let ticks = rows.iter().map(|r| sim.cost(r)).sum();
+    work::check(
+        ptsa_host_sim::work::Estimate {
+            ticks,
+            other_s: 0.0,
+        },
+        force,
+        "predict",
+        None,
+        "fewer rows, or rows of shorter periods",
+    )
+}
+
 fn predict_cmd(
     instr: &Instrument,
     config: ptsa_core::Config,
@@ -1135,9 +1176,10 @@ fn predict_cmd(
         None => (Effects::NONE, Vec::new()),
     };
     let sim = simulator(instr, config, a.analytic, a.seed);
-    let s = work::spinner("predict");
+    let est = predict_estimate(&rows, &*sim, a.force)?;
+    let p = work::Progress::start("predict", &est);
     let pred = discovery::predict(&rows, &*sim, &effects);
-    s.finish_and_clear();
+    p.finish();
     let response =
         |r: &ptsa_host_sim::Condition| r.kind == ptsa_host_sim::condition::RowKind::Response;
     if a.json {
@@ -1366,9 +1408,13 @@ fn discover_cmd(
         }),
     };
     let sim = simulator(instr, config, a.analytic, a.seed);
-    let s = work::spinner("discover");
+    let est = discover_estimate(a, &req.options.candidates, &*sim)?;
+    // The search of the loop's parameters, whose length is known only once they are
+    // selected, is held to the limit too.
+    ptsa_host_sim::work::set_limit((!a.force).then(work::limit_s));
+    let p = work::Progress::start("discover", &est);
     let r = discovery::run(&req, &*sim, out);
-    s.finish_and_clear();
+    p.finish();
     if r.is_ok() {
         for (flag, p, before, w) in replaced {
             if std::fs::metadata(p).and_then(|m| m.modified()).ok() != before {
@@ -1377,4 +1423,42 @@ fn discover_cmd(
         }
     }
     r
+}
+
+/// The work of `ptsa discover` before it runs (`discovery::cost`), refused beyond the limit
+/// without `--force` and announced when long, with what the search of the loop's
+/// parameters may add when one is selected.
+fn discover_estimate(
+    a: &DiscoverArgs,
+    candidates: &[CandidateId],
+    sim: &dyn Simulator,
+) -> Result<ptsa_host_sim::work::Estimate> {
+    use discovery::cost::Cost;
+    let costs: Vec<Cost> = match &a.data {
+        Some(p) => vec![Cost::of(&discovery::caseframe::read(p)?, sim, candidates)],
+        None => ptsa_host_sim::r890::case_files()?
+            .iter()
+            .map(|f| Cost::of(&f.rows, sim, candidates))
+            .collect(),
+    };
+    let ticks = costs.iter().map(|c| c.ticks).sum();
+    let seconds: f64 = costs.iter().map(Cost::seconds).sum();
+    let est = ptsa_host_sim::work::Estimate {
+        ticks,
+        other_s: seconds - ticks.seconds(),
+    };
+    let search: ptsa_host_sim::work::Ticks = costs.iter().map(|c| c.search(1)).sum();
+    let more = (search.seconds() > 1.0).then(|| {
+        format!(
+            "and up to {} more if a parameter of the loop is selected (the closed-loop search of the others, held to the same limit)",
+            ptsa_host_sim::work::human(search.seconds())
+        )
+    });
+    work::check(
+        est,
+        a.force,
+        "discover",
+        more.as_deref(),
+        "fewer rows, or rows of shorter periods",
+    )
 }

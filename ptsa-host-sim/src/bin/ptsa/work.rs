@@ -1,28 +1,72 @@
-//! Work that is estimated before it runs (and refused beyond a sane limit without
-//! `--force`), and shown while it runs: progress bars and spinners on stderr when it is a
-//! terminal, nothing otherwise.
+//! Work that is estimated before it runs (refused beyond a limit without `--force`, and
+//! announced when it is long), and shown while it runs: a progress bar on stderr when it is
+//! a terminal; otherwise (a log, a pipe) a plain line every [`PROGRESS_S`] seconds once the
+//! work has run that long, so that a short run stays quiet.
+//!
+//! The estimate and the progress count closed-loop ticks ([`ptsa_host_sim::work`]): the
+//! ticks a command will run, by path, at the measured rates, and the ticks the closed loop
+//! and the batch engine have run so far.
 
 use std::io::IsTerminal as _;
-use std::time::Duration;
+use std::sync::mpsc::{RecvTimeoutError, Sender, channel};
+use std::sync::{Arc, Mutex, OnceLock};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
 
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use ptsa_host_sim::Instrument;
 use ptsa_host_sim::sim::SimOptions;
+use ptsa_host_sim::work::{Estimate, Ticks, human};
 
-/// Simulated ticks per second this program can be counted on for, per core, in the slower
-/// (dynamic, statistics-gathering) path; the estimate errs on the long side.
-const TICKS_PER_S: f64 = 2e7;
-/// Estimated seconds beyond which a run needs `--force`.
-const LIMIT_S: f64 = 600.0;
+/// Estimated seconds beyond which a run needs `--force` (the environment variable
+/// `PTSA_LIMIT_S` sets another).
+pub const LIMIT_S: f64 = 600.0;
+/// Estimated seconds beyond which the estimate is printed before the work starts.
+pub const ANNOUNCE_S: f64 = 10.0;
+/// Seconds between two progress lines when stderr is not a terminal, and before the
+/// first (the environment variable `PTSA_PROGRESS_S` sets another).
+pub const PROGRESS_S: f64 = 10.0;
+/// Seconds of the linear margins of one corner of the tolerance box (`ptsa monte-carlo`),
+/// on one core, on the slow side.
+pub const MARGINS_S_PER_CORNER: f64 = 2e-4;
 /// Most limit cycles the waveform trace takes without `--force`.
 pub const MAX_TRACE_CYCLES: u64 = 10_000;
 
-/// An estimate of a command's closed-loop ticks.
+/// A positive number of seconds from the environment variable `var`, else `default` (with
+/// a warning when it is set but not such a number).
+fn seconds_from_env(var: &str, default: f64) -> f64 {
+    match std::env::var(var) {
+        Err(_) => default,
+        Ok(v) => match v.trim().parse::<f64>() {
+            Ok(s) if s > 0.0 && s.is_finite() => s,
+            _ => {
+                eprintln!(
+                    "warning: {var}={v}: expected a positive number of seconds; using {default}"
+                );
+                default
+            }
+        },
+    }
+}
+
+/// The limit of the estimated work without `--force`, s (read once).
+pub fn limit_s() -> f64 {
+    static LIMIT: OnceLock<f64> = OnceLock::new();
+    *LIMIT.get_or_init(|| seconds_from_env("PTSA_LIMIT_S", LIMIT_S))
+}
+
+/// Seconds between progress lines (read once).
+fn progress_s() -> f64 {
+    static EVERY: OnceLock<f64> = OnceLock::new();
+    *EVERY.get_or_init(|| seconds_from_env("PTSA_PROGRESS_S", PROGRESS_S))
+}
+
+/// An estimate of a command's closed-loop ticks, built up by the shape of its runs.
 pub struct Work<'a> {
     instr: &'a Instrument,
     opts: &'a SimOptions,
-    ticks: f64,
+    est: Estimate,
 }
 
 impl<'a> Work<'a> {
@@ -31,116 +75,278 @@ impl<'a> Work<'a> {
         Self {
             instr,
             opts,
-            ticks: 0.0,
+            est: Estimate::default(),
         }
     }
 
-    /// One long gate of `ticks`, after a settling time.
+    /// One gate of `ticks` on the static path, after a settling time.
     pub fn gate(mut self, ticks: u64) -> Self {
         #[allow(clippy::cast_precision_loss)]
-        let t = ticks as f64;
-        self.ticks += t + self.opts.warmup_s * self.instr.clock_hz;
+        let t = ticks as f64 + self.opts.warmup_s * self.instr.clock_hz;
+        self.est.ticks += Ticks::of(t, false);
         self
     }
 
-    /// `n` static conditions: settling plus the shortest window each.
-    pub fn conditions(mut self, n: u32) -> Self {
-        self.ticks +=
-            f64::from(n) * (self.opts.warmup_s + self.opts.min_window_s) * self.instr.clock_hz;
-        self
-    }
-
-    /// `n` dynamic conditions (the window may be a little longer: whole periods).
-    pub fn dynamic_conditions(mut self, n: u32) -> Self {
-        self.ticks += f64::from(n)
-            * (self.opts.warmup_s + self.opts.min_window_s + 0.05)
-            * self.instr.clock_hz;
-        self
-    }
-
-    /// `n` more windows of `s` seconds.
-    pub fn window_s(mut self, s: f64, n: u32) -> Self {
-        self.ticks += f64::from(n) * s * self.instr.clock_hz;
+    /// Work counted by the library ([`ptsa_host_sim::experiments`]' `work` functions).
+    pub fn ticks(mut self, t: Ticks) -> Self {
+        self.est.ticks += t;
         self
     }
 
     /// The work so far, `n` times over (`n` runs of the same).
     pub fn times(mut self, n: f64) -> Self {
-        self.ticks *= n;
+        self.est.ticks = self.est.ticks.times(n);
+        self.est.other_s *= n;
         self
     }
 
-    /// Refuse work estimated beyond ten minutes unless `force`.
-    pub fn check(self, force: bool, what: &str) -> Result<()> {
-        let cores = rayon::current_num_threads().max(1);
-        #[allow(clippy::cast_precision_loss)]
-        let s = self.ticks / TICKS_PER_S / cores.min(4) as f64;
-        if s > LIMIT_S && !force {
-            bail!(
-                "{what} would run about {:.2e} clock ticks, roughly {} on this machine; expected at most about {} (shorten the times asked for, or pass --force to run it anyway)",
-                self.ticks,
-                human(s),
-                human(LIMIT_S)
+    /// Seconds of work that is not closed-loop ticks.
+    pub fn seconds(mut self, s: f64) -> Self {
+        self.est.other_s += s;
+        self
+    }
+
+    /// Refuse the work beyond the limit unless `force`, announce it when long; the estimate.
+    pub fn check(self, force: bool, what: &str) -> Result<Estimate> {
+        check(self.est, force, what, None, "shorten the times asked for")
+    }
+}
+
+/// Refuse `est` beyond the limit ([`limit_s`]) unless `force`, with a one-line reason
+/// naming `what` and `remedy`; print it on stderr when it is beyond [`ANNOUNCE_S`] (with
+/// `more`, a clause on work that may follow). Returns `est`.
+pub fn check(
+    est: Estimate,
+    force: bool,
+    what: &str,
+    more: Option<&str>,
+    remedy: &str,
+) -> Result<Estimate> {
+    let s = est.seconds();
+    let limit = limit_s();
+    let more = more.map(|m| format!(", {m}")).unwrap_or_default();
+    if s > limit && !force {
+        bail!(
+            "{what} would run about {:.2e} clock ticks, roughly {} on this machine{more}; expected at most about {} ({remedy}, or pass --force to run it anyway)",
+            est.ticks.total(),
+            human(s),
+            human(limit)
+        );
+    }
+    if s > ANNOUNCE_S {
+        eprintln!(
+            "{what}: about {} of work estimated ({:.2e} closed-loop ticks on {} cores){more}{}",
+            human(s),
+            est.ticks.total(),
+            ptsa_host_sim::work::cores(),
+            if s > limit {
+                "; run because of --force"
+            } else {
+                ""
+            }
+        );
+    }
+    Ok(est)
+}
+
+/// When the progress lines of a log are due: the first after `every_s` seconds of work,
+/// then one every `every_s` seconds (a line missed while the machine was busy is not made
+/// up for).
+#[derive(Clone, Copy, Debug)]
+pub struct Lines {
+    every_s: f64,
+    next_s: f64,
+}
+
+impl Lines {
+    /// Lines every `every_s` seconds, the first after `every_s`.
+    pub fn new(every_s: f64) -> Self {
+        Self {
+            every_s,
+            next_s: every_s,
+        }
+    }
+
+    /// Whether a line is due `elapsed_s` seconds after the start (and if so, the next one
+    /// is due a period later).
+    pub fn due(&mut self, elapsed_s: f64) -> bool {
+        if elapsed_s < self.next_s {
+            return false;
+        }
+        while self.next_s <= elapsed_s {
+            self.next_s += self.every_s;
+        }
+        true
+    }
+}
+
+/// A progress line: `what`, the fraction of the estimated work done (capped at 99 %
+/// while the work runs, `None` when it is not known) and the stage, the elapsed time.
+pub fn line(what: &str, stage: &str, fraction: Option<f64>, elapsed_s: f64) -> String {
+    let stage = if stage.is_empty() {
+        String::new()
+    } else {
+        format!(" ({stage})")
+    };
+    match fraction {
+        Some(f) => format!(
+            "progress: {what}: {:.0} % of the estimated work done{stage}, {elapsed_s:.0} s elapsed",
+            100.0 * f.clamp(0.0, 0.99)
+        ),
+        None => format!("progress: {what}: running{stage}, {elapsed_s:.0} s elapsed"),
+    }
+}
+
+/// Work shown while it runs (see the module docs); stop it with [`Progress::finish`] (or
+/// by dropping it).
+pub struct Progress {
+    what: String,
+    est: Estimate,
+    start: Instant,
+    start_ticks: Ticks,
+    start_ahead: Ticks,
+    every_s: f64,
+    bar: Option<ProgressBar>,
+    step: Arc<Mutex<String>>,
+    stop: Option<(Sender<()>, JoinHandle<()>)>,
+}
+
+impl Progress {
+    /// Show `what` while `est`'s work runs.
+    pub fn start(what: &str, est: &Estimate) -> Self {
+        ptsa_host_sim::work::set_stage("");
+        let terminal = std::io::stderr().is_terminal();
+        let bar = terminal.then(|| {
+            let pb = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
+            pb.set_style(
+                ProgressStyle::with_template("{bar:40} {percent}% {msg} {elapsed}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar()),
+            );
+            pb.set_message(what.to_string());
+            pb
+        });
+        let step = Arc::new(Mutex::new(String::new()));
+        let (tx, rx) = channel::<()>();
+        let every = progress_s();
+        let poll = Duration::from_secs_f64((every / 4.0).clamp(0.01, 0.2));
+        let start_ticks = ptsa_host_sim::work::done();
+        let start_ahead = ptsa_host_sim::work::announced();
+        let (what2, ticks) = (what.to_string(), est.ticks.seconds());
+        let (bar2, step2) = (bar.clone(), Arc::clone(&step));
+        let handle = std::thread::spawn(move || {
+            let start = Instant::now();
+            let mut lines = Lines::new(every);
+            loop {
+                match rx.recv_timeout(poll) {
+                    Err(RecvTimeoutError::Timeout) => {}
+                    _ => return,
+                }
+                let done = ptsa_host_sim::work::done();
+                let run = Ticks {
+                    fixed: done.fixed - start_ticks.fixed,
+                    dynamic: done.dynamic - start_ticks.dynamic,
+                };
+                // The estimate, and what the work found to lie ahead since it started.
+                let ahead = ptsa_host_sim::work::announced();
+                let more = Ticks {
+                    fixed: ahead.fixed - start_ahead.fixed,
+                    dynamic: ahead.dynamic - start_ahead.dynamic,
+                };
+                let all = ticks + more.seconds();
+                let fraction = (all > 0.0).then(|| run.seconds() / all);
+                let stage = {
+                    let outer = step2.lock().map(|s| s.clone()).unwrap_or_default();
+                    let inner = ptsa_host_sim::work::stage();
+                    match (outer.is_empty(), inner.is_empty()) {
+                        (false, false) => format!("{outer}: {inner}"),
+                        (false, true) => outer,
+                        _ => inner,
+                    }
+                };
+                if let Some(pb) = &bar2 {
+                    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                    pb.set_position((1000.0 * fraction.unwrap_or(0.0).clamp(0.0, 0.99)) as u64);
+                    pb.set_message(if stage.is_empty() {
+                        what2.clone()
+                    } else {
+                        format!("{what2}: {stage}")
+                    });
+                } else if lines.due(start.elapsed().as_secs_f64()) {
+                    eprintln!(
+                        "{}",
+                        line(&what2, &stage, fraction, start.elapsed().as_secs_f64())
+                    );
+                }
+            }
+        });
+        Self {
+            what: what.to_string(),
+            est: *est,
+            start: Instant::now(),
+            start_ticks,
+            start_ahead,
+            every_s: every,
+            bar,
+            step,
+            stop: Some((tx, handle)),
+        }
+    }
+
+    /// Name the step the command is in (the report programme's experiment).
+    pub fn set_step(&self, step: &str) {
+        if let Ok(mut s) = self.step.lock() {
+            step.clone_into(&mut s);
+        }
+        ptsa_host_sim::work::set_stage("");
+    }
+
+    /// Stop showing the work.
+    pub fn finish(mut self) {
+        self.stop_now();
+    }
+
+    /// Stop the display; after a run long enough to have shown progress lines, say how
+    /// long it took and how much it ran against the estimate.
+    fn stop_now(&mut self) {
+        let Some((tx, handle)) = self.stop.take() else {
+            return;
+        };
+        let _ = tx.send(());
+        let _ = handle.join();
+        if let Some(pb) = &self.bar {
+            pb.finish_and_clear();
+        }
+        let elapsed = self.start.elapsed().as_secs_f64();
+        if elapsed >= self.every_s.min(ANNOUNCE_S) {
+            let done = ptsa_host_sim::work::done().total() - self.start_ticks.total();
+            let ahead = ptsa_host_sim::work::announced();
+            let more = Ticks {
+                fixed: ahead.fixed - self.start_ahead.fixed,
+                dynamic: ahead.dynamic - self.start_ahead.dynamic,
+            };
+            let found = if more.total() > 0.0 {
+                format!(
+                    ", and at most {:.1} s ({:.3e} ticks) found ahead on the way",
+                    more.seconds(),
+                    more.total()
+                )
+            } else {
+                String::new()
+            };
+            eprintln!(
+                "{}: {elapsed:.1} s, {done:.3e} closed-loop ticks (estimated {:.1} s, {:.3e} ticks{found})",
+                self.what,
+                self.est.seconds(),
+                self.est.ticks.total(),
             );
         }
-        Ok(())
     }
 }
 
-/// Seconds as a human duration.
-fn human(s: f64) -> String {
-    if s < 120.0 {
-        format!("{s:.0} s")
-    } else if s < 7200.0 {
-        format!("{:.0} min", s / 60.0)
-    } else if s < 2.0 * 86400.0 {
-        format!("{:.0} h", s / 3600.0)
-    } else if s < 2.0 * 365.25 * 86400.0 {
-        format!("{:.0} days", s / 86400.0)
-    } else {
-        format!("{:.0} years", s / (365.25 * 86400.0))
+impl Drop for Progress {
+    fn drop(&mut self) {
+        self.stop_now();
     }
-}
-
-fn draw_target() -> ProgressDrawTarget {
-    if std::io::stderr().is_terminal() {
-        ProgressDrawTarget::stderr()
-    } else {
-        ProgressDrawTarget::hidden()
-    }
-}
-
-/// A spinner with a message, ticking on its own, for work of unknown length.
-pub fn spinner(msg: &str) -> ProgressBar {
-    let pb = ProgressBar::with_draw_target(None, draw_target());
-    pb.set_style(
-        ProgressStyle::with_template("{spinner} {msg} {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_spinner()),
-    );
-    pb.set_message(msg.to_string());
-    pb.enable_steady_tick(Duration::from_millis(120));
-    pb
-}
-
-/// A bar over `n` named steps.
-pub fn steps(n: usize) -> ProgressBar {
-    let pb = ProgressBar::with_draw_target(Some(n as u64), draw_target());
-    pb.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} {msg} {elapsed}")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    pb.enable_steady_tick(Duration::from_millis(200));
-    pb
-}
-
-/// A bar over `n` clock ticks.
-pub fn ticks_bar(n: u64) -> ProgressBar {
-    let pb = ProgressBar::with_draw_target(Some(n), draw_target());
-    pb.set_style(
-        ProgressStyle::with_template("{bar:40} {percent}% of {len} ticks, {eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar()),
-    );
-    pb
 }
 
 /// Warn when an input's size is beyond the loop's full scale.
@@ -149,6 +355,45 @@ pub fn warn_beyond_full_scale(instr: &Instrument, a_cm_s2: f64, what: &str) {
         eprintln!(
             "warning: {what} = {a_cm_s2} cm/s^2 is beyond the loop's full scale of ±{} cm/s^2: the loop saturates and the results are not measurements of the input",
             instr.sf_cm_s2
+        );
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Lines every 10 s: none in the first 10 s (a short run stays quiet), then one per
+    /// period, whatever the polling; a period the machine slept through is not made up.
+    #[test]
+    fn progress_lines_start_after_a_period_and_come_once_a_period() {
+        let mut l = Lines::new(10.0);
+        let polled: Vec<f64> = (0..=130).map(|k| f64::from(k) * 0.2).collect();
+        let due: Vec<f64> = polled.into_iter().filter(|&t| l.due(t)).collect();
+        assert_eq!(due.len(), 2, "{due:?}");
+        assert!(
+            (due[0] - 10.0).abs() < 1e-9 && (due[1] - 20.0).abs() < 1e-9,
+            "{due:?}"
+        );
+        assert!(!l.due(29.9));
+        assert!(l.due(55.0));
+        assert!(!l.due(59.9));
+        assert!(l.due(60.0));
+    }
+
+    #[test]
+    fn a_progress_line_says_what_how_far_and_how_long() {
+        assert_eq!(
+            line("discover", "baseline", Some(0.421), 65.2),
+            "progress: discover: 42 % of the estimated work done (baseline), 65 s elapsed"
+        );
+        assert_eq!(
+            line("discover", "", Some(1.7), 700.0),
+            "progress: discover: 99 % of the estimated work done, 700 s elapsed"
+        );
+        assert_eq!(
+            line("predict", "", None, 12.0),
+            "progress: predict: running, 12 s elapsed"
         );
     }
 }
