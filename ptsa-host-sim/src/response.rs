@@ -681,7 +681,7 @@ const SCAN_BUDGET: f64 = 5e7;
 
 /// The frequency whose sine fits `gates` best ([`BestFrequency`]): a grid of a quarter of
 /// one over the record's span from one period in the record to 0.98 of its Nyquist
-/// frequency (for long records, where that grid would pass [`SCAN_BUDGET`], the part of it
+/// frequency (for long records, where that grid would pass `SCAN_BUDGET`, the part of it
 /// centred on `around_hz` that fits the budget), then a golden-section refinement about the
 /// best grid point. `sf_cm_s2` turns counts into accelerations, `gate_s` is the gates'
 /// length. `None` for a record too short to scan.

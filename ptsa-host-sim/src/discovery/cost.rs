@@ -8,7 +8,7 @@
 //!
 //! Run only when the data call for it (bounded here from above, [`Cost::search`]): when a
 //! parameter of the loop is selected, Gauss–Newton (at most
-//! [`GAUSS_NEWTON_STEPS`](super::method::GAUSS_NEWTON_STEPS) steps of `1 + 2k` passes for
+//! [`super::method::GAUSS_NEWTON_STEPS`] steps of `1 + 2k` passes for
 //! `k` parameters), the prune of a second parameter, the check of every other parameter in
 //! its place (a grid, its extensions and two golden-section searches, [`SEARCH_PASSES`]
 //! passes each, and a fresh evaluation), the mirror check and the secant signatures; with

@@ -403,7 +403,7 @@ fn screen(data: &Data, keep: &[usize], full: &Fitted, family: &[usize]) -> Vec<u
 ///
 /// A row judged a gross error that one more term of the vocabulary explains with a
 /// plausible coefficient (`plausible(candidate, coefficient)`) is physics, not a gross
-/// error ([`explained`]), unless it is among `suspects` or `recorded` (rows with an input
+/// error (`explained`), unless it is among `suspects` or `recorded` (rows with an input
 /// cell left empty and read as 0: evidence of a slip beside the numbers).
 #[must_use]
 pub fn search(
