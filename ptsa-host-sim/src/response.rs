@@ -980,6 +980,28 @@ pub fn check(cx: &CheckContext<'_>, fit: &ResponseFit) -> FitCheck {
 mod tests {
     use super::*;
 
+    /// `n` gates of 320 ticks (5 ms at 64 kHz) counted as a charge-balancing loop counts
+    /// (the pulses are the running total's whole part, so what one gate leaves over goes
+    /// into the next) from the mean output `mean(t0)`, cm/s², of the gate starting at `t0`.
+    fn counted(n: u32, sf: f64, mean: impl Fn(f64) -> f64) -> Vec<Gate> {
+        let tau = 320.0 / 64000.0;
+        let (mut total, mut counted) = (0.0f64, 0.0f64);
+        (0..n)
+            .map(|k| {
+                let t0 = f64::from(k) * tau;
+                total += f64::midpoint(mean(t0) / sf, 1.0) * 320.0;
+                let p = total.floor() - counted;
+                counted += p;
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                Gate {
+                    time_s: t0,
+                    pulses: p as u64,
+                    ticks: 320,
+                }
+            })
+            .collect()
+    }
+
     /// A record made from a known sine, counted as a charge-balancing loop does (the pulses
     /// are the running total's whole part, so what one gate leaves over goes into the next):
     /// the fit gives back the gain and phase within their uncertainties.
@@ -987,31 +1009,13 @@ mod tests {
     fn a_known_sine_comes_back() {
         let (sf, clock, f, amp) = (21121.1, 64000.0, 20.0, 2000.0);
         let (g_true, ph_true) = (0.8, -30.0_f64);
-        let ticks = 320u64; // 5 ms gates
-        let tau = 320.0 / clock;
+        let tau = 320.0 / clock; // 5 ms gates
         let w = std::f64::consts::TAU * f;
-        let mut total = 0.0f64;
-        let mut counted = 0.0f64;
-        let gates: Vec<Gate> = (0..400)
-            .map(|k| {
-                let t0 = f64::from(k) * tau;
-                // Mean of the output over the gate; pulses carry the charge over.
-                let x = w * tau / 2.0;
-                let mean = g_true
-                    * amp
-                    * (x.sin() / x)
-                    * (w * (t0 + tau / 2.0) + ph_true.to_radians()).sin();
-                total += f64::midpoint(mean / sf, 1.0) * 320.0;
-                let p = total.floor() - counted;
-                counted += p;
-                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-                Gate {
-                    time_s: t0,
-                    pulses: p as u64,
-                    ticks,
-                }
-            })
-            .collect();
+        // Mean of the output over the gate.
+        let x = w * tau / 2.0;
+        let gates = counted(400, sf, |t0| {
+            g_true * amp * (x.sin() / x) * (w * (t0 + tau / 2.0) + ph_true.to_radians()).sin()
+        });
         let r = fit(&gates, f, amp, 0.0, sf, clock).unwrap();
         assert!((r.gain - g_true).abs() < 4.0 * r.sigma_gain + 1e-9, "{r:?}");
         assert!(
@@ -1084,22 +1088,7 @@ mod tests {
         let (sf, clock) = (21121.1, 64000.0);
         let (f, tau) = (20.0, 0.005);
         let w = std::f64::consts::TAU * f;
-        let (mut total, mut counted) = (0.0f64, 0.0f64);
-        let gates: Vec<Gate> = (0..300)
-            .map(|k| {
-                let t0 = f64::from(k) * tau;
-                let mean = 1500.0 * (w * (t0 + tau / 2.0)).sin();
-                total += f64::midpoint(mean / sf, 1.0) * 320.0;
-                let p = total.floor() - counted;
-                counted += p;
-                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-                Gate {
-                    time_s: t0,
-                    pulses: p as u64,
-                    ticks: 320,
-                }
-            })
-            .collect();
+        let gates = counted(300, sf, |t0| 1500.0 * (w * (t0 + tau / 2.0)).sin());
         let b = best_frequency(&gates, sf, tau, 23.0).unwrap();
         assert!((b.freq_hz - f).abs() < b.resolution_hz, "{b:?}");
         let at_f = fit(&gates, f, 1500.0, 0.0, sf, clock).unwrap();

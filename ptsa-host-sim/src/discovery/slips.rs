@@ -152,41 +152,45 @@ pub struct UnitSlip {
 }
 
 impl UnitSlip {
+    /// `sign` or `unit`.
+    fn kind(&self) -> &'static str {
+        if self.slip.factor < 0.0 {
+            "sign"
+        } else {
+            "unit"
+        }
+    }
+
+    /// What the values look like and what was probably meant.
+    fn what(&self) -> String {
+        format!(
+            "the measured values are {} the simulated ones (measured/simulated = {} by least squares over the {} values in cm/s²): were they {}?",
+            relation(self.slip.factor),
+            round_sig(self.ratio, 5),
+            self.rows,
+            self.slip.meant,
+        )
+    }
+
     /// The one-line message: what the values look like, what was probably meant, how to fix
     /// it.
     #[must_use]
     pub fn message(&self) -> String {
-        let unit = if self.slip.factor < 0.0 {
-            "a sign slip"
-        } else {
-            "a unit slip"
-        };
         format!(
-            "the measured values are {} the simulated ones (measured/simulated = {} by least squares over the {} values in cm/s²): were they {}? expected cm/s² along IA; {unit} is not analysed as physics: {} in `measured_cm_s2` and run again (or, if the values are right as they are, `--units-as-given` analyses them with a warning)",
-            relation(self.slip.factor),
-            round_sig(self.ratio, 5),
-            self.rows,
-            self.slip.meant,
+            "{} expected cm/s² along IA; a {} slip is not analysed as physics: {} in `measured_cm_s2` and run again (or, if the values are right as they are, `--units-as-given` analyses them with a warning)",
+            self.what(),
+            self.kind(),
             self.slip.fix
         )
     }
-}
 
-impl UnitSlip {
     /// The warning when the values are analysed as given (`--units-as-given`).
     #[must_use]
     pub fn kept_message(&self) -> String {
-        let unit = if self.slip.factor < 0.0 {
-            "sign"
-        } else {
-            "unit"
-        };
         format!(
-            "the measured values are {} the simulated ones (measured/simulated = {} over the {} values in cm/s²): were they {}? analysed as given (--units-as-given): if this is a {unit} slip, what follows explains it as physics",
-            relation(self.slip.factor),
-            round_sig(self.ratio, 5),
-            self.rows,
-            self.slip.meant,
+            "{} analysed as given (--units-as-given): if this is a {} slip, what follows explains it as physics",
+            self.what(),
+            self.kind()
         )
     }
 }

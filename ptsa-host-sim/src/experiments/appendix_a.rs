@@ -93,6 +93,18 @@ pub fn name(kind: TwoAxisKind) -> &'static str {
     }
 }
 
+/// The set-up's condition at phase `psi`, deg.
+fn condition(plan: &TwoAxisPlan, psi: f64) -> crate::Condition {
+    fixtures::two_axis(
+        plan.kind,
+        plan.freq_hz,
+        plan.theta_my_mrad,
+        plan.theta_mz_mrad,
+        psi,
+        plan.r_cm,
+    )
+}
+
 /// The phases ψ of the sweep, deg.
 fn psis() -> Vec<f64> {
     (0..=12).map(|k| f64::from(k) * 15.0).collect()
@@ -109,14 +121,7 @@ pub fn work(instr: &Instrument, opts: &SimOptions, plan: &TwoAxisPlan) -> crate:
     psis()
         .into_iter()
         .map(|psi| {
-            let c = fixtures::two_axis(
-                plan.kind,
-                plan.freq_hz,
-                plan.theta_my_mrad,
-                plan.theta_mz_mrad,
-                psi,
-                plan.r_cm,
-            );
+            let c = condition(plan, psi);
             crate::work::difference(instr, &c, &o)
         })
         .sum()
@@ -135,14 +140,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions, plan: &TwoAxisPlan) -> Result<
     let rows: Vec<PhaseRow> = psis
         .par_iter()
         .map(|&psi| {
-            let c = fixtures::two_axis(
-                plan.kind,
-                plan.freq_hz,
-                plan.theta_my_mrad,
-                plan.theta_mz_mrad,
-                psi,
-                plan.r_cm,
-            );
+            let c = condition(plan, psi);
             let d = simulate_difference(instr, &c, &plan.effects, &o);
             let p = predict_rectified(instr, opts, &c, &plan.effects);
             PhaseRow {
