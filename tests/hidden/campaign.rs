@@ -80,18 +80,7 @@ pub fn run(sets_per_kind: usize, seed: u64, source: &Generator, fit: &dyn Simula
         .enumerate()
         .flat_map(|(i, kind)| (0..sets_per_kind).map(move |k| (set_seed(seed, i, k), kind)))
         .collect();
-    // The additive vocabulary: the loop's parameters have no signature above the closed
-    // loop's noise in these difference designs, and their finite differences through the
-    // loop would cost five times the rest; they are hidden (in the instrument file) by the
-    // parameter campaign instead.
-    let opts = Options {
-        candidates: ptsa_host_sim::CandidateId::ALL
-            .iter()
-            .filter(|c| c.parameter_key().is_none())
-            .copied()
-            .collect(),
-        ..Options::default()
-    };
+    let opts = additive();
     let outcomes = jobs
         .par_iter()
         .map(|&(s, kind)| {
@@ -516,5 +505,21 @@ impl Campaign {
             }
         }
         s
+    }
+}
+
+/// The campaign's vocabulary, the additive terms: the loop's parameters have no signature
+/// above the closed loop's noise in these difference designs, and their finite differences
+/// through the loop would cost five times the rest; they are hidden (in the instrument
+/// file) by the parameter campaign instead.
+#[must_use]
+pub fn additive() -> Options {
+    Options {
+        candidates: ptsa_host_sim::CandidateId::ALL
+            .iter()
+            .filter(|c| c.parameter_key().is_none())
+            .copied()
+            .collect(),
+        ..Options::default()
     }
 }

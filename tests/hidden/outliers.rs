@@ -10,28 +10,16 @@
 use ptsa_host_sim::discovery::caseframe::EmptyCells;
 use ptsa_host_sim::discovery::method::discover_with;
 use ptsa_host_sim::discovery::sim::{AnalyticSimulator, ClosedLoopSimulator};
-use ptsa_host_sim::discovery::{Options, discover, outliers};
+use ptsa_host_sim::discovery::{discover, outliers};
 use ptsa_host_sim::sim::SimOptions;
 use rayon::prelude::*;
 
-use super::campaign::binomial_upper_tail;
+use super::campaign::{additive, binomial_upper_tail};
 use super::statics::{self, StaticKind};
 use super::*;
 
 fn analytic() -> AnalyticSimulator {
     AnalyticSimulator::for_instrument(&ptsa_host_sim::Instrument::kearfott_2401())
-}
-
-/// The campaign's vocabulary (the additive terms).
-fn additive() -> Options {
-    Options {
-        candidates: ptsa_host_sim::CandidateId::ALL
-            .iter()
-            .filter(|c| c.parameter_key().is_none())
-            .copied()
-            .collect(),
-        ..Options::default()
-    }
 }
 
 /// Sets of `kinds` (in turn) from seed `base`, analysed blind: how many have a row flagged.
