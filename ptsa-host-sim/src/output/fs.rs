@@ -38,7 +38,15 @@ const KINDS: [&str; 3] = ["staging-", "old-", ""];
 static LIVE: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
 /// Files this run reads, which nothing may overwrite, with what they are ("the file given to
 /// --data").
-static PROTECTED: Mutex<Vec<(FileId, String)>> = Mutex::new(Vec::new());
+static PROTECTED: Mutex<Vec<Protected>> = Mutex::new(Vec::new());
+
+/// A file the run reads: the path it was given by, what that path was (device and inode, or
+/// the resolved path) when it was protected, and what it is in messages.
+struct Protected {
+    path: PathBuf,
+    id: FileId,
+    what: String,
+}
 /// Folders already swept of stale temporaries by this process.
 static SWEPT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
 
@@ -133,20 +141,26 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 pub fn protect(path: &Path, what: &str) {
     if let Some(id) = file_id(path) {
         let mut p = lock(&PROTECTED);
-        if !p.iter().any(|(q, _)| *q == id) {
-            p.push((id, what.to_string()));
+        if !p.iter().any(|q| q.id == id) {
+            p.push(Protected {
+                path: path.to_path_buf(),
+                id,
+                what: what.to_string(),
+            });
         }
     }
 }
 
-/// What `path` is when it is a file the run reads ([`protect`]).
+/// What `path` is when it is a file the run reads ([`protect`]). A protected path that no
+/// longer is the file it was (removed, or replaced by another) protects nothing: the inode
+/// of a removed file may be given to a new one.
 #[must_use]
 pub fn input_named(path: &Path) -> Option<String> {
     let id = file_id(path)?;
     lock(&PROTECTED)
         .iter()
-        .find(|(q, _)| *q == id)
-        .map(|(_, w)| w.clone())
+        .find(|q| q.id == id && file_id(&q.path).as_ref() == Some(&q.id))
+        .map(|q| q.what.clone())
 }
 
 /// Refuse to write `path` when it is a file the run reads ([`protect`]).
@@ -482,6 +496,28 @@ impl StagedDir {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An input protects the file at the path it was given by while it is there: once that
+    /// path holds nothing (here the file moved away, as a removed file's inode may be given
+    /// to a new file), the identity protects nothing. Under a live path, a hard link to the
+    /// input is refused.
+    #[test]
+    fn a_protected_path_protects_the_file_while_it_is_there() {
+        let d = tempfile::tempdir().unwrap();
+        let (input, link, moved) = (
+            d.path().join("in.csv"),
+            d.path().join("link.csv"),
+            d.path().join("moved.csv"),
+        );
+        std::fs::write(&input, b"measured").unwrap();
+        protect(&input, "the test's moved input");
+        std::fs::hard_link(&input, &link).unwrap();
+        assert!(check_not_input(&link).is_err());
+        std::fs::remove_file(&link).unwrap();
+        std::fs::rename(&input, &moved).unwrap();
+        assert_eq!(input_named(&moved), None);
+        check_not_input(&moved).unwrap();
+    }
 
     #[test]
     fn atomic_write_replaces_and_leaves_no_temporary_file() {
