@@ -141,6 +141,9 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
 pub fn protect(path: &Path, what: &str) {
     if let Some(id) = file_id(path) {
         let mut p = lock(&PROTECTED);
+        // Entries whose path no longer holds their file protect nothing, and their
+        // identity may now be this file's.
+        p.retain(|q| file_id(&q.path).as_ref() == Some(&q.id));
         if !p.iter().any(|q| q.id == id) {
             p.push(Protected {
                 path: path.to_path_buf(),
