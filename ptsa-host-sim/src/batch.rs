@@ -1745,18 +1745,23 @@ mod tests {
         #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
 
         /// Random batches of random conditions (static and dynamic, inside and beyond full
-        /// scale, centrifuge arms, and near-copies that share most inputs), effects, seeds
-        /// and lane counts.
+        /// scale, centrifuge arms, and near-copies that share most inputs), effects, seeds,
+        /// lane counts and thread counts (the groups are cut by the threads there are).
         #[test]
         fn random_batches_match_the_single_loop(
             jobs in arb_batch(),
             seed in 0u64..1000,
             noise in any::<bool>(),
             lanes in prop::sample::select(vec![1usize, 2, 4, 8, 16]),
+            threads in prop::sample::select(vec![1usize, 2, 8]),
         ) {
             let i = instr();
             let opts = SimOptions { warmup_s: 0.005, min_window_s: 0.005, ..short(seed, noise, 0) };
-            let got = Engine::new(lanes).simulate_conditions(&i, &jobs, &opts);
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a pool");
+            let got = pool.install(|| Engine::new(lanes).simulate_conditions(&i, &jobs, &opts));
             for ((c, e), g) in jobs.iter().zip(&got) {
                 let w = simulate_condition(&i, c, e, &opts);
                 prop_assert_eq!(result_bits(g), result_bits(&w), "{:?}", c);
