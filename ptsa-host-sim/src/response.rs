@@ -341,42 +341,13 @@ impl ResponseFit {
     }
 }
 
-/// Response rows as case-frame CSV of the [`ROW_COLUMNS`]: the header, then one line per
-/// row, numbers in Rust's shortest round-trip form (the case-frame reader gives them back
-/// bit for bit), a label quoted when the reader would otherwise split, trim or skip it.
+/// Response rows as case-frame CSV of the [`ROW_COLUMNS`] (the case frame's own writer,
+/// [`crate::discovery::caseframe::to_csv_columns`]): the header, then one line per row,
+/// numbers in Rust's shortest round-trip form (the case-frame reader gives them back bit for
+/// bit), a label quoted when the reader would otherwise split, trim or skip it.
 #[must_use]
 pub fn rows_csv(rows: &[Condition]) -> String {
-    let mut out = ROW_COLUMNS.join(",");
-    out.push('\n');
-    let num = |x: Option<f64>| match x {
-        Some(0.0) => "0".to_string(),
-        Some(v) => format!("{v}"),
-        None => String::new(),
-    };
-    for c in rows {
-        let label = &c.label;
-        let label = if label.contains([',', '"', '\n', '\r'])
-            || label.starts_with('#')
-            || label.trim() != label
-        {
-            format!("\"{}\"", label.replace('"', "\"\""))
-        } else {
-            label.clone()
-        };
-        let cells = [
-            label,
-            c.kind.name().to_string(),
-            num(Some(c.freq_hz)),
-            num(Some(c.lin_cm_s2[0])),
-            num(c.measured_gain),
-            num(c.measured_phase_deg),
-            num(c.sigma_gain),
-            num(c.sigma_phase_deg),
-        ];
-        out.push_str(&cells.join(","));
-        out.push('\n');
-    }
-    out
+    crate::discovery::caseframe::to_csv_columns(rows, &[], &ROW_COLUMNS)
 }
 
 /// Fit the record: input `amp_cm_s2·sin(2π·freq_hz·t + input_phase_deg)` along IA; the

@@ -801,6 +801,29 @@ pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
                 })
         })
         .collect();
+    write(rows, comments, &used)
+}
+
+/// `rows` as case-frame CSV of exactly `columns` (case-frame column names), in that order,
+/// after `comments` (each a `# ` line): the writer of [`to_csv`], for a caller that owns its
+/// column set (`ptsa response`'s rows).
+///
+/// # Panics
+/// If a name is not a case-frame column (a programming error: the names are constants).
+#[must_use]
+pub fn to_csv_columns(rows: &[Condition], comments: &[&str], columns: &[&str]) -> String {
+    let used: Vec<usize> = columns
+        .iter()
+        .map(|&name| {
+            column_index(name).unwrap_or_else(|| panic!("`{name}` is not a case-frame column"))
+        })
+        .collect();
+    write(rows, comments, &used)
+}
+
+/// The one writer: `comments`, the header of the columns `used` (indices into
+/// [`COLUMNS`]), one line per row.
+fn write(rows: &[Condition], comments: &[&str], used: &[usize]) -> String {
     let mut out = String::new();
     for c in comments {
         let _ = writeln!(out, "# {c}");
