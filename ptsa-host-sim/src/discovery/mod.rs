@@ -49,8 +49,8 @@ pub use sim::{AnalyticSimulator, Simulator};
 /// binary; this is the validated request).
 #[derive(Clone, Debug)]
 pub struct Request {
-    /// Case-frame file; `None` = the report's Tables 6.1, 6.2 and 6.3.
-    pub data: Option<PathBuf>,
+    /// Case-frame file.
+    pub data: PathBuf,
     /// Settings of the method.
     pub options: Options,
     /// Print exactly one JSON object on stdout (the text goes to stderr).
@@ -103,16 +103,7 @@ pub fn analytic() -> Box<dyn Simulator> {
 /// written, or a failing `stdout` (e.g. a closed pipe).
 pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result<()> {
     let opts = &req.options;
-    let Some(path) = &req.data else {
-        let (text, all) = show::report_section_json(sim, opts, req.out.as_deref())?;
-        if req.json {
-            eprint!("{text}");
-            writeln!(stdout, "{}", serde_json::Value::Object(all))?;
-        } else {
-            write!(stdout, "{text}")?;
-        }
-        return Ok(());
-    };
+    let path = &req.data;
     let frame = caseframe::read_frame(path)?;
     let rows = frame.rows;
     let t0 = Instant::now();
@@ -265,15 +256,13 @@ pub fn predict(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Ve
     sim.observe_all(&jobs)
 }
 
-pub use show::report_section;
-
 #[cfg(test)]
 mod tests {
     use std::path::Path;
 
     use super::*;
 
-    fn request(data: Option<PathBuf>, out: PathBuf) -> Request {
+    fn request(data: PathBuf, out: PathBuf) -> Request {
         Request {
             write_instrument: None,
             data,
@@ -290,7 +279,7 @@ mod tests {
         let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/r890-table-6.1.case.csv");
         let out = base.path().join("ok");
         let mut stdout = Vec::new();
-        run(&request(Some(data), out.clone()), &*analytic(), &mut stdout).unwrap();
+        run(&request(data, out.clone()), &*analytic(), &mut stdout).unwrap();
         let v: serde_json::Value = serde_json::from_slice(&stdout).unwrap();
         assert_eq!(v["effects"][0]["name"], "anisoinertia");
         for ext in ["csv", "png", "svg"] {
@@ -303,7 +292,7 @@ mod tests {
         std::fs::write(&bad, "label,g_ia,measured_cm_s2\nx,1,0.5\ny,1,zz\n").unwrap();
         let out_bad = base.path().join("bad-out");
         let e = run(
-            &request(Some(bad), out_bad.clone()),
+            &request(bad, out_bad.clone()),
             &*analytic(),
             &mut Vec::new(),
         )

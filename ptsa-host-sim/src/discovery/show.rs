@@ -1,17 +1,14 @@
-//! Showing a result: the text report, the per-row CSV table, the plots (PNG and SVG), and
-//! the section of the no-argument report that analyses Tables 6.1–6.3.
+//! Showing a result: the text report, the per-row CSV table, the plots (PNG and SVG).
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::Result;
 
-use super::method::{Discovery, Options, RowResult, TEST_STATEMENT, discover};
-use super::sim::Simulator;
+use super::method::{Discovery, RowResult, TEST_STATEMENT};
 use crate::condition::RowKind;
 use crate::effects::CandidateId;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num, opt, text};
-use crate::r890;
 
 fn names(ids: &[CandidateId]) -> String {
     if ids.is_empty() {
@@ -664,129 +661,5 @@ fn rms_text(f: &super::method::FitSummary) -> String {
             "RMS {:.3} σ (each residual over its uncertainty)",
             f.rms_normalised
         )
-    }
-}
-
-/// The analysis of the report's Tables 6.1, 6.2 and 6.3 as a Markdown section, for the
-/// no-argument report. Writes the tables and plots into `out` when given; the Markdown links
-/// to the plots relative to `out`'s parent (where the report's summary is expected).
-///
-/// # Errors
-/// The shipped transcriptions are malformed or an output cannot be written.
-pub fn report_section(sim: &dyn Simulator, opts: &Options, out: Option<&Path>) -> Result<String> {
-    report_section_json(sim, opts, out).map(|(s, _)| s)
-}
-
-/// [`report_section`] and each case file's `ptsa discover --json` object, by file name
-/// (one analysis per file serves both).
-///
-/// # Errors
-/// As [`report_section`].
-pub fn report_section_json(
-    sim: &dyn Simulator,
-    opts: &Options,
-    out: Option<&Path>,
-) -> Result<(String, serde_json::Map<String, serde_json::Value>)> {
-    let mut all = serde_json::Map::new();
-    let mut s = String::new();
-    let _ = writeln!(
-        s,
-        "## Discovery: what the baseline model misses in Tables 6.1–6.3\n"
-    );
-    let _ = writeln!(s, "Method: `docs/discovery.md`. Test: {TEST_STATEMENT}.\n");
-    let _ = writeln!(
-        s,
-        "| data | rows | baseline RMS (cm/s²) | baseline χ² | selected | coefficient ± SE | indistinguishable from | extended RMS | extended χ² (p) |"
-    );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|");
-    let mut details = String::new();
-    for f in r890::case_files()? {
-        let name = f.name;
-        let d = discover(&f.rows, sim, opts)?;
-        let j = &d.json;
-        let sel = if d.selected.is_empty() {
-            ("none".to_string(), "—".to_string(), "—".to_string())
-        } else {
-            let n: Vec<String> = d
-                .selected
-                .iter()
-                .map(|x| x.id.info().name.to_string())
-                .collect();
-            let c: Vec<String> = d
-                .selected
-                .iter()
-                .map(|x| format!("{} {}", estimate(x.coef, x.stderr), x.id.info().key))
-                .collect();
-            let f: Vec<String> = d
-                .selected
-                .iter()
-                .flat_map(|x| x.confounded.iter().map(|&(o, _)| o.info().name.to_string()))
-                .collect();
-            (
-                n.join(", "),
-                c.join(", "),
-                if f.is_empty() {
-                    "—".into()
-                } else {
-                    f.join(", ")
-                },
-            )
-        };
-        let _ = writeln!(
-            s,
-            "| {name} | {} | {:.3} | {:.2} | {} | {} | {} | {:.3} | {:.2} ({:.2}) |",
-            j.rows,
-            j.baseline.rms_cm_s2,
-            j.baseline.chi2,
-            sel.0,
-            sel.1,
-            sel.2,
-            j.extended.rms_cm_s2,
-            j.extended.chi2,
-            j.extended.p_value
-        );
-        let _ = writeln!(details, "\n```text\n{}```", text_report(name, &d));
-        all.insert(name.to_string(), serde_json::to_value(&d.json)?);
-        if let Some(dir) = out {
-            let stem = name.trim_end_matches(".case.csv");
-            write_outputs(dir, stem, &d)?;
-            // The Markdown is meant to sit in `out`'s parent (the report folder).
-            let rel = dir.file_name().map_or_else(
-                || dir.display().to_string(),
-                |n| n.to_string_lossy().into_owned(),
-            );
-            let _ = writeln!(details, "\n![{stem}]({rel}/{stem}.svg)");
-        }
-    }
-    s.push_str(&details);
-    Ok((s, all))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::discovery::sim::AnalyticSimulator;
-
-    #[test]
-    fn report_section_writes_tables_and_plots() {
-        let dir = std::env::temp_dir().join(format!("ptsa-discover-{}", std::process::id()));
-        let sim = AnalyticSimulator::for_instrument(&crate::Instrument::kearfott_2401());
-        let md = report_section(&sim, &Options::default(), Some(&dir)).unwrap();
-        assert!(md.contains("anisoinertia") && md.contains("lever_arm.r_pa_cm"));
-        for stem in ["r890-table-6.1", "r890-table-6.2", "r890-table-6.3"] {
-            for ext in ["csv", "png", "svg"] {
-                let p = dir.join(format!("{stem}.{ext}"));
-                assert!(
-                    std::fs::metadata(&p).is_ok_and(|m| m.len() > 100),
-                    "{}",
-                    p.display()
-                );
-            }
-        }
-        if std::env::var_os("PTSA_KEEP_PLOTS").is_none() {
-            let _ = std::fs::remove_dir_all(&dir);
-        } else {
-            eprintln!("{md}\nplots in {}", dir.display());
-        }
     }
 }

@@ -8,8 +8,8 @@ use std::time::Instant;
 
 use anyhow::Result;
 
+use crate::discovery::Options;
 use crate::discovery::sim::ClosedLoopSimulator;
-use crate::discovery::{Options, show};
 use crate::experiments::{
     anisoinertia, appendix_a, design, frequency_response, limit_cycle, monte_carlo, oa_coupling,
     tumble, waveform,
@@ -20,6 +20,7 @@ use crate::output::{Output, StagedDir, write_atomic};
 use crate::r890;
 use crate::sim::SimOptions;
 
+pub mod discovery;
 pub mod summary;
 
 /// The steps of the programme, in order (for a progress display).
@@ -204,7 +205,7 @@ pub fn run(
         instrument: instr.clone(),
         options: *opts,
     };
-    let discovery = show::report_section(
+    let discovery = discovery::section(
         &sim,
         &Options::for_instrument(instr),
         Some(&dir.join("discover")),

@@ -1369,10 +1369,20 @@ fn discover_cmd(
         v
     };
     if !a.no_plots {
-        let stem = discovery::output_stem(a.data.as_deref());
-        let names: Vec<String> = [".csv", ".png", ".svg", "-bode.png", "-bode.svg"]
+        // The files written: `<stem>-discover.*` of the data file, or, without one, those of
+        // each of the report's tables (`report::discovery`).
+        let stems = match &a.data {
+            Some(p) => vec![discovery::output_stem(Some(p))],
+            None => ptsa_host_sim::r890::case_files()?
+                .iter()
+                .map(|f| f.name.trim_end_matches(".case.csv").to_string())
+                .collect(),
+        };
+        let names: Vec<String> = stems
             .iter()
-            .map(|e| format!("{stem}{e}"))
+            .flat_map(|stem| {
+                [".csv", ".png", ".svg", "-bode.png", "-bode.svg"].map(|e| format!("{stem}{e}"))
+            })
             .collect();
         paths::folder_with("--out", &a.out, &names)?;
     }
@@ -1388,32 +1398,39 @@ fn discover_cmd(
             replaced.push((flag, p, before, paths::what_is_replaced(p)));
         }
     }
-    let req = Request {
-        data: a.data.clone(),
-        options: Options {
-            default_sigma_cm_s2: a.sigma,
-            candidates,
-            seed: a.seed,
-            keep_outliers: a.keep_outliers,
-            units_as_given: a.units_as_given,
-            ..Options::for_instrument(instr)
-        },
-        json: a.json,
-        out: (!a.no_plots).then(|| a.out.clone()),
-        advice_out: a.advice_out.clone(),
-        write_instrument: a.write_instrument.as_ref().map(|p| InstrumentOut {
-            path: p.clone(),
-            source: instr_text.to_string(),
-            source_name: instr_name.to_string(),
-        }),
+    let options = Options {
+        default_sigma_cm_s2: a.sigma,
+        candidates,
+        seed: a.seed,
+        keep_outliers: a.keep_outliers,
+        units_as_given: a.units_as_given,
+        ..Options::for_instrument(instr)
     };
+    let plots = (!a.no_plots).then(|| a.out.clone());
     let sim = simulator(instr, config, a.analytic, a.seed);
-    let est = discover_estimate(a, &req.options.candidates, &*sim)?;
+    let est = discover_estimate(a, &options.candidates, &*sim)?;
     // The search of the loop's parameters, whose length is known only once they are
     // selected, is held to the limit too.
     ptsa_host_sim::work::set_limit((!a.force).then(work::limit_s));
     let p = work::Progress::start("discover", &est);
-    let r = discovery::run(&req, &*sim, out);
+    let r = match &a.data {
+        Some(data) => {
+            let req = Request {
+                data: data.clone(),
+                options,
+                json: a.json,
+                out: plots,
+                advice_out: a.advice_out.clone(),
+                write_instrument: a.write_instrument.as_ref().map(|p| InstrumentOut {
+                    path: p.clone(),
+                    source: instr_text.to_string(),
+                    source_name: instr_name.to_string(),
+                }),
+            };
+            discovery::run(&req, &*sim, out)
+        }
+        None => report_tables(&*sim, &options, plots.as_deref(), a.json, out),
+    };
     p.finish();
     if r.is_ok() {
         for (flag, p, before, w) in replaced {
@@ -1423,6 +1440,26 @@ fn discover_cmd(
         }
     }
     r
+}
+
+/// `ptsa discover` without `--data`: the report's Tables 6.1, 6.2 and 6.3, each analysed on
+/// its own, as the report programme's Markdown section on stdout (with `json`, the section
+/// on stderr and one JSON object by file name on stdout); tables and plots into `plots`.
+fn report_tables(
+    sim: &dyn Simulator,
+    options: &Options,
+    plots: Option<&Path>,
+    json: bool,
+    out: &mut dyn Write,
+) -> Result<()> {
+    let (text, all) = ptsa_host_sim::report::discovery::section_json(sim, options, plots)?;
+    if json {
+        eprint!("{text}");
+        writeln!(out, "{}", serde_json::Value::Object(all))?;
+    } else {
+        write!(out, "{text}")?;
+    }
+    Ok(())
 }
 
 /// The work of `ptsa discover` before it runs (`discovery::cost`), refused beyond the limit
