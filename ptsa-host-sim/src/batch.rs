@@ -153,8 +153,9 @@ impl Engine {
                 ClosedLoop::with_noise(instr, &cond, &Effects::NONE, opts, noise.clone())
             })
             .collect();
-        // `sim::run_static_with`: `run_fast` in chunks of PROGRESS_CHUNK ticks (which matters
-        // only for a dynamic lane: its phasor is exact at the start of each call).
+        // `sim::run_static_with`: `run_fast` in chunks of PROGRESS_CHUNK ticks (a run does not
+        // depend on how it is cut into calls; the chunks only keep the steps those of the
+        // single loop).
         let mut prog = Vec::new();
         push_chunked(&mut prog, opts.warmup_ticks(instr.clock_hz));
         prog.push(Step::OpenGate);

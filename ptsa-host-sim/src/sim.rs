@@ -526,7 +526,7 @@ impl ClosedLoop {
         Acc {
             ticks: 0,
             sum_u: 0,
-            sum_theta2: 0.0,
+            sum_theta2: self.totals.sum_theta2,
             max_theta: self.totals.max_theta,
             cycles: 0,
             cycles_two: 0,
@@ -540,7 +540,9 @@ impl ClosedLoop {
         let t = &mut self.totals;
         t.ticks += a.ticks;
         t.sum_u += a.sum_u;
-        t.sum_theta2 += a.sum_theta2;
+        // A running sum carried through the runs (not a sum of each run's sums), so that it
+        // does not depend on how the ticks were cut into runs.
+        t.sum_theta2 = a.sum_theta2;
         t.max_theta = a.max_theta;
         t.cycles += a.cycles;
         t.cycles_two += a.cycles_two;
@@ -778,8 +780,8 @@ impl ClosedLoop {
 
     /// One tick of a dynamic condition (or of a static one with a harmonic requested), the
     /// body of [`ClosedLoop::run`]'s dynamic path and of the batch engine's dynamic lanes:
-    /// the phasor `sin, cos(ωt)` at mid-tick (exact at the start of a run and every 4096
-    /// ticks, advanced by a rotation in between), the ADC, the core, the disturbance torque
+    /// the phasor `sin, cos(ωt)` at mid-tick (a function of the absolute tick index: exact
+    /// every [`PHASOR_BLOCK`] ticks, advanced by a rotation in between), the ADC, the core, the disturbance torque
     /// of the inputs at mid-tick, the plant step, the harmonic sums and the statistics.
     /// Returns the code, the core's tick and the command applied over the tick.
     #[allow(clippy::inline_always, reason = "per-tick path")]
@@ -810,7 +812,8 @@ impl ClosedLoop {
     }
 
     /// The first part of a dynamic tick: the phasor `sc = (sin, cos)(ωt)` at mid-tick of
-    /// tick `k`, the `j`-th of its run (exact at `j = 0` and every 4096 ticks, else as given),
+    /// tick `k`, the `j`-th of its run (exact every [`PHASOR_BLOCK`] ticks of the absolute
+    /// index, made so at `j = 0` inside a block, else as given),
     /// and the condition's inputs there; advances `sc` to the next tick. It depends on the
     /// condition, the clock and `k`, `j`, `sc` only, so lanes in step with the same ones may
     /// share it.
@@ -823,15 +826,21 @@ impl ClosedLoop {
         j: u64,
         sc: &mut (f64, f64),
     ) -> TickInputs {
-        if j == 0 || k.is_multiple_of(4096) {
-            #[allow(clippy::cast_precision_loss)]
-            let t_mid = (k as f64 + 0.5) * p.t_s;
-            *sc = (p.w * t_mid).sin_cos();
+        if k.is_multiple_of(PHASOR_BLOCK) {
+            *sc = p.phasor_at(k);
+        } else if j == 0 {
+            // A run starting inside a block: the phasor a run from the block's start would
+            // have here, so that the result does not depend on how the ticks were cut into
+            // runs.
+            let start = k - k % PHASOR_BLOCK;
+            *sc = p.phasor_at(start);
+            for _ in start..k {
+                *sc = p.rotate(*sc);
+            }
         }
         let (s, c) = *sc;
         let inp = self.prep.inputs(s, c);
-        // Advance the phasor by one tick.
-        *sc = (s * p.cr + c * p.sr, c * p.cr - s * p.sr);
+        *sc = p.rotate(*sc);
         TickInputs { s, c, inp }
     }
 
@@ -1139,6 +1148,29 @@ pub(crate) struct DynParams {
     pub(crate) adc: Adc,
 }
 
+/// Ticks between exact evaluations of a dynamic condition's phasor `sin, cos(ωt)`
+/// ([`ClosedLoop::dynamic_inputs`]): at every tick index that is a multiple of it, the phasor
+/// is `sin_cos(ω·(k + ½)·t_s)`; in between, it is advanced by the rotation of one tick. A
+/// function of the absolute tick index `k` alone.
+pub(crate) const PHASOR_BLOCK: u64 = 4096;
+
+impl DynParams {
+    /// The exact phasor `sin, cos(ωt)` at mid-tick of tick `k`.
+    #[inline]
+    fn phasor_at(&self, k: u64) -> (f64, f64) {
+        #[allow(clippy::cast_precision_loss)]
+        let t_mid = (k as f64 + 0.5) * self.t_s;
+        (self.w * t_mid).sin_cos()
+    }
+
+    /// The phasor `(s, c)` advanced by one tick.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
+    #[inline(always)]
+    fn rotate(&self, (s, c): (f64, f64)) -> (f64, f64) {
+        (s * self.cr + c * self.sr, c * self.cr - s * self.sr)
+    }
+}
+
 /// The phasor and the inputs of one dynamic tick ([`ClosedLoop::dynamic_inputs`]).
 #[derive(Clone, Copy, Debug, Default)]
 pub(crate) struct TickInputs {
@@ -1151,7 +1183,8 @@ pub(crate) struct TickInputs {
 }
 
 /// The state of a dynamic run in progress (one call of [`ClosedLoop::run`]): everything a
-/// tick changes, and `j`, the ticks run since the call (the phasor is exact at `j = 0`).
+/// tick changes, and `j`, the ticks run since the call (at `j = 0` the phasor is made what a
+/// run from the start of its [`PHASOR_BLOCK`] would have).
 #[derive(Clone, Debug)]
 pub(crate) struct DynRun {
     pub(crate) rng: NoiseSource,
