@@ -20,7 +20,7 @@
 
 use ptsa_host_sim::discovery::{self, Simulator};
 use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::{env, env_flag};
+use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
 use ptsa_tests::hidden::effects::{self, Effects};
 use ptsa_tests::hidden::physics::Generator;
 
@@ -51,11 +51,7 @@ fn check(c: &Run<Effects>, ci: bool) {
     let table = c.table(ci);
     let _ = writeln!(std::io::stderr(), "{table}");
     let failures = c.failures(ci);
-    assert!(
-        failures.is_empty(),
-        "hidden-effect rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-effect", &failures);
 }
 
 #[test]

@@ -9,7 +9,7 @@
 //!   (default 10), seed `PTSA_HIDDEN_SEED`, run by `cargo xtask hidden --parameters`.
 
 use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::env;
+use ptsa_tests::hidden::campaign::{assert_met, env};
 use ptsa_tests::hidden::params::{self, Params};
 
 /// Sets per parameter and design in CI: the 5 parameters the designs see × 2 designs, and
@@ -21,11 +21,7 @@ fn check(c: &Run<Params>, ci: bool) {
     let table = c.table(ci);
     let _ = writeln!(std::io::stderr(), "{table}");
     let failures = c.failures(ci);
-    assert!(
-        failures.is_empty(),
-        "hidden-parameter rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-parameter", &failures);
 }
 
 #[test]

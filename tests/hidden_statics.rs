@@ -19,7 +19,7 @@
 //! `PTSA_HIDDEN_LOG=1` prints every set, not only those that matter for the rates.
 
 use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::{env, env_flag};
+use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
 use ptsa_tests::hidden::statics::{self, Statics};
 
 /// Sets of every kind in each of the CI campaigns: 7 kinds × 30 = 210 sets with the whole
@@ -41,11 +41,7 @@ fn report(c: &Run<Statics>, ci: bool) -> Vec<String> {
 fn hidden_statics_ci() {
     let mut failures = report(&statics::run(CI_SETS, 2026, true), true);
     failures.extend(report(&statics::run(CI_SETS, 2026, false), true));
-    assert!(
-        failures.is_empty(),
-        "hidden-statics rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-statics", &failures);
 }
 
 #[test]
@@ -57,9 +53,5 @@ fn hidden_statics_campaign() {
     let additive = env_flag("PTSA_HIDDEN_ADDITIVE");
     let _ = writeln!(std::io::stderr(), "{}", statics::testability(!additive));
     let failures = report(&statics::run(n, seed, !additive), false);
-    assert!(
-        failures.is_empty(),
-        "hidden-statics rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-statics", &failures);
 }

@@ -508,6 +508,58 @@ impl Count {
     }
 }
 
+/// How the hidden effects of strength ≥ [`Naming::FROM_SE`] were named: the figures the
+/// statics and parameter campaigns share, and their columns.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Naming {
+    /// Named exactly, among the strong sets.
+    pub exact: Count,
+    /// Named exactly or as a partner, among the strong sets.
+    pub either: Count,
+    /// Named only as a partner (all strengths).
+    pub partner: Count,
+    /// `|z| ≤ 1.96` among the exact namings of the strong sets.
+    pub coverage: Count,
+}
+
+impl Naming {
+    /// Strength from which detection and coverage are asserted, SE.
+    pub const FROM_SE: f64 = 6.0;
+
+    /// The columns: `ex>=6 e|p>=6 | partner | coverage`.
+    #[must_use]
+    pub fn columns() -> [Vec<(&'static str, usize)>; 3] {
+        [
+            vec![("ex>=6", 9), ("e|p>=6", 9)],
+            vec![("partner", 8)],
+            vec![("coverage", 9)],
+        ]
+    }
+
+    /// The cells of [`Naming::columns`], each count as `cell` writes it.
+    #[must_use]
+    pub fn cells(self, cell: impl Fn(Count) -> String) -> [String; 4] {
+        [self.exact, self.either, self.partner, self.coverage].map(cell)
+    }
+
+    /// One more set hiding something, of `strength_se`; `true` when it is strong and
+    /// missed.
+    pub fn add<T>(&mut self, o: &Outcome<T>, strength_se: f64) -> bool {
+        self.partner.add(o.partner);
+        if strength_se < Self::FROM_SE {
+            return false;
+        }
+        self.exact.add(o.exact);
+        self.either.add(o.exact_or_partner());
+        if o.exact
+            && let Some(z) = o.z
+        {
+            self.coverage.add(z.abs() <= 1.96);
+        }
+        !o.exact_or_partner()
+    }
+}
+
 /// `what` (a count of sets) is more than [`RATE_MAX`] explains: the failure, or `None`.
 #[must_use]
 pub fn at_most_rate(what: &str, c: Count) -> Option<String> {
@@ -606,6 +658,18 @@ pub fn binomial_upper_tail(n: usize, p: f64, k: usize) -> f64 {
         .map(f64::exp)
         .sum::<f64>()
         .min(1.0)
+}
+
+/// Every asserted rate met, or a panic listing those that are not (`what`: the campaign).
+///
+/// # Panics
+/// When `failures` is not empty.
+pub fn assert_met(what: &str, failures: &[String]) {
+    assert!(
+        failures.is_empty(),
+        "{what} rates not met:\n{}",
+        failures.join("\n")
+    );
 }
 
 /// `key` from the environment, or `default`.

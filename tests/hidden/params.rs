@@ -4,9 +4,9 @@
 //! A set is a frequency-response table (and, in one design, saturation rows) measured on an
 //! instrument whose file differs from the shipped one in one parameter (damping, spring,
 //! inertia, pendulosity, torquer scale factor, torquer lag, pickoff gain or pickoff phase),
-//! or in none. The analysis ([`discover`] with the closed-loop simulator of the *shipped*
-//! file) never sees the perturbed file; it must name the parameter, or say that it is
-//! indistinguishable from the one it names.
+//! or in none. The analysis ([`discover`](ptsa_host_sim::discovery::discover) with the
+//! closed-loop simulator of the *shipped* file) never sees the perturbed file; it must name
+//! the parameter, or say that it is indistinguishable from the one it names.
 //!
 //! * **Measurement**: each row is one closed-loop run of the perturbed instrument with its
 //!   own noise seed (its sine started at a phase drawn from the seed, as the analysis's own
@@ -51,7 +51,7 @@ use ptsa_host_sim::{CandidateId, Condition, Effects, Instrument, SimOptions};
 use rand::Rng as _;
 
 use super::campaign::{
-    Campaign, Columns, Count, Outcome, Run, at_most_rate, coverage_in_band, detected,
+    Campaign, Columns, Count, Naming, Outcome, Run, at_most_rate, coverage_in_band, detected,
 };
 use super::{Draw, rng};
 
@@ -389,7 +389,7 @@ pub fn generate(seed: u64, id: Option<CandidateId>, design: ParamDesign) -> Para
 pub type ParamOutcome = Outcome<ParamTruth>;
 
 /// Strength from which detection and coverage are asserted, SE.
-pub const ASSERT_FROM_SE: f64 = 6.0;
+pub const ASSERT_FROM_SE: f64 = Naming::FROM_SE;
 
 /// What a set is seeded by: the parameter hidden (or none) and the design.
 pub type ParamKind = (Option<CandidateId>, ParamDesign);
@@ -441,14 +441,8 @@ pub fn run(sets: usize, seed: u64) -> Run<Params> {
 /// One parameter's (or the unperturbed sets') figures.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ParamStats {
-    /// Named exactly, among sets of ≥ 6 SE.
-    pub exact6: Count,
-    /// Named exactly or as a partner, among sets of ≥ 6 SE.
-    pub either6: Count,
-    /// Named only as a partner (all strengths).
-    pub partner: Count,
-    /// `|z| ≤ 1.96` among exact namings at ≥ 6 SE.
-    pub coverage: Count,
+    /// How the hidden parameter was named (at ≥ 6 SE).
+    pub naming: Naming,
     /// A selection, the hidden parameter neither selected nor named as a partner.
     pub misnamed: Count,
     /// Sets with a selection.
@@ -458,17 +452,9 @@ pub struct ParamStats {
 impl ParamStats {
     fn add(&mut self, o: &ParamOutcome) {
         self.any.add(o.any_selection());
-        if !o.hidden {
-            return;
-        }
-        self.misnamed.add(o.misnamed());
-        self.partner.add(o.partner);
-        if o.truth.strength_se >= ASSERT_FROM_SE {
-            self.exact6.add(o.exact);
-            self.either6.add(o.exact_or_partner());
-            if let Some(z) = o.z {
-                self.coverage.add(z.abs() <= 1.96);
-            }
+        if o.hidden {
+            self.misnamed.add(o.misnamed());
+            self.naming.add(o, o.truth.strength_se);
         }
     }
 }
@@ -527,15 +513,15 @@ impl Campaign for Params {
     fn columns(&self) -> Columns {
         Columns {
             name: ("hidden", 14),
-            groups: vec![
-                vec![("sets", 5)],
-                vec![("ex>=6", 9), ("e|p>=6", 9)],
-                vec![("partner", 8)],
-                vec![("coverage", 9)],
-                vec![("misnamed", 8)],
-                vec![("any sel", 8)],
-                vec![("tol widths", 14)],
-            ],
+            groups: [vec![("sets", 5)]]
+                .into_iter()
+                .chain(Naming::columns())
+                .chain([
+                    vec![("misnamed", 8)],
+                    vec![("any sel", 8)],
+                    vec![("tol widths", 14)],
+                ])
+                .collect(),
         }
     }
 
@@ -566,16 +552,16 @@ impl Campaign for Params {
                         tol.iter().copied().fold(0.0, f64::max)
                     )
                 };
-                let counts = [st.exact6, st.either6, st.partner, st.coverage, st.misnamed];
-                let mut cells = vec![n.to_string()];
-                cells.extend(counts.map(|c| {
+                let count = |c: Count| {
                     if id.is_some() {
                         c.fraction()
                     } else {
                         "-".to_string()
                     }
-                }));
-                cells.extend([st.any.fraction(), range]);
+                };
+                let mut cells = vec![n.to_string()];
+                cells.extend(st.naming.cells(count));
+                cells.extend([count(st.misnamed), st.any.fraction(), range]);
                 (
                     id.map_or("unperturbed", |i| i.info().name).to_string(),
                     cells,
@@ -637,10 +623,10 @@ impl Campaign for Params {
             ),
             detected(
                 "named (exactly or as a partner) at >= 6 SE",
-                hidden.either6,
+                hidden.naming.either,
                 ci,
             ),
-            coverage_in_band(hidden.coverage, 20),
+            coverage_in_band(hidden.naming.coverage, 20),
         ]
         .into_iter()
         .flatten()

@@ -112,7 +112,7 @@ use rand::RngCore as _;
 use rayon::prelude::*;
 
 use super::campaign::{
-    Campaign, Columns, Count, Outcome, Run, at_most_rate, coverage_in_band, detected,
+    Campaign, Columns, Count, Naming, Outcome, Run, at_most_rate, coverage_in_band, detected,
 };
 use super::generate::residualize;
 use super::{Draw, Rng, rng};
@@ -652,7 +652,7 @@ pub fn run(sets: usize, seed: u64, with_parameters: bool) -> Run<Statics> {
 }
 
 /// Strength from which detection and coverage are asserted, SE.
-pub const ASSERT_FROM_SE: f64 = 6.0;
+pub const ASSERT_FROM_SE: f64 = Naming::FROM_SE;
 
 /// A set's outcome.
 pub type StaticOutcome = Outcome<StaticTruth>;
@@ -662,14 +662,8 @@ pub type StaticOutcome = Outcome<StaticTruth>;
 pub struct KindStats {
     /// Sets.
     pub sets: usize,
-    /// Named exactly, among sets of ≥ 6 SE.
-    pub exact6: Count,
-    /// Named exactly or as a partner, among sets of ≥ 6 SE.
-    pub either6: Count,
-    /// Named only as a partner (all strengths).
-    pub partner: Count,
-    /// `|z| ≤ 1.96` among exact namings at ≥ 6 SE.
-    pub coverage: Count,
+    /// How the hidden kinds were named (at ≥ 6 SE).
+    pub naming: Naming,
     /// Hidden kinds: a selection, the truth neither selected nor a partner.
     pub misnamed: Count,
     /// Hidden kinds: the truth named, and a selection beside it that neither is nor names
@@ -700,21 +694,10 @@ impl KindStats {
             return;
         }
         self.misnamed.add(o.misnamed());
-        self.extra.add(o.extra > 0 && (o.exact || o.partner));
+        self.extra.add(o.extra > 0 && o.exact_or_partner());
         self.wrong.add(o.extra > 0);
-        self.partner.add(o.partner);
-        if t.strength_se >= ASSERT_FROM_SE {
-            let named = o.exact || o.partner;
-            self.exact6.add(o.exact);
-            self.either6.add(named);
-            if !named {
-                self.warned.add(o.unexplained);
-            }
-            if o.exact
-                && let Some(z) = o.z
-            {
-                self.coverage.add(z.abs() <= 1.96);
-            }
+        if self.naming.add(o, t.strength_se) {
+            self.warned.add(o.unexplained);
         }
     }
 }
@@ -796,29 +779,26 @@ impl Campaign for Statics {
     fn columns(&self) -> Columns {
         Columns {
             name: ("hidden", 14),
-            groups: vec![
-                vec![("sets", 5)],
-                vec![("ex>=6", 9), ("e|p>=6", 9)],
-                vec![("partner", 8)],
-                vec![("coverage", 9)],
-                vec![("misnamed", 8), ("extra", 8), ("wrong", 8)],
-                vec![("warned", 8)],
-                vec![("capped", 6)],
-                vec![("t8/t12/t24/cf+t8", 16)],
-                vec![("outliers", 8)],
-            ],
+            groups: [vec![("sets", 5)]]
+                .into_iter()
+                .chain(Naming::columns())
+                .chain([
+                    vec![("misnamed", 8), ("extra", 8), ("wrong", 8)],
+                    vec![("warned", 8)],
+                    vec![("capped", 6)],
+                    vec![("t8/t12/t24/cf+t8", 16)],
+                    vec![("outliers", 8)],
+                ])
+                .collect(),
         }
     }
 
     fn rows(&self, run: &Run<Self>) -> Vec<(String, Vec<String>)> {
         let row = |name: String, k: KindStats, null: bool| {
             let dash = |c: Count| if null { "-".to_string() } else { c.cell() };
-            let cells = vec![
-                k.sets.to_string(),
-                dash(k.exact6),
-                dash(k.either6),
-                dash(k.partner),
-                dash(k.coverage),
+            let mut cells = vec![k.sets.to_string()];
+            cells.extend(k.naming.cells(dash));
+            cells.extend([
                 dash(k.misnamed),
                 dash(k.extra),
                 k.wrong.marked(),
@@ -830,7 +810,7 @@ impl Campaign for Statics {
                 },
                 k.designs.map(|x| x.to_string()).join("/"),
                 k.outliers.cell(),
-            ];
+            ]);
             (name, cells)
         };
         let mut v: Vec<(String, Vec<String>)> = StaticKind::ALL
@@ -900,8 +880,8 @@ impl Campaign for Statics {
                 "misnamings (a selection that neither is nor names the truth)",
                 h.wrong,
             ),
-            coverage_in_band(h.coverage, 20),
-            detected(&detection, h.either6, ci),
+            coverage_in_band(h.naming.coverage, 20),
+            detected(&detection, h.naming.either, ci),
         ]
         .into_iter()
         .flatten()
