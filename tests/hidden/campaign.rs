@@ -29,7 +29,7 @@ pub const DETECTION_MIN: f64 = 0.95;
 pub const COVERAGE: f64 = 0.95;
 
 /// What a campaign supplies to the core.
-pub trait Campaign: Sync {
+pub trait Campaign: Sync + Sized {
     /// The unit the sets are seeded by: a kind of hidden effect (or a kind in a design).
     type Kind: Copy + Send + Sync;
     /// What a set hides, as its generator drew it.
@@ -60,24 +60,16 @@ pub trait Campaign: Sync {
     fn pipeline(&self) -> (&dyn Simulator, &Options);
 
     /// The table's first line.
-    fn title(&self, run: &Run<Self>) -> String
-    where
-        Self: Sized;
+    fn title(&self, run: &Run<Self>) -> String;
     /// The table's columns.
     fn columns(&self) -> Columns;
     /// The table's rows: a name and one cell per column of [`Campaign::columns`].
-    fn rows(&self, run: &Run<Self>) -> Vec<(String, Vec<String>)>
-    where
-        Self: Sized;
+    fn rows(&self, run: &Run<Self>) -> Vec<(String, Vec<String>)>;
     /// What follows the rows: what the columns mean and what is asserted.
-    fn legend(&self, run: &Run<Self>, ci: bool) -> String
-    where
-        Self: Sized;
+    fn legend(&self, run: &Run<Self>, ci: bool) -> String;
     /// The campaign's asserted rates that are not met (refusals apart). `ci`: the CI
     /// subset's assertions.
-    fn checks(&self, run: &Run<Self>, ci: bool) -> Vec<String>
-    where
-        Self: Sized;
+    fn checks(&self, run: &Run<Self>, ci: bool) -> Vec<String>;
     /// Why a set matters for the rates (`None`: it does not).
     fn notable(&self, o: &Outcome<Self::Truth>) -> Option<&'static str>;
     /// One line for the log.
@@ -526,17 +518,23 @@ impl Naming {
     /// Strength from which detection and coverage are asserted, SE.
     pub const FROM_SE: f64 = 6.0;
 
-    /// The columns: `ex>=6 e|p>=6 | partner | coverage`.
+    /// A table's columns: `hidden sets | ex>=6 e|p>=6 | partner | coverage`, then `rest`.
     #[must_use]
-    pub fn columns() -> [Vec<(&'static str, usize)>; 3] {
-        [
+    pub fn columns(rest: Vec<Vec<(&'static str, usize)>>) -> Columns {
+        let mut groups = vec![
+            vec![("sets", 5)],
             vec![("ex>=6", 9), ("e|p>=6", 9)],
             vec![("partner", 8)],
             vec![("coverage", 9)],
-        ]
+        ];
+        groups.extend(rest);
+        Columns {
+            name: ("hidden", 14),
+            groups,
+        }
     }
 
-    /// The cells of [`Naming::columns`], each count as `cell` writes it.
+    /// The cells of [`Naming::columns`] after `sets`, each count as `cell` writes it.
     #[must_use]
     pub fn cells(self, cell: impl Fn(Count) -> String) -> [String; 4] {
         [self.exact, self.either, self.partner, self.coverage].map(cell)

@@ -511,18 +511,11 @@ impl Campaign for Params {
     }
 
     fn columns(&self) -> Columns {
-        Columns {
-            name: ("hidden", 14),
-            groups: [vec![("sets", 5)]]
-                .into_iter()
-                .chain(Naming::columns())
-                .chain([
-                    vec![("misnamed", 8)],
-                    vec![("any sel", 8)],
-                    vec![("tol widths", 14)],
-                ])
-                .collect(),
-        }
+        Naming::columns(vec![
+            vec![("misnamed", 8)],
+            vec![("any sel", 8)],
+            vec![("tol widths", 14)],
+        ])
     }
 
     fn rows(&self, run: &Run<Self>) -> Vec<(String, Vec<String>)> {

@@ -777,20 +777,13 @@ impl Campaign for Statics {
     }
 
     fn columns(&self) -> Columns {
-        Columns {
-            name: ("hidden", 14),
-            groups: [vec![("sets", 5)]]
-                .into_iter()
-                .chain(Naming::columns())
-                .chain([
-                    vec![("misnamed", 8), ("extra", 8), ("wrong", 8)],
-                    vec![("warned", 8)],
-                    vec![("capped", 6)],
-                    vec![("t8/t12/t24/cf+t8", 16)],
-                    vec![("outliers", 8)],
-                ])
-                .collect(),
-        }
+        Naming::columns(vec![
+            vec![("misnamed", 8), ("extra", 8), ("wrong", 8)],
+            vec![("warned", 8)],
+            vec![("capped", 6)],
+            vec![("t8/t12/t24/cf+t8", 16)],
+            vec![("outliers", 8)],
+        ])
     }
 
     fn rows(&self, run: &Run<Self>) -> Vec<(String, Vec<String>)> {
