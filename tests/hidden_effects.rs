@@ -19,7 +19,9 @@
 //! `ptsa discover` does.
 
 use ptsa_host_sim::discovery::{self, Simulator};
-use ptsa_tests::hidden::campaign::{self, Campaign};
+use ptsa_tests::hidden::Run;
+use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
+use ptsa_tests::hidden::effects::{self, Effects};
 use ptsa_tests::hidden::physics::Generator;
 
 /// Sets of every kind in the CI test: 19 kinds × 35 = 665 sets, about 25 s on two cores.
@@ -29,25 +31,18 @@ use ptsa_tests::hidden::physics::Generator;
 const CI_SETS: usize = 35;
 
 fn sims() -> (Generator, Box<dyn Simulator>) {
-    if std::env::var("PTSA_HIDDEN_ANALYTIC").is_ok_and(|v| v == "1") {
+    if env_flag("PTSA_HIDDEN_ANALYTIC") {
         (Generator::quasi_static(), discovery::analytic())
     } else {
         (Generator::closed_loop(), discovery::sim::closed_loop(1))
     }
 }
 
-fn env<T: std::str::FromStr>(key: &str, default: T) -> T {
-    std::env::var(key)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-fn check(c: &Campaign, ci: bool) {
+fn check(c: &Run<Effects>, ci: bool) {
     use std::io::Write as _;
     // Every set with PTSA_HIDDEN_LOG=1, and the sets that matter (shown by cargo test on
     // failure, or with --nocapture) ...
-    if std::env::var("PTSA_HIDDEN_LOG").is_ok_and(|v| v == "1") {
+    if env_flag("PTSA_HIDDEN_LOG") {
         println!("{}", c.log());
     }
     println!("{}", c.notable());
@@ -56,18 +51,13 @@ fn check(c: &Campaign, ci: bool) {
     let table = c.table(ci);
     let _ = writeln!(std::io::stderr(), "{table}");
     let failures = c.failures(ci);
-    assert!(
-        failures.is_empty(),
-        "hidden-effect rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-effect", &failures);
 }
 
 #[test]
 fn hidden_effects_ci() {
     let (source, fit) = sims();
-    let c = campaign::run(CI_SETS, 2026, &source, &*fit);
-    check(&c, true);
+    check(&effects::run(CI_SETS, 2026, source, fit), true);
 }
 
 #[test]
@@ -76,6 +66,5 @@ fn hidden_effects_campaign() {
     let n: usize = env("PTSA_HIDDEN_SETS", 50);
     let seed: u64 = env("PTSA_HIDDEN_SEED", 4242);
     let (source, fit) = sims();
-    let c = campaign::run(n, seed, &source, &*fit);
-    check(&c, false);
+    check(&effects::run(n, seed, source, fit), false);
 }

@@ -8,29 +8,20 @@
 //! * `hidden_parameters_campaign` (ignored): `PTSA_HIDDEN_SETS` per parameter and design
 //!   (default 10), seed `PTSA_HIDDEN_SEED`, run by `cargo xtask hidden --parameters`.
 
-use ptsa_tests::hidden::params::{self, ParamCampaign};
+use ptsa_tests::hidden::Run;
+use ptsa_tests::hidden::campaign::{assert_met, env};
+use ptsa_tests::hidden::params::{self, Params};
 
 /// Sets per parameter and design in CI: the 5 parameters the designs see × 2 designs, and
 /// unperturbed sets in both designs: 12 sets per unit, a few seconds each on two cores.
 const CI_SETS: usize = 2;
 
-fn env<T: std::str::FromStr>(key: &str, default: T) -> T {
-    std::env::var(key)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
-fn check(c: &ParamCampaign, ci: bool) {
+fn check(c: &Run<Params>, ci: bool) {
     use std::io::Write as _;
     let table = c.table(ci);
     let _ = writeln!(std::io::stderr(), "{table}");
     let failures = c.failures(ci);
-    assert!(
-        failures.is_empty(),
-        "hidden-parameter rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-parameter", &failures);
 }
 
 #[test]

@@ -18,24 +18,19 @@
 //!
 //! `PTSA_HIDDEN_LOG=1` prints every set, not only those that matter for the rates.
 
-use ptsa_tests::hidden::statics::{self, StaticCampaign};
+use ptsa_tests::hidden::Run;
+use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
+use ptsa_tests::hidden::statics::{self, Statics};
 
 /// Sets of every kind in each of the CI campaigns: 7 kinds × 30 = 210 sets with the whole
 /// vocabulary (about 8 s on two cores) and 210 with the additive terms (about 3 s).
 const CI_SETS: usize = 30;
 
-fn env<T: std::str::FromStr>(key: &str, default: T) -> T {
-    std::env::var(key)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(default)
-}
-
 /// Print the sets that matter and the table (past the harness's capture, so that they
 /// appear in every CI log); the failures.
-fn report(c: &StaticCampaign, ci: bool) -> Vec<String> {
+fn report(c: &Run<Statics>, ci: bool) -> Vec<String> {
     use std::io::Write as _;
-    if std::env::var("PTSA_HIDDEN_LOG").is_ok_and(|v| v == "1") {
+    if env_flag("PTSA_HIDDEN_LOG") {
         println!("{}", c.log());
     }
     let _ = writeln!(std::io::stderr(), "{}{}", c.notable(), c.table(ci));
@@ -46,11 +41,7 @@ fn report(c: &StaticCampaign, ci: bool) -> Vec<String> {
 fn hidden_statics_ci() {
     let mut failures = report(&statics::run(CI_SETS, 2026, true), true);
     failures.extend(report(&statics::run(CI_SETS, 2026, false), true));
-    assert!(
-        failures.is_empty(),
-        "hidden-statics rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-statics", &failures);
 }
 
 #[test]
@@ -59,12 +50,8 @@ fn hidden_statics_campaign() {
     use std::io::Write as _;
     let n: usize = env("PTSA_HIDDEN_SETS", 200);
     let seed: u64 = env("PTSA_HIDDEN_SEED", 4242);
-    let additive = std::env::var("PTSA_HIDDEN_ADDITIVE").is_ok_and(|v| v == "1");
+    let additive = env_flag("PTSA_HIDDEN_ADDITIVE");
     let _ = writeln!(std::io::stderr(), "{}", statics::testability(!additive));
     let failures = report(&statics::run(n, seed, !additive), false);
-    assert!(
-        failures.is_empty(),
-        "hidden-statics rates not met:\n{}",
-        failures.join("\n")
-    );
+    assert_met("hidden-statics", &failures);
 }

@@ -1,66 +1,79 @@
-//! A campaign: `sets` sets of every [`Kind`], analysed blind, scored, summarised in one
-//! table, and checked against the asserted rates.
+//! The campaign core shared by the three hidden-effect campaigns ([`super::effects`],
+//! [`super::statics`], [`super::params`]): the set seeding, the run over the sets, the
+//! scored outcome of each set, the printed table and the binomial assertions. A campaign
+//! ([`Campaign`]) supplies only what is its own: its kinds, its generator of a set from a
+//! seed, the truth of each set, the pipeline it tests, and its table's columns and
+//! asserted rates.
 //!
-//! Asserted (the campaign fails otherwise):
-//!
-//! * **coverage**: of the sets whose hidden candidate is named exactly at ≥ 6 SE, the
-//!   fraction with `|z| ≤ 1.96` lies in the 99 % interval of Binomial(n, 0.95) (all
-//!   candidates together; per candidate it is shown, and marked `!` outside its own band);
-//! * **false selections**: the sets of each null kind that select anything are consistent
-//!   with a rate of at most 5 % (one-sided binomial test: the campaign fails when
-//!   `P(X ≥ k | n, 5 %) < RATE_TEST_LEVEL`, so that a pipeline at exactly 5 % fails one
-//!   kind's check 1 % of the time at any size, and one at 20 % fails it almost surely at 35
-//!   sets);
-//! * **confident misnamings**: the same for the sets of each out-of-vocabulary, bias-shift
-//!   and drift kind with a plausible selection and no warning of unexplained structure (the
-//!   aliased out-of-vocabulary kinds, whose data no analyser can tell from a candidate's,
-//!   are reported, not asserted);
-//! * **detection**: ≥ 95 % of the candidate sets of ≥ 8 SE name the hidden candidate exactly
-//!   or as a confounded partner (all candidates together).
-//!
-//! At CI sizes the detection rate gets an allowance of one binomial standard error.
+//! Seeding: set `k` of the kind at position `i` of [`Campaign::kinds`] has seed
+//! [`set_seed`]`(seed, i, k)`, whether or not the kind is hidden
+//! ([`Campaign::hidden`]): a campaign's sets do not depend on which others it runs.
 
 use std::fmt::Write as _;
 use std::time::Instant;
 
-use ptsa_host_sim::discovery::{Options, Simulator, discover};
+use ptsa_host_sim::CandidateId;
+use ptsa_host_sim::condition::Condition;
+use ptsa_host_sim::discovery::method::Selected;
+use ptsa_host_sim::discovery::{Discovery, Options, Simulator, discover};
 use rayon::prelude::*;
 
-use super::generate::{Class, GenOptions, Kind, generate};
-use super::physics::Generator;
-use super::score::{Outcome, score};
-
-/// Strengths at which detection power is reported, SE.
-pub const THRESHOLDS: [f64; 4] = [3.0, 4.0, 6.0, 8.0];
-/// Strength from which coverage is measured, SE.
-pub const COVERAGE_FROM_SE: f64 = 6.0;
-/// Strength from which detection is asserted, SE.
-pub const DETECTION_FROM_SE: f64 = 8.0;
-/// Asserted detection rate at [`DETECTION_FROM_SE`].
-pub const DETECTION_MIN: f64 = 0.95;
 /// Largest asserted false-selection and misnaming rate.
 pub const RATE_MAX: f64 = 0.05;
 /// Level of the one-sided binomial test of each false-selection and misnaming count
 /// against [`RATE_MAX`].
 pub const RATE_TEST_LEVEL: f64 = 0.01;
+/// Asserted rate of naming a strong enough hidden effect (exactly or as a partner).
+pub const DETECTION_MIN: f64 = 0.95;
 /// Nominal coverage of `|z| ≤ 1.96`.
 pub const COVERAGE: f64 = 0.95;
 
-/// A campaign's outcomes.
-#[derive(Clone, Debug)]
-pub struct Campaign {
-    /// Sets per kind.
-    pub sets_per_kind: usize,
-    /// Campaign seed.
-    pub seed: u64,
-    /// Generator's name.
-    pub generator: &'static str,
-    /// Pipeline simulator's name.
-    pub pipeline: &'static str,
-    /// `(set seed, outcome)` of every set, kinds in table order.
-    pub outcomes: Vec<(u64, Outcome)>,
-    /// Wall time, s.
-    pub seconds: f64,
+/// What a campaign supplies to the core.
+pub trait Campaign: Sync + Sized {
+    /// The unit the sets are seeded by: a kind of hidden effect (or a kind in a design).
+    type Kind: Copy + Send + Sync;
+    /// What a set hides, as its generator drew it.
+    type Truth: Clone + Send + Sync;
+
+    /// Sets are made and analysed in parallel; `false` when each set already keeps every
+    /// core busy.
+    const PARALLEL: bool = true;
+    /// A selection of the truth counts as exact only when plausible (otherwise it is
+    /// [`Outcome::implausible`]).
+    const EXACT_NEEDS_PLAUSIBLE: bool = false;
+    /// Width of the reason in front of each line of [`Run::notable`].
+    const NOTABLE_WIDTH: usize = 16;
+
+    /// Every kind, in table order; its position is its index in [`set_seed`].
+    fn kinds(&self) -> Vec<Self::Kind>;
+    /// Sets of `kind` are made (default: every kind).
+    fn hidden(&self, _kind: Self::Kind) -> bool {
+        true
+    }
+    /// The set of seed `seed` hiding `kind`: its rows, measured, and its truth.
+    fn generate(&self, seed: u64, kind: Self::Kind) -> (Vec<Condition>, Self::Truth);
+    /// The candidates that name the truth (empty: nothing is hidden).
+    fn names<'a>(&self, truth: &'a Self::Truth) -> &'a [CandidateId];
+    /// `(fitted − true)/SE` of `s`, a selection of one of the truth's names.
+    fn z(&self, truth: &Self::Truth, s: &Selected) -> Option<f64>;
+    /// The pipeline under test: its simulator and options.
+    fn pipeline(&self) -> (&dyn Simulator, &Options);
+
+    /// The table's first line.
+    fn title(&self, run: &Run<Self>) -> String;
+    /// The table's columns.
+    fn columns(&self) -> Columns;
+    /// The table's rows: a name and one cell per column of [`Campaign::columns`].
+    fn rows(&self, run: &Run<Self>) -> Vec<(String, Vec<String>)>;
+    /// What follows the rows: what the columns mean and what is asserted.
+    fn legend(&self, run: &Run<Self>, ci: bool) -> String;
+    /// The campaign's asserted rates that are not met (refusals apart). `ci`: the CI
+    /// subset's assertions.
+    fn checks(&self, run: &Run<Self>, ci: bool) -> Vec<String>;
+    /// Why a set matters for the rates (`None`: it does not).
+    fn notable(&self, o: &Outcome<Self::Truth>) -> Option<&'static str>;
+    /// One line for the log.
+    fn line(&self, o: &Outcome<Self::Truth>) -> String;
 }
 
 /// Seed of set `k` of the kind at `kind_index`.
@@ -70,39 +83,350 @@ pub fn set_seed(seed: u64, kind_index: usize, k: usize) -> u64 {
         .wrapping_add((kind_index as u64 + 1) * 100_000 + k as u64)
 }
 
-/// Run `sets_per_kind` sets of every kind; `source` makes the data, `fit` is the pipeline's
-/// simulator.
-#[must_use]
-pub fn run(sets_per_kind: usize, seed: u64, source: &Generator, fit: &dyn Simulator) -> Campaign {
-    let t0 = Instant::now();
-    let jobs: Vec<(u64, Kind)> = Kind::all()
-        .into_iter()
-        .enumerate()
-        .flat_map(|(i, kind)| (0..sets_per_kind).map(move |k| (set_seed(seed, i, k), kind)))
-        .collect();
-    let opts = additive();
-    let outcomes = jobs
-        .par_iter()
-        .map(|&(s, kind)| {
-            let set = generate(s, kind, source, &GenOptions::default());
-            let o = match discover(&set.rows, fit, &opts) {
-                Ok(d) => score(&set, &d),
-                Err(e) => {
-                    let mut o = Outcome::blank(&set.truth);
-                    o.error = Some(format!("{e:#}"));
-                    o
+/// One selection as the scoring keeps it.
+#[derive(Clone, Debug)]
+pub struct Named {
+    /// The candidate.
+    pub id: CandidateId,
+    /// Its coefficient, in its unit.
+    pub coef: f64,
+    /// Standard error.
+    pub stderr: f64,
+    /// Within its plausibility bound (or tolerance).
+    pub plausible: bool,
+    /// Its confounded partners.
+    pub partners: Vec<CandidateId>,
+}
+
+/// How the pipeline did on one set.
+#[derive(Clone, Debug)]
+// Independent yes/no outcomes, each counted.
+#[allow(clippy::struct_excessive_bools)]
+pub struct Outcome<T> {
+    /// The set's seed.
+    pub seed: u64,
+    /// What was hidden.
+    pub truth: T,
+    /// Something is hidden (the truth has a name).
+    pub hidden: bool,
+    /// What was selected.
+    pub selected: Vec<Named>,
+    /// A name of the truth is selected (plausible, where the campaign asks it).
+    pub exact: bool,
+    /// A name of the truth is selected but reported implausible (campaigns with
+    /// [`Campaign::EXACT_NEEDS_PLAUSIBLE`]).
+    pub implausible: bool,
+    /// The truth is only named as a confounded partner of a selection.
+    pub partner: bool,
+    /// `(fitted − true)/SE` of the exact naming, in the named candidate's unit.
+    pub z: Option<f64>,
+    /// Selections that neither are nor name the truth.
+    pub extra: usize,
+    /// The unexplained-structure test fired.
+    pub unexplained: bool,
+    /// Rows flagged as suspected gross errors (none is injected: false alarms).
+    pub outliers: Vec<String>,
+    /// The pipeline refused the set.
+    pub error: Option<String>,
+}
+
+impl<T> Outcome<T> {
+    /// Nothing selected.
+    fn blank(seed: u64, truth: T, hidden: bool) -> Self {
+        Outcome {
+            seed,
+            truth,
+            hidden,
+            selected: Vec::new(),
+            exact: false,
+            implausible: false,
+            partner: false,
+            z: None,
+            extra: 0,
+            unexplained: false,
+            outliers: Vec::new(),
+            error: None,
+        }
+    }
+
+    /// Named exactly or only as a confounded partner.
+    #[must_use]
+    pub fn exact_or_partner(&self) -> bool {
+        self.exact || self.partner
+    }
+
+    /// Anything selected.
+    #[must_use]
+    pub fn any_selection(&self) -> bool {
+        !self.selected.is_empty()
+    }
+
+    /// A plausible selection while the test for unexplained structure found nothing: a
+    /// named cause the output does not warn about.
+    #[must_use]
+    pub fn confident_misnaming(&self) -> bool {
+        self.selected.iter().any(|s| s.plausible) && !self.unexplained
+    }
+
+    /// ` + unexplained` when the unexplained-structure test fired, for the log.
+    #[must_use]
+    pub fn unexplained_note(&self) -> &'static str {
+        if self.unexplained {
+            " + unexplained"
+        } else {
+            ""
+        }
+    }
+
+    /// The rows flagged as gross errors and the refusal, for the log; `sep` before the
+    /// refusal.
+    #[must_use]
+    pub fn outliers_and_error(&self, sep: &str) -> String {
+        let mut s = String::new();
+        if !self.outliers.is_empty() {
+            let _ = write!(s, "  outliers: {}", self.outliers.join(", "));
+        }
+        if let Some(e) = &self.error {
+            let _ = write!(s, "{sep}error: {e}");
+        }
+        s
+    }
+
+    /// Something hidden, a selection, and the truth neither selected nor named as a
+    /// partner.
+    #[must_use]
+    pub fn misnamed(&self) -> bool {
+        self.hidden && self.any_selection() && !self.exact && !self.partner
+    }
+}
+
+/// Score the pipeline's answer `d` on a set whose truth `names` name; `z` of each
+/// selection of a name.
+fn score<T>(
+    seed: u64,
+    truth: T,
+    names: &[CandidateId],
+    needs_plausible: bool,
+    z: impl Fn(&Selected) -> Option<f64>,
+    d: &Discovery,
+) -> Outcome<T> {
+    let mut o = Outcome::blank(seed, truth, !names.is_empty());
+    let mut partner = false;
+    for s in &d.selected {
+        let partners: Vec<CandidateId> = s.confounded.iter().map(|&(c, _)| c).collect();
+        if names.contains(&s.id) {
+            if s.plausible || !needs_plausible {
+                o.exact = true;
+                if let Some(z) = z(s) {
+                    o.z = Some(z);
                 }
-            };
-            (s, o)
+            } else {
+                o.implausible = true;
+            }
+        } else if partners.iter().any(|c| names.contains(c)) {
+            partner = true;
+        } else {
+            o.extra += 1;
+        }
+        o.selected.push(Named {
+            id: s.id,
+            coef: s.coef,
+            stderr: s.stderr,
+            plausible: s.plausible,
+            partners,
+        });
+    }
+    o.partner = partner && !o.exact && !o.implausible;
+    o.unexplained = d.json.unexplained.detected;
+    o.outliers = d.json.outliers.iter().map(|x| x.row.clone()).collect();
+    o
+}
+
+/// Analyse the set of seed `seed` blind with `c`'s pipeline and score it.
+#[must_use]
+pub fn analyse<C: Campaign>(
+    c: &C,
+    seed: u64,
+    rows: &[Condition],
+    truth: C::Truth,
+) -> Outcome<C::Truth> {
+    let names = c.names(&truth).to_vec();
+    let (sim, opts) = c.pipeline();
+    match discover(rows, sim, opts) {
+        Ok(d) => score(
+            seed,
+            truth.clone(),
+            &names,
+            C::EXACT_NEEDS_PLAUSIBLE,
+            |s| c.z(&truth, s),
+            &d,
+        ),
+        Err(e) => {
+            let mut o = Outcome::blank(seed, truth, !names.is_empty());
+            o.error = Some(format!("{e:#}"));
+            o
+        }
+    }
+}
+
+/// A campaign run: its outcomes, kinds in table order.
+#[derive(Debug)]
+pub struct Run<C: Campaign> {
+    /// The campaign.
+    pub campaign: C,
+    /// Sets per kind.
+    pub sets: usize,
+    /// Campaign seed.
+    pub seed: u64,
+    /// Every set's outcome, kinds in table order.
+    pub outcomes: Vec<Outcome<C::Truth>>,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+impl<C: Campaign> Run<C> {
+    /// Make and analyse `sets` sets of every kind `campaign` hides.
+    #[must_use]
+    pub fn new(campaign: C, sets: usize, seed: u64) -> Self {
+        let t0 = Instant::now();
+        let c = &campaign;
+        let jobs: Vec<(u64, C::Kind)> = c
+            .kinds()
+            .into_iter()
+            .enumerate()
+            .flat_map(|(i, kind)| (0..sets).map(move |k| (set_seed(seed, i, k), kind)))
+            .filter(|&(_, kind)| c.hidden(kind))
+            .collect();
+        let one = |&(s, kind): &(u64, C::Kind)| {
+            let (rows, truth) = c.generate(s, kind);
+            analyse(c, s, &rows, truth)
+        };
+        let outcomes = if C::PARALLEL {
+            jobs.par_iter().map(one).collect()
+        } else {
+            jobs.iter().map(one).collect()
+        };
+        let seconds = t0.elapsed().as_secs_f64();
+        Run {
+            campaign,
+            sets,
+            seed,
+            outcomes,
+            seconds,
+        }
+    }
+
+    /// The figures of the sets `keep` keeps, gathered by `add`.
+    pub fn stats<S: Default>(
+        &self,
+        keep: impl Fn(&Outcome<C::Truth>) -> bool,
+        add: impl Fn(&mut S, &Outcome<C::Truth>),
+    ) -> S {
+        let mut s = S::default();
+        for o in self.outcomes.iter().filter(|o| keep(o)) {
+            add(&mut s, o);
+        }
+        s
+    }
+
+    /// The asserted rates that are not met (empty: the campaign passes): every refusal,
+    /// then the campaign's own checks. `ci`: the CI subset's assertions.
+    #[must_use]
+    pub fn failures(&self, ci: bool) -> Vec<String> {
+        let mut f: Vec<String> = self
+            .outcomes
+            .iter()
+            .filter_map(|o| {
+                o.error
+                    .as_ref()
+                    .map(|e| format!("set {} refused: {e}", o.seed))
+            })
+            .collect();
+        f.extend(self.campaign.checks(self, ci));
+        f
+    }
+
+    /// The sets that matter for the rates, one line each after the reason.
+    #[must_use]
+    pub fn notable(&self) -> String {
+        let mut s = String::new();
+        for o in &self.outcomes {
+            if let Some(w) = self.campaign.notable(o) {
+                let _ = writeln!(
+                    s,
+                    "{w:<width$} {}",
+                    self.campaign.line(o),
+                    width = C::NOTABLE_WIDTH
+                );
+            }
+        }
+        s
+    }
+
+    /// Every set, one line each.
+    #[must_use]
+    pub fn log(&self) -> String {
+        self.outcomes.iter().fold(String::new(), |mut s, o| {
+            let _ = writeln!(s, "{}", self.campaign.line(o));
+            s
         })
-        .collect();
-    Campaign {
-        sets_per_kind,
-        seed,
-        generator: source.name(),
-        pipeline: fit.name(),
-        outcomes,
-        seconds: t0.elapsed().as_secs_f64(),
+    }
+
+    /// The one table: title, columns, rows, legend and the verdict.
+    #[must_use]
+    pub fn table(&self, ci: bool) -> String {
+        let c = &self.campaign;
+        let cols = c.columns();
+        let mut s = c.title(self);
+        s.push('\n');
+        let headers: Vec<String> = cols.cells().map(|(h, _)| h.to_string()).collect();
+        cols.line(&mut s, cols.name.0, &headers);
+        for (name, cells) in c.rows(self) {
+            cols.line(&mut s, &name, &cells);
+        }
+        s.push_str(&c.legend(self, ci));
+        let failures = self.failures(ci);
+        if failures.is_empty() {
+            let _ = writeln!(s, "asserted rates: all met");
+        } else {
+            for f in &failures {
+                let _ = writeln!(s, "NOT MET: {f}");
+            }
+        }
+        s
+    }
+}
+
+/// A table's layout: the name column (left-aligned), then groups of right-aligned cells,
+/// the groups parted by ` | `.
+#[derive(Clone, Debug)]
+pub struct Columns {
+    /// The name column's header and width.
+    pub name: (&'static str, usize),
+    /// Groups of `(header, width)`.
+    pub groups: Vec<Vec<(&'static str, usize)>>,
+}
+
+impl Columns {
+    /// Every cell column, in order.
+    fn cells(&self) -> impl Iterator<Item = (&'static str, usize)> + '_ {
+        self.groups.iter().flatten().copied()
+    }
+
+    /// One line of `name` and `cells` (one per cell column).
+    fn line(&self, s: &mut String, name: &str, cells: &[String]) {
+        let mut cells = cells.iter();
+        let groups: Vec<String> = self
+            .groups
+            .iter()
+            .map(|g| {
+                g.iter()
+                    .map(|&(_, w)| format!("{:>w$}", cells.next().map_or("", String::as_str)))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .collect();
+        let _ = writeln!(s, "{name:<w$} {}", groups.join(" | "), w = self.name.1);
     }
 }
 
@@ -117,7 +441,7 @@ pub struct Count {
 
 impl Count {
     /// One more trial, a hit or not.
-    pub(crate) fn add(&mut self, hit: bool) {
+    pub fn add(&mut self, hit: bool) {
         self.n += 1;
         self.k += usize::from(hit);
     }
@@ -135,7 +459,8 @@ impl Count {
     }
 
     /// `k/n`, or `-` when `n = 0`.
-    pub(crate) fn cell(self) -> String {
+    #[must_use]
+    pub fn cell(self) -> String {
         if self.n == 0 {
             "-".into()
         } else {
@@ -143,66 +468,148 @@ impl Count {
         }
     }
 
+    /// `k/n`, also when `n = 0`.
+    #[must_use]
+    pub fn fraction(self) -> String {
+        format!("{}/{}", self.k, self.n)
+    }
+
     /// More than [`RATE_MAX`] by the one-sided binomial test at [`RATE_TEST_LEVEL`].
-    pub(crate) fn too_many(self) -> bool {
+    #[must_use]
+    pub fn too_many(self) -> bool {
         self.n > 0
             && self.rate() > RATE_MAX
             && binomial_upper_tail(self.n, RATE_MAX, self.k) < RATE_TEST_LEVEL
     }
+
+    /// The cell, marked `!` when [`Count::too_many`].
+    #[must_use]
+    pub fn marked(self) -> String {
+        format!("{}{}", self.cell(), if self.too_many() { "!" } else { "" })
+    }
+
+    /// The cell, marked `!` when outside the 99 % band of Binomial(n, [`COVERAGE`]).
+    #[must_use]
+    pub fn coverage_marked(self) -> String {
+        if self.n == 0 {
+            return "-".into();
+        }
+        let (lo, hi) = binomial_interval(self.n, COVERAGE, 0.99);
+        let mark = if self.k < lo || self.k > hi { "!" } else { "" };
+        format!("{}{mark}", self.cell())
+    }
 }
 
-/// The figures of one table row.
-#[derive(Clone, Debug, Default)]
-pub struct RowStats {
-    /// Sets.
-    pub sets: usize,
-    /// Named exactly, per threshold (sets with strength ≥ threshold).
-    pub exact: [Count; 4],
-    /// Named exactly or only as a partner, per threshold.
-    pub either: [Count; 4],
+/// How the hidden effects of strength ≥ [`Naming::FROM_SE`] were named: the figures the
+/// statics and parameter campaigns share, and their columns.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Naming {
+    /// Named exactly, among the strong sets.
+    pub exact: Count,
+    /// Named exactly or as a partner, among the strong sets.
+    pub either: Count,
     /// Named only as a partner (all strengths).
-    pub partner_only: Count,
-    /// `|z| ≤ 1.96` among the sets named exactly at ≥ 6 SE.
+    pub partner: Count,
+    /// `|z| ≤ 1.96` among the exact namings of the strong sets.
     pub coverage: Count,
-    /// Candidates: sets with an unrelated extra selection; not nameable and aliased:
-    /// confident misnamings; nulls: sets with any selection.
-    pub false_or_misnamed: Count,
-    /// Sets with any selection.
-    pub any: Count,
-    /// Sets with a row flagged as a suspected gross error (no gross error is injected: a
-    /// false alarm of the outlier test).
-    pub outliers: Count,
 }
 
-impl RowStats {
-    fn add(&mut self, o: &Outcome) {
-        let t = &o.truth;
-        self.sets += 1;
-        self.any.add(o.any_selection);
-        self.outliers.add(!o.outliers.is_empty());
-        match t.kind.class() {
-            Class::Candidate => {
-                for (j, &th) in THRESHOLDS.iter().enumerate() {
-                    if t.strength_se >= th {
-                        self.exact[j].add(o.exact);
-                        self.either[j].add(o.exact_or_partner());
-                    }
-                }
-                self.partner_only.add(o.partner_only);
-                if o.exact
-                    && t.strength_se >= COVERAGE_FROM_SE
-                    && let Some(z) = o.z
-                {
-                    self.coverage.add(z.abs() <= 1.96);
-                }
-                self.false_or_misnamed.add(o.others > 0);
-            }
-            Class::NotNameable | Class::Aliased => {
-                self.false_or_misnamed.add(o.confident_misnaming);
-            }
-            Class::Null => self.false_or_misnamed.add(o.any_selection),
+impl Naming {
+    /// Strength from which detection and coverage are asserted, SE.
+    pub const FROM_SE: f64 = 6.0;
+
+    /// A table's columns: `hidden sets | ex>=6 e|p>=6 | partner | coverage`, then `rest`.
+    #[must_use]
+    pub fn columns(rest: Vec<Vec<(&'static str, usize)>>) -> Columns {
+        let mut groups = vec![
+            vec![("sets", 5)],
+            vec![("ex>=6", 9), ("e|p>=6", 9)],
+            vec![("partner", 8)],
+            vec![("coverage", 9)],
+        ];
+        groups.extend(rest);
+        Columns {
+            name: ("hidden", 14),
+            groups,
         }
     }
+
+    /// The cells of [`Naming::columns`] after `sets`, each count as `cell` writes it.
+    #[must_use]
+    pub fn cells(self, cell: impl Fn(Count) -> String) -> [String; 4] {
+        [self.exact, self.either, self.partner, self.coverage].map(cell)
+    }
+
+    /// One more set hiding something, of `strength_se`; `true` when it is strong and
+    /// missed.
+    pub fn add<T>(&mut self, o: &Outcome<T>, strength_se: f64) -> bool {
+        self.partner.add(o.partner);
+        if strength_se < Self::FROM_SE {
+            return false;
+        }
+        self.exact.add(o.exact);
+        self.either.add(o.exact_or_partner());
+        if o.exact
+            && let Some(z) = o.z
+        {
+            self.coverage.add(z.abs() <= 1.96);
+        }
+        !o.exact_or_partner()
+    }
+}
+
+/// `what` (a count of sets) is more than [`RATE_MAX`] explains: the failure, or `None`.
+#[must_use]
+pub fn at_most_rate(what: &str, c: Count) -> Option<String> {
+    c.too_many().then(|| {
+        format!(
+            "{what}: {} = {:.1}%: P(>= {} of {}) = {:.4} at a true rate of 5%, below {RATE_TEST_LEVEL}",
+            c.cell(),
+            100.0 * c.rate(),
+            c.k,
+            c.n,
+            binomial_upper_tail(c.n, RATE_MAX, c.k)
+        )
+    })
+}
+
+/// Coverage `c` (of `|z| ≤ 1.96`) outside the 99 % band of Binomial(n, [`COVERAGE`]), once
+/// there are `from` namings: the failure, or `None`.
+#[must_use]
+pub fn coverage_in_band(c: Count, from: usize) -> Option<String> {
+    if c.n < from.max(1) {
+        return (from == 0).then(|| "coverage: no set named exactly".to_string());
+    }
+    let (lo, hi) = binomial_interval(c.n, COVERAGE, 0.99);
+    (c.k < lo || c.k > hi).then(|| {
+        format!(
+            "coverage: |z| <= 1.96 in {} = {:.1}%, outside [{lo}, {hi}] (99% of Binomial({}, 0.95))",
+            c.cell(),
+            100.0 * c.rate(),
+            c.n
+        )
+    })
+}
+
+/// Detection `c` (`what`) below [`DETECTION_MIN`], less one binomial standard error at 5 %
+/// at CI sizes (`ci`): the failure, or `None`.
+#[must_use]
+pub fn detected(what: &str, c: Count, ci: bool) -> Option<String> {
+    #[allow(clippy::cast_precision_loss)]
+    let allow = if ci {
+        (RATE_MAX * (1.0 - RATE_MAX) / c.n.max(1) as f64).sqrt()
+    } else {
+        0.0
+    };
+    let need = DETECTION_MIN - allow;
+    (c.n == 0 || c.rate() < need).then(|| {
+        format!(
+            "{what}: {} = {:.1}% < {:.1}%",
+            c.cell(),
+            100.0 * c.rate(),
+            100.0 * need
+        )
+    })
 }
 
 /// `ln P(X = k)` for X ~ Binomial(n, p), every k.
@@ -251,275 +658,29 @@ pub fn binomial_upper_tail(n: usize, p: f64, k: usize) -> f64 {
         .min(1.0)
 }
 
-/// One binomial standard error of a rate `p` over `n` sets.
-fn binomial_se(p: f64, n: usize) -> f64 {
-    #[allow(clippy::cast_precision_loss)]
-    let s = (p * (1.0 - p) / n.max(1) as f64).sqrt();
-    s
+/// Every asserted rate met, or a panic listing those that are not (`what`: the campaign).
+///
+/// # Panics
+/// When `failures` is not empty.
+pub fn assert_met(what: &str, failures: &[String]) {
+    assert!(
+        failures.is_empty(),
+        "{what} rates not met:\n{}",
+        failures.join("\n")
+    );
 }
 
-/// The allowance on an asserted rate over `n` sets: one binomial standard error at 5 % at
-/// CI sizes (`ci`), none in a full campaign.
-fn allowance(n: usize, ci: bool) -> f64 {
-    if ci { binomial_se(RATE_MAX, n) } else { 0.0 }
-}
-
-impl Campaign {
-    /// Per-kind figures, kinds in table order, then the candidates together.
-    #[must_use]
-    pub fn rows(&self) -> Vec<(String, Class, RowStats)> {
-        let mut rows: Vec<(String, Class, RowStats)> = Vec::new();
-        let mut all = RowStats::default();
-        for kind in Kind::all() {
-            let mut r = RowStats::default();
-            for (_, o) in self.outcomes.iter().filter(|(_, o)| o.truth.kind == kind) {
-                r.add(o);
-                if kind.class() == Class::Candidate {
-                    all.add(o);
-                }
-            }
-            rows.push((kind.name(), kind.class(), r));
-        }
-        rows.push(("all candidates".into(), Class::Candidate, all));
-        rows
-    }
-
-    /// The asserted rates that are not met (empty: the campaign passes). `ci`: allow one
-    /// binomial standard error.
-    #[must_use]
-    pub fn failures(&self, ci: bool) -> Vec<String> {
-        let mut f = Vec::new();
-        let allow = |n: usize| allowance(n, ci);
-        for (name, class, r) in self.rows() {
-            let c = r.false_or_misnamed;
-            match class {
-                Class::Null | Class::NotNameable if c.too_many() => {
-                    f.push(format!(
-                        "{name}: {} {} = {:.1}%: P(>= {} of {}) = {:.4} at a true rate of 5%, below {RATE_TEST_LEVEL}",
-                        if class == Class::Null {
-                            "false selections"
-                        } else {
-                            "confident misnamings"
-                        },
-                        c.cell(),
-                        100.0 * c.rate(),
-                        c.k,
-                        c.n,
-                        binomial_upper_tail(c.n, RATE_MAX, c.k)
-                    ));
-                }
-                Class::Candidate if name == "all candidates" => {
-                    let cov = r.coverage;
-                    if cov.n == 0 {
-                        f.push(format!(
-                            "coverage: no set named exactly at >= {COVERAGE_FROM_SE} SE"
-                        ));
-                    } else {
-                        let (lo, hi) = binomial_interval(cov.n, COVERAGE, 0.99);
-                        if cov.k < lo || cov.k > hi {
-                            f.push(format!(
-                                "coverage: |z| <= 1.96 in {} = {:.1}%, outside [{lo}, {hi}] (99% of Binomial({}, 0.95))",
-                                cov.cell(),
-                                100.0 * cov.rate(),
-                                cov.n
-                            ));
-                        }
-                    }
-                    let d = r.either[THRESHOLDS
-                        .iter()
-                        .position(|&t| (t - DETECTION_FROM_SE).abs() < 1e-9)
-                        .unwrap_or(3)];
-                    let need = DETECTION_MIN - allow(d.n);
-                    if d.n == 0 || d.rate() < need {
-                        f.push(format!(
-                            "detection (exact or partner) at >= {DETECTION_FROM_SE} SE: {} = {:.1}% < {:.1}%",
-                            d.cell(),
-                            100.0 * d.rate(),
-                            100.0 * need
-                        ));
-                    }
-                }
-                _ => {}
-            }
-        }
-        f
-    }
-
-    /// The sets that matter for the rates: misses at ≥ 6 SE, implausible namings, coverage
-    /// outliers, false selections, confident misnamings, refusals, rows flagged as gross
-    /// errors.
-    #[must_use]
-    pub fn notable(&self) -> String {
-        let mut s = String::new();
-        for (seed, o) in &self.outcomes {
-            let t = &o.truth;
-            let why = match t.kind.class() {
-                _ if o.error.is_some() => Some("refused"),
-                Class::Candidate => {
-                    if !o.exact_or_partner() && t.strength_se >= COVERAGE_FROM_SE {
-                        Some("missed at >= 6 SE")
-                    } else if o.implausible {
-                        Some("named implausible")
-                    } else if o.exact
-                        && t.strength_se >= COVERAGE_FROM_SE
-                        && o.z.is_some_and(|z| z.abs() > 1.96)
-                    {
-                        Some("|z| > 1.96")
-                    } else if o.others > 0 {
-                        Some("extra selection")
-                    } else {
-                        None
-                    }
-                }
-                Class::NotNameable => o.confident_misnaming.then_some("confident misnaming"),
-                Class::Aliased => o.confident_misnaming.then_some("(aliased) misnaming"),
-                Class::Null => o.any_selection.then_some("false selection"),
-            };
-            let why = why.or_else(|| (!o.outliers.is_empty()).then_some("outlier flagged"));
-            if let Some(w) = why {
-                let _ = writeln!(s, "{w:<20} {}", o.line(*seed));
-            }
-        }
-        s
-    }
-
-    /// Every set, one line each.
-    #[must_use]
-    pub fn log(&self) -> String {
-        let mut s = String::new();
-        for (seed, o) in &self.outcomes {
-            let _ = writeln!(s, "{}", o.line(*seed));
-        }
-        s
-    }
-
-    /// The one table; `ci` as in [`Campaign::failures`].
-    #[must_use]
-    #[allow(clippy::too_many_lines)] // one report table, row by row
-    pub fn table(&self, ci: bool) -> String {
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "hidden-effect campaign: {} sets per kind, seed {}; data: {}; pipeline: {} simulator; {:.1} s",
-            self.sets_per_kind, self.seed, self.generator, self.pipeline, self.seconds
-        );
-        let _ = writeln!(
-            s,
-            "{:<26} {:>4} | {:>9} {:>9} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} | {:>9} | {:>9} | {:>9} | {:>9}",
-            "hidden kind",
-            "sets",
-            "ex>=3",
-            "ex>=4",
-            "ex>=6",
-            "ex>=8",
-            "e|p>=3",
-            "e|p>=4",
-            "e|p>=6",
-            "e|p>=8",
-            "partner",
-            "coverage",
-            "false/mis",
-            "any sel",
-            "outliers"
-        );
-        let failing = self.failures(ci);
-        for (name, class, r) in self.rows() {
-            let cov = if r.coverage.n == 0 {
-                "-".to_string()
-            } else {
-                let (lo, hi) = binomial_interval(r.coverage.n, COVERAGE, 0.99);
-                let mark = if r.coverage.k < lo || r.coverage.k > hi {
-                    "!"
-                } else {
-                    ""
-                };
-                format!("{}{mark}", r.coverage.cell())
-            };
-            let fm = match class {
-                Class::Candidate | Class::Aliased => format!("({})", r.false_or_misnamed.cell()),
-                _ => {
-                    let c = r.false_or_misnamed;
-                    let mark = if c.n > 0
-                        && c.rate() > RATE_MAX
-                        && binomial_upper_tail(c.n, RATE_MAX, c.k) < RATE_TEST_LEVEL
-                    {
-                        "!"
-                    } else {
-                        ""
-                    };
-                    format!("{}{mark}", c.cell())
-                }
-            };
-            let cells = |c: &[Count; 4]| -> Vec<String> {
-                if class == Class::Candidate {
-                    c.iter().map(|x| x.cell()).collect()
-                } else {
-                    vec![String::new(); 4]
-                }
-            };
-            let ex = cells(&r.exact);
-            let ei = cells(&r.either);
-            let _ = writeln!(
-                s,
-                "{name:<26} {:>4} | {:>9} {:>9} {:>9} {:>9} | {:>9} {:>9} {:>9} {:>9} | {:>8} | {:>9} | {:>9} | {:>9} | {:>9}",
-                r.sets,
-                ex[0],
-                ex[1],
-                ex[2],
-                ex[3],
-                ei[0],
-                ei[1],
-                ei[2],
-                ei[3],
-                if class == Class::Candidate {
-                    r.partner_only.cell()
-                } else {
-                    String::new()
-                },
-                cov,
-                fm,
-                r.any.cell(),
-                r.outliers.cell()
-            );
-        }
-        let _ = writeln!(
-            s,
-            "ex>=T: named exactly (selected, plausible) among the sets of >= T SE; e|p: exactly or only as a confounded partner;\n\
-             partner: named only as a partner (all strengths); coverage: |z| <= 1.96 among exact namings at >= 6 SE (! outside the\n\
-             99% interval of Binomial(n, 0.95)); false/mis: nulls: any selection, oov/bias/drift: confident misnaming (plausible\n\
-             selection, no unexplained-structure warning); in brackets, not asserted: candidates: an unrelated extra selection,\n\
-             aliased oov (the design's data are those of an in-vocabulary set): confident misnaming;\n\
-             any sel: sets with any selection; outliers: sets with a row flagged as a suspected gross error (none is injected). Asserted: coverage over all candidates; e|p>=8 >= 95% over all candidates{}; false/mis per kind\n\
-             consistent with at most 5% (! when P(>= k of n) at 5% is below 0.01).",
-            if ci {
-                " (less one binomial standard error at this size)"
-            } else {
-                ""
-            }
-        );
-        if failing.is_empty() {
-            let _ = writeln!(s, "asserted rates: all met");
-        } else {
-            for f in &failing {
-                let _ = writeln!(s, "NOT MET: {f}");
-            }
-        }
-        s
-    }
-}
-
-/// The campaign's vocabulary, the additive terms: the loop's parameters have no signature
-/// above the closed loop's noise in these difference designs, and their finite differences
-/// through the loop would cost five times the rest; they are hidden (in the instrument
-/// file) by the parameter campaign instead.
+/// `key` from the environment, or `default`.
 #[must_use]
-pub fn additive() -> Options {
-    Options {
-        candidates: ptsa_host_sim::CandidateId::ALL
-            .iter()
-            .filter(|c| c.parameter_key().is_none())
-            .copied()
-            .collect(),
-        ..Options::default()
-    }
+pub fn env<T: std::str::FromStr>(key: &str, default: T) -> T {
+    std::env::var(key)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// `key` is set to `1` in the environment.
+#[must_use]
+pub fn env_flag(key: &str) -> bool {
+    std::env::var(key).is_ok_and(|v| v == "1")
 }

@@ -8,14 +8,19 @@
 //! never by the candidate code the analyser's signatures come from; what is hidden
 //! ([`generate::Kind`]) is one candidate's physics, physics out of the vocabulary, a bias
 //! shift per block, a drift, or nothing (with homo- or heteroscedastic noise). The
-//! pipeline's blind answer is scored ([`mod@score`]) and the campaign ([`campaign`]) reports
-//! detection power at 3, 4, 6 and 8 standard errors, coverage of the coefficients, false
-//! selections and confident misnamings in one table, and asserts the rates.
+//! campaign ([`effects`]) scores the pipeline's blind answer and reports detection power at
+//! 3, 4, 6 and 8 standard errors, coverage of the coefficients, false selections and
+//! confident misnamings in one table, and asserts the rates.
 //!
-//! Two campaigns of their own follow the same scoring: [`params`] hides a change of the
-//! loop's parameters in the instrument file (response tables), [`statics`] the model
-//! equation's static terms (an IA tilt, a quadratic or cubic term, a bias change, a
-//! scale-factor error) as physics in the plant, measured in tumbles and on a centrifuge.
+//! Two campaigns of their own follow: [`params`] hides a change of the loop's parameters in
+//! the instrument file (response tables), [`statics`] the model equation's static terms (an
+//! IA tilt, a quadratic or cubic term, a bias change, a scale-factor error) as physics in
+//! the plant, measured in tumbles and on a centrifuge.
+//!
+//! The three share one core ([`campaign`]): the set seeding, the run over the sets, the
+//! scored outcome of a set ([`Outcome`]), the table and the binomial assertions; each
+//! supplies its kinds, its generator, its truths and its table's columns
+//! ([`campaign::Campaign`]).
 //!
 //! Noise: one sigma per set, uniform in 0.1–0.3 cm/s² (the heteroscedastic nulls have their
 //! own), from the seeded `ChaCha8` generator, on top of the loop's own pickoff noise; in a
@@ -26,10 +31,10 @@
 
 pub mod campaign;
 pub mod designs;
+pub mod effects;
 pub mod generate;
 pub mod params;
 pub mod physics;
-pub mod score;
 pub mod statics;
 
 #[cfg(test)]
@@ -37,13 +42,12 @@ mod outliers;
 #[cfg(test)]
 mod tests;
 
-pub use campaign::{Campaign, binomial_interval};
+pub use campaign::{Campaign, Outcome, Run, binomial_interval};
 pub use designs::{Design, design_48, design_48_rows, rate_table, two_axis};
 pub use generate::{
     Class, GenOptions, HiddenSet, Kind, OUT_OF_VOCABULARY, Truth, candidate_physics, generate,
 };
 pub use physics::{Generator, Injection, Physics, Product};
-pub use score::{Outcome, score};
 
 /// The seeded generator of the sets (`ChaCha8`: the same stream on every machine).
 pub type Rng = rand_chacha::ChaCha8Rng;

@@ -14,7 +14,8 @@ use ptsa_host_sim::discovery::{discover, outliers};
 use ptsa_host_sim::sim::SimOptions;
 use rayon::prelude::*;
 
-use super::campaign::{additive, binomial_upper_tail};
+use super::campaign::binomial_upper_tail;
+use super::effects::additive;
 use super::statics::{self, StaticKind};
 use super::*;
 

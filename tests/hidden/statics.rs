@@ -69,12 +69,12 @@
 //!
 //! # Asserted
 //!
-//! [`StaticCampaign::failures`]: a selection that neither is nor names the truth in at most
-//! 5 % of the hidden sets, any selection in at most 5 % of the unperturbed sets (one-sided
-//! binomial tests at 1 %), coverage in the 99 % band of Binomial(n, 0.95) from 20 exact
-//! namings, and exact-or-partner naming at ≥ 6 SE in ≥ 95 % of the hidden sets, pooled over
-//! the four designs. The CI subset (`hidden_statics_ci`, 30 sets per kind in each
-//! vocabulary) asserts the same, detection less one binomial standard error.
+//! [`Run::failures`] of [`Statics`]: no refusal; a selection that neither is nor names the
+//! truth in at most 5 % of the hidden sets, any selection in at most 5 % of the unperturbed
+//! sets (one-sided binomial tests at 1 %), coverage in the 99 % band of Binomial(n, 0.95)
+//! from 20 exact namings, and exact-or-partner naming at ≥ 6 SE in ≥ 95 % of the hidden
+//! sets, pooled over the four designs. The CI subset (`hidden_statics_ci`, 30 sets per kind
+//! in each vocabulary) asserts the same, detection less one binomial standard error.
 //!
 //! # Where it is weak
 //!
@@ -99,11 +99,11 @@
 
 use std::fmt::Write as _;
 use std::sync::Arc;
-use std::time::Instant;
 
 use ptsa_host_sim::condition::{CaseInputs, Condition, IA, OA, PA};
+use ptsa_host_sim::discovery::method::Selected;
 use ptsa_host_sim::discovery::sim::ClosedLoopSimulator;
-use ptsa_host_sim::discovery::{Options, discover};
+use ptsa_host_sim::discovery::{Options, Simulator, discover};
 use ptsa_host_sim::plan::{self, Axis};
 use ptsa_host_sim::plant::NX;
 use ptsa_host_sim::sim::{ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with};
@@ -111,7 +111,9 @@ use ptsa_host_sim::{CandidateId, Effects, Instrument};
 use rand::RngCore as _;
 use rayon::prelude::*;
 
-use super::campaign::{Count, DETECTION_MIN, RATE_MAX, binomial_interval, binomial_upper_tail};
+use super::campaign::{
+    Campaign, Columns, Count, Naming, Outcome, Run, at_most_rate, coverage_in_band, detected,
+};
 use super::generate::residualize;
 use super::{Draw, Rng, rng};
 
@@ -602,105 +604,6 @@ pub fn generate(seed: u64, kind: StaticKind) -> StaticSet {
     }
 }
 
-/// One selection as the scoring keeps it.
-#[derive(Clone, Debug)]
-pub struct Named {
-    /// The candidate.
-    pub id: CandidateId,
-    /// Its coefficient and standard error, in its unit.
-    pub coef: f64,
-    /// Standard error.
-    pub stderr: f64,
-    /// Within its plausibility bound (or tolerance).
-    pub plausible: bool,
-    /// Its confounded partners.
-    pub partners: Vec<CandidateId>,
-}
-
-/// A set's result.
-#[derive(Clone, Debug)]
-pub struct StaticOutcome {
-    /// The set's seed.
-    pub seed: u64,
-    /// The truth.
-    pub truth: StaticTruth,
-    /// What was selected.
-    pub selected: Vec<Named>,
-    /// An accepted name of the truth is selected.
-    pub exact: bool,
-    /// The truth is only named as a partner of a selection.
-    pub partner: bool,
-    /// `(fitted − true)/SE` of the exact naming, in the named candidate's unit.
-    pub z: Option<f64>,
-    /// Selections that neither are nor name the truth.
-    pub extra: usize,
-    /// The unexplained-structure test fired.
-    pub unexplained: bool,
-    /// Rows flagged as suspected gross errors (none is injected: false alarms).
-    pub outliers: Vec<String>,
-    /// The analysis failed.
-    pub error: Option<String>,
-}
-
-impl StaticOutcome {
-    /// A selection, the truth neither selected nor named as a partner.
-    #[must_use]
-    pub fn misnamed(&self) -> bool {
-        self.truth.kind != StaticKind::Unperturbed
-            && !self.selected.is_empty()
-            && !self.exact
-            && !self.partner
-    }
-
-    /// One line for the log.
-    #[must_use]
-    pub fn line(&self) -> String {
-        let t = &self.truth;
-        let sel: Vec<String> = self
-            .selected
-            .iter()
-            .map(|s| {
-                let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
-                if !s.plausible {
-                    x.push('?');
-                }
-                if !s.partners.is_empty() {
-                    let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();
-                    let _ = write!(x, " ~ {}", p.join("/"));
-                }
-                x
-            })
-            .collect();
-        format!(
-            "{:<14} seed {:<12} {:>5.1} SE{} {:.3e} {:<6} {:<20} sigma {:.4}{} -> [{}]{}{}{}{}",
-            t.kind.name(),
-            self.seed,
-            t.strength_se,
-            if t.capped { "*" } else { " " },
-            t.coef,
-            t.kind.unit(),
-            t.design.name(),
-            t.sigma,
-            if t.sigma_written { "" } else { " (est.)" },
-            sel.join("; "),
-            if self.unexplained {
-                " + unexplained"
-            } else {
-                ""
-            },
-            self.z.map_or(String::new(), |z| format!("  z {z:+.2}")),
-            if self.outliers.is_empty() {
-                String::new()
-            } else {
-                format!("  outliers: {}", self.outliers.join(", "))
-            },
-            self.error
-                .as_ref()
-                .map_or(String::new(), |e| format!("  error: {e}"))
-        )
-    }
-}
-
 /// The pipeline's options: the whole vocabulary, or the additive terms only.
 #[must_use]
 pub fn options(with_parameters: bool) -> Options {
@@ -711,119 +614,56 @@ pub fn options(with_parameters: bool) -> Options {
     o
 }
 
-/// Analyse a set blind (closed loop of the shipped file) and score it.
-#[must_use]
-pub fn analyse(seed: u64, set: &StaticSet, with_parameters: bool) -> StaticOutcome {
-    let nominal = Instrument::kearfott_2401();
-    let c0 = nominal.current_sf_ma_per_g;
-    let sim = ClosedLoopSimulator {
-        instrument: nominal,
-        options: SimOptions::default(),
-    };
-    let t = &set.truth;
-    let mut o = StaticOutcome {
-        seed,
-        truth: t.clone(),
-        selected: Vec::new(),
-        exact: false,
-        partner: false,
-        z: None,
-        extra: 0,
-        unexplained: false,
-        outliers: Vec::new(),
-        error: None,
-    };
-    let names = t.kind.names();
-    match discover(&set.rows, &sim, &options(with_parameters)) {
-        Ok(d) => {
-            o.unexplained = d.json.unexplained.detected;
-            o.outliers = d.json.outliers.iter().map(|x| x.row.clone()).collect();
-            for s in &d.selected {
-                let partners: Vec<CandidateId> = s.confounded.iter().map(|(c, _)| *c).collect();
-                if names.contains(&s.id) {
-                    o.exact = true;
-                    if let Some(truth) = t.kind.truth_as(s.id, t.coef, c0) {
-                        o.z = Some((s.coef - truth) / s.stderr);
-                    }
-                } else if partners.iter().any(|c| names.contains(c)) {
-                    o.partner = true;
-                } else {
-                    o.extra += 1;
-                }
-                o.selected.push(Named {
-                    id: s.id,
-                    coef: s.coef,
-                    stderr: s.stderr,
-                    plausible: s.plausible,
-                    partners,
-                });
-            }
-            o.partner &= !o.exact;
-        }
-        Err(e) => o.error = Some(format!("{e:#}")),
-    }
-    o
-}
-
-/// A campaign's outcomes.
-#[derive(Clone, Debug)]
-pub struct StaticCampaign {
-    /// Sets per kind.
-    pub sets: usize,
-    /// Seed.
-    pub seed: u64,
-    /// The loop's parameters were candidates.
+/// The hidden-statics campaign: the pipeline is the closed loop of the shipped file, with
+/// its whole vocabulary or the additive terms only.
+#[derive(Debug)]
+pub struct Statics {
+    /// The loop's parameters are candidates.
     pub with_parameters: bool,
-    /// Outcomes, kinds in table order.
-    pub outcomes: Vec<StaticOutcome>,
-    /// Wall time, s.
-    pub seconds: f64,
+    /// The pipeline's simulator.
+    pub sim: ClosedLoopSimulator,
+    /// The pipeline's options ([`options`]).
+    pub options: Options,
+    /// The file's current scale factor, mA/g.
+    pub c0: f64,
 }
 
-/// Seed of set `k` of the kind at `kind_index`.
-#[must_use]
-pub fn set_seed(seed: u64, kind_index: usize, k: usize) -> u64 {
-    seed.wrapping_mul(1_000_003)
-        .wrapping_add((kind_index as u64 + 1) * 100_000 + k as u64)
+impl Statics {
+    /// The campaign with the whole vocabulary (`with_parameters`) or the additive terms.
+    #[must_use]
+    pub fn new(with_parameters: bool) -> Self {
+        let nominal = Instrument::kearfott_2401();
+        Statics {
+            with_parameters,
+            c0: nominal.current_sf_ma_per_g,
+            sim: ClosedLoopSimulator {
+                instrument: nominal,
+                options: SimOptions::default(),
+            },
+            options: options(with_parameters),
+        }
+    }
 }
 
 /// Run `sets` sets of every kind (the unperturbed included).
 #[must_use]
-pub fn run(sets: usize, seed: u64, with_parameters: bool) -> StaticCampaign {
-    let t0 = Instant::now();
-    let jobs: Vec<(u64, StaticKind)> = StaticKind::ALL
-        .iter()
-        .enumerate()
-        .flat_map(|(i, &k)| (0..sets).map(move |n| (set_seed(seed, i, n), k)))
-        .collect();
-    let outcomes = jobs
-        .par_iter()
-        .map(|&(s, k)| analyse(s, &generate(s, k), with_parameters))
-        .collect();
-    StaticCampaign {
-        sets,
-        seed,
-        with_parameters,
-        outcomes,
-        seconds: t0.elapsed().as_secs_f64(),
-    }
+pub fn run(sets: usize, seed: u64, with_parameters: bool) -> Run<Statics> {
+    Run::new(Statics::new(with_parameters), sets, seed)
 }
 
 /// Strength from which detection and coverage are asserted, SE.
-pub const ASSERT_FROM_SE: f64 = 6.0;
+pub const ASSERT_FROM_SE: f64 = Naming::FROM_SE;
+
+/// A set's outcome.
+pub type StaticOutcome = Outcome<StaticTruth>;
+
 /// One kind's (or the hidden kinds') figures.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct KindStats {
     /// Sets.
     pub sets: usize,
-    /// Named exactly, among sets of ≥ 6 SE.
-    pub exact6: Count,
-    /// Named exactly or as a partner, among sets of ≥ 6 SE.
-    pub either6: Count,
-    /// Named only as a partner (all strengths).
-    pub partner: Count,
-    /// `|z| ≤ 1.96` among exact namings at ≥ 6 SE.
-    pub coverage: Count,
+    /// How the hidden kinds were named (at ≥ 6 SE).
+    pub naming: Naming,
     /// Hidden kinds: a selection, the truth neither selected nor a partner.
     pub misnamed: Count,
     /// Hidden kinds: the truth named, and a selection beside it that neither is nor names
@@ -850,174 +690,153 @@ impl KindStats {
         self.capped += usize::from(t.capped);
         self.outliers.add(!o.outliers.is_empty());
         if t.kind == StaticKind::Unperturbed {
-            self.wrong.add(!o.selected.is_empty());
+            self.wrong.add(o.any_selection());
             return;
         }
         self.misnamed.add(o.misnamed());
-        self.extra.add(o.extra > 0 && (o.exact || o.partner));
+        self.extra.add(o.extra > 0 && o.exact_or_partner());
         self.wrong.add(o.extra > 0);
-        self.partner.add(o.partner);
-        if t.strength_se >= ASSERT_FROM_SE {
-            let named = o.exact || o.partner;
-            self.exact6.add(o.exact);
-            self.either6.add(named);
-            if !named {
-                self.warned.add(o.unexplained);
-            }
-            if o.exact
-                && let Some(z) = o.z
-            {
-                self.coverage.add(z.abs() <= 1.96);
-            }
+        if self.naming.add(o, t.strength_se) {
+            self.warned.add(o.unexplained);
         }
     }
 }
 
-impl StaticCampaign {
-    /// The figures of the sets that `keep` keeps.
-    fn stats_of(&self, keep: impl Fn(&StaticOutcome) -> bool) -> KindStats {
-        let mut s = KindStats::default();
-        for o in self.outcomes.iter().filter(|o| keep(o)) {
-            s.add(o);
-        }
-        s
-    }
-
+impl Run<Statics> {
     /// The figures of `kind`.
     #[must_use]
-    pub fn stats(&self, kind: StaticKind) -> KindStats {
-        self.stats_of(|o| o.truth.kind == kind)
+    pub fn kind_stats(&self, kind: StaticKind) -> KindStats {
+        self.stats(|o| o.truth.kind == kind, KindStats::add)
     }
 
     /// The hidden kinds together, in the design families `families`.
     #[must_use]
-    pub fn hidden(&self, families: &[usize]) -> KindStats {
-        self.stats_of(|o| {
-            o.truth.kind != StaticKind::Unperturbed && families.contains(&o.truth.design.family())
-        })
+    pub fn hidden_stats(&self, families: &[usize]) -> KindStats {
+        self.stats(
+            |o| {
+                o.truth.kind != StaticKind::Unperturbed
+                    && families.contains(&o.truth.design.family())
+            },
+            KindStats::add,
+        )
+    }
+}
+
+/// The design families over which detection is asserted (pooled): all of them.
+const DETECTION_SCOPE: [usize; 4] = [0, 1, 2, 3];
+
+/// The names of the design families `scope`.
+fn families(scope: &[usize]) -> String {
+    scope
+        .iter()
+        .map(|&i| StaticDesign::FAMILIES[i])
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+impl Campaign for Statics {
+    type Kind = StaticKind;
+    type Truth = StaticTruth;
+
+    fn kinds(&self) -> Vec<StaticKind> {
+        StaticKind::ALL.to_vec()
     }
 
-    /// The design families over which detection is asserted (pooled): all of them.
-    #[must_use]
-    pub fn detection_scope(&self, _ci: bool) -> &'static [usize] {
-        &[0, 1, 2, 3]
+    fn generate(&self, seed: u64, kind: StaticKind) -> (Vec<Condition>, StaticTruth) {
+        let set = generate(seed, kind);
+        (set.rows, set.truth)
     }
 
-    /// The asserted rates that are not met. `ci`: the CI subset's assertions (detection
-    /// with an allowance of one binomial standard error at 5 %).
-    #[must_use]
-    pub fn failures(&self, ci: bool) -> Vec<String> {
-        let mut f = Vec::new();
-        for o in &self.outcomes {
-            if let Some(e) = &o.error {
-                f.push(format!("set {} refused: {e}", o.seed));
-            }
-        }
-        let tail = |c: Count| binomial_upper_tail(c.n, RATE_MAX, c.k);
-        let nulls = self.stats(StaticKind::Unperturbed).wrong;
-        if nulls.too_many() {
-            f.push(format!(
-                "false selections on unperturbed sets: {} = {:.1}%: P(>= {} of {}) = {:.4} at 5%",
-                nulls.cell(),
-                100.0 * nulls.rate(),
-                nulls.k,
-                nulls.n,
-                tail(nulls)
+    fn names<'a>(&self, truth: &'a StaticTruth) -> &'a [CandidateId] {
+        truth.kind.names()
+    }
+
+    fn z(&self, t: &StaticTruth, s: &Selected) -> Option<f64> {
+        t.kind
+            .truth_as(s.id, t.coef, self.c0)
+            .map(|truth| (s.coef - truth) / s.stderr)
+    }
+
+    fn pipeline(&self) -> (&dyn Simulator, &Options) {
+        (&self.sim, &self.options)
+    }
+
+    fn title(&self, run: &Run<Self>) -> String {
+        format!(
+            "hidden-statics campaign: {} sets per kind, seed {}; data: closed loop with the physics in the plant + noise 0.005-0.02 cm/s²; \
+             pipeline: closed loop of the shipped file, {}; {:.1} s",
+            run.sets,
+            run.seed,
+            if self.with_parameters {
+                "whole vocabulary (loop parameters included)"
+            } else {
+                "additive terms only"
+            },
+            run.seconds
+        )
+    }
+
+    fn columns(&self) -> Columns {
+        Naming::columns(vec![
+            vec![("misnamed", 8), ("extra", 8), ("wrong", 8)],
+            vec![("warned", 8)],
+            vec![("capped", 6)],
+            vec![("t8/t12/t24/cf+t8", 16)],
+            vec![("outliers", 8)],
+        ])
+    }
+
+    fn rows(&self, run: &Run<Self>) -> Vec<(String, Vec<String>)> {
+        let row = |name: String, k: KindStats, null: bool| {
+            let dash = |c: Count| if null { "-".to_string() } else { c.cell() };
+            let mut cells = vec![k.sets.to_string()];
+            cells.extend(k.naming.cells(dash));
+            cells.extend([
+                dash(k.misnamed),
+                dash(k.extra),
+                k.wrong.marked(),
+                dash(k.warned),
+                if null {
+                    "-".to_string()
+                } else {
+                    k.capped.to_string()
+                },
+                k.designs.map(|x| x.to_string()).join("/"),
+                k.outliers.cell(),
+            ]);
+            (name, cells)
+        };
+        let mut v: Vec<(String, Vec<String>)> = StaticKind::ALL
+            .iter()
+            .filter(|&&kind| kind != StaticKind::Unperturbed)
+            .map(|&kind| row(kind.name().to_string(), run.kind_stats(kind), false))
+            .collect();
+        v.push(row(
+            "all hidden".into(),
+            run.hidden_stats(&DETECTION_SCOPE),
+            false,
+        ));
+        v.push(row(
+            "unperturbed".into(),
+            run.kind_stats(StaticKind::Unperturbed),
+            true,
+        ));
+        for (f, name) in StaticDesign::FAMILIES.iter().enumerate() {
+            v.push(row(format!("  in {name}"), run.hidden_stats(&[f]), false));
+            v.push(row(
+                format!("  unpert. {name}"),
+                run.stats(
+                    |o| o.truth.kind == StaticKind::Unperturbed && o.truth.design.family() == f,
+                    KindStats::add,
+                ),
+                true,
             ));
         }
-        let h = self.hidden(&[0, 1, 2, 3]);
-        if h.wrong.too_many() {
-            f.push(format!(
-                "misnamings (a selection that neither is nor names the truth): {} = {:.1}%: P(>= {} of {}) = {:.4} at 5%",
-                h.wrong.cell(),
-                100.0 * h.wrong.rate(),
-                h.wrong.k,
-                h.wrong.n,
-                tail(h.wrong)
-            ));
-        }
-        let c = h.coverage;
-        if c.n >= 20 {
-            let (lo, hi) = binomial_interval(c.n, 0.95, 0.99);
-            if c.k < lo || c.k > hi {
-                f.push(format!(
-                    "coverage: |z| <= 1.96 in {} = {:.1}%, outside [{lo}, {hi}] (99% of Binomial({}, 0.95))",
-                    c.cell(),
-                    100.0 * c.rate(),
-                    c.n
-                ));
-            }
-        }
-        let scope = self.detection_scope(ci);
-        if !scope.is_empty() {
-            let e = self.hidden(scope).either6;
-            #[allow(clippy::cast_precision_loss)]
-            let allow = if ci {
-                (RATE_MAX * (1.0 - RATE_MAX) / e.n.max(1) as f64).sqrt()
-            } else {
-                0.0
-            };
-            if e.n == 0 || e.rate() < DETECTION_MIN - allow {
-                f.push(format!(
-                    "named (exactly or as a partner) at >= 6 SE in {}: {} = {:.1}% < {:.1}%",
-                    scope
-                        .iter()
-                        .map(|&i| StaticDesign::FAMILIES[i])
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    e.cell(),
-                    100.0 * e.rate(),
-                    100.0 * (DETECTION_MIN - allow)
-                ));
-            }
-        }
-        f
+        v
     }
 
-    /// The sets that matter: misses at ≥ 6 SE, coverage outliers, misnamings and extra
-    /// selections, false selections, refusals.
-    #[must_use]
-    pub fn notable(&self) -> String {
+    fn legend(&self, _run: &Run<Self>, ci: bool) -> String {
         let mut s = String::new();
-        for o in &self.outcomes {
-            let strong = o.truth.strength_se >= ASSERT_FROM_SE;
-            let why = if o.error.is_some() {
-                Some("refused")
-            } else if o.truth.kind == StaticKind::Unperturbed {
-                (!o.selected.is_empty()).then_some("false selection")
-            } else if o.misnamed() {
-                Some("misnamed")
-            } else if strong && !(o.exact || o.partner) {
-                Some("missed")
-            } else if o.extra > 0 {
-                Some("extra selection")
-            } else if strong && o.z.is_some_and(|z| z.abs() > 1.96) {
-                Some("|z| > 1.96")
-            } else if !o.outliers.is_empty() {
-                Some("outlier flagged")
-            } else {
-                None
-            };
-            if let Some(w) = why {
-                let _ = writeln!(s, "{w:<16} {}", o.line());
-            }
-        }
-        s
-    }
-
-    /// Every set, one line each.
-    #[must_use]
-    pub fn log(&self) -> String {
-        self.outcomes.iter().fold(String::new(), |mut s, o| {
-            let _ = writeln!(s, "{}", o.line());
-            s
-        })
-    }
-
-    /// What the table's columns mean and what the campaign asserts.
-    fn legend(&self, ci: bool) -> String {
-        let mut s = String::new();
-        let scope = self.detection_scope(ci);
         let _ = writeln!(
             s,
             "ex>=6: an accepted name selected (scale factor: scale_factor or torquer_sf), among the sets of >= 6 SE; e|p: exactly or\n\
@@ -1028,119 +847,94 @@ impl StaticCampaign {
              t8/t12/t24/cf+t8: sets per design (8-, 12-, 24-point tumble, centrifuge after an 8-point tumble), and per design below;\n\
              outliers: sets with a row flagged as a suspected gross error (none is injected).\n\
              Asserted: wrong over all hidden kinds and over the unperturbed sets consistent with at most 5%; coverage in the 99% band\n\
-             of Binomial(n, 0.95) from 20 exact namings; e|p>=6 >= 95%{} {}.",
+             of Binomial(n, 0.95) from 20 exact namings; e|p>=6 >= 95%{} over {}.",
             if ci {
                 " less one binomial standard error"
             } else {
                 ""
             },
-            if scope.is_empty() {
-                "not asserted with this vocabulary in CI (shown)".to_string()
-            } else {
-                format!(
-                    "over {}",
-                    scope
-                        .iter()
-                        .map(|&i| StaticDesign::FAMILIES[i])
-                        .collect::<Vec<_>>()
-                        .join(", ")
-                )
-            }
+            families(&DETECTION_SCOPE)
         );
         s
     }
 
-    /// The one table (per kind, then per design family) and the verdict.
-    #[must_use]
-    pub fn table(&self, ci: bool) -> String {
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "hidden-statics campaign: {} sets per kind, seed {}; data: closed loop with the physics in the plant + noise 0.005-0.02 cm/s²; \
-             pipeline: closed loop of the shipped file, {}; {:.1} s",
-            self.sets,
-            self.seed,
-            if self.with_parameters {
-                "whole vocabulary (loop parameters included)"
-            } else {
-                "additive terms only"
-            },
-            self.seconds
+    fn checks(&self, run: &Run<Self>, ci: bool) -> Vec<String> {
+        let h = run.hidden_stats(&DETECTION_SCOPE);
+        let detection = format!(
+            "named (exactly or as a partner) at >= 6 SE in {}",
+            families(&DETECTION_SCOPE)
         );
-        let _ = writeln!(
-            s,
-            "{:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {:>16} | {:>8}",
-            "hidden",
-            "sets",
-            "ex>=6",
-            "e|p>=6",
-            "partner",
-            "coverage",
-            "misnamed",
-            "extra",
-            "wrong",
-            "warned",
-            "capped",
-            "t8/t12/t24/cf+t8",
-            "outliers"
-        );
-        let row = |s: &mut String, name: &str, k: &KindStats, null: bool| {
-            let designs = k.designs.map(|x| x.to_string()).join("/");
-            let dash = |c: Count| if null { "-".to_string() } else { c.cell() };
-            let mark = if k.wrong.too_many() { "!" } else { "" };
-            let _ = writeln!(
-                s,
-                "{name:<14} {:>5} | {:>9} {:>9} | {:>8} | {:>9} | {:>8} {:>8} {:>8} | {:>8} | {:>6} | {designs:>16} | {:>8}",
-                k.sets,
-                dash(k.exact6),
-                dash(k.either6),
-                dash(k.partner),
-                dash(k.coverage),
-                dash(k.misnamed),
-                dash(k.extra),
-                format!("{}{mark}", k.wrong.cell()),
-                dash(k.warned),
-                if null {
-                    "-".to_string()
-                } else {
-                    k.capped.to_string()
-                },
-                k.outliers.cell(),
-            );
-        };
-        for kind in StaticKind::ALL {
-            if kind != StaticKind::Unperturbed {
-                row(&mut s, kind.name(), &self.stats(kind), false);
-            }
-        }
-        row(&mut s, "all hidden", &self.hidden(&[0, 1, 2, 3]), false);
-        row(
-            &mut s,
-            "unperturbed",
-            &self.stats(StaticKind::Unperturbed),
-            true,
-        );
-        for (f, name) in StaticDesign::FAMILIES.iter().enumerate() {
-            row(&mut s, &format!("  in {name}"), &self.hidden(&[f]), false);
-            row(
-                &mut s,
-                &format!("  unpert. {name}"),
-                &self.stats_of(|o| {
-                    o.truth.kind == StaticKind::Unperturbed && o.truth.design.family() == f
-                }),
-                true,
-            );
-        }
-        s.push_str(&self.legend(ci));
-        let failures = self.failures(ci);
-        if failures.is_empty() {
-            let _ = writeln!(s, "asserted rates: all met");
+        [
+            at_most_rate(
+                "false selections on unperturbed sets",
+                run.kind_stats(StaticKind::Unperturbed).wrong,
+            ),
+            at_most_rate(
+                "misnamings (a selection that neither is nor names the truth)",
+                h.wrong,
+            ),
+            coverage_in_band(h.naming.coverage, 20),
+            detected(&detection, h.naming.either, ci),
+        ]
+        .into_iter()
+        .flatten()
+        .collect()
+    }
+
+    fn notable(&self, o: &StaticOutcome) -> Option<&'static str> {
+        let strong = o.truth.strength_se >= ASSERT_FROM_SE;
+        if o.error.is_some() {
+            Some("refused")
+        } else if o.truth.kind == StaticKind::Unperturbed {
+            o.any_selection().then_some("false selection")
+        } else if o.misnamed() {
+            Some("misnamed")
+        } else if strong && !o.exact_or_partner() {
+            Some("missed")
+        } else if o.extra > 0 {
+            Some("extra selection")
+        } else if strong && o.z.is_some_and(|z| z.abs() > 1.96) {
+            Some("|z| > 1.96")
+        } else if !o.outliers.is_empty() {
+            Some("outlier flagged")
         } else {
-            for f in &failures {
-                let _ = writeln!(s, "NOT MET: {f}");
-            }
+            None
         }
-        s
+    }
+
+    fn line(&self, o: &StaticOutcome) -> String {
+        let t = &o.truth;
+        let sel: Vec<String> = o
+            .selected
+            .iter()
+            .map(|s| {
+                let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
+                if !s.plausible {
+                    x.push('?');
+                }
+                if !s.partners.is_empty() {
+                    let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();
+                    let _ = write!(x, " ~ {}", p.join("/"));
+                }
+                x
+            })
+            .collect();
+        format!(
+            "{:<14} seed {:<12} {:>5.1} SE{} {:.3e} {:<6} {:<20} sigma {:.4}{} -> [{}]{}{}{}",
+            t.kind.name(),
+            o.seed,
+            t.strength_se,
+            if t.capped { "*" } else { " " },
+            t.coef,
+            t.kind.unit(),
+            t.design.name(),
+            t.sigma,
+            if t.sigma_written { "" } else { " (est.)" },
+            sel.join("; "),
+            o.unexplained_note(),
+            o.z.map_or(String::new(), |z| format!("  z {z:+.2}")),
+            o.outliers_and_error("  "),
+        )
     }
 }
 

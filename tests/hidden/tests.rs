@@ -275,13 +275,15 @@ fn explain_one_set() {
             ptsa_host_sim::discovery::sim::closed_loop(1),
         )
     };
-    let set = generate(seed, kind, &source, &GenOptions::default());
-    let d = discover(&set.rows, &*fit, &Options::default()).unwrap();
-    eprintln!("{:?}", set.truth);
+    let c = effects::Effects::new(source, fit);
+    let (rows, truth) = c.generate(seed, kind);
+    let (sim, opts) = c.pipeline();
+    let d = discover(&rows, sim, opts).unwrap();
+    eprintln!("{truth:?}");
     eprintln!(
         "{}",
         ptsa_host_sim::discovery::show::text_report(&kind_name, &d)
     );
     eprintln!("{:?}", d.json.unexplained);
-    eprintln!("{}", score(&set, &d).line(seed));
+    eprintln!("{}", c.line(&campaign::analyse(&c, seed, &rows, truth)));
 }
