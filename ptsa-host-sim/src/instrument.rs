@@ -257,6 +257,391 @@ struct FileT {
     plausibility: Option<PlausibilityT>,
 }
 
+/// How an entry of the instrument file is written.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Form {
+    /// A toleranced table `{ value = ..., tol_pct | tol_abs | min and max }`, required.
+    Toleranced,
+    /// A bare number (exact, never identified) or a toleranced table: files older than the
+    /// entry's tolerance give a number.
+    NumberOrToleranced,
+    /// A toleranced table that may be left out (then 0, exact).
+    OptionalToleranced,
+    /// A bare number: exact, never identified.
+    Number,
+}
+
+impl Form {
+    /// Whether the entry can carry a tolerance, and so be set, read, rewritten
+    /// (`--write-instrument`) and fitted by `ptsa discover`.
+    #[must_use]
+    pub const fn can_be_toleranced(self) -> bool {
+        !matches!(self, Form::Number)
+    }
+}
+
+/// Where a [`Parameter`] is in the parsed file, in the type its [`Form`] is read as.
+enum Raw<'a> {
+    Param(&'a Spanned<Param>),
+    Optional(Option<&'a Spanned<Param>>),
+    NumOrParam(&'a Spanned<NumOrParam>),
+    Num(&'a Spanned<Num>),
+}
+
+/// One numeric entry of the `[pendulum]`, `[pickoff]`, `[torquer]`, `[electronics]` and
+/// `[stops]` tables of the instrument file: its key (also its tolerance's key), unit, form,
+/// valid range, and the [`Instrument`] field it sets. [`PARAMETERS`] lists them all; parsing,
+/// [`Instrument::get`], [`Instrument::set`], [`Instrument::rewrite`] and the tolerance box
+/// all go through that one table, and the loop-parameter candidates of
+/// [`crate::effects::REGISTRY`] refer to its entries.
+#[derive(Clone, Copy)]
+pub struct Parameter {
+    /// Key in the file, `section.key`, units in the name.
+    pub key: &'static str,
+    /// Unit in the file.
+    pub unit: &'static str,
+    /// What it is.
+    pub description: &'static str,
+    /// How it is written.
+    pub form: Form,
+    /// The valid range, as the refusal says it ("expected ...").
+    expected: &'static str,
+    /// Whether a value (in the file's unit) is in the valid range; the file is there for a
+    /// range that depends on another entry, which is checked before it.
+    valid: fn(f64, &FileT) -> bool,
+    /// The entry in the parsed file.
+    raw: fn(&FileT) -> Raw<'_>,
+    /// The value from the instrument, in the file's unit.
+    read: fn(&Instrument) -> f64,
+    /// Set the instrument's field from a value in the file's unit.
+    write: fn(&mut Instrument, f64),
+}
+
+impl fmt::Debug for Parameter {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Parameter")
+            .field("key", &self.key)
+            .field("unit", &self.unit)
+            .field("form", &self.form)
+            .finish_non_exhaustive()
+    }
+}
+
+impl Parameter {
+    /// Its value in `instr`, in the file's unit.
+    #[must_use]
+    pub fn get(&self, instr: &Instrument) -> f64 {
+        (self.read)(instr)
+    }
+
+    /// Set it in `instr` from a value in the file's unit.
+    pub fn set(&self, instr: &mut Instrument, v: f64) {
+        (self.write)(instr, v);
+    }
+}
+
+/// `pendulum.pendulosity_dyn_cm_per_g`.
+pub const PENDULOSITY: Parameter = Parameter {
+    key: "pendulum.pendulosity_dyn_cm_per_g",
+    unit: "dyn·cm/g",
+    description: "pendulosity P, torque per g of input (Table 2.1: 1100)",
+    form: Form::Toleranced,
+    expected: "a pendulosity > 0 dyn·cm/g",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Param(&f.pendulum.pendulosity_dyn_cm_per_g),
+    read: |i| i.pendulosity_dyn_cm_per_g,
+    write: |i, v| i.pendulosity_dyn_cm_per_g = v,
+};
+/// `pendulum.freedom_mrad`.
+pub const FREEDOM: Parameter = Parameter {
+    key: "pendulum.freedom_mrad",
+    unit: "mrad",
+    description: "mechanical freedom: the stops' position",
+    form: Form::Toleranced,
+    expected: "0 < freedom < 2.5 mrad (the ADC's full scale)",
+    valid: |x, _| x > 0.0 && x < 2.5,
+    raw: |f| Raw::Param(&f.pendulum.freedom_mrad),
+    read: |i| i.freedom_rad * 1e3,
+    write: |i, v| i.freedom_rad = v * 1e-3,
+};
+/// `pendulum.inertia_oa_g_cm2`.
+pub const INERTIA: Parameter = Parameter {
+    key: "pendulum.inertia_oa_g_cm2",
+    unit: "g·cm²",
+    description: "output-axis inertia I_OA (Table 2.1: 14)",
+    form: Form::Toleranced,
+    expected: "an inertia > 0 g·cm²",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Param(&f.pendulum.inertia_oa_g_cm2),
+    read: |i| i.inertia_dyn_cm_s2,
+    write: |i, v| i.inertia_dyn_cm_s2 = v,
+};
+/// `pendulum.spring_dyn_cm_per_rad`.
+pub const SPRING: Parameter = Parameter {
+    key: "pendulum.spring_dyn_cm_per_rad",
+    unit: "dyn·cm/rad",
+    description: "flexure spring K (Table 2.1: 1540)",
+    form: Form::Toleranced,
+    expected: "a spring rate >= 0 dyn·cm/rad",
+    valid: |x, _| non_negative(x),
+    raw: |f| Raw::Param(&f.pendulum.spring_dyn_cm_per_rad),
+    read: |i| i.spring_dyn_cm_rad,
+    write: |i, v| i.spring_dyn_cm_rad = v,
+};
+/// `pendulum.damping_dyn_cm_s`.
+pub const DAMPING: Parameter = Parameter {
+    key: "pendulum.damping_dyn_cm_s",
+    unit: "dyn·cm·s",
+    description: "damping C_OA of eq. 4.2 (Table 2.1: 76 400)",
+    form: Form::Toleranced,
+    expected: "a damping > 0 dyn·cm·s",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Param(&f.pendulum.damping_dyn_cm_s),
+    read: |i| i.damping_dyn_cm_s,
+    write: |i, v| i.damping_dyn_cm_s = v,
+};
+/// `pendulum.anisoinertia_g_cm2`.
+pub const ANISOINERTIA: Parameter = Parameter {
+    key: "pendulum.anisoinertia_g_cm2",
+    unit: "g·cm²",
+    description: "anisoinertia I_PA − I_IA",
+    form: Form::Toleranced,
+    expected: "|I_PA − I_IA| < 100 g·cm²",
+    valid: |x, _| x.abs() < 100.0,
+    raw: |f| Raw::Param(&f.pendulum.anisoinertia_g_cm2),
+    read: |i| i.anisoinertia_g_cm2,
+    write: |i, v| i.anisoinertia_g_cm2 = v,
+};
+/// `pickoff.scale_factor_v_per_rad`.
+pub const PICKOFF_SF: Parameter = Parameter {
+    key: "pickoff.scale_factor_v_per_rad",
+    unit: "V/rad",
+    description: "pickoff scale factor (Table 2.1: 10)",
+    form: Form::Toleranced,
+    expected: "a pickoff scale factor > 0 V/rad",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Param(&f.pickoff.scale_factor_v_per_rad),
+    read: |i| i.pickoff_v_per_rad,
+    write: |i, v| i.pickoff_v_per_rad = v,
+};
+/// `pickoff.quadrature_null_uv`.
+pub const QUADRATURE: Parameter = Parameter {
+    key: "pickoff.quadrature_null_uv",
+    unit: "µV",
+    description: "quadrature null at the pickoff",
+    form: Form::Toleranced,
+    expected: "a quadrature null >= 0 µV",
+    valid: |x, _| non_negative(x),
+    raw: |f| Raw::Param(&f.pickoff.quadrature_null_uv),
+    read: |i| i.quadrature_v * 1e6,
+    write: |i, v| i.quadrature_v = v * 1e-6,
+};
+/// `pickoff.phase_angle_deg`.
+pub const PHASE: Parameter = Parameter {
+    key: "pickoff.phase_angle_deg",
+    unit: "deg",
+    description: "demodulator phase error against the pickoff",
+    form: Form::Toleranced,
+    expected: "|phase angle| < 60 deg",
+    valid: |x, _| x.abs() < 60.0,
+    raw: |f| Raw::Param(&f.pickoff.phase_angle_deg),
+    read: |i| i.phase_error_rad.to_degrees(),
+    write: |i, v| i.phase_error_rad = v.to_radians(),
+};
+/// `pickoff.noise_uv_rms`.
+pub const NOISE: Parameter = Parameter {
+    key: "pickoff.noise_uv_rms",
+    unit: "µV rms",
+    description: "pickoff-referred noise per sample",
+    form: Form::Toleranced,
+    expected: "a noise >= 0 µV rms",
+    valid: |x, _| non_negative(x),
+    raw: |f| Raw::Param(&f.pickoff.noise_uv_rms),
+    read: |i| i.noise_v_rms * 1e6,
+    write: |i, v| i.noise_v_rms = v * 1e-6,
+};
+/// `torquer.current_scale_factor_ma_per_g`.
+pub const TORQUER_SF: Parameter = Parameter {
+    key: "torquer.current_scale_factor_ma_per_g",
+    unit: "mA/g",
+    description: "torquer current scale factor (Table 2.1: 0.99)",
+    form: Form::Toleranced,
+    expected: "a current scale factor > 0 mA/g",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Param(&f.torquer.current_scale_factor_ma_per_g),
+    read: |i| i.current_sf_ma_per_g,
+    write: |i, v| i.current_sf_ma_per_g = v,
+};
+/// `torquer.time_constant_us`.
+pub const TORQUER_TAU: Parameter = Parameter {
+    key: "torquer.time_constant_us",
+    unit: "µs",
+    description: "torquer current rise time constant (Table 2.1: 0.2 to 20)",
+    form: Form::Toleranced,
+    expected: "a time constant > 0 µs",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Param(&f.torquer.time_constant_us),
+    read: |i| i.torquer_tau_s * 1e6,
+    write: |i, v| i.torquer_tau_s = v * 1e-6,
+};
+/// `electronics.scale_factor_cm_s2`.
+pub const SCALE_FACTOR: Parameter = Parameter {
+    key: "electronics.scale_factor_cm_s2",
+    unit: "cm/s²",
+    description: "the loop's target full scale (the measured SF)",
+    form: Form::Number,
+    expected: "a scale factor > 0 cm/s²",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Num(&f.electronics.scale_factor_cm_s2),
+    read: |i| i.sf_cm_s2,
+    write: |i, v| i.sf_cm_s2 = v,
+};
+/// `electronics.bias_cm_s2`.
+pub const BIAS: Parameter = Parameter {
+    key: "electronics.bias_cm_s2",
+    unit: "cm/s²",
+    description: "bias A_b, a torque P·A_b on the pendulum",
+    form: Form::Number,
+    expected: "|bias| below the scale factor",
+    valid: |x, f| x.abs() < f.electronics.scale_factor_cm_s2.get_ref().0,
+    raw: |f| Raw::Num(&f.electronics.bias_cm_s2),
+    read: |i| i.bias_cm_s2,
+    write: |i, v| i.bias_cm_s2 = v,
+};
+/// `electronics.amplifier_gain`.
+pub const AMPLIFIER_GAIN: Parameter = Parameter {
+    key: "electronics.amplifier_gain",
+    unit: "V/V",
+    description: "amplifier gain ahead of the ADC",
+    form: Form::NumberOrToleranced,
+    expected: "a gain > 0",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::NumOrParam(&f.electronics.amplifier_gain),
+    read: |i| i.amp_gain,
+    write: |i, v| i.amp_gain = v,
+};
+/// `electronics.demodulator_bandwidth_hz`.
+pub const DEMODULATOR_BANDWIDTH: Parameter = Parameter {
+    key: "electronics.demodulator_bandwidth_hz",
+    unit: "Hz",
+    description: "demodulator low-pass corner",
+    form: Form::Number,
+    expected: "a bandwidth > 0 Hz",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Num(&f.electronics.demodulator_bandwidth_hz),
+    read: |i| i.demod_bandwidth_hz,
+    write: |i, v| i.demod_bandwidth_hz = v,
+};
+/// `electronics.adc_full_scale_v`.
+pub const ADC_FULL_SCALE: Parameter = Parameter {
+    key: "electronics.adc_full_scale_v",
+    unit: "V",
+    description: "ADC full scale, ±",
+    form: Form::Number,
+    expected: "a full scale > 0 V",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Num(&f.electronics.adc_full_scale_v),
+    read: |i| i.adc_full_scale_v,
+    write: |i, v| i.adc_full_scale_v = v,
+};
+/// `electronics.clock_hz`.
+pub const CLOCK: Parameter = Parameter {
+    key: "electronics.clock_hz",
+    unit: "Hz",
+    description: "the loop's clock",
+    form: Form::Number,
+    expected: "a clock >= 1000 Hz",
+    valid: |x, _| x >= 1000.0,
+    raw: |f| Raw::Num(&f.electronics.clock_hz),
+    read: |i| i.clock_hz,
+    write: |i, v| i.clock_hz = v,
+};
+/// `electronics.local_gravity_cm_s2`.
+pub const LOCAL_GRAVITY: Parameter = Parameter {
+    key: "electronics.local_gravity_cm_s2",
+    unit: "cm/s²",
+    description: "local gravity",
+    form: Form::Number,
+    expected: "gravity > 0 cm/s²",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Num(&f.electronics.local_gravity_cm_s2),
+    read: |i| i.g_cm_s2,
+    write: |i, v| i.g_cm_s2 = v,
+};
+/// `electronics.adc_offset_mv`.
+pub const ADC_OFFSET: Parameter = Parameter {
+    key: "electronics.adc_offset_mv",
+    unit: "mV",
+    description: "offset at the ADC's input, after the amplifier",
+    form: Form::OptionalToleranced,
+    expected: "an offset within the ADC's full scale, mV",
+    valid: |x, f| x.abs() < 1e3 * f.electronics.adc_full_scale_v.get_ref().0,
+    raw: |f| Raw::Optional(f.electronics.adc_offset_mv.as_ref()),
+    read: |i| i.adc_offset_v * 1e3,
+    write: |i, v| i.adc_offset_v = v * 1e-3,
+};
+/// `stops.stiffness_dyn_cm_per_rad`.
+pub const STOP_STIFFNESS: Parameter = Parameter {
+    key: "stops.stiffness_dyn_cm_per_rad",
+    unit: "dyn·cm/rad",
+    description: "stop contact stiffness",
+    form: Form::Number,
+    expected: "a stiffness > 0 dyn·cm/rad",
+    valid: |x, _| positive(x),
+    raw: |f| Raw::Num(&f.stops.stiffness_dyn_cm_per_rad),
+    read: |i| i.stop_stiffness_dyn_cm_rad,
+    write: |i, v| i.stop_stiffness_dyn_cm_rad = v,
+};
+/// `stops.damping_dyn_cm_s`.
+pub const STOP_DAMPING: Parameter = Parameter {
+    key: "stops.damping_dyn_cm_s",
+    unit: "dyn·cm·s",
+    description: "stop contact damping",
+    form: Form::Number,
+    expected: "a damping >= 0 dyn·cm·s",
+    valid: |x, _| non_negative(x),
+    raw: |f| Raw::Num(&f.stops.damping_dyn_cm_s),
+    read: |i| i.stop_damping_dyn_cm_s,
+    write: |i, v| i.stop_damping_dyn_cm_s = v,
+};
+
+/// Every numeric entry of the file outside `[plausibility]`, in the order they are checked
+/// (the file's order; an entry whose range depends on another comes after it). The
+/// tolerance box ([`Instrument::tolerances`]) follows this order.
+pub const PARAMETERS: &[Parameter] = &[
+    PENDULOSITY,
+    FREEDOM,
+    INERTIA,
+    SPRING,
+    DAMPING,
+    ANISOINERTIA,
+    PICKOFF_SF,
+    QUADRATURE,
+    PHASE,
+    NOISE,
+    TORQUER_SF,
+    TORQUER_TAU,
+    SCALE_FACTOR,
+    BIAS,
+    AMPLIFIER_GAIN,
+    DEMODULATOR_BANDWIDTH,
+    ADC_FULL_SCALE,
+    CLOCK,
+    LOCAL_GRAVITY,
+    ADC_OFFSET,
+    STOP_STIFFNESS,
+    STOP_DAMPING,
+];
+
+/// The entry of [`PARAMETERS`] with file key `key` that can carry a tolerance (the keys
+/// [`Instrument::get`], [`Instrument::set`] and [`Instrument::rewrite`] accept).
+#[must_use]
+pub fn toleranceable(key: &str) -> Option<&'static Parameter> {
+    PARAMETERS
+        .iter()
+        .find(|p| p.key == key && p.form.can_be_toleranced())
+}
+
 /// The largest magnitude of each kind of candidate coefficient that is physically plausible
 /// for this instrument (`[plausibility]` of the instrument file; every key optional). A
 /// coefficient that `ptsa discover` selects beyond its bound is reported with
@@ -469,179 +854,34 @@ impl Ctx<'_> {
         Ok(v)
     }
 
-    /// `[pendulum]`: pendulosity dyn·cm/g, freedom mrad, inertia g·cm², spring dyn·cm/rad,
-    /// damping dyn·cm·s, anisoinertia g·cm² (the file's units).
-    fn pendulum(&self, p: &PendulumT, t: &mut Vec<Tolerance>) -> Result<[f64; 6], InstrumentError> {
-        Ok([
-            self.param(
-                "pendulum.pendulosity_dyn_cm_per_g",
-                &p.pendulosity_dyn_cm_per_g,
-                positive,
-                "a pendulosity > 0 dyn·cm/g",
-                t,
-            )?,
-            self.param(
-                "pendulum.freedom_mrad",
-                &p.freedom_mrad,
-                |x| x > 0.0 && x < 2.5,
-                "0 < freedom < 2.5 mrad (the ADC's full scale)",
-                t,
-            )?,
-            self.param(
-                "pendulum.inertia_oa_g_cm2",
-                &p.inertia_oa_g_cm2,
-                positive,
-                "an inertia > 0 g·cm²",
-                t,
-            )?,
-            self.param(
-                "pendulum.spring_dyn_cm_per_rad",
-                &p.spring_dyn_cm_per_rad,
-                non_negative,
-                "a spring rate >= 0 dyn·cm/rad",
-                t,
-            )?,
-            self.param(
-                "pendulum.damping_dyn_cm_s",
-                &p.damping_dyn_cm_s,
-                positive,
-                "a damping > 0 dyn·cm·s",
-                t,
-            )?,
-            self.param(
-                "pendulum.anisoinertia_g_cm2",
-                &p.anisoinertia_g_cm2,
-                |x| x.abs() < 100.0,
-                "|I_PA − I_IA| < 100 g·cm²",
-                t,
-            )?,
-        ])
-    }
-
-    /// `[pickoff]`: scale factor V/rad, quadrature null µV, phase angle deg, noise µV rms.
-    fn pickoff(&self, k: &PickoffT, t: &mut Vec<Tolerance>) -> Result<[f64; 4], InstrumentError> {
-        Ok([
-            self.param(
-                "pickoff.scale_factor_v_per_rad",
-                &k.scale_factor_v_per_rad,
-                positive,
-                "a pickoff scale factor > 0 V/rad",
-                t,
-            )?,
-            self.param(
-                "pickoff.quadrature_null_uv",
-                &k.quadrature_null_uv,
-                non_negative,
-                "a quadrature null >= 0 µV",
-                t,
-            )?,
-            self.param(
-                "pickoff.phase_angle_deg",
-                &k.phase_angle_deg,
-                |x| x.abs() < 60.0,
-                "|phase angle| < 60 deg",
-                t,
-            )?,
-            self.param(
-                "pickoff.noise_uv_rms",
-                &k.noise_uv_rms,
-                non_negative,
-                "a noise >= 0 µV rms",
-                t,
-            )?,
-        ])
-    }
-
-    /// `[torquer]`: current scale factor mA/g, time constant µs.
-    fn torquer(&self, q: &TorquerT, t: &mut Vec<Tolerance>) -> Result<[f64; 2], InstrumentError> {
-        Ok([
-            self.param(
-                "torquer.current_scale_factor_ma_per_g",
-                &q.current_scale_factor_ma_per_g,
-                positive,
-                "a current scale factor > 0 mA/g",
-                t,
-            )?,
-            self.param(
-                "torquer.time_constant_us",
-                &q.time_constant_us,
-                positive,
-                "a time constant > 0 µs",
-                t,
-            )?,
-        ])
-    }
-
-    /// `[electronics]`: scale factor cm/s², bias cm/s², amplifier gain V/V, demodulator
-    /// bandwidth Hz, ADC full scale V, clock Hz, local gravity cm/s².
-    fn electronics(
+    /// One entry of [`PARAMETERS`], checked: in range, and a toleranced one's band (pushed
+    /// onto `tolerances`) within the range too. An optional entry left out is 0.
+    fn entry(
         &self,
-        e: &ElectronicsT,
-        t: &mut Vec<Tolerance>,
-    ) -> Result<[f64; 8], InstrumentError> {
-        let sf = self.scalar(
-            "electronics.scale_factor_cm_s2",
-            &e.scale_factor_cm_s2,
-            positive,
-            "a scale factor > 0 cm/s²",
-        )?;
-        Ok([
-            sf,
-            self.scalar(
-                "electronics.bias_cm_s2",
-                &e.bias_cm_s2,
-                |x| x.abs() < sf,
-                "|bias| below the scale factor",
-            )?,
-            match e.amplifier_gain.get_ref() {
-                NumOrParam::Num(n) => self.scalar(
-                    "electronics.amplifier_gain",
-                    &Spanned::new(e.amplifier_gain.span(), *n),
-                    positive,
-                    "a gain > 0",
-                )?,
+        p: &Parameter,
+        f: &FileT,
+        tolerances: &mut Vec<Tolerance>,
+    ) -> Result<f64, InstrumentError> {
+        let ok = |x: f64| (p.valid)(x, f);
+        match (p.raw)(f) {
+            Raw::Param(q) => self.param(p.key, q, ok, p.expected, tolerances),
+            Raw::Optional(q) => q.map_or(Ok(0.0), |q| {
+                self.param(p.key, q, ok, p.expected, tolerances)
+            }),
+            Raw::Num(n) => self.scalar(p.key, n, ok, p.expected),
+            Raw::NumOrParam(g) => match g.get_ref() {
+                NumOrParam::Num(n) => {
+                    self.scalar(p.key, &Spanned::new(g.span(), *n), ok, p.expected)
+                }
                 NumOrParam::Param(q) => self.param(
-                    "electronics.amplifier_gain",
-                    &Spanned::new(e.amplifier_gain.span(), q.clone()),
-                    positive,
-                    "a gain > 0",
-                    t,
-                )?,
+                    p.key,
+                    &Spanned::new(g.span(), q.clone()),
+                    ok,
+                    p.expected,
+                    tolerances,
+                ),
             },
-            self.scalar(
-                "electronics.demodulator_bandwidth_hz",
-                &e.demodulator_bandwidth_hz,
-                positive,
-                "a bandwidth > 0 Hz",
-            )?,
-            self.scalar(
-                "electronics.adc_full_scale_v",
-                &e.adc_full_scale_v,
-                positive,
-                "a full scale > 0 V",
-            )?,
-            self.scalar(
-                "electronics.clock_hz",
-                &e.clock_hz,
-                |x| x >= 1000.0,
-                "a clock >= 1000 Hz",
-            )?,
-            self.scalar(
-                "electronics.local_gravity_cm_s2",
-                &e.local_gravity_cm_s2,
-                positive,
-                "gravity > 0 cm/s²",
-            )?,
-            e.adc_offset_mv.as_ref().map_or(Ok(0.0), |p| {
-                self.param(
-                    "electronics.adc_offset_mv",
-                    p,
-                    |x| x.abs() < 1e3 * e.adc_full_scale_v.get_ref().0,
-                    "an offset within the ADC's full scale, mV",
-                    t,
-                )
-            })?,
-        ])
+        }
     }
 
     /// `[plausibility]` (optional, every key optional): the bounds, with defaults.
@@ -705,24 +945,6 @@ impl Ctx<'_> {
                 "s⁴/cm²",
             )?,
         })
-    }
-
-    /// `[stops]`: contact stiffness dyn·cm/rad, contact damping dyn·cm·s.
-    fn stops(&self, s: &StopsT) -> Result<[f64; 2], InstrumentError> {
-        Ok([
-            self.scalar(
-                "stops.stiffness_dyn_cm_per_rad",
-                &s.stiffness_dyn_cm_per_rad,
-                positive,
-                "a stiffness > 0 dyn·cm/rad",
-            )?,
-            self.scalar(
-                "stops.damping_dyn_cm_s",
-                &s.damping_dyn_cm_s,
-                non_negative,
-                "a damping >= 0 dyn·cm·s",
-            )?,
-        ])
     }
 }
 
@@ -847,41 +1069,55 @@ impl Instrument {
             cx.err(at, user_message(e.message()))
         })?;
         let mut tol = Vec::new();
-        let [pendulosity, freedom_mrad, inertia, spring, damping, aniso] =
-            cx.pendulum(&f.pendulum, &mut tol)?;
-        let [pickoff, quad_uv, phase_deg, noise_uv] = cx.pickoff(&f.pickoff, &mut tol)?;
-        let [csf, tau_us] = cx.torquer(&f.torquer, &mut tol)?;
-        let [sf, bias, amp, bw, fs, clock, g, adc_offset_mv] =
-            cx.electronics(&f.electronics, &mut tol)?;
-        let [ks, cs] = cx.stops(&f.stops)?;
-        let plausibility = cx.plausibility(f.plausibility.as_ref(), inertia)?;
-        Ok(Self {
-            pendulosity_dyn_cm_per_g: pendulosity,
-            freedom_rad: freedom_mrad * 1e-3,
-            inertia_dyn_cm_s2: inertia,
-            spring_dyn_cm_rad: spring,
-            damping_dyn_cm_s: damping,
-            anisoinertia_g_cm2: aniso,
-            pickoff_v_per_rad: pickoff,
-            quadrature_v: quad_uv * 1e-6,
-            phase_error_rad: phase_deg.to_radians(),
-            noise_v_rms: noise_uv * 1e-6,
-            current_sf_ma_per_g: csf,
-            torquer_tau_s: tau_us * 1e-6,
-            full_current_ma: sf / g * csf,
-            sf_cm_s2: sf,
-            bias_cm_s2: bias,
-            amp_gain: amp,
-            adc_offset_v: adc_offset_mv * 1e-3,
-            demod_bandwidth_hz: bw,
-            adc_full_scale_v: fs,
-            clock_hz: clock,
-            g_cm_s2: g,
-            stop_stiffness_dyn_cm_rad: ks,
-            stop_damping_dyn_cm_s: cs,
-            tolerances: tol,
-            plausibility,
-        })
+        let mut instr = Self::zeroed();
+        for p in PARAMETERS {
+            let v = cx.entry(p, &f, &mut tol)?;
+            p.set(&mut instr, v);
+        }
+        instr.full_current_ma = instr.sf_cm_s2 / instr.g_cm_s2 * instr.current_sf_ma_per_g;
+        instr.tolerances = tol;
+        instr.plausibility = cx.plausibility(f.plausibility.as_ref(), instr.inertia_dyn_cm_s2)?;
+        Ok(instr)
+    }
+
+    /// Every field 0 and no tolerance: the blank [`Instrument::parse`] fills in.
+    fn zeroed() -> Self {
+        Self {
+            pendulosity_dyn_cm_per_g: 0.0,
+            freedom_rad: 0.0,
+            inertia_dyn_cm_s2: 0.0,
+            spring_dyn_cm_rad: 0.0,
+            damping_dyn_cm_s: 0.0,
+            anisoinertia_g_cm2: 0.0,
+            pickoff_v_per_rad: 0.0,
+            quadrature_v: 0.0,
+            phase_error_rad: 0.0,
+            noise_v_rms: 0.0,
+            current_sf_ma_per_g: 0.0,
+            torquer_tau_s: 0.0,
+            full_current_ma: 0.0,
+            sf_cm_s2: 0.0,
+            bias_cm_s2: 0.0,
+            amp_gain: 0.0,
+            adc_offset_v: 0.0,
+            demod_bandwidth_hz: 0.0,
+            adc_full_scale_v: 0.0,
+            clock_hz: 0.0,
+            g_cm_s2: 0.0,
+            stop_stiffness_dyn_cm_rad: 0.0,
+            stop_damping_dyn_cm_s: 0.0,
+            tolerances: Vec::new(),
+            plausibility: Plausibility {
+                lever_arm_cm: 0.0,
+                anisoinertia_g_cm2: 0.0,
+                second_order_s2_cm: 0.0,
+                sculling_s2: 0.0,
+                bias_cm_s2: 0.0,
+                scale_factor_ppm: 0.0,
+                misalignment_rad: 0.0,
+                cubic_s4_cm2: 0.0,
+            },
+        }
     }
 
     /// The text of instrument file `src` with new values for toleranced parameters,
@@ -905,30 +1141,15 @@ impl Instrument {
         let cx = Ctx { file, src };
         let f: FileT = toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
         let entry = |key: &str| -> Option<(std::ops::Range<usize>, &Param)> {
-            let p: &Spanned<Param> = match key {
-                "pendulum.pendulosity_dyn_cm_per_g" => &f.pendulum.pendulosity_dyn_cm_per_g,
-                "pendulum.freedom_mrad" => &f.pendulum.freedom_mrad,
-                "pendulum.inertia_oa_g_cm2" => &f.pendulum.inertia_oa_g_cm2,
-                "pendulum.spring_dyn_cm_per_rad" => &f.pendulum.spring_dyn_cm_per_rad,
-                "pendulum.damping_dyn_cm_s" => &f.pendulum.damping_dyn_cm_s,
-                "pendulum.anisoinertia_g_cm2" => &f.pendulum.anisoinertia_g_cm2,
-                "pickoff.scale_factor_v_per_rad" => &f.pickoff.scale_factor_v_per_rad,
-                "pickoff.quadrature_null_uv" => &f.pickoff.quadrature_null_uv,
-                "pickoff.phase_angle_deg" => &f.pickoff.phase_angle_deg,
-                "pickoff.noise_uv_rms" => &f.pickoff.noise_uv_rms,
-                "torquer.current_scale_factor_ma_per_g" => &f.torquer.current_scale_factor_ma_per_g,
-                "torquer.time_constant_us" => &f.torquer.time_constant_us,
-                "electronics.adc_offset_mv" => f.electronics.adc_offset_mv.as_ref()?,
-                "electronics.amplifier_gain" => {
-                    let g = &f.electronics.amplifier_gain;
-                    return match g.get_ref() {
-                        NumOrParam::Param(q) => Some((g.span(), q)),
-                        NumOrParam::Num(_) => None,
-                    };
-                }
-                _ => return None,
-            };
-            Some((p.span(), p.get_ref()))
+            match (toleranceable(key)?.raw)(&f) {
+                Raw::Param(p) => Some((p.span(), p.get_ref())),
+                Raw::Optional(p) => p.map(|p| (p.span(), p.get_ref())),
+                Raw::NumOrParam(g) => match g.get_ref() {
+                    NumOrParam::Param(q) => Some((g.span(), q)),
+                    NumOrParam::Num(_) => None,
+                },
+                Raw::Num(_) => None,
+            }
         };
         let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
         for (key, v, note) in changes {
@@ -1018,29 +1239,15 @@ impl Instrument {
         1.0 / self.lsb_per_rad()
     }
 
-    /// Set one toleranced parameter by its file key, in the file's unit. The regulated
-    /// current is not re-derived (the PTSA keeps its setting).
+    /// Set one parameter that can carry a tolerance ([`toleranceable`]) by its file key, in
+    /// the file's unit. The regulated current is not re-derived (the PTSA keeps its
+    /// setting).
     ///
     /// # Errors
     /// Unknown key.
     pub fn set(&mut self, key: &str, v: f64) -> Result<(), String> {
-        match key {
-            "pendulum.pendulosity_dyn_cm_per_g" => self.pendulosity_dyn_cm_per_g = v,
-            "pendulum.freedom_mrad" => self.freedom_rad = v * 1e-3,
-            "pendulum.inertia_oa_g_cm2" => self.inertia_dyn_cm_s2 = v,
-            "pendulum.spring_dyn_cm_per_rad" => self.spring_dyn_cm_rad = v,
-            "pendulum.damping_dyn_cm_s" => self.damping_dyn_cm_s = v,
-            "pendulum.anisoinertia_g_cm2" => self.anisoinertia_g_cm2 = v,
-            "pickoff.scale_factor_v_per_rad" => self.pickoff_v_per_rad = v,
-            "pickoff.quadrature_null_uv" => self.quadrature_v = v * 1e-6,
-            "pickoff.phase_angle_deg" => self.phase_error_rad = v.to_radians(),
-            "pickoff.noise_uv_rms" => self.noise_v_rms = v * 1e-6,
-            "torquer.current_scale_factor_ma_per_g" => self.current_sf_ma_per_g = v,
-            "torquer.time_constant_us" => self.torquer_tau_s = v * 1e-6,
-            "electronics.amplifier_gain" => self.amp_gain = v,
-            "electronics.adc_offset_mv" => self.adc_offset_v = v * 1e-3,
-            _ => return Err(format!("unknown parameter {key}")),
-        }
+        let p = toleranceable(key).ok_or_else(|| format!("unknown parameter {key}"))?;
+        p.set(self, v);
         Ok(())
     }
 
@@ -1048,23 +1255,7 @@ impl Instrument {
     /// [`Instrument::set`]); `None` for an unknown key.
     #[must_use]
     pub fn get(&self, key: &str) -> Option<f64> {
-        Some(match key {
-            "pendulum.pendulosity_dyn_cm_per_g" => self.pendulosity_dyn_cm_per_g,
-            "pendulum.freedom_mrad" => self.freedom_rad * 1e3,
-            "pendulum.inertia_oa_g_cm2" => self.inertia_dyn_cm_s2,
-            "pendulum.spring_dyn_cm_per_rad" => self.spring_dyn_cm_rad,
-            "pendulum.damping_dyn_cm_s" => self.damping_dyn_cm_s,
-            "pendulum.anisoinertia_g_cm2" => self.anisoinertia_g_cm2,
-            "pickoff.scale_factor_v_per_rad" => self.pickoff_v_per_rad,
-            "pickoff.quadrature_null_uv" => self.quadrature_v * 1e6,
-            "pickoff.phase_angle_deg" => self.phase_error_rad.to_degrees(),
-            "pickoff.noise_uv_rms" => self.noise_v_rms * 1e6,
-            "torquer.current_scale_factor_ma_per_g" => self.current_sf_ma_per_g,
-            "torquer.time_constant_us" => self.torquer_tau_s * 1e6,
-            "electronics.amplifier_gain" => self.amp_gain,
-            "electronics.adc_offset_mv" => self.adc_offset_v * 1e3,
-            _ => return None,
-        })
+        toleranceable(key).map(|p| p.get(self))
     }
 
     /// The tolerance band of a parameter by its file key, `(lo, nominal, hi)` in the file's
@@ -1092,6 +1283,145 @@ impl Instrument {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The value of `key` (`section.name`) as written in `src`: a bare number or a table's
+    /// `value`; `None` when the file leaves it out.
+    fn written(src: &str, key: &str) -> Option<f64> {
+        let t: toml::Table = toml::from_str(src).unwrap();
+        let (section, name) = key.split_once('.').unwrap();
+        let v = t.get(section)?.get(name)?;
+        let v = v.get("value").unwrap_or(v);
+        v.as_float()
+    }
+
+    /// The shipped file with the amplifier gain and the ADC offset given tolerances, so that
+    /// every entry that can carry one does.
+    fn every_entry_toleranced() -> String {
+        KEARFOTT_2401_TOML.replace(
+            "amplifier_gain = 100.0",
+            "amplifier_gain = { value = 100.0, tol_pct = 5.0 }\nadc_offset_mv = { value = 0.5, tol_abs = 2.0 }",
+        )
+    }
+
+    fn close(a: f64, b: f64) -> bool {
+        (a - b).abs() <= 1e-12 * a.abs().max(b.abs())
+    }
+
+    /// The table is the file: every numeric entry of the shipped file's tables (but
+    /// `[plausibility]`) is in [`PARAMETERS`] once, and every entry of the table is in the
+    /// file (or may be left out), read in the type its form says.
+    #[test]
+    fn every_entry_of_the_file_is_in_the_parameter_table_once() {
+        let keys: Vec<&str> = PARAMETERS.iter().map(|p| p.key).collect();
+        for (k, key) in keys.iter().enumerate() {
+            assert!(!keys[..k].contains(key), "{key} is in PARAMETERS twice");
+        }
+        let t: toml::Table = toml::from_str(KEARFOTT_2401_TOML).unwrap();
+        for (section, entries) in &t {
+            if section == "plausibility" {
+                continue;
+            }
+            for name in entries.as_table().unwrap().keys() {
+                let key = format!("{section}.{name}");
+                assert!(keys.contains(&key.as_str()), "{key} is not in PARAMETERS");
+            }
+        }
+        let src = every_entry_toleranced();
+        let f: FileT = toml::from_str(&src).unwrap();
+        for p in PARAMETERS {
+            let form = match (p.raw)(&f) {
+                Raw::Param(_) => Form::Toleranced,
+                Raw::Optional(_) => Form::OptionalToleranced,
+                Raw::NumOrParam(_) => Form::NumberOrToleranced,
+                Raw::Num(_) => Form::Number,
+            };
+            assert_eq!(form, p.form, "{}", p.key);
+            assert!(
+                written(KEARFOTT_2401_TOML, p.key).is_some() || p.form == Form::OptionalToleranced,
+                "{} is not in the shipped file",
+                p.key
+            );
+        }
+    }
+
+    /// Every parameter of the table round-trips: parse reads the file's value into the
+    /// field `get` reads back, `set` then `get` gives a new value back, and for an entry
+    /// that can carry a tolerance, `rewrite` writes it to the file and parse reads it back.
+    /// An entry that cannot is not settable, and a changed value in the file is read.
+    #[test]
+    fn every_parameter_round_trips_parse_set_get_write() {
+        let src = every_entry_toleranced();
+        let shipped = Instrument::parse(&src, "t.toml").unwrap();
+        for p in PARAMETERS {
+            let v0 = written(&src, p.key).unwrap();
+            assert!(close(p.get(&shipped), v0), "{}: parse", p.key);
+            // A new value inside every range (away from 0 and from the nominal).
+            let v = if v0 == 0.0 { 0.25 } else { v0 * 1.01 };
+            let mut i = shipped.clone();
+            p.set(&mut i, v);
+            assert!(close(p.get(&i), v), "{}: set, get", p.key);
+            if p.form.can_be_toleranced() {
+                let mut j = shipped.clone();
+                j.set(p.key, v).unwrap();
+                assert_eq!(j, i, "{}", p.key);
+                assert!(close(j.get(p.key).unwrap(), v), "{}", p.key);
+                let (lo, nom, hi) = shipped.tolerance(p.key).unwrap();
+                assert!(lo <= nom && nom <= hi && close(nom, v0), "{}", p.key);
+                let out = Instrument::rewrite(&src, "t.toml", &[(p.key, v, "new".into())]).unwrap();
+                let back = Instrument::parse(&out, "t.toml").unwrap();
+                assert!(close(p.get(&back), v), "{}: rewrite", p.key);
+                assert_eq!(written(&out, p.key), Some(v), "{}", p.key);
+                for q in PARAMETERS.iter().filter(|q| q.key != p.key) {
+                    let (a, b) = (q.get(&back), q.get(&shipped));
+                    assert_eq!(a.to_bits(), b.to_bits(), "{} moved {}", p.key, q.key);
+                }
+            } else {
+                assert!(shipped.clone().set(p.key, v).is_err(), "{}", p.key);
+                assert_eq!(shipped.get(p.key), None, "{}", p.key);
+                assert_eq!(shipped.tolerance(p.key), None, "{}", p.key);
+                let (section, name) = p.key.split_once('.').unwrap();
+                let mut t: toml::Table = toml::from_str(&src).unwrap();
+                t[section][name] = toml::Value::Float(v);
+                let back = Instrument::parse(&toml::to_string(&t).unwrap(), "t.toml").unwrap();
+                assert!(
+                    close(p.get(&back), v),
+                    "{}: parse of a changed value",
+                    p.key
+                );
+            }
+        }
+        // The tolerance box holds exactly the toleranced entries, in the table's order.
+        let tol: Vec<&str> = shipped.tolerances.iter().map(|t| t.key).collect();
+        let table: Vec<&str> = PARAMETERS
+            .iter()
+            .filter(|p| p.form.can_be_toleranced())
+            .map(|p| p.key)
+            .collect();
+        assert_eq!(tol, table);
+    }
+
+    /// Each entry's range is checked under its own key, with its own expectation.
+    #[test]
+    fn every_parameter_is_refused_out_of_range_under_its_key() {
+        let src = every_entry_toleranced();
+        for p in PARAMETERS {
+            let (section, name) = p.key.split_once('.').unwrap();
+            let mut t: toml::Table = toml::from_str(&src).unwrap();
+            let bad = toml::Value::Float(-1e9);
+            match t[section][name].as_table_mut() {
+                Some(table) => {
+                    table.insert("value".into(), bad);
+                }
+                None => t[section][name] = bad,
+            }
+            let e = Instrument::parse(&toml::to_string(&t).unwrap(), "t.toml").unwrap_err();
+            assert_eq!(
+                e.message,
+                format!("{} = -1000000000: expected {}", p.key, p.expected),
+                "{e}"
+            );
+        }
+    }
 
     #[test]
     fn rewrite_changes_only_the_named_entries() {

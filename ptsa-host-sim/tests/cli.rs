@@ -1109,7 +1109,7 @@ fn help_exits_0_and_names_units() {
     };
     let top = help(&["--help"]);
     assert!(top.contains("cm/s²") && top.contains("mrad"), "{top}");
-    for (sub, unit) in [
+    let units = [
         ("tumble", "s ("),
         ("anisoinertia", "g·cm²"),
         ("oa-coupling", "cm ("),
@@ -1124,10 +1124,42 @@ fn help_exits_0_and_names_units() {
         ("report", "s ("),
         ("discover", "cm/s²"),
         ("response", "dimensionless"),
-    ] {
-        let h = help(&[sub, "--help"]);
+        ("predict", "_cm_s2"),
+        ("plan tumble", "s ("),
+        ("plan rate-table", "rad/s"),
+        ("plan shaker", "Hz"),
+        ("plan centrifuge", "cm ("),
+    ];
+    // Every subcommand the help lists (a group's: each of its own) has its unit above.
+    let listed = |text: &str| -> Vec<String> {
+        text.lines()
+            .skip_while(|l| !l.starts_with("Commands:"))
+            .skip(1)
+            .take_while(|l| l.starts_with("  "))
+            .filter_map(|l| l.split_whitespace().next().map(str::to_string))
+            .filter(|c| c != "help")
+            .collect()
+    };
+    let mut commands = Vec::new();
+    for c in listed(&top) {
+        let inner = listed(&help(&[c.as_str(), "--help"]));
+        if inner.is_empty() {
+            commands.push(c);
+        } else {
+            commands.extend(inner.iter().map(|i| format!("{c} {i}")));
+        }
+    }
+    for c in &commands {
+        assert!(
+            units.iter().any(|(u, _)| u == c),
+            "ptsa {c}: a subcommand without a unit checked in its --help (add it to `units`)"
+        );
+    }
+    for (sub, unit) in units {
+        let args: Vec<&str> = sub.split(' ').collect();
+        let h = help(&[args.as_slice(), &["--help"]].concat());
         assert!(h.contains(unit), "ptsa {sub} --help lacks `{unit}`:\n{h}");
-        assert_eq!(help(&["help", sub]), h);
+        assert_eq!(help(&[&["help"], args.as_slice()].concat()), h);
         // The global --instrument comes after the subcommand's own options.
         let opts: Vec<&str> = h
             .lines()

@@ -104,6 +104,7 @@ use ptsa_host_sim::condition::{CaseInputs, Condition, IA, OA, PA};
 use ptsa_host_sim::discovery::method::Selected;
 use ptsa_host_sim::discovery::sim::ClosedLoopSimulator;
 use ptsa_host_sim::discovery::{Options, Simulator, discover};
+use ptsa_host_sim::instrument::TORQUER_SF;
 use ptsa_host_sim::plan::{self, Axis};
 use ptsa_host_sim::plant::NX;
 use ptsa_host_sim::sim::{ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with};
@@ -116,9 +117,6 @@ use super::campaign::{
 };
 use super::generate::residualize;
 use super::{Draw, Rng, rng};
-
-/// The instrument file's key of the torquer's current scale factor, mA/g.
-const TORQUER_SF_KEY: &str = "torquer.current_scale_factor_ma_per_g";
 
 /// What a set hides.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -421,9 +419,7 @@ pub fn closed_loop_row(kind: StaticKind, x: f64, row: &Condition, seed: Option<u
     };
     if kind == StaticKind::ScaleFactorError {
         let c0 = instr.current_sf_ma_per_g;
-        instr
-            .set(TORQUER_SF_KEY, c0 + x)
-            .expect("the torquer's key");
+        TORQUER_SF.set(&mut instr, c0 + x);
     }
     let none = Effects::NONE;
     match law(kind, x) {

@@ -19,7 +19,7 @@ use super::fit::Fitted;
 use super::method::Selected;
 use super::stats::residualize;
 use crate::condition::Condition;
-use crate::effects::{Bound, CandidateId};
+use crate::effects::CandidateId;
 use crate::plan::{self, Axis};
 
 /// Most rows proposed per group.
@@ -97,22 +97,6 @@ fn weighted(rows: &[&Condition], ids: &[CandidateId], g: f64, sigma: f64) -> Vec
         .collect()
 }
 
-/// The static model-equation terms, which absolute rows can test.
-fn is_model_equation_term(id: CandidateId) -> bool {
-    matches!(
-        id.info().bound,
-        Bound::Bias | Bound::ScaleFactor | Bound::Misalignment | Bound::Cubic
-    ) || matches!(
-        id,
-        CandidateId::Nonlinearity
-            | CandidateId::Vibropendulosity
-            | CandidateId::Anisoelasticity
-            | CandidateId::CrossAxisPp
-            | CandidateId::CrossAxisOo
-            | CandidateId::CrossAxisPo
-    )
-}
-
 /// The groups that need advice: every confounded group with a selected member, every
 /// selected candidate's confounded partners, and, when the data hold absolute rows, every
 /// model-equation term that is not testable.
@@ -149,7 +133,7 @@ fn groups(
         .any(|&i| rows[i].kind == crate::condition::RowKind::Absolute)
     {
         for &c in f.untestable.iter().chain(&f.untestable_nuisance) {
-            if is_model_equation_term(c) {
+            if c.model_equation_term() {
                 push(vec![c]);
             }
         }
