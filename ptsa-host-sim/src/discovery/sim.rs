@@ -322,9 +322,10 @@ pub type RunSlots = (Option<usize>, Option<usize>);
 /// first appearance, and for each job the index of its condition's run and of its
 /// reference's (`None` for a response row, and for an absolute row's reference).
 ///
-/// Two runs are the same when [`run_key`] says so: the same inputs, effects and seed give
-/// the same run bit for bit (the closed loop is deterministic), so sharing it changes no
-/// value. Many rows share their reference (one gravity, no rates): a pass over a shaker's
+/// Two runs are the same when every input of the condition (its fields but the label and
+/// the measurement), every coefficient of the effects and the seed are the same bits: they
+/// give the same run bit for bit (the closed loop is deterministic), so sharing it changes
+/// no value. Many rows share their reference (one gravity, no rates): a pass over a shaker's
 /// or a rate table's rows runs it once instead of once a row.
 #[must_use]
 pub fn distinct_runs<'a>(
