@@ -5,6 +5,8 @@
 //! row (its runs once more); when the measured rows can show the loop's parameters (any
 //! row but a static difference), every parameter's central differences (two passes over
 //! the measured rows each); the re-simulation with what is found (one pass over all rows).
+//! A pass runs each distinct run once ([`Simulator::pass_cost`]): rows that share a
+//! reference condition share its run.
 //!
 //! Run only when the data call for it (bounded here from above, [`Cost::search`]): when a
 //! parameter of the loop is selected, Gauss–Newton (at most
@@ -57,8 +59,8 @@ impl Cost {
     #[must_use]
     pub fn of(rows: &[Condition], sim: &dyn Simulator, candidates: &[CandidateId]) -> Cost {
         let measured: Vec<&Condition> = rows.iter().filter(|r| r.is_measured()).collect();
-        let all: Ticks = rows.iter().map(|r| sim.cost(r)).sum();
-        let pass: Ticks = measured.iter().map(|r| sim.cost(r)).sum();
+        let all: Ticks = sim.pass_cost(&rows.iter().collect::<Vec<_>>());
+        let pass: Ticks = sim.pass_cost(&measured);
         let sigma: Ticks = measured.iter().map(|r| sim.sigma_cost(r)).sum();
         let differences = measured
             .iter()

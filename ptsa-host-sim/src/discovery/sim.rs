@@ -1,5 +1,7 @@
 //! What the discovery pipeline needs from a simulator, and the two it can use.
 
+use std::borrow::Cow;
+
 use crate::condition::{Condition, IA, PA, RowKind};
 use crate::effects::Effects;
 use crate::instrument::Instrument;
@@ -68,6 +70,13 @@ pub trait Simulator: Sync {
     fn cost(&self, cond: &Condition) -> crate::work::Ticks {
         let _ = cond;
         crate::work::Ticks::ZERO
+    }
+    /// The closed-loop ticks of one [`Simulator::observe_all`] of `rows` with one set of
+    /// effects (a pass over the rows): what the rows' [`Simulator::cost`]s add up to, less
+    /// the runs that rows share (the closed loop runs a reference shared by many rows
+    /// once).
+    fn pass_cost(&self, rows: &[&Condition]) -> crate::work::Ticks {
+        rows.iter().map(|r| self.cost(r)).sum()
     }
     /// The closed-loop ticks of [`Simulator::observe_sigma`] of a row.
     fn sigma_cost(&self, cond: &Condition) -> crate::work::Ticks {
@@ -259,43 +268,144 @@ impl ClosedLoopSimulator {
 }
 
 impl ClosedLoopSimulator {
-    /// [`Simulator::observe_all`] of a chunk of jobs: every run on the batch engine in one
-    /// [`runs_of`] call.
-    fn observe_chunk(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
+    /// The response rows among `jobs`, [`RUN_CHUNK`] runs at a time through [`runs_of`]:
+    /// the mean of each row's [`RESPONSE_SEEDS`] runs, by the row's index in `jobs`.
+    fn observe_responses(&self, jobs: &[(&Condition, &Effects)]) -> Vec<(usize, Vec<f64>)> {
         let seed = self.options.seed;
-        let mut runs: Vec<(&Condition, &Effects, u64)> = Vec::new();
-        for &(c, e) in jobs {
-            if c.kind == RowKind::Response {
-                runs.extend((0..RESPONSE_SEEDS).map(|j| (c, e, seed.wrapping_add(j))));
-            } else {
-                runs.push((c, e, seed));
+        let rows: Vec<usize> = (0..jobs.len())
+            .filter(|&k| jobs[k].0.kind == RowKind::Response)
+            .collect();
+        #[allow(clippy::cast_possible_truncation)]
+        let per = (RUN_CHUNK / RESPONSE_SEEDS as usize).max(1);
+        let mut out = Vec::with_capacity(rows.len());
+        for chunk in rows.chunks(per) {
+            let runs: Vec<(&Condition, &Effects, u64)> = chunk
+                .iter()
+                .flat_map(|&k| {
+                    let (c, e) = jobs[k];
+                    (0..RESPONSE_SEEDS).map(move |j| (c, e, seed.wrapping_add(j)))
+                })
+                .collect();
+            let mut res = runs_of(&self.instrument, &runs, &self.options).into_iter();
+            for &k in chunk {
+                let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
+                    .map(|_| {
+                        let v = res.next().unwrap_or_default();
+                        [
+                            v.first().copied().unwrap_or(f64::NAN),
+                            v.get(1).copied().unwrap_or(f64::NAN),
+                        ]
+                    })
+                    .collect();
+                out.push((k, mean_of_runs(&r).0.to_vec()));
             }
         }
-        let mut out = runs_of(&self.instrument, &runs, &self.options).into_iter();
-        jobs.iter()
-            .map(|(c, _)| {
-                if c.kind == RowKind::Response {
-                    let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
-                        .map(|_| {
-                            let v = out.next().unwrap_or_default();
-                            [
-                                v.first().copied().unwrap_or(f64::NAN),
-                                v.get(1).copied().unwrap_or(f64::NAN),
-                            ]
-                        })
-                        .collect();
-                    mean_of_runs(&r).0.to_vec()
-                } else {
-                    out.next().unwrap_or_default()
-                }
-            })
-            .collect()
+        out
     }
 }
 
-/// Jobs of one batch-engine call of [`ClosedLoopSimulator::observe_all`]: enough runs to
-/// keep every core busy, few enough that their loops take a few megabytes.
-pub const OBSERVE_CHUNK: usize = 2048;
+/// Runs of one batch-engine call of [`ClosedLoopSimulator::observe_all`]: enough to keep
+/// every core busy, few enough that their loops take a few megabytes.
+pub const RUN_CHUNK: usize = 2048;
+
+/// One distinct run of [`distinct_runs`]: its condition (a row's, or a reference built
+/// from one) and effects.
+pub type Run<'a> = (Cow<'a, Condition>, &'a Effects);
+
+/// The runs of one job of [`distinct_runs`]: the index of its condition's run and of its
+/// reference's.
+pub type RunSlots = (Option<usize>, Option<usize>);
+
+/// The runs of difference and absolute rows that [`ClosedLoopSimulator::observe_all`] runs
+/// for `jobs`, each distinct run once: the condition of every such row and the reference
+/// of every difference row. Returns the distinct runs (condition, effects), in order of
+/// first appearance, and for each job the index of its condition's run and of its
+/// reference's (`None` for a response row, and for an absolute row's reference).
+///
+/// Two runs are the same when every input of the condition (its fields but the label and
+/// the measurement), every coefficient of the effects and the seed are the same bits: they
+/// give the same run bit for bit (the closed loop is deterministic), so sharing it changes
+/// no value. Many rows share their reference (one gravity, no rates): a pass over a shaker's
+/// or a rate table's rows runs it once instead of once a row.
+#[must_use]
+pub fn distinct_runs<'a>(
+    jobs: &[(&'a Condition, &'a Effects)],
+    seed: u64,
+) -> (Vec<Run<'a>>, Vec<RunSlots>) {
+    let mut runs: Vec<Run<'a>> = Vec::new();
+    let mut index: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
+    let mut slot = |c: Cow<'a, Condition>, e: &'a Effects| -> usize {
+        let next = runs.len();
+        let k = *index.entry(run_key(&c, e, seed)).or_insert(next);
+        if k == next {
+            runs.push((c, e));
+        }
+        k
+    };
+    let slots = jobs
+        .iter()
+        .map(|&(c, e)| match c.kind {
+            RowKind::Response => (None, None),
+            RowKind::Absolute => (Some(slot(Cow::Borrowed(c), e)), None),
+            RowKind::Difference => {
+                let own = slot(Cow::Borrowed(c), e);
+                (Some(own), Some(slot(Cow::Owned(c.reference()), e)))
+            }
+        })
+        .collect();
+    (runs, slots)
+}
+
+/// What makes one closed-loop run of [`distinct_runs`]: every input of the condition (all
+/// its fields but the free text and the measurement, which no run reads; the
+/// destructuring names every field, so one added to [`Condition`] does not compile here
+/// until it is placed), every coefficient of the effects, and the noise seed, as bits
+/// (`-0.0` and `0.0` are different keys; a NaN never meets another).
+fn run_key(c: &Condition, e: &Effects, seed: u64) -> Vec<u64> {
+    let Condition {
+        label: _,
+        kind,
+        block: _,
+        time_s: _,
+        g,
+        w_rad_s,
+        freq_hz,
+        lin_cm_s2,
+        lin_deg,
+        ang_mrad,
+        ang_deg,
+        ref_w_rad_s,
+        radius_cm,
+        measured_cm_s2: _,
+        sigma_cm_s2: _,
+        measured_gain: _,
+        measured_phase_deg: _,
+        sigma_gain: _,
+        sigma_phase_deg: _,
+    } = c;
+    let mut k: Vec<u64> = Vec::with_capacity(32 + crate::effects::N_CANDIDATES);
+    k.push(*kind as u64);
+    k.push(seed);
+    for v in [
+        g,
+        w_rad_s,
+        lin_cm_s2,
+        lin_deg,
+        ang_mrad,
+        ang_deg,
+        ref_w_rad_s,
+    ] {
+        k.extend(v.iter().map(|x| x.to_bits()));
+    }
+    k.push(freq_hz.to_bits());
+    k.push(radius_cm.to_bits());
+    k.extend(
+        crate::effects::CandidateId::ALL
+            .iter()
+            .map(|&id| e.get(id).to_bits()),
+    );
+    k
+}
 
 impl Simulator for ClosedLoopSimulator {
     fn name(&self) -> &'static str {
@@ -337,15 +447,51 @@ impl Simulator for ClosedLoopSimulator {
         }))
     }
 
-    /// Every run of every row on the batch engine in one [`runs_of`] call (a response row's
-    /// [`RESPONSE_SEEDS`] runs, a difference or absolute row's run); the lanes are the
-    /// single loop's runs bit for bit, so this is [`Simulator::observe`] row by row.
-    /// Taken [`OBSERVE_CHUNK`] jobs at a time, so that the loops in memory at once do not
-    /// grow with the table (each run is independent of the others in its call).
+    /// Every run of every row on the batch engine: a response row's [`RESPONSE_SEEDS`] runs
+    /// through [`runs_of`], a difference row's condition and reference and an absolute
+    /// row's run each once ([`distinct_runs`]: rows that share a reference, or replicated
+    /// rows, share its run); the lanes are the single loop's runs bit for bit, so this is
+    /// [`Simulator::observe`] row by row. Taken [`RUN_CHUNK`] runs at a time, so that the
+    /// loops in memory at once do not grow with the table (each run is independent of the
+    /// others in its call).
     fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
-        jobs.chunks(OBSERVE_CHUNK)
-            .flat_map(|c| self.observe_chunk(c))
-            .collect()
+        let seed = self.options.seed;
+        let (runs, slots) = distinct_runs(jobs, seed);
+        let mut value: Vec<f64> = Vec::with_capacity(runs.len());
+        for chunk in runs.chunks(RUN_CHUNK) {
+            let batch: Vec<crate::batch::Job<'_>> = chunk
+                .iter()
+                .map(|(cond, e)| crate::batch::Job {
+                    instr: &self.instrument,
+                    cond: cond.as_ref(),
+                    effects: **e,
+                    seed,
+                })
+                .collect();
+            value.extend(
+                crate::batch::simulate_jobs(&batch, &self.options)
+                    .iter()
+                    .map(|r| r.indicated_cm_s2),
+            );
+        }
+        let mut out: Vec<Vec<f64>> = slots
+            .iter()
+            .map(|&(own, reference)| {
+                // Summed from 0 as `runs_of` sums them (the same bits, the sign of a zero
+                // included).
+                let Some(o) = own else { return Vec::new() };
+                let mut v = 0.0;
+                v += value[o];
+                if let Some(r) = reference {
+                    v -= value[r];
+                }
+                vec![v]
+            })
+            .collect();
+        for (k, v) in self.observe_responses(jobs) {
+            out[k] = v;
+        }
+        out
     }
 
     fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
@@ -374,6 +520,24 @@ impl Simulator for ClosedLoopSimulator {
             RowKind::Difference => crate::work::difference(i, cond, o),
             RowKind::Absolute => crate::work::condition(i, cond, o),
         }
+    }
+
+    /// Each distinct run of the rows once ([`distinct_runs`]), and every response row's
+    /// runs.
+    fn pass_cost(&self, rows: &[&Condition]) -> crate::work::Ticks {
+        let none = Effects::NONE;
+        let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|&r| (r, &none)).collect();
+        let (runs, _) = distinct_runs(&jobs, self.options.seed);
+        let plain: crate::work::Ticks = runs
+            .iter()
+            .map(|(c, _)| crate::work::condition(&self.instrument, c, &self.options))
+            .sum();
+        plain
+            + rows
+                .iter()
+                .filter(|r| r.kind == RowKind::Response)
+                .map(|r| self.cost(r))
+                .sum()
     }
 
     /// A response row's [`RESPONSE_SEEDS`] runs again; nothing for the other rows.
@@ -619,6 +783,41 @@ mod tests {
         assert!((d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * g, "{d2}");
     }
 
+    /// Rows share a run only when every input, the effects and the seed are the same bits:
+    /// three shaker rows share their reference; a gravity of `-0.0` instead of `0.0` along
+    /// PA makes another reference; other effects make other runs.
+    #[test]
+    fn runs_are_shared_only_when_identical() {
+        let mut rows = Vec::new();
+        for f in [10.0, 20.0, 30.0] {
+            let mut c = Condition {
+                g: [1.0, 0.0, 0.0],
+                freq_hz: f,
+                label: format!("{f} Hz"),
+                ..Condition::default()
+            };
+            c.lin_cm_s2[IA] = 300.0;
+            rows.push(c);
+        }
+        let mut c = rows[0].clone();
+        c.g[PA] = -0.0;
+        rows.push(c);
+        let none = Effects::NONE;
+        let damp = Effects::only(CandidateId::ParamDamping, 5000.0);
+        let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &none)).collect();
+        let (runs, slots) = distinct_runs(&jobs, 1);
+        // Four conditions, two references.
+        assert_eq!(runs.len(), 6, "{runs:?}");
+        assert_eq!(slots[0].1, slots[1].1);
+        assert_eq!(slots[0].1, slots[2].1);
+        assert_ne!(slots[0].1, slots[3].1);
+        assert_ne!(slots[0].0, slots[3].0);
+        let mut jobs = jobs;
+        jobs.push((&rows[0], &damp));
+        assert_eq!(distinct_runs(&jobs, 1).0.len(), 8);
+        assert_eq!(distinct_runs(&jobs[..1], 1).0.len(), 2);
+    }
+
     /// The batched `observe_all` of the closed loop is `observe` row by row, bit for bit:
     /// response rows (each of its runs with its start phase), a difference row with a
     /// vibration, an absolute row, with and without a parameter change.
@@ -651,7 +850,14 @@ mod tests {
         };
         d.lin_cm_s2[IA] = 500.0;
         rows.push(d.clone());
+        // A second difference row with the same reference (its run shared), and an absolute
+        // row twice (replicates: one run).
+        let mut d2 = d.clone();
+        d2.freq_hz = 80.0;
+        d2.label = "another".into();
+        rows.push(d2);
         d.kind = RowKind::Absolute;
+        rows.push(d.clone());
         rows.push(d);
         let none = Effects::NONE;
         let damp = Effects::only(CandidateId::ParamDamping, 5000.0);

@@ -1151,7 +1151,7 @@ fn predict_estimate(
     sim: &dyn Simulator,
     force: bool,
 ) -> Result<ptsa_host_sim::work::Estimate> {
-    let ticks = rows.iter().map(|r| sim.cost(r)).sum();
+    let ticks = sim.pass_cost(&rows.iter().collect::<Vec<_>>());
     work::check(
         ptsa_host_sim::work::Estimate {
             ticks,
