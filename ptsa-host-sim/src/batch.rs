@@ -1116,7 +1116,7 @@ mod tests {
     use super::*;
     use crate::condition::{IA, OA, PA};
     use crate::effects::CandidateId;
-    use crate::sim::{Totals, simulate_condition, simulate_difference};
+    use crate::sim::{simulate_condition, simulate_difference};
     use proptest::prelude::*;
 
     /// Every number of a window result, floats as bits.
@@ -1143,24 +1143,6 @@ mod tests {
         (r.ticks, r.pulses, r.indicated_cm_s2.to_bits(), r.saturated)
     }
 
-    #[allow(clippy::cast_sign_loss)]
-    fn totals_bits(t: &Totals) -> Vec<u64> {
-        vec![
-            t.ticks,
-            t.sum_u as u64,
-            t.pulses,
-            t.sum_theta2.to_bits(),
-            t.max_theta.to_bits(),
-            t.cycles,
-            t.cycles_two,
-            t.stop_ticks,
-            t.harm[0].to_bits(),
-            t.harm[1].to_bits(),
-            t.harm_q[0].to_bits(),
-            t.harm_q[1].to_bits(),
-        ]
-    }
-
     /// The whole state of a loop: plant (bits), core, totals (bits), ticks, the noise
     /// generator, the applied command and the reversal count.
     fn assert_same_loop(a: &ClosedLoop, b: &ClosedLoop, what: &str) {
@@ -1170,11 +1152,7 @@ mod tests {
             "{what}: plant state"
         );
         assert_eq!(a.core(), b.core(), "{what}: core state");
-        assert_eq!(
-            totals_bits(&a.totals()),
-            totals_bits(&b.totals()),
-            "{what}: totals"
-        );
+        assert_eq!(a.totals().bits(), b.totals().bits(), "{what}: totals");
         assert_eq!(a.ticks(), b.ticks(), "{what}: ticks");
         assert_eq!(a.u.to_bits(), b.u.to_bits(), "{what}: applied command");
         assert_eq!(

@@ -225,6 +225,39 @@ pub struct Totals {
     pub harm_q: [f64; 2],
 }
 
+impl Totals {
+    /// Every total as bits (the floating-point ones by `to_bits`), in field order: two
+    /// runs' totals are the same bit for bit when these are equal.
+    #[must_use]
+    pub fn bits(&self) -> Vec<u64> {
+        let Totals {
+            ticks,
+            sum_u,
+            pulses,
+            sum_theta2,
+            max_theta,
+            cycles,
+            cycles_two,
+            stop_ticks,
+            harm,
+            harm_q,
+        } = *self;
+        #[allow(clippy::cast_sign_loss, reason = "the bits of the signed sum")]
+        let mut v = vec![
+            ticks,
+            sum_u as u64,
+            pulses,
+            sum_theta2.to_bits(),
+            max_theta.to_bits(),
+            cycles,
+            cycles_two,
+            stop_ticks,
+        ];
+        v.extend(harm.iter().chain(&harm_q).map(|x| x.to_bits()));
+        v
+    }
+}
+
 /// One tick as seen by an observer (for waveforms and traces).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TickView {

@@ -146,20 +146,8 @@ fn extra_physics_enters_as_a_torque() {
 
 /// Bits of everything a run leaves behind: the plant state and every running total.
 fn run_bits(l: &ClosedLoop) -> Vec<u64> {
-    let t = l.totals();
     let mut v: Vec<u64> = l.state().iter().map(|x| x.to_bits()).collect();
-    #[allow(clippy::cast_sign_loss)]
-    v.extend([
-        t.ticks,
-        t.sum_u as u64,
-        t.pulses,
-        t.sum_theta2.to_bits(),
-        t.max_theta.to_bits(),
-        t.cycles,
-        t.cycles_two,
-        t.stop_ticks,
-    ]);
-    v.extend(t.harm.iter().chain(&t.harm_q).map(|x| x.to_bits()));
+    v.extend(l.totals().bits());
     v
 }
 
