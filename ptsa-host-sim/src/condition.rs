@@ -127,6 +127,52 @@ pub struct CaseInputs {
 }
 
 impl Condition {
+    /// Every input of the condition as bits: all its fields but the free text (label, block,
+    /// time) and the measurement, which no run reads. Two conditions with the same bits are
+    /// the same run (`-0.0` and `0.0` differ; a NaN never meets another). The destructuring
+    /// names every field, so one added to [`Condition`] does not compile here until it is
+    /// placed.
+    #[must_use]
+    pub fn input_bits(&self) -> Vec<u64> {
+        let Condition {
+            label: _,
+            kind,
+            block: _,
+            time_s: _,
+            g,
+            w_rad_s,
+            freq_hz,
+            lin_cm_s2,
+            lin_deg,
+            ang_mrad,
+            ang_deg,
+            ref_w_rad_s,
+            radius_cm,
+            measured_cm_s2: _,
+            sigma_cm_s2: _,
+            measured_gain: _,
+            measured_phase_deg: _,
+            sigma_gain: _,
+            sigma_phase_deg: _,
+        } = self;
+        let mut k: Vec<u64> = Vec::with_capacity(32 + crate::effects::N_CANDIDATES);
+        k.push(*kind as u64);
+        for v in [
+            g,
+            w_rad_s,
+            lin_cm_s2,
+            lin_deg,
+            ang_mrad,
+            ang_deg,
+            ref_w_rad_s,
+        ] {
+            k.extend(v.iter().map(|x| x.to_bits()));
+        }
+        k.push(freq_hz.to_bits());
+        k.push(radius_cm.to_bits());
+        k
+    }
+
     /// The reference condition: same gravity, rates `ref_w_rad_s`, no oscillation.
     #[must_use]
     pub fn reference(&self) -> Condition {

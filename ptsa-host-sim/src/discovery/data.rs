@@ -167,26 +167,6 @@ fn excitation(c: &Condition) -> &'static str {
     }
 }
 
-/// The key of a row's conditions, equal for replicated rows (bit-identical inputs).
-fn replicate_key(c: &Condition) -> Vec<u64> {
-    let mut k: Vec<u64> = Vec::with_capacity(24);
-    for v in [
-        c.g,
-        c.w_rad_s,
-        c.lin_cm_s2,
-        c.lin_deg,
-        c.ang_mrad,
-        c.ang_deg,
-        c.ref_w_rad_s,
-    ] {
-        k.extend(v.iter().map(|x| x.to_bits()));
-    }
-    k.push(c.freq_hz.to_bits());
-    k.push(c.radius_cm.to_bits());
-    k.push(c.kind as u64);
-    k
-}
-
 /// Index of `key` in `names`, appended if new.
 fn intern(names: &mut Vec<String>, key: String) -> usize {
     if let Some(i) = names.iter().position(|n| *n == key) {
@@ -319,7 +299,8 @@ pub fn build(
             };
             d.group
                 .push(intern(&mut d.group_names, format!("{b}/{kind}")));
-            let mut key = replicate_key(r);
+            // Replicated rows: bit-identical inputs.
+            let mut key = r.input_bits();
             key.push(bi as u64);
             key.push(q as u64);
             let next = keys.len();

@@ -356,49 +356,12 @@ pub fn distinct_runs<'a>(
     (runs, slots)
 }
 
-/// What makes one closed-loop run of [`distinct_runs`]: every input of the condition (all
-/// its fields but the free text and the measurement, which no run reads; the
-/// destructuring names every field, so one added to [`Condition`] does not compile here
-/// until it is placed), every coefficient of the effects, and the noise seed, as bits
-/// (`-0.0` and `0.0` are different keys; a NaN never meets another).
+/// What makes one closed-loop run of [`distinct_runs`]: every input of the condition
+/// ([`Condition::input_bits`]), every coefficient of the effects, and the noise seed, as
+/// bits (`-0.0` and `0.0` are different keys; a NaN never meets another).
 fn run_key(c: &Condition, e: &Effects, seed: u64) -> Vec<u64> {
-    let Condition {
-        label: _,
-        kind,
-        block: _,
-        time_s: _,
-        g,
-        w_rad_s,
-        freq_hz,
-        lin_cm_s2,
-        lin_deg,
-        ang_mrad,
-        ang_deg,
-        ref_w_rad_s,
-        radius_cm,
-        measured_cm_s2: _,
-        sigma_cm_s2: _,
-        measured_gain: _,
-        measured_phase_deg: _,
-        sigma_gain: _,
-        sigma_phase_deg: _,
-    } = c;
-    let mut k: Vec<u64> = Vec::with_capacity(32 + crate::effects::N_CANDIDATES);
-    k.push(*kind as u64);
+    let mut k = c.input_bits();
     k.push(seed);
-    for v in [
-        g,
-        w_rad_s,
-        lin_cm_s2,
-        lin_deg,
-        ang_mrad,
-        ang_deg,
-        ref_w_rad_s,
-    ] {
-        k.extend(v.iter().map(|x| x.to_bits()));
-    }
-    k.push(freq_hz.to_bits());
-    k.push(radius_cm.to_bits());
     k.extend(
         crate::effects::CandidateId::ALL
             .iter()
