@@ -307,6 +307,17 @@ pub fn check(needs: &[Need], note: Option<(Need, &str)>) -> Result<(), String> {
 mod tests {
     use super::*;
 
+    /// The tests of this module one at a time: each writes shell scripts and runs them, and
+    /// a script written while another thread forks can be held open by the child until it
+    /// execs, so running it fails with ETXTBSY ("text file busy"), i.e. it looks missing.
+    static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+    fn serial() -> std::sync::MutexGuard<'static, ()> {
+        SERIAL
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner)
+    }
+
     /// A scratch directory, removed when dropped.
     struct Scratch(PathBuf);
 
@@ -351,6 +362,7 @@ mod tests {
 
     #[test]
     fn what_is_missing_is_named_with_how_to_install_it() {
+        let _serial = serial();
         let bin = Scratch::new("bin");
         let sysroot = Scratch::new("sysroot");
         bin.program("cc", "cc (fake) 1.0");
@@ -396,6 +408,7 @@ mod tests {
 
     #[test]
     fn a_program_that_does_not_run_or_is_not_executable_is_missing() {
+        let _serial = serial();
         use std::os::unix::fs::PermissionsExt as _;
         let bin = Scratch::new("broken");
         let sysroot = Scratch::new("sysroot-broken");
@@ -432,6 +445,7 @@ mod tests {
 
     #[test]
     fn a_sysroot_that_could_not_be_had_is_reported_not_hidden() {
+        let _serial = serial();
         let bin = Scratch::new("nosysroot");
         let mut m = machine(&bin.0, &bin.0);
         m.sysroot = Err("cannot run `rustc --print sysroot`: not found".into());
