@@ -21,11 +21,12 @@
 //! Ratios: divide the `single` time by the `K/k` time (the same ticks).
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use ptsa_host_sim::batch::{Engine, Job, spread_accels};
-use ptsa_host_sim::condition::{IA, OA, PA};
-use ptsa_host_sim::effects::CandidateId;
-use ptsa_host_sim::sim::{ClosedLoop, run_static, simulate_condition};
-use ptsa_host_sim::{Condition, Effects, Instrument, SimOptions, fixtures};
+use ptsa_host_sim::lab::fixtures;
+use ptsa_host_sim::model::condition::{IA, OA, PA};
+use ptsa_host_sim::model::effects::CandidateId;
+use ptsa_host_sim::simulation::batch::{Engine, Job, spread_accels};
+use ptsa_host_sim::simulation::sim::{ClosedLoop, run_static, simulate_condition};
+use ptsa_host_sim::{Condition, Effects, Instrument, SimOptions};
 use std::hint::black_box;
 
 const TICKS: u64 = 64_000;
@@ -164,7 +165,7 @@ fn bench(c: &mut Criterion) {
     let mut g = c.benchmark_group("ident_api");
     g.sample_size(20);
     let settle = opts.warmup_ticks(instr.clock_hz);
-    let window = ptsa_host_sim::sim::window_ticks(&instr, &oa, &opts);
+    let window = ptsa_host_sim::simulation::sim::window_ticks(&instr, &oa, &opts);
     g.throughput(Throughput::Elements((settle + window) * N as u64));
     g.bench_function("single", |b| {
         b.iter(|| {
@@ -216,7 +217,7 @@ fn bench(c: &mut Criterion) {
     g.sample_size(20);
     let ticks: u64 = dynamics
         .iter()
-        .map(|(cnd, _)| settle + ptsa_host_sim::sim::window_ticks(&instr, cnd, &opts))
+        .map(|(cnd, _)| settle + ptsa_host_sim::simulation::sim::window_ticks(&instr, cnd, &opts))
         .sum();
     g.throughput(Throughput::Elements(ticks));
     g.bench_function("single", |b| {

@@ -8,8 +8,8 @@
 //! the OA-coupling test), plus one `simulate_difference` as discovery calls it.
 
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};
-use ptsa_host_sim::condition::OA;
-use ptsa_host_sim::sim::ClosedLoop;
+use ptsa_host_sim::model::condition::OA;
+use ptsa_host_sim::simulation::sim::ClosedLoop;
 use ptsa_host_sim::{Condition, Effects, Instrument, SimOptions, simulate_difference};
 use std::hint::black_box;
 
@@ -65,7 +65,7 @@ fn bench(c: &mut Criterion) {
     // The same plant step and the same ptsa-core tick with nothing else (no noise, no stops,
     // no statistics) in a straight loop. The plain C loop of the static case itself is timed
     // against `ptsa static` by `ptsa bench --compare-c` (benches/c_static/static_loop.c).
-    let plant = ptsa_host_sim::plant::Plant::new(&instr, instr.spring_dyn_cm_rad);
+    let plant = ptsa_host_sim::model::plant::Plant::new(&instr, instr.spring_dyn_cm_rad);
     let z = plant.zoh[0];
     let d = instr.pendulosity_g_cm() * instr.g_cm_s2;
     let mut add = [[0.0; 4]; 2];

@@ -8,9 +8,9 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
-use crate::effects::Effects;
-use crate::instrument::Instrument;
-use crate::sim::{ClosedLoop, SimOptions, run_static};
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
+use crate::simulation::sim::{ClosedLoop, SimOptions, run_static};
 
 /// The plain C loop of `bench --compare-c`.
 const C_STATIC_LOOP: &str = include_str!("../benches/c_static/static_loop.c");
@@ -103,8 +103,8 @@ pub fn bench(
     Ok(())
 }
 
-/// `ptsa bench --batch N`: [`batch_rates`](crate::batch::batch_rates) on `conditions`
-/// static conditions ([`spread_accels`](crate::batch::spread_accels)) of `plan.ticks` gate
+/// `ptsa bench --batch N`: [`batch_rates`](crate::simulation::batch::batch_rates) on `conditions`
+/// static conditions ([`spread_accels`](crate::simulation::batch::spread_accels)) of `plan.ticks` gate
 /// ticks each after the settling, `plan.runs` times, with `lanes` lanes per core; prints the
 /// single loop's and the batch engine's median rates in Mticks/s and their ratio to `out`.
 /// `plan.compare_c` is not used.
@@ -114,7 +114,7 @@ pub fn bench(
 /// the engine's guarantee, checked every run), or `out` fails.
 ///
 /// # Panics
-/// If `lanes` is not a power of two from 1 to [`MAX_LANES`](crate::batch::MAX_LANES).
+/// If `lanes` is not a power of two from 1 to [`MAX_LANES`](crate::simulation::batch::MAX_LANES).
 pub fn bench_batch(
     instr: &Instrument,
     opts: &SimOptions,
@@ -127,9 +127,11 @@ pub fn bench_batch(
         noise: opts.noise && !plan.no_noise,
         ..*opts
     };
-    let r = crate::batch::batch_rates(instr, &opts, conditions, lanes, plan.ticks, plan.runs)?;
+    let r = crate::simulation::batch::batch_rates(
+        instr, &opts, conditions, lanes, plan.ticks, plan.runs,
+    )?;
     let settle = opts.warmup_ticks(instr.clock_hz);
-    let accels = crate::batch::spread_accels(instr, conditions);
+    let accels = crate::simulation::batch::spread_accels(instr, conditions);
     let spread = match (accels.first(), accels.last()) {
         (Some(lo), Some(hi)) if conditions > 1 => {
             format!("from {lo:.1} to {hi:.1} cm/s^2 (±0.9 of full scale)")
@@ -196,7 +198,7 @@ impl CStaticLoop {
             "`{cc} -std=c11 -O2` failed:\n{}",
             String::from_utf8_lossy(&out.stderr)
         );
-        let cond = crate::fixtures::along_ia(accel, instr.g_cm_s2);
+        let cond = crate::lab::fixtures::along_ia(accel, instr.g_cm_s2);
         let mut l = ClosedLoop::new(instr, &cond, &Effects::NONE, opts);
         let params = l
             .c_static_params()

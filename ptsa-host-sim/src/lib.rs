@@ -3,34 +3,32 @@
 //! It closes the loop tick by tick: [`ptsa_core`] (the very code the firmware runs) against
 //! an `f64` model of the pendulum, and reproduces the test programme of Draper report R-890.
 //!
-//! * [`instrument`]: the instrument file (Table 2.1 with tolerances), validated on load.
-//! * [`plant`]: eq. 4.2 with spring, stops, torquer current rise, pickoff and demodulator,
-//!   discretised exactly (zero-order hold).
-//! * [`sim`]: the closed loop and the charge-balance estimator; [`simulate_condition`] and
-//!   [`simulate_difference`] are the entry points.
-//! * [`batch`]: many independent closed loops, lanes interleaved per core, all cores.
-//! * [`design`]: the default compensator (`Config::DEFAULT`) and the loop's margins.
-//! * [`work`]: work estimated before it runs and counted while it runs (ticks, stages).
+//! The crate in layers, each a folder; a layer uses only those above it (and the foundation
+//! below: output, statistics):
+//!
+//! * [`model`]: the instrument file, test conditions, the candidate registry, the plant of
+//!   eq. 4.2, the loop design and the case-frame format.
+//! * [`lab`]: lab set-ups (fixtures), test plans and the counter record's frequency response.
+//! * [`simulation`]: the closed loop tick by tick and the batch engine that runs many;
+//!   [`simulate_condition`] and [`simulate_difference`] are the entry points.
+//! * [`discovery`]: what measured data say the model gets wrong.
+//! * [`report`]: the report programme of R-890 (experiments, tables, summary).
+//! * [`output`]: files, tables and plots, written whole or not at all.
+//! * [`stats`]: dense weighted least squares and the tail probabilities.
+//! * [`bench`](mod@bench): the `ptsa bench` measurements.
 
-pub mod batch;
 pub mod bench;
-pub mod condition;
-pub mod design;
 pub mod discovery;
-pub mod effects;
-pub mod experiments;
-pub mod fixtures;
-pub mod instrument;
+pub mod lab;
+pub mod model;
 pub mod output;
-pub mod plan;
-pub mod plant;
-pub mod r890;
 pub mod report;
-pub mod response;
-pub mod sim;
-pub mod work;
+pub mod simulation;
+pub mod stats;
 
-pub use condition::{CaseInputs, Condition};
-pub use effects::{CandidateId, Effects};
-pub use instrument::{Instrument, InstrumentError};
-pub use sim::{SimDifference, SimOptions, SimResult, simulate_condition, simulate_difference};
+pub use model::condition::{CaseInputs, Condition};
+pub use model::effects::{CandidateId, Effects};
+pub use model::instrument::{Instrument, InstrumentError};
+pub use simulation::sim::{
+    SimDifference, SimOptions, SimResult, simulate_condition, simulate_difference,
+};

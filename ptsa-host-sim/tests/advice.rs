@@ -4,7 +4,7 @@
 
 use ptsa_host_sim::discovery::sim::{AnalyticSimulator, Simulator};
 use ptsa_host_sim::discovery::{Options, advice, discover, show};
-use ptsa_host_sim::plan::{self, Axis};
+use ptsa_host_sim::lab::plan::{self, Axis};
 use ptsa_host_sim::{CandidateId, Condition, Effects, Instrument};
 use rand::SeedableRng as _;
 use rand_distr::Distribution as _;

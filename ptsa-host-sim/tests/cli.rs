@@ -1208,7 +1208,7 @@ fn plan_and_predict() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    let rows = ptsa_host_sim::discovery::caseframe::read(&plan).unwrap();
+    let rows = ptsa_host_sim::model::caseframe::read(&plan).unwrap();
     assert_eq!(rows.len(), 12);
     let predict = |extra: &[&str]| {
         let mut c = Command::new(env!("CARGO_BIN_EXE_ptsa"));

@@ -161,10 +161,10 @@ fn a_known_response_comes_back_within_its_uncertainty() {
         ),
         "{csv}"
     );
-    let rows = ptsa_host_sim::discovery::caseframe::parse("stdout", &csv).unwrap();
+    let rows = ptsa_host_sim::model::caseframe::parse("stdout", &csv).unwrap();
     assert_eq!(rows.len(), 1);
     let r = &rows[0];
-    assert_eq!(r.kind, ptsa_host_sim::condition::RowKind::Response);
+    assert_eq!(r.kind, ptsa_host_sim::model::condition::RowKind::Response);
     assert_eq!(r.label, "shaker 20 Hz, run \"1\"");
     assert_eq!(r.measured_gain, Some(g));
     assert_eq!(r.measured_phase_deg, Some(p));
@@ -425,11 +425,11 @@ fn sim_gates(
     n: usize,
     offset: u64,
 ) -> (
-    Vec<ptsa_host_sim::response::Gate>,
-    ptsa_host_sim::sim::ClosedLoop,
+    Vec<ptsa_host_sim::lab::response::Gate>,
+    ptsa_host_sim::simulation::sim::ClosedLoop,
 ) {
-    use ptsa_host_sim::condition::{Condition, IA};
-    use ptsa_host_sim::sim::{ClosedLoop, SimOptions};
+    use ptsa_host_sim::model::condition::{Condition, IA};
+    use ptsa_host_sim::simulation::sim::{ClosedLoop, SimOptions};
     use ptsa_host_sim::{Effects, Instrument};
     let instr = Instrument::kearfott_2401();
     let mut c = Condition {
@@ -449,7 +449,7 @@ fn sim_gates(
             let time_s = l.ticks() as f64 / instr.clock_hz;
             let p0 = l.core().total_pulses();
             l.run(gate);
-            ptsa_host_sim::response::Gate {
+            ptsa_host_sim::lab::response::Gate {
                 time_s,
                 pulses: u64::from((l.core().total_pulses() - p0).0),
                 ticks: gate,
@@ -526,19 +526,19 @@ fn a_record_of_the_simulated_loop_gives_its_frequency_response() {
     assert!(g > 1.1 && p < -5.0, "{g} {p}");
 }
 
-/// The scatter [`ptsa_host_sim::response::expected_scatter`] says a right fit leaves is
+/// The scatter [`ptsa_host_sim::lab::response::expected_scatter`] says a right fit leaves is
 /// that of records counted from the simulated closed loop: over sines of 1 to 100 Hz and
 /// 300 to 10 000 cm/s², gates of whole limit cycles (64, 320, 1280 ticks), of a cycle and
 /// one tick (321) or a half cycle more (352, where the gates cut the limit cycle most), each
 /// started 0, 16 and 32 ticks into a cycle, the residual RMS of the fit at the right
 /// frequency over the estimate lies between 0.03 and 1.8 (the formula's own bound over the
-/// start phase is `√3`), far below [`ptsa_host_sim::response::SCATTER_LIMIT`]; and the
+/// start phase is `√3`), far below [`ptsa_host_sim::lab::response::SCATTER_LIMIT`]; and the
 /// estimate follows the gates (half-cycle gates scatter about ten times more than
 /// whole-cycle ones of about the same length), so it is no constant. Run with `--nocapture` for the
 /// figures.
 #[test]
 fn the_expected_scatter_is_that_of_the_simulated_loop() {
-    use ptsa_host_sim::response;
+    use ptsa_host_sim::lab::response;
     let instr = ptsa_host_sim::Instrument::kearfott_2401();
     let mut ratios: Vec<f64> = Vec::new();
     let mut by_gate: Vec<(u64, f64)> = Vec::new();

@@ -8,8 +8,8 @@
 
 use std::path::Path;
 
-use ptsa_host_sim::condition::Condition;
-use ptsa_host_sim::discovery::caseframe;
+use ptsa_host_sim::model::caseframe;
+use ptsa_host_sim::model::condition::Condition;
 use rand::SeedableRng as _;
 use rand_distr::Distribution as _;
 

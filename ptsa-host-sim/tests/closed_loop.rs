@@ -2,7 +2,7 @@
 //! against long plain counts, the limit cycle, over-range and recovery.
 
 use proptest::prelude::*;
-use ptsa_host_sim::sim::{ClosedLoop, run_static};
+use ptsa_host_sim::simulation::sim::{ClosedLoop, run_static};
 use ptsa_host_sim::{Condition, Effects, Instrument, SimOptions, simulate_condition};
 
 fn ia(a_cm_s2: f64) -> Condition {
@@ -119,8 +119,8 @@ fn extra_physics_enters_as_a_torque() {
     use std::sync::Arc;
 
     use ptsa_host_sim::CaseInputs;
-    use ptsa_host_sim::plant::NX;
-    use ptsa_host_sim::sim::{ExtraPhysics, simulate_condition_with};
+    use ptsa_host_sim::model::plant::NX;
+    use ptsa_host_sim::simulation::sim::{ExtraPhysics, simulate_condition_with};
 
     #[derive(Debug)]
     struct Push(f64);

@@ -1,9 +1,9 @@
 //! The report's experiments reproduce what the simulation was configured with.
 
-use ptsa_host_sim::experiments::appendix_a::{self, TwoAxisPlan};
-use ptsa_host_sim::experiments::{anisoinertia, monte_carlo, oa_coupling, tumble};
-use ptsa_host_sim::fixtures::TwoAxisKind;
-use ptsa_host_sim::r890;
+use ptsa_host_sim::lab::fixtures::TwoAxisKind;
+use ptsa_host_sim::report::experiments::appendix_a::{self, TwoAxisPlan};
+use ptsa_host_sim::report::experiments::{anisoinertia, monte_carlo, oa_coupling, tumble};
+use ptsa_host_sim::report::r890;
 use ptsa_host_sim::{CandidateId, Effects, Instrument, SimOptions};
 
 /// The tumble (eqs. 6.3/6.4 on the charge-balance counts) recovers the configured SF to
@@ -177,7 +177,7 @@ fn outputs_are_written() {
 /// in a second panel, so that they do not squash the first.
 #[test]
 fn limit_cycle_figure_keeps_saturated_points_on_their_own_axis() {
-    use ptsa_host_sim::experiments::limit_cycle;
+    use ptsa_host_sim::report::experiments::limit_cycle;
     let r = limit_cycle::run(
         &Instrument::kearfott_2401(),
         &SimOptions {

@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use ptsa_core::{Config, Polarity, trace};
-use ptsa_host_sim::sim::ClosedLoop;
+use ptsa_host_sim::simulation::sim::ClosedLoop;
 use ptsa_host_sim::{Condition, Effects, Instrument, SimOptions};
 
 /// Ticks in each orientation (three 0.1 s gates).
@@ -39,7 +39,7 @@ fn generate() -> String {
     let mut codes = Vec::new();
     let mut pols = String::new();
     let mut l = ClosedLoop::new(&instr, &up, &Effects::default(), &opts);
-    let mut record = |v: &ptsa_host_sim::sim::TickView| {
+    let mut record = |v: &ptsa_host_sim::simulation::sim::TickView| {
         codes.push(v.code);
         pols.push(if v.decided == Polarity::Positive {
             '+'

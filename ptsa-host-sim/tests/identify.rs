@@ -1,9 +1,9 @@
 //! The loop's own parameters identified through the closed loop from a frequency-response
 //! table made with a perturbed instrument file the analysis never sees.
 
-use ptsa_host_sim::condition::{IA, RowKind};
 use ptsa_host_sim::discovery::sim::{ClosedLoopSimulator, response_of};
 use ptsa_host_sim::discovery::{Options, discover, show};
+use ptsa_host_sim::model::condition::{IA, RowKind};
 use ptsa_host_sim::{CandidateId, Condition, Effects, Instrument, SimOptions};
 
 /// The frequencies of the table, Hz.
@@ -135,7 +135,7 @@ fn write_instrument_holds_the_identified_damping() {
     let data = tmp.path().join("response.case.csv");
     std::fs::write(
         &data,
-        ptsa_host_sim::discovery::caseframe::to_csv(&rows, &["damping +50 %"]),
+        ptsa_host_sim::model::caseframe::to_csv(&rows, &["damping +50 %"]),
     )
     .unwrap();
     let err = write_instrument(tmp.path(), "fitted.toml");
@@ -155,7 +155,7 @@ fn write_instrument_holds_the_identified_damping() {
     // Unperturbed data select no parameter: nothing is written.
     std::fs::write(
         &data,
-        ptsa_host_sim::discovery::caseframe::to_csv(&table(&nominal, 99), &[]),
+        ptsa_host_sim::model::caseframe::to_csv(&table(&nominal, 99), &[]),
     )
     .unwrap();
     let err = write_instrument(tmp.path(), "none.toml");
@@ -171,7 +171,7 @@ fn synthetic_response_file_is_what_the_generator_makes() {
     let mut truth = Instrument::kearfott_2401();
     let c = truth.get("pendulum.damping_dyn_cm_s").unwrap();
     truth.set("pendulum.damping_dyn_cm_s", c * 1.5).unwrap();
-    let text = ptsa_host_sim::discovery::caseframe::to_csv(
+    let text = ptsa_host_sim::model::caseframe::to_csv(
         &table(&truth, 99),
         &[
             "Synthetic example, not measured: a 20-frequency response table (2000 cm/s^2 along IA) of the",
@@ -200,7 +200,7 @@ fn synthetic_response_file_is_what_the_generator_makes() {
 #[test]
 fn a_tumble_names_the_scale_factor_before_the_torquer_parameter() {
     use ptsa_host_sim::discovery::sim::Simulator as _;
-    use ptsa_host_sim::plan::{self, Axis};
+    use ptsa_host_sim::lab::plan::{self, Axis};
     use rand::SeedableRng as _;
     use rand_distr::Distribution as _;
     let nominal = Instrument::kearfott_2401();

@@ -9,9 +9,9 @@
 
 use proptest::prelude::*;
 use ptsa_host_sim::Condition;
-use ptsa_host_sim::condition::RowKind;
-use ptsa_host_sim::discovery::caseframe;
-use ptsa_host_sim::instrument::{Instrument, KEARFOTT_2401_TOML};
+use ptsa_host_sim::model::caseframe;
+use ptsa_host_sim::model::condition::RowKind;
+use ptsa_host_sim::model::instrument::{Instrument, KEARFOTT_2401_TOML};
 
 /// Cases per property: a few hundred, each a parse of at most a few kilobytes.
 const CASES: u32 = 384;

@@ -2,18 +2,18 @@
 //! the report programme exactly, a discovery's part that always runs exactly, the whole
 //! programme within what the discovery's re-simulation of an empty selection leaves out.
 //!
-//! One test in its own binary: the tick counter (`ptsa_host_sim::work::done`) is the
+//! One test in its own binary: the tick counter (`ptsa_host_sim::simulation::work::done`) is the
 //! process's, and no other test may run beside it.
 
 use ptsa_host_sim::discovery::cost::Cost;
 use ptsa_host_sim::discovery::sim::ClosedLoopSimulator;
 use ptsa_host_sim::discovery::{Options, discover};
-use ptsa_host_sim::experiments::appendix_a::{self, TwoAxisPlan};
-use ptsa_host_sim::experiments::{
+use ptsa_host_sim::lab::fixtures::TwoAxisKind;
+use ptsa_host_sim::report::experiments::appendix_a::{self, TwoAxisPlan};
+use ptsa_host_sim::report::experiments::{
     anisoinertia, frequency_response, limit_cycle, monte_carlo, oa_coupling, tumble, waveform,
 };
-use ptsa_host_sim::fixtures::TwoAxisKind;
-use ptsa_host_sim::work::{Ticks, done};
+use ptsa_host_sim::simulation::work::{Ticks, done};
 use ptsa_host_sim::{CandidateId, Instrument, SimOptions, report};
 
 /// The ticks `f` runs.
@@ -116,7 +116,7 @@ fn estimates_count_the_ticks_that_run() {
         instrument: i.clone(),
         options: opts,
     };
-    let rows = ptsa_host_sim::discovery::caseframe::read(
+    let rows = ptsa_host_sim::model::caseframe::read(
         &std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/synthetic-48.case.csv"),
     )
     .unwrap();

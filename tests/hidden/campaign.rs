@@ -13,9 +13,9 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use ptsa_host_sim::CandidateId;
-use ptsa_host_sim::condition::Condition;
 use ptsa_host_sim::discovery::method::Selected;
 use ptsa_host_sim::discovery::{Discovery, Options, Simulator, discover};
+use ptsa_host_sim::model::condition::Condition;
 use rayon::prelude::*;
 
 /// Largest asserted false-selection and misnaming rate.

@@ -10,9 +10,9 @@
 //! * both together;
 //! * the fixed 48-row design of the speed target ([`design_48_rows`]).
 
-use ptsa_host_sim::condition::Condition;
 use ptsa_host_sim::discovery::sim::Simulator;
-use ptsa_host_sim::effects::Effects;
+use ptsa_host_sim::model::condition::Condition;
+use ptsa_host_sim::model::effects::Effects;
 use rayon::prelude::*;
 
 use super::{Draw, Rng, rng};

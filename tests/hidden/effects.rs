@@ -25,9 +25,9 @@
 use std::fmt::Write as _;
 
 use ptsa_host_sim::CandidateId;
-use ptsa_host_sim::condition::Condition;
 use ptsa_host_sim::discovery::method::Selected;
 use ptsa_host_sim::discovery::{Options, Simulator};
+use ptsa_host_sim::model::condition::Condition;
 
 use super::campaign::{
     Campaign, Columns, Count, Outcome, Run, at_most_rate, coverage_in_band, detected,

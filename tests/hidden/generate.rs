@@ -5,8 +5,8 @@
 //! simulator); the hidden coefficient's size in standard errors comes from simulating the
 //! design with a unit physical effect.
 
-use ptsa_host_sim::condition::Condition;
-use ptsa_host_sim::effects::{Bound, CandidateId};
+use ptsa_host_sim::model::condition::Condition;
+use ptsa_host_sim::model::effects::{Bound, CandidateId};
 use rand::RngCore as _;
 use rayon::prelude::*;
 
@@ -15,7 +15,7 @@ use super::physics::{Generator, Injection, Motion, Physics, Product, peak_extra_
 use super::{Draw, Rng, rng};
 
 /// Out-of-vocabulary physics: products of the inputs that no candidate of
-/// `ptsa_host_sim::effects::REGISTRY` spans (its products are `a_IA·a_PA`, `a_IA·a_OA`,
+/// `ptsa_host_sim::model::effects::REGISTRY` spans (its products are `a_IA·a_PA`, `a_IA·a_OA`,
 /// `a_IA²`, `dw_OA·a_PA`, the model equation's `1`, `a_IA`, `a_PA`, `a_OA`, `a_IA³`, `a_PA²`,
 /// `a_OA²`, `a_PA·a_OA`, and the lever arm's and anisoinertia's rate terms). Keep this the
 /// one list: when the vocabulary grows to cover a term, move it out of here and into

@@ -7,11 +7,11 @@
 //! line above copied into a row, and on a tumble a `g_ia` cell left empty (read as 0 g while
 //! the reading was taken at the row's true position).
 
-use ptsa_host_sim::discovery::caseframe::EmptyCells;
 use ptsa_host_sim::discovery::method::discover_with;
 use ptsa_host_sim::discovery::sim::{AnalyticSimulator, ClosedLoopSimulator};
 use ptsa_host_sim::discovery::{discover, outliers};
-use ptsa_host_sim::sim::SimOptions;
+use ptsa_host_sim::model::caseframe::EmptyCells;
+use ptsa_host_sim::simulation::sim::SimOptions;
 use rayon::prelude::*;
 
 use super::campaign::binomial_upper_tail;

@@ -42,10 +42,10 @@
 use std::fmt::Write as _;
 use std::sync::OnceLock;
 
-use ptsa_host_sim::condition::{IA, RowKind};
 use ptsa_host_sim::discovery::method::Selected;
 use ptsa_host_sim::discovery::sim::{ClosedLoopSimulator, runs_of};
 use ptsa_host_sim::discovery::{Options, Simulator};
+use ptsa_host_sim::model::condition::{IA, RowKind};
 use ptsa_host_sim::{CandidateId, Condition, Effects, Instrument, SimOptions};
 
 use rand::Rng as _;

@@ -1,6 +1,6 @@
 //! The physics hidden in a set, written here from the equations and entered into the closed
 //! loop through channels that share no code with the candidate vocabulary of
-//! `ptsa_host_sim::effects` (whose signatures the analyser fits):
+//! `ptsa_host_sim::model::effects` (whose signatures the analyser fits):
 //!
 //! | effect | channel |
 //! |---|---|
@@ -16,10 +16,12 @@
 use std::f64::consts::TAU;
 use std::sync::Arc;
 
-use ptsa_host_sim::condition::{CaseInputs, Condition};
-use ptsa_host_sim::instrument::Instrument;
-use ptsa_host_sim::plant::NX;
-use ptsa_host_sim::sim::{ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with};
+use ptsa_host_sim::model::condition::{CaseInputs, Condition};
+use ptsa_host_sim::model::instrument::Instrument;
+use ptsa_host_sim::model::plant::NX;
+use ptsa_host_sim::simulation::sim::{
+    ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with,
+};
 
 const IA: usize = 0;
 const PA: usize = 1;

@@ -100,14 +100,16 @@
 use std::fmt::Write as _;
 use std::sync::Arc;
 
-use ptsa_host_sim::condition::{CaseInputs, Condition, IA, OA, PA};
 use ptsa_host_sim::discovery::method::Selected;
 use ptsa_host_sim::discovery::sim::ClosedLoopSimulator;
 use ptsa_host_sim::discovery::{Options, Simulator, discover};
-use ptsa_host_sim::instrument::TORQUER_SF;
-use ptsa_host_sim::plan::{self, Axis};
-use ptsa_host_sim::plant::NX;
-use ptsa_host_sim::sim::{ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with};
+use ptsa_host_sim::lab::plan::{self, Axis};
+use ptsa_host_sim::model::condition::{CaseInputs, Condition, IA, OA, PA};
+use ptsa_host_sim::model::instrument::TORQUER_SF;
+use ptsa_host_sim::model::plant::NX;
+use ptsa_host_sim::simulation::sim::{
+    ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with,
+};
 use ptsa_host_sim::{CandidateId, Effects, Instrument};
 use rand::RngCore as _;
 use rayon::prelude::*;

@@ -3,7 +3,7 @@
 
 use ptsa_host_sim::discovery::sim::AnalyticSimulator;
 use ptsa_host_sim::discovery::{Options, discover};
-use ptsa_host_sim::effects::{CandidateId, Effects};
+use ptsa_host_sim::model::effects::{CandidateId, Effects};
 
 use super::physics::Motion;
 use super::*;
@@ -214,7 +214,7 @@ fn static_physics_agrees_with_the_candidate_terms() {
 /// the analyser. With `PTSA_WRITE_REPORT_DATA=1` the test rewrites it instead.
 #[test]
 fn synthetic_48_file_is_what_the_generator_makes() {
-    use ptsa_host_sim::discovery::caseframe;
+    use ptsa_host_sim::model::caseframe;
     let truth = Effects::only(CandidateId::Anisoinertia, 3.0);
     let rows = design_48(&analytic(), &truth, 0.2, 5);
     let text = caseframe::to_csv(

@@ -4,7 +4,7 @@
 //!
 //! The library ([`library`]) holds what a lab can run: tumble positions about OA and PA,
 //! rate-table positions at three rates, the two-axis oscillator's blocks and centrifuge
-//! levels with IA in and out ([`crate::plan`]). The search is greedy: each step adds the row
+//! levels with IA in and out ([`crate::lab::plan`]). The search is greedy: each step adds the row
 //! that most increases the smallest singular value of the group's weighted signatures, each
 //! made orthogonal to the other selected terms' (columns scaled to unit norm over the data
 //! and the library), until that value reaches [`GOOD`] or [`MAX_ROWS`] rows are added.
@@ -17,10 +17,10 @@ use serde::Serialize;
 use super::data::{Data, signatures};
 use super::fit::Fitted;
 use super::method::Selected;
-use super::stats::residualize;
-use crate::condition::Condition;
-use crate::effects::CandidateId;
-use crate::plan::{self, Axis};
+use crate::lab::plan::{self, Axis};
+use crate::model::condition::Condition;
+use crate::model::effects::CandidateId;
+use crate::stats::residualize;
 
 /// Most rows proposed per group.
 pub const MAX_ROWS: usize = 4;
@@ -130,7 +130,7 @@ fn groups(
     if data
         .rows
         .iter()
-        .any(|&i| rows[i].kind == crate::condition::RowKind::Absolute)
+        .any(|&i| rows[i].kind == crate::model::condition::RowKind::Absolute)
     {
         for &c in f.untestable.iter().chain(&f.untestable_nuisance) {
             if c.model_equation_term() {
@@ -241,7 +241,7 @@ pub fn advise(
             let rows: Vec<Condition> = added.iter().map(|&k| lib[k].clone()).collect();
             Advice {
                 separates: names,
-                add_rows: rows.iter().map(super::caseframe::to_object).collect(),
+                add_rows: rows.iter().map(crate::model::caseframe::to_object).collect(),
                 note: format!(
                     "{what}, add these {} row{} (measured at about the data's {sigma:.3} cm/s²): the smallest singular value of the group's scaled signatures goes from {start:.3} to {best:.3}{}",
                     rows.len(),

@@ -42,9 +42,9 @@ use super::data::{Data, Quantity};
 use super::fit::{self, Fitted, Step};
 use super::method::Selected;
 use super::sim::Simulator;
-use super::stats::{chi2_sf, f_sf, lsq, norm};
-use crate::condition::Condition;
-use crate::effects::{CandidateId, Effects};
+use crate::model::condition::Condition;
+use crate::model::effects::{CandidateId, Effects};
+use crate::stats::{chi2_sf, f_sf, lsq, norm};
 
 /// χ² by which another parameter must fit better than the selected one to be named in its
 /// place (a likelihood ratio of e^1.5; below it the two are partners and the selection's

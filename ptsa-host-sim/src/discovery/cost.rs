@@ -20,9 +20,9 @@
 use super::alternatives::{GOLDEN_STEPS, GRID, GRID_EXTENSIONS};
 use super::method::GAUSS_NEWTON_STEPS;
 use super::sim::Simulator;
-use crate::condition::{Condition, RowKind};
-use crate::effects::CandidateId;
-use crate::work::Ticks;
+use crate::model::condition::{Condition, RowKind};
+use crate::model::effects::CandidateId;
+use crate::simulation::work::Ticks;
 
 /// Most closed-loop passes over the measured rows of one parameter's search in
 /// `alternatives`: the grid with the file's value, its extensions, and two golden-section

@@ -6,8 +6,8 @@
 use std::collections::BTreeMap;
 
 use super::sim::{AnalyticSimulator, Simulator, gross_effect_cm_s2};
-use crate::condition::{CaseInputs, Condition};
-use crate::effects::{CandidateId, Effects};
+use crate::model::condition::{CaseInputs, Condition};
+use crate::model::effects::{CandidateId, Effects};
 
 /// How the drift term's time is measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -184,7 +184,7 @@ fn observations(
     default_sigma: Option<f64>,
 ) -> Vec<(Quantity, f64, Option<f64>, usize)> {
     match r.kind {
-        crate::condition::RowKind::Response => {
+        crate::model::condition::RowKind::Response => {
             let mut v = Vec::new();
             if let Some(gain) = r.measured_gain {
                 v.push((Quantity::Gain, gain, r.sigma_gain, 0));
@@ -288,8 +288,9 @@ pub fn build(
             });
             d.base.push(base);
             d.stated.push(sigma);
-            d.shift
-                .push(q == Quantity::Value && r.kind == crate::condition::RowKind::Difference);
+            d.shift.push(
+                q == Quantity::Value && r.kind == crate::model::condition::RowKind::Difference,
+            );
             d.drifts.push(q == Quantity::Value);
             d.block.push(bi);
             let kind = match q {
@@ -327,12 +328,11 @@ pub fn build(
     }
     // Loop parameters show only in oscillating, absolute or response rows (a static
     // difference is exact by charge balance whatever the loop).
-    let dynamic = d
-        .rows
-        .iter()
-        .any(|&i| rows[i].kind != crate::condition::RowKind::Difference || !rows[i].is_static());
+    let dynamic = d.rows.iter().any(|&i| {
+        rows[i].kind != crate::model::condition::RowKind::Difference || !rows[i].is_static()
+    });
     if dynamic {
-        crate::work::set_stage("the loop parameters' central differences");
+        crate::simulation::work::set_stage("the loop parameters' central differences");
         sigs.extend(parameter_signatures(rows, &d, &params, sim));
     } else {
         sigs.extend(params.iter().map(|&id| Signature {
@@ -517,7 +517,7 @@ fn noise_only(d: &Data, scale: &[f64], col: &[f64], h: f64, half: f64) -> bool {
     let nu = a_sum * a_sum / a2_sum;
     #[allow(clippy::cast_precision_loss)]
     let dof_d = (super::sim::RESPONSE_SEEDS - 1) as f64 * nu;
-    super::stats::f_sf(num / (2.0 * a_sum), nu, dof_d) > SENSITIVITY_ALPHA
+    crate::stats::f_sf(num / (2.0 * a_sum), nu, dof_d) > SENSITIVITY_ALPHA
 }
 
 /// The noise scale of every observation: its stated sigma, else the median absolute
@@ -650,10 +650,9 @@ pub fn features(rows: &[&Condition], g_cm_s2: f64) -> Vec<(String, Vec<f64>)> {
         .map(|r| {
             let c = averages(r, g_cm_s2);
             let f = match r.kind {
-                crate::condition::RowKind::Difference => averages(&r.reference(), g_cm_s2),
-                crate::condition::RowKind::Absolute | crate::condition::RowKind::Response => {
-                    [0.0; 54]
-                }
+                crate::model::condition::RowKind::Difference => averages(&r.reference(), g_cm_s2),
+                crate::model::condition::RowKind::Absolute
+                | crate::model::condition::RowKind::Response => [0.0; 54],
             };
             let mut d = [0.0; 54];
             for k in 0..54 {

@@ -14,10 +14,10 @@
 //!   `P(|t_{n−p}| > |β/SE_HC3|)`, valid whatever the rows' variances.
 
 use super::data::{Data, TimeUnit, replicate_sets};
-use super::stats::{
+use crate::model::effects::CandidateId;
+use crate::stats::{
     LsqFit, abs_cos, birge_ratio, chi2_sf, f_sf, lsq, norm, residualize, sandwich_se, t_two_sided,
 };
-use crate::effects::CandidateId;
 
 /// Settings of the selection.
 #[derive(Clone, Copy, Debug)]
@@ -109,7 +109,7 @@ pub struct Fitted {
     /// Coefficients in physical units, same order as the fit's columns.
     pub coef: Vec<f64>,
     /// Their standard errors (scaled by the Birge ratio when χ² rejects the sigmas, see
-    /// [`super::stats::birge_ratio`], or HC3 when
+    /// [`crate::stats::birge_ratio`], or HC3 when
     /// the sigmas are estimated, whichever is larger).
     pub se: Vec<f64>,
     /// Settings used.
@@ -851,7 +851,7 @@ impl Fitted {
 #[cfg(test)]
 mod tests {
     use super::{Reference, STATED_SIGMA_DOF, step_p};
-    use crate::discovery::stats::{f_sf, lsq};
+    use crate::stats::{f_sf, lsq};
 
     /// A 6-SE step (Δχ² = 36) tested against a reference model with 2 residual degrees of
     /// freedom, as in an 8-point tumble: with a stated sigma those residuals do not reject,

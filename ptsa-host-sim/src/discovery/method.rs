@@ -9,18 +9,18 @@ use std::fmt::Write as _;
 use serde::Serialize;
 
 use super::advice::{self, Advice};
-use super::caseframe::EmptyCells;
 use super::crossval::{self, Gain};
 use super::data::{self, Data, Quantity, TimeUnit};
 use super::fit::{self, Fitted, NoiseSource, Nuisance, Settings};
 use super::outliers;
 use super::sim::Simulator;
 use super::slips;
-use super::stats::{abs_cos, chi2_sf, lsq, norm, residualize};
 use super::unexplained::{self, Unexplained};
-use crate::condition::Condition;
-use crate::effects::{CandidateId, Effects, N_CANDIDATES, resolve_candidates};
-use crate::instrument::Instrument;
+use crate::model::caseframe::EmptyCells;
+use crate::model::condition::Condition;
+use crate::model::effects::{CandidateId, Effects, N_CANDIDATES, resolve_candidates};
+use crate::model::instrument::Instrument;
+use crate::stats::{abs_cos, chi2_sf, lsq, norm, residualize};
 
 pub use super::fit::Step;
 
@@ -244,7 +244,7 @@ pub struct RowResult {
     pub freq_hz: Option<f64>,
     /// The row's kind (not in the JSON: `quantity` and `freq_hz` say it there).
     #[serde(skip)]
-    pub kind: crate::condition::RowKind,
+    pub kind: crate::model::condition::RowKind,
     /// `value_cm_s2`, `gain` or `phase_deg`.
     pub quantity: &'static str,
     /// Measured difference, cm/s² (None = not measured, not fitted).
@@ -587,7 +587,7 @@ fn refine_parameters(
         }
         let Some(g) = lsq(&z, &refs) else { return };
         let dof = n.saturating_sub(refs.len());
-        let birge = super::stats::birge_ratio(g.chi2, dof);
+        let birge = crate::stats::birge_ratio(g.chi2, dof);
         let mut done = true;
         for (j, &k) in params.iter().enumerate() {
             let step = g.beta[j] / scales[j];
@@ -696,8 +696,8 @@ fn row_table(
     for (i, r) in rows.iter().enumerate() {
         for (o, &b) in baseline[i].iter().enumerate() {
             let (quantity, suffix) = match (r.kind, o) {
-                (crate::condition::RowKind::Response, 0) => ("gain", " (gain)"),
-                (crate::condition::RowKind::Response, _) => ("phase_deg", " (phase)"),
+                (crate::model::condition::RowKind::Response, 0) => ("gain", " (gain)"),
+                (crate::model::condition::RowKind::Response, _) => ("phase_deg", " (phase)"),
                 _ => ("value_cm_s2", ""),
             };
             let k = fitted[i].get(o).copied().flatten();
@@ -728,7 +728,8 @@ fn row_table(
             debug_assert!(aside.is_none_or(|a| (a.base - b).abs() <= 1e-9 * a.base.abs().max(1.0)));
             out.push(RowResult {
                 label: format!("{}{suffix}", r.label),
-                freq_hz: (r.kind == crate::condition::RowKind::Response).then_some(r.freq_hz),
+                freq_hz: (r.kind == crate::model::condition::RowKind::Response)
+                    .then_some(r.freq_hz),
                 kind: r.kind,
                 quantity,
                 measured_cm_s2: measured,
@@ -1065,7 +1066,7 @@ pub fn discover_with(
         );
     }
     // 1. Baseline: every row's observations (measured or not, for the table).
-    crate::work::set_stage("baseline");
+    crate::simulation::work::set_stage("baseline");
     let baseline: Vec<Vec<f64>> = {
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &Effects::NONE)).collect();
         sim.observe_all(&jobs)
@@ -1143,7 +1144,7 @@ pub fn discover_with(
     let n = data.n();
     let all: Vec<usize> = (0..n).collect();
     // 3. The model: nuisance terms, noise, selection.
-    crate::work::set_stage("selection");
+    crate::simulation::work::set_stage("selection");
     let f = fit::fit(&data, &all, settings);
     let mut steps = f.steps.clone();
     let mut selected = selected_report(&data, &f, opts, sim);
@@ -1153,8 +1154,8 @@ pub fn discover_with(
         .count();
     let search = super::cost::Cost::of(rows, sim, &opts.candidates).search(k);
     if search.total() > 0.0 {
-        crate::work::ahead("the closed-loop search of the loop's parameters", search)?;
-        crate::work::set_stage("search of the loop's parameters");
+        crate::simulation::work::ahead("the closed-loop search of the loop's parameters", search)?;
+        crate::simulation::work::set_stage("search of the loop's parameters");
     }
     refine_parameters(rows, &data, &f, &mut selected, sim, opts);
     let problem = super::alternatives::Problem {
@@ -1193,7 +1194,7 @@ pub fn discover_with(
         effects.add(s.id, s.coef);
     }
     // 4. Extend and re-simulate; the nuisance terms are part of the fitted model.
-    crate::work::set_stage("re-simulation");
+    crate::simulation::work::set_stage("re-simulation");
     let resim: Vec<Vec<f64>> = if effects.is_zero() {
         baseline.clone()
     } else {
@@ -1217,7 +1218,7 @@ pub fn discover_with(
     let base_summary = summary(&data, &|k| data.base[k], &f.sigma, 0);
     let ext_summary = summary(&data, &|k| extended[k], &f.sigma, f.fit.beta.len());
     // 5. What is left, and the gain out of sample.
-    crate::work::set_stage("cross-validation");
+    crate::simulation::work::set_stage("cross-validation");
     let unexplained = unexplained::test(&data, &f, &selected, opts.alpha);
     let gain = crossval::gain(
         &secant_signatures(rows, &data, &selected, &baseline, sim),
@@ -1420,7 +1421,7 @@ fn step_report(s: &Step) -> StepReport {
 fn bode(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<BodePoint> {
     let f: Vec<f64> = rows
         .iter()
-        .filter(|r| r.kind == crate::condition::RowKind::Response && r.freq_hz > 0.0)
+        .filter(|r| r.kind == crate::model::condition::RowKind::Response && r.freq_hz > 0.0)
         .map(|r| r.freq_hz)
         .collect();
     let (Some(lo), Some(hi)) = (
@@ -1597,7 +1598,7 @@ mod tests {
     use super::*;
     use crate::discovery::show;
     use crate::discovery::sim::AnalyticSimulator;
-    use crate::r890;
+    use crate::report::r890;
 
     fn analytic() -> AnalyticSimulator {
         AnalyticSimulator::for_instrument(&Instrument::kearfott_2401())
@@ -1717,7 +1718,7 @@ mod tests {
             .map(|k| {
                 let mut r = Condition {
                     label: format!("p{k}"),
-                    kind: crate::condition::RowKind::Absolute,
+                    kind: crate::model::condition::RowKind::Absolute,
                     g: [if k % 2 == 0 { 1.0 } else { -1.0 }, 0.0, 0.0],
                     sigma_cm_s2: Some(0.02),
                     ..Condition::default()
@@ -1745,7 +1746,7 @@ mod tests {
         use rand::SeedableRng as _;
         use rand_distr::Distribution as _;
         let sim = analytic();
-        let mut rows = crate::plan::tumble(24, crate::plan::Axis::Oa);
+        let mut rows = crate::lab::plan::tumble(24, crate::lab::plan::Axis::Oa);
         let truth = Effects::NONE
             .with(CandidateId::Bias, 2.0)
             .with(CandidateId::ScaleFactor, 300.0)

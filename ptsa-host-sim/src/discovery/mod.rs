@@ -2,7 +2,6 @@
 //! extend the model and measure the gain (method in `docs/discovery.md`, data format
 //! in `docs/case-frame.md`).
 //!
-//! * [`caseframe`]: the case-frame CSV reader and writer.
 //! * [`sim`]: the [`Simulator`] trait, the analytic model and the closed-loop adapter.
 //! * [`method`]: baseline, the model, confounding, plausibility, extension, the verdict.
 //! * [`data`]: the fitted rows, signatures and the generic basis of the case inputs.
@@ -24,12 +23,11 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 
-use crate::condition::Condition;
-use crate::effects::Effects;
+use crate::model::condition::Condition;
+use crate::model::effects::Effects;
 
 pub mod advice;
 pub mod alternatives;
-pub mod caseframe;
 pub mod cost;
 pub mod crossval;
 pub mod data;
@@ -39,7 +37,6 @@ pub mod outliers;
 pub mod show;
 pub mod sim;
 pub mod slips;
-pub mod stats;
 pub mod unexplained;
 
 pub use method::{Discovery, Options, TEST_STATEMENT, discover};
@@ -104,7 +101,7 @@ pub fn analytic() -> Box<dyn Simulator> {
 pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result<()> {
     let opts = &req.options;
     let path = &req.data;
-    let frame = caseframe::read_frame(path)?;
+    let frame = crate::model::caseframe::read_frame(path)?;
     let rows = frame.rows;
     let t0 = Instant::now();
     let d = method::discover_with(&rows, &frame.empty, sim, opts)
@@ -138,7 +135,10 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         let comments = [
             "Rows `ptsa discover` advises adding (see its advice): measure them and append them to the data.",
         ];
-        crate::output::write_atomic(p, caseframe::to_csv(&rows, &comments).as_bytes())?;
+        crate::output::write_atomic(
+            p,
+            crate::model::caseframe::to_csv(&rows, &comments).as_bytes(),
+        )?;
         eprintln!(
             "wrote {} ({})",
             p.display(),
@@ -224,14 +224,14 @@ pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
             .and_then(serde_json::Value::as_object)
             .with_context(|| format!("effects[{k}] ({name}): expected \"coefficients\""))?;
         for (key, val) in coefs {
-            let id = crate::effects::REGISTRY
+            let id = crate::model::effects::REGISTRY
                 .iter()
                 .find(|c| c.effect == name && c.key == key)
                 .map(|c| c.id)
                 .with_context(|| {
                     format!(
                         "effects[{k}]: `{name}.{key}` is not a candidate; expected one of: {}",
-                        crate::effects::REGISTRY
+                        crate::model::effects::REGISTRY
                             .iter()
                             .map(|c| format!("{}.{}", c.effect, c.key))
                             .collect::<Vec<_>>()

@@ -54,8 +54,8 @@ use rayon::prelude::*;
 
 use super::data::{Data, Quantity};
 use super::fit::{self, Fitted, Settings};
-use super::stats::{lsq, norm, t_two_sided};
-use crate::effects::CandidateId;
+use crate::model::effects::CandidateId;
+use crate::stats::{lsq, norm, t_two_sided};
 
 /// Familywise level of the outlier test: at most this fraction of clean data sets has a
 /// row flagged (a gross error is many noise standard deviations; a false alarm sets a good

@@ -6,8 +6,8 @@ use std::path::Path;
 use anyhow::Result;
 
 use super::method::{Discovery, RowResult, TEST_STATEMENT};
-use crate::condition::RowKind;
-use crate::effects::CandidateId;
+use crate::model::condition::RowKind;
+use crate::model::effects::CandidateId;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num, opt, text};
 
 fn names(ids: &[CandidateId]) -> String {

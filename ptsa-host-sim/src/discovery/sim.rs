@@ -2,9 +2,9 @@
 
 use std::borrow::Cow;
 
-use crate::condition::{Condition, IA, PA, RowKind};
-use crate::effects::Effects;
-use crate::instrument::Instrument;
+use crate::model::condition::{Condition, IA, PA, RowKind};
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 
 /// A model of the instrument that predicts a row's `measured_cm_s2`: for a `difference`
 /// row the mean indicated acceleration in the condition minus that in its reference
@@ -41,7 +41,7 @@ pub trait Simulator: Sync {
         }
     }
     /// [`Simulator::observe`] of every `(row, effects)` pair, in order. The closed loop
-    /// runs them all at once on the batch engine ([`crate::batch`]), bit for bit the same.
+    /// runs them all at once on the batch engine ([`crate::simulation::batch`]), bit for bit the same.
     fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
         use rayon::prelude::*;
         jobs.par_iter().map(|(c, e)| self.observe(c, e)).collect()
@@ -67,21 +67,21 @@ pub trait Simulator: Sync {
     }
     /// The closed-loop ticks of one [`Simulator::observe`] of a row (none for a model that
     /// runs no loop), for the estimate of a discovery's work (`discovery::cost`).
-    fn cost(&self, cond: &Condition) -> crate::work::Ticks {
+    fn cost(&self, cond: &Condition) -> crate::simulation::work::Ticks {
         let _ = cond;
-        crate::work::Ticks::ZERO
+        crate::simulation::work::Ticks::ZERO
     }
     /// The closed-loop ticks of one [`Simulator::observe_all`] of `rows` with one set of
     /// effects (a pass over the rows): what the rows' [`Simulator::cost`]s add up to, less
     /// the runs that rows share (the closed loop runs a reference shared by many rows
     /// once).
-    fn pass_cost(&self, rows: &[&Condition]) -> crate::work::Ticks {
+    fn pass_cost(&self, rows: &[&Condition]) -> crate::simulation::work::Ticks {
         rows.iter().map(|r| self.cost(r)).sum()
     }
     /// The closed-loop ticks of [`Simulator::observe_sigma`] of a row.
-    fn sigma_cost(&self, cond: &Condition) -> crate::work::Ticks {
+    fn sigma_cost(&self, cond: &Condition) -> crate::simulation::work::Ticks {
         let _ = cond;
-        crate::work::Ticks::ZERO
+        crate::simulation::work::Ticks::ZERO
     }
 }
 
@@ -93,7 +93,7 @@ fn closed_loop_linear(
     effects: &Effects,
 ) -> [f64; 2] {
     let instr = effects.apply_parameters(instr);
-    let l = crate::design::loop_gain(&instr, config, f_hz);
+    let l = crate::model::design::loop_gain(&instr, config, f_hz);
     let h = l / (1.0 + l);
     [h.norm(), h.arg().to_degrees()]
 }
@@ -126,8 +126,8 @@ impl AnalyticSimulator {
     #[must_use]
     pub fn for_instrument(instr: &Instrument) -> Self {
         let b0 = instr.loop_bias_cm_s2(0.0);
-        let config =
-            crate::design::check_loop(instr).map_or(ptsa_core::Config::DEFAULT, |c| c.config);
+        let config = crate::model::design::check_loop(instr)
+            .map_or(ptsa_core::Config::DEFAULT, |c| c.config);
         Self {
             g_cm_s2: instr.g_cm_s2,
             bias_cm_s2: instr.bias_cm_s2,
@@ -242,15 +242,15 @@ impl Simulator for AnalyticSimulator {
     }
 }
 
-/// The closed loop ([`crate::sim::simulate_difference`]: ptsa-core tick by tick against the
+/// The closed loop ([`crate::simulation::sim::simulate_difference`]: ptsa-core tick by tick against the
 /// plant of eq. 4.2, Table 2.1's parameters) behind [`Simulator`]. Effects enter the plant
 /// as an extra torque `P·effects.indicated_cm_s2(inputs)`.
 #[derive(Clone, Debug)]
 pub struct ClosedLoopSimulator {
     /// The instrument (default: the shipped Kearfott 2401 file).
-    pub instrument: crate::instrument::Instrument,
+    pub instrument: crate::model::instrument::Instrument,
     /// Run options (seed of the pickoff noise, warm-up, window).
-    pub options: crate::sim::SimOptions,
+    pub options: crate::simulation::sim::SimOptions,
 }
 
 impl ClosedLoopSimulator {
@@ -258,10 +258,10 @@ impl ClosedLoopSimulator {
     #[must_use]
     pub fn kearfott_2401(seed: u64) -> Self {
         ClosedLoopSimulator {
-            instrument: crate::instrument::Instrument::kearfott_2401(),
-            options: crate::sim::SimOptions {
+            instrument: crate::model::instrument::Instrument::kearfott_2401(),
+            options: crate::simulation::sim::SimOptions {
                 seed,
-                ..crate::sim::SimOptions::default()
+                ..crate::simulation::sim::SimOptions::default()
             },
         }
     }
@@ -363,7 +363,7 @@ fn run_key(c: &Condition, e: &Effects, seed: u64) -> Vec<u64> {
     let mut k = c.input_bits();
     k.push(seed);
     k.extend(
-        crate::effects::CandidateId::ALL
+        crate::model::effects::CandidateId::ALL
             .iter()
             .map(|&id| e.get(id).to_bits()),
     );
@@ -384,12 +384,12 @@ impl Simulator for ClosedLoopSimulator {
     }
 
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        crate::sim::simulate_difference(&self.instrument, cond, effects, &self.options)
+        crate::simulation::sim::simulate_difference(&self.instrument, cond, effects, &self.options)
             .difference_cm_s2
     }
 
     fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        crate::sim::simulate_condition(&self.instrument, cond, effects, &self.options)
+        crate::simulation::sim::simulate_condition(&self.instrument, cond, effects, &self.options)
             .indicated_cm_s2
     }
 
@@ -403,7 +403,7 @@ impl Simulator for ClosedLoopSimulator {
     fn reseeded(&self, offset: u64) -> Option<Box<dyn Simulator>> {
         Some(Box::new(ClosedLoopSimulator {
             instrument: self.instrument.clone(),
-            options: crate::sim::SimOptions {
+            options: crate::simulation::sim::SimOptions {
                 seed: self.options.seed.wrapping_add(offset),
                 ..self.options
             },
@@ -422,9 +422,9 @@ impl Simulator for ClosedLoopSimulator {
         let (runs, slots) = distinct_runs(jobs, seed);
         let mut value: Vec<f64> = Vec::with_capacity(runs.len());
         for chunk in runs.chunks(RUN_CHUNK) {
-            let batch: Vec<crate::batch::Job<'_>> = chunk
+            let batch: Vec<crate::simulation::batch::Job<'_>> = chunk
                 .iter()
-                .map(|(cond, e)| crate::batch::Job {
+                .map(|(cond, e)| crate::simulation::batch::Job {
                     instr: &self.instrument,
                     cond: cond.as_ref(),
                     effects: **e,
@@ -432,7 +432,7 @@ impl Simulator for ClosedLoopSimulator {
                 })
                 .collect();
             value.extend(
-                crate::batch::simulate_jobs(&batch, &self.options)
+                crate::simulation::batch::simulate_jobs(&batch, &self.options)
                     .iter()
                     .map(|r| r.indicated_cm_s2),
             );
@@ -468,32 +468,32 @@ impl Simulator for ClosedLoopSimulator {
 
     /// A response row's [`RESPONSE_SEEDS`] runs, a difference row's condition and
     /// reference, an absolute row's run.
-    fn cost(&self, cond: &Condition) -> crate::work::Ticks {
+    fn cost(&self, cond: &Condition) -> crate::simulation::work::Ticks {
         let (i, o) = (&self.instrument, &self.options);
         match cond.kind {
             RowKind::Response => (0..RESPONSE_SEEDS)
                 .map(|j| {
-                    crate::work::condition(
+                    crate::simulation::work::condition(
                         i,
                         &started(cond, o.seed.wrapping_add(j)),
                         &response_options(o),
                     )
                 })
                 .sum(),
-            RowKind::Difference => crate::work::difference(i, cond, o),
-            RowKind::Absolute => crate::work::condition(i, cond, o),
+            RowKind::Difference => crate::simulation::work::difference(i, cond, o),
+            RowKind::Absolute => crate::simulation::work::condition(i, cond, o),
         }
     }
 
     /// Each distinct run of the rows once ([`distinct_runs`]), and every response row's
     /// runs.
-    fn pass_cost(&self, rows: &[&Condition]) -> crate::work::Ticks {
+    fn pass_cost(&self, rows: &[&Condition]) -> crate::simulation::work::Ticks {
         let none = Effects::NONE;
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|&r| (r, &none)).collect();
         let (runs, _) = distinct_runs(&jobs, self.options.seed);
-        let plain: crate::work::Ticks = runs
+        let plain: crate::simulation::work::Ticks = runs
             .iter()
-            .map(|(c, _)| crate::work::condition(&self.instrument, c, &self.options))
+            .map(|(c, _)| crate::simulation::work::condition(&self.instrument, c, &self.options))
             .sum();
         plain
             + rows
@@ -504,11 +504,11 @@ impl Simulator for ClosedLoopSimulator {
     }
 
     /// A response row's [`RESPONSE_SEEDS`] runs again; nothing for the other rows.
-    fn sigma_cost(&self, cond: &Condition) -> crate::work::Ticks {
+    fn sigma_cost(&self, cond: &Condition) -> crate::simulation::work::Ticks {
         if cond.kind == RowKind::Response {
             self.cost(cond)
         } else {
-            crate::work::Ticks::ZERO
+            crate::simulation::work::Ticks::ZERO
         }
     }
 
@@ -533,11 +533,11 @@ fn response_runs(
     instr: &Instrument,
     cond: &Condition,
     effects: &Effects,
-    opts: &crate::sim::SimOptions,
+    opts: &crate::simulation::sim::SimOptions,
 ) -> ([f64; 2], [f64; 2]) {
     let runs: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
         .map(|j| {
-            let o = crate::sim::SimOptions {
+            let o = crate::simulation::sim::SimOptions {
                 seed: opts.seed.wrapping_add(j),
                 ..*opts
             };
@@ -585,17 +585,19 @@ pub fn response_of(
     instr: &Instrument,
     cond: &Condition,
     effects: &Effects,
-    opts: &crate::sim::SimOptions,
+    opts: &crate::simulation::sim::SimOptions,
 ) -> [f64; 2] {
     let c = started(cond, opts.seed);
-    let r = crate::sim::simulate_condition(instr, &c, effects, &response_options(opts));
+    let r = crate::simulation::sim::simulate_condition(instr, &c, effects, &response_options(opts));
     response_from(cond, &c, &r)
 }
 
 /// The options of a response run: the first harmonic measured, the window at least
 /// [`RESPONSE_WINDOW_S`].
-fn response_options(opts: &crate::sim::SimOptions) -> crate::sim::SimOptions {
-    crate::sim::SimOptions {
+fn response_options(
+    opts: &crate::simulation::sim::SimOptions,
+) -> crate::simulation::sim::SimOptions {
+    crate::simulation::sim::SimOptions {
         harmonic: 1,
         min_window_s: opts.min_window_s.max(RESPONSE_WINDOW_S),
         ..*opts
@@ -619,17 +621,17 @@ fn started(cond: &Condition, seed: u64) -> Condition {
 }
 
 /// One closed-loop run of each `(row, effects, seed)` of `instr` with `opts` (its seed
-/// replaced), all on the batch engine ([`crate::batch`]) in two calls (response runs have
+/// replaced), all on the batch engine ([`crate::simulation::batch`]) in two calls (response runs have
 /// their own window and harmonic): `[gain, phase_deg]` for a response row, as
 /// [`response_of`]; `[indicated cm/s²]` for an absolute row and `[difference cm/s²]` for a
 /// difference row (the condition minus its reference), as
-/// [`crate::sim::simulate_condition`] and [`crate::sim::simulate_difference`]; bit for
+/// [`crate::simulation::sim::simulate_condition`] and [`crate::simulation::sim::simulate_difference`]; bit for
 /// bit those single runs.
 #[must_use]
 pub fn runs_of(
     instr: &Instrument,
     jobs: &[(&Condition, &Effects, u64)],
-    opts: &crate::sim::SimOptions,
+    opts: &crate::simulation::sim::SimOptions,
 ) -> Vec<Vec<f64>> {
     let ropts = response_options(opts);
     // Response runs with their conditions started at their phases.
@@ -639,9 +641,9 @@ pub fn runs_of(
         .filter(|(_, (c, _, _))| c.kind == RowKind::Response)
         .map(|(k, &(c, _, seed))| (k, started(c, seed)))
         .collect();
-    let rjobs: Vec<crate::batch::Job<'_>> = shifted
+    let rjobs: Vec<crate::simulation::batch::Job<'_>> = shifted
         .iter()
-        .map(|(k, c)| crate::batch::Job {
+        .map(|(k, c)| crate::simulation::batch::Job {
             instr,
             cond: c,
             effects: *jobs[*k].1,
@@ -659,7 +661,7 @@ pub fn runs_of(
     let mut slots: Vec<(usize, bool)> = Vec::new();
     for (k, &(c, e, seed)) in jobs.iter().enumerate() {
         if c.kind != RowKind::Response {
-            ojobs.push(crate::batch::Job {
+            ojobs.push(crate::simulation::batch::Job {
                 instr,
                 cond: c,
                 effects: *e,
@@ -669,7 +671,7 @@ pub fn runs_of(
         }
     }
     for (k, r) in &refs {
-        ojobs.push(crate::batch::Job {
+        ojobs.push(crate::simulation::batch::Job {
             instr,
             cond: r,
             effects: *jobs[*k].1,
@@ -677,8 +679,8 @@ pub fn runs_of(
         });
         slots.push((*k, true));
     }
-    let rres = crate::batch::simulate_jobs(&rjobs, &ropts);
-    let ores = crate::batch::simulate_jobs(&ojobs, opts);
+    let rres = crate::simulation::batch::simulate_jobs(&rjobs, &ropts);
+    let ores = crate::simulation::batch::simulate_jobs(&ojobs, opts);
     let mut out: Vec<Vec<f64>> = vec![Vec::new(); jobs.len()];
     for ((k, c), r) in shifted.iter().zip(&rres) {
         out[*k] = response_from(jobs[*k].0, c, r).to_vec();
@@ -700,7 +702,11 @@ pub fn runs_of(
 }
 
 /// `[gain, phase_deg]` of the run `r` of `started` (the row `cond` started at its phase).
-fn response_from(cond: &Condition, started: &Condition, r: &crate::sim::SimResult) -> [f64; 2] {
+fn response_from(
+    cond: &Condition,
+    started: &Condition,
+    r: &crate::simulation::sim::SimResult,
+) -> [f64; 2] {
     let amp = cond.lin_cm_s2[IA].abs();
     let mut ph = (r.harmonic_deg - started.lin_deg[IA]) % 360.0;
     if ph > 180.0 {
@@ -723,7 +729,7 @@ pub fn closed_loop(seed: u64) -> Box<dyn Simulator> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effects::CandidateId;
+    use crate::model::effects::CandidateId;
 
     #[test]
     fn rectified_vibropendulosity_is_half_the_amplitude_product_times_cos_phase() {
@@ -789,11 +795,11 @@ mod tests {
     fn observe_all_is_observe_bit_for_bit() {
         let sim = ClosedLoopSimulator {
             instrument: Instrument::kearfott_2401(),
-            options: crate::sim::SimOptions {
+            options: crate::simulation::sim::SimOptions {
                 seed: 5,
                 warmup_s: 0.02,
                 min_window_s: 0.02,
-                ..crate::sim::SimOptions::default()
+                ..crate::simulation::sim::SimOptions::default()
             },
         };
         let mut rows = Vec::new();

@@ -20,10 +20,10 @@
 //!   goes on with the stated sigmas (a stated sigma is the user's claim), the warning at the
 //!   top of the report says what they cost and what was probably meant.
 
-use super::caseframe::EmptyCells;
 use super::data::{Data, Quantity};
 use super::fit::{self, Fitted};
-use super::stats::{chi2_sf, lsq, norm, residualize};
+use crate::model::caseframe::EmptyCells;
+use crate::stats::{chi2_sf, lsq, norm, residualize};
 
 /// Largest `‖y − k·b‖/‖y‖` of measured values `y` that count as the multiple `k` of the
 /// baseline `b`.

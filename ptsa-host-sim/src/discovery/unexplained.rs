@@ -18,7 +18,7 @@ use serde::Serialize;
 use super::data::{Data, replicate_sets};
 use super::fit::{Fitted, step_p};
 use super::method::Selected;
-use super::stats::{f_sf, lsq, norm, residualize};
+use crate::stats::{f_sf, lsq, norm, residualize};
 
 /// What the tests found, in the `--json` shape.
 #[derive(Clone, Debug, Serialize)]

@@ -6,8 +6,8 @@
 //! rotation: it feels `dw × r + w × (w × r)` (the `lever_arm` effect of [`Effects`]), which
 //! the simulator adds through the `lever_arm` candidate of [`Effects`].
 
-use crate::condition::{Condition, IA, OA, PA, cross};
-use crate::effects::Effects;
+use crate::model::condition::{Condition, IA, OA, PA, cross};
+use crate::model::effects::Effects;
 
 /// A condition and the lever arm of the fixture (cm, case axes).
 #[derive(Clone, Debug, PartialEq)]

@@ -12,7 +12,7 @@
 //! * [`centrifuge`]: a centrifuge at given g levels (IEEE Std 836), IA along the arm
 //!   pointing at the spin axis and away from it; absolute rows.
 
-use crate::condition::{Condition, RowKind};
+use crate::model::condition::{Condition, RowKind};
 
 /// Which axis a tumble or rate-table position turns about (it lies horizontal).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -203,7 +203,7 @@ pub fn centrifuge(radius_cm: f64, g_levels: &[f64], g_cm_s2: f64) -> Vec<Conditi
 #[allow(clippy::float_cmp)] // exact unit vectors, by `clean`
 mod tests {
     use super::*;
-    use crate::condition::{IA, OA, PA};
+    use crate::model::condition::{IA, OA, PA};
 
     #[test]
     fn a_24_point_tumble_about_oa_sweeps_gravity_through_ia_and_pa() {

@@ -19,7 +19,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 
-use crate::condition::{Condition, RowKind};
+use crate::model::condition::{Condition, RowKind};
 
 /// One gate of the record.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -342,12 +342,12 @@ impl ResponseFit {
 }
 
 /// Response rows as case-frame CSV of the [`ROW_COLUMNS`] (the case frame's own writer,
-/// [`crate::discovery::caseframe::to_csv_columns`]): the header, then one line per row,
+/// [`crate::model::caseframe::to_csv_columns`]): the header, then one line per row,
 /// numbers in Rust's shortest round-trip form (the case-frame reader gives them back bit for
 /// bit), a label quoted when the reader would otherwise split, trim or skip it.
 #[must_use]
 pub fn rows_csv(rows: &[Condition]) -> String {
-    crate::discovery::caseframe::to_csv_columns(rows, &[], &ROW_COLUMNS)
+    crate::model::caseframe::to_csv_columns(rows, &[], &ROW_COLUMNS)
 }
 
 /// Fit the record: input `amp_cm_s2·sin(2π·freq_hz·t + input_phase_deg)` along IA; the
@@ -382,7 +382,7 @@ pub fn fit(
         .map(|g| (w * (g.time_s + tau / 2.0)).sin_cos())
         .unzip();
     let ones = vec![1.0; n];
-    let f = crate::discovery::stats::lsq(&y, &[&ones, &s, &c])
+    let f = crate::stats::lsq(&y, &[&ones, &s, &c])
         .context("the gates do not sample the period well enough to fit a sine")?;
     #[allow(clippy::cast_precision_loss)]
     let s2 = f.chi2 / (n - 3).max(1) as f64;
@@ -539,9 +539,9 @@ fn wrap_deg(x: f64) -> f64 {
 #[must_use]
 pub fn predict(instr: &crate::Instrument, f_hz: f64) -> Option<Prediction> {
     use rand::{Rng as _, SeedableRng as _};
-    let config = crate::design::check_loop(instr).ok()?.config;
+    let config = crate::model::design::check_loop(instr).ok()?.config;
     let h = |i: &crate::Instrument| {
-        let l = crate::design::loop_gain(i, &config, f_hz);
+        let l = crate::model::design::loop_gain(i, &config, f_hz);
         l / (1.0 + l)
     };
     let h0 = h(instr);
@@ -1046,7 +1046,7 @@ mod tests {
             ),
             "{text}"
         );
-        let back = crate::discovery::caseframe::parse("r.csv", &text).unwrap();
+        let back = crate::model::caseframe::parse("r.csv", &text).unwrap();
         assert_eq!(back, rows);
         assert_eq!(back[0].sigma_phase_deg, None);
     }

@@ -15,7 +15,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 
-use crate::condition::{Condition, RowKind};
+use crate::model::condition::{Condition, RowKind};
 
 /// A cell's value as read or written.
 #[derive(Clone, Debug, PartialEq)]

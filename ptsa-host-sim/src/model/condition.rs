@@ -155,7 +155,7 @@ impl Condition {
             sigma_gain: _,
             sigma_phase_deg: _,
         } = self;
-        let mut k: Vec<u64> = Vec::with_capacity(32 + crate::effects::N_CANDIDATES);
+        let mut k: Vec<u64> = Vec::with_capacity(32 + crate::model::effects::N_CANDIDATES);
         k.push(*kind as u64);
         for v in [
             g,

@@ -13,7 +13,7 @@ use std::f64::consts::TAU;
 
 use ptsa_core::{Coef, Config, Pole};
 
-use crate::instrument::Instrument;
+use crate::model::instrument::Instrument;
 
 /// Every intermediate number of the design, SI/cgs units in the names.
 #[derive(Clone, Copy, Debug, PartialEq)]

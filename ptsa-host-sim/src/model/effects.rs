@@ -12,8 +12,8 @@
 
 use serde::Serialize;
 
-use crate::condition::{CaseInputs, IA, OA, PA, cross};
-use crate::instrument::{self, Parameter};
+use crate::model::condition::{CaseInputs, IA, OA, PA, cross};
+use crate::model::instrument::{self, Parameter};
 
 /// How a candidate's signature (its effect per unit coefficient on a row) is computed.
 #[derive(Clone, Copy, Debug)]
@@ -22,7 +22,7 @@ pub enum Signature {
     /// its value for a unit coefficient at one instant, cm/s². The loop indicates its time
     /// average (an extra torque `P·term` on the pendulum, eq. 4.2).
     Term(fn(&CaseInputs) -> f64),
-    /// A parameter of the instrument file (its entry of [`crate::instrument::PARAMETERS`]):
+    /// A parameter of the instrument file (its entry of [`crate::model::instrument::PARAMETERS`]):
     /// the coefficient is the change from the file's value, in the file's unit, and the
     /// signature is the closed loop's sensitivity to it, by finite differences through the
     /// simulator.
@@ -45,7 +45,7 @@ pub enum ModelTerm {
     Outside,
 }
 
-/// Which plausibility bound of the instrument file ([`crate::instrument::Plausibility`])
+/// Which plausibility bound of the instrument file ([`crate::model::instrument::Plausibility`])
 /// limits a candidate's coefficient.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Bound {
@@ -72,7 +72,7 @@ pub enum Bound {
 impl Bound {
     /// The largest plausible magnitude of the coefficient, in the candidate's unit.
     #[must_use]
-    pub fn limit(self, instr: &crate::instrument::Instrument) -> f64 {
+    pub fn limit(self, instr: &crate::model::instrument::Instrument) -> f64 {
         let p = &instr.plausibility;
         match self {
             Bound::LeverArm => p.lever_arm_cm,
@@ -456,8 +456,8 @@ impl Effects {
     #[must_use]
     pub fn apply_parameters(
         &self,
-        instr: &crate::instrument::Instrument,
-    ) -> crate::instrument::Instrument {
+        instr: &crate::model::instrument::Instrument,
+    ) -> crate::model::instrument::Instrument {
         let mut out = instr.clone();
         for (id, c) in self.nonzero() {
             if let Some(p) = id.parameter() {
@@ -489,7 +489,7 @@ impl Effects {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::condition::Condition;
+    use crate::model::condition::Condition;
 
     #[test]
     fn names_keys_and_order_are_the_contract() {
@@ -599,7 +599,9 @@ mod tests {
                 continue;
             };
             assert!(
-                crate::instrument::PARAMETERS.iter().any(|q| q.key == p.key),
+                crate::model::instrument::PARAMETERS
+                    .iter()
+                    .any(|q| q.key == p.key),
                 "{}",
                 c.name
             );
@@ -617,7 +619,7 @@ mod tests {
             .iter()
             .filter_map(|c| c.id.parameter_key())
             .collect();
-        let not_candidates: Vec<&str> = crate::instrument::PARAMETERS
+        let not_candidates: Vec<&str> = crate::model::instrument::PARAMETERS
             .iter()
             .filter(|p| p.form.can_be_toleranced() && !candidates.contains(&p.key))
             .map(|p| p.key)
@@ -670,7 +672,7 @@ mod tests {
             w_rad_s: [0.3, -0.7, 1.1],
             dw_rad_s2: [2.0, -5.0, 7.0],
         };
-        let instr = crate::instrument::Instrument::kearfott_2401();
+        let instr = crate::model::instrument::Instrument::kearfott_2401();
         for &id in CandidateId::ALL {
             if let Some(key) = id.parameter_key() {
                 // A parameter: a key the instrument file has, with a tolerance band (the

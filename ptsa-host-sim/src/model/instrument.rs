@@ -9,7 +9,7 @@ use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use toml::Spanned;
 
 /// The shipped instrument file, compiled in.
-pub const KEARFOTT_2401_TOML: &str = include_str!("../../data/kearfott-2401.toml");
+pub const KEARFOTT_2401_TOML: &str = include_str!("../../../data/kearfott-2401.toml");
 
 /// Why an instrument file was refused: where and what was expected.
 ///
@@ -293,7 +293,7 @@ enum Raw<'a> {
 /// valid range, and the [`Instrument`] field it sets. [`PARAMETERS`] lists them all; parsing,
 /// [`Instrument::get`], [`Instrument::set`], [`Instrument::rewrite`] and the tolerance box
 /// all go through that one table, and the loop-parameter candidates of
-/// [`crate::effects::REGISTRY`] refer to its entries.
+/// [`crate::model::effects::REGISTRY`] refer to its entries.
 #[derive(Clone, Copy)]
 pub struct Parameter {
     /// Key in the file, `section.key`, units in the name.

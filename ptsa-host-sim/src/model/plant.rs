@@ -24,7 +24,7 @@
 //! The stops at `±θ_s` add a stiff, lossy contact `−K_s·(θ ∓ θ_s) − C_s·θ'`: a second and a
 //! third discretisation, chosen by the sign of `θ` beyond the stop at the start of each tick.
 
-use crate::instrument::Instrument;
+use crate::model::instrument::Instrument;
 
 /// Number of plant states.
 pub const NX: usize = 4;

@@ -11,7 +11,7 @@ use anyhow::Result;
 use crate::discovery::method::{Options, TEST_STATEMENT, discover};
 use crate::discovery::show::{estimate, text_report, write_outputs};
 use crate::discovery::sim::Simulator;
-use crate::r890;
+use crate::report::r890;
 
 /// The analysis of the report's Tables 6.1, 6.2 and 6.3 as a Markdown section, for the
 /// no-argument report. Writes the tables and plots into `out` when given; the Markdown links

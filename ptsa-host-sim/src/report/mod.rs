@@ -1,5 +1,5 @@
 //! The whole report programme (`cargo ptsa` with no subcommand): every experiment of
-//! [`crate::experiments`] and the discovery analysis of Tables 6.1–6.3, written into a
+//! [`crate::report::experiments`] and the discovery analysis of Tables 6.1–6.3, written into a
 //! report folder that appears whole or not at all, with `summary.md` ([`summary`]).
 
 use std::io::Write;
@@ -10,17 +10,18 @@ use anyhow::Result;
 
 use crate::discovery::Options;
 use crate::discovery::sim::ClosedLoopSimulator;
-use crate::experiments::{
+use crate::lab::fixtures::TwoAxisKind;
+use crate::model::instrument::Instrument;
+use crate::output::{Output, StagedDir, write_atomic};
+use crate::report::experiments::{
     anisoinertia, appendix_a, design, frequency_response, limit_cycle, monte_carlo, oa_coupling,
     tumble, waveform,
 };
-use crate::fixtures::TwoAxisKind;
-use crate::instrument::Instrument;
-use crate::output::{Output, StagedDir, write_atomic};
-use crate::r890;
-use crate::sim::SimOptions;
+use crate::simulation::sim::SimOptions;
 
 pub mod discovery;
+pub mod experiments;
+pub mod r890;
 pub mod summary;
 
 /// The steps of the programme, in order (for a progress display).
@@ -96,7 +97,7 @@ pub const OVERHEAD_S: f64 = 1.0;
 ///
 /// # Errors
 /// The report's transcriptions are malformed.
-pub fn work(instr: &Instrument, opts: &SimOptions) -> Result<crate::work::Estimate> {
+pub fn work(instr: &Instrument, opts: &SimOptions) -> Result<crate::simulation::work::Estimate> {
     let mut t = tumble::work(instr, opts, tumble::DEFAULT_GATE_S)
         + anisoinertia::work(instr, opts, [0.0; 3])?
         + oa_coupling::work(instr, opts, [0.0; 3])?
@@ -117,11 +118,15 @@ pub fn work(instr: &Instrument, opts: &SimOptions) -> Result<crate::work::Estima
     };
     let mut other_s = OVERHEAD_S;
     for f in r890::case_files()? {
-        let c = crate::discovery::cost::Cost::of(&f.rows, &sim, crate::effects::CandidateId::ALL);
+        let c = crate::discovery::cost::Cost::of(
+            &f.rows,
+            &sim,
+            crate::model::effects::CandidateId::ALL,
+        );
         t += c.ticks;
         other_s += c.seconds() - c.ticks.seconds();
     }
-    Ok(crate::work::Estimate { ticks: t, other_s })
+    Ok(crate::simulation::work::Estimate { ticks: t, other_s })
 }
 
 /// `step(k, name)` before step `k` of [`STEPS`].

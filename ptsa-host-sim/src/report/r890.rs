@@ -1,5 +1,5 @@
 //! The report's measurements, read from the transcriptions in `data/` (the only copy), and
-//! their conversion into the case-frame format by the fixture geometry of [`crate::fixtures`].
+//! their conversion into the case-frame format by the fixture geometry of [`crate::lab::fixtures`].
 //!
 //! * `data/r890-section-6.1.csv`: SF, `A_b`, local g and the test uncertainty ([`Section61`]);
 //! * `data/r890-section-6.2.csv`: the anisoinertia measurement's rates and results
@@ -22,21 +22,21 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 
-use crate::condition::Condition;
-use crate::discovery::caseframe::to_csv;
-use crate::fixtures;
+use crate::lab::fixtures;
+use crate::model::caseframe::to_csv;
+use crate::model::condition::Condition;
 use crate::output::write_atomic;
 
 /// Table 6.1 as transcribed (`data/r890-table-6.1.csv`).
-pub const TABLE_6_1_CSV: &str = include_str!("../../data/r890-table-6.1.csv");
+pub const TABLE_6_1_CSV: &str = include_str!("../../../data/r890-table-6.1.csv");
 /// Table 6.2 as transcribed.
-pub const TABLE_6_2_CSV: &str = include_str!("../../data/r890-table-6.2.csv");
+pub const TABLE_6_2_CSV: &str = include_str!("../../../data/r890-table-6.2.csv");
 /// Table 6.3 as transcribed.
-pub const TABLE_6_3_CSV: &str = include_str!("../../data/r890-table-6.3.csv");
+pub const TABLE_6_3_CSV: &str = include_str!("../../../data/r890-table-6.3.csv");
 /// Section 6.1's SF, bias, local g and test uncertainty.
-pub const SECTION_6_1_CSV: &str = include_str!("../../data/r890-section-6.1.csv");
+pub const SECTION_6_1_CSV: &str = include_str!("../../../data/r890-section-6.1.csv");
 /// Section 6.2's rates and results.
-pub const SECTION_6_2_CSV: &str = include_str!("../../data/r890-section-6.2.csv");
+pub const SECTION_6_2_CSV: &str = include_str!("../../../data/r890-section-6.2.csv");
 
 /// The data rows of a transcription: `(1-based line, cells)`, every cell trimmed; `#` lines
 /// are comments, the first other line is the header, which must be `header`.
@@ -345,7 +345,7 @@ pub fn write_case_files(dir: &Path) -> Result<Vec<PathBuf>> {
 #[allow(clippy::float_cmp)]
 mod tests {
     use super::*;
-    use crate::discovery::caseframe;
+    use crate::model::caseframe;
 
     /// The shipped `data/*.case.csv` equal the code's conversion. With
     /// `PTSA_WRITE_REPORT_DATA=1` the test rewrites them instead.

@@ -6,10 +6,10 @@ use std::fmt::Write as _;
 use anyhow::Result;
 
 use super::Programme;
-use crate::experiments::appendix_a;
-use crate::experiments::frequency_response::ResponseRow;
 use crate::output::Output;
-use crate::r890;
+use crate::report::experiments::appendix_a;
+use crate::report::experiments::frequency_response::ResponseRow;
+use crate::report::r890;
 
 /// One experiment's tables (Markdown, titled), figures (embedded SVG) and notes.
 fn section(s: &mut String, o: &Output) {
@@ -76,7 +76,7 @@ fn appendix_verdict(p: &Programme) -> String {
         let _ = write!(
             v,
             " The pendulum's motion θ, which the 2ω term rectifies, is set by the loop's sensitivity |1/(1 + L)|; at {freq} Hz, close to the {:.0} Hz crossover, the simulated loop's sensitivity (from its measured frequency response, 1 − H) is {sim:.3} against the linear model's {model:.3}, {:+.0} %: the linear model treats the forced-binary quantizer as a unit gain, which is least accurate near crossover. A 2ω difference of that order is therefore expected from the model, not a defect of the loop; the DC term depends on the part of θ in phase with a_PA and is less sensitive.",
-            crate::design::margins(&p.instrument, &p.info.options.config).crossover_hz,
+            crate::model::design::margins(&p.instrument, &p.info.options.config).crossover_hz,
             100.0 * (sim / model - 1.0)
         );
     }

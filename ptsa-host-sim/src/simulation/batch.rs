@@ -64,14 +64,14 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::condition::Condition;
-use crate::effects::Effects;
-use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::lab::fixtures;
+use crate::model::condition::Condition;
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use ptsa_core::{Polarity, Ptsa, State};
 
-use crate::plant::{NX, ZohLanes};
-use crate::sim::{
+use crate::model::plant::{NX, ZohLanes};
+use crate::simulation::sim::{
     self, Acc, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource,
     PROGRESS_CHUNK, SimDifference, SimOptions, SimResult, StaticRun, StaticRunState, TickInputs,
     WindowStart, fast_block, static_tick,
@@ -553,7 +553,7 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
                 .count();
             let (now, later) = rest.split_at_mut(same);
             run_mode(now, mode, m, k);
-            crate::work::count(m * now.len() as u64, mode == Mode::Dynamic);
+            crate::simulation::work::count(m * now.len() as u64, mode == Mode::Dynamic);
             rest = later;
         }
         for l in &mut active {
@@ -1114,9 +1114,9 @@ pub fn batch_rates(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::condition::{IA, OA, PA};
-    use crate::effects::CandidateId;
-    use crate::sim::{simulate_condition, simulate_difference};
+    use crate::model::condition::{IA, OA, PA};
+    use crate::model::effects::CandidateId;
+    use crate::simulation::sim::{simulate_condition, simulate_difference};
     use proptest::prelude::*;
 
     /// Every number of a window result, floats as bits.
@@ -1692,7 +1692,7 @@ mod tests {
         let i = instr();
         let arm = |r: f64| Condition {
             label: format!("r{r}"),
-            kind: crate::condition::RowKind::Absolute,
+            kind: crate::model::condition::RowKind::Absolute,
             w_rad_s: [0.0, 0.0, 3.0],
             radius_cm: r,
             freq_hz: 5.0,

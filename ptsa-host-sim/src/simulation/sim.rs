@@ -33,10 +33,10 @@ use ptsa_core::{Config, Polarity, Ptsa, State};
 use rand_chacha::ChaCha8Rng;
 use rand_chacha::rand_core::{RngCore, SeedableRng};
 
-use crate::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
-use crate::effects::{Effects, Signature};
-use crate::instrument::Instrument;
-use crate::plant::{NX, Plant, Zoh};
+use crate::model::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
+use crate::model::effects::{Effects, Signature};
+use crate::model::instrument::Instrument;
+use crate::model::plant::{NX, Plant, Zoh};
 
 /// Options of a simulated run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -603,7 +603,7 @@ impl ClosedLoop {
             self.run(n);
         } else {
             self.run_static::<_, false, false>(n, &mut |_| {});
-            crate::work::count(n, false);
+            crate::simulation::work::count(n, false);
         }
     }
 
@@ -617,10 +617,10 @@ impl ClosedLoop {
     fn run_inner<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         if self.dynamic || self.harmonic != 0 {
             self.run_dynamic::<F, OBSERVE>(n, obs);
-            crate::work::count(n, true);
+            crate::simulation::work::count(n, true);
         } else {
             self.run_static::<F, OBSERVE, true>(n, obs);
-            crate::work::count(n, false);
+            crate::simulation::work::count(n, false);
         }
     }
 
@@ -1129,7 +1129,7 @@ pub(crate) struct StaticParams {
 }
 
 /// One tick of a static condition, the body of [`ClosedLoop::run`]'s static path and of the
-/// batch engine's lanes (`crate::batch`): sample with the ADC's additive term `bias` (see
+/// batch engine's lanes (`crate::simulation::batch`): sample with the ADC's additive term `bias` (see
 /// [`Adc::bias`]), let the core decide, step the plant with the applied polarity `ui`
 /// (0 = positive), count a tick on a stop, the per-tick statistics with `STATS`, and make
 /// the decided polarity the applied one. Returns the code and the core's tick.
@@ -1485,7 +1485,7 @@ pub fn run_static_with(
     mut obs: Option<&mut dyn FnMut(&TickView)>,
     progress: &mut dyn FnMut(u64, u64),
 ) -> StaticRun {
-    let cond = crate::fixtures::along_ia(accel_cm_s2, instr.g_cm_s2);
+    let cond = crate::lab::fixtures::along_ia(accel_cm_s2, instr.g_cm_s2);
     let mut l = ClosedLoop::new(instr, &cond, &Effects::NONE, opts);
     let settle = opts.warmup_ticks(instr.clock_hz);
     let total = settle + ticks;

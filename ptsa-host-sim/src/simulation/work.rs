@@ -1,7 +1,7 @@
 //! Work counted before it runs and while it runs.
 //!
 //! * [`Ticks`]: closed-loop clock ticks by path, the static one (a constant input, the fast
-//!   path of [`crate::sim::ClosedLoop`]) and the dynamic one (oscillating inputs, a harmonic
+//!   path of [`crate::simulation::sim::ClosedLoop`]) and the dynamic one (oscillating inputs, a harmonic
 //!   measured), which runs several times slower per tick; [`Ticks::seconds`] turns them into
 //!   an estimate of wall time with the measured rates [`STATIC_TICKS_PER_S`] and
 //!   [`DYNAMIC_TICKS_PER_S`].
@@ -17,9 +17,9 @@ use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Instant;
 
-use crate::condition::Condition;
-use crate::instrument::Instrument;
-use crate::sim::SimOptions;
+use crate::model::condition::Condition;
+use crate::model::instrument::Instrument;
+use crate::simulation::sim::SimOptions;
 
 /// Closed-loop ticks of the static path one core runs per second, counted on the slow side:
 /// the batch engine's static lanes with their per-tick statistics (measured 0.9e8 to 1.3e8
@@ -133,18 +133,18 @@ impl Estimate {
     }
 }
 
-/// The ticks of [`crate::sim::simulate_condition`]`(instr, cond, _, opts)`: the settling and
+/// The ticks of [`crate::simulation::sim::simulate_condition`]`(instr, cond, _, opts)`: the settling and
 /// the window, on the path the loop takes.
 #[must_use]
 pub fn condition(instr: &Instrument, cond: &Condition, opts: &SimOptions) -> Ticks {
     let dynamic = cond.prepare(instr.g_cm_s2).is_dynamic() || opts.harmonic != 0;
     #[allow(clippy::cast_precision_loss)]
-    let n =
-        (opts.warmup_ticks(instr.clock_hz) + crate::sim::window_ticks(instr, cond, opts)) as f64;
+    let n = (opts.warmup_ticks(instr.clock_hz)
+        + crate::simulation::sim::window_ticks(instr, cond, opts)) as f64;
     Ticks::of(n, dynamic)
 }
 
-/// The ticks of [`crate::sim::simulate_difference`]: the condition and its reference.
+/// The ticks of [`crate::simulation::sim::simulate_difference`]: the condition and its reference.
 #[must_use]
 pub fn difference(instr: &Instrument, cond: &Condition, opts: &SimOptions) -> Ticks {
     condition(instr, cond, opts) + condition(instr, &cond.reference(), opts)

@@ -11,10 +11,10 @@
 use std::path::PathBuf;
 
 use clap::{Args, Parser, Subcommand};
-use ptsa_host_sim::effects::{CandidateId, candidate_names, resolve_candidates};
-use ptsa_host_sim::experiments::{appendix_a::TwoAxisPlan, tumble, waveform};
-use ptsa_host_sim::plan::Axis;
-use ptsa_host_sim::sim::SimOptions;
+use ptsa_host_sim::lab::plan::Axis;
+use ptsa_host_sim::model::effects::{CandidateId, candidate_names, resolve_candidates};
+use ptsa_host_sim::report::experiments::{appendix_a::TwoAxisPlan, tumble, waveform};
+use ptsa_host_sim::simulation::sim::SimOptions;
 
 /// Closed-loop simulator of the Kearfott 2401 accelerometer in the UAC PTSA forced-binary
 /// loop (Draper report R-890), built on ptsa-core, the firmware's own loop code.
@@ -297,7 +297,7 @@ pub enum Cmd {
         batch: Option<usize>,
         /// With --batch: loops interleaved tick by tick per core in the batch (1, 2, 4, 8 or
         /// 16; 1, the engine's default, runs them one after the other, block by block).
-        #[arg(long, default_value_t = ptsa_host_sim::batch::LANES, value_name = "K",
+        #[arg(long, default_value_t = ptsa_host_sim::simulation::batch::LANES, value_name = "K",
               value_parser = lanes, requires = "batch")]
         lanes: usize,
         /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
@@ -869,7 +869,7 @@ fn batch_conditions(s: &str) -> Result<usize, String> {
 }
 
 fn lanes(s: &str) -> Result<usize, String> {
-    let max = ptsa_host_sim::batch::MAX_LANES;
+    let max = ptsa_host_sim::simulation::batch::MAX_LANES;
     match s.trim().parse::<usize>() {
         Ok(k) if k.is_power_of_two() && k <= max => Ok(k),
         _ => Err(format!(

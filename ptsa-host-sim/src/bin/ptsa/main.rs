@@ -23,17 +23,17 @@ use flags::{
     RunArgs, TwoAxisArgs, num,
 };
 use ptsa_host_sim::bench::{BenchPlan, bench, bench_batch};
-use ptsa_host_sim::design::{Design, check_loop};
 use ptsa_host_sim::discovery::{self, InstrumentOut, Options, Request, Simulator};
-use ptsa_host_sim::effects::{CandidateId, Effects};
-use ptsa_host_sim::experiments::{
+use ptsa_host_sim::lab::fixtures::TwoAxisKind;
+use ptsa_host_sim::model::design::{Design, check_loop};
+use ptsa_host_sim::model::effects::{CandidateId, Effects};
+use ptsa_host_sim::output::Output;
+use ptsa_host_sim::output::fs::{persist, temp_beside};
+use ptsa_host_sim::report::experiments::{
     anisoinertia, appendix_a, design, frequency_response, limit_cycle, monte_carlo, oa_coupling,
     tumble, waveform,
 };
-use ptsa_host_sim::fixtures::TwoAxisKind;
-use ptsa_host_sim::output::Output;
-use ptsa_host_sim::output::fs::{persist, temp_beside};
-use ptsa_host_sim::sim::{SimOptions, run_static_with};
+use ptsa_host_sim::simulation::sim::{SimOptions, run_static_with};
 use ptsa_host_sim::{Instrument, report};
 use work::Work;
 
@@ -215,7 +215,7 @@ fn load_instrument(path: Option<&Path>) -> Result<(Instrument, String, String)> 
         None => (
             Instrument::kearfott_2401(),
             "data/kearfott-2401.toml (the shipped file, built in)".to_string(),
-            ptsa_host_sim::instrument::KEARFOTT_2401_TOML.to_string(),
+            ptsa_host_sim::model::instrument::KEARFOTT_2401_TOML.to_string(),
         ),
     })
 }
@@ -414,7 +414,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
                 .ticks(monte_carlo::work(&instr, &opts, samples))
                 .seconds(
                     work::MARGINS_S_PER_CORNER * monte_carlo::corners(&instr, samples) as f64
-                        / ptsa_host_sim::work::cores(),
+                        / ptsa_host_sim::simulation::work::cores(),
                 )
                 .check(run.force, "the Monte Carlo")?;
             let p = work::Progress::start("monte carlo", &est);
@@ -452,7 +452,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             let run_s = (ticks as f64 / instr.clock_hz + opts.warmup_s) * per;
             #[allow(clippy::cast_precision_loss)]
             Work::new(&instr, &opts)
-                .ticks(ptsa_host_sim::work::Ticks::of(
+                .ticks(ptsa_host_sim::simulation::work::Ticks::of(
                     run_s * instr.clock_hz,
                     false,
                 ))
@@ -558,7 +558,7 @@ fn report_cmd(
         "shorten the times asked for",
     )?;
     // Its discovery section holds its search of the loop's parameters to the limit.
-    ptsa_host_sim::work::set_limit((!a.run.force).then(work::limit_s));
+    ptsa_host_sim::simulation::work::set_limit((!a.run.force).then(work::limit_s));
     let bar = work::Progress::start("the report programme", &est);
     let info = report::RunInfo {
         instrument: name.to_string(),
@@ -620,7 +620,7 @@ fn two_axis(
             .with(CandidateId::Vibropendulosity, a.k_ip_s2_cm)
             .with(CandidateId::Sculling, a.k_sc_s2),
     };
-    let c = ptsa_host_sim::fixtures::two_axis(
+    let c = ptsa_host_sim::lab::fixtures::two_axis(
         kind,
         a.freq_hz,
         a.theta_my_mrad,
@@ -738,8 +738,8 @@ fn static_cmd(
 /// the row.
 #[allow(clippy::too_many_lines)] // the record's checks, the fit's, then the output
 fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Result<()> {
+    use ptsa_host_sim::lab::response;
     use ptsa_host_sim::output::significant as sig;
-    use ptsa_host_sim::response;
     let stem = format!(
         "{}-response",
         a.counts
@@ -883,9 +883,9 @@ fn response_cmd(instr: &Instrument, a: &ResponseArgs, out: &mut dyn Write) -> Re
 /// JSON object with `fit`'s summary, the check's figures and the `warnings`.
 fn print_response_row(
     out: &mut dyn Write,
-    row: ptsa_host_sim::condition::Condition,
-    fit: &ptsa_host_sim::response::ResponseFit,
-    checked: &ptsa_host_sim::response::FitCheck,
+    row: ptsa_host_sim::model::condition::Condition,
+    fit: &ptsa_host_sim::lab::response::ResponseFit,
+    checked: &ptsa_host_sim::lab::response::FitCheck,
     warnings: &[String],
     json: bool,
 ) -> Result<()> {
@@ -910,7 +910,7 @@ fn print_response_row(
         });
         writeln!(out, "{v}")?;
     } else {
-        write!(out, "{}", ptsa_host_sim::response::rows_csv(&[row]))?;
+        write!(out, "{}", ptsa_host_sim::lab::response::rows_csv(&[row]))?;
     }
     Ok(())
 }
@@ -921,8 +921,8 @@ fn print_response_row(
 fn response_figure(
     stem: &str,
     label: &str,
-    gates: &[ptsa_host_sim::response::Gate],
-    fit: &ptsa_host_sim::response::ResponseFit,
+    gates: &[ptsa_host_sim::lab::response::Gate],
+    fit: &ptsa_host_sim::lab::response::ResponseFit,
     sf_cm_s2: f64,
     expected_rms: f64,
 ) -> ptsa_host_sim::output::Figure {
@@ -1002,7 +1002,7 @@ fn static_batch_cmd(
         .times(n as f64)
         .check(force, &format!("this batch of {n} gates"))?;
     let p = work::Progress::start(&format!("static, {n} accelerations in one batch"), &est);
-    let runs = ptsa_host_sim::batch::run_static(&instr, accels_cm_s2, ticks, opts);
+    let runs = ptsa_host_sim::simulation::batch::run_static(&instr, accels_cm_s2, ticks, opts);
     p.finish();
     for (a, r) in accels_cm_s2.iter().zip(&runs) {
         if r.saturated {
@@ -1047,7 +1047,7 @@ fn design_cmd(
     instr: &Instrument,
     name: &str,
     print_core_constants: bool,
-    checked: std::result::Result<&ptsa_host_sim::design::LoopCheck, &String>,
+    checked: std::result::Result<&ptsa_host_sim::model::design::LoopCheck, &String>,
     out: &mut dyn Write,
 ) -> Result<()> {
     let d = Design::for_instrument(instr);
@@ -1114,7 +1114,7 @@ fn load_effects(p: &Path) -> Result<(Effects, Vec<(CandidateId, f64)>)> {
         let name = item.get("name").and_then(serde_json::Value::as_str);
         let errs = item.get("stderr").and_then(serde_json::Value::as_object);
         for (key, se) in errs.into_iter().flatten() {
-            let id = ptsa_host_sim::effects::REGISTRY
+            let id = ptsa_host_sim::model::effects::REGISTRY
                 .iter()
                 .find(|c| Some(c.effect) == name && c.key == key);
             if let (Some(c), Some(se)) = (id, se.as_f64().filter(|x| x.is_finite() && *x > 0.0)) {
@@ -1150,10 +1150,10 @@ fn predict_estimate(
     rows: &[ptsa_host_sim::Condition],
     sim: &dyn Simulator,
     force: bool,
-) -> Result<ptsa_host_sim::work::Estimate> {
+) -> Result<ptsa_host_sim::simulation::work::Estimate> {
     let ticks = sim.pass_cost(&rows.iter().collect::<Vec<_>>());
     work::check(
-        ptsa_host_sim::work::Estimate {
+        ptsa_host_sim::simulation::work::Estimate {
             ticks,
             other_s: 0.0,
         },
@@ -1170,7 +1170,7 @@ fn predict_cmd(
     a: &PredictArgs,
     out: &mut dyn Write,
 ) -> Result<()> {
-    let rows = discovery::caseframe::read(&a.data)?;
+    let rows = ptsa_host_sim::model::caseframe::read(&a.data)?;
     let (effects, sigmas) = match &a.effects {
         Some(p) => load_effects(p)?,
         None => (Effects::NONE, Vec::new()),
@@ -1181,7 +1181,7 @@ fn predict_cmd(
     let pred = discovery::predict(&rows, &*sim, &effects);
     p.finish();
     let response =
-        |r: &ptsa_host_sim::Condition| r.kind == ptsa_host_sim::condition::RowKind::Response;
+        |r: &ptsa_host_sim::Condition| r.kind == ptsa_host_sim::model::condition::RowKind::Response;
     if a.json {
         // A response row has no acceleration to predict: `predicted_cm_s2` is null and its
         // gain and phase come as `predicted_gain`, `predicted_phase_deg`.
@@ -1261,7 +1261,7 @@ fn predict_cmd(
 }
 
 fn plan_cmd(instr: &Instrument, a: &PlanArgs, out: &mut dyn Write) -> Result<()> {
-    use ptsa_host_sim::plan;
+    use ptsa_host_sim::lab::plan;
     let (rows, what, dest) = match &a.kind {
         PlanKind::Tumble {
             positions,
@@ -1322,7 +1322,7 @@ fn plan_cmd(instr: &Instrument, a: &PlanArgs, out: &mut dyn Write) -> Result<()>
             .to_string(),
     ];
     let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
-    let text = discovery::caseframe::to_csv(&rows, &refs);
+    let text = ptsa_host_sim::model::caseframe::to_csv(&rows, &refs);
     match &dest.out {
         Some(p) => {
             let replaced =
@@ -1350,12 +1350,12 @@ fn discover_cmd(
     out: &mut dyn Write,
 ) -> Result<()> {
     if let Some(dir) = &a.convert_report_data {
-        let names: Vec<String> = ptsa_host_sim::r890::case_files()?
+        let names: Vec<String> = ptsa_host_sim::report::r890::case_files()?
             .iter()
             .map(|f| f.name.to_string())
             .collect();
         paths::folder_with("--convert-report-data", dir, &names)?;
-        for p in ptsa_host_sim::r890::write_case_files(dir)? {
+        for p in ptsa_host_sim::report::r890::write_case_files(dir)? {
             eprintln!("wrote {}", p.display());
         }
         return Ok(());
@@ -1373,7 +1373,7 @@ fn discover_cmd(
         // each of the report's tables (`report::discovery`).
         let stems = match &a.data {
             Some(p) => vec![discovery::output_stem(Some(p))],
-            None => ptsa_host_sim::r890::case_files()?
+            None => ptsa_host_sim::report::r890::case_files()?
                 .iter()
                 .map(|f| f.name.trim_end_matches(".case.csv").to_string())
                 .collect(),
@@ -1411,7 +1411,7 @@ fn discover_cmd(
     let est = discover_estimate(a, &options.candidates, &*sim)?;
     // The search of the loop's parameters, whose length is known only once they are
     // selected, is held to the limit too.
-    ptsa_host_sim::work::set_limit((!a.force).then(work::limit_s));
+    ptsa_host_sim::simulation::work::set_limit((!a.force).then(work::limit_s));
     let p = work::Progress::start("discover", &est);
     let r = match &a.data {
         Some(data) => {
@@ -1469,26 +1469,30 @@ fn discover_estimate(
     a: &DiscoverArgs,
     candidates: &[CandidateId],
     sim: &dyn Simulator,
-) -> Result<ptsa_host_sim::work::Estimate> {
+) -> Result<ptsa_host_sim::simulation::work::Estimate> {
     use discovery::cost::Cost;
     let costs: Vec<Cost> = match &a.data {
-        Some(p) => vec![Cost::of(&discovery::caseframe::read(p)?, sim, candidates)],
-        None => ptsa_host_sim::r890::case_files()?
+        Some(p) => vec![Cost::of(
+            &ptsa_host_sim::model::caseframe::read(p)?,
+            sim,
+            candidates,
+        )],
+        None => ptsa_host_sim::report::r890::case_files()?
             .iter()
             .map(|f| Cost::of(&f.rows, sim, candidates))
             .collect(),
     };
     let ticks = costs.iter().map(|c| c.ticks).sum();
     let seconds: f64 = costs.iter().map(Cost::seconds).sum();
-    let est = ptsa_host_sim::work::Estimate {
+    let est = ptsa_host_sim::simulation::work::Estimate {
         ticks,
         other_s: seconds - ticks.seconds(),
     };
-    let search: ptsa_host_sim::work::Ticks = costs.iter().map(|c| c.search(1)).sum();
+    let search: ptsa_host_sim::simulation::work::Ticks = costs.iter().map(|c| c.search(1)).sum();
     let more = (search.seconds() > 1.0).then(|| {
         format!(
             "and up to {} more if a parameter of the loop is selected (the closed-loop search of the others, held to the same limit)",
-            ptsa_host_sim::work::human(search.seconds())
+            ptsa_host_sim::simulation::work::human(search.seconds())
         )
     });
     work::check(

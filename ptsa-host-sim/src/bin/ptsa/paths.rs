@@ -151,7 +151,7 @@ pub fn shown(p: &Path) -> String {
 /// measured rows of a case-frame file (a day's measurements are often in just such a file),
 /// or its size in lines.
 pub fn what_is_replaced(path: &Path) -> String {
-    match ptsa_host_sim::discovery::caseframe::read(path) {
+    match ptsa_host_sim::model::caseframe::read(path) {
         Ok(rows) => {
             let m = rows.iter().filter(|r| r.is_measured()).count();
             format!(

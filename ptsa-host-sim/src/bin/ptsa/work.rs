@@ -3,7 +3,7 @@
 //! a terminal; otherwise (a log, a pipe) a plain line every [`PROGRESS_S`] seconds once the
 //! work has run that long, so that a short run stays quiet.
 //!
-//! The estimate and the progress count closed-loop ticks ([`ptsa_host_sim::work`]): the
+//! The estimate and the progress count closed-loop ticks ([`ptsa_host_sim::simulation::work`]): the
 //! ticks a command will run, by path, at the measured rates, and the ticks the closed loop
 //! and the batch engine have run so far.
 
@@ -16,8 +16,8 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use ptsa_host_sim::Instrument;
-use ptsa_host_sim::sim::SimOptions;
-use ptsa_host_sim::work::{Estimate, Ticks, human};
+use ptsa_host_sim::simulation::sim::SimOptions;
+use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
 
 /// Estimated seconds beyond which a run needs `--force` (the environment variable
 /// `PTSA_LIMIT_S` sets another).
@@ -87,7 +87,7 @@ impl<'a> Work<'a> {
         self
     }
 
-    /// Work counted by the library ([`ptsa_host_sim::experiments`]' `work` functions).
+    /// Work counted by the library ([`ptsa_host_sim::report::experiments`]' `work` functions).
     pub fn ticks(mut self, t: Ticks) -> Self {
         self.est.ticks += t;
         self
@@ -138,7 +138,7 @@ pub fn check(
             "{what}: about {} of work estimated ({:.2e} closed-loop ticks on {} cores){more}{}",
             human(s),
             est.ticks.total(),
-            ptsa_host_sim::work::cores(),
+            ptsa_host_sim::simulation::work::cores(),
             if s > limit {
                 "; run because of --force"
             } else {
@@ -214,7 +214,7 @@ pub struct Progress {
 impl Progress {
     /// Show `what` while `est`'s work runs.
     pub fn start(what: &str, est: &Estimate) -> Self {
-        ptsa_host_sim::work::set_stage("");
+        ptsa_host_sim::simulation::work::set_stage("");
         let terminal = std::io::stderr().is_terminal();
         let bar = terminal.then(|| {
             let pb = ProgressBar::with_draw_target(Some(1000), ProgressDrawTarget::stderr());
@@ -229,8 +229,8 @@ impl Progress {
         let (tx, rx) = channel::<()>();
         let every = progress_s();
         let poll = Duration::from_secs_f64((every / 4.0).clamp(0.01, 0.2));
-        let start_ticks = ptsa_host_sim::work::done();
-        let start_ahead = ptsa_host_sim::work::announced();
+        let start_ticks = ptsa_host_sim::simulation::work::done();
+        let start_ahead = ptsa_host_sim::simulation::work::announced();
         let (what2, ticks) = (what.to_string(), est.ticks.seconds());
         let (bar2, step2) = (bar.clone(), Arc::clone(&step));
         let handle = std::thread::spawn(move || {
@@ -241,13 +241,13 @@ impl Progress {
                     Err(RecvTimeoutError::Timeout) => {}
                     _ => return,
                 }
-                let done = ptsa_host_sim::work::done();
+                let done = ptsa_host_sim::simulation::work::done();
                 let run = Ticks {
                     fixed: done.fixed - start_ticks.fixed,
                     dynamic: done.dynamic - start_ticks.dynamic,
                 };
                 // The estimate, and what the work found to lie ahead since it started.
-                let ahead = ptsa_host_sim::work::announced();
+                let ahead = ptsa_host_sim::simulation::work::announced();
                 let more = Ticks {
                     fixed: ahead.fixed - start_ahead.fixed,
                     dynamic: ahead.dynamic - start_ahead.dynamic,
@@ -256,7 +256,7 @@ impl Progress {
                 let fraction = (all > 0.0).then(|| run.seconds() / all);
                 let stage = {
                     let outer = step2.lock().map(|s| s.clone()).unwrap_or_default();
-                    let inner = ptsa_host_sim::work::stage();
+                    let inner = ptsa_host_sim::simulation::work::stage();
                     match (outer.is_empty(), inner.is_empty()) {
                         (false, false) => format!("{outer}: {inner}"),
                         (false, true) => outer,
@@ -297,7 +297,7 @@ impl Progress {
         if let Ok(mut s) = self.step.lock() {
             step.clone_into(&mut s);
         }
-        ptsa_host_sim::work::set_stage("");
+        ptsa_host_sim::simulation::work::set_stage("");
     }
 
     /// Stop showing the work.
@@ -318,8 +318,8 @@ impl Progress {
         }
         let elapsed = self.start.elapsed().as_secs_f64();
         if elapsed >= self.every_s.min(ANNOUNCE_S) {
-            let done = ptsa_host_sim::work::done().total() - self.start_ticks.total();
-            let ahead = ptsa_host_sim::work::announced();
+            let done = ptsa_host_sim::simulation::work::done().total() - self.start_ticks.total();
+            let ahead = ptsa_host_sim::simulation::work::announced();
             let more = Ticks {
                 fixed: ahead.fixed - self.start_ahead.fixed,
                 dynamic: ahead.dynamic - self.start_ahead.dynamic,

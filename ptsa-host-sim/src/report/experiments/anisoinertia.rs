@@ -4,13 +4,13 @@
 use anyhow::Result;
 use rayon::prelude::*;
 
-use crate::condition::{IA, PA};
-use crate::effects::Effects;
-use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::lab::fixtures;
+use crate::model::condition::{IA, PA};
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num, opt};
-use crate::r890;
-use crate::sim::{SimOptions, simulate_difference};
+use crate::report::r890;
+use crate::simulation::sim::{SimOptions, simulate_difference};
 
 /// One row of the anisoinertia experiment.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,14 +50,14 @@ pub fn work(
     instr: &Instrument,
     opts: &SimOptions,
     lever_cm: [f64; 3],
-) -> Result<crate::work::Ticks> {
+) -> Result<crate::simulation::work::Ticks> {
     let s62 = r890::section_6_2()?;
     Ok(r890::table_6_1()?
         .iter()
         .map(|r| {
             let s =
                 fixtures::rate_table(r.ia_deg, s62.rate_rad_s, s62.reference_rate_rad_s, lever_cm);
-            crate::work::difference(instr, &s.cond, opts).times(2.0)
+            crate::simulation::work::difference(instr, &s.cond, opts).times(2.0)
         })
         .sum())
 }

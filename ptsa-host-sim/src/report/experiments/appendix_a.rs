@@ -7,13 +7,13 @@ use std::f64::consts::TAU;
 use anyhow::Result;
 use rayon::prelude::*;
 
-use crate::condition::{CaseInputs, Condition, IA, OA, PA};
-use crate::design::{Cx, loop_gain, pendulum};
-use crate::effects::Effects;
-use crate::fixtures::{self, TwoAxisKind};
-use crate::instrument::Instrument;
+use crate::lab::fixtures::{self, TwoAxisKind};
+use crate::model::condition::{CaseInputs, Condition, IA, OA, PA};
+use crate::model::design::{Cx, loop_gain, pendulum};
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num};
-use crate::sim::{SimOptions, simulate_difference};
+use crate::simulation::sim::{SimOptions, simulate_difference};
 
 /// The set-up of one Appendix A sweep.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -113,7 +113,11 @@ fn psis() -> Vec<f64> {
 /// The closed-loop ticks [`run`] runs: a difference at every ψ, with the second harmonic
 /// measured (so on the dynamic path).
 #[must_use]
-pub fn work(instr: &Instrument, opts: &SimOptions, plan: &TwoAxisPlan) -> crate::work::Ticks {
+pub fn work(
+    instr: &Instrument,
+    opts: &SimOptions,
+    plan: &TwoAxisPlan,
+) -> crate::simulation::work::Ticks {
     let o = SimOptions {
         harmonic: 2,
         ..*opts
@@ -122,7 +126,7 @@ pub fn work(instr: &Instrument, opts: &SimOptions, plan: &TwoAxisPlan) -> crate:
         .into_iter()
         .map(|psi| {
             let c = condition(plan, psi);
-            crate::work::difference(instr, &c, &o)
+            crate::simulation::work::difference(instr, &c, &o)
         })
         .sum()
 }

@@ -1,7 +1,7 @@
 //! The compensator designed for the instrument file and the margins of the loop it makes.
 
-use crate::design::{Design, margins};
-use crate::instrument::Instrument;
+use crate::model::design::{Design, margins};
+use crate::model::instrument::Instrument;
 
 /// The design (text) for an instrument, with the margins of the linearised loop.
 #[must_use]

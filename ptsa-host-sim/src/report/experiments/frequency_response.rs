@@ -4,12 +4,12 @@
 use anyhow::Result;
 use rayon::prelude::*;
 
-use crate::condition::{Condition, IA};
-use crate::design::loop_gain;
-use crate::effects::Effects;
-use crate::instrument::Instrument;
+use crate::model::condition::{Condition, IA};
+use crate::model::design::loop_gain;
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num};
-use crate::sim::{SimOptions, simulate_condition};
+use crate::simulation::sim::{SimOptions, simulate_condition};
 
 /// Input amplitude, cm/s² (large enough that the 1-count dead band does not matter).
 pub const AMPLITUDE_CM_S2: f64 = 2000.0;
@@ -64,11 +64,11 @@ fn sine(f: f64) -> Condition {
 
 /// The closed-loop ticks [`run`] runs.
 #[must_use]
-pub fn work(instr: &Instrument, opts: &SimOptions) -> crate::work::Ticks {
+pub fn work(instr: &Instrument, opts: &SimOptions) -> crate::simulation::work::Ticks {
     let o = options(opts);
     FREQS_HZ
         .iter()
-        .map(|&f| crate::work::condition(instr, &sine(f), &o))
+        .map(|&f| crate::simulation::work::condition(instr, &sine(f), &o))
         .sum()
 }
 

@@ -5,11 +5,11 @@
 use anyhow::Result;
 use rayon::prelude::*;
 
-use crate::effects::Effects;
-use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::lab::fixtures;
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num};
-use crate::sim::{SimOptions, SimResult, simulate_condition};
+use crate::simulation::sim::{SimOptions, SimResult, simulate_condition};
 
 /// Inputs as fractions of full scale.
 pub const FRACTIONS: [f64; 11] = [
@@ -40,12 +40,16 @@ fn setup(instr: &Instrument, opts: &SimOptions) -> (Instrument, SimOptions) {
 
 /// The closed-loop ticks [`run`] runs.
 #[must_use]
-pub fn work(instr: &Instrument, opts: &SimOptions) -> crate::work::Ticks {
+pub fn work(instr: &Instrument, opts: &SimOptions) -> crate::simulation::work::Ticks {
     let (nb, o) = setup(instr, opts);
     FRACTIONS
         .iter()
         .map(|&fr| {
-            crate::work::condition(&nb, &fixtures::along_ia(fr * nb.sf_cm_s2, nb.g_cm_s2), &o)
+            crate::simulation::work::condition(
+                &nb,
+                &fixtures::along_ia(fr * nb.sf_cm_s2, nb.g_cm_s2),
+                &o,
+            )
         })
         .sum()
 }

@@ -13,12 +13,12 @@ use rand::{Rng as _, SeedableRng as _};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use crate::design::margins;
-use crate::effects::Effects;
-use crate::fixtures;
-use crate::instrument::{Instrument, Tolerance};
+use crate::lab::fixtures;
+use crate::model::design::margins;
+use crate::model::effects::Effects;
+use crate::model::instrument::{Instrument, Tolerance};
 use crate::output::{Figure, Output, Plot, Series, Table, num, text};
-use crate::sim::SimOptions;
+use crate::simulation::sim::SimOptions;
 
 /// Up to this many toleranced parameters every corner is visited.
 pub const MAX_EXHAUSTIVE: usize = 14;
@@ -94,11 +94,15 @@ pub fn corners(instr: &Instrument, samples: usize) -> usize {
 /// The closed-loop ticks [`run`] runs: the checks of the worst eight corners (each at its
 /// own corner's settings, which leave the clock and the window as they are).
 #[must_use]
-pub fn work(instr: &Instrument, opts: &SimOptions, samples: usize) -> crate::work::Ticks {
+pub fn work(
+    instr: &Instrument,
+    opts: &SimOptions,
+    samples: usize,
+) -> crate::simulation::work::Ticks {
     let c = fixtures::along_ia(CHECK_FRACTION * instr.actual_sf_cm_s2(), instr.g_cm_s2);
     #[allow(clippy::cast_precision_loss)]
     let n = corners(instr, samples).min(8) as f64;
-    crate::work::condition(instr, &c, opts).times(n)
+    crate::simulation::work::condition(instr, &c, opts).times(n)
 }
 
 /// The Monte Carlo; `samples` random corners (seeded by `opts.seed`) when the box has more
@@ -192,16 +196,16 @@ fn check_worst(instr: &Instrument, corners: &[Corner], opts: &SimOptions) -> Vec
             (i, a, c)
         })
         .collect();
-    let jobs: Vec<crate::batch::Job<'_>> = worst
+    let jobs: Vec<crate::simulation::batch::Job<'_>> = worst
         .iter()
-        .map(|(i, _, c)| crate::batch::Job {
+        .map(|(i, _, c)| crate::simulation::batch::Job {
             instr: i,
             cond: c,
             effects: Effects::NONE,
             seed: opts.seed,
         })
         .collect();
-    let results = crate::batch::simulate_jobs(&jobs, opts);
+    let results = crate::simulation::batch::simulate_jobs(&jobs, opts);
     worst
         .iter()
         .zip(&results)

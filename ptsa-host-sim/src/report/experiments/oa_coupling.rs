@@ -8,12 +8,12 @@
 use anyhow::Result;
 use rayon::prelude::*;
 
-use crate::effects::Effects;
-use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::lab::fixtures;
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num, opt};
-use crate::r890;
-use crate::sim::{SimOptions, simulate_difference};
+use crate::report::r890;
+use crate::simulation::sim::{SimOptions, simulate_difference};
 
 /// One row of the OA-coupling experiment.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -88,13 +88,13 @@ pub fn work(
     instr: &Instrument,
     opts: &SimOptions,
     lever_cm: [f64; 3],
-) -> Result<crate::work::Ticks> {
-    let mut t = crate::work::Ticks::ZERO;
+) -> Result<crate::simulation::work::Ticks> {
+    let mut t = crate::simulation::work::Ticks::ZERO;
     for (v, rows) in [(false, r890::table_6_2()?), (true, r890::table_6_3()?)] {
         for r in rows {
             if let Some(a) = r.amp_mrad {
                 let s = fixtures::angular_oscillator(r.freq_hz, a, v, lever_cm);
-                t += crate::work::difference(instr, &s.cond, opts);
+                t += crate::simulation::work::difference(instr, &s.cond, opts);
             }
         }
     }

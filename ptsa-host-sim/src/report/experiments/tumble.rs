@@ -7,12 +7,12 @@
 use anyhow::Result;
 use rayon::prelude::*;
 
-use crate::effects::Effects;
-use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::lab::fixtures;
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use crate::output::{Cell, Figure, Output, Plot, Series, Table, num, text};
-use crate::r890;
-use crate::sim::{ClosedLoop, SimOptions, simulate_condition};
+use crate::report::r890;
+use crate::simulation::sim::{ClosedLoop, SimOptions, simulate_condition};
 
 /// Default counting gate, s (the report's count period is not given; 1 s).
 pub const DEFAULT_GATE_S: f64 = 1.0;
@@ -81,13 +81,13 @@ pub fn gate_ticks(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> u64 {
 /// The closed-loop ticks [`run`] runs: the two gates after their settling, and the
 /// sweep's conditions.
 #[must_use]
-pub fn work(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> crate::work::Ticks {
+pub fn work(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> crate::simulation::work::Ticks {
     #[allow(clippy::cast_precision_loss)]
     let gates = 2.0 * (opts.warmup_ticks(instr.clock_hz) + gate_ticks(instr, opts, gate_s)) as f64;
-    crate::work::Ticks::of(gates, false)
+    crate::simulation::work::Ticks::of(gates, false)
         + sweep_deg()
             .into_iter()
-            .map(|a| crate::work::condition(instr, &fixtures::dividing_head(a), opts))
+            .map(|a| crate::simulation::work::condition(instr, &fixtures::dividing_head(a), opts))
             .sum()
 }
 

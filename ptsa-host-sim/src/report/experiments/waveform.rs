@@ -7,12 +7,12 @@ use std::path::Path;
 
 use anyhow::{Context, Result};
 
-use crate::effects::Effects;
-use crate::fixtures;
-use crate::instrument::Instrument;
+use crate::lab::fixtures;
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
 use crate::output::fs::{persist, temp_beside};
 use crate::output::{Figure, Output, Plot, Series};
-use crate::sim::{ClosedLoop, SimOptions};
+use crate::simulation::sim::{ClosedLoop, SimOptions};
 
 /// Default constant acceleration along IA, cm/s².
 pub const DEFAULT_ACCEL_CM_S2: f64 = 5000.0;
@@ -26,11 +26,11 @@ pub const STEM: &str = "waveform-limit-cycle";
 /// The closed-loop ticks [`run`] runs: the settling and the trace (each traced tick is
 /// also written out, which takes far longer than the tick: [`TRACE_S_PER_TICK`]).
 #[must_use]
-pub fn work(instr: &Instrument, opts: &SimOptions, cycles: u64) -> crate::work::Ticks {
+pub fn work(instr: &Instrument, opts: &SimOptions, cycles: u64) -> crate::simulation::work::Ticks {
     #[allow(clippy::cast_precision_loss)]
     let n = (opts.warmup_ticks(instr.clock_hz)
         + cycles.saturating_mul(u64::from(opts.config.ticks_per_cycle))) as f64;
-    crate::work::Ticks::of(n, false)
+    crate::simulation::work::Ticks::of(n, false)
 }
 
 /// Seconds to write one traced tick's row (`docs/host-sim.md`, "Work estimates"), on the

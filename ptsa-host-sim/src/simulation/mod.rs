@@ -1,0 +1,10 @@
+//! The simulation: the closed loop tick by tick, and the engine that runs many.
+//!
+//! * [`sim`]: the closed loop and the charge-balance estimator; [`sim::simulate_condition`]
+//!   and [`sim::simulate_difference`] are the entry points.
+//! * [`batch`]: many independent closed loops, lanes per core, all cores.
+//! * [`work`]: work estimated before it runs and counted while it runs (ticks, stages).
+
+pub mod batch;
+pub mod sim;
+pub mod work;
