@@ -42,12 +42,14 @@
 mod bridge;
 mod config;
 mod counter;
+mod lanes;
 mod ptsa;
 pub mod trace;
 
 pub use bridge::{BridgeError, HBridge};
 pub use config::{Coef, Config, ConfigError, Level, Pole};
 pub use counter::{Count, Gate, GateFifo};
+pub use lanes::{LaneTicks, Lanes};
 pub use ptsa::{Polarity, Ptsa, Saturations, State, Tick};
 
 /// The crate's README (the page crates.io shows), compiled and run as a doctest so that its

@@ -3,9 +3,8 @@
 use core::num::Wrapping;
 
 use crate::counter::Gate;
-use crate::{
-    COEF_FRAC, Config, ConfigError, INTEGRATOR_LIMIT, LEAD_LIMIT, Level, POLE_FRAC, RAMP_AMPLITUDE,
-};
+use crate::lanes::Lanes;
+use crate::{COEF_FRAC, Config, ConfigError, Level};
 
 /// Sense of the torquer current for one clock tick.
 ///
@@ -99,58 +98,16 @@ pub struct Tick {
 /// The loop's mutable state. Plain data: `Clone`, `Eq`, and a documented [`State::digest`].
 ///
 /// One free-running tick count serves as clock, cycle phase (`ticks mod N`, N a power of
-/// two) and gate timer, so a tick updates as few fields as possible.
+/// two) and gate timer, so a tick updates as few fields as possible. A `State` is one lane of
+/// [`Lanes`] (the fields are listed there, in [`State::digest`]'s order): the tick is written
+/// once, for any number of loops side by side, and one loop is one lane.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct State {
-    /// Previous compensator input `e[n-1]` (pickoff LSB).
-    e_prev: i32,
-    /// Lead output `lead[n-1]`, comparator LSB.
-    lead: i32,
-    /// Integrator, comparator LSB with `COEF_FRAC` extra fraction bits.
-    integ: i64,
-    /// Noise-shaping carry, comparator LSB, `|carry| <= h`.
-    carry: i32,
-    /// Free-running tick count (wraps; read as differences). `ticks mod N` is the index of
-    /// the interval the next tick decides.
-    ticks: Wrapping<u32>,
-    /// Free-running pulse count (wraps; read as differences).
-    pulses: Wrapping<u32>,
-    /// Whether this cycle's current has switched to negative.
-    switched: bool,
-    /// Quantizer level `v = u + carry` latched at the switching tick.
-    latched: i32,
-    /// Positive ticks of the current cycle (set when it switches), or of the last closed
-    /// cycle once it closes.
-    cycle_pulses: u16,
-    /// Value of `ticks` when the open gate opened.
-    gate_open: Wrapping<u32>,
-    /// Value of `pulses` when the open gate opened.
-    gate_start: Wrapping<u32>,
-    /// Saturation events.
-    sat: Saturations,
-}
+pub struct State(pub(crate) Lanes<1>);
 
 impl State {
     /// The state after reset: filters at zero, at the start of a cycle and of a gate.
-    pub const INITIAL: State = State {
-        e_prev: 0,
-        lead: 0,
-        integ: 0,
-        carry: 0,
-        ticks: Wrapping(0),
-        pulses: Wrapping(0),
-        switched: false,
-        latched: 0,
-        cycle_pulses: 0,
-        gate_open: Wrapping(0),
-        gate_start: Wrapping(0),
-        sat: Saturations {
-            integrator: 0,
-            output: 0,
-            carry: 0,
-        },
-    };
+    pub const INITIAL: State = State(Lanes::INITIAL);
 
     /// Return to [`State::INITIAL`].
     pub fn reset(&mut self) {
@@ -160,48 +117,55 @@ impl State {
     /// Saturation counters.
     #[must_use]
     pub fn saturations(&self) -> Saturations {
-        self.sat
+        Saturations {
+            integrator: self.0.sat_integrator[0],
+            output: self.0.sat_output[0],
+            carry: self.0.sat_carry[0],
+        }
     }
 
     /// Free-running tick count since reset, modulo 2^32.
     #[must_use]
     pub fn total_ticks(&self) -> Wrapping<u32> {
-        self.ticks
+        Wrapping(self.0.ticks[0])
     }
 
     /// Free-running pulse count since reset, modulo 2^32. Read it as a difference of two
     /// readings less than 2^32 ticks apart: the wrap is then harmless.
     #[must_use]
     pub fn total_pulses(&self) -> Wrapping<u32> {
-        self.pulses
+        Wrapping(self.0.pulses[0])
     }
 
     /// Integrator value as a fraction of full scale.
     #[must_use]
     pub fn integrator(&self) -> Level {
         // |integ| <= INTEGRATOR_LIMIT, so the shifted value fits in i32.
-        Level::from_bits(i32::try_from(self.integ >> COEF_FRAC).unwrap_or(0))
+        Level::from_bits(i32::try_from(self.0.integ[0] >> COEF_FRAC).unwrap_or(0))
     }
 
-    /// FNV-1a (64-bit) digest of the whole state, fields in declaration order, each as its
-    /// little-endian bytes (`switched` as one byte, 1 = true).
+    /// FNV-1a (64-bit) digest of the whole state, fields in declaration order (`e_prev`,
+    /// `lead`, `integ`, `carry`, `ticks`, `pulses`, `switched`, `latched`, `cycle_pulses`,
+    /// `gate_open`, `gate_start`, the integrator, output and carry saturation counts), each
+    /// as its little-endian bytes (`switched` as one byte, 1 = true).
     #[must_use]
     pub fn digest(&self) -> u64 {
+        let s = &self.0;
         let mut h = Fnv::new();
-        h.bytes(&self.e_prev.to_le_bytes());
-        h.bytes(&self.lead.to_le_bytes());
-        h.bytes(&self.integ.to_le_bytes());
-        h.bytes(&self.carry.to_le_bytes());
-        h.bytes(&self.ticks.0.to_le_bytes());
-        h.bytes(&self.pulses.0.to_le_bytes());
-        h.bytes(&[u8::from(self.switched)]);
-        h.bytes(&self.latched.to_le_bytes());
-        h.bytes(&self.cycle_pulses.to_le_bytes());
-        h.bytes(&self.gate_open.0.to_le_bytes());
-        h.bytes(&self.gate_start.0.to_le_bytes());
-        h.bytes(&self.sat.integrator.to_le_bytes());
-        h.bytes(&self.sat.output.to_le_bytes());
-        h.bytes(&self.sat.carry.to_le_bytes());
+        h.bytes(&s.e_prev[0].to_le_bytes());
+        h.bytes(&s.lead[0].to_le_bytes());
+        h.bytes(&s.integ[0].to_le_bytes());
+        h.bytes(&s.carry[0].to_le_bytes());
+        h.bytes(&s.ticks[0].to_le_bytes());
+        h.bytes(&s.pulses[0].to_le_bytes());
+        h.bytes(&[u8::from(s.switched[0])]);
+        h.bytes(&s.latched[0].to_le_bytes());
+        h.bytes(&s.cycle_pulses[0].to_le_bytes());
+        h.bytes(&s.gate_open[0].to_le_bytes());
+        h.bytes(&s.gate_start[0].to_le_bytes());
+        h.bytes(&s.sat_integrator[0].to_le_bytes());
+        h.bytes(&s.sat_output[0].to_le_bytes());
+        h.bytes(&s.sat_carry[0].to_le_bytes());
         h.0
     }
 }
@@ -231,16 +195,16 @@ impl Fnv {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct Ptsa {
-    config: Config,
-    n: u16,
+    pub(crate) config: Config,
+    pub(crate) n: u16,
     /// `N − 1`: `ticks & mask` is the interval index within the cycle.
-    mask: u32,
+    pub(crate) mask: u32,
     /// `h = R / N`: half a ramp step, comparator LSB.
-    h: i32,
-    b0: i32,
-    b1: i32,
-    a1: i32,
-    ki: i32,
+    pub(crate) h: i32,
+    pub(crate) b0: i32,
+    pub(crate) b1: i32,
+    pub(crate) a1: i32,
+    pub(crate) ki: i32,
 }
 
 impl Ptsa {
@@ -278,18 +242,18 @@ impl Ptsa {
     #[must_use]
     pub fn phase(&self, s: &State) -> u16 {
         #[allow(clippy::cast_possible_truncation, reason = "mask < 4096")]
-        let k = (s.ticks.0 & self.mask) as u16;
+        let k = (s.0.ticks[0] & self.mask) as u16;
         k
     }
 
     /// The polarity most recently decided for `s` (`Positive` before the first tick).
     #[must_use]
     pub fn polarity(&self, s: &State) -> Polarity {
-        let last_positive = if s.ticks.0 & self.mask == 0 {
+        let last_positive = if s.0.ticks[0] & self.mask == 0 {
             // The last interval closed a cycle: positive only if the whole cycle was.
-            s.ticks.0 == 0 || s.cycle_pulses == self.n
+            s.0.ticks[0] == 0 || s.0.cycle_pulses[0] == self.n
         } else {
-            !s.switched
+            !s.0.switched[0]
         };
         if last_positive {
             Polarity::Positive
@@ -305,98 +269,6 @@ impl Ptsa {
         self.h * (i32::from(self.n) - 1 - 2 * i32::from(k))
     }
 
-    /// Compensator: lead section plus integrator, summed and clamped. Returns `u`.
-    #[allow(
-        clippy::inline_always,
-        reason = "tick path: inlined into the firmware's TIM2 handler"
-    )]
-    #[inline(always)]
-    fn compensate(&self, s: &mut State, x: i16) -> i32 {
-        let e = i32::from(x);
-        // Lead: acc (2^-16 LSB) = b0·e + b1·e' + a1·lead'; lead = round(acc / 2^16).
-        let acc = i64::from(self.b0) * i64::from(e)
-            + i64::from(self.b1) * i64::from(s.e_prev)
-            + i64::from(self.a1) * i64::from(s.lead);
-        let lead = (acc + (1 << (POLE_FRAC - 1))) >> POLE_FRAC;
-        // |lead| <= LEAD_LIMIT = 2^30 is proven for every configuration `Ptsa::new` accepts
-        // (ARITHMETIC.md, "Bounds"); the property tests run with this assertion enabled.
-        debug_assert!(
-            lead.abs() <= i64::from(LEAD_LIMIT),
-            "lead bound violated: {lead}"
-        );
-        #[allow(
-            clippy::cast_possible_truncation,
-            reason = "|lead| <= 2^30, asserted above"
-        )]
-        let lead = lead as i32;
-        s.lead = lead;
-        s.e_prev = e;
-        // Integrator with clamp (anti-windup).
-        // Written as branches, each saturated arm counting its event (same values as a clamp
-        // plus a count of `clamped != unclamped`).
-        let integ = s.integ + i64::from(self.ki) * i64::from(e);
-        s.integ = if integ > INTEGRATOR_LIMIT {
-            s.sat.integrator = s.sat.integrator.wrapping_add(1);
-            INTEGRATOR_LIMIT
-        } else if integ < -INTEGRATOR_LIMIT {
-            s.sat.integrator = s.sat.integrator.wrapping_add(1);
-            -INTEGRATOR_LIMIT
-        } else {
-            integ
-        };
-        // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, so no i32 overflow.
-        #[allow(clippy::cast_possible_truncation, reason = "|integ >> 16| <= 2^24")]
-        let sum = lead + (s.integ >> COEF_FRAC) as i32;
-        if sum > RAMP_AMPLITUDE {
-            s.sat.output = s.sat.output.wrapping_add(1);
-            RAMP_AMPLITUDE
-        } else if sum < -RAMP_AMPLITUDE {
-            s.sat.output = s.sat.output.wrapping_add(1);
-            -RAMP_AMPLITUDE
-        } else {
-            sum
-        }
-    }
-
-    /// End of a limit cycle with `n` positive ticks: update the carry from the latched level.
-    #[allow(
-        clippy::inline_always,
-        reason = "tick path: inlined into the firmware's TIM2 handler"
-    )]
-    #[inline(always)]
-    fn close_cycle(&self, s: &mut State, n: u16) -> u16 {
-        if self.config.noise_shaping {
-            // Level whose ideal duty is n/N: y = h·(2n − N).
-            let y = self.h * (2 * i32::from(n) - i32::from(self.n));
-            let c = s.latched - y;
-            // max/min rather than clamp: same result, and no "min <= max" panic path.
-            s.carry = c.max(-self.h).min(self.h);
-            s.sat.carry = s.sat.carry.wrapping_add(u32::from(s.carry != c));
-        }
-        s.switched = false;
-        s.cycle_pulses = n;
-        n
-    }
-
-    /// After `ticks` has advanced: the gate's counts if this tick closed it.
-    #[allow(
-        clippy::inline_always,
-        reason = "tick path: inlined into the firmware's TIM2 handler"
-    )]
-    #[inline(always)]
-    fn close_gate(&self, s: &mut State) -> Option<Gate> {
-        if (s.ticks - s.gate_open).0 != self.config.gate_ticks {
-            return None;
-        }
-        let g = Gate {
-            pulses: (s.pulses - s.gate_start).0,
-            ticks: self.config.gate_ticks,
-        };
-        s.gate_open = s.ticks;
-        s.gate_start = s.pulses;
-        Some(g)
-    }
-
     /// One 64 kHz clock tick: take the newest pickoff sample `x` (ADC LSB) and decide the
     /// torquer polarity for the next clock interval.
     ///
@@ -408,45 +280,13 @@ impl Ptsa {
         reason = "ARITHMETIC.md's notation: s, x, u, k, v"
     )]
     pub fn tick(&self, s: &mut State, x: i16) -> Tick {
-        let u = self.compensate(s, x);
-        let k = self.phase(s);
-        let v = u + s.carry;
-        if !s.switched && v + self.ramp(k) < 0 {
-            s.switched = true;
-            s.latched = v;
-            s.cycle_pulses = k;
-        }
-        let positive = !s.switched;
-        s.ticks += 1;
-        s.pulses += u32::from(positive);
-        let cycle_pulses = if s.ticks.0 & self.mask == 0 {
-            let n = if positive {
-                s.latched = v;
-                self.n
-            } else {
-                s.cycle_pulses
-            };
-            Some(self.close_cycle(s, n))
-        } else {
-            None
-        };
-        Tick {
-            polarity: if positive {
-                Polarity::Positive
-            } else {
-                Polarity::Negative
-            },
-            cycle_pulses,
-            gate: self.close_gate(s),
-        }
+        // The tick is written once, for any number of loops side by side (`lanes.rs`); a
+        // `State` is one lane.
+        self.tick_lanes(&mut s.0, &[x]).get(0)
     }
 
     /// Block form: run `input` through the loop and write one [`Tick`] per sample to `out`,
-    /// which must have the same length.
-    ///
-    /// A second formulation of [`Ptsa::tick`], kept bit-identical by test: it steps the ramp
-    /// by `−2h` instead of computing `h·(N − 1 − 2k)`, and counts the cycle's positive ticks
-    /// one by one instead of taking them from the switching index.
+    /// which must have the same length; the same as [`Ptsa::tick`] sample by sample.
     ///
     /// ```
     /// use ptsa_core::{Config, Polarity, Tick};
@@ -461,50 +301,14 @@ impl Ptsa {
     /// # Panics
     /// In builds with debug assertions, if `input.len() != out.len()`. Without them the
     /// loop runs over the shorter of the two and leaves the rest of `out` untouched.
-    #[allow(
-        clippy::many_single_char_names,
-        reason = "ARITHMETIC.md's notation: s, x, u, k, v"
-    )]
     pub fn process_block(&self, s: &mut State, input: &[i16], out: &mut [Tick]) {
         debug_assert_eq!(
             input.len(),
             out.len(),
             "process_block: input and output slices differ in length"
         );
-        let mut k = self.phase(s);
-        let mut ramp = self.ramp(k);
-        // Positive ticks of the current cycle so far.
-        let mut positive_ticks = if s.switched { s.cycle_pulses } else { k };
         for (&x, o) in input.iter().zip(out.iter_mut()) {
-            let u = self.compensate(s, x);
-            let v = u + s.carry;
-            if !s.switched && v + ramp < 0 {
-                s.switched = true;
-                s.latched = v;
-                s.cycle_pulses = positive_ticks;
-            }
-            let positive = !s.switched;
-            positive_ticks += u16::from(positive);
-            o.polarity = if positive {
-                Polarity::Positive
-            } else {
-                Polarity::Negative
-            };
-            s.ticks += 1;
-            s.pulses += u32::from(positive);
-            k += 1;
-            ramp -= 2 * self.h;
-            o.cycle_pulses = None;
-            if k == self.n {
-                if positive {
-                    s.latched = v;
-                }
-                o.cycle_pulses = Some(self.close_cycle(s, positive_ticks));
-                k = 0;
-                ramp = self.ramp(0);
-                positive_ticks = 0;
-            }
-            o.gate = self.close_gate(s);
+            *o = self.tick(s, x);
         }
     }
 }

@@ -1,7 +1,7 @@
 //! Properties of the PTSA loop that must hold for every input, checked with proptest.
 
 use proptest::prelude::*;
-use ptsa_core::{Coef, Config, Level, Polarity, Pole, Ptsa, RAMP_AMPLITUDE, State, Tick};
+use ptsa_core::{Coef, Config, Lanes, Level, Polarity, Pole, Ptsa, RAMP_AMPLITUDE, State, Tick};
 
 /// A loop whose compensator is a pure gain: `u = gain·x` exactly (no lead, no integrator).
 fn open_loop(n: u16, gain: i32, shaping: bool) -> Ptsa {
@@ -181,7 +181,7 @@ proptest! {
         prop_assert_eq!(s.digest(), State::INITIAL.digest());
     }
 
-    /// The per-tick and block formulations agree bit for bit, for any split into blocks.
+    /// The block form is the tick sample by sample, for any split into blocks.
     #[test]
     fn tick_and_block_forms_agree(
         c in valid_config(),
@@ -205,6 +205,52 @@ proptest! {
         prop_assert_eq!(per_tick, block);
         prop_assert_eq!(s1.digest(), s2.digest());
         prop_assert_eq!(s1, s2);
+    }
+}
+
+/// `L` loops through [`Ptsa::tick_lanes`] against each through [`Ptsa::tick`]: every lane's
+/// tick and state, bit for bit. Each lane first runs alone for its own number of ticks, so
+/// the lanes are out of step (their cycles, gates, switches and clamps fall on different
+/// ticks) and the rare paths run for some lanes and not others.
+fn lanes_agree<const L: usize>(
+    p: &Ptsa,
+    lead_in: &[usize],
+    xs: &[i16],
+) -> Result<(), TestCaseError> {
+    let mut single = [p.initial_state(); L];
+    for (l, s) in single.iter_mut().enumerate() {
+        for i in 0..lead_in[l % lead_in.len()] {
+            p.tick(s, xs[(i * 7 + l) % xs.len()]);
+        }
+    }
+    let mut lanes = Lanes::new(&single);
+    for (i, chunk) in xs.chunks_exact(L).enumerate() {
+        let x: [i16; L] = chunk.try_into().unwrap();
+        let t = p.tick_lanes(&mut lanes, &x);
+        for (l, s) in single.iter_mut().enumerate() {
+            prop_assert_eq!(t.get(l), p.tick(s, x[l]), "tick {} lane {}", i, l);
+        }
+    }
+    for (l, s) in single.iter().enumerate() {
+        prop_assert_eq!(lanes.get(l), *s, "lane {}", l);
+    }
+    Ok(())
+}
+
+proptest! {
+    /// The lane form is the tick, lane by lane, for 4 and 8 lanes out of step, any
+    /// configuration (short gates included, so that gates close often) and any input.
+    #[test]
+    fn lanes_are_the_tick_lane_by_lane(
+        c in valid_config(),
+        gate_ticks in prop_oneof![Just(None), (1u32..300).prop_map(Some)],
+        lead_in in proptest::collection::vec(0usize..300, 1..8),
+        xs in proptest::collection::vec(any::<i16>(), 8..2000),
+    ) {
+        let c = Config { gate_ticks: gate_ticks.unwrap_or(c.gate_ticks), ..c };
+        let Ok(p) = c.build() else { return Ok(()) };
+        lanes_agree::<4>(&p, &lead_in, &xs)?;
+        lanes_agree::<8>(&p, &lead_in, &xs)?;
     }
 }
 
