@@ -151,13 +151,8 @@ impl Zoh {
     #[inline(always)]
     #[must_use]
     pub fn step(&self, x: &[f64; NX], add: &[f64; NX]) -> [f64; NX] {
-        let p = &self.phi;
-        [
-            add[0] + (p[0][0] * x[0] + p[0][1] * x[1]) + p[0][2] * x[2],
-            add[1] + (p[1][0] * x[0] + p[1][1] * x[1]) + p[1][2] * x[2],
-            add[2] + p[2][2] * x[2],
-            add[3] + (p[3][0] * x[0] + p[3][1] * x[1]) + (p[3][2] * x[2] + p[3][3] * x[3]),
-        ]
+        let y = step_lanes::<1>(|r, c, _| self.phi[r][c], &x.map(|v| [v]), &add.map(|v| [v]));
+        y.map(|v| v[0])
     }
 
     /// The general product `Φ x + add` (reference for [`Zoh::step`]).
@@ -203,20 +198,33 @@ impl<const K: usize> ZohLanes<K> {
     #[inline(always)]
     #[must_use]
     pub fn step(&self, x: &[[f64; K]; NX], add: &[[f64; K]; NX]) -> [[f64; K]; NX] {
-        let p = &self.phi;
-        let mut y = [[0.0; K]; NX];
-        for l in 0..K {
-            y[0][l] =
-                add[0][l] + (p[0][0][l] * x[0][l] + p[0][1][l] * x[1][l]) + p[0][2][l] * x[2][l];
-            y[1][l] =
-                add[1][l] + (p[1][0][l] * x[0][l] + p[1][1][l] * x[1][l]) + p[1][2][l] * x[2][l];
-            y[2][l] = add[2][l] + p[2][2][l] * x[2][l];
-            y[3][l] = add[3][l]
-                + (p[3][0][l] * x[0][l] + p[3][1][l] * x[1][l])
-                + (p[3][2][l] * x[2][l] + p[3][3][l] * x[3][l]);
-        }
-        y
+        step_lanes::<K>(|r, c, l| self.phi[r][c][l], x, add)
     }
+}
+
+/// `Φ x + add` for `K` lanes, `x[j][lane]`, with `Φ[r][c]` of a lane given by `phi(r, c,
+/// lane)`: the one expression of a plant step, [`Zoh::step`] with one lane and
+/// [`ZohLanes::step`] with many. Only the entries that are not structurally zero enter (the
+/// demodulator does not feed the pendulum or the torquer current, the current not itself),
+/// in a fixed order of operations.
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+fn step_lanes<const K: usize>(
+    phi: impl Fn(usize, usize, usize) -> f64,
+    x: &[[f64; K]; NX],
+    add: &[[f64; K]; NX],
+) -> [[f64; K]; NX] {
+    let p = |r, c, l| phi(r, c, l);
+    let mut y = [[0.0; K]; NX];
+    for l in 0..K {
+        y[0][l] = add[0][l] + (p(0, 0, l) * x[0][l] + p(0, 1, l) * x[1][l]) + p(0, 2, l) * x[2][l];
+        y[1][l] = add[1][l] + (p(1, 0, l) * x[0][l] + p(1, 1, l) * x[1][l]) + p(1, 2, l) * x[2][l];
+        y[2][l] = add[2][l] + p(2, 2, l) * x[2][l];
+        y[3][l] = add[3][l]
+            + (p(3, 0, l) * x[0][l] + p(3, 1, l) * x[1][l])
+            + (p(3, 2, l) * x[2][l] + p(3, 3, l) * x[3][l]);
+    }
+    y
 }
 
 /// The three discretisations (free, on the upper stop, on the lower stop) and the constant

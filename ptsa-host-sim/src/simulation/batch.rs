@@ -32,32 +32,18 @@
 //!
 //! How a group's lanes share a core is [`Engine::new`]'s `lanes`:
 //!
-//! * `lanes = 1` (the default, [`LANES`]): one lane after the other, in blocks of 512 ticks,
-//!   each lane with the single loop's own loop (the polarity-split fast path of
-//!   `ClosedLoop::run_fast`, the loop of `ClosedLoop::run`) and its state in registers.
-//! * `lanes = K ≥ 2`: `K` lanes interleaved tick by tick, in phases (the ADC of every lane,
-//!   the core of every lane, the plant step of every lane side by side in structure of
-//!   arrays, [`ZohLanes`]), so that the CPU could overlap the lanes' dependency chains.
+//! * static lanes: `lanes = K ≥ 2` ([`LANES`] = 4 by default) run `K` loops side by side
+//!   through the one definition of the static tick, `kernel::static_tick` (the single loop
+//!   runs it with one lane), compiled for the CPU's SIMD instructions at run time (`pulp`:
+//!   AVX2 where present); `lanes = 1` runs one lane after the other, in blocks of 512 ticks,
+//!   with the single loop's polarity-split fast path (`sim::fast_block`).
+//! * dynamic lanes run one after the other in blocks of 128 ticks with the single loop's
+//!   dynamic tick, whatever `lanes` is (not yet on SIMD lanes).
 //!
-//! # Why one lane at a time
-//! Interleaving pays when a loop waits on its own dependency chain (plant → ADC → core →
-//! plant). On the machine measured (AMD Zen 5 at about 4.3 GHz, baseline x86-64 code, i.e.
-//! SSE2) it does not: the static fast path runs about 130 instructions per tick in about 22
-//! cycles (IPC ≈ 6) while its loop-carried chain (the plant step; the core's decision reaches
-//! the plant through a predicted branch) is about 10 cycles, so it is bound by instruction
-//! throughput; the dynamic one runs about 357 in about 70 cycles (IPC ≈ 5) with a longer chain
-//! (θ → disturbance torque → plant input → θ, about 20 cycles). Interleaved, a lane's tick
-//! executes *more* instructions: the core's state, opaque to this crate, no longer stays in
-//! registers (`Ptsa::tick` costs about 65 instructions plus 20 of glue per lane-tick instead
-//! of about 50), more than the plant's structure of arrays saves. Measured per core:
-//! `K = 2..16` run at 0.62–0.69× the single loop (static) and 0.93–0.97× (dynamic, where
-//! the interleaving does hide some latency). What the batch saves instead is work that
-//! lanes have in common: noise draws (static: 115 instead of 130 instructions per lane-tick,
-//! 1.10× the single loop's rate; dynamic: 319 instead of 357, but only about 1.03× faster,
-//! the chain binding more), a dynamic condition's phasor and inputs (one condition, sixteen
-//! instruments: 246 instead of 357, 1.2×) and noise tables (about a million instructions
-//! per loop built: 1.3–1.5× on whole calls). `cargo bench -p ptsa-host-sim --bench batch`
-//! measures every setting; [`batch_rates`] gives the single and the batch rate to the CLI.
+//! Measured with `ptsa bench --batch 16` on one core (medians of 7 runs; AMD Zen 5, AVX2):
+//! batch / single = 1.82 with 4 lanes, 1.58 with 8, 1.18 with 1 (see docs/host-sim.md).
+//! `cargo bench -p ptsa-host-sim --bench batch` measures every setting; [`batch_rates`] gives
+//! the single and the batch rate to the CLI.
 
 use std::collections::HashMap;
 use std::time::Instant;
@@ -68,18 +54,17 @@ use crate::lab::fixtures;
 use crate::model::condition::Condition;
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
-use ptsa_core::{Polarity, Ptsa, State};
 
-use crate::model::plant::{NX, ZohLanes};
+use crate::simulation::kernel::{self, StaticLanes, StaticState};
 use crate::simulation::sim::{
-    self, Acc, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource,
-    PROGRESS_CHUNK, SimDifference, SimOptions, SimResult, StaticRun, StaticRunState, TickInputs,
-    WindowStart, fast_block, static_tick,
+    self, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource, PROGRESS_CHUNK,
+    SimDifference, SimOptions, SimResult, StaticParams, StaticRun, StaticRunState, TickInputs,
+    WindowStart, fast_block,
 };
 
-/// Lanes interleaved per core by default: 1, one lane after the other (see the module docs
-/// for why; `benches/batch.rs` measures 1, 2, 4, 8 and 16).
-pub const LANES: usize = 1;
+/// Static lanes side by side per core by default (see the module docs; `benches/batch.rs`
+/// measures 1, 2, 4, 8 and 16).
+pub const LANES: usize = 4;
 
 /// The most lanes interleaved per core an [`Engine`] takes.
 pub const MAX_LANES: usize = 16;
@@ -597,11 +582,7 @@ fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
             (Mode::StaticFast, 4) => static_kernel::<4, false>(now, m),
             (Mode::StaticFast, 2) => static_kernel::<2, false>(now, m),
             (Mode::StaticFast, _) => static_kernel::<1, false>(now, m),
-            (Mode::Dynamic, 16) => dynamic_kernel::<16>(now, m),
-            (Mode::Dynamic, 8) => dynamic_kernel::<8>(now, m),
-            (Mode::Dynamic, 4) => dynamic_kernel::<4>(now, m),
-            (Mode::Dynamic, 2) => dynamic_kernel::<2>(now, m),
-            (Mode::Dynamic, _) => dynamic_kernel::<1>(now, m),
+            (Mode::Dynamic, _) => dynamic_blocks(now, m),
         }
         rest = later;
     }
@@ -834,33 +815,25 @@ fn lane_block_fast(r: &mut StaticRunState, bias: &[f64]) {
     r.acc.stop = stop;
 }
 
-/// One block of a static lane with statistics: `ClosedLoop::run`'s static loop, with its
-/// locals.
+/// One block of a static lane with statistics: `ClosedLoop::run`'s static loop (the tick of
+/// [`kernel::static_tick`] with one lane).
 #[inline(never)]
 fn lane_block_stats(r: &mut StaticRunState, bias: &[f64]) {
     let p = r.p;
-    let mut core = r.core;
-    let mut x = r.x;
-    let mut acc = r.acc;
-    let mut ui = r.ui;
+    let lane = StaticLanes::one_of(&p);
+    let mut st = StaticState::load([&*r]);
     for &v in bias {
-        let _ = static_tick::<true>(&p, v, &mut core, &mut x, &mut ui, &mut acc);
+        let _ = kernel::static_tick::<1, true>(&lane, &mut st, &[v]);
     }
-    r.ui = ui;
-    r.core = core;
-    r.x = x;
-    r.acc = acc;
+    st.store([r]);
 }
 
-/// `m` ticks of `K` static lanes, interleaved, in three phases per tick: the ADC of every
-/// lane (the noise draws one lane after the other, the quantization side by side), the
-/// core of every lane ([`tick_lanes`]), and the plant step of every lane side by side
-/// ([`ZohLanes::step`], the free region; a lane beyond a stop is stepped again alone with
-/// its stop's discretisation). Each lane computes what the single loop's tick
-/// (`sim::static_tick`) computes, with the same operations in the same order; the lanes
-/// share the core's configuration (see [`run_mode`]).
+/// `m` ticks of `K` static lanes side by side: [`kernel::static_tick`] with `K` lanes, the
+/// same definition the single loop runs with one, compiled for this CPU's SIMD instructions
+/// ([`kernel::dispatch`]); the lanes share the core's configuration (see [`run_mode`]).
+/// Lanes in step with the same noise generator and the same ADC draw the same additive
+/// terms: they are drawn once (the usual batch: one instrument, one seed).
 #[inline(never)]
-#[allow(clippy::needless_range_loop)]
 fn static_kernel<const K: usize, const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
     let mut it = lanes.iter_mut();
     let mut rs: [&mut StaticRunState; K] =
@@ -868,103 +841,67 @@ fn static_kernel<const K: usize, const STATS: bool>(lanes: &mut [&mut Lane<'_>],
             Live::Static(r) => &mut **r,
             _ => unreachable!("a static lane"),
         });
-    let ptsa = rs[0].p.ptsa;
-    let free = ZohLanes::<K>::new(std::array::from_fn(|l| &rs[l].p.free));
-    // The free region's input of each lane: positive, and the bits that flip to negative
-    // (so that the applied polarity selects it without a branch).
-    let mut add_pos = [[0.0; K]; NX];
-    let mut add_flip = [[0u64; K]; NX];
-    let mut theta_stop = [0.0; K];
-    let mut gain = [0.0; K];
-    let mut x = [[0.0; K]; NX];
-    // All ones where the applied polarity is negative.
-    let mut neg = [0u64; K];
-    for (l, r) in rs.iter().enumerate() {
-        for j in 0..NX {
-            add_pos[j][l] = r.p.add[0][0][j];
-            add_flip[j][l] = r.p.add[0][0][j].to_bits() ^ r.p.add[0][1][j].to_bits();
-            x[j][l] = r.x[j];
-        }
-        theta_stop[l] = r.p.theta_stop;
-        gain[l] = r.p.adc.gain;
-        neg[l] = u64::from(r.ui != 0).wrapping_neg();
-    }
-    let mut cores: [State; K] = std::array::from_fn(|l| rs[l].core);
-    let mut acc: [Acc; K] = std::array::from_fn(|l| rs[l].acc);
-    // Lanes in step with the same noise generator and the same ADC draw the same additive
-    // terms: draw them once (the usual batch: one instrument, one seed).
+    let ps: [StaticParams; K] = std::array::from_fn(|l| rs[l].p);
+    let p = StaticLanes::new(
+        ps[0].ptsa,
+        std::array::from_fn(|l| &ps[l].plant),
+        std::array::from_fn(|l| &ps[l].add),
+        std::array::from_fn(|l| &ps[l].adc),
+    );
+    let mut st = StaticState::load(std::array::from_fn(|l| &*rs[l]));
     let shared = rs
         .iter()
         .all(|r| r.rng.same_stream(&rs[0].rng) && adc_bits(&r.p.adc) == adc_bits(&rs[0].p.adc));
-    let mut bias = [0.0; K];
-    let mut codes = [0i16; K];
-    let mut positive = [false; K];
-    let mut cycle_end = [false; K];
-    for _ in 0..m {
-        if shared {
-            let r = &mut *rs[0];
-            bias = [r.p.adc.bias(&mut r.rng); K];
-        } else {
-            for (b, r) in bias.iter_mut().zip(rs.iter_mut()) {
-                let r = &mut **r;
-                *b = r.p.adc.bias(&mut r.rng);
-            }
-        }
-        for l in 0..K {
-            let adc = Adc {
-                gain: gain[l],
-                offset: 0.0,
-                noise: 0.0,
-            };
-            codes[l] = adc.quantize(x[3][l], bias[l]);
-        }
-        tick_lanes(&ptsa, &mut cores, &codes, &mut positive, &mut cycle_end);
-        let mut add = [[0.0; K]; NX];
-        for j in 0..NX {
-            for l in 0..K {
-                add[j][l] = f64::from_bits(add_pos[j][l].to_bits() ^ (add_flip[j][l] & neg[l]));
-            }
-        }
-        let mut y = free.step(&x, &add);
-        let mut off = false;
-        for l in 0..K {
-            off |= !in_free_region(x[0][l], theta_stop[l]);
-        }
-        if off {
-            for l in 0..K {
-                if !in_free_region(x[0][l], theta_stop[l]) {
-                    let p = &rs[l].p;
-                    let xl = [x[0][l], x[1][l], x[2][l], x[3][l]];
-                    let r = p.plant.region(xl[0]);
-                    let yl = p.plant.zoh[r].step(&xl, &p.add[r][usize::from(neg[l] != 0)]);
-                    for j in 0..NX {
-                        y[j][l] = yl[j];
-                    }
-                    acc[l].stop += 1;
-                }
-            }
-        }
-        x = y;
-        for l in 0..K {
-            if STATS {
-                acc[l].tick(neg[l] == 0, positive[l], x[0][l], cycle_end[l]);
-            }
-            neg[l] = u64::from(!positive[l]).wrapping_neg();
-        }
-    }
+    let mut rngs: Vec<&mut NoiseSource> = rs.iter_mut().map(|r| &mut r.rng).collect();
+    kernel::dispatch(StaticTicks::<K, STATS> {
+        p: &p,
+        st: &mut st,
+        adc: std::array::from_fn(|l| &ps[l].adc),
+        rngs: &mut rngs,
+        shared,
+        m,
+    });
+    drop(rngs);
     if shared {
         let rng = rs[0].rng.clone();
         for r in &mut rs[1..] {
             r.rng = rng.clone();
         }
     }
-    for (l, r) in rs.iter_mut().enumerate() {
-        for j in 0..NX {
-            r.x[j] = x[j][l];
+    st.store(rs);
+}
+
+/// `m` ticks of [`static_kernel`]'s lanes, as one call compiled for the CPU's SIMD
+/// instructions ([`kernel::dispatch`]).
+struct StaticTicks<'a, 'b, 'c, const K: usize, const STATS: bool> {
+    p: &'a StaticLanes<'b, K>,
+    st: &'a mut StaticState<K>,
+    adc: [&'a Adc; K],
+    rngs: &'a mut [&'c mut NoiseSource],
+    shared: bool,
+    m: u64,
+}
+
+impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, '_, K, STATS> {
+    type Output = ();
+
+    #[allow(
+        clippy::inline_always,
+        reason = "compiled inside the dispatch's target features"
+    )]
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let mut bias = [0.0; K];
+        for _ in 0..self.m {
+            if self.shared {
+                bias = [self.adc[0].bias(self.rngs[0]); K];
+            } else {
+                for (l, b) in bias.iter_mut().enumerate() {
+                    *b = self.adc[l].bias(self.rngs[l]);
+                }
+            }
+            let _ = kernel::static_tick::<K, STATS>(self.p, self.st, &bias);
         }
-        r.ui = usize::from(neg[l] != 0);
-        r.core = cores[l];
-        r.acc = acc[l];
     }
 }
 
@@ -977,53 +914,6 @@ fn adc_bits(a: &Adc) -> [u64; 3] {
         noise,
     } = a;
     [gain.to_bits(), offset.to_bits(), noise.to_bits()]
-}
-
-/// Whether the pendulum at `theta` is free of the stops at `±theta_stop` (NaN is not), as the
-/// single loop tests it (`sim::static_tick`).
-#[allow(clippy::inline_always, reason = "per-tick path")]
-#[inline(always)]
-fn in_free_region(theta: f64, theta_stop: f64) -> bool {
-    theta.abs() <= theta_stop
-}
-
-/// The core's tick of every lane, one after the other: `positive[l]` whether lane `l`
-/// decided the positive polarity, `cycle_end[l]` whether it closed a limit cycle. The only
-/// call of [`Ptsa::tick`] in this module: with one call site the compiler inlines the tick
-/// here (as it does in the single loop) instead of calling it from every kernel.
-#[inline(never)]
-fn tick_lanes(
-    ptsa: &Ptsa,
-    cores: &mut [State],
-    codes: &[i16],
-    positive: &mut [bool],
-    cycle_end: &mut [bool],
-) {
-    for l in 0..cores.len() {
-        let t = ptsa.tick(&mut cores[l], codes[l]);
-        positive[l] = t.polarity == Polarity::Positive;
-        cycle_end[l] = t.cycle_pulses.is_some();
-    }
-}
-
-/// `m` ticks of `K` dynamic lanes, interleaved: each tick, lane after lane, the single
-/// loop's dynamic tick.
-#[inline(never)]
-fn dynamic_kernel<const K: usize>(lanes: &mut [&mut Lane<'_>], m: u64) {
-    let mut it = lanes.iter_mut();
-    let mut rs: [(&ClosedLoop, &mut (DynParams, DynRun)); K] = std::array::from_fn(|_| {
-        let lane = &mut **it.next().expect("K lanes");
-        match &mut lane.live {
-            Live::Dynamic(d) => (&*lane.lp, &mut **d),
-            _ => unreachable!("a dynamic lane"),
-        }
-    });
-    for _ in 0..m {
-        for (lp, d) in &mut rs {
-            let (p, r) = &mut **d;
-            let _ = lp.dynamic_tick(p, r);
-        }
-    }
 }
 
 /// The single loop's and the batch engine's speed on the static loop, side by side.

@@ -36,7 +36,8 @@ use rand_chacha::rand_core::{RngCore, SeedableRng};
 use crate::model::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
 use crate::model::effects::{Effects, Signature};
 use crate::model::instrument::Instrument;
-use crate::model::plant::{NX, Plant, Zoh};
+use crate::model::plant::{NX, Plant};
+use crate::simulation::kernel::{self, StaticLanes, StaticState};
 
 /// Options of a simulated run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -304,11 +305,18 @@ impl Adc {
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn quantize(&self, y: f64, bias: f64) -> i16 {
+        Self::quantize_with(self.gain, y, bias)
+    }
+
+    /// The code of `y` with the gain `gain` (codes per rad) and the additive term `bias`.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
+    #[inline(always)]
+    pub(crate) fn quantize_with(gain: f64, y: f64, bias: f64) -> i16 {
         // Round half up and clip to the i16 range without a libm call: `as u16` truncates
         // toward zero and saturates to `0..=65535` (NaN to 0), the same as an explicit clamp
         // before the cast but with one max/min pair instead of two.
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let z = (y * self.gain + bias) as u16;
+        let z = (y * gain + bias) as u16;
         #[allow(clippy::cast_possible_wrap)]
         let z = (z ^ 0x8000) as i16;
         z
@@ -548,10 +556,8 @@ impl ClosedLoop {
         StaticParams {
             ptsa: self.ptsa,
             plant: self.plant,
-            free: self.plant.zoh[0],
             add: add_vectors(&self.plant, self.d0),
             adc: self.adc_params(),
-            theta_stop: self.plant.theta_stop,
         }
     }
 
@@ -635,21 +641,24 @@ impl ClosedLoop {
         }
         let mut r = self.static_run();
         let k0 = self.k;
+        let p = r.p;
+        let lane = StaticLanes::one_of(&p);
+        let mut st = StaticState::load([&r]);
         for i in 0..n {
-            let u = if r.ui == 0 { 1.0 } else { -1.0 };
-            let bias = r.p.adc.bias(&mut r.rng);
-            let (code, tick) =
-                static_tick::<STATS>(&r.p, bias, &mut r.core, &mut r.x, &mut r.ui, &mut r.acc);
+            let u = if st.neg[0] == 0 { 1.0 } else { -1.0 };
+            let bias = [p.adc.bias(&mut r.rng)];
+            let (code, t) = kernel::static_tick::<1, STATS>(&lane, &mut st, &bias);
             if OBSERVE {
                 obs(&TickView {
                     k: k0 + i,
-                    x: r.x,
-                    code,
+                    x: [st.x[0][0], st.x[1][0], st.x[2][0], st.x[3][0]],
+                    code: code[0],
                     u,
-                    decided: tick.polarity,
+                    decided: Polarity::from(t.positive[0]),
                 });
             }
         }
+        st.store([&mut r]);
         self.finish_static_run(&r, n, STATS);
     }
 
@@ -1122,42 +1131,8 @@ pub(crate) fn add_vectors(plant: &Plant, d0: f64) -> [[[f64; NX]; 2]; 3] {
 pub(crate) struct StaticParams {
     pub(crate) ptsa: Ptsa,
     pub(crate) plant: Plant,
-    pub(crate) free: Zoh,
     pub(crate) add: [[[f64; NX]; 2]; 3],
     pub(crate) adc: Adc,
-    pub(crate) theta_stop: f64,
-}
-
-/// One tick of a static condition, the body of [`ClosedLoop::run`]'s static path and of the
-/// batch engine's lanes (`crate::simulation::batch`): sample with the ADC's additive term `bias` (see
-/// [`Adc::bias`]), let the core decide, step the plant with the applied polarity `ui`
-/// (0 = positive), count a tick on a stop, the per-tick statistics with `STATS`, and make
-/// the decided polarity the applied one. Returns the code and the core's tick.
-#[allow(clippy::inline_always, reason = "per-tick path")]
-#[inline(always)]
-pub(crate) fn static_tick<const STATS: bool>(
-    p: &StaticParams,
-    bias: f64,
-    core: &mut State,
-    x: &mut [f64; NX],
-    ui: &mut usize,
-    acc: &mut Acc,
-) -> (i16, ptsa_core::Tick) {
-    let code = p.adc.quantize(x[3], bias);
-    let tick = p.ptsa.tick(core, code);
-    if x[0].abs() <= p.theta_stop {
-        *x = p.free.step(x, &p.add[0][*ui]);
-    } else {
-        let r = p.plant.region(x[0]);
-        *x = p.plant.zoh[r].step(x, &p.add[r][*ui]);
-        acc.stop += 1;
-    }
-    let positive = tick.polarity == Polarity::Positive;
-    if STATS {
-        acc.tick(*ui == 0, positive, x[0], tick.cycle_pulses.is_some());
-    }
-    *ui = usize::from(!positive);
-    (code, tick)
 }
 
 /// The constants of a dynamic tick (see [`ClosedLoop::dynamic_tick`]): the core, the clock

@@ -1,0 +1,194 @@
+//! The closed loop's tick of a static condition, once, for `L` loops side by side.
+//!
+//! [`static_tick`] is the whole tick (the ADC's code of the demodulated pickoff, the core's
+//! decision through [`ptsa_core::Ptsa::tick_lanes`], the plant's exact step with the applied
+//! polarity, a tick on a stop, the per-tick statistics) over `L` lanes in structure of
+//! arrays. The single loop runs it with one lane (`ClosedLoop::run`'s static path); the batch
+//! engine with 8 (`batch`), inside [`dispatch`], so that the compiler may put 4 or 8 lanes
+//! in one SIMD instruction on the CPU it runs on. Every step is a loop over the lanes with the
+//! same operations in the same order for every `L` (no fused multiply-add: Rust never
+//! contracts `a·b + c`), so a lane's result does not depend on `L` or on the CPU: bit for bit
+//! the single loop's.
+
+use ptsa_core::{LaneTicks, Lanes, Ptsa};
+
+use crate::model::plant::{NX, Plant, ZohLanes};
+use crate::simulation::sim::{Acc, Adc, StaticParams, StaticRunState};
+
+/// Run `f` with the SIMD instruction sets of this CPU enabled for everything inlined into
+/// it (runtime detection by `pulp`: AVX2 where present, the baseline SSE2 otherwise). `f`'s
+/// `with_simd` and the functions on the tick path are `#[inline(always)]` so that they are
+/// compiled inside.
+#[inline]
+pub(crate) fn dispatch<F: pulp::WithSimd>(f: F) -> F::Output {
+    pulp::Arch::new().dispatch(f)
+}
+
+/// The constants of a static condition's tick for `L` lanes (one instrument, condition and
+/// ADC per lane; one core configuration for all of them).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StaticLanes<'a, const L: usize> {
+    /// The core's configuration, shared.
+    pub(crate) ptsa: Ptsa,
+    /// The free region's transition of each lane.
+    pub(crate) free: ZohLanes<L>,
+    /// The free region's plant input of each lane with the positive polarity applied, and
+    /// the bits that flip it to the negative one (so that the polarity selects it without a
+    /// branch).
+    pub(crate) add_pos: [[f64; L]; NX],
+    pub(crate) add_flip: [[u64; L]; NX],
+    /// Stop angle of each lane, rad.
+    pub(crate) theta_stop: [f64; L],
+    /// ADC gain of each lane, codes per rad.
+    pub(crate) gain: [f64; L],
+    /// Each lane's plant and plant inputs by region and polarity (`add[region][polarity]`,
+    /// polarity 0 = positive): the stops, a rare and cold path.
+    pub(crate) plant: [&'a Plant; L],
+    pub(crate) add: [&'a [[[f64; NX]; 2]; 3]; L],
+}
+
+impl<'a, const L: usize> StaticLanes<'a, L> {
+    /// The constants of lane `l` from its plant, plant inputs and ADC.
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn new(
+        ptsa: Ptsa,
+        plant: [&'a Plant; L],
+        add: [&'a [[[f64; NX]; 2]; 3]; L],
+        adc: [&Adc; L],
+    ) -> Self {
+        let mut add_pos = [[0.0; L]; NX];
+        let mut add_flip = [[0u64; L]; NX];
+        for l in 0..L {
+            for j in 0..NX {
+                add_pos[j][l] = add[l][0][0][j];
+                add_flip[j][l] = add[l][0][0][j].to_bits() ^ add[l][0][1][j].to_bits();
+            }
+        }
+        Self {
+            ptsa,
+            free: ZohLanes::new(std::array::from_fn(|l| &plant[l].zoh[0])),
+            add_pos,
+            add_flip,
+            theta_stop: std::array::from_fn(|l| plant[l].theta_stop),
+            gain: std::array::from_fn(|l| adc[l].gain),
+            plant,
+            add,
+        }
+    }
+}
+
+/// What a static tick changes in `L` lanes: the plant state `x[j][lane]`, the cores, the
+/// applied polarity (all ones where negative) and the statistics.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct StaticState<const L: usize> {
+    pub(crate) x: [[f64; L]; NX],
+    pub(crate) core: Lanes<L>,
+    pub(crate) neg: [u64; L],
+    pub(crate) acc: [Acc; L],
+}
+
+/// The mask of `neg` for an applied polarity: all ones where negative.
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+pub(crate) fn neg_mask(negative: bool) -> u64 {
+    u64::from(negative).wrapping_neg()
+}
+
+/// Whether the pendulum at `theta` is free of the stops at `±theta_stop`, as
+/// `Plant::region` has it (NaN is not).
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+fn free(theta: f64, theta_stop: f64) -> bool {
+    theta.abs() <= theta_stop
+}
+
+/// One tick of `L` lanes of static conditions: sample each lane's pickoff with the ADC's
+/// additive term `bias[l]` (offset, rounding and noise, see [`Adc::bias`]), let the cores
+/// decide, step the plants with the applied polarities, count the ticks on a stop and, with
+/// `STATS`, the per-tick statistics; the decided polarities become the applied ones. Returns
+/// the codes and what the cores decided.
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+pub(crate) fn static_tick<const L: usize, const STATS: bool>(
+    p: &StaticLanes<'_, L>,
+    s: &mut StaticState<L>,
+    bias: &[f64; L],
+) -> ([i16; L], LaneTicks<L>) {
+    let mut codes = [0i16; L];
+    for l in 0..L {
+        codes[l] = Adc::quantize_with(p.gain[l], s.x[3][l], bias[l]);
+    }
+    let t = p.ptsa.tick_lanes(&mut s.core, &codes);
+    let mut add = [[0.0; L]; NX];
+    for j in 0..NX {
+        for l in 0..L {
+            add[j][l] = f64::from_bits(p.add_pos[j][l].to_bits() ^ (p.add_flip[j][l] & s.neg[l]));
+        }
+    }
+    let mut y = p.free.step(&s.x, &add);
+    let mut off = false;
+    for l in 0..L {
+        off |= !free(s.x[0][l], p.theta_stop[l]);
+    }
+    if off {
+        for l in 0..L {
+            if !free(s.x[0][l], p.theta_stop[l]) {
+                let xl = [s.x[0][l], s.x[1][l], s.x[2][l], s.x[3][l]];
+                let r = p.plant[l].region(xl[0]);
+                let yl = p.plant[l].zoh[r].step(&xl, &p.add[l][r][usize::from(s.neg[l] != 0)]);
+                for j in 0..NX {
+                    y[j][l] = yl[j];
+                }
+                s.acc[l].stop += 1;
+            }
+        }
+    }
+    s.x = y;
+    for l in 0..L {
+        if STATS {
+            s.acc[l].tick(s.neg[l] == 0, t.positive[l], s.x[0][l], t.cycle_end[l]);
+        }
+        s.neg[l] = neg_mask(!t.positive[l]);
+    }
+    (codes, t)
+}
+
+impl<const L: usize> StaticState<L> {
+    /// The state of `L` static runs in progress, lane `l` from `runs[l]`.
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn load(runs: [&StaticRunState; L]) -> Self {
+        let mut x = [[0.0; L]; NX];
+        for l in 0..L {
+            for j in 0..NX {
+                x[j][l] = runs[l].x[j];
+            }
+        }
+        Self {
+            x,
+            core: Lanes::new(&std::array::from_fn(|l| runs[l].core)),
+            neg: std::array::from_fn(|l| neg_mask(runs[l].ui != 0)),
+            acc: std::array::from_fn(|l| runs[l].acc),
+        }
+    }
+
+    /// Lane `l` back into `runs[l]`.
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn store(&self, runs: [&mut StaticRunState; L]) {
+        for (l, r) in runs.into_iter().enumerate() {
+            for j in 0..NX {
+                r.x[j] = self.x[j][l];
+            }
+            r.core = self.core.get(l);
+            r.ui = usize::from(self.neg[l] != 0);
+            r.acc = self.acc[l];
+        }
+    }
+}
+
+impl<'a> StaticLanes<'a, 1> {
+    /// The constants of one static run.
+    pub(crate) fn one_of(p: &'a StaticParams) -> Self {
+        Self::new(p.ptsa, [&p.plant], [&p.add], [&p.adc])
+    }
+}
