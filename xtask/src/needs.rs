@@ -408,8 +408,8 @@ mod tests {
 
     #[test]
     fn a_program_that_does_not_run_or_is_not_executable_is_missing() {
-        let _serial = serial();
         use std::os::unix::fs::PermissionsExt as _;
+        let _serial = serial();
         let bin = Scratch::new("broken");
         let sysroot = Scratch::new("sysroot-broken");
         // On PATH but fails: said so, with its first line of stderr.
