@@ -17,9 +17,10 @@ use crate::work::Work;
 /// Arguments of `ptsa bench`.
 #[derive(Args, Debug, Clone)]
 pub struct BenchArgs {
-    /// Ticks per run (1 to 4 294 967 295, what the core's 32-bit counters hold; default
-    /// 64 000 000). With --batch N: ticks per condition (default 64 000 000 / N, a run
-    /// as long as without --batch).
+    /// Clock ticks per run (of the instrument file's clock_hz, 64 kHz shipped; 1 to
+    /// 4 294 967 295, what the core's 32-bit counters hold; default 64 000 000). With
+    /// --batch N: ticks per condition (default 64 000 000 / N, a run as long as without
+    /// --batch).
     #[arg(long, value_name = "N", value_parser = ticks)]
     pub ticks: Option<u64>,
     /// Runs (1 to 1000).
@@ -46,7 +47,8 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = ptsa_host_sim::simulation::batch::LANES, value_name = "K",
           value_parser = lanes, requires = "batch")]
     pub lanes: usize,
-    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`): a whole number
+    /// from 0 to 2^64 − 1, no unit.
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,

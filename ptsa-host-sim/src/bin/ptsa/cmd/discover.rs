@@ -49,7 +49,8 @@ pub struct DiscoverArgs {
     /// Do not write the table and plots.
     #[arg(long)]
     pub no_plots: bool,
-    /// Seed of the simulator's pickoff noise (closed loop; not used with --analytic).
+    /// Seed of the simulator's pickoff noise (closed loop; not used with --analytic): a
+    /// whole number from 0 to 2^64 − 1, no unit.
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,

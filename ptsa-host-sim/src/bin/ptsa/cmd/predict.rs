@@ -33,7 +33,8 @@ pub struct PredictArgs {
     /// row: `predicted_cm_s2` null, and `predicted_gain`, `predicted_phase_deg`).
     #[arg(long)]
     pub json: bool,
-    /// Seed of the simulator's pickoff noise (closed loop).
+    /// Seed of the simulator's pickoff noise (closed loop): a whole number from 0 to
+    /// 2^64 − 1, no unit.
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,

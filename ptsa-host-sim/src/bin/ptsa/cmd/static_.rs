@@ -34,7 +34,8 @@ pub struct StaticArgs {
     #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
           value_parser = non_negative_s)]
     pub warmup_s: f64,
-    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`): a whole number
+    /// from 0 to 2^64 − 1, no unit.
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,

@@ -153,7 +153,8 @@ pub enum Cmd {
 /// Options of every simulated run.
 #[derive(Args, Debug, Clone, Copy)]
 pub struct RunArgs {
-    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`): a whole number
+    /// from 0 to 2^64 − 1, no unit.
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,
@@ -188,7 +189,8 @@ impl RunArgs {
 /// number of limit cycles, its frequency response and limit-cycle sweep use 1 s windows).
 #[derive(Args, Debug, Clone, Copy)]
 pub struct SettleArgs {
-    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`).
+    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`): a whole number
+    /// from 0 to 2^64 − 1, no unit.
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,
@@ -317,4 +319,79 @@ fn join_negative_numbers(
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The unit a numeric option's help must name, by its value name; `None` for a value
+    /// that is not a number (a path, a list of names, a text).
+    fn unit_of(value_name: &str) -> Option<&'static [&'static str]> {
+        Some(match value_name {
+            "FILE" | "FILE.json" | "DIR" | "LIST" | "TEXT" | "oa|pa" => return None,
+            "S" => &[", s"],
+            "HZ" => &["Hz"],
+            "CM_S2" => &["cm/s²"],
+            "MRAD" => &["mrad"],
+            "G_CM2" => &["g·cm²"],
+            "CM" | "IA_CM" => &[", cm"],
+            "RAD_S" => &["rad/s"],
+            "S2_CM" => &["s²/cm"],
+            "S2" => &[", s²"],
+            "DEG" => &["degrees"],
+            "G" => &["in g"],
+            // A count: of what, or that it has none (a seed).
+            "N" | "K" => &[
+                "no unit",
+                "ticks",
+                "Runs",
+                "conditions",
+                "loops",
+                "corners",
+                "ositions",
+                "Phases",
+                "cycles",
+            ],
+            other => panic!("value name {other}: add it and its unit to `unit_of`"),
+        })
+    }
+
+    /// Every option of every subcommand that takes a number says its unit in `--help` (a
+    /// count says what it counts, a seed that it has no unit); an option with a new value
+    /// name fails until its unit is added here.
+    #[test]
+    fn every_numeric_option_names_its_unit() {
+        fn walk(cmd: &clap::Command, path: &str, checked: &mut usize) {
+            for a in cmd.get_arguments() {
+                if !a.get_action().takes_values() || !a.get_possible_values().is_empty() {
+                    continue;
+                }
+                let name = a.get_value_names().and_then(|v| v.first()).map_or_else(
+                    || a.get_id().to_string().to_uppercase(),
+                    ToString::to_string,
+                );
+                let Some(units) = unit_of(&name) else {
+                    continue;
+                };
+                let help = a
+                    .get_long_help()
+                    .or_else(|| a.get_help())
+                    .map(ToString::to_string)
+                    .unwrap_or_default();
+                assert!(
+                    units.iter().any(|u| help.contains(u)),
+                    "ptsa {path} --{}: its help names none of {units:?}: {help}",
+                    a.get_id()
+                );
+                *checked += 1;
+            }
+            for s in cmd.get_subcommands() {
+                walk(s, &format!("{path} {}", s.get_name()), checked);
+            }
+        }
+        let mut checked = 0;
+        walk(&Cli::command(), "", &mut checked);
+        assert!(checked > 50, "{checked} numeric options checked");
+    }
 }
