@@ -15,7 +15,7 @@ pub mod table;
 
 pub use fs::{StagedDir, write_atomic};
 pub use plot::{Figure, Plot, Series, Style, XAxis, write_figure};
-pub use table::{Cell, Table, num, opt, significant, text};
+pub use table::{Align, Cell, Column, Table, num, opt, significant, text};
 
 /// `n thing` or `n things`.
 #[must_use]

@@ -1,0 +1,299 @@
+//! `ptsa discover`: what measured data say the simulation gets wrong (the library's
+//! `discovery`), on a case-frame file or, without `--data`, on the report's Tables 6.1–6.3;
+//! or, with `--convert-report-data`, the report's case-frame files regenerated.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::SystemTime;
+
+use anyhow::Result;
+use clap::Args;
+use ptsa_host_sim::discovery::cost::Cost;
+use ptsa_host_sim::discovery::{self, InstrumentOut, Options, Simulator};
+use ptsa_host_sim::model::effects::CandidateId;
+use ptsa_host_sim::report::r890;
+use ptsa_host_sim::simulation::sim::SimOptions;
+use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
+
+use super::{Ctx, simulator};
+use crate::flags::values::{candidate, candidates_help, positive_cm_s2, seed};
+use crate::{paths, work};
+
+/// Arguments of `ptsa discover`.
+#[derive(Args, Debug, Clone)]
+#[command(allow_negative_numbers = true)]
+pub struct DiscoverArgs {
+    /// Case-frame CSV file of measured conditions (docs/case-frame.md). Without it, the
+    /// report's Tables 6.1, 6.2 and 6.3 are analysed.
+    #[arg(long, value_name = "FILE")]
+    pub data: Option<PathBuf>,
+    /// 1-sigma uncertainty of the rows without `sigma_cm_s2`, cm/s² (more than 0). Without
+    /// it, their noise is estimated: from replicated rows where there are some, else from
+    /// the residuals, per block and kind of row.
+    #[arg(long, value_name = "CM_S2", value_parser = positive_cm_s2)]
+    pub sigma: Option<f64>,
+    /// Candidate effects, comma separated: effect names (`lever_arm` = its three
+    /// components) or candidate names (`lever_arm.r_pa_cm`); default all.
+    #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = candidate,
+          long_help = candidates_help())]
+    pub candidates: Vec<Vec<CandidateId>>,
+    /// Print exactly one JSON object on stdout (the text report goes to stderr). Without
+    /// --data, the object maps each report table's file name to its result.
+    #[arg(long)]
+    pub json: bool,
+    /// Folder for the per-row table and plots, STEM-discover.csv, .png and .svg (STEM: the
+    /// data file's name without .case.csv or .csv; with response rows also
+    /// STEM-discover-bode.png and .svg); relative to the current folder.
+    #[arg(long, value_name = "DIR", default_value = "out/discover")]
+    pub out: PathBuf,
+    /// Do not write the table and plots.
+    #[arg(long)]
+    pub no_plots: bool,
+    /// Seed of the simulator's pickoff noise (closed loop; not used with --analytic): a
+    /// whole number from 0 to 2^64 − 1, no unit.
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+          value_parser = seed)]
+    pub seed: u64,
+    /// Use the quasi-static analytic model instead of the closed loop (fast, no loop
+    /// dynamics).
+    #[arg(long)]
+    pub analytic: bool,
+    /// Write the rows the advice proposes (to break each confounding, or to test what these
+    /// data cannot) to FILE as a case-frame file, ready to measure.
+    #[arg(long, value_name = "FILE", requires = "data")]
+    pub advice_out: Option<PathBuf>,
+    /// Write the instrument file (--instrument, or the shipped one) to FILE with the
+    /// fitted values of the selected parameters (damping, spring, ...; each with a comment
+    /// of its value ± 1 σ and where it came from), everything else as it was. Not written
+    /// when no parameter is selected.
+    #[arg(long, value_name = "FILE", requires = "data")]
+    pub write_instrument: Option<PathBuf>,
+    /// Keep the rows the outlier test flags as suspected gross errors in the fit (they are
+    /// still reported and warned about). Without it such a row (its value many sigma from
+    /// what the model selected without it expects, familywise 1 %) is set aside.
+    #[arg(long)]
+    pub keep_outliers: bool,
+    /// Analyse measured values that are a unit's multiple of the simulated ones (1/980.4:
+    /// typed in g; 1/100: m/s²; 1020: µg; ...) or their negative as they are, with a
+    /// warning. Without it such data are refused (exit 1) as a unit or sign slip.
+    #[arg(long)]
+    pub units_as_given: bool,
+    /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
+    #[arg(long, value_name = "DIR")]
+    pub convert_report_data: Option<PathBuf>,
+    /// Replace an existing --advice-out or --write-instrument file (never an input of the
+    /// run), and run even when the work is estimated to take more than ten minutes (before
+    /// it starts, or, when a parameter of the loop is selected, before the closed-loop
+    /// search of the other parameters).
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// A discovery to run, or the report's files to regenerate.
+pub enum Request {
+    /// `--convert-report-data DIR`: the folder checked.
+    Convert(PathBuf),
+    /// An analysis.
+    Analyse(Box<Analysis>),
+}
+
+/// An analysis of `data` (or of the report's tables), its output files checked.
+pub struct Analysis {
+    data: Option<PathBuf>,
+    options: Options,
+    sim: Box<dyn Simulator>,
+    json: bool,
+    /// The folder for the table and plots, or `None` (`--no-plots`).
+    plots: Option<PathBuf>,
+    advice_out: Option<PathBuf>,
+    write_instrument: Option<PathBuf>,
+    /// The single files `--force` will replace: the flag, the file, its time of change
+    /// (to see whether the run wrote it) and what it holds.
+    replaced: Vec<(&'static str, PathBuf, Option<SystemTime>, String)>,
+    force: bool,
+}
+
+impl DiscoverArgs {
+    /// The files the command reads, by their flags: no output may replace them.
+    pub fn inputs(&self) -> [(&'static str, Option<&Path>); 1] {
+        [("--data", self.data.as_deref())]
+    }
+
+    /// The request: the candidates resolved (each once, in the registry's order), the
+    /// folder and files it writes checked (never an input; an existing single file only
+    /// with `--force`, and what it holds noted), the method's options, the simulator.
+    ///
+    /// # Errors
+    /// The loop cannot be simulated; an output path is refused.
+    pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        let config = ctx.config()?;
+        if let Some(dir) = self.convert_report_data {
+            let names: Vec<String> = r890::case_files()?
+                .iter()
+                .map(|f| f.name.to_string())
+                .collect();
+            paths::folder_with("--convert-report-data", &dir, &names)?;
+            return Ok(Request::Convert(dir));
+        }
+        let candidates: Vec<CandidateId> = if self.candidates.is_empty() {
+            CandidateId::ALL.to_vec()
+        } else {
+            let mut v: Vec<CandidateId> = self.candidates.iter().flatten().copied().collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        if !self.no_plots {
+            // The files written: `<stem>-discover.*` of the data file, or, without one,
+            // those of each of the report's tables (`report::discovery`).
+            let stems = match &self.data {
+                Some(p) => vec![discovery::output_stem(Some(p))],
+                None => r890::case_files()?
+                    .iter()
+                    .map(|f| f.name.trim_end_matches(".case.csv").to_string())
+                    .collect(),
+            };
+            let names: Vec<String> = stems
+                .iter()
+                .flat_map(|stem| {
+                    [".csv", ".png", ".svg", "-bode.png", "-bode.svg"].map(|e| format!("{stem}{e}"))
+                })
+                .collect();
+            paths::folder_with("--out", &self.out, &names)?;
+        }
+        let mut replaced = Vec::new();
+        for (flag, p) in [
+            ("--advice-out", &self.advice_out),
+            ("--write-instrument", &self.write_instrument),
+        ] {
+            if let Some(p) = p
+                && paths::output_file(flag, p, self.force)?
+            {
+                let before = std::fs::metadata(p).and_then(|m| m.modified()).ok();
+                replaced.push((flag, p.clone(), before, paths::what_is_replaced(p)));
+            }
+        }
+        let options = Options {
+            default_sigma_cm_s2: self.sigma,
+            candidates,
+            seed: self.seed,
+            keep_outliers: self.keep_outliers,
+            units_as_given: self.units_as_given,
+            ..Options::for_instrument(&ctx.instr)
+        };
+        Ok(Request::Analyse(Box::new(Analysis {
+            sim: simulator(&ctx.instr, config, self.analytic, self.seed),
+            plots: (!self.no_plots).then_some(self.out),
+            data: self.data,
+            options,
+            json: self.json,
+            advice_out: self.advice_out,
+            write_instrument: self.write_instrument,
+            replaced,
+            force: self.force,
+        })))
+    }
+}
+
+/// Run the request: the analysis (refused beyond the work limit without `--force`), its
+/// report on `out` and its files; a warning for each file `--force` replaced.
+///
+/// # Errors
+/// Refused work; the data cannot be read or analysed; a write fails.
+pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
+    let a = match req {
+        Request::Convert(dir) => {
+            for p in r890::write_case_files(dir)? {
+                eprintln!("wrote {}", p.display());
+            }
+            return Ok(());
+        }
+        Request::Analyse(a) => a,
+    };
+    let est = estimate(a)?;
+    // The search of the loop's parameters, whose length is known only once they are
+    // selected, is held to the limit too.
+    ptsa_host_sim::simulation::work::set_limit((!a.force).then(work::limit_s));
+    let p = work::Progress::start("discover", &est);
+    let r = match &a.data {
+        Some(data) => {
+            let req = discovery::Request {
+                data: data.clone(),
+                options: a.options.clone(),
+                json: a.json,
+                out: a.plots.clone(),
+                advice_out: a.advice_out.clone(),
+                write_instrument: a.write_instrument.as_ref().map(|p| InstrumentOut {
+                    path: p.clone(),
+                    source: ctx.text.clone(),
+                    source_name: ctx.name.clone(),
+                }),
+            };
+            discovery::run(&req, &*a.sim, out)
+        }
+        None => report_tables(a, out),
+    };
+    p.finish();
+    if r.is_ok() {
+        for (flag, p, before, w) in &a.replaced {
+            if std::fs::metadata(p).and_then(|m| m.modified()).ok() != *before {
+                eprintln!("warning: {flag} {}: replaced {w} (--force)", p.display());
+            }
+        }
+    }
+    r
+}
+
+/// `ptsa discover` without `--data`: the report's Tables 6.1, 6.2 and 6.3, each analysed on
+/// its own, as the report programme's Markdown section on stdout (with `--json`, the
+/// section on stderr and one JSON object by file name on stdout); tables and plots into
+/// the plots folder.
+fn report_tables(a: &Analysis, out: &mut dyn Write) -> Result<()> {
+    let (text, all) =
+        ptsa_host_sim::report::discovery::section_json(&*a.sim, &a.options, a.plots.as_deref())?;
+    if a.json {
+        eprint!("{text}");
+        writeln!(out, "{}", serde_json::Value::Object(all))?;
+    } else {
+        write!(out, "{text}")?;
+    }
+    Ok(())
+}
+
+/// The work of `ptsa discover` before it runs (`discovery::cost`), refused beyond the limit
+/// without `--force` and announced when long, with what the search of the loop's
+/// parameters may add when one is selected.
+fn estimate(a: &Analysis) -> Result<Estimate> {
+    let (sim, candidates) = (&*a.sim, &a.options.candidates);
+    let costs: Vec<Cost> = match &a.data {
+        Some(p) => vec![Cost::of(
+            &ptsa_host_sim::model::caseframe::read(p)?,
+            sim,
+            candidates,
+        )],
+        None => r890::case_files()?
+            .iter()
+            .map(|f| Cost::of(&f.rows, sim, candidates))
+            .collect(),
+    };
+    let ticks = costs.iter().map(|c| c.ticks).sum();
+    let seconds: f64 = costs.iter().map(Cost::seconds).sum();
+    let est = Estimate {
+        ticks,
+        other_s: seconds - ticks.seconds(),
+    };
+    let search: Ticks = costs.iter().map(|c| c.search(1)).sum();
+    let more = (search.seconds() > 1.0).then(|| {
+        format!(
+            "and up to {} more if a parameter of the loop is selected (the closed-loop search of the others, held to the same limit)",
+            human(search.seconds())
+        )
+    });
+    work::check(
+        est,
+        a.force,
+        "discover",
+        more.as_deref(),
+        "fewer rows, or rows of shorter periods",
+    )
+}

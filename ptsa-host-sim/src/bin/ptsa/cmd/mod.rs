@@ -1,0 +1,174 @@
+//! The subcommands, one module each (the report programme's experiments run one by one
+//! share [`experiments`]). Every module has the same three parts:
+//!
+//! * `…Args`: the clap arguments (its `--help`), each value range-checked by its parser in
+//!   [`crate::flags::values`];
+//! * `Request`, built by `…Args::request` before any work: the checks that need the
+//!   instrument file (a gate against the limit cycle, a frequency against the loop's),
+//!   the output paths checked ([`crate::paths`]), the inputs read, the options that
+//!   exclude or imply each other resolved, a warning for a value that is taken but
+//!   doubtful;
+//! * `run(ctx, request, out)`: the work estimate ([`crate::work`]), the library's call,
+//!   and the presentation (tables through [`ptsa_host_sim::output`]) on `out`, files in
+//!   their folder, messages on stderr.
+// The doc comments of the `…Args` are clap's `--help` text, printed as plain text:
+// backticks around column names and symbols (time_s, A_b, θ_my) would show up verbatim.
+#![allow(clippy::doc_markdown, reason = "clap help text, not rustdoc")]
+#![allow(
+    clippy::struct_excessive_bools,
+    reason = "each bool of an `…Args` is a command-line switch of its own"
+)]
+
+pub mod bench;
+pub mod design;
+pub mod discover;
+pub mod experiments;
+pub mod plan;
+pub mod predict;
+pub mod report;
+pub mod response;
+pub mod static_;
+
+use std::io::Write;
+use std::path::Path;
+
+use anyhow::{Context as _, Result, bail};
+use ptsa_host_sim::Instrument;
+use ptsa_host_sim::discovery::{self, Simulator};
+use ptsa_host_sim::model::design::{LoopCheck, check_loop};
+use ptsa_host_sim::output::{Output, count};
+use ptsa_host_sim::simulation::sim::SimOptions;
+
+use crate::flags::values::num;
+use crate::paths;
+
+/// What every subcommand runs against: the instrument file, loaded and its loop checked
+/// once, before any subcommand's own checks.
+pub struct Ctx {
+    /// The instrument.
+    pub instr: Instrument,
+    /// Its name for messages: the path given, or the shipped file's.
+    pub name: String,
+    /// Its text (for `discover --write-instrument`, which rewrites it).
+    pub text: String,
+    /// The loop's check (`design::check_loop`): the compensator and margins, or why the
+    /// simulator cannot run this loop.
+    pub checked: std::result::Result<LoopCheck, String>,
+}
+
+impl Ctx {
+    /// The instrument file at `path` (or the shipped one), checked.
+    ///
+    /// # Errors
+    /// The file cannot be read or is not a valid instrument file.
+    pub fn load(path: Option<&Path>) -> Result<Self> {
+        let (instr, name, text) = match path {
+            Some(p) => {
+                let i = Instrument::load(p)?;
+                // Read again for `--write-instrument` (load has validated it as UTF-8).
+                let text = std::fs::read_to_string(p)
+                    .with_context(|| format!("{}: cannot read", p.display()))?;
+                (i, p.display().to_string(), text)
+            }
+            None => (
+                Instrument::kearfott_2401(),
+                "data/kearfott-2401.toml (the shipped file, built in)".to_string(),
+                ptsa_host_sim::model::instrument::KEARFOTT_2401_TOML.to_string(),
+            ),
+        };
+        let checked = check_loop(&instr);
+        Ok(Self {
+            instr,
+            name,
+            text,
+            checked,
+        })
+    }
+
+    /// The compensator of a loop the simulator can run. Every subcommand but `design` and
+    /// `response` (which simulate nothing) asks for it first, so that such a file is
+    /// refused before anything else.
+    ///
+    /// # Errors
+    /// The loop check's refusal, under the file's name.
+    pub fn config(&self) -> Result<ptsa_core::Config> {
+        match &self.checked {
+            Ok(c) => Ok(c.config),
+            Err(e) => bail!("{}: {e}", self.name),
+        }
+    }
+}
+
+/// Print an experiment's tables and notes, write its files into `dir`; `already` files
+/// were written into the folder while the work ran (the waveform's trace).
+///
+/// # Errors
+/// Writing stdout or a file fails.
+pub fn emit(o: &Output, dir: &Path, already: usize, out: &mut dyn Write) -> Result<()> {
+    o.print(out)?;
+    let files = o.write_files(dir)?;
+    eprintln!(
+        "wrote {} into {}",
+        count((files.len() + already) as u64, "file"),
+        paths::shown(dir)
+    );
+    Ok(())
+}
+
+/// A counting gate of `gate_s` seconds (the option `flag`), in clock ticks: at least one
+/// limit cycle, at most what the core's 32-bit counters hold. Kept here, not in the
+/// library: the limits are the core's and the clock's, but the refusal names the option.
+///
+/// # Errors
+/// The gate is shorter than a limit cycle or longer than the counters hold.
+pub fn gate_ticks(flag: &str, gate_s: f64, instr: &Instrument, opts: &SimOptions) -> Result<u64> {
+    let per_cycle = f64::from(opts.config.ticks_per_cycle);
+    let ticks = (gate_s * instr.clock_hz).round();
+    if ticks < per_cycle {
+        bail!(
+            "{flag} {}: expected a gate of at least one limit cycle, {} s ({per_cycle} ticks at {} Hz); {} s is {} ticks",
+            num(gate_s),
+            num(per_cycle / instr.clock_hz),
+            num(instr.clock_hz),
+            num(gate_s),
+            num(ticks)
+        );
+    }
+    let max = f64::from(u32::MAX);
+    if ticks > max {
+        bail!(
+            "{flag} {}: expected a gate of at most {} s, the longest the core's 32-bit counters hold ({} ticks at {} Hz); {} s is {} ticks",
+            num(gate_s),
+            (max / instr.clock_hz).floor(),
+            u32::MAX,
+            num(instr.clock_hz),
+            num(gate_s),
+            num(ticks)
+        );
+    }
+    // Checked: a whole number from one limit cycle to u32::MAX.
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    Ok(ticks as u64)
+}
+
+/// The simulator of `discover` and `predict`: the closed loop of the instrument file, or
+/// with `analytic` the quasi-static analytic model.
+pub fn simulator(
+    instr: &Instrument,
+    config: ptsa_core::Config,
+    analytic: bool,
+    seed: u64,
+) -> Box<dyn Simulator> {
+    if analytic {
+        Box::new(discovery::AnalyticSimulator::for_instrument(instr))
+    } else {
+        Box::new(discovery::sim::ClosedLoopSimulator {
+            instrument: instr.clone(),
+            options: SimOptions {
+                seed,
+                config,
+                ..SimOptions::default()
+            },
+        })
+    }
+}

@@ -1,0 +1,235 @@
+//! `ptsa plan`: a ready-to-run case-frame design (a tumble, a rate table, the shaker, a
+//! centrifuge), on stdout or into a file that is never an input and replaces an existing
+//! one only with `--force`.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::Result;
+use clap::{Args, Subcommand};
+use ptsa_host_sim::Condition;
+use ptsa_host_sim::lab::plan::{self, Axis};
+use ptsa_host_sim::output::{count, write_atomic};
+
+use super::Ctx;
+use crate::flags::values::{
+    amplitude_cm_s2, amplitude_mrad, arm_cm, g_level, lever_cm, positions, positive_hz, rate_rad_s,
+    rate_table_axis,
+};
+use crate::paths;
+
+/// Arguments of `ptsa plan`.
+#[derive(Args, Debug, Clone)]
+pub struct PlanArgs {
+    /// The design.
+    #[command(subcommand)]
+    pub kind: PlanKind,
+}
+
+/// What `ptsa plan` writes.
+#[derive(Subcommand, Debug, Clone)]
+pub enum PlanKind {
+    /// A multipoint tumble on a dividing head (IEEE Std 1293: 4, 8, 12 or 24 positions, or
+    /// any number): absolute rows, IA at equally spaced angles in the plane of --axis.
+    Tumble {
+        /// Positions (2 to 360).
+        #[arg(long, default_value_t = 24, value_name = "N", value_parser = positions)]
+        positions: usize,
+        /// The horizontal axis the dividing head turns about: oa (IA in the IA–PA plane), pa
+        /// (IA in the IA–OA plane) or ia (IA horizontal, PA and OA turning).
+        #[arg(long, value_enum, default_value = "oa")]
+        axis: Axis,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+    /// The dividing head on a rate table (Table 6.1's procedure): difference rows against a
+    /// slow reference run.
+    RateTable {
+        /// IA positions (2 to 360).
+        #[arg(long, default_value_t = 8, value_name = "N", value_parser = positions)]
+        positions: usize,
+        /// The dividing head's horizontal axis: oa (IA in the IA–PA plane, Table 6.1) or pa
+        /// (IA in the IA–OA plane). Not ia: with IA along the head's axis the table's rate
+        /// never reaches IA.
+        #[arg(long, default_value = "oa", value_name = "oa|pa", value_parser = rate_table_axis)]
+        axis: Axis,
+        /// Table rate, rad/s.
+        #[arg(long, default_value_t = 1.0, value_name = "RAD_S", value_parser = rate_rad_s)]
+        rate_rad_s: f64,
+        /// Rate of the reference run, rad/s.
+        #[arg(long, default_value_t = 0.05, value_name = "RAD_S", value_parser = rate_rad_s)]
+        ref_rate_rad_s: f64,
+        /// Distance of the proof mass from the table axis, cm (0: centred).
+        #[arg(long, default_value_t = 0.0, value_name = "CM", value_parser = lever_cm)]
+        radius_cm: f64,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+    /// The two-axis oscillator of Appendix A, IA up: blocks of phases of IA+PA and IA+OA
+    /// vibration, OA rocking with PA vibration, and IA+OA rocking; difference rows.
+    Shaker {
+        /// Frequency, Hz (more than 0, at most 500).
+        #[arg(long, default_value_t = 10.0, value_name = "HZ", value_parser = positive_hz)]
+        freq_hz: f64,
+        /// Vibration amplitude, cm/s².
+        #[arg(long, default_value_t = 300.0, value_name = "CM_S2", value_parser = amplitude_cm_s2)]
+        amplitude_cm_s2: f64,
+        /// Rocking amplitude, mrad (0 to 100).
+        #[arg(long, default_value_t = 1.0, value_name = "MRAD", value_parser = amplitude_mrad)]
+        rock_mrad: f64,
+        /// Phases per block (2 to 360).
+        #[arg(long, default_value_t = 8, value_name = "N", value_parser = positions)]
+        phases: usize,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+    /// A centrifuge (IEEE Std 836): the proof mass at --radius-cm from the vertical spin
+    /// axis, IA along the arm pointing at the axis and away from it, at each g level;
+    /// absolute rows.
+    Centrifuge {
+        /// Arm length to the proof mass, cm (more than 0).
+        #[arg(long, value_name = "CM", value_parser = arm_cm)]
+        radius_cm: f64,
+        /// The arm's push, in g (ω²R/g), comma separated, e.g. 2,5,10.
+        #[arg(long, value_name = "G", value_delimiter = ',', required = true,
+              value_parser = g_level)]
+        g_levels: Vec<f64>,
+        #[command(flatten)]
+        out: PlanOut,
+    },
+}
+
+/// Where `ptsa plan` writes.
+#[derive(Args, Debug, Clone)]
+pub struct PlanOut {
+    /// Write the case-frame file here (default: standard output). An existing file is not
+    /// replaced without --force: it may hold the lab's measurements.
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Replace an existing --out file (a warning says how many measured rows it held).
+    #[arg(long, requires = "out")]
+    pub force: bool,
+}
+
+/// A plan to write: its rows, what it is (for the file's comment) and where it goes.
+pub struct Request {
+    rows: Vec<Condition>,
+    /// The design in words.
+    what: String,
+    dest: Dest,
+}
+
+/// Standard output, or a file (checked; with what it held when `--force` replaces it).
+enum Dest {
+    Stdout,
+    File {
+        path: PathBuf,
+        replaced: Option<String>,
+    },
+}
+
+impl PlanArgs {
+    /// The request: the design's rows, the output file checked (and, when `--force`
+    /// replaces one, what it holds, for the warning).
+    ///
+    /// # Errors
+    /// The loop cannot be simulated; `--out` is an input, cannot be written, or exists
+    /// without `--force`.
+    pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        // Refused like every subcommand that simulates: the plan is for this instrument.
+        ctx.config()?;
+        let (rows, what, out) = match self.kind {
+            PlanKind::Tumble {
+                positions,
+                axis,
+                out,
+            } => (
+                plan::tumble(positions, axis),
+                format!("{positions}-point tumble about {axis:?}").to_lowercase(),
+                out,
+            ),
+            PlanKind::RateTable {
+                positions,
+                axis,
+                rate_rad_s,
+                ref_rate_rad_s,
+                radius_cm,
+                out,
+            } => (
+                plan::rate_table(positions, axis, rate_rad_s, ref_rate_rad_s, radius_cm),
+                format!(
+                    "rate table, {positions} positions about {axis:?}, {rate_rad_s} rad/s against {ref_rate_rad_s} rad/s, arm {radius_cm} cm"
+                ),
+                out,
+            ),
+            PlanKind::Shaker {
+                freq_hz,
+                amplitude_cm_s2,
+                rock_mrad,
+                phases,
+                out,
+            } => (
+                plan::shaker(freq_hz, amplitude_cm_s2, rock_mrad, phases),
+                format!(
+                    "two-axis oscillator at {freq_hz} Hz, {amplitude_cm_s2} cm/s^2, rocking {rock_mrad} mrad, {phases} phases per block"
+                ),
+                out,
+            ),
+            PlanKind::Centrifuge {
+                radius_cm,
+                g_levels,
+                out,
+            } => (
+                plan::centrifuge(radius_cm, &g_levels, ctx.instr.g_cm_s2),
+                format!(
+                    "centrifuge, arm {radius_cm} cm, at {} g, IA in and out",
+                    g_levels
+                        .iter()
+                        .map(|g| format!("{g}"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+                out,
+            ),
+        };
+        let dest = match out.out {
+            None => Dest::Stdout,
+            Some(path) => {
+                let replaced = paths::output_file("--out", &path, out.force)?
+                    .then(|| paths::what_is_replaced(&path));
+                Dest::File { path, replaced }
+            }
+        };
+        Ok(Request { rows, what, dest })
+    }
+}
+
+/// Write the plan as a case-frame file with two comment lines (what it is, what to do
+/// with it): into its file (appearing whole), or on `out`.
+///
+/// # Errors
+/// The file or stdout cannot be written.
+pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
+    let comments = [
+        format!("Test plan written by `ptsa plan`: {}.", req.what),
+        "Fill in measured_cm_s2 (and sigma_cm_s2) from the lab, then `cargo ptsa discover --data FILE`."
+            .to_string(),
+    ];
+    let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
+    let text = ptsa_host_sim::model::caseframe::to_csv(&req.rows, &refs);
+    match &req.dest {
+        Dest::File { path, replaced } => {
+            write_atomic(path, text.as_bytes())?;
+            eprintln!(
+                "wrote {} ({})",
+                path.display(),
+                count(req.rows.len() as u64, "row")
+            );
+            if let Some(w) = replaced {
+                eprintln!("warning: --out {}: replaced {w} (--force)", path.display());
+            }
+        }
+        Dest::Stdout => write!(out, "{text}")?,
+    }
+    Ok(())
+}

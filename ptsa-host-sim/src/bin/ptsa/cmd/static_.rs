@@ -1,0 +1,272 @@
+//! `ptsa static`: the plain closed loop under constant accelerations along IA, one gate
+//! each after the settling; one acceleration on the single loop (its ADC trace on request),
+//! several as one batch of the batch engine.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{Context as _, Result, bail};
+use clap::Args;
+use ptsa_host_sim::Instrument;
+use ptsa_host_sim::output::fs::{persist, temp_beside};
+use ptsa_host_sim::output::{Column, Table, count, num, text};
+use ptsa_host_sim::simulation::sim::{SimOptions, StaticRun, run_static_with};
+
+use super::{Ctx, gate_ticks};
+use crate::flags::values::{accel_item, non_negative_s, positive_s, seed};
+use crate::paths;
+use crate::work::{self, Work};
+
+/// Arguments of `ptsa static`.
+#[derive(Args, Debug, Clone)]
+pub struct StaticArgs {
+    /// Acceleration along IA, cm/s² (beyond full scale the loop saturates: the output
+    /// says so). Several, comma separated (`-1000,0,1000`), run as one batch, each with
+    /// the same gate, settling and seed.
+    #[arg(long, value_name = "CM_S2", value_delimiter = ',', required = true,
+          value_parser = accel_item)]
+    pub accel_cm_s2: Vec<f64>,
+    /// Gate length, s (at least one limit cycle, 64 ticks = 0.001 s at 64 kHz, and at
+    /// most what the core's 32-bit counters hold, 67 108 s at 64 kHz).
+    #[arg(long, default_value_t = 1.0, value_name = "S", value_parser = positive_s)]
+    pub seconds: f64,
+    /// Settling time before the gate, s (0 or more).
+    #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
+          value_parser = non_negative_s)]
+    pub warmup_s: f64,
+    /// Seed of the pickoff noise (the instrument file's `noise_uv_rms`): a whole number
+    /// from 0 to 2^64 − 1, no unit.
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+          value_parser = seed)]
+    pub seed: u64,
+    /// Include the instrument file's bias A_b (18.7 cm/s² shipped) as a torque.
+    #[arg(long)]
+    pub with_bias: bool,
+    /// Print exactly one JSON object {"ticks", "pulses", "indicated_cm_s2",
+    /// "saturated"}; with several accelerations, one JSON array of such objects, in the
+    /// order given.
+    #[arg(long)]
+    pub json: bool,
+    /// Write the ADC samples of this very run, settling included (one i16 per line,
+    /// golden-vector style) to FILE (one acceleration only).
+    #[arg(long, value_name = "FILE")]
+    pub trace: Option<PathBuf>,
+    /// Run even when the work is estimated to take more than ten minutes.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// Static runs to make.
+pub struct Request {
+    /// The instrument, its bias A_b zeroed unless `--with-bias`.
+    instr: Instrument,
+    opts: SimOptions,
+    /// The gate, clock ticks (one limit cycle to what the core's counters hold).
+    ticks: u64,
+    json: bool,
+    force: bool,
+    runs: Runs,
+}
+
+/// One acceleration (with its trace file, checked) or several in one batch.
+enum Runs {
+    One {
+        accel_cm_s2: f64,
+        trace: Option<PathBuf>,
+    },
+    Batch(Vec<f64>),
+}
+
+impl StaticArgs {
+    /// The request: `--trace` only with one acceleration (its file checked), the bias
+    /// resolved, the gate against the loop's limit cycle and counters.
+    ///
+    /// # Errors
+    /// The loop cannot be simulated; `--trace` with several accelerations or at a path
+    /// that cannot be written or exists; the gate does not fit.
+    pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        let opts = SimOptions {
+            seed: self.seed,
+            warmup_s: self.warmup_s,
+            config: ctx.config()?,
+            ..SimOptions::default()
+        };
+        let runs = match (&self.accel_cm_s2[..], self.trace) {
+            ([a], trace) => {
+                if let Some(t) = &trace {
+                    paths::output_file("--trace", t, self.force)?;
+                }
+                Runs::One {
+                    accel_cm_s2: *a,
+                    trace,
+                }
+            }
+            (several, Some(_)) => bail!(
+                "--trace writes the ADC samples of one run; expected one --accel-cm-s2 value with it, not {}",
+                several.len()
+            ),
+            (several, None) => Runs::Batch(several.to_vec()),
+        };
+        let mut instr = ctx.instr.clone();
+        if !self.with_bias {
+            instr.bias_cm_s2 = 0.0;
+        }
+        let ticks = gate_ticks("--seconds", self.seconds, &instr, &opts)?;
+        Ok(Request {
+            instr,
+            opts,
+            ticks,
+            json: self.json,
+            force: self.force,
+            runs,
+        })
+    }
+}
+
+/// Run the gate(s) (refused beyond the work limit without `--force`); a warning for each
+/// saturated one; the result as a line or a table, or JSON.
+///
+/// # Errors
+/// Refused work; the trace or stdout cannot be written.
+pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
+    match &req.runs {
+        Runs::One { accel_cm_s2, trace } => one(req, *accel_cm_s2, trace.as_ref(), out),
+        Runs::Batch(accels) => batch(req, accels, out),
+    }
+}
+
+/// One run on the single loop, its ADC codes streamed into `trace` (a file that appears
+/// whole).
+fn one(req: &Request, a: f64, trace: Option<&PathBuf>, out: &mut dyn Write) -> Result<()> {
+    let (instr, opts, ticks) = (&req.instr, &req.opts, req.ticks);
+    let est = Work::new(instr, opts)
+        .gate(ticks)
+        .check(req.force, "this gate")?;
+    let bar = work::Progress::start("static", &est);
+    let mut progress = |_: u64, _: u64| {};
+    let r = if let Some(path) = trace {
+        let tmp = temp_beside(path)?;
+        let mut w = std::io::BufWriter::new(tmp.as_file());
+        writeln!(
+            w,
+            "# closed-loop ADC codes of `ptsa static`: {a} cm/s^2 along IA, seed {}, {} settling ticks then a gate of {ticks} ticks",
+            opts.seed,
+            opts.warmup_ticks(instr.clock_hz)
+        )?;
+        let mut failed = None;
+        let r = run_static_with(
+            instr,
+            a,
+            ticks,
+            opts,
+            Some(&mut |v| {
+                if failed.is_none()
+                    && let Err(e) = writeln!(w, "{}", v.code)
+                {
+                    failed = Some(e);
+                }
+            }),
+            &mut progress,
+        );
+        if let Some(e) = failed {
+            return Err(e).with_context(|| format!("writing {}", path.display()));
+        }
+        w.flush()?;
+        drop(w);
+        persist(tmp, path)?;
+        r
+    } else {
+        run_static_with(instr, a, ticks, opts, None, &mut progress)
+    };
+    bar.finish();
+    if r.saturated {
+        eprintln!(
+            "warning: the loop saturated during the gate ({a} cm/s^2 + bias {} cm/s^2 against a full scale of ±{} cm/s^2): the indicated value is not the input",
+            instr.bias_cm_s2, instr.sf_cm_s2
+        );
+    }
+    if req.json {
+        writeln!(out, "{}", serde_json::to_string(&r)?)?;
+    } else {
+        writeln!(
+            out,
+            "static: {a} cm/s^2 along IA (bias {} cm/s^2, loop's own {:.5}): T = {}, P = {}, indicated SF(2P/T - 1) = {:.4} cm/s^2{}",
+            instr.bias_cm_s2,
+            instr.loop_bias_cm_s2(0.0),
+            count(r.ticks, "tick"),
+            count(r.pulses, "pulse"),
+            r.indicated_cm_s2,
+            saturated(r.saturated)
+        )?;
+    }
+    Ok(())
+}
+
+/// Several accelerations as one batch of the batch engine, whose lanes are bit for bit the
+/// single loop's runs (`batch::run_static`).
+fn batch(req: &Request, accels: &[f64], out: &mut dyn Write) -> Result<()> {
+    let (instr, opts, ticks) = (&req.instr, &req.opts, req.ticks);
+    let n = accels.len();
+    #[allow(clippy::cast_precision_loss)]
+    let est = Work::new(instr, opts)
+        .gate(ticks)
+        .times(n as f64)
+        .check(req.force, &format!("this batch of {n} gates"))?;
+    let p = work::Progress::start(&format!("static, {n} accelerations in one batch"), &est);
+    let runs = ptsa_host_sim::simulation::batch::run_static(instr, accels, ticks, opts);
+    p.finish();
+    for (a, r) in accels.iter().zip(&runs) {
+        if r.saturated {
+            eprintln!(
+                "warning: the loop saturated during the gate at {a} cm/s^2 (+ bias {} cm/s^2, against a full scale of ±{} cm/s^2): its indicated value is not the input",
+                instr.bias_cm_s2, instr.sf_cm_s2
+            );
+        }
+    }
+    if req.json {
+        writeln!(out, "{}", serde_json::to_string(&runs)?)?;
+        return Ok(());
+    }
+    write!(out, "{}", batch_table(req, accels, &runs))?;
+    Ok(())
+}
+
+/// The batch's table: a title line, then one row per acceleration (input as given, T, P,
+/// the indicated value, and a mark when it saturated).
+fn batch_table(req: &Request, accels: &[f64], runs: &[StaticRun]) -> String {
+    let mut t = Table::new(
+        "static",
+        &format!(
+            "static: {} accelerations along IA in one batch (bias {} cm/s^2, loop's own {:.5}), each a gate of T = {} after {} s of settling; indicated SF(2P/T - 1):",
+            accels.len(),
+            req.instr.bias_cm_s2,
+            req.instr.loop_bias_cm_s2(0.0),
+            count(req.ticks, "tick"),
+            req.opts.warmup_s
+        ),
+        &["input cm/s^2", "T", "P", "indicated cm/s^2", ""],
+    );
+    for (a, r) in accels.iter().zip(runs) {
+        t.rows.push(vec![
+            text(a.to_string()),
+            text(r.ticks.to_string()),
+            text(r.pulses.to_string()),
+            num(r.indicated_cm_s2, 4),
+            text(saturated(r.saturated)),
+        ]);
+    }
+    // The indicated value keeps the sign of one that rounds to zero, as this table always
+    // has; the mark follows the last column without a gap.
+    t.to_fixed_text(&[
+        Column::right(16).gap(0),
+        Column::right(12),
+        Column::right(12),
+        Column::right(18).signed_zero(),
+        Column::left(0).gap(0),
+    ])
+}
+
+/// The mark of a saturated run.
+fn saturated(yes: bool) -> &'static str {
+    if yes { " (SATURATED)" } else { "" }
+}
