@@ -409,7 +409,7 @@ fn bench_batch_prints_both_rates() {
         x.parse().unwrap()
     };
     let single = rate("single loop");
-    let batch = rate("batch engine, 1 lane per core");
+    let batch = rate("batch engine, 4 lanes per core");
     assert!(single > 0.0 && batch > 0.0, "{out}");
     let ratio: f64 = out
         .lines()

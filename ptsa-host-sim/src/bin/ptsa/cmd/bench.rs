@@ -42,8 +42,8 @@ pub struct BenchArgs {
     #[arg(long, value_name = "N", value_parser = batch_conditions,
           conflicts_with = "compare_c")]
     pub batch: Option<usize>,
-    /// With --batch: loops interleaved tick by tick per core in the batch (1, 2, 4, 8 or
-    /// 16; 1, the engine's default, runs them one after the other, block by block).
+    /// With --batch: static loops side by side per core in the batch, on SIMD lanes where
+    /// the CPU has them (1, 2, 4, 8 or 16; 1 runs them one after the other, block by block).
     #[arg(long, default_value_t = ptsa_host_sim::simulation::batch::LANES, value_name = "K",
           value_parser = lanes, requires = "batch")]
     pub lanes: usize,
