@@ -337,22 +337,22 @@ pub fn limit_note(id: CandidateId, limit: f64, sim: &dyn Simulator) -> String {
             } else {
                 format!(
                     "the grid reaches {} times the distance to the band's edge and no further",
-                    super::slips::round_sig(limit.abs() / side, 4)
+                    crate::output::significant(limit.abs() / side, 4)
                 )
             };
             format!(
                 "{} = {} {} ({} × the file's {}) is the end of the search grid ({why}): the data may want a larger change than the search could try, and the comparison with the other parameters is made at that end",
                 c.name,
-                super::slips::round_sig(at, 4),
+                crate::output::significant(at, 4),
                 c.unit,
-                super::slips::round_sig(at / nom, 4),
-                super::slips::round_sig(nom, 4)
+                crate::output::significant(at / nom, 4),
+                crate::output::significant(nom, 4)
             )
         }
         None => format!(
             "{} = {} {} is the end of the search grid: the data may want a larger change",
             c.name,
-            super::slips::round_sig(limit, 4),
+            crate::output::significant(limit, 4),
             c.unit
         ),
     }
@@ -504,7 +504,7 @@ fn swap_step(
             "{} was selected by its sensitivity at the instrument file's value; put through the simulator over and beyond its band in its place, {} fits the data better by delta chi2 {delta:.1} in a fresh evaluation with other seeds (the swap needs p <= {} and at least {SWAP_MARGIN}), so {} is named instead{}",
             old.info().name,
             new.info().name,
-            super::slips::round_sig(level, 2),
+            crate::output::significant(level, 2),
             new.info().name,
             limit.map_or_else(String::new, |l| format!(
                 "; its best lies at the end of the search grid: {l}"

@@ -1362,10 +1362,10 @@ fn slip_warnings(
         w.push(format!(
             "row `{}` is a suspected gross error: measured {} cm/s², but the model selected without it expects {} (residual {} cm/s², {} σ; p = {} over the {} rows tested, familywise); likely cause: {}; {}",
             o.row,
-            slips::round_sig(o.measured_cm_s2, 6),
+            crate::output::significant(o.measured_cm_s2, 6),
             super::show::estimate(o.expected_cm_s2, o.sigma_cm_s2),
-            slips::round_sig(o.residual_cm_s2, 4),
-            slips::round_sig(o.studentized.abs(), 3),
+            crate::output::significant(o.residual_cm_s2, 4),
+            crate::output::significant(o.studentized.abs(), 3),
             super::show::pfmt(o.p_value),
             o.rows_tested,
             o.cause,
@@ -1522,7 +1522,7 @@ pub fn verdict(d: &Discovery) -> String {
         let _ = write!(
             v,
             "The stated sigmas are {} times the scatter of the residuals: {} ",
-            super::slips::round_sig(sg.factor, 2),
+            crate::output::significant(sg.factor, 2),
             if sg.factor >= 1.0 {
                 "too large to see effects of the size of the scatter."
             } else {

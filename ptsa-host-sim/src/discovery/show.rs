@@ -197,8 +197,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                 s,
                 "suspected gross error: `{}` residual {} cm/s² ({} σ), p = {} over {} rows (familywise), {}",
                 o.row,
-                super::slips::round_sig(o.residual_cm_s2, 4),
-                super::slips::round_sig(o.studentized.abs(), 3),
+                crate::output::significant(o.residual_cm_s2, 4),
+                crate::output::significant(o.studentized.abs(), 3),
                 pfmt(o.p_value),
                 o.rows_tested,
                 if o.kept {
