@@ -494,7 +494,8 @@ pub const SENSITIVITY_ALPHA: f64 = 1e-3;
 /// `F(ν, (runs − 1)·ν)` with Satterthwaite's `ν = (Σa)²/Σa²`, `a = sim_sigma²/s²`, at
 /// [`SENSITIVITY_ALPHA`]. A parameter whose response is even about the file's value (a
 /// pickoff phase error, which enters as its cosine) has only scatter here: it is no
-/// first-order candidate, and only `discovery::alternatives` can name it. An observation
+/// first-order candidate, and only the searches through the closed loop
+/// (`discovery::check`, `discovery::scan`) can name it. An observation
 /// without a simulator scatter (a static value) counts as a signal when it moves: the
 /// [`PARAMETER_MIN_MOVE`] rule decides there.
 fn noise_only(d: &Data, scale: &[f64], col: &[f64], h: f64, half: f64) -> bool {

@@ -19,6 +19,15 @@ use crate::stats::{
     LsqFit, abs_cos, birge_ratio, chi2_sf, f_sf, lsq, norm, residualize, sandwich_se, t_two_sided,
 };
 
+/// Statement of the test, printed with every result.
+pub const TEST_STATEMENT: &str = "forward-backward stepwise selection against a model that \
+always holds a bias shift per block and a linear drift; each step tests the best remaining \
+candidate by the largest p-value of the F(1, n-p) test against the residual scale and \
+either the chi-squared(1) test with the stated sigmas or, when the sigmas are estimated, the \
+heteroscedasticity-robust (HC3) t test, at the Holm-Bonferroni level alpha/(m-k) \
+(m = testable candidates, k = already selected), so the familywise error rate over all \
+candidates is at most alpha = 0.05";
+
 /// Settings of the selection.
 #[derive(Clone, Copy, Debug)]
 pub struct Settings {
@@ -65,7 +74,7 @@ pub struct Step {
     /// The Holm–Bonferroni threshold it was compared with.
     pub threshold: f64,
     /// The candidate `id` was put in place of, for a swap found through the closed loop
-    /// (`discovery::alternatives::check`).
+    /// (`discovery::check`).
     pub replaces: Option<CandidateId>,
     /// How the step was decided when not by the linear stepwise test (a search through
     /// the closed loop), in words.

@@ -8,9 +8,9 @@ use std::path::Path;
 
 use anyhow::Result;
 
-use crate::discovery::method::{Options, TEST_STATEMENT, discover};
 use crate::discovery::show::{estimate, text_report, write_outputs};
 use crate::discovery::sim::Simulator;
+use crate::discovery::{Options, TEST_STATEMENT, discover};
 use crate::report::r890;
 
 /// The analysis of the report's Tables 6.1, 6.2 and 6.3 as a Markdown section, for the
