@@ -5,9 +5,10 @@
 use std::collections::BTreeMap;
 
 use super::advice::Advice;
-use super::data::{Data, Quantity, TimeUnit};
+use super::data::{Data, TimeUnit};
 use super::extend::Extended;
 use super::fit::{Fitted, NoiseSource, Nuisance, Step};
+use super::observation::{Observation, Quantity};
 use super::outcome::{BodePoint, Discovery};
 use super::outliers::{Screened, SetAside};
 use super::problem::{Options, Problem, Selected};
@@ -31,7 +32,7 @@ pub(crate) struct Found<'a> {
     /// The reader's record of the input cells that were empty and read as 0.
     pub empty: &'a [EmptyCells],
     /// Every row's baseline observations.
-    pub baseline: &'a [Vec<f64>],
+    pub baseline: &'a [Observation],
     /// The rows set aside as suspected gross errors.
     pub screened: &'a Screened,
     /// Values in another unit or with the sign reversed, analysed as given.
@@ -154,8 +155,8 @@ fn row_table(
     rows: &[Condition],
     data: &Data,
     f: &Fitted,
-    baseline: &[Vec<f64>],
-    resim: &[Vec<f64>],
+    baseline: &[Observation],
+    resim: &[Observation],
     extended: &[f64],
     opts: &Options,
     set_aside: &[SetAside],
@@ -167,13 +168,17 @@ fn row_table(
         fitted[data.rows[k]][usize::from(data.quantity[k] == Quantity::Phase)] = Some(k);
     }
     for (i, r) in rows.iter().enumerate() {
-        for (o, &b) in baseline[i].iter().enumerate() {
-            let (quantity, suffix) = match (r.kind, o) {
-                (crate::model::condition::RowKind::Response, 0) => ("gain", " (gain)"),
-                (crate::model::condition::RowKind::Response, _) => ("phase_deg", " (phase)"),
-                _ => ("value_cm_s2", ""),
+        // The baseline's and the re-simulation's values, quantity by quantity (the two are
+        // of one kind: `extend` makes sure).
+        let pairs = baseline[i].entries().into_iter().zip(resim[i].entries());
+        for ((q, b), (_, re)) in pairs {
+            let (quantity, suffix) = match q {
+                Quantity::Gain => ("gain", " (gain)"),
+                Quantity::Phase => ("phase_deg", " (phase)"),
+                Quantity::Value => ("value_cm_s2", ""),
             };
-            let k = fitted[i].get(o).copied().flatten();
+            let o = usize::from(q == Quantity::Phase);
+            let k = fitted[i][o];
             let aside = set_aside.iter().find(|a| a.row == i && o == 0);
             let (measured, sigma, ext) = match (k, aside) {
                 (Some(k), _) => (Some(data.y[k]), f.sigma[k], extended[k]),
@@ -187,15 +192,14 @@ fn row_table(
                                 .map(|&(_, s)| s)
                         })
                         .unwrap_or(f64::NAN),
-                    resim[i].get(o).copied().unwrap_or(f64::NAN)
-                        + f.nuisance_for(a.block, a.shift, a.drifts, a.time),
+                    re + f.nuisance_for(a.block, a.shift, a.drifts, a.time),
                 ),
                 (None, None) => (
                     None,
                     r.sigma_cm_s2
                         .or(opts.default_sigma_cm_s2)
                         .unwrap_or(f64::NAN),
-                    resim[i].get(o).copied().unwrap_or(f64::NAN),
+                    re,
                 ),
             };
             debug_assert!(aside.is_none_or(|a| (a.base - b).abs() <= 1e-9 * a.base.abs().max(1.0)));

@@ -11,8 +11,9 @@
 //! the full-data fit divided by that change: exact at both ends, linear between, and its
 //! direction taken from all rows (the held-out fold still refits its size).
 
-use super::data::{Data, Quantity};
+use super::data::Data;
 use super::fit::{self, Settings};
+use super::observation::{Observation, Quantity};
 use super::problem::{Problem, Selected};
 use super::report::{FitSummary, Gain};
 use crate::model::condition::Condition;
@@ -35,7 +36,7 @@ pub const BOOTSTRAP: usize = 2000;
 pub(crate) fn out_of_sample(
     p: &Problem<'_>,
     selected: &[Selected],
-    baseline: &[Vec<f64>],
+    baseline: &[Observation],
     extended: &FitSummary,
 ) -> Gain {
     gain(
@@ -54,10 +55,9 @@ pub(crate) fn out_of_sample(
 /// loop's observations with the fitted change alone, minus the baseline's, over the change
 /// (the central-difference sensitivity at the file's value misjudges a change of tens of
 /// per cent).
-fn secant_signatures(p: &Problem<'_>, selected: &[Selected], baseline: &[Vec<f64>]) -> Data {
+fn secant_signatures(p: &Problem<'_>, selected: &[Selected], baseline: &[Observation]) -> Data {
     let (rows, data, sim) = (p.rows, p.data, p.sim);
     let mut out = data.clone();
-    let slot = |q: Quantity| usize::from(q == Quantity::Phase);
     for s in selected {
         if s.id.parameter_key().is_none() || s.coef == 0.0 {
             continue;
@@ -65,15 +65,16 @@ fn secant_signatures(p: &Problem<'_>, selected: &[Selected], baseline: &[Vec<f64
         let e = Effects::only(s.id, s.coef);
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &e)).collect();
         let obs = sim.observe_all(&jobs);
-        let col: Vec<f64> = (0..data.n())
+        // An observation the simulator lacks, or a change that is not a finite number,
+        // leaves the parameter its sensitivity.
+        let col: Option<Vec<f64>> = (0..data.n())
             .map(|k| {
-                let (i, q) = (data.rows[k], slot(data.quantity[k]));
-                let d = obs[i].get(q).copied().unwrap_or(f64::NAN)
-                    - baseline[i].get(q).copied().unwrap_or(f64::NAN);
-                d / s.coef
+                let (i, q) = (data.rows[k], data.quantity[k]);
+                let d = obs[i].get(q)? - baseline[i].get(q)?;
+                Some(d / s.coef)
             })
             .collect();
-        if col.iter().all(|x| x.is_finite())
+        if let Some(col) = col.filter(|c| c.iter().all(|x| x.is_finite()))
             && let Some(sig) = out.signatures.iter_mut().find(|x| x.id == s.id)
         {
             sig.col = col;

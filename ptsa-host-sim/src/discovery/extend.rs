@@ -2,7 +2,8 @@
 //! each fitted observation's extended value (the re-simulation plus the nuisance terms),
 //! with the baseline's and the extended model's fit to the measurements.
 
-use super::data::{Data, Quantity};
+use super::data::{self, Data};
+use super::observation::{Observation, Quantity};
 use super::problem::{Problem, Selected};
 use super::report::FitSummary;
 use crate::model::condition::Condition;
@@ -16,8 +17,8 @@ pub(crate) struct Extended {
     /// The selected coefficients as effects for the plant.
     pub effects: Effects,
     /// Every row's observations re-simulated with `effects` (the baseline's when there
-    /// are none).
-    pub resim: Vec<Vec<f64>>,
+    /// are none), each of the kind of the row's baseline.
+    pub resim: Vec<Observation>,
     /// Each fitted observation's extended value: the re-simulation plus, for a value in
     /// cm/s², the nuisance terms.
     pub values: Vec<f64>,
@@ -29,26 +30,40 @@ pub(crate) struct Extended {
 
 /// The selected terms back into the simulator (extra torque `P·term` each tick of the
 /// closed loop), every row re-simulated; the nuisance terms are part of the fitted model.
-pub(crate) fn extend(p: &Problem<'_>, selected: &[Selected], baseline: &[Vec<f64>]) -> Extended {
+///
+/// # Errors
+/// The simulator's re-simulation of a row is not of the kind of its baseline (a value
+/// against a gain and a phase).
+pub(crate) fn extend(
+    p: &Problem<'_>,
+    selected: &[Selected],
+    baseline: &[Observation],
+) -> anyhow::Result<Extended> {
     let (rows, data, f, sim) = (p.rows, p.data, p.f, p.sim);
     let n = data.n();
     let mut effects = Effects::NONE;
     for s in selected {
         effects.add(s.id, s.coef);
     }
-    let resim: Vec<Vec<f64>> = if effects.is_zero() {
+    let resim: Vec<Observation> = if effects.is_zero() {
         baseline.to_vec()
     } else {
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &effects)).collect();
         sim.observe_all(&jobs)
     };
-    let slot = |q: Quantity| usize::from(q == Quantity::Phase);
+    let per_row: Vec<Option<Observation>> = resim.iter().copied().map(Some).collect();
+    let (Some(predicted), None) = (
+        data::column_of(data, &per_row),
+        (0..rows.len()).find(|&i| !resim[i].same_kind(&baseline[i])),
+    ) else {
+        anyhow::bail!(
+            "the {} simulator's re-simulation of a row is not of the kind of its baseline",
+            sim.name()
+        );
+    };
     let extended: Vec<f64> = (0..n)
         .map(|k| {
-            let v = resim[data.rows[k]]
-                .get(slot(data.quantity[k]))
-                .copied()
-                .unwrap_or(f64::NAN);
+            let v = predicted[k];
             if data.quantity[k] == Quantity::Phase {
                 v
             } else {
@@ -58,13 +73,13 @@ pub(crate) fn extend(p: &Problem<'_>, selected: &[Selected], baseline: &[Vec<f64
         .collect();
     let baseline_fit = summary(data, &|k| data.base[k], &f.sigma, 0);
     let extended_fit = summary(data, &|k| extended[k], &f.sigma, f.fit.beta.len());
-    Extended {
+    Ok(Extended {
         effects,
         resim,
         values: extended,
         baseline_fit,
         fit: extended_fit,
-    }
+    })
 }
 
 /// `P(χ²)` summary of `pred` against the measured observations (the RMS over the values in

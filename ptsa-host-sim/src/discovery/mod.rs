@@ -4,6 +4,8 @@
 //!
 //! From the bottom up (a module uses only those above it; `no_import_cycles` checks it):
 //!
+//! * [`observation`]: what a row is observed as, measured or simulated: a value, or a
+//!   response row's gain and phase.
 //! * [`sim`]: the [`Simulator`] trait, the analytic model and the closed-loop adapter.
 //! * [`data`]: the fitted observations, signatures and the generic basis of the case inputs.
 //! * [`fit`]: nuisance terms, noise, stepwise selection with familywise error control.
@@ -46,6 +48,7 @@ pub mod data;
 pub mod extend;
 pub mod fit;
 pub mod mirror;
+pub mod observation;
 pub mod outcome;
 pub mod outliers;
 pub mod pipeline;
@@ -273,12 +276,16 @@ pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
 }
 
 /// What the instrument should read in each row (`ptsa predict`): the simulator's prediction
-/// with `effects` put into the plant, as [`Simulator::observe`] gives it: `[cm/s²]` for a
-/// difference or absolute row, `[gain, phase_deg]` for a response row.
+/// with `effects` put into the plant ([`Simulator::observe`]), in the flat form of the
+/// prediction table ([`observation::Observation::values`]): `[cm/s²]` for a difference or
+/// absolute row, `[gain, phase_deg]` for a response row.
 #[must_use]
 pub fn predict(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<Vec<f64>> {
     let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, effects)).collect();
     sim.observe_all(&jobs)
+        .iter()
+        .map(observation::Observation::values)
+        .collect()
 }
 
 #[cfg(test)]

@@ -52,8 +52,9 @@
 
 use rayon::prelude::*;
 
-use super::data::{Data, Quantity};
+use super::data::Data;
 use super::fit::{self, Fitted, Settings};
+use super::observation::Quantity;
 use super::problem::{Options, plausible};
 use super::sim::Simulator;
 use super::slips::row_slips;

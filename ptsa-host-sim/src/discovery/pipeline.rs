@@ -5,6 +5,7 @@
 
 use super::assemble::{self, Found};
 use super::fit;
+use super::observation::Observation;
 use super::outcome::Discovery;
 use super::problem::{Options, Problem};
 use super::sim::Simulator;
@@ -49,7 +50,7 @@ pub fn discover_with(
     }
     // 1. Baseline: every row's observations (measured or not, for the table).
     set_stage("baseline");
-    let baseline: Vec<Vec<f64>> = {
+    let baseline: Vec<Observation> = {
         let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &Effects::NONE)).collect();
         sim.observe_all(&jobs)
     };
@@ -95,7 +96,7 @@ pub fn discover_with(
     refine::settle(&mut selected, sim);
     // 4. Extend and re-simulate.
     set_stage("re-simulation");
-    let extended = extend::extend(&p, &selected, &baseline);
+    let extended = extend::extend(&p, &selected, &baseline)?;
     // 5. What is left, and the gain out of sample.
     set_stage("cross-validation");
     let unexplained = unexplained::test(data, &f, &selected, opts.alpha);
@@ -206,5 +207,76 @@ mod tests {
         assert_eq!(me.correlation.len(), me.terms.len());
         // In a tumble about OA, a_OA is 0: the OA misalignment is not testable.
         assert!(d.untestable.contains(&CandidateId::MisalignmentO));
+    }
+
+    /// A simulator that gives a response row's observation for every row: from the start
+    /// (`always`), or only with effects (so that the baseline is right and the
+    /// re-simulation is not).
+    struct WrongKind {
+        inner: AnalyticSimulator,
+        always: bool,
+    }
+
+    impl Simulator for WrongKind {
+        fn name(&self) -> &'static str {
+            "wrong-kind"
+        }
+        fn g_cm_s2(&self) -> f64 {
+            self.inner.g_cm_s2()
+        }
+        fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+            self.inner.difference_cm_s2(cond, effects)
+        }
+        fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+            self.inner.absolute_cm_s2(cond, effects)
+        }
+        fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
+            self.inner.response(cond, effects)
+        }
+        fn observe(&self, cond: &Condition, effects: &Effects) -> Observation {
+            if self.always || !effects.is_zero() {
+                Observation::Response {
+                    gain: 1.0,
+                    phase_deg: 0.0,
+                }
+            } else {
+                self.inner.observe(cond, effects)
+            }
+        }
+    }
+
+    #[test]
+    fn an_observation_of_the_wrong_kind_is_refused_not_fitted() {
+        let sim = analytic();
+        let truth = Effects::only(CandidateId::Bias, 0.5);
+        let mut rows = crate::lab::plan::tumble(12, crate::lab::plan::Axis::Oa);
+        for (k, r) in rows.iter_mut().enumerate() {
+            let wobble = if k % 3 == 0 { 0.01 } else { -0.005 };
+            r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + wobble);
+            r.sigma_cm_s2 = Some(0.01);
+        }
+        let run = |always: bool| {
+            let wrong = WrongKind {
+                inner: analytic(),
+                always,
+            };
+            format!(
+                "{:#}",
+                discover(&rows, &wrong, &Options::default()).unwrap_err()
+            )
+        };
+        let base = run(true);
+        assert!(
+            base.contains("row 1 (`tumble 0 deg")
+                && base.contains(
+                    "absolute): the wrong-kind simulator's observation has no value in cm/s²"
+                ),
+            "{base}"
+        );
+        let resim = run(false);
+        assert!(
+            resim.contains("the wrong-kind simulator's re-simulation of a row is not of the kind of its baseline"),
+            "{resim}"
+        );
     }
 }

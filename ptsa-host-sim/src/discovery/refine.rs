@@ -2,12 +2,11 @@
 //! (Gauss–Newton: the response is not linear in them), and, once the searches are done,
 //! each one's fitted value against the file's.
 
-use super::data::{self, Quantity};
+use super::data;
 use super::fit;
 use super::problem::{Problem, Selected, within_tolerance};
 use super::report::ParameterValue;
 use super::sim::Simulator;
-use crate::model::condition::Condition;
 use crate::model::effects::{CandidateId, Effects};
 use crate::stats::{lsq, norm};
 
@@ -39,27 +38,12 @@ pub(crate) fn refine(p: &Problem<'_>, selected: &mut [Selected]) {
     for &k in &params {
         theta.set(selected[k].id, selected[k].coef);
     }
-    let slot = |k: usize| usize::from(data.quantity[k] == Quantity::Phase);
     let mut best: Option<(f64, Vec<Selected>)> = None;
     for _ in 0..GAUSS_NEWTON_STEPS {
-        let pred: Vec<Vec<f64>> = {
-            let mut rs: Vec<usize> = data.rows.clone();
-            rs.dedup();
-            let jobs: Vec<(&Condition, &Effects)> =
-                rs.iter().map(|&i| (&rows[i], &theta)).collect();
-            let mut by_row: Vec<Vec<f64>> = vec![Vec::new(); rows.len()];
-            for (&i, v) in rs.iter().zip(sim.observe_all(&jobs)) {
-                by_row[i] = v;
-            }
-            by_row
-        };
+        let pred = data::predicted(rows, data, sim, &theta);
         let jac = data::sensitivities(rows, data, &ids, sim, &theta);
-        let z: Vec<f64> = (0..n)
-            .map(|k| {
-                (data.y[k] - pred[data.rows[k]].get(slot(k)).copied().unwrap_or(f64::NAN))
-                    / sigma[k]
-            })
-            .collect();
+        let Some(pred) = pred else { return };
+        let z: Vec<f64> = (0..n).map(|k| (data.y[k] - pred[k]) / sigma[k]).collect();
         if z.iter().any(|x| !x.is_finite()) {
             return;
         }

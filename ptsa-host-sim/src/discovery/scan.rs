@@ -5,8 +5,8 @@
 
 use rayon::prelude::*;
 
-use super::data::Quantity;
 use super::fit::Step;
+use super::observation::Quantity;
 use super::problem::{Problem, Selected};
 use super::search::{SWAP_MARGIN, Scorer, best_change, limit_note};
 use crate::model::effects::{CandidateId, Effects};

@@ -13,7 +13,7 @@
 //!
 //! Measured: `docs/discovery.md`, "Where it fails" (`cargo xtask hidden --parameters`).
 
-use super::data::{Data, Quantity};
+use super::data::{self, Data};
 use super::fit::{self, Fitted};
 use super::problem::Selected;
 use super::sim::Simulator;
@@ -99,22 +99,9 @@ impl<'a> Scorer<'a> {
 impl Scorer<'_> {
     /// The χ² at `theta`, or `None` if an observation is not finite.
     pub(crate) fn chi2(&self, theta: &Effects) -> Option<f64> {
-        let mut rs: Vec<usize> = self.data.rows.clone();
-        rs.dedup();
-        let jobs: Vec<(&Condition, &Effects)> =
-            rs.iter().map(|&i| (&self.rows[i], theta)).collect();
-        // Each measured row's observations, by the row's index.
-        let mut obs: Vec<Vec<f64>> = vec![Vec::new(); self.rows.len()];
-        for (&i, v) in rs.iter().zip(self.sim.observe_all(&jobs)) {
-            obs[i] = v;
-        }
+        let p = data::predicted(self.rows, self.data, self.sim, theta)?;
         let z: Vec<f64> = (0..self.data.n())
-            .map(|k| {
-                let i = self.data.rows[k];
-                let slot = usize::from(self.data.quantity[k] == Quantity::Phase);
-                let p = obs[i].get(slot).copied().unwrap_or(f64::NAN);
-                (self.data.y[k] - p) / self.sigma[k]
-            })
+            .map(|k| (self.data.y[k] - p[k]) / self.sigma[k])
             .collect();
         if z.iter().any(|x| !x.is_finite()) {
             return None;

@@ -20,8 +20,9 @@
 //!   goes on with the stated sigmas (a stated sigma is the user's claim), the warning at the
 //!   top of the report says what they cost and what was probably meant.
 
-use super::data::{Data, Quantity};
+use super::data::Data;
 use super::fit::{self, Fitted};
+use super::observation::Quantity;
 use crate::model::caseframe::EmptyCells;
 use crate::stats::{chi2_sf, lsq, norm, residualize};
 
@@ -351,12 +352,14 @@ pub fn sigma_check(
     // `--sigma`.
     let own: Vec<f64> = (0..n)
         .map(|i| {
-            let s = data.stated[i].unwrap_or(f64::NAN);
-            (s * s - data.sim_sigma[i] * data.sim_sigma[i])
-                .max(0.0)
-                .sqrt()
+            let s = data.stated[i]?;
+            Some(
+                (s * s - data.sim_sigma[i] * data.sim_sigma[i])
+                    .max(0.0)
+                    .sqrt(),
+            )
         })
-        .collect();
+        .collect::<Option<_>>()?;
     let common = own
         .iter()
         .all(|&x| (x - own[0]).abs() <= 1e-9 * own[0].abs())
