@@ -450,6 +450,37 @@ mod tests {
         files
     }
 
+    /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
+    /// only those before it (a new module takes its place here).
+    const LAYERS: [&str; 26] = [
+        "observation",
+        "sim",
+        "data",
+        "fit",
+        "report",
+        "slips",
+        "problem",
+        "outliers",
+        "confounding",
+        "refine",
+        "search",
+        "prune",
+        "scan",
+        "check",
+        "mirror",
+        "extend",
+        "unexplained",
+        "crossval",
+        "advice",
+        "cost",
+        "outcome",
+        "show",
+        "verdict",
+        "assemble",
+        "pipeline",
+        "mod",
+    ];
+
     #[test]
     fn no_import_cycles_between_discovery_modules() {
         let files = discovery_files();
@@ -470,6 +501,21 @@ mod tests {
             panic!(
                 "import cycle between discovery's modules: {} (a module may use only those below it: see the list in discovery/mod.rs)",
                 c.join(" -> ")
+            );
+        }
+        let mut listed: Vec<&str> = LAYERS.to_vec();
+        listed.sort_unstable();
+        let mut found: Vec<&str> = files.iter().map(|(m, _)| m.as_str()).collect();
+        found.sort_unstable();
+        assert_eq!(
+            found, listed,
+            "the files under src/discovery against LAYERS"
+        );
+        let layer = |m: &str| LAYERS.iter().position(|l| *l == m);
+        for (from, to) in &edges {
+            assert!(
+                layer(to) < layer(from),
+                "discovery::{from} uses discovery::{to}, listed above it in LAYERS (and in ARCHITECTURE.md)"
             );
         }
     }
