@@ -279,4 +279,31 @@ mod tests {
             "{resim}"
         );
     }
+
+    #[test]
+    fn two_gross_rows_are_named_in_the_verdict() {
+        // A 24-point tumble with a bias, one value typed in m/s² and one off by 7 cm/s².
+        let sim = analytic();
+        let truth = Effects::only(CandidateId::Bias, 2.0);
+        let mut rows = crate::lab::plan::tumble(24, crate::lab::plan::Axis::Oa);
+        for (k, r) in rows.iter_mut().enumerate() {
+            let wobble = [0.03, -0.02, 0.01, -0.04, 0.02][k % 5];
+            r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + wobble);
+            r.sigma_cm_s2 = Some(0.03);
+        }
+        let m = |r: &Condition| r.measured_cm_s2.unwrap_or_default();
+        rows[5].measured_cm_s2 = Some(m(&rows[5]) / 100.0);
+        rows[13].measured_cm_s2 = Some(m(&rows[13]) + 7.0);
+        let d = discover(&rows, &sim, &Options::default()).unwrap();
+        let flagged: Vec<&str> = d.json.outliers.iter().map(|o| o.row.as_str()).collect();
+        assert_eq!(flagged.len(), 2, "{flagged:?}");
+        let v = &d.json.verdict;
+        assert!(
+            v.starts_with(&format!(
+                "Rows `{}`, `{}` are suspected gross errors (",
+                flagged[0], flagged[1]
+            )) && v.contains("set aside: what follows is without them."),
+            "{v}"
+        );
+    }
 }

@@ -139,10 +139,9 @@ pub(crate) fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<St
     w
 }
 
-/// The conclusion in one paragraph: what was named (and how plausible), what stays
-/// unexplained, and the cross-validated gain.
-#[must_use]
-pub fn verdict(d: &Discovery) -> String {
+/// The verdict's first sentence, on the rows set aside as suspected gross errors (none
+/// when there are none).
+fn gross_errors_sentence(d: &Discovery) -> String {
     let j = &d.json;
     let mut v = String::new();
     if !j.outliers.is_empty() {
@@ -155,11 +154,14 @@ pub fn verdict(d: &Discovery) -> String {
             .collect();
         let _ = write!(
             v,
-            "{} {} {} a suspected gross error{} ({}); {}. ",
+            "{} {} {} ({}); {}. ",
             if one { "Row" } else { "Rows" },
             rows.join(", "),
-            if one { "is" } else { "are" },
-            if one { "" } else { "s" },
+            if one {
+                "is a suspected gross error"
+            } else {
+                "are suspected gross errors"
+            },
             causes.join("; "),
             match (d.options.keep_outliers, one) {
                 (true, _) => "kept in the fit (--keep-outliers)",
@@ -168,6 +170,15 @@ pub fn verdict(d: &Discovery) -> String {
             }
         );
     }
+    v
+}
+
+/// The conclusion in one paragraph: what was named (and how plausible), what stays
+/// unexplained, and the cross-validated gain.
+#[must_use]
+pub fn verdict(d: &Discovery) -> String {
+    let j = &d.json;
+    let mut v = gross_errors_sentence(d);
     if let Some(sg) = &d.sigma_slip {
         let _ = write!(
             v,
