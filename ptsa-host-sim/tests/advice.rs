@@ -36,7 +36,7 @@ fn advised_rows_tell_a_cubic_from_the_scale_factor_of_a_four_point_tumble() {
     let opts = Options::for_instrument(&instr);
     let before = discover(&rows, &sim, &opts).unwrap();
     eprintln!("{}", show::text_report("4-point tumble", &before));
-    let names = |d: &ptsa_host_sim::discovery::method::Discovery| -> Vec<CandidateId> {
+    let names = |d: &ptsa_host_sim::discovery::Discovery| -> Vec<CandidateId> {
         d.selected.iter().map(|s| s.id).collect()
     };
     // The exact tie goes to the first-order term, said to be indistinguishable from the

@@ -234,7 +234,7 @@ fn a_tumble_names_the_scale_factor_before_the_torquer_parameter() {
 /// A demodulator phase error of 15° (tolerance ±10°) acts as `cos φ` on the pickoff's gain
 /// and has no first-order effect at the file's 0°, so its central-difference signature is
 /// the loop's noise and the selection names another parameter; the check of the other
-/// parameters over their bands (`discovery::alternatives`) must name the phase, selected
+/// parameters over their bands (`discovery::check`) must name the phase, selected
 /// or as an indistinguishable partner of what is selected.
 #[test]
 fn a_pickoff_phase_error_is_named_though_it_has_no_first_order_effect() {

@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 use std::time::Instant;
 
 use ptsa_host_sim::CandidateId;
-use ptsa_host_sim::discovery::method::Selected;
+use ptsa_host_sim::discovery::Selected;
 use ptsa_host_sim::discovery::{Discovery, Options, Simulator, discover};
 use ptsa_host_sim::model::condition::Condition;
 use rayon::prelude::*;

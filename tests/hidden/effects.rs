@@ -25,7 +25,7 @@
 use std::fmt::Write as _;
 
 use ptsa_host_sim::CandidateId;
-use ptsa_host_sim::discovery::method::Selected;
+use ptsa_host_sim::discovery::Selected;
 use ptsa_host_sim::discovery::{Options, Simulator};
 use ptsa_host_sim::model::condition::Condition;
 

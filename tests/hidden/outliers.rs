@@ -7,7 +7,7 @@
 //! line above copied into a row, and on a tumble a `g_ia` cell left empty (read as 0 g while
 //! the reading was taken at the row's true position).
 
-use ptsa_host_sim::discovery::method::discover_with;
+use ptsa_host_sim::discovery::discover_with;
 use ptsa_host_sim::discovery::sim::{AnalyticSimulator, ClosedLoopSimulator};
 use ptsa_host_sim::discovery::{discover, outliers};
 use ptsa_host_sim::model::caseframe::EmptyCells;

@@ -42,7 +42,7 @@
 use std::fmt::Write as _;
 use std::sync::OnceLock;
 
-use ptsa_host_sim::discovery::method::Selected;
+use ptsa_host_sim::discovery::Selected;
 use ptsa_host_sim::discovery::sim::{ClosedLoopSimulator, runs_of};
 use ptsa_host_sim::discovery::{Options, Simulator};
 use ptsa_host_sim::model::condition::{IA, RowKind};

@@ -100,7 +100,7 @@
 use std::fmt::Write as _;
 use std::sync::Arc;
 
-use ptsa_host_sim::discovery::method::Selected;
+use ptsa_host_sim::discovery::Selected;
 use ptsa_host_sim::discovery::sim::ClosedLoopSimulator;
 use ptsa_host_sim::discovery::{Options, Simulator, discover};
 use ptsa_host_sim::lab::plan::{self, Axis};

@@ -12,11 +12,10 @@
 //! `lever_arm.r_pa_cm`: both `w_IA·w_PA`) cannot be separated by any row; the advice says so
 //! instead of proposing rows that do not help.
 
-use serde::Serialize;
-
 use super::data::{Data, signatures};
 use super::fit::Fitted;
-use super::method::Selected;
+use super::problem::Selected;
+pub use super::report::Advice;
 use crate::lab::plan::{self, Axis};
 use crate::model::condition::Condition;
 use crate::model::effects::CandidateId;
@@ -28,20 +27,6 @@ pub const MAX_ROWS: usize = 4;
 /// to the other selected terms) at which a
 /// group counts as separated.
 pub const GOOD: f64 = 0.5;
-
-/// One piece of advice, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
-pub struct Advice {
-    /// The candidates to separate (or to make testable).
-    pub separates: Vec<String>,
-    /// The rows to add, as objects with case-frame column keys.
-    pub add_rows: Vec<serde_json::Map<String, serde_json::Value>>,
-    /// What adding them achieves, or why no row helps.
-    pub note: String,
-    /// The rows to add, as conditions.
-    #[serde(skip)]
-    pub rows: Vec<Condition>,
-}
 
 /// The library of feasible extra rows.
 #[must_use]

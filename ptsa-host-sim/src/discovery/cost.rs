@@ -10,22 +10,23 @@
 //!
 //! Run only when the data call for it (bounded here from above, [`Cost::search`]): when a
 //! parameter of the loop is selected, Gauss–Newton (at most
-//! [`super::method::GAUSS_NEWTON_STEPS`] steps of `1 + 2k` passes for
+//! [`super::refine::GAUSS_NEWTON_STEPS`] steps of `1 + 2k` passes for
 //! `k` parameters), the prune of a second parameter, the check of every other parameter in
 //! its place (a grid, its extensions and two golden-section searches, [`SEARCH_PASSES`]
 //! passes each, and a fresh evaluation), the mirror check and the secant signatures; with
 //! response rows and no parameter selected, the scan of every parameter (as many passes as
 //! the check's search) when the model fails its χ² test.
 
-use super::alternatives::{GOLDEN_STEPS, GRID, GRID_EXTENSIONS};
-use super::method::GAUSS_NEWTON_STEPS;
+use super::problem::{Options, Selected};
+use super::refine::GAUSS_NEWTON_STEPS;
+use super::search::{GOLDEN_STEPS, GRID, GRID_EXTENSIONS};
 use super::sim::Simulator;
 use crate::model::condition::{Condition, RowKind};
 use crate::model::effects::CandidateId;
 use crate::simulation::work::Ticks;
 
 /// Most closed-loop passes over the measured rows of one parameter's search in
-/// `alternatives`: the grid with the file's value, its extensions, and two golden-section
+/// [`super::search`]: the grid with the file's value, its extensions, and two golden-section
 /// searches of two starting points and [`GOLDEN_STEPS`] steps each.
 pub const SEARCH_PASSES: usize = GRID.len() + 1 + GRID_EXTENSIONS + 2 * (2 + GOLDEN_STEPS);
 
@@ -116,6 +117,31 @@ impl Cost {
         self.pass
             .times(search_passes(self.parameters, k, self.response) as f64)
     }
+}
+
+/// Before the search of the loop's parameters through the closed loop (the stages after
+/// the linear selection): its work, bounded from above for the parameters among `selected`
+/// ([`Cost::search`]), held against the limit of work (`simulation::work::ahead`), and the
+/// progress's stage named, when a search can run.
+///
+/// # Errors
+/// The search would take more than the limit (without `--force`).
+pub(crate) fn ahead_of_search(
+    rows: &[Condition],
+    sim: &dyn Simulator,
+    opts: &Options,
+    selected: &[Selected],
+) -> anyhow::Result<()> {
+    let k = selected
+        .iter()
+        .filter(|s| s.id.parameter_key().is_some())
+        .count();
+    let search = Cost::of(rows, sim, &opts.candidates).search(k);
+    if search.total() > 0.0 {
+        crate::simulation::work::ahead("the closed-loop search of the loop's parameters", search)?;
+        crate::simulation::work::set_stage("search of the loop's parameters");
+    }
+    Ok(())
 }
 
 /// Most passes over the measured rows of the parameters' search with `p` parameters, `k`

@@ -11,14 +11,17 @@
 //! the full-data fit divided by that change: exact at both ends, linear between, and its
 //! direction taken from all rows (the held-out fold still refits its size).
 
+use super::data::Data;
+use super::fit::{self, Settings};
+use super::observation::{Observation, Quantity};
+use super::problem::{Problem, Selected};
+use super::report::{FitSummary, Gain};
+use crate::model::condition::Condition;
+use crate::model::effects::Effects;
 use rand::seq::SliceRandom as _;
 use rand::{Rng as _, SeedableRng as _};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use serde::Serialize;
-
-use super::data::{Data, Quantity};
-use super::fit::{self, Settings};
 
 /// Largest set cross-validated leave-one-out.
 pub const MAX_LEAVE_ONE_OUT: usize = 30;
@@ -27,25 +30,59 @@ pub const FOLDS: usize = 10;
 /// Bootstrap resamples of the interval.
 pub const BOOTSTRAP: usize = 2000;
 
-/// The gain, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
-pub struct Gain {
-    /// RMS of `measured − extended` on the rows that were fitted, in `unit`.
-    pub rms_in_sample_cm_s2: f64,
-    /// RMS of the held-out rows' `measured − prediction` with the selection repeated in every
-    /// fold, in `unit`.
-    pub rms_cross_validated_cm_s2: f64,
-    /// The same for the baseline model (nuisance terms only), in `unit`.
-    pub baseline_rms_cross_validated_cm_s2: f64,
-    /// Bootstrap 95 % interval of the cross-validated RMS gain (baseline minus selected),
-    /// cm/s².
-    pub ci95_rms_cm_s2: [f64; 2],
-    /// `leave-one-out` or `10-fold`.
-    pub method: String,
-    /// Unit of the four RMS figures: `cm/s²`, or `σ` when the data hold response rows (each
-    /// error is then divided by its observation's 1 σ, so that a gain, a phase in degrees
-    /// and an acceleration can share one RMS).
-    pub unit: String,
+/// The stage: the gain out of sample of the selected terms (a parameter by its secant,
+/// [`secant_signatures`]), against the in-sample RMS of the extended model `extended` (in
+/// cm/s², or normalised when the data hold response rows).
+pub(crate) fn out_of_sample(
+    p: &Problem<'_>,
+    selected: &[Selected],
+    baseline: &[Observation],
+    extended: &FitSummary,
+) -> Gain {
+    gain(
+        &secant_signatures(p, selected, baseline),
+        p.opts.settings(),
+        if p.data.quantity.iter().all(|&q| q == Quantity::Value) {
+            extended.rms_cm_s2
+        } else {
+            extended.rms_normalised
+        },
+        p.opts.seed,
+    )
+}
+
+/// `data` with each selected parameter's signature replaced by its secant: the closed
+/// loop's observations with the fitted change alone, minus the baseline's, over the change
+/// (the central-difference sensitivity at the file's value misjudges a change of tens of
+/// per cent).
+fn secant_signatures(p: &Problem<'_>, selected: &[Selected], baseline: &[Observation]) -> Data {
+    let (rows, data, sim) = (p.rows, p.data, p.sim);
+    let mut out = data.clone();
+    for s in selected {
+        if s.id.parameter_key().is_none() || s.coef == 0.0 {
+            continue;
+        }
+        let e = Effects::only(s.id, s.coef);
+        let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &e)).collect();
+        let obs = sim.observe_all(&jobs);
+        // An observation the simulator lacks, or a change that is not a finite number,
+        // leaves the parameter its sensitivity.
+        let col: Option<Vec<f64>> = (0..data.n())
+            .map(|k| {
+                let (i, q) = (data.rows[k], data.quantity[k]);
+                let d = obs[i].get(q)? - baseline[i].get(q)?;
+                Some(d / s.coef)
+            })
+            .collect();
+        if let Some(col) = col.filter(|c| c.iter().all(|x| x.is_finite()))
+            && let Some(sig) = out.signatures.iter_mut().find(|x| x.id == s.id)
+        {
+            sig.col = col;
+            // A parameter found by the scan had no first-order signature; its secant is one.
+            sig.null = false;
+        }
+    }
+    out
 }
 
 /// Cross-validate the fit of `data`.

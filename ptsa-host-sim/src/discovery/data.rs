@@ -1,11 +1,13 @@
-//! The measured rows as the method sees them: residual to explain (measured − baseline),
-//! stated sigmas, blocks, times, variance groups, replicates, the signature of every
-//! candidate and the generic basis of the case inputs used to look for unexplained
-//! structure.
+//! The measured rows as the method sees them: one observation per measured value (a
+//! difference or absolute row's value, a response row's gain and phase, [`Quantity`]), its
+//! residual to explain (measured − baseline), stated sigma, block, time, variance group and
+//! replicate set, the signature of every candidate and the generic basis of the case
+//! inputs used to look for unexplained structure.
 
 use std::collections::BTreeMap;
 
-use super::sim::{AnalyticSimulator, Simulator, gross_effect_cm_s2};
+use super::observation::{Observation, Quantity};
+use super::sim::{Simulator, effect_cm_s2, gross_effect_cm_s2};
 use crate::model::condition::{CaseInputs, Condition};
 use crate::model::effects::{CandidateId, Effects};
 
@@ -28,29 +30,6 @@ pub struct Signature {
     /// Identically zero here (every entry cancels to rounding between condition and
     /// reference).
     pub null: bool,
-}
-
-/// What an observation of a row is.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Quantity {
-    /// `measured_cm_s2` of a difference or absolute row, cm/s².
-    Value,
-    /// A response row's gain.
-    Gain,
-    /// A response row's phase, degrees.
-    Phase,
-}
-
-impl Quantity {
-    /// Its unit.
-    #[must_use]
-    pub fn unit(self) -> &'static str {
-        match self {
-            Quantity::Value => "cm/s²",
-            Quantity::Gain => "",
-            Quantity::Phase => "deg",
-        }
-    }
 }
 
 /// The fitted observations: one per difference or absolute row with a measurement, one or
@@ -177,28 +156,36 @@ fn intern(names: &mut Vec<String>, key: String) -> usize {
     }
 }
 
-/// The observations of a row: `(quantity, measured, stated sigma, index into the
-/// simulator's observation vector)`.
-fn observations(
-    r: &Condition,
-    default_sigma: Option<f64>,
-) -> Vec<(Quantity, f64, Option<f64>, usize)> {
+/// The measured observations of a row: `(quantity, measured, stated sigma)` (a response
+/// row's gain and phase each where measured).
+fn observations(r: &Condition, default_sigma: Option<f64>) -> Vec<(Quantity, f64, Option<f64>)> {
     match r.kind {
         crate::model::condition::RowKind::Response => {
             let mut v = Vec::new();
             if let Some(gain) = r.measured_gain {
-                v.push((Quantity::Gain, gain, r.sigma_gain, 0));
+                v.push((Quantity::Gain, gain, r.sigma_gain));
             }
             if let Some(ph) = r.measured_phase_deg {
-                v.push((Quantity::Phase, ph, r.sigma_phase_deg, 1));
+                v.push((Quantity::Phase, ph, r.sigma_phase_deg));
             }
             v
         }
         _ => r
             .measured_cm_s2
-            .map(|m| vec![(Quantity::Value, m, r.sigma_cm_s2.or(default_sigma), 0)])
+            .map(|m| vec![(Quantity::Value, m, r.sigma_cm_s2.or(default_sigma))])
             .unwrap_or_default(),
     }
+}
+
+/// Each fitted observation's value in `per_row` (the observations of the caller's rows, by
+/// row; `None` for a row not observed), in the order of `d`'s observations; `None` when a
+/// row's observation is missing or lacks the quantity (a simulator's observation of
+/// another kind than the row's).
+#[must_use]
+pub fn column_of(d: &Data, per_row: &[Option<Observation>]) -> Option<Vec<f64>> {
+    (0..d.n())
+        .map(|k| per_row.get(d.rows[k])?.as_ref()?.get(d.quantity[k]))
+        .collect()
 }
 
 /// A phase measured as `y` degrees, moved by whole turns to within half a turn of `base`.
@@ -206,16 +193,37 @@ fn unwrap_phase(y: f64, base: f64) -> f64 {
     y - 360.0 * ((y - base) / 360.0).round()
 }
 
+/// The simulator's value of each of `d`'s observations with `effects` (each measured row of
+/// `rows` observed once), in `d`'s order; `None` when an observation lacks its quantity.
+#[must_use]
+pub fn predicted(
+    rows: &[Condition],
+    d: &Data,
+    sim: &dyn Simulator,
+    effects: &Effects,
+) -> Option<Vec<f64>> {
+    let mut measured: Vec<usize> = d.rows.clone();
+    measured.dedup();
+    let jobs: Vec<(&Condition, &Effects)> = measured.iter().map(|&i| (&rows[i], effects)).collect();
+    let mut per_row: Vec<Option<Observation>> = vec![None; rows.len()];
+    for (&i, o) in measured.iter().zip(sim.observe_all(&jobs)) {
+        per_row[i] = Some(o);
+    }
+    column_of(d, &per_row)
+}
+
 /// Build the observations of the rows with a measurement. `observed[i]` is the simulator's
-/// baseline observation vector of row `i` ([`Simulator::observe`]); `default_sigma` the
-/// explicit `--sigma`, if any.
+/// baseline observation of row `i` ([`Simulator::observe`]); `default_sigma` the explicit
+/// `--sigma`, if any.
 ///
 /// # Errors
-/// `time_s` given on some measured rows but not on others.
+/// `time_s` given on some measured rows but not on others; the simulator's observation of
+/// a measured row is not of the row's kind (no gain and phase for a response row, no
+/// value for another).
 #[allow(clippy::too_many_lines)] // observations, then signatures, over the same rows
 pub fn build(
     rows: &[Condition],
-    observed: &[Vec<f64>],
+    observed: &[Observation],
     default_sigma: Option<f64>,
     candidates: &[CandidateId],
     sim: &dyn Simulator,
@@ -261,7 +269,7 @@ pub fn build(
     };
     // Replicate sets numbered in order of first appearance.
     let mut keys: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
-    let sim_sigmas: Vec<Vec<f64>> = {
+    let sim_sigmas: Vec<Observation> = {
         use rayon::prelude::*;
         fitted
             .par_iter()
@@ -273,12 +281,24 @@ pub fn build(
         let b = r.block.clone().unwrap_or_else(|| "all".to_string());
         let bi = intern(&mut d.block_names, b.clone());
         let sim_sigma = &sim_sigmas[k];
-        for (q, y, sigma, o) in observations(r, default_sigma) {
+        for (q, y, sigma) in observations(r, default_sigma) {
+            let (Some(base), Some(own)) = (observed[i].get(q), sim_sigma.get(q)) else {
+                anyhow::bail!(
+                    "row {} (`{}`, {}): the {} simulator's observation has no {}; expected a value in cm/s² for a difference or absolute row, a gain and a phase for a response row",
+                    i + 1,
+                    r.label,
+                    r.kind.name(),
+                    sim.name(),
+                    match q {
+                        Quantity::Value => "value in cm/s²",
+                        Quantity::Gain => "gain",
+                        Quantity::Phase => "phase",
+                    }
+                );
+            };
             // A stated sigma is the measurement's; the simulator's own scatter adds to it.
-            let own = sim_sigma.get(o).copied().unwrap_or(0.0);
             let sigma = sigma.map(|s| s.hypot(own));
             d.sim_sigma.push(own);
-            let base = observed[i].get(o).copied().unwrap_or(f64::NAN);
             d.rows.push(i);
             d.quantity.push(q);
             d.y.push(if q == Quantity::Phase {
@@ -432,26 +452,20 @@ pub fn sensitivities(
                     null: true,
                 };
             }
-            // Each measured row's differences, by the row's index.
-            let mut per_row: Vec<Vec<f64>> = vec![Vec::new(); rows.len()];
+            // Each measured row's two sides, by the row's index.
+            let mut per_row: Vec<Option<(Observation, Observation)>> = vec![None; rows.len()];
             for &i in &measured {
-                let up = obs.next().unwrap_or_default();
-                let dn = obs.next().unwrap_or_default();
-                per_row[i] = up
-                    .iter()
-                    .zip(&dn)
-                    .map(|(u, v)| (u - v) / (2.0 * h))
-                    .collect();
+                let up = obs.next();
+                let dn = obs.next();
+                per_row[i] = up.zip(dn);
             }
+            // An observation whose difference is not a finite number (or that a side lacks)
+            // has no sensitivity.
             let col: Vec<f64> = (0..d.n())
                 .map(|k| {
-                    let o = match d.quantity[k] {
-                        Quantity::Phase => 1,
-                        _ => 0,
-                    };
+                    let q = d.quantity[k];
                     per_row[d.rows[k]]
-                        .get(o)
-                        .copied()
+                        .and_then(|(up, dn)| Some((up.get(q)? - dn.get(q)?) / (2.0 * h)))
                         .filter(|x| x.is_finite())
                         .unwrap_or(0.0)
                 })
@@ -494,7 +508,8 @@ pub const SENSITIVITY_ALPHA: f64 = 1e-3;
 /// `F(ν, (runs − 1)·ν)` with Satterthwaite's `ν = (Σa)²/Σa²`, `a = sim_sigma²/s²`, at
 /// [`SENSITIVITY_ALPHA`]. A parameter whose response is even about the file's value (a
 /// pickoff phase error, which enters as its cosine) has only scatter here: it is no
-/// first-order candidate, and only `discovery::alternatives` can name it. An observation
+/// first-order candidate, and only the searches through the closed loop
+/// (`discovery::check`, `discovery::scan`) can name it. An observation
 /// without a simulator scatter (a static value) counts as a signal when it moves: the
 /// [`PARAMETER_MIN_MOVE`] rule decides there.
 fn noise_only(d: &Data, scale: &[f64], col: &[f64], h: f64, half: f64) -> bool {
@@ -554,12 +569,6 @@ fn scales(d: &Data) -> Vec<f64> {
 /// to rounding against the gross size of the term in the condition and its reference).
 #[must_use]
 pub fn signatures(rows: &[&Condition], candidates: &[CandidateId], g_cm_s2: f64) -> Vec<Signature> {
-    let analytic = AnalyticSimulator {
-        g_cm_s2,
-        bias_cm_s2: 0.0,
-        loop_bias: [0.0; 2],
-        loop_model: None,
-    };
     candidates
         .iter()
         .map(|&id| {
@@ -568,7 +577,7 @@ pub fn signatures(rows: &[&Condition], candidates: &[CandidateId], g_cm_s2: f64)
             let col: Vec<f64> = rows
                 .iter()
                 .map(|r| {
-                    let x = analytic.effect_cm_s2(r, &e);
+                    let x = effect_cm_s2(r, &e, g_cm_s2);
                     if x.abs() <= 1e-9 * gross_effect_cm_s2(r, &e, g_cm_s2) {
                         0.0
                     } else {

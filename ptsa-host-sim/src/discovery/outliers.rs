@@ -52,8 +52,14 @@
 
 use rayon::prelude::*;
 
-use super::data::{Data, Quantity};
+use super::data::Data;
 use super::fit::{self, Fitted, Settings};
+use super::observation::Quantity;
+use super::problem::{Options, plausible};
+use super::sim::Simulator;
+use super::slips::row_slips;
+use crate::model::caseframe::EmptyCells;
+use crate::model::condition::Condition;
 use crate::model::effects::CandidateId;
 use crate::stats::{lsq, norm, t_two_sided};
 
@@ -488,6 +494,103 @@ pub fn search(
         keep.retain(|&j| j != obs);
     }
     out
+}
+
+/// A row set aside as a suspected gross error, with what the rest of the method needs of
+/// it (it is no observation of the data the model is fitted to).
+#[derive(Clone, Debug)]
+pub(crate) struct SetAside {
+    /// The search's finding (its `obs` indexes the data with every row).
+    pub found: Found,
+    /// The row (index into the caller's rows).
+    pub row: usize,
+    /// Its measured value and baseline, cm/s².
+    pub y: f64,
+    pub base: f64,
+    /// Its block, whether it takes the block's shift and the drift, and its time.
+    pub block: usize,
+    pub shift: bool,
+    pub drifts: bool,
+    pub time: f64,
+    /// Its stated sigma and variance group.
+    pub stated: Option<f64>,
+    pub group: usize,
+}
+
+/// The data with the suspected gross errors set aside (unless `--keep-outliers`), and
+/// what the rest of the method needs of them.
+#[derive(Clone, Debug)]
+pub(crate) struct Screened {
+    /// The observations the model is fitted to.
+    pub data: Data,
+    /// The rows the search flagged (set aside, or kept with `--keep-outliers`).
+    pub set_aside: Vec<SetAside>,
+    /// The next row that still looks like a gross error once [`MAX_OUTLIERS`] were set
+    /// aside, with its label.
+    pub beyond_cap: Option<(String, Found)>,
+}
+
+/// The stage: [`search`] over every measured observation of `every` (`rows`' data; rows
+/// with an input cell left empty and read as 0, `empty`, and rows that look like a unit
+/// slip whatever the model are suspects), and the data without the rows it flags unless
+/// `opts.keep_outliers`.
+pub(crate) fn gross_errors(
+    rows: &[Condition],
+    empty: &[EmptyCells],
+    every: Data,
+    sim: &dyn Simulator,
+    opts: &Options,
+) -> Screened {
+    let recorded: Vec<usize> = (0..every.n())
+        .filter(|&k| {
+            every.quantity[k] == Quantity::Value
+                && empty
+                    .iter()
+                    .any(|e| e.row == every.rows[k] && !e.columns.is_empty())
+        })
+        .collect();
+    let found = search(
+        &every,
+        opts.settings(),
+        ALPHA,
+        MAX_OUTLIERS,
+        &row_slips(&every, sim.g_cm_s2()),
+        &recorded,
+        &|id, coef| plausible(id, coef, sim, opts),
+    );
+    let set_aside: Vec<SetAside> = found
+        .found
+        .iter()
+        .map(|&found| {
+            let k = found.obs;
+            SetAside {
+                found,
+                row: every.rows[k],
+                y: every.y[k],
+                base: every.base[k],
+                block: every.block[k],
+                shift: every.shift[k],
+                drifts: every.drifts[k],
+                time: every.time[k],
+                stated: every.stated[k],
+                group: every.group[k],
+            }
+        })
+        .collect();
+    let beyond_cap = found
+        .beyond_cap
+        .map(|b| (rows[every.rows[b.obs]].label.clone(), b));
+    let data = if opts.keep_outliers || set_aside.is_empty() {
+        every
+    } else {
+        let drop: Vec<usize> = set_aside.iter().map(|a| a.found.obs).collect();
+        every.without(&drop)
+    };
+    Screened {
+        data,
+        set_aside,
+        beyond_cap,
+    }
 }
 
 #[cfg(test)]

@@ -5,7 +5,9 @@ use std::path::Path;
 
 use anyhow::Result;
 
-use super::method::{Discovery, RowResult, TEST_STATEMENT};
+use super::fit::TEST_STATEMENT;
+use super::outcome::Discovery;
+use super::report::{FitSummary, RowResult};
 use crate::model::condition::RowKind;
 use crate::model::effects::CandidateId;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num, opt, text};
@@ -197,8 +199,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                 s,
                 "suspected gross error: `{}` residual {} cm/s² ({} σ), p = {} over {} rows (familywise), {}",
                 o.row,
-                super::slips::round_sig(o.residual_cm_s2, 4),
-                super::slips::round_sig(o.studentized.abs(), 3),
+                crate::output::significant(o.residual_cm_s2, 4),
+                crate::output::significant(o.studentized.abs(), 3),
                 pfmt(o.p_value),
                 o.rows_tested,
                 if o.kept {
@@ -653,7 +655,7 @@ pub fn write_outputs(dir: &Path, stem: &str, d: &Discovery) -> Result<Vec<std::p
 
 /// `RMS 0.123 cm/s²`, or with response rows only `RMS 1.23 σ (residual over its
 /// uncertainty)`.
-fn rms_text(f: &super::method::FitSummary) -> String {
+fn rms_text(f: &FitSummary) -> String {
     if f.rms_cm_s2.is_finite() {
         format!("RMS {:.3} cm/s²", f.rms_cm_s2)
     } else {

@@ -2,6 +2,7 @@
 
 use std::borrow::Cow;
 
+use super::observation::Observation;
 use crate::model::condition::{Condition, IA, PA, RowKind};
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
@@ -29,20 +30,26 @@ pub trait Simulator: Sync {
     /// The prediction of a row's `measured_cm_s2` (a difference or absolute row), cm/s²;
     /// for a response row, its gain.
     fn predict_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        self.observe(cond, effects)[0]
+        match self.observe(cond, effects) {
+            Observation::Value(v) => v,
+            Observation::Response { gain, .. } => gain,
+        }
     }
-    /// Every observation of a row: `[value]` for a difference or absolute row, `[gain,
-    /// phase_deg]` for a response row.
-    fn observe(&self, cond: &Condition, effects: &Effects) -> Vec<f64> {
+    /// Every observation of a row: its value for a difference or absolute row, its gain
+    /// and phase for a response row.
+    fn observe(&self, cond: &Condition, effects: &Effects) -> Observation {
         match cond.kind {
-            RowKind::Difference => vec![self.difference_cm_s2(cond, effects)],
-            RowKind::Absolute => vec![self.absolute_cm_s2(cond, effects)],
-            RowKind::Response => self.response(cond, effects).to_vec(),
+            RowKind::Difference => Observation::Value(self.difference_cm_s2(cond, effects)),
+            RowKind::Absolute => Observation::Value(self.absolute_cm_s2(cond, effects)),
+            RowKind::Response => {
+                let [gain, phase_deg] = self.response(cond, effects);
+                Observation::Response { gain, phase_deg }
+            }
         }
     }
     /// [`Simulator::observe`] of every `(row, effects)` pair, in order. The closed loop
     /// runs them all at once on the batch engine ([`crate::simulation::batch`]), bit for bit the same.
-    fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
+    fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Observation> {
         use rayon::prelude::*;
         jobs.par_iter().map(|(c, e)| self.observe(c, e)).collect()
     }
@@ -55,8 +62,8 @@ pub trait Simulator: Sync {
     /// The 1 σ scatter of the baseline prediction of each of a row's observations (as
     /// [`Simulator::observe`]), from the simulator's own noise: 0 for a deterministic model.
     /// The analysis adds it to a stated sigma in quadrature.
-    fn observe_sigma(&self, cond: &Condition) -> Vec<f64> {
-        vec![0.0; if cond.kind == RowKind::Response { 2 } else { 1 }]
+    fn observe_sigma(&self, cond: &Condition) -> Observation {
+        Observation::uniform(cond.kind, 0.0)
     }
     /// The linear loop model's closed-loop response `L/(1 + L)` at `f_hz` with the
     /// parameter changes of `effects`: `[gain, phase_deg]` (for Bode plots), if the
@@ -116,9 +123,8 @@ pub struct AnalyticSimulator {
     /// The loop's own bias at zero `a_PA` and its change per cm/s² of `a_PA`
     /// ([`Instrument::loop_bias_cm_s2`] is linear in `a_PA`).
     pub loop_bias: [f64; 2],
-    /// The instrument and its compensator, for the linear loop model of response rows
-    /// (`None`: no response prediction).
-    pub loop_model: Option<Box<(Instrument, ptsa_core::Config)>>,
+    /// The instrument and its compensator, for the linear loop model of response rows.
+    pub loop_model: Box<(Instrument, ptsa_core::Config)>,
 }
 
 impl AnalyticSimulator {
@@ -132,18 +138,24 @@ impl AnalyticSimulator {
             g_cm_s2: instr.g_cm_s2,
             bias_cm_s2: instr.bias_cm_s2,
             loop_bias: [b0, instr.loop_bias_cm_s2(1.0) - b0],
-            loop_model: Some(Box::new((instr.clone(), config))),
+            loop_model: Box::new((instr.clone(), config)),
         }
     }
+}
 
-    /// The effects' part of a row's prediction (what the signatures are made of), cm/s².
-    #[must_use]
-    pub fn effect_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        match cond.kind {
-            RowKind::Difference => self.difference_cm_s2(cond, effects),
-            RowKind::Absolute => mean_effect_cm_s2(cond, effects, self.g_cm_s2),
-            RowKind::Response => 0.0,
+/// The effects' part of the analytic model's prediction of a row (what the signatures are
+/// made of) with local gravity `g_cm_s2`, cm/s²: the condition's mean effect minus its
+/// reference's for a difference row, the mean effect for an absolute row, 0 for a response
+/// row.
+#[must_use]
+pub fn effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> f64 {
+    match cond.kind {
+        RowKind::Difference => {
+            mean_effect_cm_s2(cond, effects, g_cm_s2)
+                - mean_effect_cm_s2(&cond.reference(), effects, g_cm_s2)
         }
+        RowKind::Absolute => mean_effect_cm_s2(cond, effects, g_cm_s2),
+        RowKind::Response => 0.0,
     }
 }
 
@@ -208,8 +220,7 @@ impl Simulator for AnalyticSimulator {
     }
 
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        mean_effect_cm_s2(cond, effects, self.g_cm_s2)
-            - mean_effect_cm_s2(&cond.reference(), effects, self.g_cm_s2)
+        effect_cm_s2(cond, effects, self.g_cm_s2)
     }
 
     fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
@@ -224,21 +235,19 @@ impl Simulator for AnalyticSimulator {
     }
 
     fn instrument(&self) -> Option<&Instrument> {
-        self.loop_model.as_ref().map(|m| &m.0)
+        Some(&self.loop_model.0)
     }
 
     fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
         // The linear loop model L/(1 + L) of the instrument's loop (with its parameter
         // changes).
-        self.loop_model.as_ref().map_or([f64::NAN; 2], |m| {
-            closed_loop_linear(&m.0, &m.1, cond.freq_hz, effects)
-        })
+        let (instr, config) = &*self.loop_model;
+        closed_loop_linear(instr, config, cond.freq_hz, effects)
     }
 
     fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
-        self.loop_model
-            .as_ref()
-            .map(|m| closed_loop_linear(&m.0, &m.1, f_hz, effects))
+        let (instr, config) = &*self.loop_model;
+        Some(closed_loop_linear(instr, config, f_hz, effects))
     }
 }
 
@@ -270,13 +279,14 @@ impl ClosedLoopSimulator {
 impl ClosedLoopSimulator {
     /// The response rows among `jobs`, [`RUN_CHUNK`] runs at a time through [`runs_of`]:
     /// the mean of each row's [`RESPONSE_SEEDS`] runs, by the row's index in `jobs`.
-    fn observe_responses(&self, jobs: &[(&Condition, &Effects)]) -> Vec<(usize, Vec<f64>)> {
+    fn observe_responses(&self, jobs: &[(&Condition, &Effects)]) -> Vec<(usize, Observation)> {
         let seed = self.options.seed;
         let rows: Vec<usize> = (0..jobs.len())
             .filter(|&k| jobs[k].0.kind == RowKind::Response)
             .collect();
         #[allow(clippy::cast_possible_truncation)]
-        let per = (RUN_CHUNK / RESPONSE_SEEDS as usize).max(1);
+        let seeds = RESPONSE_SEEDS as usize;
+        let per = (RUN_CHUNK / seeds).max(1);
         let mut out = Vec::with_capacity(rows.len());
         for chunk in rows.chunks(per) {
             let runs: Vec<(&Condition, &Effects, u64)> = chunk
@@ -286,18 +296,18 @@ impl ClosedLoopSimulator {
                     (0..RESPONSE_SEEDS).map(move |j| (c, e, seed.wrapping_add(j)))
                 })
                 .collect();
-            let mut res = runs_of(&self.instrument, &runs, &self.options).into_iter();
-            for &k in chunk {
-                let r: Vec<[f64; 2]> = (0..RESPONSE_SEEDS)
-                    .map(|_| {
-                        let v = res.next().unwrap_or_default();
-                        [
-                            v.first().copied().unwrap_or(f64::NAN),
-                            v.get(1).copied().unwrap_or(f64::NAN),
-                        ]
+            let res = observe_runs(&self.instrument, &runs, &self.options);
+            // Each row's runs in turn, every one a response (the rows are response rows).
+            for (&k, rs) in chunk.iter().zip(res.chunks(seeds)) {
+                let r: Vec<[f64; 2]> = rs
+                    .iter()
+                    .filter_map(|o| match *o {
+                        Observation::Response { gain, phase_deg } => Some([gain, phase_deg]),
+                        Observation::Value(_) => None,
                     })
                     .collect();
-                out.push((k, mean_of_runs(&r).0.to_vec()));
+                let [gain, phase_deg] = mean_of_runs(&r).0;
+                out.push((k, Observation::Response { gain, phase_deg }));
             }
         }
         out
@@ -417,7 +427,7 @@ impl Simulator for ClosedLoopSimulator {
     /// [`Simulator::observe`] row by row. Taken [`RUN_CHUNK`] runs at a time, so that the
     /// loops in memory at once do not grow with the table (each run is independent of the
     /// others in its call).
-    fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Vec<f64>> {
+    fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Observation> {
         let seed = self.options.seed;
         let (runs, slots) = distinct_runs(jobs, seed);
         let mut value: Vec<f64> = Vec::with_capacity(runs.len());
@@ -437,24 +447,28 @@ impl Simulator for ClosedLoopSimulator {
                     .map(|r| r.indicated_cm_s2),
             );
         }
-        let mut out: Vec<Vec<f64>> = slots
+        // The response rows' observations, in the order of their jobs: each job takes its
+        // own (a response row has no run of its own in `slots`) or its value.
+        let mut responses = self.observe_responses(jobs).into_iter().peekable();
+        slots
             .iter()
-            .map(|&(own, reference)| {
+            .enumerate()
+            .map(|(k, &(own, reference))| {
+                if let Some((_, o)) = responses.next_if(|(j, _)| *j == k) {
+                    return o;
+                }
                 // Summed from 0 as `runs_of` sums them (the same bits, the sign of a zero
                 // included).
-                let Some(o) = own else { return Vec::new() };
                 let mut v = 0.0;
-                v += value[o];
+                if let Some(o) = own {
+                    v += value[o];
+                }
                 if let Some(r) = reference {
                     v -= value[r];
                 }
-                vec![v]
+                Observation::Value(v)
             })
-            .collect();
-        for (k, v) in self.observe_responses(jobs) {
-            out[k] = v;
-        }
-        out
+            .collect()
     }
 
     fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
@@ -514,13 +528,13 @@ impl Simulator for ClosedLoopSimulator {
 
     /// For a response row, the standard error of [`ClosedLoopSimulator::response`]'s mean:
     /// the sample standard deviation of the [`RESPONSE_SEEDS`] runs over their square root.
-    fn observe_sigma(&self, cond: &Condition) -> Vec<f64> {
+    fn observe_sigma(&self, cond: &Condition) -> Observation {
         if cond.kind == RowKind::Response {
-            response_runs(&self.instrument, cond, &Effects::NONE, &self.options)
-                .1
-                .to_vec()
+            let [gain, phase_deg] =
+                response_runs(&self.instrument, cond, &Effects::NONE, &self.options).1;
+            Observation::Response { gain, phase_deg }
         } else {
-            vec![0.0]
+            Observation::Value(0.0)
         }
     }
 }
@@ -626,13 +640,27 @@ fn started(cond: &Condition, seed: u64) -> Condition {
 /// [`response_of`]; `[indicated cm/s²]` for an absolute row and `[difference cm/s²]` for a
 /// difference row (the condition minus its reference), as
 /// [`crate::simulation::sim::simulate_condition`] and [`crate::simulation::sim::simulate_difference`]; bit for
-/// bit those single runs.
+/// bit those single runs. In the flat form [`Observation::values`] (the hidden-effect
+/// campaigns' tables take it).
 #[must_use]
 pub fn runs_of(
     instr: &Instrument,
     jobs: &[(&Condition, &Effects, u64)],
     opts: &crate::simulation::sim::SimOptions,
 ) -> Vec<Vec<f64>> {
+    observe_runs(instr, jobs, opts)
+        .iter()
+        .map(Observation::values)
+        .collect()
+}
+
+/// [`runs_of`], each run as an [`Observation`].
+#[must_use]
+pub fn observe_runs(
+    instr: &Instrument,
+    jobs: &[(&Condition, &Effects, u64)],
+    opts: &crate::simulation::sim::SimOptions,
+) -> Vec<Observation> {
     let ropts = response_options(opts);
     // Response runs with their conditions started at their phases.
     let shifted: Vec<(usize, Condition)> = jobs
@@ -681,10 +709,6 @@ pub fn runs_of(
     }
     let rres = crate::simulation::batch::simulate_jobs(&rjobs, &ropts);
     let ores = crate::simulation::batch::simulate_jobs(&ojobs, opts);
-    let mut out: Vec<Vec<f64>> = vec![Vec::new(); jobs.len()];
-    for ((k, c), r) in shifted.iter().zip(&rres) {
-        out[*k] = response_from(jobs[*k].0, c, r).to_vec();
-    }
     let mut value = vec![0.0; jobs.len()];
     for ((k, reference), res) in slots.iter().zip(&ores) {
         if *reference {
@@ -693,12 +717,18 @@ pub fn runs_of(
             value[*k] += res.indicated_cm_s2;
         }
     }
-    for (k, (c, _, _)) in jobs.iter().enumerate() {
-        if c.kind != RowKind::Response {
-            out[k] = vec![value[k]];
-        }
-    }
-    out
+    // A response row's run is among `shifted`'s (in the order of the jobs); every other
+    // row's is its value.
+    let mut responses = shifted.iter().zip(&rres).peekable();
+    (0..jobs.len())
+        .map(|k| match responses.next_if(|((j, _), _)| *j == k) {
+            Some(((_, c), r)) => {
+                let [gain, phase_deg] = response_from(jobs[k].0, c, r);
+                Observation::Response { gain, phase_deg }
+            }
+            None => Observation::Value(value[k]),
+        })
+        .collect()
 }
 
 /// `[gain, phase_deg]` of the run `r` of `started` (the row `cond` started at its phase).
@@ -835,9 +865,13 @@ mod tests {
         let all = sim.observe_all(&jobs);
         for ((c, e), got) in jobs.iter().zip(&all) {
             let want = sim.observe(c, e);
+            assert!(got.same_kind(&want), "{got:?} against {want:?}");
             assert_eq!(
-                got.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-                want.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                got.values().iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                want.values()
+                    .iter()
+                    .map(|x| x.to_bits())
+                    .collect::<Vec<_>>(),
                 "{:?} at {} Hz: {got:?} against {want:?}",
                 c.kind,
                 c.freq_hz

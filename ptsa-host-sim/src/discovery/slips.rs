@@ -20,8 +20,9 @@
 //!   goes on with the stated sigmas (a stated sigma is the user's claim), the warning at the
 //!   top of the report says what they cost and what was probably meant.
 
-use super::data::{Data, Quantity};
+use super::data::Data;
 use super::fit::{self, Fitted};
+use super::observation::Quantity;
 use crate::model::caseframe::EmptyCells;
 use crate::stats::{chi2_sf, lsq, norm, residualize};
 
@@ -100,32 +101,9 @@ pub fn relation(c: f64) -> String {
     let sign = if c < 0.0 { "minus " } else { "" };
     let a = c.abs();
     if a < 1.0 {
-        format!("{sign}1/{} of", round_sig(1.0 / a, 5))
+        format!("{sign}1/{} of", crate::output::significant(1.0 / a, 5))
     } else {
-        format!("{sign}{} times", round_sig(a, 5))
-    }
-}
-
-/// `x` rounded to `d` significant digits, printed without trailing zeros (in scientific
-/// notation beyond 1e-4..1e7).
-pub(crate) fn round_sig(x: f64, d: i32) -> String {
-    if x == 0.0 || !x.is_finite() {
-        return format!("{x}");
-    }
-    let e = x.abs().log10().floor();
-    let scale = 10f64.powf(f64::from(d) - 1.0 - e);
-    let r = (x * scale).round() / scale;
-    if (1e-4..1e7).contains(&r.abs()) {
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let decimals = (f64::from(d) - 1.0 - e).max(0.0) as usize;
-        let s = format!("{r:.decimals$}");
-        if s.contains('.') {
-            s.trim_end_matches('0').trim_end_matches('.').to_string()
-        } else {
-            s
-        }
-    } else {
-        format!("{r:e}")
+        format!("{sign}{} times", crate::output::significant(a, 5))
     }
 }
 
@@ -166,7 +144,7 @@ impl UnitSlip {
         format!(
             "the measured values are {} the simulated ones (measured/simulated = {} by least squares over the {} values in cm/s²): were they {}?",
             relation(self.slip.factor),
-            round_sig(self.ratio, 5),
+            crate::output::significant(self.ratio, 5),
             self.rows,
             self.slip.meant,
         )
@@ -276,16 +254,16 @@ impl SigmaSlip {
     #[must_use]
     pub fn message(&self) -> String {
         let how = if self.factor >= 1.0 {
-            format!("{} times", round_sig(self.factor, 2))
+            format!("{} times", crate::output::significant(self.factor, 2))
         } else {
-            format!("1/{} of", round_sig(1.0 / self.factor, 2))
+            format!("1/{} of", crate::output::significant(1.0 / self.factor, 2))
         };
         let scatter = match (self.stated_cm_s2, self.scatter_cm_s2) {
             (Some(s), Some(x)) => format!(
                 "the stated sigma ({} {} cm/s²) is {how} the scatter of the residuals ({} cm/s²",
                 self.source,
-                round_sig(s, 3),
-                round_sig(x, 2)
+                crate::output::significant(s, 3),
+                crate::output::significant(x, 2)
             ),
             _ => format!(
                 "the stated sigmas ({}) are {how} the scatter of the residuals (",
@@ -302,7 +280,7 @@ impl SigmaSlip {
         };
         format!(
             "{scatter}; chi2 {} for {} dof){meant} {consequence}",
-            round_sig(self.chi2, 3),
+            crate::output::significant(self.chi2, 3),
             self.dof
         )
     }
@@ -374,12 +352,14 @@ pub fn sigma_check(
     // `--sigma`.
     let own: Vec<f64> = (0..n)
         .map(|i| {
-            let s = data.stated[i].unwrap_or(f64::NAN);
-            (s * s - data.sim_sigma[i] * data.sim_sigma[i])
-                .max(0.0)
-                .sqrt()
+            let s = data.stated[i]?;
+            Some(
+                (s * s - data.sim_sigma[i] * data.sim_sigma[i])
+                    .max(0.0)
+                    .sqrt(),
+            )
         })
-        .collect();
+        .collect::<Option<_>>()?;
     let common = own
         .iter()
         .all(|&x| (x - own[0]).abs() <= 1e-9 * own[0].abs())
@@ -442,7 +422,7 @@ pub fn cause(
             return format!(
                 "its value is {} what the model expects ({} cm/s²): {}, {}? ({})",
                 relation(f.factor),
-                round_sig(expected, 5),
+                crate::output::significant(expected, 5),
                 if f.factor > 0.0 {
                     "a unit slip"
                 } else {
@@ -474,12 +454,8 @@ mod tests {
         assert_eq!(relation(1.0 / 980.4), "1/980.4 of");
         assert_eq!(relation(0.01), "1/100 of");
         assert_eq!(relation(10.0), "10 times");
-        assert_eq!(relation(1e6), "1000000 times");
+        assert_eq!(relation(1e6), "1e6 times");
         assert_eq!(relation(1.0 / 30.48), "1/30.48 of");
-        assert_eq!(round_sig(0.001_019_99, 5), "0.00102");
-        assert_eq!(round_sig(0.001_020_37, 5), "0.0010204");
-        assert_eq!(round_sig(94_878.2, 3), "94900");
-        assert_eq!(round_sig(2.8e-5, 2), "2.8e-5");
         assert_eq!(relation(-1.0), "the negative of");
         assert_eq!(relation(1e6 / 980.4), "1020 times");
     }

@@ -13,36 +13,11 @@
 //! The two are combined by Bonferroni; `hint` names the basis element the residual follows
 //! best, or the lack of fit.
 
-use serde::Serialize;
-
 use super::data::{Data, replicate_sets};
 use super::fit::{Fitted, step_p};
-use super::method::Selected;
+use super::problem::Selected;
+use super::report::{Unexplained, UnexplainedTest};
 use crate::stats::{f_sf, lsq, norm, residualize};
-
-/// What the tests found, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
-pub struct Unexplained {
-    /// Structure found at the level `alpha` (familywise over both tests).
-    pub detected: bool,
-    /// Its p-value (Bonferroni over the tests run).
-    pub p_value: f64,
-    /// `residual follows <input or product>`, or the lack of fit, or `none`.
-    pub hint: String,
-    /// The tests run, each with its own p-value.
-    pub tests: Vec<UnexplainedTest>,
-}
-
-/// One test.
-#[derive(Clone, Debug, Serialize)]
-pub struct UnexplainedTest {
-    /// `lack_of_fit` or `generic_basis`.
-    pub name: &'static str,
-    /// Its p-value (for the basis: Bonferroni over its elements).
-    pub p_value: f64,
-    /// What it looked at.
-    pub detail: String,
-}
 
 /// Run the tests on `f` (the full-data model).
 #[must_use]

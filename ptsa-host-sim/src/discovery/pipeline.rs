@@ -1,0 +1,309 @@
+//! The method's stages in their order (`docs/discovery.md`): the baseline, the suspected
+//! gross errors, the linear selection, the searches through the closed loop, the extended
+//! model, what is left and the gain out of sample, the advice, and the result. Each stage
+//! is its own module; this file only runs them in turn.
+
+use super::assemble::{self, Found};
+use super::fit;
+use super::observation::Observation;
+use super::outcome::Discovery;
+use super::problem::{Options, Problem};
+use super::sim::Simulator;
+use super::{
+    advice, check, confounding, cost, crossval, data, extend, mirror, outliers, prune, refine,
+    scan, slips, unexplained,
+};
+use crate::model::caseframe::EmptyCells;
+use crate::model::condition::Condition;
+use crate::model::effects::Effects;
+use crate::simulation::work::set_stage;
+
+/// Run the method on `rows` with `sim` for baseline and re-simulation.
+///
+/// # Errors
+/// No row has a measurement, `time_s` is given on some measured rows only, or the measured
+/// values are a unit or sign slip's multiple of the simulated ones
+/// ([`slips::unit_slip`]).
+pub fn discover(
+    rows: &[Condition],
+    sim: &dyn Simulator,
+    opts: &Options,
+) -> anyhow::Result<Discovery> {
+    discover_with(rows, &[], sim, opts)
+}
+
+/// [`discover`], with the reader's record of the input cells that were empty and read as 0
+/// (`caseframe::Frame::empty`), which names the likely cause of a suspected gross error.
+///
+/// # Errors
+/// As [`discover`].
+pub fn discover_with(
+    rows: &[Condition],
+    empty: &[EmptyCells],
+    sim: &dyn Simulator,
+    opts: &Options,
+) -> anyhow::Result<Discovery> {
+    if !rows.iter().any(Condition::is_measured) {
+        anyhow::bail!(
+            "no row has a measurement (`measured_cm_s2`, or `measured_gain`/`measured_phase_deg` in a response row): nothing to fit"
+        );
+    }
+    // 1. Baseline: every row's observations (measured or not, for the table).
+    set_stage("baseline");
+    let baseline: Vec<Observation> = {
+        let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, &Effects::NONE)).collect();
+        sim.observe_all(&jobs)
+    };
+    let every = data::build(
+        rows,
+        &baseline,
+        opts.default_sigma_cm_s2,
+        &opts.candidates,
+        sim,
+    )?;
+    // Values in another unit, or with the sign reversed: not physics.
+    let unit_slip = slips::unit_slip(&every, sim.g_cm_s2());
+    if let Some(slip) = unit_slip.as_ref().filter(|_| !opts.units_as_given) {
+        anyhow::bail!("{}", slip.message());
+    }
+    // 2. Suspected gross errors, found before the selection can explain them.
+    let screened = outliers::gross_errors(rows, empty, every, sim, opts);
+    let data = &screened.data;
+    // 3. The model: nuisance terms, noise, selection; then the loop's parameters through
+    // the closed loop.
+    set_stage("selection");
+    let all: Vec<usize> = (0..data.n()).collect();
+    let f = fit::fit(data, &all, opts.settings());
+    let mut steps = f.steps.clone();
+    let mut selected = confounding::selected(data, &f, opts, sim);
+    let p = Problem {
+        rows,
+        data,
+        f: &f,
+        sim,
+        opts,
+    };
+    cost::ahead_of_search(rows, sim, opts, &selected)?;
+    refine::refine(&p, &mut selected);
+    prune::prune(&p, &mut selected, &mut steps);
+    if scan::scan(&p, &mut selected, &mut steps) {
+        refine::refine(&p, &mut selected);
+    }
+    if check::check(&p, &mut selected, &mut steps) {
+        refine::refine(&p, &mut selected);
+    }
+    mirror::mirror(&p, &mut selected);
+    refine::settle(&mut selected, sim);
+    // 4. Extend and re-simulate.
+    set_stage("re-simulation");
+    let extended = extend::extend(&p, &selected, &baseline)?;
+    // 5. What is left, and the gain out of sample.
+    set_stage("cross-validation");
+    let unexplained = unexplained::test(data, &f, &selected, opts.alpha);
+    let gain = crossval::out_of_sample(&p, &selected, &baseline, &extended.fit);
+    let groups = confounding::indistinguishable(data, &f, opts);
+    let advice = advice::advise(data, rows, &f, &selected, &groups, sim.g_cm_s2());
+    let scatter = slips::sigma_check(data, &f, opts.default_sigma_cm_s2, sim.g_cm_s2());
+    // 6. The result, its warnings and its verdict.
+    Ok(assemble::discovery(Found {
+        p,
+        empty,
+        baseline: &baseline,
+        screened: &screened,
+        unit_slip,
+        selected,
+        steps,
+        extended,
+        unexplained,
+        gain,
+        groups,
+        advice,
+        scatter,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::discovery::show;
+    use crate::discovery::sim::AnalyticSimulator;
+    use crate::model::effects::CandidateId;
+    use crate::model::instrument::Instrument;
+
+    fn analytic() -> AnalyticSimulator {
+        AnalyticSimulator::for_instrument(&Instrument::kearfott_2401())
+    }
+
+    #[test]
+    fn an_exact_tie_goes_to_the_first_order_term() {
+        // IA up and IA down: a bias and the nonlinearity k·a_IA² (g² in both positions) fit
+        // a common offset exactly as well; the simpler term, the bias, is named, the other
+        // said to be indistinguishable from it.
+        use rand::SeedableRng as _;
+        use rand_distr::Distribution as _;
+        let sim = analytic();
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let noise = rand_distr::Normal::new(0.0, 0.02).unwrap();
+        let truth = Effects::only(CandidateId::Bias, 0.5);
+        let rows: Vec<Condition> = (0..12)
+            .map(|k| {
+                let mut r = Condition {
+                    label: format!("p{k}"),
+                    kind: crate::model::condition::RowKind::Absolute,
+                    g: [if k % 2 == 0 { 1.0 } else { -1.0 }, 0.0, 0.0],
+                    sigma_cm_s2: Some(0.02),
+                    ..Condition::default()
+                };
+                r.measured_cm_s2 = Some(sim.absolute_cm_s2(&r, &truth) + noise.sample(&mut rng));
+                r
+            })
+            .collect();
+        let d = discover(&rows, &sim, &Options::default()).unwrap();
+        eprintln!("{}", show::text_report("tie", &d));
+        let names: Vec<&str> = d.json.effects.iter().map(|e| e.name.as_str()).collect();
+        assert_eq!(names, ["bias"]);
+        assert!(
+            d.json.effects[0]
+                .confounded_with
+                .iter()
+                .any(|n| n == "nonlinearity"),
+            "{:?}",
+            d.json.effects[0].confounded_with
+        );
+    }
+
+    #[test]
+    fn a_24_point_tumble_gives_the_model_equation() {
+        use rand::SeedableRng as _;
+        use rand_distr::Distribution as _;
+        let sim = analytic();
+        let mut rows = crate::lab::plan::tumble(24, crate::lab::plan::Axis::Oa);
+        let truth = Effects::NONE
+            .with(CandidateId::Bias, 2.0)
+            .with(CandidateId::ScaleFactor, 300.0)
+            .with(CandidateId::MisalignmentP, 2e-4);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let noise = rand_distr::Normal::new(0.0, 0.05).unwrap();
+        for r in &mut rows {
+            r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + noise.sample(&mut rng));
+            r.sigma_cm_s2 = Some(0.05);
+        }
+        let d = discover(&rows, &sim, &Options::default()).unwrap();
+        eprintln!("{}", show::text_report("24-point tumble", &d));
+        let got: Vec<CandidateId> = d.selected.iter().map(|s| s.id).collect();
+        for id in [
+            CandidateId::Bias,
+            CandidateId::ScaleFactor,
+            CandidateId::MisalignmentP,
+        ] {
+            assert!(got.contains(&id), "{got:?}");
+        }
+        let me = &d.json.model_equation;
+        let k0 = me.terms.iter().find(|t| t.symbol == "K_0").unwrap();
+        assert!(
+            (k0.value - 2.0 / 980.4 * 1e6).abs() < 4.0 * k0.sigma,
+            "{k0:?}"
+        );
+        assert_eq!(me.correlation.len(), me.terms.len());
+        // In a tumble about OA, a_OA is 0: the OA misalignment is not testable.
+        assert!(d.untestable.contains(&CandidateId::MisalignmentO));
+    }
+
+    /// A simulator that gives a response row's observation for every row: from the start
+    /// (`always`), or only with effects (so that the baseline is right and the
+    /// re-simulation is not).
+    struct WrongKind {
+        inner: AnalyticSimulator,
+        always: bool,
+    }
+
+    impl Simulator for WrongKind {
+        fn name(&self) -> &'static str {
+            "wrong-kind"
+        }
+        fn g_cm_s2(&self) -> f64 {
+            self.inner.g_cm_s2()
+        }
+        fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+            self.inner.difference_cm_s2(cond, effects)
+        }
+        fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+            self.inner.absolute_cm_s2(cond, effects)
+        }
+        fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
+            self.inner.response(cond, effects)
+        }
+        fn observe(&self, cond: &Condition, effects: &Effects) -> Observation {
+            if self.always || !effects.is_zero() {
+                Observation::Response {
+                    gain: 1.0,
+                    phase_deg: 0.0,
+                }
+            } else {
+                self.inner.observe(cond, effects)
+            }
+        }
+    }
+
+    #[test]
+    fn an_observation_of_the_wrong_kind_is_refused_not_fitted() {
+        let sim = analytic();
+        let truth = Effects::only(CandidateId::Bias, 0.5);
+        let mut rows = crate::lab::plan::tumble(12, crate::lab::plan::Axis::Oa);
+        for (k, r) in rows.iter_mut().enumerate() {
+            let wobble = if k % 3 == 0 { 0.01 } else { -0.005 };
+            r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + wobble);
+            r.sigma_cm_s2 = Some(0.01);
+        }
+        let run = |always: bool| {
+            let wrong = WrongKind {
+                inner: analytic(),
+                always,
+            };
+            format!(
+                "{:#}",
+                discover(&rows, &wrong, &Options::default()).unwrap_err()
+            )
+        };
+        let base = run(true);
+        assert!(
+            base.contains("row 1 (`tumble 0 deg")
+                && base.contains(
+                    "absolute): the wrong-kind simulator's observation has no value in cm/s²"
+                ),
+            "{base}"
+        );
+        let resim = run(false);
+        assert!(
+            resim.contains("the wrong-kind simulator's re-simulation of a row is not of the kind of its baseline"),
+            "{resim}"
+        );
+    }
+
+    #[test]
+    fn two_gross_rows_are_named_in_the_verdict() {
+        // A 24-point tumble with a bias, one value typed in m/s² and one off by 7 cm/s².
+        let sim = analytic();
+        let truth = Effects::only(CandidateId::Bias, 2.0);
+        let mut rows = crate::lab::plan::tumble(24, crate::lab::plan::Axis::Oa);
+        for (k, r) in rows.iter_mut().enumerate() {
+            let wobble = [0.03, -0.02, 0.01, -0.04, 0.02][k % 5];
+            r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + wobble);
+            r.sigma_cm_s2 = Some(0.03);
+        }
+        let m = |r: &Condition| r.measured_cm_s2.unwrap_or_default();
+        rows[5].measured_cm_s2 = Some(m(&rows[5]) / 100.0);
+        rows[13].measured_cm_s2 = Some(m(&rows[13]) + 7.0);
+        let d = discover(&rows, &sim, &Options::default()).unwrap();
+        let flagged: Vec<&str> = d.json.outliers.iter().map(|o| o.row.as_str()).collect();
+        assert_eq!(flagged.len(), 2, "{flagged:?}");
+        let v = &d.json.verdict;
+        assert!(
+            v.starts_with(&format!(
+                "Rows `{}`, `{}` are suspected gross errors (",
+                flagged[0], flagged[1]
+            )) && v.contains("set aside: what follows is without them."),
+            "{v}"
+        );
+    }
+}

@@ -1,0 +1,340 @@
+//! The `--json` object of `ptsa discover` and every part of it: each key, its unit and its
+//! meaning (the contract: keys are added, never renamed or removed). Types only, and no
+//! stage of the method: the stages fill them, [`super::assemble`] puts the object together,
+//! [`super::verdict`] writes its sentences.
+
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::model::condition::Condition;
+use crate::model::effects::CandidateId;
+
+/// RMS and χ² of a set of residuals.
+#[derive(Clone, Debug, Serialize)]
+pub struct FitSummary {
+    /// Root mean square of `measured − simulated` over the rows measured in cm/s²
+    /// (difference and absolute rows), cm/s²; `null` when there are none (response rows
+    /// only).
+    pub rms_cm_s2: f64,
+    /// Root mean square of `(measured − simulated)/sigma` over every observation (a
+    /// response row's gain and phase included), dimensionless.
+    pub rms_normalised: f64,
+    /// `Σ ((measured − simulated)/sigma)²`.
+    pub chi2: f64,
+    /// Degrees of freedom: fitted rows minus fitted coefficients (nuisance terms included).
+    pub dof: usize,
+    /// `P(χ²_dof ≥ chi2)`: below 0.05 the rest is not consistent with the sigmas used.
+    pub p_value: f64,
+}
+
+/// One selected effect, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct EffectReport {
+    /// Effect name.
+    pub name: String,
+    /// Fitted coefficients of the selected components, keyed as in the vocabulary.
+    pub coefficients: BTreeMap<String, f64>,
+    /// Their standard errors.
+    pub stderr: BTreeMap<String, f64>,
+    /// Every candidate (component names for `lever_arm`) indistinguishable from a selected
+    /// component in this data set.
+    pub confounded_with: Vec<String>,
+    /// Every coefficient within its plausibility bound (the instrument file's
+    /// `[plausibility]`); `false`: the data's structure is real but this cause is unlikely.
+    pub plausible: bool,
+    /// The bounds, keyed as the coefficients.
+    pub bounds: BTreeMap<String, f64>,
+    /// For a parameter of the instrument file: its fitted value against the file's.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub parameter: Option<ParameterValue>,
+    /// For a parameter found by a search through the closed loop whose best lies at the end
+    /// of the search grid: that end and what it means (`null` otherwise).
+    pub search_limit: Option<SearchLimit>,
+}
+
+/// Where a search through the closed loop stopped, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct SearchLimit {
+    /// The candidate whose search it is.
+    pub name: String,
+    /// The parameter's value at the end of the grid, in the instrument file's unit.
+    pub value: f64,
+    /// In words.
+    pub note: String,
+}
+
+/// A row set aside as a suspected gross error (or kept with `--keep-outliers`), in the
+/// `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct OutlierReport {
+    /// The row's label.
+    pub row: String,
+    /// `measured − expected`, cm/s²: the row's value against the model selected without
+    /// it (baseline, nuisance terms and selected terms).
+    pub residual_cm_s2: f64,
+    /// The familywise p-value: the row's two-sided p-value times the number of rows tested
+    /// (Bonferroni), at most 1; a row is flagged at 0.01 or less.
+    pub p_value: f64,
+    /// The externally studentized residual.
+    pub studentized: f64,
+    /// Its degrees of freedom.
+    pub dof: usize,
+    /// The rows the test was over (the Bonferroni factor).
+    pub rows_tested: usize,
+    /// The measured value, cm/s².
+    pub measured_cm_s2: f64,
+    /// What the model selected without the row expects, cm/s², and its 1 σ (the noise and
+    /// the prediction's uncertainty).
+    pub expected_cm_s2: f64,
+    /// 1 σ of `residual_cm_s2`, cm/s².
+    pub sigma_cm_s2: f64,
+    /// The likely cause, in words (an empty input cell read as 0, a unit or sign slip,
+    /// another row's value, or none found).
+    pub cause: String,
+    /// `true` with `--keep-outliers`: reported but fitted; `false`: set aside.
+    pub kept: bool,
+}
+
+/// One step of the selection, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct StepReport {
+    /// `add`, `drop` or `swap`.
+    pub action: &'static str,
+    /// The candidate added, dropped or swapped in.
+    pub name: String,
+    /// For a swap, the candidate it replaced.
+    pub replaces: Option<String>,
+    /// The change of χ² the step is worth.
+    pub delta_chi2: f64,
+    /// Its p-value.
+    pub p_value: f64,
+    /// The level it was held against.
+    pub threshold: f64,
+    /// How it was decided, when not by the linear stepwise test.
+    pub note: Option<String>,
+}
+
+/// The nuisance terms' values, in the `--json` shape.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct NuisanceReport {
+    /// Bias shift of each block (rows sharing a reference run), cm/s².
+    pub bias_shift_cm_s2: BTreeMap<String, f64>,
+    /// Linear drift per second of `time_s`, cm/s² per s (when the file has `time_s`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_cm_s2_per_s: Option<f64>,
+    /// Linear drift per row (when the file has no `time_s`), cm/s² per row.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift_cm_s2_per_row: Option<f64>,
+    /// Standard errors: `bias_shift_cm_s2` (per block) and the drift's key.
+    pub stderr: BTreeMap<String, serde_json::Value>,
+}
+
+/// Where the noise came from, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct NoiseReport {
+    /// `stated` (every row's `sigma_cm_s2` or `--sigma`), `replicates` (estimated from
+    /// replicated rows) or `residuals` (estimated from the model's residuals).
+    pub source: &'static str,
+    /// Estimated sigma per variance group (`block/static`, `block/oscillating`), cm/s²
+    /// (empty when stated).
+    pub sigma_cm_s2: BTreeMap<String, f64>,
+    /// What to keep in mind.
+    pub caveat: Option<String>,
+    /// With stated sigmas and values in cm/s² only: the stated sigmas over the scatter of
+    /// the residuals (of the better-fitting, per degree of freedom, of the largest model,
+    /// nuisance terms and every testable candidate, and the selected one); about 1 when they
+    /// are right (`null` when a sigma is estimated or the data hold response rows).
+    pub stated_over_scatter: Option<f64>,
+}
+
+/// One observation of a row in the result (a response row has two: its gain and its
+/// phase; their values are in the `*_cm_s2` fields, in the unit `quantity` names).
+#[derive(Clone, Debug, Serialize)]
+pub struct RowResult {
+    /// Row label (a response row's with ` (gain)` or ` (phase)`).
+    pub label: String,
+    /// A response row's input frequency, Hz (absent for other rows).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub freq_hz: Option<f64>,
+    /// The row's kind (not in the JSON: `quantity` and `freq_hz` say it there).
+    #[serde(skip)]
+    pub kind: crate::model::condition::RowKind,
+    /// `value_cm_s2`, `gain` or `phase_deg`.
+    pub quantity: &'static str,
+    /// Measured difference, cm/s² (None = not measured, not fitted).
+    pub measured_cm_s2: Option<f64>,
+    /// Sigma used, cm/s² (stated or estimated).
+    pub sigma_cm_s2: f64,
+    /// Baseline model's difference, cm/s².
+    pub baseline_cm_s2: f64,
+    /// `measured − baseline`, cm/s².
+    pub residual_cm_s2: Option<f64>,
+    /// Extended model's difference (re-simulated with the selected effects, plus the
+    /// nuisance terms), cm/s².
+    pub extended_cm_s2: f64,
+    /// `measured − extended`, cm/s².
+    pub residual_extended_cm_s2: Option<f64>,
+    /// A suspected gross error (`outliers`): set aside from the fit unless
+    /// `--keep-outliers`.
+    pub outlier: bool,
+}
+
+/// One term of the model equation.
+#[derive(Clone, Debug, Serialize)]
+pub struct Term {
+    /// Candidate name (`bias`, `scale_factor`, `misalignment.delta_p_rad`, ...).
+    pub name: String,
+    /// IEEE Std 1293 symbol (`K_0`, `K_1`, `δ_o`, ...; the lever arm and anisoinertia,
+    /// which the standard's equation does not hold, by their own names).
+    pub symbol: String,
+    /// Value in `unit`; for a parameter of the loop (`damping`, ...), its fitted value,
+    /// not the change from the instrument file.
+    pub value: f64,
+    /// The standard's unit (µg, ppm, µg/g², µrad, ...).
+    pub unit: String,
+    /// 1 σ, in `unit`.
+    pub sigma: f64,
+}
+
+/// The fitted model as an IEEE Std 1293 model equation, in the `--json` shape.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct ModelEquation {
+    /// The selected terms in the standard's units.
+    pub terms: Vec<Term>,
+    /// Correlation matrix of the terms, in their order.
+    pub correlation: Vec<Vec<f64>>,
+}
+
+/// The `--json` object.
+#[derive(Clone, Debug, Serialize)]
+pub struct JsonReport {
+    /// Number of fitted observations (a row with a measurement, or a response row's gain
+    /// and phase).
+    pub rows: usize,
+    /// Baseline model against the measurements.
+    pub baseline: FitSummary,
+    /// Selected effects (empty when nothing is significant).
+    pub effects: Vec<EffectReport>,
+    /// Extended model (baseline + nuisance terms + selected effects, re-simulated) against
+    /// the measurements.
+    pub extended: FitSummary,
+    /// The selected terms as a model equation (IEEE Std 1293 units) with their correlation.
+    pub model_equation: ModelEquation,
+    /// Rows that would break each confounding (or test an untestable model-equation term).
+    pub advice: Vec<Advice>,
+    /// The nuisance terms (always in the model, never discoveries).
+    pub nuisance: NuisanceReport,
+    /// Structure that no candidate explains.
+    pub unexplained: Unexplained,
+    /// The gain out of sample.
+    pub gain: Gain,
+    /// The noise.
+    pub noise: NoiseReport,
+    /// The candidates tested (the family).
+    pub family: Vec<String>,
+    /// Candidates without a signature in these rows.
+    pub not_testable: Vec<String>,
+    /// Candidates whose signature the nuisance terms already span.
+    pub not_testable_nuisance: Vec<String>,
+    /// Groups of candidates indistinguishable here (before any fit).
+    pub indistinguishable: Vec<Vec<String>>,
+    /// Per-row values.
+    pub table: Vec<RowResult>,
+    /// The conclusion in one paragraph.
+    pub verdict: String,
+    /// Warnings (suspected gross errors, stated sigmas far from the scatter, too few rows,
+    /// nothing testable, estimated noise, ...).
+    pub warnings: Vec<String>,
+    /// Rows flagged as suspected gross errors (empty when none).
+    pub outliers: Vec<OutlierReport>,
+    /// The selection's steps in order: the linear stepwise test's, then those of the
+    /// searches through the closed loop (a swap, a scan, a prune).
+    pub steps: Vec<StepReport>,
+}
+
+/// A parameter of the instrument file as fitted, in the file's unit.
+#[derive(Clone, Debug, Serialize)]
+pub struct ParameterValue {
+    /// The instrument file's key (`pendulum.damping_dyn_cm_s`, ...).
+    pub key: String,
+    /// The file's value.
+    pub nominal: f64,
+    /// The fitted value (nominal plus the coefficient).
+    pub fitted: f64,
+    /// Its 1 σ.
+    pub sigma: f64,
+    /// The file's tolerance band, `[lo, hi]`.
+    pub tolerance: [f64; 2],
+    /// The fitted value lies in the band.
+    pub within_tolerance: bool,
+    /// The value mirrored about the file's (`2·nominal − fitted`) when it fits the data not
+    /// significantly worse: the response is even about the file's value (a pickoff phase
+    /// error enters as its cosine), so the data give the size of the change, not its sign.
+    pub mirror: Option<f64>,
+}
+
+/// One piece of advice, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct Advice {
+    /// The candidates to separate (or to make testable).
+    pub separates: Vec<String>,
+    /// The rows to add, as objects with case-frame column keys.
+    pub add_rows: Vec<serde_json::Map<String, serde_json::Value>>,
+    /// What adding them achieves, or why no row helps.
+    pub note: String,
+    /// The rows to add, as conditions.
+    #[serde(skip)]
+    pub rows: Vec<Condition>,
+}
+
+/// What the tests found, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct Unexplained {
+    /// Structure found at the level `alpha` (familywise over both tests).
+    pub detected: bool,
+    /// Its p-value (Bonferroni over the tests run).
+    pub p_value: f64,
+    /// `residual follows <input or product>`, or the lack of fit, or `none`.
+    pub hint: String,
+    /// The tests run, each with its own p-value.
+    pub tests: Vec<UnexplainedTest>,
+}
+
+/// One test.
+#[derive(Clone, Debug, Serialize)]
+pub struct UnexplainedTest {
+    /// `lack_of_fit` or `generic_basis`.
+    pub name: &'static str,
+    /// Its p-value (for the basis: Bonferroni over its elements).
+    pub p_value: f64,
+    /// What it looked at.
+    pub detail: String,
+}
+
+/// The gain, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct Gain {
+    /// RMS of `measured − extended` on the rows that were fitted, in `unit`.
+    pub rms_in_sample_cm_s2: f64,
+    /// RMS of the held-out rows' `measured − prediction` with the selection repeated in every
+    /// fold, in `unit`.
+    pub rms_cross_validated_cm_s2: f64,
+    /// The same for the baseline model (nuisance terms only), in `unit`.
+    pub baseline_rms_cross_validated_cm_s2: f64,
+    /// Bootstrap 95 % interval of the cross-validated RMS gain (baseline minus selected),
+    /// cm/s².
+    pub ci95_rms_cm_s2: [f64; 2],
+    /// `leave-one-out` or `10-fold`.
+    pub method: String,
+    /// Unit of the four RMS figures: `cm/s²`, or `σ` when the data hold response rows (each
+    /// error is then divided by its observation's 1 σ, so that a gain, a phase in degrees
+    /// and an acceleration can share one RMS).
+    pub unit: String,
+}
+
+/// The names of candidates, as the JSON gives them.
+#[must_use]
+pub fn names(ids: &[CandidateId]) -> Vec<String> {
+    ids.iter().map(|i| i.info().name.to_string()).collect()
+}

@@ -1,0 +1,287 @@
+//! The result in words: the verdict (one paragraph), the warnings (what the user must know
+//! before reading the result: the slips' and suspected gross errors' lines first), and a
+//! fitted parameter's sentence.
+
+use std::fmt::Write as _;
+
+use super::data::Data;
+use super::fit::{Fitted, NoiseSource};
+use super::outcome::Discovery;
+use super::outliers;
+use super::problem::Selected;
+use super::report::{OutlierReport, ParameterValue, names};
+use super::search::limit_note;
+use super::sim::Simulator;
+use super::slips;
+
+impl ParameterValue {
+    /// `"damping 114 361 ± 511 dyn·cm·s, nominal 76 400, tolerance 45 840 to 106 960: out of
+    /// tolerance"`, in words.
+    #[must_use]
+    pub fn sentence(&self, name: &str, unit: &str) -> String {
+        let value = match self.mirror {
+            Some(m) => format!(
+                "{} {unit} or {} {unit} (the mirror image about the nominal fits as well: these data give the size of the change, not its sign)",
+                super::show::estimate(self.fitted, self.sigma),
+                super::show::estimate(m, self.sigma)
+            ),
+            None => format!("{} {unit}", super::show::estimate(self.fitted, self.sigma)),
+        };
+        format!(
+            "{name} {value}, nominal {} {unit}, tolerance {} to {} {unit}: {}",
+            self.nominal,
+            self.tolerance[0],
+            self.tolerance[1],
+            if self.within_tolerance {
+                "within tolerance"
+            } else {
+                "OUT OF TOLERANCE"
+            }
+        )
+    }
+}
+
+/// The warnings of the slips, first in the report: each suspected gross error, more of
+/// them than the search sets aside, stated sigmas far from the scatter, a search through
+/// the closed loop that ended at its grid's end.
+pub(crate) fn slip_warnings(
+    outliers: &[OutlierReport],
+    beyond_cap: Option<(&str, outliers::Found)>,
+    sigma: Option<&slips::SigmaSlip>,
+    selected: &[Selected],
+    sim: &dyn Simulator,
+) -> Vec<String> {
+    let mut w = Vec::new();
+    for o in outliers {
+        w.push(format!(
+            "row `{}` is a suspected gross error: measured {} cm/s², but the model selected without it expects {} (residual {} cm/s², {} σ; p = {} over the {} rows tested, familywise); likely cause: {}; {}",
+            o.row,
+            crate::output::significant(o.measured_cm_s2, 6),
+            super::show::estimate(o.expected_cm_s2, o.sigma_cm_s2),
+            crate::output::significant(o.residual_cm_s2, 4),
+            crate::output::significant(o.studentized.abs(), 3),
+            super::show::pfmt(o.p_value),
+            o.rows_tested,
+            o.cause,
+            if o.kept {
+                "kept in the fit (--keep-outliers)"
+            } else {
+                "the selection is made without it (--keep-outliers keeps it)"
+            }
+        ));
+    }
+    if let Some((label, b)) = beyond_cap {
+        w.push(format!(
+            "more than {} rows look like gross errors: after setting aside {}, row `{label}` still does (p = {}): the model, not a few rows, fails these data; check the file as a whole (a unit or sign slip in part of it, a shifted column, the wrong instrument file)",
+            outliers::MAX_OUTLIERS,
+            outliers
+                .iter()
+                .map(|o| format!("`{}`", o.row))
+                .collect::<Vec<_>>()
+                .join(", "),
+            super::show::pfmt(b.p_family)
+        ));
+    }
+    if let Some(s) = sigma {
+        w.push(s.message());
+    }
+    for s in selected {
+        if let Some(l) = s.search_limit {
+            w.push(limit_note(s.id, l, sim));
+        }
+    }
+    w
+}
+
+/// What the user must know before reading the result.
+pub(crate) fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
+    let mut w = Vec::new();
+    let n = data.n();
+    if n < f.n_nuisance() + 2 {
+        w.push(format!(
+            "too few measured rows: {n} row{} against {} nuisance term{} (bias shifts and drift): nothing beyond them can be tested",
+            if n == 1 { "" } else { "s" },
+            f.n_nuisance(),
+            if f.n_nuisance() == 1 { "" } else { "s" }
+        ));
+    }
+    if f.family.is_empty() && selected.is_empty() {
+        w.push(format!(
+            "nothing could be tested: no candidate has a signature in these rows outside the nuisance terms (not testable: {})",
+            names(&[f.untestable.clone(), f.untestable_nuisance.clone()].concat()).join(", ")
+        ));
+    }
+    if f.family.is_empty() && !selected.is_empty() {
+        w.push(format!(
+            "no candidate has a first-order signature in these rows (not testable to first order: {}); the loop's parameters were scanned through the closed loop over their tolerance bands, and what is selected comes from that scan",
+            names(&[f.untestable.clone(), f.untestable_nuisance.clone()].concat()).join(", ")
+        ));
+    }
+    if f.noise == NoiseSource::Residuals {
+        w.push("no sigma_cm_s2 and no replicated rows: the noise is estimated from the residuals (see noise.caveat)".to_string());
+    }
+    for s in selected.iter().filter(|s| !s.plausible) {
+        let (name, unit) = (s.id.info().name, s.id.info().unit);
+        w.push(if let Some(p) = &s.parameter {
+            format!(
+                "{name} = {} {unit} lies outside the instrument file's tolerance ({} to {} {unit}): either this instrument is out of its specification, or another cause imitates the change",
+                super::show::estimate(p.fitted, p.sigma),
+                crate::output::significant(p.tolerance[0], 6),
+                crate::output::significant(p.tolerance[1], 6)
+            )
+        } else {
+            format!(
+                "{name} = {} {unit} is beyond its plausibility bound: the data's structure is real, but this cause is unlikely",
+                super::show::estimate(s.coef, s.stderr)
+            )
+        });
+    }
+    w
+}
+
+/// The verdict's first sentence, on the rows set aside as suspected gross errors (none
+/// when there are none).
+fn gross_errors_sentence(d: &Discovery) -> String {
+    let j = &d.json;
+    let mut v = String::new();
+    if !j.outliers.is_empty() {
+        let one = j.outliers.len() == 1;
+        let rows: Vec<String> = j.outliers.iter().map(|o| format!("`{}`", o.row)).collect();
+        let causes: Vec<&str> = j
+            .outliers
+            .iter()
+            .map(|o| o.cause.split([':', ';']).next().unwrap_or_default())
+            .collect();
+        let _ = write!(
+            v,
+            "{} {} {} ({}); {}. ",
+            if one { "Row" } else { "Rows" },
+            rows.join(", "),
+            if one {
+                "is a suspected gross error"
+            } else {
+                "are suspected gross errors"
+            },
+            causes.join("; "),
+            match (d.options.keep_outliers, one) {
+                (true, _) => "kept in the fit (--keep-outliers)",
+                (false, true) => "set aside: what follows is without it",
+                (false, false) => "set aside: what follows is without them",
+            }
+        );
+    }
+    v
+}
+
+/// The conclusion in one paragraph: what was named (and how plausible), what stays
+/// unexplained, and the cross-validated gain.
+#[must_use]
+pub fn verdict(d: &Discovery) -> String {
+    let j = &d.json;
+    let mut v = gross_errors_sentence(d);
+    if let Some(sg) = &d.sigma_slip {
+        let _ = write!(
+            v,
+            "The stated sigmas are {} times the scatter of the residuals: {} ",
+            crate::output::significant(sg.factor, 2),
+            if sg.factor >= 1.0 {
+                "too large to see effects of the size of the scatter."
+            } else {
+                "too small, or the data hold structure no candidate explains."
+            }
+        );
+    }
+    if d.family.is_empty() && d.selected.is_empty() {
+        v.push_str("Nothing could be tested in these rows (no candidate has a signature here).");
+    } else if d.selected.is_empty() {
+        let _ = write!(
+            v,
+            "No candidate of the {} tested ({}) is significant at familywise 5 %.",
+            d.family_size,
+            names(&d.family).join(", ")
+        );
+    } else {
+        let named: Vec<String> = d
+            .selected
+            .iter()
+            .map(|s| {
+                let c = s.id.info();
+                if let Some(p) = &s.parameter {
+                    let mut t = p.sentence(c.name, c.unit);
+                    if !s.confounded.is_empty() {
+                        let o: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
+                        let _ = write!(t, " (indistinguishable here from {})", o.join(", "));
+                    }
+                    return t;
+                }
+                let mut t = format!(
+                    "{} = {} {}",
+                    if c.name.contains('.') { c.name.to_string() } else { format!("{} {}", c.name, c.key) },
+                    super::show::estimate(s.coef, s.stderr),
+                    c.unit
+                );
+                if !s.plausible {
+                    t.push_str(" (implausible: beyond its bound, so the cause is unlikely although the structure is real)");
+                }
+                if !s.confounded.is_empty() {
+                    let o: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
+                    let _ = write!(t, " (indistinguishable here from {})", o.join(", "));
+                }
+                t
+            })
+            .collect();
+        let _ = write!(v, "Selected: {}.", named.join("; "));
+    }
+    if j.unexplained.detected {
+        let _ = write!(
+            v,
+            " The simulation still gets something wrong that no candidate explains: {} (p = {:.2e}).",
+            j.unexplained.hint, j.unexplained.p_value
+        );
+    }
+    let g = &j.gain;
+    let _ = write!(
+        v,
+        " Out of sample ({}): RMS {:.3} {u} with the selected terms against {:.3} for the baseline with its nuisance terms; gain {:.3} {u}, 95 % interval [{:.3}, {:.3}].",
+        g.method,
+        g.rms_cross_validated_cm_s2,
+        g.baseline_rms_cross_validated_cm_s2,
+        g.baseline_rms_cross_validated_cm_s2 - g.rms_cross_validated_cm_s2,
+        g.ci95_rms_cm_s2[0],
+        g.ci95_rms_cm_s2[1],
+        u = g.unit
+    );
+    v
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_parameter_whose_mirror_fits_is_given_without_its_sign() {
+        let mut p = ParameterValue {
+            key: "pickoff.phase_angle_deg".into(),
+            nominal: 0.0,
+            fitted: 15.0,
+            sigma: 0.5,
+            tolerance: [-10.0, 10.0],
+            within_tolerance: false,
+            mirror: None,
+        };
+        let one = p.sentence("pickoff_phase", "deg");
+        assert!(
+            one.starts_with("pickoff_phase 15.00 ± 0.50 deg, nominal 0 deg"),
+            "{one}"
+        );
+        p.mirror = Some(-15.0);
+        let both = p.sentence("pickoff_phase", "deg");
+        assert!(
+            both.starts_with(
+                "pickoff_phase 15.00 ± 0.50 deg or -15.00 ± 0.50 deg (the mirror image"
+            ),
+            "{both}"
+        );
+        assert!(both.contains("not its sign"), "{both}");
+    }
+}
