@@ -9,7 +9,7 @@
 //!
 //! # Bit for bit the single loop
 //! Every lane *is* a [`ClosedLoop`], and a lane's tick is the single loop's tick: the same
-//! functions (`sim::fast_block`, `sim::static_tick`, `ClosedLoop::dynamic_tick_with`, the ADC,
+//! functions (`sim::fast_block`, `kernel::static_tick`, `kernel::dynamic_tick`, the ADC,
 //! the noise source, the plant step, the core's [`ptsa_core::Ptsa::tick`]), called with the
 //! same values in the same order. A lane runs a program of steps that are the single loop's
 //! calls (`run`, `run_fast`, `measure`'s window, `run_static`'s gate), each with the single
@@ -37,11 +37,18 @@
 //!   runs it with one lane), compiled for the CPU's SIMD instructions at run time (`pulp`:
 //!   AVX2 where present); `lanes = 1` runs one lane after the other, in blocks of 512 ticks,
 //!   with the single loop's polarity-split fast path (`sim::fast_block`).
-//! * dynamic lanes run one after the other in blocks of 128 ticks with the single loop's
-//!   dynamic tick, whatever `lanes` is (not yet on SIMD lanes).
+//! * dynamic lanes: `K` loops side by side through the one definition of the dynamic tick,
+//!   `kernel::dynamic_tick` (the single loop runs it with one lane), in blocks of 128 ticks
+//!   whose noise draws and, for lanes with the same condition, phasor and inputs are made
+//!   once per block for the whole group.
 //!
 //! Measured with `ptsa bench --batch 16` on one core (medians of 7 runs; AMD Zen 5, AVX2):
-//! batch / single = 1.82 with 4 lanes, 1.58 with 8, 1.18 with 1 (see docs/host-sim.md).
+//! static batch / single = 1.82 with 4 lanes, 1.58 with 8, 1.18 with 1 (see
+//! docs/host-sim.md). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
+//! (criterion medians, one thread): 16 different oscillating conditions 35.9 ms single,
+//! 29.7 ms with 4 lanes (1.21×); one condition with 16 instruments (identification) 26.2 ms
+//! single, 14.1 ms with 4 lanes (1.85×; it was 23.9 ms, 1.16×, before the dynamic tick ran
+//! on lanes).
 //! `cargo bench -p ptsa-host-sim --bench batch` measures every setting; [`batch_rates`] gives
 //! the single and the batch rate to the CLI.
 
@@ -55,7 +62,7 @@ use crate::model::condition::Condition;
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 
-use crate::simulation::kernel::{self, StaticLanes, StaticState};
+use crate::simulation::kernel::{self, DynLanes, DynState, StaticLanes, StaticState};
 use crate::simulation::sim::{
     self, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource, PROGRESS_CHUNK,
     SimDifference, SimOptions, SimResult, StaticParams, StaticRun, StaticRunState, TickInputs,
@@ -555,11 +562,15 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
 /// `m` ticks of lanes all in `mode`, in kernels of `k` lanes and then, for the rest, of
 /// the largest powers of two that fit.
 fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
+    if mode == Mode::Dynamic {
+        dynamic_blocks(lanes, m, k);
+        return;
+    }
     if k == 1 {
-        match mode {
-            Mode::Static => static_blocks::<true>(lanes, m),
-            Mode::StaticFast => static_blocks::<false>(lanes, m),
-            Mode::Dynamic => dynamic_blocks(lanes, m),
+        if mode == Mode::Static {
+            static_blocks::<true>(lanes, m);
+        } else {
+            static_blocks::<false>(lanes, m);
         }
         return;
     }
@@ -582,7 +593,7 @@ fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
             (Mode::StaticFast, 4) => static_kernel::<4, false>(now, m),
             (Mode::StaticFast, 2) => static_kernel::<2, false>(now, m),
             (Mode::StaticFast, _) => static_kernel::<1, false>(now, m),
-            (Mode::Dynamic, _) => dynamic_blocks(now, m),
+            (Mode::Dynamic, _) => unreachable!("dynamic lanes run above"),
         }
         rest = later;
     }
@@ -649,15 +660,15 @@ fn static_blocks<const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
     }
 }
 
-/// `m` ticks of dynamic lanes one after the other, in blocks of [`DYN_BLOCK`] ticks: each
-/// lane runs a block with the single loop's own code (`ClosedLoop::dynamic_tick_with`), its
-/// run state in locals as in the single loop. Lanes drawing the same noise share it, as in
-/// [`static_blocks`]; lanes in step with the same condition and clock (parameter
-/// identification, Monte Carlo: one condition, many instruments or effects) share the
-/// first part of the tick, the phasor and the condition's inputs
-/// (`ClosedLoop::dynamic_inputs`), computed once per block.
+/// `m` ticks of dynamic lanes, in blocks of [`DYN_BLOCK`] ticks, `k` lanes side by side
+/// through [`kernel::dynamic_tick`] (the single loop runs it with one lane), compiled for
+/// this CPU's SIMD instructions ([`kernel::dispatch`]); the rest of the lanes in the largest
+/// powers of two that fit. Before each block, lanes drawing the same noise draw it once, and
+/// lanes in step with the same condition and clock (parameter identification, Monte Carlo:
+/// one condition, many instruments or effects) compute the phasor and the condition's inputs
+/// of the block once (`ClosedLoop::dynamic_inputs`).
 #[inline(never)]
-fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
+fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64, k: usize) {
     let mut rs: Vec<(&ClosedLoop, &mut (DynParams, DynRun))> = lanes
         .iter_mut()
         .map(|l| {
@@ -670,21 +681,17 @@ fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
         .collect();
     let n = rs.len();
     let noise = stream_classes(rs.iter().map(|(_, d)| (&d.1.rng, &d.0.adc)));
+    let inputs = input_classes(&rs);
     let mut noise_of = vec![0; n];
     for (c, class) in noise.iter().enumerate() {
         for &l in class {
             noise_of[l] = c;
         }
     }
-    // Classes of two lanes or more sharing the inputs (a lone lane computes its own).
-    let inputs: Vec<Vec<usize>> = input_classes(&rs)
-        .into_iter()
-        .filter(|c| c.len() > 1)
-        .collect();
-    let mut inputs_of = vec![None; n];
+    let mut inputs_of = vec![0; n];
     for (c, class) in inputs.iter().enumerate() {
         for &l in class {
-            inputs_of[l] = Some(c);
+            inputs_of[l] = c;
         }
     }
     let mut bias = vec![[0.0; DYN_BLOCK]; noise.len()];
@@ -707,17 +714,36 @@ fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
                 *ti = lp.dynamic_inputs(p, r.k + t, r.j + t, &mut sc);
             }
             for &l in class {
-                let (lp, d) = &mut rs[l];
-                let (p, r) = &mut **d;
-                lane_block_dynamic_given(lp, p, r, &bias[noise_of[l]][..b], &buf[..b]);
+                let r = &mut rs[l].1.1;
                 (r.s, r.c) = sc;
+                r.j += b as u64;
             }
         }
-        for (l, (lp, d)) in rs.iter_mut().enumerate() {
-            if inputs_of[l].is_none() {
-                let (p, r) = &mut **d;
-                lane_block_dynamic(lp, p, r, &bias[noise_of[l]][..b]);
+        let mut rest = &mut rs[..];
+        let mut first = 0;
+        while !rest.is_empty() {
+            let s = if rest.len() >= k {
+                k
+            } else {
+                1 << rest.len().ilog2()
+            };
+            let (now, later) = rest.split_at_mut(s);
+            let block = Block {
+                bias: &bias,
+                given: &given,
+                noise_of: &noise_of[first..first + s],
+                inputs_of: &inputs_of[first..first + s],
+                b,
+            };
+            match s {
+                16 => dynamic_kernel::<16>(now, &block),
+                8 => dynamic_kernel::<8>(now, &block),
+                4 => dynamic_kernel::<4>(now, &block),
+                2 => dynamic_kernel::<2>(now, &block),
+                _ => dynamic_kernel::<1>(now, &block),
             }
+            first += s;
+            rest = later;
         }
         left -= b as u64;
     }
@@ -731,6 +757,16 @@ fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64) {
 
 /// Ticks of [`dynamic_blocks`]' blocks (its buffers stay in the first-level cache).
 const DYN_BLOCK: usize = 128;
+
+/// One block of [`dynamic_blocks`] for a kernel's lanes: the ADC's additive terms of each
+/// noise class, the phasor and inputs of each input class, each lane's classes, the ticks.
+struct Block<'a> {
+    bias: &'a [[f64; DYN_BLOCK]],
+    given: &'a [[TickInputs; DYN_BLOCK]],
+    noise_of: &'a [usize],
+    inputs_of: &'a [usize],
+    b: usize,
+}
 
 /// The dynamic lanes that compute the same phasor and inputs: classes of lane indices, each
 /// lane with the same condition (bits), clock and phasor constants, tick counts and phasor
@@ -757,33 +793,63 @@ fn input_classes(rs: &[(&ClosedLoop, &mut (DynParams, DynRun))]) -> Vec<Vec<usiz
     classes.into_iter().map(|c| c.1).collect()
 }
 
-/// One block of a dynamic lane: `ClosedLoop::run_dynamic`'s loop, with its locals.
+/// One block of `K` dynamic lanes side by side: [`kernel::dynamic_tick`] with `K` lanes,
+/// compiled for this CPU's SIMD instructions ([`kernel::dispatch`]).
 #[inline(never)]
-fn lane_block_dynamic(lp: &ClosedLoop, p: &DynParams, r: &mut DynRun, bias: &[f64]) {
-    let p = *p;
-    let mut run = r.clone();
-    for &v in bias {
-        let _ = lp.dynamic_tick_with(&p, &mut run, v);
-    }
-    *r = run;
+fn dynamic_kernel<const K: usize>(
+    rs: &mut [(&ClosedLoop, &mut (DynParams, DynRun))],
+    block: &Block<'_>,
+) {
+    let (lps, runs): (Vec<&ClosedLoop>, Vec<&mut (DynParams, DynRun)>) =
+        rs.iter_mut().map(|(lp, d)| (*lp, &mut **d)).unzip();
+    let mut it = runs.into_iter();
+    let d: [&mut (DynParams, DynRun); K] = std::array::from_fn(|_| it.next().expect("K lanes"));
+    let ps: [DynParams; K] = std::array::from_fn(|l| d[l].0);
+    let p = DynLanes::new(
+        std::array::from_fn(|l| lps[l]),
+        std::array::from_fn(|l| &ps[l]),
+    );
+    let mut st = DynState::load(std::array::from_fn(|l| &d[l].1));
+    kernel::dispatch(DynTicks::<K> {
+        p: &p,
+        st: &mut st,
+        block,
+    });
+    st.store(d.map(|x| &mut x.1));
 }
 
-/// One block of a dynamic lane with the phasor and inputs of its ticks given (the rest of
-/// `ClosedLoop::run_dynamic`'s loop), with its locals. The caller sets the phasor after.
-#[inline(never)]
-fn lane_block_dynamic_given(
-    lp: &ClosedLoop,
-    p: &DynParams,
-    r: &mut DynRun,
-    bias: &[f64],
-    given: &[TickInputs],
-) {
-    let p = *p;
-    let mut run = r.clone();
-    for (&v, ti) in bias.iter().zip(given) {
-        let _ = lp.dynamic_tick_given(&p, &mut run, v, ti);
+/// A block of [`dynamic_kernel`]'s lanes, as one call compiled for the CPU's SIMD
+/// instructions ([`kernel::dispatch`]).
+struct DynTicks<'a, 'b, 'c, const K: usize> {
+    p: &'a DynLanes<'b, K>,
+    st: &'a mut DynState<K>,
+    block: &'a Block<'c>,
+}
+
+impl<const K: usize> pulp::WithSimd for DynTicks<'_, '_, '_, K> {
+    type Output = ();
+
+    #[allow(
+        clippy::inline_always,
+        reason = "compiled inside the dispatch's target features"
+    )]
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let Block {
+            bias,
+            given,
+            noise_of,
+            inputs_of,
+            b,
+        } = *self.block;
+        let noise: [&[f64; DYN_BLOCK]; K] = std::array::from_fn(|l| &bias[noise_of[l]]);
+        let inputs: [&[TickInputs; DYN_BLOCK]; K] = std::array::from_fn(|l| &given[inputs_of[l]]);
+        for t in 0..b {
+            let v: [f64; K] = std::array::from_fn(|l| noise[l][t]);
+            let ti: [&TickInputs; K] = std::array::from_fn(|l| &inputs[l][t]);
+            let _ = kernel::dynamic_tick::<K>(self.p, self.st, &v, &ti);
+        }
     }
-    *r = run;
 }
 
 /// One block of a static lane without statistics: `ClosedLoop::run_static_fast`'s loop,

@@ -12,8 +12,11 @@
 
 use ptsa_core::{LaneTicks, Lanes, Ptsa};
 
+use crate::model::condition::{IA, PA};
 use crate::model::plant::{NX, Plant, ZohLanes};
-use crate::simulation::sim::{Acc, Adc, StaticParams, StaticRunState};
+use crate::simulation::sim::{
+    Acc, Adc, ClosedLoop, DynParams, DynRun, StaticParams, StaticRunState, TickInputs,
+};
 
 /// Run `f` with the SIMD instruction sets of this CPU enabled for everything inlined into
 /// it (runtime detection by `pulp`: AVX2 where present, the baseline SSE2 otherwise). `f`'s
@@ -191,4 +194,239 @@ impl<'a> StaticLanes<'a, 1> {
     pub(crate) fn one_of(p: &'a StaticParams) -> Self {
         Self::new(p.ptsa, [&p.plant], [&p.add], [&p.adc])
     }
+}
+
+/// The constants of a dynamic condition's tick for `L` lanes (one loop per lane, with its
+/// instrument, condition, effects and ADC; one core configuration for all of them).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DynLanes<'a, const L: usize> {
+    /// The core's configuration, shared.
+    pub(crate) ptsa: Ptsa,
+    /// The free region's transition of each lane, and its responses to the command and to
+    /// the disturbance torque.
+    pub(crate) free: ZohLanes<L>,
+    pub(crate) gu: [[f64; L]; NX],
+    pub(crate) gd: [[f64; L]; NX],
+    /// The free region's constant torque of each lane (0), dyn·cm.
+    pub(crate) stop0: [f64; L],
+    /// Stop angle of each lane, rad.
+    pub(crate) theta_stop: [f64; L],
+    /// ADC gain of each lane, codes per rad.
+    pub(crate) gain: [f64; L],
+    /// Pendulosity (g·cm), anisoinertia (g·cm²), and the `a_PA` (cm/s²) and `W_IA² − W_PA²`
+    /// (rad²/s²) folded into each lane's `K_eff`.
+    pub(crate) pendulosity: [f64; L],
+    pub(crate) anisoinertia: [f64; L],
+    pub(crate) a_pa0: [f64; L],
+    pub(crate) wq0: [f64; L],
+    /// Each lane's loop and tick constants: the static torque of the inputs, the stops, the
+    /// added physics and the harmonic sums (rare or per-lane paths).
+    pub(crate) lp: [&'a ClosedLoop; L],
+    pub(crate) dp: [&'a DynParams; L],
+    /// Some lane has physics added from outside the vocabulary; some lane sums a harmonic.
+    pub(crate) physics: bool,
+    pub(crate) harmonic: bool,
+}
+
+impl<'a, const L: usize> DynLanes<'a, L> {
+    /// The constants of lane `l` from its loop `lp[l]` and tick constants `dp[l]` (all with
+    /// the core configuration of `dp[0]`).
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn new(lp: [&'a ClosedLoop; L], dp: [&'a DynParams; L]) -> Self {
+        debug_assert!(dp.iter().all(|p| p.ptsa == dp[0].ptsa));
+        let mut gu = [[0.0; L]; NX];
+        let mut gd = [[0.0; L]; NX];
+        for l in 0..L {
+            let z = &lp[l].plant.zoh[0];
+            for j in 0..NX {
+                gu[j][l] = z.gu[j];
+                gd[j][l] = z.gd[j];
+            }
+        }
+        Self {
+            ptsa: dp[0].ptsa,
+            free: ZohLanes::new(std::array::from_fn(|l| &lp[l].plant.zoh[0])),
+            gu,
+            gd,
+            stop0: std::array::from_fn(|l| lp[l].plant.stop_torque[0]),
+            theta_stop: std::array::from_fn(|l| lp[l].plant.theta_stop),
+            gain: std::array::from_fn(|l| dp[l].adc.gain),
+            pendulosity: std::array::from_fn(|l| dp[l].p),
+            anisoinertia: std::array::from_fn(|l| dp[l].di),
+            a_pa0: std::array::from_fn(|l| lp[l].a_pa0),
+            wq0: std::array::from_fn(|l| lp[l].wq0),
+            physics: lp.iter().any(|l| l.physics.is_some()),
+            harmonic: dp.iter().any(|p| p.harmonic != 0),
+            lp,
+            dp,
+        }
+    }
+}
+
+/// What a dynamic tick changes in `L` lanes: the plant state `x[j][lane]`, the cores, the
+/// applied command (±1), the statistics, the harmonic sums and the absolute tick index.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct DynState<const L: usize> {
+    pub(crate) x: [[f64; L]; NX],
+    pub(crate) core: Lanes<L>,
+    pub(crate) u: [f64; L],
+    pub(crate) acc: [Acc; L],
+    pub(crate) harm: [[f64; 2]; L],
+    pub(crate) harm_q: [[f64; 2]; L],
+    pub(crate) k: [u64; L],
+}
+
+impl<const L: usize> DynState<L> {
+    /// The state of `L` dynamic runs in progress, lane `l` from `runs[l]`.
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn load(runs: [&DynRun; L]) -> Self {
+        let mut x = [[0.0; L]; NX];
+        for l in 0..L {
+            for j in 0..NX {
+                x[j][l] = runs[l].x[j];
+            }
+        }
+        Self {
+            x,
+            core: Lanes::new(&std::array::from_fn(|l| runs[l].core)),
+            u: std::array::from_fn(|l| runs[l].u),
+            acc: std::array::from_fn(|l| runs[l].acc),
+            harm: std::array::from_fn(|l| runs[l].harm),
+            harm_q: std::array::from_fn(|l| runs[l].harm_q),
+            k: std::array::from_fn(|l| runs[l].k),
+        }
+    }
+
+    /// Lane `l` back into `runs[l]` (all but the noise generator and the phasor, which the
+    /// caller keeps).
+    #[allow(clippy::needless_range_loop)]
+    pub(crate) fn store(&self, runs: [&mut DynRun; L]) {
+        for (l, r) in runs.into_iter().enumerate() {
+            for j in 0..NX {
+                r.x[j] = self.x[j][l];
+            }
+            r.core = self.core.get(l);
+            r.u = self.u[l];
+            r.acc = self.acc[l];
+            r.harm = self.harm[l];
+            r.harm_q = self.harm_q[l];
+            r.k = self.k[l];
+        }
+    }
+
+    /// Lane `l`'s plant state.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
+    #[inline(always)]
+    pub(crate) fn lane_x(&self, l: usize) -> [f64; NX] {
+        [self.x[0][l], self.x[1][l], self.x[2][l], self.x[3][l]]
+    }
+}
+
+/// One tick of `L` lanes of dynamic conditions (or static ones with a harmonic requested):
+/// sample each lane's pickoff with the ADC's additive term `bias[l]` (see [`Adc::bias`]), let
+/// the cores decide, form each lane's disturbance torque from its inputs at mid-tick `ti[l]`
+/// (the phasor and the condition's inputs, `ClosedLoop::dynamic_inputs`: the static torque
+/// of the inputs, the θ-dependent part of `a_PA` and of `W_IA² − W_PA²` beyond what `K_eff`
+/// holds, the stop torque, added physics), step the plants with the applied commands, sum
+/// the requested harmonic and the statistics; the decided polarities become the applied
+/// commands. Returns the codes and what the cores decided.
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+pub(crate) fn dynamic_tick<const L: usize>(
+    p: &DynLanes<'_, L>,
+    s: &mut DynState<L>,
+    bias: &[f64; L],
+    ti: &[&TickInputs; L],
+) -> ([i16; L], LaneTicks<L>) {
+    let mut codes = [0i16; L];
+    for l in 0..L {
+        codes[l] = Adc::quantize_with(p.gain[l], s.x[3][l], bias[l]);
+    }
+    let t = p.ptsa.tick_lanes(&mut s.core, &codes);
+    // The torque of the inputs and of θ's coupling to them (the stops' apart).
+    let mut base = [0.0; L];
+    for l in 0..L {
+        let inp = &ti[l].inp;
+        let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
+        base[l] = p.lp[l].static_torque(inp)
+            + s.x[0][l]
+                * (-p.pendulosity[l] * (inp.a_cm_s2[PA] - p.a_pa0[l])
+                    + p.anisoinertia[l] * (wq - p.wq0[l]));
+    }
+    let mut d = [0.0; L];
+    for l in 0..L {
+        d[l] = base[l] + p.stop0[l];
+    }
+    let mut extra = [0.0; L];
+    if p.physics {
+        for l in 0..L {
+            if let Some(ph) = &p.lp[l].physics {
+                #[allow(clippy::cast_precision_loss)]
+                let t_mid = (s.k[l] as f64 + 0.5) * p.dp[l].t_s;
+                extra[l] = ph.torque_dyn_cm(t_mid, &ti[l].inp, &s.lane_x(l));
+                d[l] += extra[l];
+            }
+        }
+    }
+    let mut a = [[0.0; L]; NX];
+    for j in 0..NX {
+        for l in 0..L {
+            a[j][l] = p.gu[j][l] * s.u[l] + p.gd[j][l] * d[l];
+        }
+    }
+    let mut y = p.free.step(&s.x, &a);
+    let mut off = false;
+    for l in 0..L {
+        off |= !free(s.x[0][l], p.theta_stop[l]);
+    }
+    if off {
+        for l in 0..L {
+            if !free(s.x[0][l], p.theta_stop[l]) {
+                let plant = &p.lp[l].plant;
+                let xl = s.lane_x(l);
+                let r = plant.region(xl[0]);
+                let z = &plant.zoh[r];
+                let mut dl = base[l] + plant.stop_torque[r];
+                if p.lp[l].physics.is_some() {
+                    dl += extra[l];
+                }
+                let al: [f64; NX] = std::array::from_fn(|j| z.gu[j] * s.u[l] + z.gd[j] * dl);
+                let yl = z.step(&xl, &al);
+                for j in 0..NX {
+                    y[j][l] = yl[j];
+                }
+                s.acc[l].stop += 1;
+            }
+        }
+    }
+    if p.harmonic {
+        for l in 0..L {
+            let q = p.dp[l];
+            if q.harmonic == 0 {
+                continue;
+            }
+            let (sn, cs) = (ti[l].s, ti[l].c);
+            let (hs, hc) = if q.harmonic == 1 {
+                (sn, cs)
+            } else {
+                (2.0 * sn * cs, cs * cs - sn * sn)
+            };
+            let u = s.u[l];
+            s.harm[l][0] += u * hs;
+            s.harm[l][1] += u * hc;
+            let torque = q.sf * (u - q.tau_t * (y[2][l] - s.x[2][l]))
+                + q.ip * (y[1][l] - s.x[1][l])
+                + q.cp * (y[0][l] - s.x[0][l]);
+            s.harm_q[l][0] += torque * hs;
+            s.harm_q[l][1] += torque * hc;
+        }
+    }
+    s.x = y;
+    for l in 0..L {
+        s.acc[l].tick(s.u[l] > 0.0, t.positive[l], s.x[0][l], t.cycle_end[l]);
+        s.k[l] += 1;
+        s.u[l] = if t.positive[l] { 1.0 } else { -1.0 };
+    }
+    (codes, t)
 }

@@ -37,7 +37,7 @@ use crate::model::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
 use crate::model::effects::{Effects, Signature};
 use crate::model::instrument::Instrument;
 use crate::model::plant::{NX, Plant};
-use crate::simulation::kernel::{self, StaticLanes, StaticState};
+use crate::simulation::kernel::{self, DynLanes, DynState, StaticLanes, StaticState};
 
 /// Options of a simulated run.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -497,7 +497,7 @@ impl ClosedLoop {
     /// The θ-independent torque for inputs `i`, dyn·cm.
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
-    fn static_torque(&self, i: &CaseInputs) -> f64 {
+    pub(crate) fn static_torque(&self, i: &CaseInputs) -> f64 {
         let eff: f64 = self.effect_terms.iter().map(|&(f, c)| c * f(i)).sum();
         self.p_gcm * (i.a_cm_s2[IA] + self.instr.bias_cm_s2 + eff)
             - self.instr.inertia_dyn_cm_s2 * i.dw_rad_s2[OA]
@@ -551,7 +551,7 @@ impl ClosedLoop {
         }
     }
 
-    /// The constants of a static tick (see [`static_tick`]).
+    /// The constants of a static tick (see [`kernel::static_tick`]).
     pub(crate) fn static_params(&self) -> StaticParams {
         StaticParams {
             ptsa: self.ptsa,
@@ -750,25 +750,36 @@ impl ClosedLoop {
         self.merge(&acc);
     }
 
+    /// A dynamic run: [`kernel::dynamic_tick`] with one lane, the phasor and the inputs of
+    /// each tick from [`ClosedLoop::dynamic_inputs`].
     fn run_dynamic<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         let p = self.dyn_params();
         let mut r = self.dyn_run();
-        for _ in 0..n {
-            let (code, tick, u) = self.dynamic_tick(&p, &mut r);
+        let lane = DynLanes::new([&*self], [&p]);
+        let mut st = DynState::load([&r]);
+        let mut sc = (r.s, r.c);
+        for j in 0..n {
+            let bias = [p.adc.bias(&mut r.rng)];
+            let ti = self.dynamic_inputs(&p, st.k[0], r.j + j, &mut sc);
+            let u = st.u[0];
+            let (code, t) = kernel::dynamic_tick::<1>(&lane, &mut st, &bias, &[&ti]);
             if OBSERVE {
                 obs(&TickView {
-                    k: r.k - 1,
-                    x: r.x,
-                    code,
+                    k: st.k[0] - 1,
+                    x: st.lane_x(0),
+                    code: code[0],
                     u,
-                    decided: tick.polarity,
+                    decided: Polarity::from(t.positive[0]),
                 });
             }
         }
+        st.store([&mut r]);
+        (r.s, r.c) = sc;
+        r.j += n;
         self.finish_dyn_run(&r);
     }
 
-    /// The constants of a dynamic tick (see [`ClosedLoop::dynamic_tick`]).
+    /// The constants of a dynamic tick (see [`kernel::dynamic_tick`]).
     pub(crate) fn dyn_params(&self) -> DynParams {
         let t_s = 1.0 / self.instr.clock_hz;
         let w = self.prep.omega;
@@ -820,39 +831,6 @@ impl ClosedLoop {
         self.merge(&r.acc);
     }
 
-    /// One tick of a dynamic condition (or of a static one with a harmonic requested), the
-    /// body of [`ClosedLoop::run`]'s dynamic path and of the batch engine's dynamic lanes:
-    /// the phasor `sin, cos(ωt)` at mid-tick (a function of the absolute tick index: exact
-    /// every [`PHASOR_BLOCK`] ticks, advanced by a rotation in between), the ADC, the core, the disturbance torque
-    /// of the inputs at mid-tick, the plant step, the harmonic sums and the statistics.
-    /// Returns the code, the core's tick and the command applied over the tick.
-    #[allow(clippy::inline_always, reason = "per-tick path")]
-    #[inline(always)]
-    pub(crate) fn dynamic_tick(
-        &self,
-        p: &DynParams,
-        r: &mut DynRun,
-    ) -> (i16, ptsa_core::Tick, f64) {
-        let bias = p.adc.bias(&mut r.rng);
-        self.dynamic_tick_with(p, r, bias)
-    }
-
-    /// [`ClosedLoop::dynamic_tick`] with the ADC's additive term `bias` of the tick given
-    /// (drawn from `r.rng` by the caller, see [`Adc::bias`]).
-    #[allow(clippy::inline_always, reason = "per-tick path")]
-    #[inline(always)]
-    pub(crate) fn dynamic_tick_with(
-        &self,
-        p: &DynParams,
-        r: &mut DynRun,
-        bias: f64,
-    ) -> (i16, ptsa_core::Tick, f64) {
-        let mut sc = (r.s, r.c);
-        let ti = self.dynamic_inputs(p, r.k, r.j, &mut sc);
-        (r.s, r.c) = sc;
-        self.dynamic_tick_given(p, r, bias, &ti)
-    }
-
     /// The first part of a dynamic tick: the phasor `sc = (sin, cos)(ωt)` at mid-tick of
     /// tick `k`, the `j`-th of its run (exact every [`PHASOR_BLOCK`] ticks of the absolute
     /// index, made so at `j = 0` inside a block, else as given),
@@ -884,66 +862,6 @@ impl ClosedLoop {
         let inp = self.prep.inputs(s, c);
         *sc = p.rotate(*sc);
         TickInputs { s, c, inp }
-    }
-
-    /// The rest of a dynamic tick, its phasor and inputs `ti` given (see
-    /// [`ClosedLoop::dynamic_inputs`]): the ADC with the additive term `bias`, the core, the
-    /// disturbance torque, the plant step, the harmonic sums and the statistics.
-    #[allow(clippy::inline_always, reason = "per-tick path")]
-    #[inline(always)]
-    #[allow(clippy::needless_range_loop)]
-    pub(crate) fn dynamic_tick_given(
-        &self,
-        p: &DynParams,
-        r: &mut DynRun,
-        bias: f64,
-        ti: &TickInputs,
-    ) -> (i16, ptsa_core::Tick, f64) {
-        let (s, c, inp) = (ti.s, ti.c, &ti.inp);
-        let u = r.u;
-        let code = p.adc.quantize(r.x[3], bias);
-        let tick = p.ptsa.tick(&mut r.core, code);
-        let theta = r.x[0];
-        let reg = self.plant.region(theta);
-        let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
-        let mut d = self.static_torque(inp)
-            + theta * (-p.p * (inp.a_cm_s2[PA] - self.a_pa0) + p.di * (wq - self.wq0))
-            + self.plant.stop_torque[reg];
-        if let Some(ph) = &self.physics {
-            #[allow(clippy::cast_precision_loss)]
-            let t_mid = (r.k as f64 + 0.5) * p.t_s;
-            d += ph.torque_dyn_cm(t_mid, inp, &r.x);
-        }
-        let z = &self.plant.zoh[reg];
-        let mut a = [0.0; NX];
-        for i in 0..NX {
-            a[i] = z.gu[i] * u + z.gd[i] * d;
-        }
-        let x_old = r.x;
-        r.x = z.step(&r.x, &a);
-        let x = r.x;
-        if p.harmonic != 0 {
-            let (hs, hc) = if p.harmonic == 1 {
-                (s, c)
-            } else {
-                (2.0 * s * c, c * c - s * s)
-            };
-            r.harm[0] += u * hs;
-            r.harm[1] += u * hc;
-            let q = p.sf * (u - p.tau_t * (x[2] - x_old[2]))
-                + p.ip * (x[1] - x_old[1])
-                + p.cp * (x[0] - x_old[0]);
-            r.harm_q[0] += q * hs;
-            r.harm_q[1] += q * hc;
-        }
-        let positive = tick.polarity == Polarity::Positive;
-        r.acc.stop += u64::from(reg != 0);
-        r.acc
-            .tick(u > 0.0, positive, x[0], tick.cycle_pulses.is_some());
-        r.k += 1;
-        r.j += 1;
-        r.u = if positive { 1.0 } else { -1.0 };
-        (code, tick, u)
     }
 
     /// The parameters of `ptsa-host-sim/benches/c_static/static_loop.c` (the plain C loop
@@ -1135,7 +1053,7 @@ pub(crate) struct StaticParams {
     pub(crate) adc: Adc,
 }
 
-/// The constants of a dynamic tick (see [`ClosedLoop::dynamic_tick`]): the core, the clock
+/// The constants of a dynamic tick (see [`kernel::dynamic_tick`]): the core, the clock
 /// period `t_s` (s), `ω` (rad/s) and the phasor's rotation per tick `sin, cos(ω·t_s)`,
 /// pendulosity `p` (g·cm), anisoinertia `di` (g·cm²), the requested harmonic, the actual
 /// scale factor (cm/s²), `τ/t_s`, `I/(P·t_s)`, `C/(P·t_s)` and the ADC.
