@@ -90,7 +90,7 @@ fn matmul(a: &[[f64; 8]; 8], b: &[[f64; 8]; 8], n: usize) -> [[f64; 8]; 8] {
 }
 
 /// One exact discretisation: `x' = Φ x + Γu u + Γd d`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Zoh {
     /// State transition over one tick.
     pub phi: [[f64; NX]; NX],
@@ -229,7 +229,7 @@ fn step_lanes<const K: usize>(
 
 /// The three discretisations (free, on the upper stop, on the lower stop) and the constant
 /// torque each adds.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Plant {
     /// `[free, upper stop, lower stop]`.
     pub zoh: [Zoh; 3],

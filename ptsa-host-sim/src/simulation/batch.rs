@@ -304,7 +304,9 @@ impl Engine {
             .div_ceil(threads)
             .clamp(1, self.lanes.max(GROUP));
         let mut order: Vec<&mut Lane<'_>> = lanes.iter_mut().collect();
-        order.sort_by_key(|l| (l.dynamic, l.total_ticks()));
+        // Lanes of one condition next to each other, so that dynamic ones share a group and
+        // with it the phasor and inputs (identification's sides of a row, Monte Carlo).
+        order.sort_by_cached_key(|l| (l.dynamic, l.total_ticks(), l.lp.prep.key_bits()));
         let k = self.lanes;
         order.par_chunks_mut(per).for_each(|g| run_group(g, k));
         lanes.into_iter().map(|l| l.out).collect()

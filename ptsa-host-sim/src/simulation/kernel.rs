@@ -16,6 +16,7 @@ use crate::model::condition::{IA, PA};
 use crate::model::plant::{NX, Plant, ZohLanes};
 use crate::simulation::sim::{
     Acc, Adc, ClosedLoop, DynParams, DynRun, StaticParams, StaticRunState, TickInputs,
+    torque_of_inputs,
 };
 
 /// Run `f` with the SIMD instruction sets of this CPU enabled for everything inlined into
@@ -80,6 +81,80 @@ impl<'a, const L: usize> StaticLanes<'a, L> {
     }
 }
 
+/// The per-tick statistics of `L` lanes ([`Acc`]'s fields, structure of arrays): ticks,
+/// applied-command sum, `Σθ²` (rad²) and `max |θ|` (rad), limit cycles and those with two
+/// reversals, ticks on a stop, reversals in the current cycle, the last decided polarity.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct AccLanes<const L: usize> {
+    ticks: [u64; L],
+    sum_u: [i64; L],
+    sum_theta2: [f64; L],
+    max_theta: [f64; L],
+    cycles: [u64; L],
+    cycles_two: [u64; L],
+    pub(crate) stop: [u64; L],
+    rev: [u32; L],
+    prev_positive: [bool; L],
+}
+
+impl<const L: usize> AccLanes<L> {
+    /// The statistics of `L` runs, lane `l` from `acc[l]`.
+    pub(crate) fn load(acc: [&Acc; L]) -> Self {
+        Self {
+            ticks: acc.map(|a| a.ticks),
+            sum_u: acc.map(|a| a.sum_u),
+            sum_theta2: acc.map(|a| a.sum_theta2),
+            max_theta: acc.map(|a| a.max_theta),
+            cycles: acc.map(|a| a.cycles),
+            cycles_two: acc.map(|a| a.cycles_two),
+            stop: acc.map(|a| a.stop),
+            rev: acc.map(|a| a.rev),
+            prev_positive: acc.map(|a| a.prev_positive),
+        }
+    }
+
+    /// Lane `l`'s statistics.
+    pub(crate) fn get(&self, l: usize) -> Acc {
+        Acc {
+            ticks: self.ticks[l],
+            sum_u: self.sum_u[l],
+            sum_theta2: self.sum_theta2[l],
+            max_theta: self.max_theta[l],
+            cycles: self.cycles[l],
+            cycles_two: self.cycles_two[l],
+            stop: self.stop[l],
+            rev: self.rev[l],
+            prev_positive: self.prev_positive[l],
+        }
+    }
+
+    /// One tick of every lane: the applied polarity (`applied_positive`), the decided one,
+    /// the pendulum angle after the tick (rad), whether the tick closed a limit cycle. The
+    /// statistics' one definition, branch-free so that the lanes share SIMD instructions.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
+    #[inline(always)]
+    pub(crate) fn tick(
+        &mut self,
+        applied_positive: &[bool; L],
+        positive: &[bool; L],
+        theta: &[f64; L],
+        cycle_end: &[bool; L],
+    ) {
+        for l in 0..L {
+            self.ticks[l] += 1;
+            self.sum_u[l] += 2 * i64::from(applied_positive[l]) - 1;
+            self.sum_theta2[l] += theta[l] * theta[l];
+            self.max_theta[l] = self.max_theta[l].max(theta[l].abs());
+            let rev = self.rev[l] + u32::from(positive[l] != self.prev_positive[l]);
+            self.prev_positive[l] = positive[l];
+            let end = cycle_end[l];
+            self.cycles[l] += u64::from(end);
+            self.cycles_two[l] += u64::from(end) * u64::from(rev == 2);
+            self.rev[l] = if end { 0 } else { rev };
+        }
+    }
+}
+
 /// What a static tick changes in `L` lanes: the plant state `x[j][lane]`, the cores, the
 /// applied polarity (all ones where negative) and the statistics.
 #[derive(Clone, Copy, Debug)]
@@ -87,7 +162,7 @@ pub(crate) struct StaticState<const L: usize> {
     pub(crate) x: [[f64; L]; NX],
     pub(crate) core: Lanes<L>,
     pub(crate) neg: [u64; L],
-    pub(crate) acc: [Acc; L],
+    pub(crate) acc: AccLanes<L>,
 }
 
 /// The mask of `neg` for an applied polarity: all ones where negative.
@@ -143,15 +218,16 @@ pub(crate) fn static_tick<const L: usize, const STATS: bool>(
                 for j in 0..NX {
                     y[j][l] = yl[j];
                 }
-                s.acc[l].stop += 1;
+                s.acc.stop[l] += 1;
             }
         }
     }
     s.x = y;
+    if STATS {
+        let applied = std::array::from_fn(|l| s.neg[l] == 0);
+        s.acc.tick(&applied, &t.positive, &s.x[0], &t.cycle_end);
+    }
     for l in 0..L {
-        if STATS {
-            s.acc[l].tick(s.neg[l] == 0, t.positive[l], s.x[0][l], t.cycle_end[l]);
-        }
         s.neg[l] = neg_mask(!t.positive[l]);
     }
     (codes, t)
@@ -171,7 +247,7 @@ impl<const L: usize> StaticState<L> {
             x,
             core: Lanes::new(&std::array::from_fn(|l| runs[l].core)),
             neg: std::array::from_fn(|l| neg_mask(runs[l].ui != 0)),
-            acc: std::array::from_fn(|l| runs[l].acc),
+            acc: AccLanes::load(std::array::from_fn(|l| &runs[l].acc)),
         }
     }
 
@@ -184,7 +260,7 @@ impl<const L: usize> StaticState<L> {
             }
             r.core = self.core.get(l);
             r.ui = usize::from(self.neg[l] != 0);
-            r.acc = self.acc[l];
+            r.acc = self.acc.get(l);
         }
     }
 }
@@ -217,6 +293,11 @@ pub(crate) struct DynLanes<'a, const L: usize> {
     /// (rad²/s²) folded into each lane's `K_eff`.
     pub(crate) pendulosity: [f64; L],
     pub(crate) anisoinertia: [f64; L],
+    /// `[P, bias, I, ΔI]` of each lane (see `sim::torque_of_inputs`), and whether it has
+    /// effect terms (the others add the empty sum, `empty`).
+    pub(crate) torque: [[f64; 4]; L],
+    pub(crate) effects: [bool; L],
+    pub(crate) empty: f64,
     pub(crate) a_pa0: [f64; L],
     pub(crate) wq0: [f64; L],
     /// Each lane's loop and tick constants: the static torque of the inputs, the stops, the
@@ -253,6 +334,17 @@ impl<'a, const L: usize> DynLanes<'a, L> {
             gain: std::array::from_fn(|l| dp[l].adc.gain),
             pendulosity: std::array::from_fn(|l| dp[l].p),
             anisoinertia: std::array::from_fn(|l| dp[l].di),
+            torque: std::array::from_fn(|l| {
+                let i = &lp[l].instr;
+                [
+                    lp[l].p_gcm,
+                    i.bias_cm_s2,
+                    i.inertia_dyn_cm_s2,
+                    i.anisoinertia_g_cm2,
+                ]
+            }),
+            effects: std::array::from_fn(|l| !lp[l].effect_terms.is_empty()),
+            empty: std::iter::empty::<f64>().sum(),
             a_pa0: std::array::from_fn(|l| lp[l].a_pa0),
             wq0: std::array::from_fn(|l| lp[l].wq0),
             physics: lp.iter().any(|l| l.physics.is_some()),
@@ -270,7 +362,7 @@ pub(crate) struct DynState<const L: usize> {
     pub(crate) x: [[f64; L]; NX],
     pub(crate) core: Lanes<L>,
     pub(crate) u: [f64; L],
-    pub(crate) acc: [Acc; L],
+    pub(crate) acc: AccLanes<L>,
     pub(crate) harm: [[f64; 2]; L],
     pub(crate) harm_q: [[f64; 2]; L],
     pub(crate) k: [u64; L],
@@ -290,7 +382,7 @@ impl<const L: usize> DynState<L> {
             x,
             core: Lanes::new(&std::array::from_fn(|l| runs[l].core)),
             u: std::array::from_fn(|l| runs[l].u),
-            acc: std::array::from_fn(|l| runs[l].acc),
+            acc: AccLanes::load(std::array::from_fn(|l| &runs[l].acc)),
             harm: std::array::from_fn(|l| runs[l].harm),
             harm_q: std::array::from_fn(|l| runs[l].harm_q),
             k: std::array::from_fn(|l| runs[l].k),
@@ -307,7 +399,7 @@ impl<const L: usize> DynState<L> {
             }
             r.core = self.core.get(l);
             r.u = self.u[l];
-            r.acc = self.acc[l];
+            r.acc = self.acc.get(l);
             r.harm = self.harm[l];
             r.harm_q = self.harm_q[l];
             r.k = self.k[l];
@@ -349,7 +441,13 @@ pub(crate) fn dynamic_tick<const L: usize>(
     for l in 0..L {
         let inp = &ti[l].inp;
         let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
-        base[l] = p.lp[l].static_torque(inp)
+        // `ClosedLoop::static_torque`, its constants per lane.
+        let eff = if p.effects[l] {
+            p.lp[l].effects_cm_s2(inp)
+        } else {
+            p.empty
+        };
+        base[l] = torque_of_inputs(p.torque[l], eff, inp)
             + s.x[0][l]
                 * (-p.pendulosity[l] * (inp.a_cm_s2[PA] - p.a_pa0[l])
                     + p.anisoinertia[l] * (wq - p.wq0[l]));
@@ -396,7 +494,7 @@ pub(crate) fn dynamic_tick<const L: usize>(
                 for j in 0..NX {
                     y[j][l] = yl[j];
                 }
-                s.acc[l].stop += 1;
+                s.acc.stop[l] += 1;
             }
         }
     }
@@ -423,8 +521,9 @@ pub(crate) fn dynamic_tick<const L: usize>(
         }
     }
     s.x = y;
+    let applied = std::array::from_fn(|l| s.u[l] > 0.0);
+    s.acc.tick(&applied, &t.positive, &s.x[0], &t.cycle_end);
     for l in 0..L {
-        s.acc[l].tick(s.u[l] > 0.0, t.positive[l], s.x[0][l], t.cycle_end[l]);
         s.k[l] += 1;
         s.u[l] = if t.positive[l] { 1.0 } else { -1.0 };
     }

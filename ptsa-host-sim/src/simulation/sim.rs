@@ -337,28 +337,16 @@ pub(crate) struct Acc {
     pub(crate) prev_positive: bool,
 }
 
-impl Acc {
-    #[allow(clippy::inline_always, reason = "per-tick path")]
-    #[inline(always)]
-    pub(crate) fn tick(
-        &mut self,
-        applied_positive: bool,
-        positive: bool,
-        theta: f64,
-        cycle_end: bool,
-    ) {
-        self.ticks += 1;
-        self.sum_u += 2 * i64::from(applied_positive) - 1;
-        self.sum_theta2 += theta * theta;
-        self.max_theta = self.max_theta.max(theta.abs());
-        self.rev += u32::from(positive != self.prev_positive);
-        self.prev_positive = positive;
-        if cycle_end {
-            self.cycles += 1;
-            self.cycles_two += u64::from(self.rev == 2);
-            self.rev = 0;
-        }
-    }
+/// The θ-independent torque of inputs `i`, dyn·cm, for pendulosity, bias, inertia and
+/// anisoinertia `[P (g·cm), bias (cm/s²), I (dyn·cm·s²), ΔI (g·cm²)]` and the effect terms'
+/// extra indicated acceleration `eff` (cm/s²): `P·(a_IA + bias + eff) − I·ω'_OA +
+/// ΔI·ω_IA·ω_PA`. The one expression of [`ClosedLoop::static_torque`] and of the dynamic
+/// tick's lanes.
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+pub(crate) fn torque_of_inputs([p, bias, inertia, di]: [f64; 4], eff: f64, i: &CaseInputs) -> f64 {
+    p * (i.a_cm_s2[IA] + bias + eff) - inertia * i.dw_rad_s2[OA]
+        + di * i.w_rad_s[IA] * i.w_rad_s[PA]
 }
 
 /// An effect term per unit coefficient: extra indicated acceleration, cm/s².
@@ -444,7 +432,8 @@ impl ClosedLoop {
             instr: instr.clone(),
             ptsa,
             core: ptsa.initial_state(),
-            plant: Plant::new(instr, instr.spring_dyn_cm_rad),
+            // Discretised for the condition's K_eff by `set_condition`.
+            plant: Plant::default(),
             prep: Prepared::default(),
             effect_terms: Vec::new(),
             physics: None,
@@ -498,10 +487,23 @@ impl ClosedLoop {
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(crate) fn static_torque(&self, i: &CaseInputs) -> f64 {
-        let eff: f64 = self.effect_terms.iter().map(|&(f, c)| c * f(i)).sum();
-        self.p_gcm * (i.a_cm_s2[IA] + self.instr.bias_cm_s2 + eff)
-            - self.instr.inertia_dyn_cm_s2 * i.dw_rad_s2[OA]
-            + self.instr.anisoinertia_g_cm2 * i.w_rad_s[IA] * i.w_rad_s[PA]
+        torque_of_inputs(
+            [
+                self.p_gcm,
+                self.instr.bias_cm_s2,
+                self.instr.inertia_dyn_cm_s2,
+                self.instr.anisoinertia_g_cm2,
+            ],
+            self.effects_cm_s2(i),
+            i,
+        )
+    }
+
+    /// The effect terms' extra indicated acceleration for inputs `i`, cm/s².
+    #[allow(clippy::inline_always, reason = "per-tick path")]
+    #[inline(always)]
+    pub(crate) fn effects_cm_s2(&self, i: &CaseInputs) -> f64 {
+        self.effect_terms.iter().map(|&(f, c)| c * f(i)).sum()
     }
 
     /// Add physics from outside the vocabulary ([`ExtraPhysics`]) from the next tick on;
