@@ -12,7 +12,7 @@
 
 use ptsa_core::{LaneTicks, Lanes, Ptsa};
 
-use crate::model::condition::{IA, PA};
+use crate::model::condition::{IA, OA, PA};
 use crate::model::plant::{NX, Plant, ZohLanes};
 use crate::simulation::sim::{
     Acc, Adc, ClosedLoop, DynParams, DynRun, StaticParams, StaticRunState, TickInputs,
@@ -293,10 +293,12 @@ pub(crate) struct DynLanes<'a, const L: usize> {
     /// (rad²/s²) folded into each lane's `K_eff`.
     pub(crate) pendulosity: [f64; L],
     pub(crate) anisoinertia: [f64; L],
-    /// `[P, bias, I, ΔI]` of each lane (see `sim::torque_of_inputs`), and whether it has
-    /// effect terms (the others add the empty sum, `empty`).
-    pub(crate) torque: [[f64; 4]; L],
+    /// Bias (cm/s²) and inertia (dyn·cm·s²) of each lane (see `sim::torque_of_inputs`),
+    /// whether it has effect terms (the others add the empty sum, `empty`), whether any has.
+    pub(crate) bias: [f64; L],
+    pub(crate) inertia: [f64; L],
     pub(crate) effects: [bool; L],
+    pub(crate) any_effects: bool,
     pub(crate) empty: f64,
     pub(crate) a_pa0: [f64; L],
     pub(crate) wq0: [f64; L],
@@ -334,15 +336,9 @@ impl<'a, const L: usize> DynLanes<'a, L> {
             gain: std::array::from_fn(|l| dp[l].adc.gain),
             pendulosity: std::array::from_fn(|l| dp[l].p),
             anisoinertia: std::array::from_fn(|l| dp[l].di),
-            torque: std::array::from_fn(|l| {
-                let i = &lp[l].instr;
-                [
-                    lp[l].p_gcm,
-                    i.bias_cm_s2,
-                    i.inertia_dyn_cm_s2,
-                    i.anisoinertia_g_cm2,
-                ]
-            }),
+            bias: std::array::from_fn(|l| lp[l].instr.bias_cm_s2),
+            inertia: std::array::from_fn(|l| lp[l].instr.inertia_dyn_cm_s2),
+            any_effects: lp.iter().any(|l| !l.effect_terms.is_empty()),
             effects: std::array::from_fn(|l| !lp[l].effect_terms.is_empty()),
             empty: std::iter::empty::<f64>().sum(),
             a_pa0: std::array::from_fn(|l| lp[l].a_pa0),
@@ -437,21 +433,7 @@ pub(crate) fn dynamic_tick<const L: usize>(
     }
     let t = p.ptsa.tick_lanes(&mut s.core, &codes);
     // The torque of the inputs and of θ's coupling to them (the stops' apart).
-    let mut base = [0.0; L];
-    for l in 0..L {
-        let inp = &ti[l].inp;
-        let wq = inp.w_rad_s[IA] * inp.w_rad_s[IA] - inp.w_rad_s[PA] * inp.w_rad_s[PA];
-        // `ClosedLoop::static_torque`, its constants per lane.
-        let eff = if p.effects[l] {
-            p.lp[l].effects_cm_s2(inp)
-        } else {
-            p.empty
-        };
-        base[l] = torque_of_inputs(p.torque[l], eff, inp)
-            + s.x[0][l]
-                * (-p.pendulosity[l] * (inp.a_cm_s2[PA] - p.a_pa0[l])
-                    + p.anisoinertia[l] * (wq - p.wq0[l]));
-    }
+    let base = input_torque(p, &s.x[0], ti);
     let mut d = [0.0; L];
     for l in 0..L {
         d[l] = base[l] + p.stop0[l];
@@ -528,4 +510,52 @@ pub(crate) fn dynamic_tick<const L: usize>(
         s.u[l] = if t.positive[l] { 1.0 } else { -1.0 };
     }
     (codes, t)
+}
+
+/// The disturbance torque of each lane's inputs at mid-tick `ti[l]` with the pendulum at
+/// `theta[l]` (rad), dyn·cm, the stops' apart: `ClosedLoop::static_torque` and θ's coupling
+/// to `a_PA` and `W_IA² − W_PA²` beyond what `K_eff` holds (see [`dynamic_tick`]).
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+#[allow(clippy::needless_range_loop)]
+fn input_torque<const L: usize>(
+    p: &DynLanes<'_, L>,
+    theta: &[f64; L],
+    ti: &[&TickInputs; L],
+) -> [f64; L] {
+    // The inputs the torque needs, lane by lane, then the torque in structure of arrays.
+    let mut a_ia = [0.0; L];
+    let mut a_pa = [0.0; L];
+    let mut dw_oa = [0.0; L];
+    let mut w_ia = [0.0; L];
+    let mut w_pa = [0.0; L];
+    for l in 0..L {
+        let inp = &ti[l].inp;
+        a_ia[l] = inp.a_cm_s2[IA];
+        a_pa[l] = inp.a_cm_s2[PA];
+        dw_oa[l] = inp.dw_rad_s2[OA];
+        w_ia[l] = inp.w_rad_s[IA];
+        w_pa[l] = inp.w_rad_s[PA];
+    }
+    let mut eff = [p.empty; L];
+    if p.any_effects {
+        for l in 0..L {
+            if p.effects[l] {
+                eff[l] = p.lp[l].effects_cm_s2(&ti[l].inp);
+            }
+        }
+    }
+    // `ClosedLoop::static_torque`, its constants per lane, and θ's coupling to `a_PA` and
+    // `W_IA² − W_PA²` beyond what `K_eff` holds.
+    let mut base = [0.0; L];
+    for l in 0..L {
+        let wq = w_ia[l] * w_ia[l] - w_pa[l] * w_pa[l];
+        base[l] = torque_of_inputs(
+            [p.pendulosity[l], p.bias[l], p.inertia[l], p.anisoinertia[l]],
+            eff[l],
+            [a_ia[l], dw_oa[l], w_ia[l], w_pa[l]],
+        ) + theta[l]
+            * (-p.pendulosity[l] * (a_pa[l] - p.a_pa0[l]) + p.anisoinertia[l] * (wq - p.wq0[l]));
+    }
+    base
 }

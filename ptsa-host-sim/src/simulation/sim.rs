@@ -337,16 +337,19 @@ pub(crate) struct Acc {
     pub(crate) prev_positive: bool,
 }
 
-/// The θ-independent torque of inputs `i`, dyn·cm, for pendulosity, bias, inertia and
-/// anisoinertia `[P (g·cm), bias (cm/s²), I (dyn·cm·s²), ΔI (g·cm²)]` and the effect terms'
-/// extra indicated acceleration `eff` (cm/s²): `P·(a_IA + bias + eff) − I·ω'_OA +
-/// ΔI·ω_IA·ω_PA`. The one expression of [`ClosedLoop::static_torque`] and of the dynamic
-/// tick's lanes.
+/// The θ-independent torque of the inputs, dyn·cm, for pendulosity `p` (g·cm), bias
+/// (cm/s²), inertia (dyn·cm·s²) and anisoinertia `di` (g·cm²), the effect terms' extra
+/// indicated acceleration `eff` (cm/s²) and the inputs `[a_IA (cm/s²), ω'_OA (rad/s²), ω_IA,
+/// ω_PA (rad/s)]`: `P·(a_IA + bias + eff) − I·ω'_OA + ΔI·ω_IA·ω_PA`. The one expression of
+/// [`ClosedLoop::static_torque`] and of the dynamic tick's lanes.
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
-pub(crate) fn torque_of_inputs([p, bias, inertia, di]: [f64; 4], eff: f64, i: &CaseInputs) -> f64 {
-    p * (i.a_cm_s2[IA] + bias + eff) - inertia * i.dw_rad_s2[OA]
-        + di * i.w_rad_s[IA] * i.w_rad_s[PA]
+pub(crate) fn torque_of_inputs(
+    [p, bias, inertia, di]: [f64; 4],
+    eff: f64,
+    [a_ia, dw_oa, w_ia, w_pa]: [f64; 4],
+) -> f64 {
+    p * (a_ia + bias + eff) - inertia * dw_oa + di * w_ia * w_pa
 }
 
 /// An effect term per unit coefficient: extra indicated acceleration, cm/s².
@@ -495,7 +498,7 @@ impl ClosedLoop {
                 self.instr.anisoinertia_g_cm2,
             ],
             self.effects_cm_s2(i),
-            i,
+            [i.a_cm_s2[IA], i.dw_rad_s2[OA], i.w_rad_s[IA], i.w_rad_s[PA]],
         )
     }
 
