@@ -9,9 +9,12 @@ use std::path::Path;
 use anyhow::Result;
 
 use crate::discovery::show::{estimate, text_report, write_outputs};
-use crate::discovery::sim::Simulator;
+use crate::discovery::sim::{ClosedLoopSimulator, Simulator};
 use crate::discovery::{Options, TEST_STATEMENT, discover};
+use crate::model::instrument::Instrument;
 use crate::report::r890;
+use crate::report::{Experiment, Finding};
+use crate::simulation::sim::SimOptions;
 
 /// The analysis of the report's Tables 6.1, 6.2 and 6.3 as a Markdown section, for the
 /// no-argument report. Writes the tables and plots into `out` when given; the Markdown links
@@ -211,5 +214,60 @@ mod tests {
         assert_eq!(names, ["anisoinertia"]);
         let b = &d.json.nuisance.bias_shift_cm_s2;
         assert!((b["b"] - b["a"] - 0.8).abs() < 0.4, "{b:?}");
+    }
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "discovery"
+    }
+
+    /// The closed-loop ticks and the least squares of Tables 6.1–6.3's analyses
+    /// ([`crate::discovery::cost`]), the part that always runs.
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        let sim = ClosedLoopSimulator {
+            instrument: instr.clone(),
+            options: *opts,
+        };
+        let mut e = crate::simulation::work::Estimate::default();
+        for f in crate::report::r890::case_files()? {
+            let c = crate::discovery::cost::Cost::of(
+                &f.rows,
+                &sim,
+                crate::model::effects::CandidateId::ALL,
+            );
+            e.ticks += c.ticks;
+            e.other_s += c.seconds() - c.ticks.seconds();
+        }
+        Ok(e)
+    }
+
+    /// The section, or why it is missing (the programme goes on without it).
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        _: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let sim = ClosedLoopSimulator {
+            instrument: instr.clone(),
+            options: *opts,
+        };
+        let s = section(
+            &sim,
+            &crate::discovery::Options::for_instrument(instr),
+            Some(&dir.join("discover")),
+        )
+        .map_err(|e| format!("{e:#}"));
+        Ok(Finding::Discovery(s))
     }
 }

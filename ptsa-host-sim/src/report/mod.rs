@@ -6,10 +6,8 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 
-use crate::discovery::Options;
-use crate::discovery::sim::ClosedLoopSimulator;
 use crate::lab::fixtures::TwoAxisKind;
 use crate::model::instrument::Instrument;
 use crate::output::{Output, StagedDir, write_atomic};
@@ -18,27 +16,103 @@ use crate::report::experiments::{
     tumble, waveform,
 };
 use crate::simulation::sim::SimOptions;
+use crate::simulation::work::Estimate;
 
 pub mod discovery;
 pub mod experiments;
 pub mod r890;
 pub mod summary;
 
-/// The steps of the programme, in order (for a progress display).
-pub const STEPS: [&str; 12] = [
-    "tumble",
-    "anisoinertia",
-    "oa-coupling",
-    "vibropendulosity",
-    "anisoelasticity",
-    "sculling",
-    "waveform",
-    "frequency response",
-    "limit cycle",
-    "monte carlo",
-    "discovery",
-    "design",
-];
+/// One step of the report programme (an experiment of [`experiments`], the discovery
+/// section or the design): its name, its work counted before it runs, and its run. The
+/// programme is the list of [`steps`]; its progress display, its work estimate ([`work`])
+/// and its run ([`run`]) all come from that list.
+pub trait Experiment: Sync {
+    /// Its name (the progress line, the summary's timings, its files' stem).
+    fn name(&self) -> &'static str;
+
+    /// Its closed-loop ticks (and seconds of other work) with `instr` and `opts`, counted
+    /// before it runs.
+    ///
+    /// # Errors
+    /// The report's transcriptions it reads are malformed.
+    fn work(&self, instr: &Instrument, opts: &SimOptions) -> Result<Estimate>;
+
+    /// Run it: its tables on `out`, its files into `dir`.
+    ///
+    /// # Errors
+    /// The experiment, a file or `out` fails.
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &Path,
+        out: &mut dyn Write,
+    ) -> Result<Finding>;
+}
+
+/// What a step of the programme found (for [`Programme`] and the summary).
+#[derive(Clone, Debug)]
+pub enum Finding {
+    /// Section 6.1.
+    Tumble(tumble::TumbleRun),
+    /// Table 6.1.
+    Anisoinertia(anisoinertia::AnisoRun),
+    /// Tables 6.2, 6.3.
+    OaCoupling(oa_coupling::OaRun),
+    /// Appendix A, one set-up.
+    TwoAxis(TwoAxisKind, appendix_a::AppendixRun),
+    /// Fig. 3.2.
+    Waveform(Output),
+    /// The closed loop's frequency response.
+    Response(frequency_response::ResponseRun),
+    /// The limit cycle across the range.
+    LimitCycle(limit_cycle::LimitCycleRun),
+    /// The tolerance box.
+    MonteCarlo(monte_carlo::MonteCarloRun),
+    /// The discovery section (Markdown), or why it is missing.
+    Discovery(std::result::Result<String, String>),
+    /// The design text.
+    Design(String),
+}
+
+/// The steps of the programme, in order.
+#[must_use]
+pub fn steps() -> Vec<Box<dyn Experiment>> {
+    vec![
+        Box::new(tumble::Step),
+        Box::new(anisoinertia::Step),
+        Box::new(oa_coupling::Step),
+        Box::new(appendix_a::Step(TwoAxisKind::Vibropendulous)),
+        Box::new(appendix_a::Step(TwoAxisKind::Anisoelastic)),
+        Box::new(appendix_a::Step(TwoAxisKind::Sculling)),
+        Box::new(waveform::Step),
+        Box::new(frequency_response::Step),
+        Box::new(limit_cycle::Step),
+        Box::new(monte_carlo::Step),
+        Box::new(discovery::Step),
+        Box::new(design::Step),
+    ]
+}
+
+/// An experiment's output: its tables on `out`, its files into `dir`.
+///
+/// # Errors
+/// `out` or a file fails.
+pub(crate) fn emit(o: &Output, dir: &Path, out: &mut dyn Write) -> Result<()> {
+    o.print(out)?;
+    o.write_files(dir)?;
+    Ok(())
+}
+
+/// The estimate of a step that counts closed-loop ticks only.
+#[must_use]
+pub fn ticks_only(ticks: crate::simulation::work::Ticks) -> Estimate {
+    Estimate {
+        ticks,
+        other_s: 0.0,
+    }
+}
 
 /// How the programme was run (for the summary's first lines).
 #[derive(Clone, Debug, PartialEq)]
@@ -84,52 +158,82 @@ pub struct Programme {
     pub wall_s: f64,
 }
 
-/// Run the programme into `target` (a folder that appears whole at the end, replacing an
-/// older one, or not at all), printing each experiment's tables to `out` and calling
+impl Programme {
+    /// The programme of the findings of its steps (each kind once, the set-ups of Appendix
+    /// A in order), with the seconds of each step and the wall time still to set.
+    ///
+    /// # Errors
+    /// A step the summary needs is missing.
+    pub fn of(
+        info: RunInfo,
+        instr: &Instrument,
+        found: Vec<Finding>,
+        timings: Vec<(&'static str, f64)>,
+    ) -> Result<Self> {
+        let (mut tumble, mut aniso, mut oa, mut wave, mut response) =
+            (None, None, None, None, None);
+        let (mut limit, mut mc, mut discovery, mut design) = (None, None, None, None);
+        let mut appendix = Vec::new();
+        for f in found {
+            match f {
+                Finding::Tumble(r) => tumble = Some(r),
+                Finding::Anisoinertia(r) => aniso = Some(r),
+                Finding::OaCoupling(r) => oa = Some(r),
+                Finding::TwoAxis(kind, r) => appendix.push((kind, r)),
+                Finding::Waveform(o) => wave = Some(o),
+                Finding::Response(r) => response = Some(r),
+                Finding::LimitCycle(r) => limit = Some(r),
+                Finding::MonteCarlo(r) => mc = Some(r),
+                Finding::Discovery(r) => discovery = Some(r),
+                Finding::Design(t) => design = Some(t),
+            }
+        }
+        let missing = |what: &str| format!("the programme has no {what} step");
+        Ok(Self {
+            info,
+            instrument: instr.clone(),
+            tumble: tumble.with_context(|| missing("tumble"))?,
+            anisoinertia: aniso.with_context(|| missing("anisoinertia"))?,
+            oa_coupling: oa.with_context(|| missing("OA coupling"))?,
+            appendix,
+            waveform: wave.with_context(|| missing("waveform"))?,
+            response: response.with_context(|| missing("frequency response"))?,
+            limit_cycle: limit.with_context(|| missing("limit cycle"))?,
+            monte_carlo: mc.with_context(|| missing("Monte Carlo"))?,
+            discovery: discovery.with_context(|| missing("discovery"))?,
+            design: design.with_context(|| missing("design"))?,
+            timings,
+            wall_s: 0.0,
+        })
+    }
+}
+
 /// Seconds of the programme beyond its closed-loop ticks and its discovery's least squares
 /// (the figures, the files, the margins of the tolerance box's corners), on the slow side
 /// (`docs/host-sim.md`, "Work estimates").
 pub const OVERHEAD_S: f64 = 1.0;
 
-/// The work of [`run`] with `instr` and `opts`, counted before it runs: every experiment's
-/// closed-loop ticks ([`tumble::work`], ...) and the part of the discovery section that
-/// always runs ([`crate::discovery::cost`]).
+/// The work of [`run`] with `instr` and `opts`, counted before it runs: every step's
+/// ([`Experiment::work`]) and [`OVERHEAD_S`].
 ///
 /// # Errors
 /// The report's transcriptions are malformed.
-pub fn work(instr: &Instrument, opts: &SimOptions) -> Result<crate::simulation::work::Estimate> {
-    let mut t = tumble::work(instr, opts, tumble::DEFAULT_GATE_S)
-        + anisoinertia::work(instr, opts, [0.0; 3])?
-        + oa_coupling::work(instr, opts, [0.0; 3])?
-        + waveform::work(instr, opts, waveform::DEFAULT_CYCLES)
-        + frequency_response::work(instr, opts)
-        + limit_cycle::work(instr, opts)
-        + monte_carlo::work(instr, opts, monte_carlo::DEFAULT_SAMPLES);
-    for kind in [
-        TwoAxisKind::Vibropendulous,
-        TwoAxisKind::Anisoelastic,
-        TwoAxisKind::Sculling,
-    ] {
-        t += appendix_a::work(instr, opts, &appendix_a::TwoAxisPlan::report(kind));
-    }
-    let sim = ClosedLoopSimulator {
-        instrument: instr.clone(),
-        options: *opts,
+pub fn work(instr: &Instrument, opts: &SimOptions) -> Result<Estimate> {
+    let mut e = Estimate {
+        other_s: OVERHEAD_S,
+        ..Estimate::default()
     };
-    let mut other_s = OVERHEAD_S;
-    for f in r890::case_files()? {
-        let c = crate::discovery::cost::Cost::of(
-            &f.rows,
-            &sim,
-            crate::model::effects::CandidateId::ALL,
-        );
-        t += c.ticks;
-        other_s += c.seconds() - c.ticks.seconds();
+    for step in steps() {
+        let w = step.work(instr, opts)?;
+        e.ticks += w.ticks;
+        e.other_s += w.other_s;
     }
-    Ok(crate::simulation::work::Estimate { ticks: t, other_s })
+    Ok(e)
 }
 
-/// `step(k, name)` before step `k` of [`STEPS`].
+/// Run the programme ([`steps`]) into `target` (a folder that appears whole at the end,
+/// replacing an older one, or not at all), printing each experiment's tables to `out` and
+/// calling `step(k, name)` before step `k`.
 ///
 /// # Errors
 /// An experiment, a file or `out` fails; the target folder is then left as it was.
@@ -145,97 +249,14 @@ pub fn run(
     let staged = StagedDir::new(target)?;
     let dir = staged.path().to_path_buf();
     let mut timings = Vec::new();
-    let mut last = Instant::now();
-    let mut k = 0;
-    let mut next = |timings: &mut Vec<(&'static str, f64)>| {
-        if k > 0 {
-            timings.push((STEPS[k - 1], last.elapsed().as_secs_f64()));
-        }
-        last = Instant::now();
-        if k < STEPS.len() {
-            step(k, STEPS[k]);
-        }
-        k += 1;
-    };
-    let emit = |o: &Output, out: &mut dyn Write| -> Result<()> {
-        o.print(out)?;
-        o.write_files(&dir)?;
-        Ok(())
-    };
-    next(&mut timings);
-    let tumble = tumble::run(instr, opts, tumble::DEFAULT_GATE_S)?;
-    emit(&tumble.output, out)?;
-    next(&mut timings);
-    let aniso = anisoinertia::run(
-        instr,
-        opts,
-        r890::section_6_2()?.anisoinertia_g_cm2,
-        [0.0; 3],
-    )?;
-    emit(&aniso.output, out)?;
-    next(&mut timings);
-    let oa = oa_coupling::run(instr, opts, [0.0; 3])?;
-    emit(&oa.output, out)?;
-    let mut appendix = Vec::new();
-    for kind in [
-        TwoAxisKind::Vibropendulous,
-        TwoAxisKind::Anisoelastic,
-        TwoAxisKind::Sculling,
-    ] {
-        next(&mut timings);
-        let r = appendix_a::run(instr, opts, &appendix_a::TwoAxisPlan::report(kind))?;
-        emit(&r.output, out)?;
-        appendix.push((kind, r));
+    let mut found = Vec::new();
+    for (k, e) in steps().iter().enumerate() {
+        step(k, e.name());
+        let t = Instant::now();
+        found.push(e.run(instr, opts, &dir, out)?);
+        timings.push((e.name(), t.elapsed().as_secs_f64()));
     }
-    next(&mut timings);
-    let wave = waveform::run(
-        instr,
-        opts,
-        waveform::DEFAULT_ACCEL_CM_S2,
-        waveform::DEFAULT_CYCLES,
-        &dir,
-    )?;
-    emit(&wave, out)?;
-    next(&mut timings);
-    let response = frequency_response::run(instr, opts)?;
-    emit(&response.output, out)?;
-    next(&mut timings);
-    let limit = limit_cycle::run(instr, opts)?;
-    emit(&limit.output, out)?;
-    next(&mut timings);
-    let mc = monte_carlo::run(instr, opts, monte_carlo::DEFAULT_SAMPLES)?;
-    emit(&mc.output, out)?;
-    next(&mut timings);
-    let sim = ClosedLoopSimulator {
-        instrument: instr.clone(),
-        options: *opts,
-    };
-    let discovery = discovery::section(
-        &sim,
-        &Options::for_instrument(instr),
-        Some(&dir.join("discover")),
-    )
-    .map_err(|e| format!("{e:#}"));
-    next(&mut timings);
-    let design = design::text(instr);
-    write_atomic(&dir.join("design.txt"), design.as_bytes())?;
-    next(&mut timings);
-    let mut p = Programme {
-        info,
-        instrument: instr.clone(),
-        tumble,
-        anisoinertia: aniso,
-        oa_coupling: oa,
-        appendix,
-        waveform: wave,
-        response,
-        limit_cycle: limit,
-        monte_carlo: mc,
-        discovery,
-        design,
-        timings,
-        wall_s: 0.0,
-    };
+    let mut p = Programme::of(info, instr, found, timings)?;
     p.wall_s = t0.elapsed().as_secs_f64();
     write_atomic(&dir.join("summary.md"), summary::render(&p)?.as_bytes())?;
     let path = staged.commit()?;

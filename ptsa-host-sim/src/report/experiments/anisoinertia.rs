@@ -10,6 +10,7 @@ use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num, opt};
 use crate::report::r890;
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::{SimOptions, simulate_difference};
 
 /// One row of the anisoinertia experiment.
@@ -202,4 +203,35 @@ fn error_table(rows: &[AnisoRow], aniso_g_cm2: f64, k: f64) -> Table {
         ]);
     }
     t
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "anisoinertia"
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts, [0.0; 3])?))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let k = crate::report::r890::section_6_2()?.anisoinertia_g_cm2;
+        let r = run(instr, opts, k, [0.0; 3])?;
+        emit(&r.output, dir, out)?;
+        Ok(Finding::Anisoinertia(r))
+    }
 }

@@ -13,6 +13,7 @@ use crate::model::design::{Cx, loop_gain, pendulum};
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num};
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::{SimOptions, simulate_difference};
 
 /// The set-up of one Appendix A sweep.
@@ -283,5 +284,35 @@ pub fn predict_rectified(
     Prediction {
         dc_cm_s2: dc / nf - static_eff,
         amp_2w_cm_s2: 2.0 * h_s.hypot(h_c) / nf,
+    }
+}
+
+/// The step of the report programme for one set-up (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step(pub TwoAxisKind);
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        name(self.0)
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts, &TwoAxisPlan::report(self.0))))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let r = run(instr, opts, &TwoAxisPlan::report(self.0))?;
+        emit(&r.output, dir, out)?;
+        Ok(Finding::TwoAxis(self.0, r))
     }
 }

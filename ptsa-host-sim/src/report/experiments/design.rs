@@ -2,6 +2,7 @@
 
 use crate::model::design::{Design, margins};
 use crate::model::instrument::Instrument;
+use crate::report::{Experiment, Finding};
 
 /// The design (text) for an instrument, with the margins of the linearised loop.
 #[must_use]
@@ -12,4 +13,34 @@ pub fn text(instr: &Instrument) -> String {
         "{d}  margins (linearised loop incl. delay, current lag, demodulator): crossover {:.1} Hz, phase margin {:.1} deg, gain margin {:.1} dB\n",
         m.crossover_hz, m.phase_margin_deg, m.gain_margin_db
     )
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "design"
+    }
+
+    fn work(
+        &self,
+        _: &Instrument,
+        _: &crate::simulation::sim::SimOptions,
+    ) -> anyhow::Result<crate::simulation::work::Estimate> {
+        Ok(crate::simulation::work::Estimate::default())
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        _: &crate::simulation::sim::SimOptions,
+        dir: &std::path::Path,
+        _: &mut dyn std::io::Write,
+    ) -> anyhow::Result<Finding> {
+        let t = text(instr);
+        crate::output::write_atomic(&dir.join("design.txt"), t.as_bytes())?;
+        Ok(Finding::Design(t))
+    }
 }

@@ -9,6 +9,7 @@ use crate::model::design::loop_gain;
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num};
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::{SimOptions, simulate_condition};
 
 /// Input amplitude, cm/s² (large enough that the 1-count dead band does not matter).
@@ -179,4 +180,34 @@ fn table(rows: &[ResponseRow]) -> Table {
         ]);
     }
     t
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "frequency response"
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts)))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let r = run(instr, opts)?;
+        emit(&r.output, dir, out)?;
+        Ok(Finding::Response(r))
+    }
 }

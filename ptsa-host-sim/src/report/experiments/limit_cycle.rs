@@ -9,6 +9,7 @@ use crate::lab::fixtures;
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num};
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::{SimOptions, SimResult, simulate_condition};
 
 /// Inputs as fractions of full scale.
@@ -169,5 +170,35 @@ fn figure(rows: &[(f64, SimResult)], sf_cm_s2: f64) -> Figure {
         } else {
             vec![within, beyond]
         },
+    }
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "limit cycle"
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts)))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let r = run(instr, opts)?;
+        emit(&r.output, dir, out)?;
+        Ok(Finding::LimitCycle(r))
     }
 }

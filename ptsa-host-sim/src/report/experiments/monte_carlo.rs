@@ -18,6 +18,7 @@ use crate::model::design::margins;
 use crate::model::effects::Effects;
 use crate::model::instrument::{Instrument, Tolerance};
 use crate::output::{Figure, Output, Plot, Series, Table, num, text};
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::SimOptions;
 
 /// Up to this many toleranced parameters every corner is visited.
@@ -277,4 +278,34 @@ fn keys_table(tol: &[Tolerance]) -> Table {
         ]);
     }
     keys
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "monte carlo"
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts, DEFAULT_SAMPLES)))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let r = run(instr, opts, DEFAULT_SAMPLES)?;
+        emit(&r.output, dir, out)?;
+        Ok(Finding::MonteCarlo(r))
+    }
 }

@@ -13,6 +13,7 @@ use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num, opt};
 use crate::report::r890;
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::{SimOptions, simulate_difference};
 
 /// One row of the OA-coupling experiment.
@@ -228,4 +229,34 @@ fn table_and_figure(rows: &[OaRow], v: bool, stem: &str, title: &str) -> (Table,
         },
     );
     (t, figure)
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "oa-coupling"
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts, [0.0; 3])?))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let r = run(instr, opts, [0.0; 3])?;
+        emit(&r.output, dir, out)?;
+        Ok(Finding::OaCoupling(r))
+    }
 }

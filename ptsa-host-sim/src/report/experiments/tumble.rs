@@ -12,6 +12,7 @@ use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Cell, Figure, Output, Plot, Series, Table, num, text};
 use crate::report::r890;
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::{ClosedLoop, SimOptions, simulate_condition};
 
 /// Default counting gate, s (the report's count period is not given; 1 s).
@@ -269,4 +270,34 @@ fn sweep(instr: &Instrument, opts: &SimOptions) -> Vec<(f64, f64)> {
             )
         })
         .collect()
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "tumble"
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts, DEFAULT_GATE_S)))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let r = run(instr, opts, DEFAULT_GATE_S)?;
+        emit(&r.output, dir, out)?;
+        Ok(Finding::Tumble(r))
+    }
 }

@@ -12,6 +12,7 @@ use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::fs::{persist, temp_beside};
 use crate::output::{Figure, Output, Plot, Series};
+use crate::report::{Experiment, Finding, emit, ticks_only};
 use crate::simulation::sim::{ClosedLoop, SimOptions};
 
 /// Default constant acceleration along IA, cm/s².
@@ -133,4 +134,34 @@ pub fn run(
             crate::output::count(cycles.saturating_mul(per_cycle), "tick")
         )],
     })
+}
+
+/// The step of the report programme (see [`crate::report::Experiment`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Step;
+
+impl Experiment for Step {
+    fn name(&self) -> &'static str {
+        "waveform"
+    }
+
+    fn work(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+    ) -> Result<crate::simulation::work::Estimate> {
+        Ok(ticks_only(work(instr, opts, DEFAULT_CYCLES)))
+    }
+
+    fn run(
+        &self,
+        instr: &Instrument,
+        opts: &SimOptions,
+        dir: &std::path::Path,
+        out: &mut dyn std::io::Write,
+    ) -> Result<Finding> {
+        let o = run(instr, opts, DEFAULT_ACCEL_CM_S2, DEFAULT_CYCLES, dir)?;
+        emit(&o, dir, out)?;
+        Ok(Finding::Waveform(o))
+    }
 }

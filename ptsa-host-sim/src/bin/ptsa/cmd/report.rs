@@ -71,17 +71,14 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         options: req.opts,
         threads: rayon::current_num_threads(),
     };
+    let steps = report::steps().len();
     let (p, dir) = report::run(
         instr,
         &req.opts,
         info,
         &req.out,
         &mut |k, step| {
-            bar.set_step(&format!(
-                "step {} of {}, {step}",
-                k + 1,
-                report::STEPS.len()
-            ));
+            bar.set_step(&format!("step {} of {steps}, {step}", k + 1));
         },
         out,
     )?;
