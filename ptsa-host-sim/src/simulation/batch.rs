@@ -64,9 +64,9 @@ use crate::model::instrument::Instrument;
 
 use crate::simulation::kernel::{self, DynLanes, DynState, StaticLanes, StaticState};
 use crate::simulation::sim::{
-    self, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource, PROGRESS_CHUNK,
-    SimDifference, SimOptions, SimResult, StaticParams, StaticRun, StaticRunState, TickInputs,
-    WindowStart, fast_block,
+    self, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource, SimDifference,
+    SimOptions, SimResult, StaticParams, StaticRun, StaticRunState, TickInputs, WindowStart,
+    fast_block,
 };
 
 /// Static lanes side by side per core by default (see the module docs; `benches/batch.rs`
@@ -145,14 +145,15 @@ impl Engine {
                 ClosedLoop::with_noise(instr, &cond, &Effects::NONE, opts, noise.clone())
             })
             .collect();
-        // `sim::run_static_with`: `run_fast` in chunks of PROGRESS_CHUNK ticks (a run does not
-        // depend on how it is cut into calls; the chunks only keep the steps those of the
-        // single loop).
-        let mut prog = Vec::new();
-        push_chunked(&mut prog, opts.warmup_ticks(instr.clock_hz));
-        prog.push(Step::OpenGate);
-        push_chunked(&mut prog, ticks);
-        prog.push(Step::CloseGate(ticks));
+        // `sim::run_static_with`'s calls of `run_fast`, as one run each for the settling and
+        // the gate (a run does not depend on how it is cut into calls: the single loop cuts
+        // them for its progress line only).
+        let prog = vec![
+            Step::RunFast(opts.warmup_ticks(instr.clock_hz)),
+            Step::OpenGate,
+            Step::RunFast(ticks),
+            Step::CloseGate(ticks),
+        ];
         let outs = self.execute(&mut loops, |_| prog.clone());
         outs.into_iter()
             .map(|o| match o {
@@ -359,17 +360,6 @@ fn noise_sources(seeds: impl Iterator<Item = u64>) -> HashMap<u64, NoiseSource> 
         .into_par_iter()
         .map(|s| (s, NoiseSource::new(s)))
         .collect()
-}
-
-/// `RunFast` steps of at most [`PROGRESS_CHUNK`] ticks, `n` in all (as `run_static_with`
-/// calls `run_fast`).
-fn push_chunked(prog: &mut Vec<Step>, n: u64) {
-    let mut left = n;
-    while left > 0 {
-        let k = left.min(PROGRESS_CHUNK);
-        prog.push(Step::RunFast(k));
-        left -= k;
-    }
 }
 
 /// One step of a lane's program: one call of the single loop.
@@ -1225,6 +1215,28 @@ mod tests {
                     .collect();
                 assert_eq!(got, want, "K = {}, noise {noise}", e.lanes());
             }
+        }
+    }
+
+    /// A gate longer than the single loop's progress chunk: the single loop cuts it into
+    /// calls, the batch engine runs it as one; the counts and the state are the same bits.
+    #[test]
+    fn a_gate_longer_than_a_progress_chunk_is_not_cut() {
+        let i = instr();
+        let opts = short(5, true, 0);
+        let ticks = sim::PROGRESS_CHUNK + 12_345;
+        let accels = [0.3 * i.sf_cm_s2, -0.7 * i.sf_cm_s2];
+        let want: Vec<_> = accels
+            .iter()
+            .map(|&a| static_bits(&sim::run_static(&i, a, ticks, &opts)))
+            .collect();
+        for e in [Engine::new(1), Engine::new(2)] {
+            let got: Vec<_> = e
+                .run_static(&i, &accels, ticks, &opts)
+                .iter()
+                .map(static_bits)
+                .collect();
+            assert_eq!(got, want, "K = {}", e.lanes());
         }
     }
 
