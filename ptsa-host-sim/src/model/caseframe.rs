@@ -131,20 +131,6 @@ pub const COLUMNS: &[Column] = &[
         get: |c| Value::Num(c.time_s),
         set: |c, v| c.time_s = num(v),
     },
-    Column {
-        name: "approach",
-        expected: "`up` or `+` (the input along IA rose to this reading: approached from below), `down` or `-` (it fell: approached from above), or an empty cell (not recorded: the change of the input along IA since the previous row gives it)",
-        check: Check::OneOf(Approach::WORDS),
-        get: |c| Value::Text(c.approach.map(|a| a.name().to_string())),
-        set: |c, v| c.approach = text(v).and_then(|t| Approach::parse(&t)),
-    },
-    Column {
-        name: "temp_c",
-        expected: "a finite temperature of the instrument in °C, or an empty cell (not measured)",
-        check: Check::Finite,
-        get: |c| Value::Num(c.temp_c),
-        set: |c, v| c.temp_c = num(v),
-    },
     axis_column!("g_ia", g, 0, Check::Finite, INPUT),
     axis_column!("g_pa", g, 1, Check::Finite, INPUT),
     axis_column!("g_oa", g, 2, Check::Finite, INPUT),
@@ -239,6 +225,20 @@ pub const COLUMNS: &[Column] = &[
         check: Check::Positive,
         get: |c| Value::Num(c.sigma_phase_deg),
         set: |c, v| c.sigma_phase_deg = num(v),
+    },
+    Column {
+        name: "approach",
+        expected: "`up` or `+` (the input along IA rose to this reading: approached from below), `down` or `-` (it fell: approached from above), or an empty cell (not recorded: the change of the input along IA since the previous row gives it)",
+        check: Check::OneOf(Approach::WORDS),
+        get: |c| Value::Text(c.approach.map(|a| a.name().to_string())),
+        set: |c, v| c.approach = text(v).and_then(|t| Approach::parse(&t)),
+    },
+    Column {
+        name: "temp_c",
+        expected: "a finite temperature of the instrument in °C, or an empty cell (not measured)",
+        check: Check::Finite,
+        get: |c| Value::Num(c.temp_c),
+        set: |c, v| c.temp_c = num(v),
     },
 ];
 
@@ -839,11 +839,19 @@ pub fn to_object(c: &Condition) -> serde_json::Map<String, serde_json::Value> {
 /// `measured_cm_s2`; `sigma_cm_s2` whenever a row has one), then one line per row.
 #[must_use]
 pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
+    to_csv_with(rows, comments, &[])
+}
+
+/// [`to_csv`], with the columns named in `also` written even where every cell is empty
+/// (a plan's columns for the lab to fill in, such as `temp_c`).
+#[must_use]
+pub fn to_csv_with(rows: &[Condition], comments: &[&str], also: &[&str]) -> String {
     let used: Vec<usize> = (0..COLUMNS.len())
         .filter(|&k| {
             let col = &COLUMNS[k];
             col.name == "label"
                 || col.name == "measured_cm_s2"
+                || also.contains(&col.name)
                 || rows.iter().any(|c| {
                     given(&(col.get)(c)) || (col.name == "sigma_cm_s2" && c.sigma_cm_s2.is_some())
                 })
