@@ -836,7 +836,8 @@ pub fn to_object(c: &Condition) -> serde_json::Map<String, serde_json::Value> {
 
 /// Render rows as case-frame CSV: `comments` (each line prefixed with `# `), the header
 /// (columns that are empty or zero in every row are left out, except `label` and
-/// `measured_cm_s2`; `sigma_cm_s2` whenever a row has one), then one line per row.
+/// `measured_cm_s2`; a column whose empty cell means "not given", such as `sigma_cm_s2`,
+/// `time_s` or `temp_c`, whenever a row gives it, 0 included), then one line per row.
 #[must_use]
 pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
     to_csv_with(rows, comments, &[])
@@ -849,11 +850,15 @@ pub fn to_csv_with(rows: &[Condition], comments: &[&str], also: &[&str]) -> Stri
     let used: Vec<usize> = (0..COLUMNS.len())
         .filter(|&k| {
             let col = &COLUMNS[k];
+            // A number where an empty cell means "not given" (`time_s`, `temp_c`, a
+            // measurement or a sigma) is given even when it is 0 (0 °C, a phase of 0°).
+            let optional = !col.is_text() && !empty_reads_as_zero(col);
             col.name == "label"
                 || col.name == "measured_cm_s2"
                 || also.contains(&col.name)
                 || rows.iter().any(|c| {
-                    given(&(col.get)(c)) || (col.name == "sigma_cm_s2" && c.sigma_cm_s2.is_some())
+                    let v = (col.get)(c);
+                    given(&v) || (optional && matches!(v, Value::Num(Some(_))))
                 })
         })
         .collect();
@@ -1087,6 +1092,19 @@ mod tests {
             m.starts_with("t.csv:3: column 2 (`temp_c`) is empty in a measured row (`b`), but 2 other rows give a temperature"),
             "{m}"
         );
+        // 0 °C is a temperature (and a time of 0 a time): written, read back.
+        let cold = Condition {
+            label: "c".into(),
+            temp_c: Some(0.0),
+            time_s: Some(0.0),
+            ..Condition::default()
+        };
+        let text = to_csv(std::slice::from_ref(&cold), &[]);
+        assert!(
+            text.starts_with("label,time_s,measured_cm_s2,temp_c\n"),
+            "{text}"
+        );
+        assert_eq!(parse("t.csv", &text).unwrap(), vec![cold]);
         // No temperature anywhere, or only unmeasured rows without one: accepted.
         assert!(parse("t.csv", "label,temp_c,measured_cm_s2\na,,1\nb,,2\n").is_ok());
         assert!(parse("t.csv", "label,temp_c,measured_cm_s2\na,21,1\nb,,\n").is_ok());
