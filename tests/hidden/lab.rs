@@ -7,6 +7,7 @@
 //! | the same, interleaved order (0°, 180°, 15°, 195°, …) | the same | `hysteresis` = h |
 //! | bias per °C | `k·ΔT`, ΔT the temperature of the row (a warming ramp, [`temperature_c`]) less the ramp's mean | `temperature.k0_t_cm_s2_per_c` = k |
 //! | scale factor per °C | `k·1e-6·ΔT·a_IA` | `temperature.k1_t_ppm_per_c` = k |
+//! | warm-up, angle or interleaved order | `A·[(1 − e^(−k/4.8)) − its mean over the rows]`, k the row's place in the measurement order (issue 21's turn-on transient) | nothing: outside the vocabulary; scored for confident misnaming and silence |
 //! | null, null with `temp_c` | nothing | nothing |
 //!
 //! * **Measurement**: each row's reading is the instrument's own (the closed loop of the
@@ -67,6 +68,8 @@ pub const SIGMA_CM_S2: f64 = 0.02;
 pub const STRENGTHS: [f64; 2] = [6.0, 10.0];
 /// The warming ramp: `T₀ + rise·(1 − e^(−k/τ))` at the k-th row (0-based), °C.
 const RAMP: (f64, f64, f64) = (24.0, 4.0, 6.0);
+/// The warm-up's time constant, rows (issue 21's 4.8).
+pub const WARM_UP_ROWS: f64 = 4.8;
 /// A change of `a_IA` below this is no change (0° and 360° differ by rounding), cm/s².
 const NO_CHANGE_CM_S2: f64 = 1e-6;
 
@@ -88,6 +91,9 @@ pub enum Effect {
     TemperatureBias,
     /// A scale-factor change per °C, `k·1e-6·ΔT·a_IA`, ppm per °C (angle order).
     TemperatureScaleFactor,
+    /// A turn-on transient outside the vocabulary, `A·[(1 − e^(−k/τ)) − mean]` with τ =
+    /// [`WARM_UP_ROWS`] rows, in the given order.
+    WarmUp(Order),
     /// Nothing (angle order, no `temp_c`).
     Null,
     /// Nothing (angle order, `temp_c` recorded).
@@ -103,6 +109,8 @@ impl Effect {
             Effect::Hysteresis(Order::Interleaved) => "hysteresis, interleaved",
             Effect::TemperatureBias => "bias per °C",
             Effect::TemperatureScaleFactor => "scale factor per °C",
+            Effect::WarmUp(Order::Angle) => "warm-up (oov), angle order",
+            Effect::WarmUp(Order::Interleaved) => "warm-up (oov), interleaved",
             Effect::Null => "null",
             Effect::NullTemperature => "null, temp_c ramp",
         }
@@ -115,7 +123,7 @@ impl Effect {
             Effect::Hysteresis(_) => &[CandidateId::Hysteresis],
             Effect::TemperatureBias => &[CandidateId::TemperatureBias],
             Effect::TemperatureScaleFactor => &[CandidateId::TemperatureScaleFactor],
-            Effect::Null | Effect::NullTemperature => &[],
+            Effect::WarmUp(_) | Effect::Null | Effect::NullTemperature => &[],
         }
     }
 
@@ -123,7 +131,7 @@ impl Effect {
     #[must_use]
     pub fn order(self) -> Order {
         match self {
-            Effect::Hysteresis(o) => o,
+            Effect::Hysteresis(o) | Effect::WarmUp(o) => o,
             _ => Order::Angle,
         }
     }
@@ -157,6 +165,8 @@ impl LabKind {
             Effect::Hysteresis(Order::Interleaved),
             Effect::TemperatureBias,
             Effect::TemperatureScaleFactor,
+            Effect::WarmUp(Order::Angle),
+            Effect::WarmUp(Order::Interleaved),
         ] {
             for strength_se in STRENGTHS {
                 v.push(LabKind {
@@ -177,7 +187,7 @@ impl LabKind {
     /// Name in tables.
     #[must_use]
     pub fn name(self) -> String {
-        if self.effect.names().is_empty() {
+        if self.strength_se == 0.0 {
             self.effect.name().to_string()
         } else {
             format!("{}, {} SE", self.effect.name(), self.strength_se)
@@ -223,6 +233,12 @@ pub fn unit_law(effect: Effect, rows: &[Condition], g_cm_s2: f64) -> Vec<(f64, f
     #[allow(clippy::cast_precision_loss)]
     let t_mean = temps.iter().sum::<f64>() / n.max(1) as f64;
     let a: Vec<f64> = rows.iter().map(|r| static_force(r, g_cm_s2)[IA]).collect();
+    #[allow(clippy::cast_precision_loss)]
+    let warm: Vec<f64> = (0..n)
+        .map(|k| 1.0 - (-(k as f64) / WARM_UP_ROWS).exp())
+        .collect();
+    #[allow(clippy::cast_precision_loss)]
+    let warm_mean = warm.iter().sum::<f64>() / n.max(1) as f64;
     (0..n)
         .map(|k| match effect {
             Effect::Hysteresis(_) => {
@@ -242,6 +258,7 @@ pub fn unit_law(effect: Effect, rows: &[Condition], g_cm_s2: f64) -> Vec<(f64, f
             }
             Effect::TemperatureBias => (temps[k] - t_mean, 0.0),
             Effect::TemperatureScaleFactor => (0.0, 1e-6 * (temps[k] - t_mean)),
+            Effect::WarmUp(_) => (warm[k] - warm_mean, 0.0),
             Effect::Null | Effect::NullTemperature => (0.0, 0.0),
         })
         .collect()
@@ -416,6 +433,12 @@ impl LabStats {
             }
             self.confident.add(o.misnamed() && o.confident_misnaming());
             self.silent.add(!o.exact_or_partner() && o.silent());
+        } else if o.truth.kind.strength_se > 0.0 {
+            // Outside the vocabulary: any selection names a wrong cause; silent is nothing
+            // warning that something is there, selected or not.
+            self.confident
+                .add(o.any_selection() && o.confident_misnaming());
+            self.silent.add(o.silent());
         } else {
             self.confident
                 .add(o.any_selection() && o.confident_misnaming());
@@ -548,6 +571,7 @@ impl Campaign for Lab {
                 .map_or(String::new(), |o| format!("{:.2}", o.truth.partial));
             let null = !hidden(&kind);
             let dash = |c: Count| if null { "-".to_string() } else { c.cell() };
+            let none_hidden = kind.strength_se == 0.0;
             v.push((
                 kind.name(),
                 vec![
@@ -563,7 +587,7 @@ impl Campaign for Lab {
                     s.unexplained.cell(),
                     s.silent.cell(),
                     if null { s.any.marked() } else { s.any.cell() },
-                    if null { "-".into() } else { partial },
+                    if none_hidden { "-".into() } else { partial },
                 ],
             ));
         }
@@ -592,9 +616,10 @@ impl Campaign for Lab {
             "named: the hidden effect's candidate selected; e|p: selected or named as a confounded partner; coverage: |z| <= 1.96\n\
              among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection, the truth neither\n\
              selected nor a partner, no unexplained-structure flag (nulls: any plausible selection without it); unexpl.: the\n\
-             unexplained-structure flag; silent: the truth not named (nulls: something selected) and nothing warns (no warning,\n\
-             no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
-             is below 0.01); partial: the effect's column outside the row-order drift, over its norm.\n\
+             unexplained-structure flag; silent: the truth not named (nulls: something selected; warm-up: any set) and nothing\n\
+             warns (no warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
+             is below 0.01); partial: the effect's column outside the row-order drift, over its norm. The warm-up is outside\n\
+             the vocabulary: every selection there names a wrong cause (confident: without the unexplained flag); reported only.\n\
              Asserted: no refusal; false selections on each null at most 5%; coverage over the hidden kinds in the 99% band from\n\
              20 exact namings; each hidden effect named (e|p) in >= 95%{} of its sets at 6 and 10 SE together.",
             if ci {
