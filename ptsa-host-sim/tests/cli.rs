@@ -1649,3 +1649,52 @@ fn bad_lab_columns_are_refused() {
         ],
     );
 }
+
+/// `approach` recorded on difference rows (Table 6.1's rate-table rows) is not used, and
+/// the output says so: a `warning:` line naming the rows, in the text and in the JSON's
+/// `warnings`; the analysis is the same as without the column.
+#[test]
+fn approach_on_difference_rows_is_warned_unused() {
+    let table = include_str!("../../data/r890-table-6.1.case.csv");
+    let mut text = String::new();
+    for (k, l) in table.lines().filter(|l| !l.starts_with('#')).enumerate() {
+        text.push_str(l);
+        text.push_str(if k == 0 { ",approach\n" } else { ",up\n" });
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::write(d.join("t61.csv"), &text).unwrap();
+    let (out, _) = succeeds_in(
+        d,
+        &["discover", "--data", "t61.csv", "--analytic", "--no-plots"],
+    );
+    // The line after the report's title.
+    let first = out.lines().nth(1).unwrap_or_default();
+    assert!(
+        first.starts_with(
+            "warning: 8 difference or response rows record `approach` but they are not absolute (`IA 45 deg`, `IA 90 deg`, `IA 135 deg`, …): the column is not used there"
+        ),
+        "{out}"
+    );
+    assert!(out.contains("selected: anisoinertia"), "{out}");
+    let (json, _) = succeeds_in(
+        d,
+        &[
+            "discover",
+            "--data",
+            "t61.csv",
+            "--analytic",
+            "--no-plots",
+            "--json",
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    assert!(
+        v["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("record `approach`")),
+        "{v}"
+    );
+}
