@@ -1626,6 +1626,27 @@ fn bad_lab_columns_are_refused() {
         1,
         &["bad.csv:2: column 6 (`approach`) holds `rising`; expected `up` or `+`"],
     );
+    // A power-on time without the row's time, or after it.
+    refused_with(
+        &[(
+            "on.csv",
+            b"label,kind,g_ia,power_on_s,measured_cm_s2\na,absolute,1,0,981\n",
+        )],
+        &["discover", "--data", "on.csv", "--out", "out"],
+        1,
+        &[
+            "on.csv:2: column 4 (`power_on_s`) is 0 but the row has no `time_s`; expected `time_s` on the row",
+        ],
+    );
+    refused_with(
+        &[(
+            "late.csv",
+            b"label,kind,g_ia,time_s,power_on_s,measured_cm_s2\na,absolute,1,10,0,981\nb,absolute,0,20,30,19\n",
+        )],
+        &["discover", "--data", "late.csv", "--out", "out"],
+        1,
+        &["late.csv:3: column 5 (`power_on_s`) is 30 s, after the row's `time_s` 20 s; expected the time the instrument was switched on before this row"],
+    );
     let gap: String = measured
         .lines()
         .enumerate()

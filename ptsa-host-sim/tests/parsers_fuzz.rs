@@ -388,6 +388,7 @@ fn bits(c: &Condition) -> Vec<u64> {
     all.extend(c.measured_cm_s2.map_or([f64::NAN], |v| [v]));
     all.extend(c.sigma_cm_s2.map_or([f64::NAN], |v| [v]));
     all.extend(c.temp_c.map_or([f64::NAN], |v| [v]));
+    all.extend(c.power_on_s.map_or([f64::NAN], |v| [v]));
     all.iter()
         .map(|v| if *v == 0.0 { 0 } else { v.to_bits() })
         .collect()
@@ -422,6 +423,7 @@ fn condition() -> impl Strategy<Value = Condition> {
             any::<bool>(),
             prop::option::of(num()),
             prop::option::of(prop_oneof![Just(Approach::Up), Just(Approach::Down)]),
+            prop::option::of(0.0..1e3_f64),
         ),
     )
         .prop_map(
@@ -432,7 +434,7 @@ fn condition() -> impl Strategy<Value = Condition> {
                 freq,
                 meas,
                 sigma,
-                (block, time_s, absolute, temp_c, approach),
+                (block, time_s, absolute, temp_c, approach, on_before),
             )| Condition {
                 label,
                 kind: if absolute {
@@ -455,6 +457,12 @@ fn condition() -> impl Strategy<Value = Condition> {
                 sigma_cm_s2: sigma,
                 temp_c,
                 approach,
+                // A power-on time only with a time, at or before it.
+                power_on_s: time_s
+                    .zip(on_before)
+                    .map(|(t, d)| (t, t - d))
+                    .filter(|&(t, p)| p.is_finite() && p <= t)
+                    .map(|(_, p)| p),
                 ..Condition::default()
             },
         )

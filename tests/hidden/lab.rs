@@ -7,7 +7,7 @@
 //! | the same, interleaved order (0°, 180°, 15°, 195°, …) | the same | `hysteresis` = h |
 //! | bias per °C | `k·ΔT`, ΔT the temperature of the row (a warming ramp, [`temperature_c`]) less the ramp's mean | `temperature.k0_t_cm_s2_per_c` = k |
 //! | scale factor per °C | `k·1e-6·ΔT·a_IA` | `temperature.k1_t_ppm_per_c` = k |
-//! | warm-up, angle or interleaved order | `A·[(1 − e^(−k/4.8)) − its mean over the rows]`, k the row's place in the measurement order (issue 21's turn-on transient) | nothing: outside the vocabulary; scored for confident misnaming and silence |
+//! | warm-up, angle or interleaved order | `A·[(1 − e^(−k/4.8)) − its mean over the rows]`, k the row's place in the measurement order (issue 21's turn-on transient), rows a minute apart in `time_s` from power-on | a `warm_up` grid point (τ = 1/8, 1/4 or 1/2 of the run; the truth's 4.8 rows is 0.21 of it): named, no coverage |
 //! | null, null with `temp_c` | nothing | nothing |
 //!
 //! * **Measurement**: each row's reading is the instrument's own (the closed loop of the
@@ -17,7 +17,8 @@
 //!   With the quasi-static generator ([`LabGenerator::QuasiStatic`]) the reading is the
 //!   closed loop's noise-free reading of the position, run once, plus `c₀ + c₁·a_IA` (the
 //!   loop indicates a static extra torque exactly, by charge balance). The rows record
-//!   `temp_c` for the temperature kinds; no row records `approach` or `time_s` (the
+//!   `temp_c` for the temperature kinds and `time_s` for the warm-up kinds; no row records
+//!   `approach` (the
 //!   pipeline derives the approach from the row order, as it must for a lab that did not
 //!   write it down). Nothing here calls the candidate code.
 //! * **Strength**: 6 and 10 SE, SE the hidden coefficient's standard error alone in the
@@ -68,6 +69,8 @@ pub const SIGMA_CM_S2: f64 = 0.02;
 pub const STRENGTHS: [f64; 2] = [6.0, 10.0];
 /// The warming ramp: `T₀ + rise·(1 − e^(−k/τ))` at the k-th row (0-based), °C.
 const RAMP: (f64, f64, f64) = (24.0, 4.0, 6.0);
+/// The time between rows of the warm-up kinds (written in `time_s`), s.
+pub const ROW_S: f64 = 60.0;
 /// The warm-up's time constant, rows (issue 21's 4.8).
 pub const WARM_UP_ROWS: f64 = 4.8;
 /// A change of `a_IA` below this is no change (0° and 360° differ by rounding), cm/s².
@@ -109,8 +112,8 @@ impl Effect {
             Effect::Hysteresis(Order::Interleaved) => "hysteresis, interleaved",
             Effect::TemperatureBias => "bias per °C",
             Effect::TemperatureScaleFactor => "scale factor per °C",
-            Effect::WarmUp(Order::Angle) => "warm-up (oov), angle order",
-            Effect::WarmUp(Order::Interleaved) => "warm-up (oov), interleaved",
+            Effect::WarmUp(Order::Angle) => "warm-up, angle order",
+            Effect::WarmUp(Order::Interleaved) => "warm-up, interleaved",
             Effect::Null => "null",
             Effect::NullTemperature => "null, temp_c ramp",
         }
@@ -123,7 +126,12 @@ impl Effect {
             Effect::Hysteresis(_) => &[CandidateId::Hysteresis],
             Effect::TemperatureBias => &[CandidateId::TemperatureBias],
             Effect::TemperatureScaleFactor => &[CandidateId::TemperatureScaleFactor],
-            Effect::WarmUp(_) | Effect::Null | Effect::NullTemperature => &[],
+            Effect::WarmUp(_) => &[
+                CandidateId::WarmUpSpan8,
+                CandidateId::WarmUpSpan4,
+                CandidateId::WarmUpSpan2,
+            ],
+            Effect::Null | Effect::NullTemperature => &[],
         }
     }
 
@@ -219,6 +227,14 @@ pub fn rows(effect: Effect) -> Vec<Condition> {
     if effect.temperature() {
         for (k, r) in rows.iter_mut().enumerate() {
             r.temp_c = Some(temperature_c(k));
+        }
+    }
+    if matches!(effect, Effect::WarmUp(_)) {
+        // A row a minute, the first at power-on.
+        for (k, r) in rows.iter_mut().enumerate() {
+            #[allow(clippy::cast_precision_loss)]
+            let t = ROW_S * k as f64;
+            r.time_s = Some(t);
         }
     }
     rows
@@ -433,12 +449,6 @@ impl LabStats {
             }
             self.confident.add(o.misnamed() && o.confident_misnaming());
             self.silent.add(!o.exact_or_partner() && o.silent());
-        } else if o.truth.kind.strength_se > 0.0 {
-            // Outside the vocabulary: any selection names a wrong cause; silent is nothing
-            // warning that something is there, selected or not.
-            self.confident
-                .add(o.any_selection() && o.confident_misnaming());
-            self.silent.add(o.silent());
         } else {
             self.confident
                 .add(o.any_selection() && o.confident_misnaming());
@@ -521,10 +531,9 @@ impl Campaign for Lab {
     }
 
     fn z(&self, t: &LabTruth, s: &Selected) -> Option<f64> {
-        t.kind
-            .effect
-            .names()
-            .contains(&s.id)
+        // A warm-up's amplitude is that of the grid's time constant, not the truth's: no
+        // coverage.
+        (t.kind.effect.names().contains(&s.id) && !matches!(t.kind.effect, Effect::WarmUp(_)))
             .then(|| (s.coef - t.coef) / s.stderr)
     }
 
@@ -616,10 +625,10 @@ impl Campaign for Lab {
             "named: the hidden effect's candidate selected; e|p: selected or named as a confounded partner; coverage: |z| <= 1.96\n\
              among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection, the truth neither\n\
              selected nor a partner, no unexplained-structure flag (nulls: any plausible selection without it); unexpl.: the\n\
-             unexplained-structure flag; silent: the truth not named (nulls: something selected; warm-up: any set) and nothing\n\
-             warns (no warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
-             is below 0.01); partial: the effect's column outside the row-order drift, over its norm. The warm-up is outside\n\
-             the vocabulary: every selection there names a wrong cause (confident: without the unexplained flag); reported only.\n\
+             unexplained-structure flag; silent: the truth not named (nulls: something selected) and nothing warns (no\n\
+             warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
+             is below 0.01); partial: the effect's column outside the row-order drift, over its norm.\n\
+             Warm-up: named when a `warm_up` grid point is selected (its τ is the grid's, so no coverage); reported, not asserted.\n\
              Asserted: no refusal; false selections on each null at most 5%; coverage over the hidden kinds in the 99% band from\n\
              20 exact namings; each hidden effect named (e|p) in >= 95%{} of its sets at 6 and 10 SE together.",
             if ci {

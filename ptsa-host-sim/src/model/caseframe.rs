@@ -234,6 +234,13 @@ pub const COLUMNS: &[Column] = &[
         set: |c, v| c.approach = text(v).and_then(|t| Approach::parse(&t)),
     },
     Column {
+        name: "power_on_s",
+        expected: "a finite time in seconds on the `time_s` clock at which the instrument was last switched on, at or before the row's `time_s`, or an empty cell (an earlier row's, else the first row's time)",
+        check: Check::Finite,
+        get: |c| Value::Num(c.power_on_s),
+        set: |c, v| c.power_on_s = num(v),
+    },
+    Column {
         name: "temp_c",
         expected: "a finite temperature of the instrument in °C, or an empty cell (not measured)",
         check: Check::Finite,
@@ -773,6 +780,21 @@ fn parse_row(
             );
         }
     }
+    if let Some(p) = c.power_on_s {
+        let j = cols
+            .iter()
+            .position(|&k| COLUMNS[k].name == "power_on_s")
+            .map_or(0, |j| j + 1);
+        match c.time_s {
+            None => bail!(
+                "{name}:{line}: column {j} (`power_on_s`) is {p} but the row has no `time_s`; expected `time_s` on the row, on the clock `power_on_s` is read on"
+            ),
+            Some(t) if p > t => bail!(
+                "{name}:{line}: column {j} (`power_on_s`) is {p} s, after the row's `time_s` {t} s; expected the time the instrument was switched on before this row, at or before its `time_s`"
+            ),
+            Some(_) => {}
+        }
+    }
     if c.label.is_empty() {
         c.label = format!("line {line}");
     }
@@ -936,6 +958,10 @@ mod tests {
             if col.name == "radius_cm" {
                 // A centrifuge arm turns at a rate.
                 c.w_rad_s = [0.0, 0.0, 3.0];
+            }
+            if col.name == "power_on_s" {
+                // A power-on time is on the clock of the row's time.
+                c.time_s = Some(1.0);
             }
             let v = match col.check {
                 Check::Text => Value::Text(Some("t 1".into())),

@@ -112,6 +112,9 @@ pub struct History {
     /// ΔT = `temp_c` − the reference temperature (the mean of the file's `temp_c`), °C;
     /// 0 without `temp_c`.
     pub delta_t_c: f64,
+    /// The time since the instrument was switched on over the span of the run (both in
+    /// `time_s`), or `None` when the rows do not all give `time_s`.
+    pub t_on_span: Option<f64>,
 }
 
 /// One test condition (one row of a case-frame file). Every oscillation runs at `freq_hz`.
@@ -165,6 +168,10 @@ pub struct Condition {
     pub approach: Option<Approach>,
     /// The instrument's temperature during the row, °C (case-frame column `temp_c`).
     pub temp_c: Option<f64>,
+    /// When the instrument was last switched on before the row, s on the `time_s` clock
+    /// (case-frame column `power_on_s`; `None`: an earlier row's, else the first row's
+    /// time).
+    pub power_on_s: Option<f64>,
     /// What the row takes from the rows around it ([`with_history`]).
     pub history: History,
 }
@@ -194,6 +201,8 @@ pub struct CaseInputs {
     pub approach: f64,
     /// The row's temperature from the reference temperature, °C ([`History`]).
     pub delta_t_c: f64,
+    /// The time since power-on over the run's span ([`History`]; `None`: no `time_s`).
+    pub t_on_span: Option<f64>,
 }
 
 impl Condition {
@@ -227,6 +236,7 @@ impl Condition {
             // Recorded inputs enter through `history`, what the physics reads.
             approach: _,
             temp_c: _,
+            power_on_s: _,
             history,
         } = self;
         let mut k: Vec<u64> = Vec::with_capacity(32 + crate::model::effects::N_CANDIDATES);
@@ -246,6 +256,7 @@ impl Condition {
         k.push(radius_cm.to_bits());
         k.push(history.approach_sign.to_bits());
         k.push(history.delta_t_c.to_bits());
+        k.push(history.t_on_span.map_or(u64::MAX, f64::to_bits));
         k
     }
 
@@ -262,6 +273,7 @@ impl Condition {
             radius_cm: self.radius_cm,
             approach: self.approach,
             temp_c: self.temp_c,
+            power_on_s: self.power_on_s,
             history: self.history,
             ..Condition::default()
         }
@@ -328,6 +340,7 @@ impl Condition {
             w0: self.w_rad_s,
             approach: self.history.approach_sign,
             delta_t_c: self.history.delta_t_c,
+            t_on_span: self.history.t_on_span,
             ..Prepared::default()
         };
         if self.freq_hz != 0.0 {
@@ -373,6 +386,8 @@ pub struct Prepared {
     pub approach: f64,
     /// The temperature from the reference, °C ([`History::delta_t_c`]).
     pub delta_t_c: f64,
+    /// The time since power-on over the run's span ([`History::t_on_span`]).
+    pub t_on_span: Option<f64>,
 }
 
 impl Prepared {
@@ -394,6 +409,7 @@ impl Prepared {
             phi_c,
             approach,
             delta_t_c,
+            t_on_span,
         } = self;
         [omega, approach, delta_t_c]
             .into_iter()
@@ -405,6 +421,7 @@ impl Prepared {
             .chain(phi_s)
             .chain(phi_c)
             .map(|x| x.to_bits())
+            .chain(std::iter::once(t_on_span.map_or(u64::MAX, f64::to_bits)))
             .collect()
     }
 
@@ -435,6 +452,7 @@ impl Prepared {
             dw_rad_s2: dw,
             approach: self.approach,
             delta_t_c: self.delta_t_c,
+            t_on_span: self.t_on_span,
         }
     }
 
@@ -447,6 +465,7 @@ impl Prepared {
             dw_rad_s2: [0.0; 3],
             approach: self.approach,
             delta_t_c: self.delta_t_c,
+            t_on_span: self.t_on_span,
         }
     }
 
@@ -477,6 +496,10 @@ pub const APPROACH_RESOLUTION: f64 = 1e-9;
 ///   whatever that row's kind; 0 for the first row and for a change below
 ///   [`APPROACH_RESOLUTION`]·g. Difference and response rows get 0.
 /// * **ΔT** = `temp_c` − the mean `temp_c` of the rows that give one; 0 for a row without.
+/// * **Time since power-on** over the span of the run, when every row gives `time_s`: the
+///   row's time less its power-on time (its `power_on_s`, else the latest one given on an
+///   earlier row in time order, else the first row's time), over the last row's time less
+///   the earliest power-on time; `None` without `time_s` on every row or with a span of 0.
 #[must_use]
 pub fn with_history(rows: &[Condition], g_cm_s2: f64) -> Vec<Condition> {
     let mut out = rows.to_vec();
@@ -497,6 +520,16 @@ pub fn with_history(rows: &[Condition], g_cm_s2: f64) -> Vec<Condition> {
         });
     }
     let tol = APPROACH_RESOLUTION * g_cm_s2.abs();
+    let timed = !rows.is_empty() && rows.iter().all(|r| r.time_s.is_some());
+    let times: Vec<f64> = rows.iter().map(|r| r.time_s.unwrap_or(0.0)).collect();
+    let first = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let start = rows
+        .iter()
+        .filter_map(|r| r.power_on_s)
+        .fold(first, f64::min);
+    let span = last - start;
+    let mut power_on = first;
     let mut prev: Option<f64> = None;
     for i in order {
         let r = &rows[i];
@@ -511,9 +544,13 @@ pub fn with_history(rows: &[Condition], g_cm_s2: f64) -> Vec<Condition> {
             RowKind::Absolute => r.approach.map_or(derived, Approach::sign),
             RowKind::Difference | RowKind::Response => 0.0,
         };
+        if let Some(p) = r.power_on_s {
+            power_on = p;
+        }
         out[i].history = History {
             approach_sign,
             delta_t_c: r.temp_c.map_or(0.0, |t| t - t_ref),
+            t_on_span: (timed && span > 0.0).then(|| (times[i] - power_on) / span),
         };
     }
     out
@@ -612,6 +649,40 @@ mod tests {
             }
         };
         assert_eq!(signs(&[turn(0.0), turn(360.0)]), [0.0, 0.0]);
+    }
+
+    /// The time since power-on over the run's span: from the first row's time, or from
+    /// the latest `power_on_s` given on a row at or before it in time order; none without
+    /// `time_s` on every row.
+    #[test]
+    fn time_since_power_on_is_over_the_span_of_the_run() {
+        let row = |t: Option<f64>, on: Option<f64>| Condition {
+            kind: RowKind::Absolute,
+            time_s: t,
+            power_on_s: on,
+            ..Condition::default()
+        };
+        let t_on = |rows: &[Condition]| -> Vec<Option<f64>> {
+            with_history(rows, 980.4)
+                .iter()
+                .map(|r| r.history.t_on_span)
+                .collect()
+        };
+        let rows = [
+            row(Some(100.0), None),
+            row(Some(150.0), None),
+            row(Some(200.0), None),
+        ];
+        assert_eq!(t_on(&rows), [Some(0.0), Some(0.5), Some(1.0)]);
+        // Switched on at 0 s, and again at 160 s (the third row's record).
+        let rows = [
+            row(Some(100.0), Some(0.0)),
+            row(Some(150.0), None),
+            row(Some(200.0), Some(160.0)),
+        ];
+        assert_eq!(t_on(&rows), [Some(0.5), Some(0.75), Some(0.2)]);
+        assert_eq!(t_on(&[row(Some(1.0), None), row(None, None)]), [None, None]);
+        assert_eq!(t_on(&[row(Some(5.0), None)]), [None]);
     }
 
     #[test]

@@ -71,6 +71,8 @@ pub enum Bound {
     BiasPerDegree,
     /// `scale_factor_per_c_ppm`.
     ScaleFactorPerDegree,
+    /// `warm_up_cm_s2`.
+    WarmUp,
     /// The parameter's tolerance band in the instrument file.
     Tolerance,
 }
@@ -92,6 +94,7 @@ impl Bound {
             Bound::Hysteresis => p.hysteresis_cm_s2,
             Bound::BiasPerDegree => p.bias_per_c_cm_s2,
             Bound::ScaleFactorPerDegree => p.scale_factor_per_c_ppm,
+            Bound::WarmUp => p.warm_up_cm_s2,
             Bound::Tolerance => f64::INFINITY,
         }
     }
@@ -220,6 +223,15 @@ candidates! {
     TemperatureScaleFactor = "temperature", "k1_t_ppm_per_c", "temperature.k1_t_ppm_per_c", "ppm/°C",
         "k·1e-6·ΔT·a_IA (a scale-factor change per °C)",
         Signature::Term(|i| 1e-6 * i.delta_t_c * i.a_cm_s2[IA]), Bound::ScaleFactorPerDegree, ("K_1,T", "ppm/°C", |_| 1.0), Outside;
+    WarmUpSpan8 = "warm_up", "a_span8_cm_s2", "warm_up.a_span8_cm_s2", "cm/s²",
+        "A·e^(−t/τ), t the time since power-on, τ = 1/8 of the run's span in time_s (rows with time_s only)",
+        Signature::Term(|i| warm_up(i, 8.0)), Bound::WarmUp, ("A_wu(T/8)", "µg", |g| 1e6 / g), Outside;
+    WarmUpSpan4 = "warm_up", "a_span4_cm_s2", "warm_up.a_span4_cm_s2", "cm/s²",
+        "A·e^(−t/τ), τ = 1/4 of the run's span",
+        Signature::Term(|i| warm_up(i, 4.0)), Bound::WarmUp, ("A_wu(T/4)", "µg", |g| 1e6 / g), Outside;
+    WarmUpSpan2 = "warm_up", "a_span2_cm_s2", "warm_up.a_span2_cm_s2", "cm/s²",
+        "A·e^(−t/τ), τ = 1/2 of the run's span",
+        Signature::Term(|i| warm_up(i, 2.0)), Bound::WarmUp, ("A_wu(T/2)", "µg", |g| 1e6 / g), Outside;
     ParamDamping = "damping", "damping_dyn_cm_s", "damping", instrument::DAMPING.unit,
         "the damping C of eq. 4.2 (Table 2.1: 76 400 ± 40 %)",
         Signature::Parameter(&instrument::DAMPING), Bound::Tolerance, ("C", instrument::DAMPING.unit, |_| 1.0), Outside;
@@ -250,6 +262,12 @@ candidates! {
     ParamAdcOffset = "adc_offset", "adc_offset_mv", "adc_offset", instrument::ADC_OFFSET.unit,
         "the offset at the ADC's input (a candidate when the instrument file gives electronics.adc_offset_mv with a tolerance): a constant code offset, as the quadrature a pickoff phase error leaks",
         Signature::Parameter(&instrument::ADC_OFFSET), Bound::Tolerance, ("V_adc", instrument::ADC_OFFSET.unit, |_| 1.0), Outside;
+}
+
+/// A turn-on transient `e^(−t/τ)` with `τ` = the run's span over `per_span`, for a unit
+/// amplitude (0 without a time since power-on: rows without `time_s`).
+fn warm_up(i: &CaseInputs, per_span: f64) -> f64 {
+    i.t_on_span.map_or(0.0, |t| (-t * per_span).exp())
 }
 
 /// IA component of `dw × r + w × (w × r)` for a unit `r` along case axis `axis`.
@@ -534,6 +552,9 @@ mod tests {
                 "hysteresis",
                 "temperature.k0_t_cm_s2_per_c",
                 "temperature.k1_t_ppm_per_c",
+                "warm_up.a_span8_cm_s2",
+                "warm_up.a_span4_cm_s2",
+                "warm_up.a_span2_cm_s2",
                 "damping",
                 "spring",
                 "inertia",
@@ -552,6 +573,7 @@ mod tests {
         }
         assert_eq!(CandidateId::of_effect("lever_arm").count(), 3);
         assert_eq!(CandidateId::of_effect("temperature").count(), 2);
+        assert_eq!(CandidateId::of_effect("warm_up").count(), 3);
     }
 
     /// Where each candidate stands in the model equation is part of the method: the
@@ -695,6 +717,7 @@ mod tests {
             dw_rad_s2: [2.0, -5.0, 7.0],
             approach: -1.0,
             delta_t_c: 2.5,
+            t_on_span: Some(0.1),
         };
         let instr = crate::model::instrument::Instrument::kearfott_2401();
         for &id in CandidateId::ALL {

@@ -244,6 +244,7 @@ struct PlausibilityT {
     hysteresis_cm_s2: Option<Spanned<Num>>,
     bias_per_c_cm_s2: Option<Spanned<Num>>,
     scale_factor_per_c_ppm: Option<Spanned<Num>>,
+    warm_up_cm_s2: Option<Spanned<Num>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -677,6 +678,8 @@ pub struct Plausibility {
     pub bias_per_c_cm_s2: f64,
     /// A scale-factor change per °C, ppm per °C (default 1000).
     pub scale_factor_per_c_ppm: f64,
+    /// The amplitude of a turn-on transient at power-on, cm/s² (default 5, about 5 mg).
+    pub warm_up_cm_s2: f64,
 }
 
 /// One parameter's tolerance band (for Monte Carlo over the tolerance box).
@@ -972,6 +975,12 @@ impl Ctx<'_> {
                 1000.0,
                 "ppm per °C",
             )?,
+            warm_up_cm_s2: get(
+                "plausibility.warm_up_cm_s2",
+                p.and_then(|p| p.warm_up_cm_s2.as_ref()),
+                5.0,
+                "cm/s²",
+            )?,
         })
     }
 }
@@ -1147,6 +1156,7 @@ impl Instrument {
                 hysteresis_cm_s2: 0.0,
                 bias_per_c_cm_s2: 0.0,
                 scale_factor_per_c_ppm: 0.0,
+                warm_up_cm_s2: 0.0,
             },
         }
     }
