@@ -10,7 +10,7 @@
 use proptest::prelude::*;
 use ptsa_host_sim::Condition;
 use ptsa_host_sim::model::caseframe;
-use ptsa_host_sim::model::condition::RowKind;
+use ptsa_host_sim::model::condition::{Approach, RowKind};
 use ptsa_host_sim::model::instrument::{Instrument, KEARFOTT_2401_TOML};
 
 /// Cases per property: a few hundred, each a parse of at most a few kilobytes.
@@ -325,15 +325,47 @@ proptest! {
     /// bit (labels without line breaks; a row's label is never empty).
     #[test]
     fn written_rows_read_back_unchanged(
-        rows in prop::collection::vec(condition(), 1..6),
+        mut rows in prop::collection::vec(condition(), 1..6),
         comment in "[ -~]{0,40}",
     ) {
+        // A file that gives `temp_c` gives it on every measured row (the other case is
+        // refused, next property).
+        if let Some(t) = rows.iter().find_map(|r| r.temp_c) {
+            for r in &mut rows {
+                r.temp_c = r.temp_c.or(Some(t));
+            }
+        }
         let text = caseframe::to_csv(&rows, &[&comment]);
         let back = caseframe::parse("f.csv", &text).map_err(|e| TestCaseError::fail(format!("{e:#}\n{text}")))?;
         prop_assert_eq!(back.len(), rows.len());
         for (a, b) in rows.iter().zip(&back) {
             prop_assert_eq!(&a.label, &b.label);
             prop_assert_eq!(bits(a), bits(b), "{}", text);
+            prop_assert_eq!(a.approach, b.approach, "{}", text);
+        }
+    }
+
+    /// Temperatures on some measured rows but not on another: refused, naming the first
+    /// such row's line and the column; otherwise read.
+    #[test]
+    fn temperatures_on_some_measured_rows_only_are_refused(
+        rows in prop::collection::vec(condition(), 1..6),
+    ) {
+        let text = caseframe::to_csv(&rows, &[]);
+        let gap = rows.iter().any(|r| r.temp_c.is_some())
+            && rows.iter().any(|r| r.temp_c.is_none() && r.measured_cm_s2.is_some());
+        match caseframe::parse("f.csv", &text) {
+            Ok(_) => prop_assert!(!gap, "{}", text),
+            Err(e) => {
+                let m = format!("{e:#}");
+                prop_assert!(gap, "{}\n{}", m, text);
+                let line = 2 + rows
+                    .iter()
+                    .position(|r| r.temp_c.is_none() && r.measured_cm_s2.is_some())
+                    .unwrap_or(0);
+                prop_assert!(m.starts_with(&format!("f.csv:{line}: column ")), "{}", m);
+                prop_assert!(m.contains("(`temp_c`) is empty in a measured row"), "{}", m);
+            }
         }
     }
 }
@@ -355,6 +387,8 @@ fn bits(c: &Condition) -> Vec<u64> {
     all.push(c.freq_hz);
     all.extend(c.measured_cm_s2.map_or([f64::NAN], |v| [v]));
     all.extend(c.sigma_cm_s2.map_or([f64::NAN], |v| [v]));
+    all.extend(c.temp_c.map_or([f64::NAN], |v| [v]));
+    all.extend(c.power_on_s.map_or([f64::NAN], |v| [v]));
     all.iter()
         .map(|v| if *v == 0.0 { 0 } else { v.to_bits() })
         .collect()
@@ -387,6 +421,9 @@ fn condition() -> impl Strategy<Value = Condition> {
             prop::option::of("[a-z]([a-z0-9 ]{0,8}[a-z])?"),
             prop::option::of(num()),
             any::<bool>(),
+            prop::option::of(num()),
+            prop::option::of(prop_oneof![Just(Approach::Up), Just(Approach::Down)]),
+            prop::option::of(0.0..1e3_f64),
         ),
     )
         .prop_map(
@@ -397,7 +434,7 @@ fn condition() -> impl Strategy<Value = Condition> {
                 freq,
                 meas,
                 sigma,
-                (block, time_s, absolute),
+                (block, time_s, absolute, temp_c, approach, on_before),
             )| Condition {
                 label,
                 kind: if absolute {
@@ -418,6 +455,14 @@ fn condition() -> impl Strategy<Value = Condition> {
                 ref_w_rad_s: ref_w,
                 measured_cm_s2: meas,
                 sigma_cm_s2: sigma,
+                temp_c,
+                approach,
+                // A power-on time only with a time, at or before it.
+                power_on_s: time_s
+                    .zip(on_before)
+                    .map(|(t, d)| (t, t - d))
+                    .filter(|&(t, p)| p.is_finite() && p <= t)
+                    .map(|(_, p)| p),
                 ..Condition::default()
             },
         )

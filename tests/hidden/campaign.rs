@@ -126,6 +126,10 @@ pub struct Outcome<T> {
     pub unexplained: bool,
     /// Rows flagged as suspected gross errors (none is injected: false alarms).
     pub outliers: Vec<String>,
+    /// How many warnings the result gives (`warnings` of the JSON).
+    pub warnings: usize,
+    /// The extended model's χ² tail probability (NaN when refused).
+    pub extended_p: f64,
     /// The pipeline refused the set.
     pub error: Option<String>,
 }
@@ -145,6 +149,8 @@ impl<T> Outcome<T> {
             extra: 0,
             unexplained: false,
             outliers: Vec::new(),
+            warnings: 0,
+            extended_p: f64::NAN,
             error: None,
         }
     }
@@ -190,6 +196,13 @@ impl<T> Outcome<T> {
             let _ = write!(s, "{sep}error: {e}");
         }
         s
+    }
+
+    /// Nothing in the result says that something is amiss: no warning, no unexplained
+    /// structure, and the extended model consistent with the noise (χ² p ≥ 0.05).
+    #[must_use]
+    pub fn silent(&self) -> bool {
+        self.error.is_none() && self.warnings == 0 && !self.unexplained && self.extended_p >= 0.05
     }
 
     /// Something hidden, a selection, and the truth neither selected nor named as a
@@ -239,6 +252,8 @@ fn score<T>(
     o.partner = partner && !o.exact && !o.implausible;
     o.unexplained = d.json.unexplained.detected;
     o.outliers = d.json.outliers.iter().map(|x| x.row.clone()).collect();
+    o.warnings = d.json.warnings.len();
+    o.extended_p = d.json.extended.p_value;
     o
 }
 

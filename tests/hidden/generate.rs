@@ -148,7 +148,17 @@ pub fn candidate_physics(id: CandidateId, p_g_cm: f64) -> Option<Physics> {
         CandidateId::CrossAxisPp => product(Product::ApaApa),
         CandidateId::CrossAxisOo => product(Product::AoaAoa),
         CandidateId::CrossAxisPo => product(Product::ApaAoa),
-        CandidateId::ParamDamping
+        // Effects of a row's history, temperature and time since power-on: absolute rows of
+        // a tumble, hidden by
+        // the lab campaign (`super::lab`) from their own equations; nothing here in
+        // difference data, where a hysteresis cancels against the reference run.
+        CandidateId::Hysteresis
+        | CandidateId::TemperatureBias
+        | CandidateId::TemperatureScaleFactor
+        | CandidateId::WarmUpSpan8
+        | CandidateId::WarmUpSpan4
+        | CandidateId::WarmUpSpan2
+        | CandidateId::ParamDamping
         | CandidateId::ParamSpring
         | CandidateId::ParamInertia
         | CandidateId::ParamPendulosity

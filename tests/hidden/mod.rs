@@ -17,7 +17,11 @@
 //! IA tilt, a quadratic or cubic term, a bias change, a scale-factor error) as physics in
 //! the plant, measured in tumbles and on a centrifuge.
 //!
-//! The three share one core ([`campaign`]): the set seeding, the run over the sets, the
+//! A fourth, [`lab`], hides the effects a test lab meets every day (a hysteresis in angle
+//! and interleaved order, a bias and a scale factor changing with temperature) in a
+//! 24-point tumble.
+//!
+//! The four share one core ([`campaign`]): the set seeding, the run over the sets, the
 //! scored outcome of a set ([`Outcome`]), the table and the binomial assertions; each
 //! supplies its kinds, its generator, its truths and its table's columns
 //! ([`campaign::Campaign`]).
@@ -33,6 +37,7 @@ pub mod campaign;
 pub mod designs;
 pub mod effects;
 pub mod generate;
+pub mod lab;
 pub mod params;
 pub mod physics;
 pub mod statics;

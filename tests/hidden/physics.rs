@@ -246,6 +246,8 @@ impl Motion {
             a_cm_s2: a,
             w_rad_s: w,
             dw_rad_s2: dw,
+            // Nothing of a row's history: the lab campaign (`super::lab`) writes its own.
+            ..CaseInputs::default()
         }
     }
 

@@ -21,12 +21,19 @@
 //! the closed loop's plant, measured in 8-, 12- and 24-point tumbles and a centrifuge after
 //! an 8-point tumble, recovered blind; N sets (default 200) per kind. `--additive` leaves the
 //! loop's parameters out of the pipeline's vocabulary (for comparison).
+//!
+//! `cargo xtask hidden --lab [--sets N] [--seed S] [--analytic]`: the lab campaign
+//! (`tests/hidden_lab.rs`, `hidden_lab_campaign`): a hysteresis in angle and interleaved
+//! order, a bias and a scale factor changing with temperature and a warm-up transient,
+//! hidden at 6 and 10 SE in a 24-point tumble about OA, and nulls; N sets (default 140) per kind; `--analytic`: the
+//! closed loop's reading of each position plus the physics, analysed with the analytic
+//! simulator.
 
 use crate::util::{self, Error};
 
 /// `cargo xtask hidden --help`.
 pub const USAGE: &str = "\
-hidden [--parameters | --statics [--additive]] [--sets N] [--seed S] [--analytic]
+hidden [--parameters | --statics [--additive] | --lab] [--sets N] [--seed S] [--analytic]
     The full hidden-effect campaign of the discovery pipeline (the ignored test
     hidden_effects_campaign): N sets per candidate effect and N null sets, generated,
     analysed blind; prints every set and the rates, fails if the contract's are not met.
@@ -38,13 +45,18 @@ hidden [--parameters | --statics [--additive]] [--sets N] [--seed S] [--analytic
                  hidden in the closed loop's plant, recovered from tumbles and a centrifuge
     --additive   with --statics: the pipeline tests the additive terms only (the loop's
                  parameters left out of its vocabulary)
+    --lab        the lab campaign instead (hidden_lab_campaign): a hysteresis in angle
+                 and interleaved order, a bias and a scale factor per degree C over a
+                 warming ramp, a warm-up transient, at 6 and 10 SE in a 24-point
+                 tumble, and nulls
     --sets N     sets per candidate and null sets, a whole number > 0 (default 50;
                  10 per parameter and design with --parameters; 200 per kind with
-                 --statics)
+                 --statics; 140 per kind with --lab)
     --seed S     seed of the campaign, a whole number (default 4242)
     --analytic   generate with the quasi-static model instead of the closed-loop
                  simulator (faster, no loop dynamics; not with --parameters or
-                 --statics)";
+                 --statics; with --lab: the closed loop's reading of each position plus
+                 the physics, analysed with the analytic simulator)";
 
 /// The campaign asked for, validated.
 struct Campaign {
@@ -61,6 +73,7 @@ enum Which {
     Effects,
     Parameters,
     Statics,
+    Lab,
 }
 
 /// Parses and validates `cargo xtask hidden`'s options.
@@ -71,6 +84,7 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
     let mut parameters = false;
     let mut statics = false;
     let mut additive = false;
+    let mut lab = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -99,6 +113,7 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
             "--parameters" => parameters = true,
             "--statics" => statics = true,
             "--additive" => additive = true,
+            "--lab" => lab = true,
             other => return Err(Error::Usage(format!("unknown option `{other}`"))),
         }
     }
@@ -119,6 +134,11 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
                 .into(),
         ));
     }
+    if lab && (parameters || statics) {
+        return Err(Error::Usage(
+            "--lab with --parameters or --statics: one campaign at a time".into(),
+        ));
+    }
     if additive && !statics {
         return Err(Error::Usage("--additive goes with --statics".into()));
     }
@@ -126,6 +146,8 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
         Which::Parameters
     } else if statics {
         Which::Statics
+    } else if lab {
+        Which::Lab
     } else {
         Which::Effects
     };
@@ -150,6 +172,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     let (test, name, default_sets) = match which {
         Which::Parameters => ("hidden_params", "hidden_parameters_campaign", "10"),
         Which::Statics => ("hidden_statics", "hidden_statics_campaign", "200"),
+        Which::Lab => ("hidden_lab", "hidden_lab_campaign", "140"),
         Which::Effects => ("hidden_effects", "hidden_effects_campaign", "50"),
     };
     let sets = sets.unwrap_or_else(|| default_sets.to_string());

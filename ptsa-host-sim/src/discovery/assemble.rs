@@ -98,6 +98,7 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
         warnings.insert(0, slip.kept_message());
     }
     warnings.extend(verdict::warnings(data, f, &selected));
+    warnings.extend(verdict::unused_approach(rows));
     let effects_json = effect_reports(&selected, opts, sim);
     let mut noise = noise_report(data, f);
     noise.stated_over_scatter = scatter.as_ref().map(|s| s.factor);

@@ -59,6 +59,9 @@ impl Cost {
     /// The cost of discovering in `rows` with `sim` over `candidates`.
     #[must_use]
     pub fn of(rows: &[Condition], sim: &dyn Simulator, candidates: &[CandidateId]) -> Cost {
+        // The runs as `discover` makes them: each row with what it takes from the others
+        // (two rows at one position approached from either side are two runs).
+        let rows = &crate::model::condition::with_history(rows, sim.g_cm_s2())[..];
         let measured: Vec<&Condition> = rows.iter().filter(|r| r.is_measured()).collect();
         let all: Ticks = sim.pass_cost(&rows.iter().collect::<Vec<_>>());
         let pass: Ticks = sim.pass_cost(&measured);

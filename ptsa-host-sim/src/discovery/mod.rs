@@ -281,6 +281,7 @@ pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
 /// absolute row, `[gain, phase_deg]` for a response row.
 #[must_use]
 pub fn predict(rows: &[Condition], sim: &dyn Simulator, effects: &Effects) -> Vec<Vec<f64>> {
+    let rows = crate::model::condition::with_history(rows, sim.g_cm_s2());
     let jobs: Vec<(&Condition, &Effects)> = rows.iter().map(|r| (r, effects)).collect();
     sim.observe_all(&jobs)
         .iter()

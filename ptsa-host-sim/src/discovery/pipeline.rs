@@ -14,7 +14,7 @@ use super::{
     scan, slips, unexplained,
 };
 use crate::model::caseframe::EmptyCells;
-use crate::model::condition::Condition;
+use crate::model::condition::{Condition, with_history};
 use crate::model::effects::Effects;
 use crate::simulation::work::set_stage;
 
@@ -48,6 +48,8 @@ pub fn discover_with(
             "no row has a measurement (`measured_cm_s2`, or `measured_gain`/`measured_phase_deg` in a response row): nothing to fit"
         );
     }
+    // What each row takes from the rows around it: its direction of approach, its ΔT.
+    let rows = &with_history(rows, sim.g_cm_s2())[..];
     // 1. Baseline: every row's observations (measured or not, for the table).
     set_stage("baseline");
     let baseline: Vec<Observation> = {

@@ -94,6 +94,34 @@ pub(crate) fn slip_warnings(
 }
 
 /// What the user must know before reading the result.
+/// The rows that record `approach` where it is not used: difference rows (their reference
+/// is read after the same approach, so a hysteresis cancels in the difference) and
+/// response rows; a warning naming the first few, or `None`.
+pub(crate) fn unused_approach(rows: &[crate::model::condition::Condition]) -> Option<String> {
+    let unused: Vec<&str> = rows
+        .iter()
+        .filter(|r| r.approach.is_some() && r.kind != crate::model::condition::RowKind::Absolute)
+        .map(|r| r.label.as_str())
+        .collect();
+    if unused.is_empty() {
+        return None;
+    }
+    let mut shown: Vec<String> = unused.iter().take(3).map(|l| format!("`{l}`")).collect();
+    if unused.len() > 3 {
+        shown.push("…".to_string());
+    }
+    Some(format!(
+        "{} record `approach` but {} not absolute ({}): the column is not used there (a difference row's reference is read after the same approach, so a hysteresis cancels in the difference; a response row's gain and phase do not see one); expected `approach` on absolute rows (a tumble or centrifuge position) only",
+        crate::output::count(unused.len() as u64, "difference or response row"),
+        if unused.len() == 1 {
+            "it is"
+        } else {
+            "they are"
+        },
+        shown.join(", ")
+    ))
+}
+
 pub(crate) fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<String> {
     let mut w = Vec::new();
     let n = data.n();

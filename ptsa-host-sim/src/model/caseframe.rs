@@ -15,7 +15,7 @@ use std::path::Path;
 
 use anyhow::{Context, Result, bail};
 
-use crate::model::condition::{Condition, RowKind};
+use crate::model::condition::{Approach, Condition, RowKind};
 
 /// A cell's value as read or written.
 #[derive(Clone, Debug, PartialEq)]
@@ -226,6 +226,27 @@ pub const COLUMNS: &[Column] = &[
         get: |c| Value::Num(c.sigma_phase_deg),
         set: |c, v| c.sigma_phase_deg = num(v),
     },
+    Column {
+        name: "approach",
+        expected: "`up` or `+` (the input along IA rose to this reading: approached from below), `down` or `-` (it fell: approached from above), or an empty cell (not recorded: the change of the input along IA since the previous row gives it)",
+        check: Check::OneOf(Approach::WORDS),
+        get: |c| Value::Text(c.approach.map(|a| a.name().to_string())),
+        set: |c, v| c.approach = text(v).and_then(|t| Approach::parse(&t)),
+    },
+    Column {
+        name: "power_on_s",
+        expected: "a finite time in seconds on the `time_s` clock at which the instrument was last switched on, at or before the row's `time_s`, or an empty cell (an earlier row's, else the first row's time)",
+        check: Check::Finite,
+        get: |c| Value::Num(c.power_on_s),
+        set: |c, v| c.power_on_s = num(v),
+    },
+    Column {
+        name: "temp_c",
+        expected: "a finite temperature of the instrument in °C, or an empty cell (not measured)",
+        check: Check::Finite,
+        get: |c| Value::Num(c.temp_c),
+        set: |c, v| c.temp_c = num(v),
+    },
 ];
 
 /// The names of [`COLUMNS`], in order.
@@ -312,6 +333,7 @@ pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
         .from_reader(data.text.as_bytes());
     let mut header: Option<Vec<usize>> = None;
     let mut rows = Vec::new();
+    let mut lines = Vec::new();
     let mut empty = Vec::new();
     for record in reader.records() {
         let record = match record {
@@ -343,16 +365,49 @@ pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
                     });
                 }
                 rows.push(row);
+                lines.push(line);
             }
         }
     }
-    if header.is_none() {
+    let Some(cols) = header else {
         bail!(
             "{name}: no header line (the file is empty or holds only comments and blank \
              lines); expected a CSV header of case-frame columns"
         );
-    }
+    };
+    check_temperatures(name, &rows, &lines, &cols)?;
     Ok(Frame { rows, empty })
+}
+
+/// A file that gives `temp_c` gives it on every measured row: a measured row without it
+/// would be analysed at the reference temperature (ΔT = 0, `condition::with_history`),
+/// which the lab did not measure. Rows without a measurement may leave it empty (they are
+/// predicted at the reference temperature).
+fn check_temperatures(
+    name: &str,
+    rows: &[Condition],
+    lines: &[usize],
+    cols: &[usize],
+) -> Result<()> {
+    let Some(j) = cols.iter().position(|&k| COLUMNS[k].name == "temp_c") else {
+        return Ok(());
+    };
+    let given = rows.iter().filter(|r| r.temp_c.is_some()).count();
+    if given == 0 {
+        return Ok(());
+    }
+    if let Some((r, line)) = rows
+        .iter()
+        .zip(lines)
+        .find(|(r, _)| r.temp_c.is_none() && r.is_measured())
+    {
+        bail!(
+            "{name}:{line}: column {} (`temp_c`) is empty in a measured row (`{}`), but {given} other rows give a temperature; expected the instrument's temperature in °C on every measured row or on none (ΔT is taken from the mean of the rows' `temp_c`; a row without it would be analysed at that mean)",
+            j + 1,
+            r.label
+        );
+    }
+    Ok(())
 }
 
 /// Parse the bytes of a case-frame file: [`parse`] after checking that they are UTF-8.
@@ -725,6 +780,21 @@ fn parse_row(
             );
         }
     }
+    if let Some(p) = c.power_on_s {
+        let j = cols
+            .iter()
+            .position(|&k| COLUMNS[k].name == "power_on_s")
+            .map_or(0, |j| j + 1);
+        match c.time_s {
+            None => bail!(
+                "{name}:{line}: column {j} (`power_on_s`) is {p} but the row has no `time_s`; expected `time_s` on the row, on the clock `power_on_s` is read on"
+            ),
+            Some(t) if p > t => bail!(
+                "{name}:{line}: column {j} (`power_on_s`) is {p} s, after the row's `time_s` {t} s; expected the time the instrument was switched on before this row, at or before its `time_s`"
+            ),
+            Some(_) => {}
+        }
+    }
     if c.label.is_empty() {
         c.label = format!("line {line}");
     }
@@ -788,16 +858,29 @@ pub fn to_object(c: &Condition) -> serde_json::Map<String, serde_json::Value> {
 
 /// Render rows as case-frame CSV: `comments` (each line prefixed with `# `), the header
 /// (columns that are empty or zero in every row are left out, except `label` and
-/// `measured_cm_s2`; `sigma_cm_s2` whenever a row has one), then one line per row.
+/// `measured_cm_s2`; a column whose empty cell means "not given", such as `sigma_cm_s2`,
+/// `time_s` or `temp_c`, whenever a row gives it, 0 included), then one line per row.
 #[must_use]
 pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
+    to_csv_with(rows, comments, &[])
+}
+
+/// [`to_csv`], with the columns named in `also` written even where every cell is empty
+/// (a plan's columns for the lab to fill in, such as `temp_c`).
+#[must_use]
+pub fn to_csv_with(rows: &[Condition], comments: &[&str], also: &[&str]) -> String {
     let used: Vec<usize> = (0..COLUMNS.len())
         .filter(|&k| {
             let col = &COLUMNS[k];
+            // A number where an empty cell means "not given" (`time_s`, `temp_c`, a
+            // measurement or a sigma) is given even when it is 0 (0 °C, a phase of 0°).
+            let optional = !col.is_text() && !empty_reads_as_zero(col);
             col.name == "label"
                 || col.name == "measured_cm_s2"
+                || also.contains(&col.name)
                 || rows.iter().any(|c| {
-                    given(&(col.get)(c)) || (col.name == "sigma_cm_s2" && c.sigma_cm_s2.is_some())
+                    let v = (col.get)(c);
+                    given(&v) || (optional && matches!(v, Value::Num(Some(_))))
                 })
         })
         .collect();
@@ -875,6 +958,10 @@ mod tests {
             if col.name == "radius_cm" {
                 // A centrifuge arm turns at a rate.
                 c.w_rad_s = [0.0, 0.0, 3.0];
+            }
+            if col.name == "power_on_s" {
+                // A power-on time is on the clock of the row's time.
+                c.time_s = Some(1.0);
             }
             let v = match col.check {
                 Check::Text => Value::Text(Some("t 1".into())),
@@ -995,6 +1082,58 @@ mod tests {
 
     fn err(text: &str) -> String {
         format!("{:#}", parse("t.csv", text).unwrap_err())
+    }
+
+    /// `approach` takes `up`, `down`, `+`, `-` or an empty cell and nothing else;
+    /// `temp_c` is a number, given on every measured row or on none.
+    #[test]
+    fn approach_and_temperature_cells() {
+        use Approach::{Down, Up};
+        let rows = parse(
+            "t.csv",
+            "label,kind,g_ia,approach,temp_c,measured_cm_s2\n\
+             a,absolute,1,up,21.5,1\nb,absolute,0,-,22,1\nc,absolute,-1,,22.5,1\n\
+             d,absolute,0, down ,23,1\ne,absolute,1,+,,\n",
+        )
+        .unwrap();
+        let a: Vec<Option<Approach>> = rows.iter().map(|r| r.approach).collect();
+        assert_eq!(a, [Some(Up), Some(Down), None, Some(Down), Some(Up)]);
+        let t: Vec<Option<f64>> = rows.iter().map(|r| r.temp_c).collect();
+        assert_eq!(t, [Some(21.5), Some(22.0), Some(22.5), Some(23.0), None]);
+        let m = err("label,approach\nx,rising\n");
+        assert!(
+            m.starts_with("t.csv:2: column 2 (`approach`) holds `rising`; expected `up` or `+`"),
+            "{m}"
+        );
+        let m = err("g_ia,temp_c\n1,warm\n");
+        assert!(
+            m.starts_with(
+                "t.csv:2: column 2 (`temp_c`) holds `warm`; expected a finite temperature"
+            ),
+            "{m}"
+        );
+        // A measured row without a temperature in a file that gives them.
+        let m = err("label,temp_c,measured_cm_s2\na,21,1\nb,,2\nc,22,3\n");
+        assert!(
+            m.starts_with("t.csv:3: column 2 (`temp_c`) is empty in a measured row (`b`), but 2 other rows give a temperature"),
+            "{m}"
+        );
+        // 0 °C is a temperature (and a time of 0 a time): written, read back.
+        let cold = Condition {
+            label: "c".into(),
+            temp_c: Some(0.0),
+            time_s: Some(0.0),
+            ..Condition::default()
+        };
+        let text = to_csv(std::slice::from_ref(&cold), &[]);
+        assert!(
+            text.starts_with("label,time_s,measured_cm_s2,temp_c\n"),
+            "{text}"
+        );
+        assert_eq!(parse("t.csv", &text).unwrap(), vec![cold]);
+        // No temperature anywhere, or only unmeasured rows without one: accepted.
+        assert!(parse("t.csv", "label,temp_c,measured_cm_s2\na,,1\nb,,2\n").is_ok());
+        assert!(parse("t.csv", "label,temp_c,measured_cm_s2\na,21,1\nb,,\n").is_ok());
     }
 
     fn err_bytes(bytes: &[u8]) -> String {

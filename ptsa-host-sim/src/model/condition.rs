@@ -56,6 +56,67 @@ impl RowKind {
     }
 }
 
+/// Which way the input along IA last moved before a row was read (case-frame column
+/// `approach`): the lab's record of the direction of approach of a tumble position.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Approach {
+    /// `up` (or `+`): the input along IA rose to this reading (approached from below).
+    Up,
+    /// `down` (or `-`): the input along IA fell to this reading (approached from above).
+    Down,
+}
+
+impl Approach {
+    /// The spellings the case frame accepts, in order: `up`, `down`, `+`, `-`.
+    pub const WORDS: &[&str] = &["up", "down", "+", "-"];
+
+    /// Its name in the case frame (`up`, `down`).
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Approach::Up => "up",
+            Approach::Down => "down",
+        }
+    }
+
+    /// The approach written `s` in the case frame (`up` or `+`, `down` or `-`).
+    #[must_use]
+    pub fn parse(s: &str) -> Option<Self> {
+        match s {
+            "up" | "+" => Some(Approach::Up),
+            "down" | "-" => Some(Approach::Down),
+            _ => None,
+        }
+    }
+
+    /// +1 for up, −1 for down.
+    #[must_use]
+    pub fn sign(self) -> f64 {
+        match self {
+            Approach::Up => 1.0,
+            Approach::Down => -1.0,
+        }
+    }
+}
+
+/// What a row takes from the rows around it: the direction of approach of its input along
+/// IA and its temperature from the file's reference temperature. Zero until
+/// [`with_history`] sets it from the recorded `approach` and `temp_c` and the order of the
+/// rows; a row built alone (a plan, the advice) keeps zero.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct History {
+    /// The approach sign s ∈ {−1, 0, +1} of an absolute row (0 for a difference or
+    /// response row: its reference run is read at the same position after the same
+    /// approach, so a hysteresis cancels).
+    pub approach_sign: f64,
+    /// ΔT = `temp_c` − the reference temperature (the mean of the file's `temp_c`), °C;
+    /// 0 without `temp_c`.
+    pub delta_t_c: f64,
+    /// The time since the instrument was switched on over the span of the run (both in
+    /// `time_s`), or `None` when the rows do not all give `time_s`.
+    pub t_on_span: Option<f64>,
+}
+
 /// One test condition (one row of a case-frame file). Every oscillation runs at `freq_hz`.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Condition {
@@ -101,6 +162,18 @@ pub struct Condition {
     pub sigma_gain: Option<f64>,
     /// 1-sigma uncertainty of `measured_phase_deg`, degrees.
     pub sigma_phase_deg: Option<f64>,
+    /// The direction of approach the lab recorded (case-frame column `approach`; `None`:
+    /// not recorded, then [`with_history`] derives it from the change of the input along
+    /// IA since the previous row).
+    pub approach: Option<Approach>,
+    /// The instrument's temperature during the row, °C (case-frame column `temp_c`).
+    pub temp_c: Option<f64>,
+    /// When the instrument was last switched on before the row, s on the `time_s` clock
+    /// (case-frame column `power_on_s`; `None`: an earlier row's, else the first row's
+    /// time).
+    pub power_on_s: Option<f64>,
+    /// What the row takes from the rows around it ([`with_history`]).
+    pub history: History,
 }
 
 impl Condition {
@@ -124,6 +197,12 @@ pub struct CaseInputs {
     pub w_rad_s: [f64; 3],
     /// Angular acceleration about IA, PA, OA, rad/s².
     pub dw_rad_s2: [f64; 3],
+    /// The approach sign of the row's input along IA, −1, 0 or +1 ([`History`]).
+    pub approach: f64,
+    /// The row's temperature from the reference temperature, °C ([`History`]).
+    pub delta_t_c: f64,
+    /// The time since power-on over the run's span ([`History`]; `None`: no `time_s`).
+    pub t_on_span: Option<f64>,
 }
 
 impl Condition {
@@ -154,6 +233,11 @@ impl Condition {
             measured_phase_deg: _,
             sigma_gain: _,
             sigma_phase_deg: _,
+            // Recorded inputs enter through `history`, what the physics reads.
+            approach: _,
+            temp_c: _,
+            power_on_s: _,
+            history,
         } = self;
         let mut k: Vec<u64> = Vec::with_capacity(32 + crate::model::effects::N_CANDIDATES);
         k.push(*kind as u64);
@@ -170,10 +254,15 @@ impl Condition {
         }
         k.push(freq_hz.to_bits());
         k.push(radius_cm.to_bits());
+        k.push(history.approach_sign.to_bits());
+        k.push(history.delta_t_c.to_bits());
+        k.push(history.t_on_span.map_or(u64::MAX, f64::to_bits));
         k
     }
 
-    /// The reference condition: same gravity, rates `ref_w_rad_s`, no oscillation.
+    /// The reference condition: same gravity, rates `ref_w_rad_s`, no oscillation; read at
+    /// the same position after the same approach and at the same temperature (its
+    /// [`History`] is the row's).
     #[must_use]
     pub fn reference(&self) -> Condition {
         Condition {
@@ -182,6 +271,10 @@ impl Condition {
             w_rad_s: self.ref_w_rad_s,
             ref_w_rad_s: self.ref_w_rad_s,
             radius_cm: self.radius_cm,
+            approach: self.approach,
+            temp_c: self.temp_c,
+            power_on_s: self.power_on_s,
+            history: self.history,
             ..Condition::default()
         }
     }
@@ -245,6 +338,9 @@ impl Condition {
             g: self.g.map(|x| x * g_cm_s2),
             centripetal: self.centripetal_cm_s2(self.w_rad_s).unwrap_or([0.0; 3]),
             w0: self.w_rad_s,
+            approach: self.history.approach_sign,
+            delta_t_c: self.history.delta_t_c,
+            t_on_span: self.history.t_on_span,
             ..Prepared::default()
         };
         if self.freq_hz != 0.0 {
@@ -286,6 +382,12 @@ pub struct Prepared {
     pub phi_s: [f64; 3],
     /// Angular oscillation, cosine coefficient, rad.
     pub phi_c: [f64; 3],
+    /// The approach sign ([`History::approach_sign`]).
+    pub approach: f64,
+    /// The temperature from the reference, °C ([`History::delta_t_c`]).
+    pub delta_t_c: f64,
+    /// The time since power-on over the run's span ([`History::t_on_span`]).
+    pub t_on_span: Option<f64>,
 }
 
 impl Prepared {
@@ -305,8 +407,12 @@ impl Prepared {
             lin_c,
             phi_s,
             phi_c,
+            approach,
+            delta_t_c,
+            t_on_span,
         } = self;
-        std::iter::once(omega)
+        [omega, approach, delta_t_c]
+            .into_iter()
             .chain(g)
             .chain(centripetal)
             .chain(w0)
@@ -315,6 +421,7 @@ impl Prepared {
             .chain(phi_s)
             .chain(phi_c)
             .map(|x| x.to_bits())
+            .chain(std::iter::once(t_on_span.map_or(u64::MAX, f64::to_bits)))
             .collect()
     }
 
@@ -343,6 +450,9 @@ impl Prepared {
             a_cm_s2: a,
             w_rad_s: rate,
             dw_rad_s2: dw,
+            approach: self.approach,
+            delta_t_c: self.delta_t_c,
+            t_on_span: self.t_on_span,
         }
     }
 
@@ -353,6 +463,9 @@ impl Prepared {
             a_cm_s2: [0, 1, 2].map(|j| self.g[j] + self.centripetal[j]),
             w_rad_s: self.w0,
             dw_rad_s2: [0.0; 3],
+            approach: self.approach,
+            delta_t_c: self.delta_t_c,
+            t_on_span: self.t_on_span,
         }
     }
 
@@ -368,6 +481,79 @@ impl Prepared {
                 .chain(&self.phi_c))
             .any(|&x| x != 0.0)
     }
+}
+
+/// A change of the mean input along IA smaller than this fraction of local gravity is no
+/// change (0° and 360° of a tumble differ by rounding).
+pub const APPROACH_RESOLUTION: f64 = 1e-9;
+
+/// `rows` with their [`History`] set: what each row takes from the rows around it.
+///
+/// * **Approach sign** of an absolute row: the recorded `approach` (+1 up, −1 down) when
+///   given; otherwise the sign of the change of the mean input along IA (gravity and a
+///   centrifuge arm's push, `Prepared::mean_inputs`) since the previous row of the file in
+///   time order (`time_s` when every row gives it, ties in file order; else file order),
+///   whatever that row's kind; 0 for the first row and for a change below
+///   [`APPROACH_RESOLUTION`]·g. Difference and response rows get 0.
+/// * **ΔT** = `temp_c` − the mean `temp_c` of the rows that give one; 0 for a row without.
+/// * **Time since power-on** over the span of the run, when every row gives `time_s`: the
+///   row's time less its power-on time (its `power_on_s`, else the latest one given on an
+///   earlier row in time order, else the first row's time), over the last row's time less
+///   the earliest power-on time; `None` without `time_s` on every row or with a span of 0.
+#[must_use]
+pub fn with_history(rows: &[Condition], g_cm_s2: f64) -> Vec<Condition> {
+    let mut out = rows.to_vec();
+    let temps: Vec<f64> = rows.iter().filter_map(|r| r.temp_c).collect();
+    #[allow(clippy::cast_precision_loss)]
+    let t_ref = if temps.is_empty() {
+        0.0
+    } else {
+        temps.iter().sum::<f64>() / temps.len() as f64
+    };
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    if rows.iter().all(|r| r.time_s.is_some()) {
+        order.sort_by(|&a, &b| {
+            rows[a]
+                .time_s
+                .unwrap_or_default()
+                .total_cmp(&rows[b].time_s.unwrap_or_default())
+        });
+    }
+    let tol = APPROACH_RESOLUTION * g_cm_s2.abs();
+    let timed = !rows.is_empty() && rows.iter().all(|r| r.time_s.is_some());
+    let times: Vec<f64> = rows.iter().map(|r| r.time_s.unwrap_or(0.0)).collect();
+    let first = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let start = rows
+        .iter()
+        .filter_map(|r| r.power_on_s)
+        .fold(first, f64::min);
+    let span = last - start;
+    let mut power_on = first;
+    let mut prev: Option<f64> = None;
+    for i in order {
+        let r = &rows[i];
+        let a = r.prepare(g_cm_s2).mean_inputs().a_cm_s2[IA];
+        let derived = match prev {
+            Some(p) if a - p > tol => 1.0,
+            Some(p) if p - a > tol => -1.0,
+            _ => 0.0,
+        };
+        prev = Some(a);
+        let approach_sign = match r.kind {
+            RowKind::Absolute => r.approach.map_or(derived, Approach::sign),
+            RowKind::Difference | RowKind::Response => 0.0,
+        };
+        if let Some(p) = r.power_on_s {
+            power_on = p;
+        }
+        out[i].history = History {
+            approach_sign,
+            delta_t_c: r.temp_c.map_or(0.0, |t| t - t_ref),
+            t_on_span: (timed && span > 0.0).then(|| (times[i] - power_on) / span),
+        };
+    }
+    out
 }
 
 /// Cross product.
@@ -407,6 +593,96 @@ mod tests {
         // IA along the spin axis: undefined.
         c.w_rad_s = [2.0, 0.0, 0.0];
         assert!(c.centripetal_cm_s2(c.w_rad_s).is_none());
+    }
+
+    /// A tumble's rows without `approach`: +1 where `g_ia` rose since the previous row,
+    /// −1 where it fell, 0 at the first row and where it did not change; `time_s` reorders;
+    /// a recorded approach wins; a difference row gets 0; ΔT from the mean `temp_c`; the
+    /// reference run keeps the row's history.
+    #[test]
+    fn history_is_the_sign_of_the_last_change_and_the_temperature_from_the_mean() {
+        let g = 980.4;
+        let row = |g_ia: f64| Condition {
+            kind: RowKind::Absolute,
+            g: [g_ia, (1.0 - g_ia * g_ia).sqrt(), 0.0],
+            ..Condition::default()
+        };
+        let rows = vec![row(0.0), row(0.5), row(0.5), row(-0.2), row(1.0)];
+        let signs = |rows: &[Condition]| -> Vec<f64> {
+            with_history(rows, g)
+                .iter()
+                .map(|r| r.history.approach_sign)
+                .collect()
+        };
+        assert_eq!(signs(&rows), [0.0, 1.0, 0.0, -1.0, 1.0]);
+        // Measured in another order (time_s): the previous row in time.
+        let mut timed = rows.clone();
+        for (r, t) in timed.iter_mut().zip([40.0, 10.0, 30.0, 20.0, 0.0]) {
+            r.time_s = Some(t);
+        }
+        // Time order: rows 4 (1.0), 1 (0.5), 3 (−0.2), 2 (0.5), 0 (0.0).
+        assert_eq!(signs(&timed), [-1.0, -1.0, 1.0, -1.0, 0.0]);
+        // The lab's record wins; a difference row has none.
+        let mut recorded = rows.clone();
+        recorded[1].approach = Some(Approach::Down);
+        recorded[2].approach = Some(Approach::Up);
+        recorded[3].kind = RowKind::Difference;
+        assert_eq!(signs(&recorded), [0.0, -1.0, 1.0, 0.0, 1.0]);
+        // ΔT from the mean of the rows that give one; the reference keeps the history.
+        let mut warm = rows;
+        for (r, t) in warm.iter_mut().zip([20.0, 21.0, 22.0, 23.0]) {
+            r.temp_c = Some(t);
+        }
+        let h = with_history(&warm, g);
+        let dt: Vec<f64> = h.iter().map(|r| r.history.delta_t_c).collect();
+        assert_eq!(dt, [-1.5, -0.5, 0.5, 1.5, 0.0]);
+        assert_eq!(h[3].reference().history, h[3].history);
+        let i = h[3].inputs_at(0.0, g);
+        assert_eq!((i.approach, i.delta_t_c), (-1.0, 1.5));
+        // 0° and 360° of a tumble differ by rounding only: no change.
+        let turn = |deg: f64| {
+            let (s, c) = f64::to_radians(deg).sin_cos();
+            Condition {
+                kind: RowKind::Absolute,
+                g: [c, s, 0.0],
+                ..Condition::default()
+            }
+        };
+        assert_eq!(signs(&[turn(0.0), turn(360.0)]), [0.0, 0.0]);
+    }
+
+    /// The time since power-on over the run's span: from the first row's time, or from
+    /// the latest `power_on_s` given on a row at or before it in time order; none without
+    /// `time_s` on every row.
+    #[test]
+    fn time_since_power_on_is_over_the_span_of_the_run() {
+        let row = |t: Option<f64>, on: Option<f64>| Condition {
+            kind: RowKind::Absolute,
+            time_s: t,
+            power_on_s: on,
+            ..Condition::default()
+        };
+        let t_on = |rows: &[Condition]| -> Vec<Option<f64>> {
+            with_history(rows, 980.4)
+                .iter()
+                .map(|r| r.history.t_on_span)
+                .collect()
+        };
+        let rows = [
+            row(Some(100.0), None),
+            row(Some(150.0), None),
+            row(Some(200.0), None),
+        ];
+        assert_eq!(t_on(&rows), [Some(0.0), Some(0.5), Some(1.0)]);
+        // Switched on at 0 s, and again at 160 s (the third row's record).
+        let rows = [
+            row(Some(100.0), Some(0.0)),
+            row(Some(150.0), None),
+            row(Some(200.0), Some(160.0)),
+        ];
+        assert_eq!(t_on(&rows), [Some(0.5), Some(0.75), Some(0.2)]);
+        assert_eq!(t_on(&[row(Some(1.0), None), row(None, None)]), [None, None]);
+        assert_eq!(t_on(&[row(Some(5.0), None)]), [None]);
     }
 
     #[test]

@@ -65,6 +65,14 @@ pub enum Bound {
     Misalignment,
     /// `cubic_s4_cm2`.
     Cubic,
+    /// `hysteresis_cm_s2`.
+    Hysteresis,
+    /// `bias_per_c_cm_s2`.
+    BiasPerDegree,
+    /// `scale_factor_per_c_ppm`.
+    ScaleFactorPerDegree,
+    /// `warm_up_cm_s2`.
+    WarmUp,
     /// The parameter's tolerance band in the instrument file.
     Tolerance,
 }
@@ -83,6 +91,10 @@ impl Bound {
             Bound::ScaleFactor => p.scale_factor_ppm,
             Bound::Misalignment => p.misalignment_rad,
             Bound::Cubic => p.cubic_s4_cm2,
+            Bound::Hysteresis => p.hysteresis_cm_s2,
+            Bound::BiasPerDegree => p.bias_per_c_cm_s2,
+            Bound::ScaleFactorPerDegree => p.scale_factor_per_c_ppm,
+            Bound::WarmUp => p.warm_up_cm_s2,
             Bound::Tolerance => f64::INFINITY,
         }
     }
@@ -202,6 +214,24 @@ candidates! {
     CrossAxisPo = "cross_axis_po", "k_po_s2_cm", "cross_axis_po", "s²/cm",
         "k·a_PA·a_OA",
         Signature::Term(|i| i.a_cm_s2[PA] * i.a_cm_s2[OA]), Bound::SecondOrder, ("K_po", "µg/g²", |g| g * 1e6), HigherOrder;
+    Hysteresis = "hysteresis", "h_cm_s2", "hysteresis", "cm/s²",
+        "h·s, s = +1 when the input along IA rose to the reading, −1 when it fell, 0 otherwise (absolute rows: `approach`, else the change since the previous row)",
+        Signature::Term(|i| i.approach), Bound::Hysteresis, ("h", "µg", |g| 1e6 / g), Outside;
+    TemperatureBias = "temperature", "k0_t_cm_s2_per_c", "temperature.k0_t_cm_s2_per_c", "cm/s²/°C",
+        "k·ΔT, ΔT = temp_c − the rows' mean temp_c (a bias change per °C)",
+        Signature::Term(|i| i.delta_t_c), Bound::BiasPerDegree, ("K_0,T", "µg/°C", |g| 1e6 / g), Outside;
+    TemperatureScaleFactor = "temperature", "k1_t_ppm_per_c", "temperature.k1_t_ppm_per_c", "ppm/°C",
+        "k·1e-6·ΔT·a_IA (a scale-factor change per °C)",
+        Signature::Term(|i| 1e-6 * i.delta_t_c * i.a_cm_s2[IA]), Bound::ScaleFactorPerDegree, ("K_1,T", "ppm/°C", |_| 1.0), Outside;
+    WarmUpSpan8 = "warm_up", "a_span8_cm_s2", "warm_up.a_span8_cm_s2", "cm/s²",
+        "A·e^(−t/τ), t the time since power-on, τ = 1/8 of the run's span in time_s (rows with time_s only)",
+        Signature::Term(|i| warm_up(i, 8.0)), Bound::WarmUp, ("A_wu(T/8)", "µg", |g| 1e6 / g), Outside;
+    WarmUpSpan4 = "warm_up", "a_span4_cm_s2", "warm_up.a_span4_cm_s2", "cm/s²",
+        "A·e^(−t/τ), τ = 1/4 of the run's span",
+        Signature::Term(|i| warm_up(i, 4.0)), Bound::WarmUp, ("A_wu(T/4)", "µg", |g| 1e6 / g), Outside;
+    WarmUpSpan2 = "warm_up", "a_span2_cm_s2", "warm_up.a_span2_cm_s2", "cm/s²",
+        "A·e^(−t/τ), τ = 1/2 of the run's span",
+        Signature::Term(|i| warm_up(i, 2.0)), Bound::WarmUp, ("A_wu(T/2)", "µg", |g| 1e6 / g), Outside;
     ParamDamping = "damping", "damping_dyn_cm_s", "damping", instrument::DAMPING.unit,
         "the damping C of eq. 4.2 (Table 2.1: 76 400 ± 40 %)",
         Signature::Parameter(&instrument::DAMPING), Bound::Tolerance, ("C", instrument::DAMPING.unit, |_| 1.0), Outside;
@@ -232,6 +262,12 @@ candidates! {
     ParamAdcOffset = "adc_offset", "adc_offset_mv", "adc_offset", instrument::ADC_OFFSET.unit,
         "the offset at the ADC's input (a candidate when the instrument file gives electronics.adc_offset_mv with a tolerance): a constant code offset, as the quadrature a pickoff phase error leaks",
         Signature::Parameter(&instrument::ADC_OFFSET), Bound::Tolerance, ("V_adc", instrument::ADC_OFFSET.unit, |_| 1.0), Outside;
+}
+
+/// A turn-on transient `e^(−t/τ)` with `τ` = the run's span over `per_span`, for a unit
+/// amplitude (0 without a time since power-on: rows without `time_s`).
+fn warm_up(i: &CaseInputs, per_span: f64) -> f64 {
+    i.t_on_span.map_or(0.0, |t| (-t * per_span).exp())
 }
 
 /// IA component of `dw × r + w × (w × r)` for a unit `r` along case axis `axis`.
@@ -513,6 +549,12 @@ mod tests {
                 "cross_axis_pp",
                 "cross_axis_oo",
                 "cross_axis_po",
+                "hysteresis",
+                "temperature.k0_t_cm_s2_per_c",
+                "temperature.k1_t_ppm_per_c",
+                "warm_up.a_span8_cm_s2",
+                "warm_up.a_span4_cm_s2",
+                "warm_up.a_span2_cm_s2",
                 "damping",
                 "spring",
                 "inertia",
@@ -530,6 +572,8 @@ mod tests {
             assert!(c.name == c.effect || c.name == format!("{}.{}", c.effect, c.key));
         }
         assert_eq!(CandidateId::of_effect("lever_arm").count(), 3);
+        assert_eq!(CandidateId::of_effect("temperature").count(), 2);
+        assert_eq!(CandidateId::of_effect("warm_up").count(), 3);
     }
 
     /// Where each candidate stands in the model equation is part of the method: the
@@ -671,6 +715,9 @@ mod tests {
             a_cm_s2: [310.0, -120.0, 45.0],
             w_rad_s: [0.3, -0.7, 1.1],
             dw_rad_s2: [2.0, -5.0, 7.0],
+            approach: -1.0,
+            delta_t_c: 2.5,
+            t_on_span: Some(0.1),
         };
         let instr = crate::model::instrument::Instrument::kearfott_2401();
         for &id in CandidateId::ALL {

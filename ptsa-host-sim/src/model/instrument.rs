@@ -241,6 +241,10 @@ struct PlausibilityT {
     scale_factor_ppm: Option<Spanned<Num>>,
     misalignment_rad: Option<Spanned<Num>>,
     cubic_s4_cm2: Option<Spanned<Num>>,
+    hysteresis_cm_s2: Option<Spanned<Num>>,
+    bias_per_c_cm_s2: Option<Spanned<Num>>,
+    scale_factor_per_c_ppm: Option<Spanned<Num>>,
+    warm_up_cm_s2: Option<Spanned<Num>>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -667,6 +671,15 @@ pub struct Plausibility {
     pub misalignment_rad: f64,
     /// The cubic coefficient, s⁴/cm² (default 1e-10, about 0.1 g/g³).
     pub cubic_s4_cm2: f64,
+    /// A hysteresis, half the gap between the readings approached from below and from
+    /// above, cm/s² (default 1, about 1 mg).
+    pub hysteresis_cm_s2: f64,
+    /// A bias change per °C, cm/s² per °C (default 1, about 1 mg/°C).
+    pub bias_per_c_cm_s2: f64,
+    /// A scale-factor change per °C, ppm per °C (default 1000).
+    pub scale_factor_per_c_ppm: f64,
+    /// The amplitude of a turn-on transient at power-on, cm/s² (default 5, about 5 mg).
+    pub warm_up_cm_s2: f64,
 }
 
 /// One parameter's tolerance band (for Monte Carlo over the tolerance box).
@@ -944,6 +957,30 @@ impl Ctx<'_> {
                 1e-10,
                 "s⁴/cm²",
             )?,
+            hysteresis_cm_s2: get(
+                "plausibility.hysteresis_cm_s2",
+                p.and_then(|p| p.hysteresis_cm_s2.as_ref()),
+                1.0,
+                "cm/s²",
+            )?,
+            bias_per_c_cm_s2: get(
+                "plausibility.bias_per_c_cm_s2",
+                p.and_then(|p| p.bias_per_c_cm_s2.as_ref()),
+                1.0,
+                "cm/s² per °C",
+            )?,
+            scale_factor_per_c_ppm: get(
+                "plausibility.scale_factor_per_c_ppm",
+                p.and_then(|p| p.scale_factor_per_c_ppm.as_ref()),
+                1000.0,
+                "ppm per °C",
+            )?,
+            warm_up_cm_s2: get(
+                "plausibility.warm_up_cm_s2",
+                p.and_then(|p| p.warm_up_cm_s2.as_ref()),
+                5.0,
+                "cm/s²",
+            )?,
         })
     }
 }
@@ -1116,6 +1153,10 @@ impl Instrument {
                 scale_factor_ppm: 0.0,
                 misalignment_rad: 0.0,
                 cubic_s4_cm2: 0.0,
+                hysteresis_cm_s2: 0.0,
+                bias_per_c_cm_s2: 0.0,
+                scale_factor_per_c_ppm: 0.0,
+                warm_up_cm_s2: 0.0,
             },
         }
     }

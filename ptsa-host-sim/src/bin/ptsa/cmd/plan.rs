@@ -117,6 +117,8 @@ pub struct Request {
     /// The design in words.
     what: String,
     dest: Dest,
+    /// Columns written empty for the lab to fill in.
+    also: &'static [&'static str],
 }
 
 /// Standard output, or a file (checked; with what it held when `--force` replaces it).
@@ -192,6 +194,16 @@ impl PlanArgs {
                 out,
             ),
         };
+        // Absolute rows (a tumble, a centrifuge): the columns a lab records beside each
+        // reading, written empty for it to fill in.
+        let also: &'static [&'static str] = if rows
+            .iter()
+            .any(|r| r.kind == ptsa_host_sim::model::condition::RowKind::Absolute)
+        {
+            &["temp_c", "approach"]
+        } else {
+            &[]
+        };
         let dest = match out.out {
             None => Dest::Stdout,
             Some(path) => {
@@ -200,7 +212,12 @@ impl PlanArgs {
                 Dest::File { path, replaced }
             }
         };
-        Ok(Request { rows, what, dest })
+        Ok(Request {
+            rows,
+            what,
+            dest,
+            also,
+        })
     }
 }
 
@@ -210,13 +227,19 @@ impl PlanArgs {
 /// # Errors
 /// The file or stdout cannot be written.
 pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
-    let comments = [
+    let mut comments = vec![
         format!("Test plan written by `ptsa plan`: {}.", req.what),
         "Fill in measured_cm_s2 (and sigma_cm_s2) from the lab, then `cargo ptsa discover --data FILE`."
             .to_string(),
     ];
+    if !req.also.is_empty() {
+        comments.push(
+            "Also temp_c (the instrument's temperature, °C) on every row if it was logged, and approach (up or down: whether the input along IA rose or fell to the reading) if recorded; rows in the order measured (or give time_s)."
+                .to_string(),
+        );
+    }
     let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
-    let text = ptsa_host_sim::model::caseframe::to_csv(&req.rows, &refs);
+    let text = ptsa_host_sim::model::caseframe::to_csv_with(&req.rows, &refs, req.also);
     match &req.dest {
         Dest::File { path, replaced } => {
             write_atomic(path, text.as_bytes())?;
