@@ -2,11 +2,15 @@
 //!
 //! [`Ptsa::tick_lanes`] is the loop's per-tick arithmetic (compensator, ramp, quantizer,
 //! counters; ARITHMETIC.md's "Tick order") written over `L` lanes in structure of arrays,
-//! [`Lanes`]: every step is a loop over the lanes with no branch inside it (clamps as
-//! `max`/`min`, the quantizer's latch as selects), so that a compiler can run several lanes
-//! per SIMD instruction. The two rare events of a tick, the end of a limit cycle and the end
-//! of a gate, are taken only when some lane has one (lanes started together are in step, so
-//! the branch is the same for all of them).
+//! [`Lanes`]: the common path of a tick is a loop over the lanes with no branch inside it
+//! (range tests as `&`/`|`, the quantizer's latch as selects), so that a compiler can run
+//! several lanes per SIMD instruction. The rare steps (the integrator and junction clamps,
+//! the quantizer's switch, the end of a limit cycle, the end of a gate) run only when some
+//! lane needs them, each behind one test that the compiler is told seldom holds
+//! (`cold_path`), and the ramp compare only while some lane has not switched in its cycle.
+//! With one lane those tests are the scalar loop's own branches and the rare steps stay out
+//! of its straight-line path; with many, one test serves all lanes (lanes started together
+//! are in step, so a cycle or gate end is the same branch for all of them).
 //!
 //! [`Ptsa::tick`], the form the firmware runs, *is* this function with one lane: a [`State`]
 //! is a [`Lanes<1>`] (the firmware's instruction budget and the golden vectors check that
@@ -210,6 +214,67 @@ fn any<const L: usize>(m: &[bool; L]) -> bool {
     m.iter().fold(false, |a, &b| a | b)
 }
 
+/// Marks the path that calls it as seldom taken, as `core::hint::cold_path` does from Rust
+/// 1.95 on (this crate's MSRV is older): rustc weighs a branch into a block that calls a
+/// `#[cold]` function as unlikely, and the compiler keeps such a step behind its branch
+/// instead of computing it on every tick.
+#[cold]
+const fn cold_path() {}
+
+/// The signed integers of the tick's two clamps.
+trait Signed:
+    Copy + PartialOrd + core::ops::Neg<Output = Self> + core::ops::BitXor<Output = Self>
+{
+    /// All ones where negative, else zero.
+    fn sign_mask(self) -> Self;
+    /// `self − rhs`; never overflows here (a limit and a sign mask).
+    fn minus(self, rhs: Self) -> Self;
+}
+
+impl Signed for i32 {
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    fn sign_mask(self) -> Self {
+        self >> 31
+    }
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    fn minus(self, rhs: Self) -> Self {
+        self.wrapping_sub(rhs)
+    }
+}
+
+impl Signed for i64 {
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    fn sign_mask(self) -> Self {
+        self >> 63
+    }
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    fn minus(self, rhs: Self) -> Self {
+        self.wrapping_sub(rhs)
+    }
+}
+
+/// `a` clamped to `-limit..=limit` where `beyond` says that it lies outside, else `a`. Once
+/// the clamp is known to act, the bound is the limit with `a`'s sign: `(limit ^ m) − m` with
+/// `m` the sign mask of `a` (`-limit` = `!limit + 1`).
+#[inline(always)]
+#[allow(clippy::inline_always, reason = "tick path")]
+fn limit<T: Signed>(a: T, beyond: bool, limit: T) -> T {
+    let m = a.sign_mask();
+    let bound = (limit ^ m).minus(m);
+    if beyond { bound } else { a }
+}
+
+/// Whether `a` lies outside `-limit..=limit`.
+#[inline(always)]
+#[allow(clippy::inline_always, reason = "tick path")]
+fn beyond<T: Signed>(a: T, limit: T) -> bool {
+    (a > limit) | (a < -limit)
+}
+
 impl Ptsa {
     /// One 64 kHz clock tick of `L` loops: lane `l` takes the pickoff sample `x[l]` (ADC
     /// LSB) and decides its torquer polarity for the next interval, exactly as
@@ -231,15 +296,51 @@ impl Ptsa {
         clippy::inline_always,
         reason = "tick path: inlined into the firmware's TIM2 handler and the host's lanes"
     )]
-    #[allow(
-        clippy::many_single_char_names,
-        reason = "ARITHMETIC.md's notation: s, x, u, k, v"
-    )]
     pub fn tick_lanes<const L: usize>(&self, s: &mut Lanes<L>, x: &[i16; L]) -> LaneTicks<L> {
-        let mut lead = [0i32; L];
-        let mut out_of_range = [false; L];
+        let u = self.compensate_lanes(s, x);
+        let (v, positive) = self.quantize_lanes(s, &u);
+        // The end of a limit cycle and the end of a gate, each a rare step.
+        let mut cycle_end = [false; L];
         for l in 0..L {
-            // Compensator: lead section plus integrator, summed and clamped (`u`).
+            cycle_end[l] = s.ticks[l] & self.mask == 0;
+        }
+        if any(&cycle_end) {
+            cold_path();
+            self.close_cycles(s, &v, &positive, &cycle_end);
+        }
+        let mut gate_end = [false; L];
+        let mut gate_pulses = [0u32; L];
+        let gate_ticks = self.config.gate_ticks;
+        for l in 0..L {
+            gate_end[l] = s.ticks[l].wrapping_sub(s.gate_open[l]) == gate_ticks;
+        }
+        if any(&gate_end) {
+            cold_path();
+            for l in 0..L {
+                let g = gate_end[l];
+                gate_pulses[l] = s.pulses[l].wrapping_sub(s.gate_start[l]);
+                s.gate_open[l] = if g { s.ticks[l] } else { s.gate_open[l] };
+                s.gate_start[l] = if g { s.pulses[l] } else { s.gate_start[l] };
+            }
+        }
+        LaneTicks {
+            positive,
+            cycle_end,
+            cycle_pulses: s.cycle_pulses,
+            gate_end,
+            gate_pulses,
+            gate_ticks,
+        }
+    }
+
+    /// The compensator (ARITHMETIC.md's steps 2–4): lead section plus integrator, summed
+    /// and clamped; returns the junction's output `u` of each lane.
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    fn compensate_lanes<const L: usize>(&self, s: &mut Lanes<L>, x: &[i16; L]) -> [i32; L] {
+        let mut lead = [0i32; L];
+        let mut over = [false; L];
+        for l in 0..L {
             let e = i32::from(x[l]);
             // Lead: acc (2^-16 LSB) = b0·e + b1·e' + a1·lead'; lead = round(acc / 2^16).
             let acc = i64::from(self.b0) * i64::from(e)
@@ -262,14 +363,14 @@ impl Ptsa {
             s.e_prev[l] = e;
             let integ = s.integ[l] + i64::from(self.ki) * i64::from(e);
             s.integ[l] = integ;
-            out_of_range[l] = (integ > INTEGRATOR_LIMIT) | (integ < -INTEGRATOR_LIMIT);
+            over[l] = beyond(integ, INTEGRATOR_LIMIT);
         }
-        // Integrator clamp (anti-windup), counting a tick in which it acted; rare, so taken
-        // only when some lane needs it.
-        if any(&out_of_range) {
+        // Integrator clamp (anti-windup), counting a tick in which it acted.
+        if any(&over) {
+            cold_path();
             for l in 0..L {
-                s.integ[l] = s.integ[l].max(-INTEGRATOR_LIMIT).min(INTEGRATOR_LIMIT);
-                s.sat_integrator[l] = s.sat_integrator[l].wrapping_add(u32::from(out_of_range[l]));
+                s.integ[l] = limit(s.integ[l], over[l], INTEGRATOR_LIMIT);
+                s.sat_integrator[l] = s.sat_integrator[l].wrapping_add(u32::from(over[l]));
             }
         }
         let mut u = [0i32; L];
@@ -278,67 +379,66 @@ impl Ptsa {
             #[allow(clippy::cast_possible_truncation, reason = "|integ >> 16| <= 2^24")]
             let sum = lead[l] + (s.integ[l] >> COEF_FRAC) as i32;
             u[l] = sum;
-            out_of_range[l] = (sum > RAMP_AMPLITUDE) | (sum < -RAMP_AMPLITUDE);
+            over[l] = beyond(sum, RAMP_AMPLITUDE);
         }
-        if any(&out_of_range) {
+        if any(&over) {
+            cold_path();
             for l in 0..L {
-                u[l] = u[l].max(-RAMP_AMPLITUDE).min(RAMP_AMPLITUDE);
-                s.sat_output[l] = s.sat_output[l].wrapping_add(u32::from(out_of_range[l]));
+                u[l] = limit(u[l], over[l], RAMP_AMPLITUDE);
+                s.sat_output[l] = s.sat_output[l].wrapping_add(u32::from(over[l]));
             }
         }
-        // Ramp and forced-binary quantizer: the first interval of the cycle in which
-        // `v + r[k] < 0` switches the current negative for the rest of the cycle.
+        u
+    }
+
+    /// Ramp, forced-binary quantizer and counters (steps 5–6): the first interval of the
+    /// cycle in which `v + r[k] < 0` switches the current negative for the rest of the
+    /// cycle. Returns each lane's level `v = u + carry` and whether its next interval is
+    /// positive; the tick and pulse counts have advanced.
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    #[allow(
+        clippy::many_single_char_names,
+        reason = "ARITHMETIC.md's notation: u, v, k"
+    )]
+    fn quantize_lanes<const L: usize>(
+        &self,
+        s: &mut Lanes<L>,
+        u: &[i32; L],
+    ) -> ([i32; L], [bool; L]) {
         let mut v = [0i32; L];
         let mut k = [0u16; L];
-        let mut switch = [false; L];
+        let mut open = [false; L];
         for l in 0..L {
             #[allow(clippy::cast_possible_truncation, reason = "mask < 4096")]
             let kl = (s.ticks[l] & self.mask) as u16;
             k[l] = kl;
             v[l] = u[l] + s.carry[l];
-            switch[l] = !s.switched[l] & (v[l] + self.ramp(kl) < 0);
+            open[l] = !s.switched[l];
         }
-        if any(&switch) {
+        // Only a lane that has not switched in this cycle compares with the ramp.
+        if any(&open) {
+            let mut switch = [false; L];
             for l in 0..L {
-                let w = switch[l];
-                s.latched[l] = if w { v[l] } else { s.latched[l] };
-                s.cycle_pulses[l] = if w { k[l] } else { s.cycle_pulses[l] };
-                s.switched[l] |= w;
+                switch[l] = open[l] & (v[l] + self.ramp(k[l]) < 0);
+            }
+            if any(&switch) {
+                cold_path();
+                for l in 0..L {
+                    let w = switch[l];
+                    s.latched[l] = if w { v[l] } else { s.latched[l] };
+                    s.cycle_pulses[l] = if w { k[l] } else { s.cycle_pulses[l] };
+                    s.switched[l] |= w;
+                }
             }
         }
         let mut positive = [false; L];
-        let mut cycle_end = [false; L];
         for l in 0..L {
             positive[l] = !s.switched[l];
             s.ticks[l] = s.ticks[l].wrapping_add(1);
             s.pulses[l] = s.pulses[l].wrapping_add(u32::from(positive[l]));
-            cycle_end[l] = s.ticks[l] & self.mask == 0;
         }
-        if any(&cycle_end) {
-            self.close_cycles(s, &v, &positive, &cycle_end);
-        }
-        let mut gate_end = [false; L];
-        let mut gate_pulses = [0u32; L];
-        let gate_ticks = self.config.gate_ticks;
-        for l in 0..L {
-            gate_end[l] = s.ticks[l].wrapping_sub(s.gate_open[l]) == gate_ticks;
-        }
-        if any(&gate_end) {
-            for l in 0..L {
-                let g = gate_end[l];
-                gate_pulses[l] = s.pulses[l].wrapping_sub(s.gate_start[l]);
-                s.gate_open[l] = if g { s.ticks[l] } else { s.gate_open[l] };
-                s.gate_start[l] = if g { s.pulses[l] } else { s.gate_start[l] };
-            }
-        }
-        LaneTicks {
-            positive,
-            cycle_end,
-            cycle_pulses: s.cycle_pulses,
-            gate_end,
-            gate_pulses,
-            gate_ticks,
-        }
+        (v, positive)
     }
 
     /// The end of a limit cycle in the lanes of `end` (the others keep their state): the
@@ -355,9 +455,11 @@ impl Ptsa {
     ) {
         for l in 0..L {
             let (e, p) = (end[l], positive[l]);
-            let latched = if e & p { v[l] } else { s.latched[l] };
+            if e & p {
+                s.latched[l] = v[l];
+            }
+            let latched = s.latched[l];
             let n = if p { self.n } else { s.cycle_pulses[l] };
-            s.latched[l] = latched;
             if self.config.noise_shaping {
                 // Level whose ideal duty is n/N: y = h·(2n − N).
                 let y = self.h * (2 * i32::from(n) - i32::from(self.n));
