@@ -573,6 +573,27 @@ impl Naming {
     }
 }
 
+/// The selected terms of a set as one line of a failure listing: `name coef±se`, `?` when
+/// implausible, `~ partners` when confounded, joined by `; `.
+#[must_use]
+pub fn selection_text(selected: &[Named]) -> String {
+    let sel: Vec<String> = selected
+        .iter()
+        .map(|s| {
+            let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
+            if !s.plausible {
+                x.push('?');
+            }
+            if !s.partners.is_empty() {
+                let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();
+                let _ = write!(x, " ~ {}", p.join("/"));
+            }
+            x
+        })
+        .collect();
+    sel.join("; ")
+}
+
 /// `what` (a count of sets) is more than [`RATE_MAX`] explains: the failure, or `None`.
 #[must_use]
 pub fn at_most_rate(what: &str, c: Count) -> Option<String> {

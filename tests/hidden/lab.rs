@@ -692,27 +692,13 @@ impl Campaign for Lab {
 
     fn line(&self, o: &LabOutcome) -> String {
         let t = &o.truth;
-        let sel: Vec<String> = o
-            .selected
-            .iter()
-            .map(|s| {
-                let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
-                if !s.plausible {
-                    x.push('?');
-                }
-                if !s.partners.is_empty() {
-                    let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();
-                    let _ = write!(x, " ~ {}", p.join("/"));
-                }
-                x
-            })
-            .collect();
+        let sel = super::campaign::selection_text(&o.selected);
         format!(
             "{:<34} seed {:<12} {:+.3e} -> [{}]{}{}{}{}",
             t.kind.name(),
             o.seed,
             t.coef,
-            sel.join("; "),
+            sel,
             o.unexplained_note(),
             if o.silent() { "" } else { " (warned)" },
             o.z.map_or(String::new(), |z| format!("  z {z:+.2}")),

@@ -903,21 +903,7 @@ impl Campaign for Statics {
 
     fn line(&self, o: &StaticOutcome) -> String {
         let t = &o.truth;
-        let sel: Vec<String> = o
-            .selected
-            .iter()
-            .map(|s| {
-                let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
-                if !s.plausible {
-                    x.push('?');
-                }
-                if !s.partners.is_empty() {
-                    let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();
-                    let _ = write!(x, " ~ {}", p.join("/"));
-                }
-                x
-            })
-            .collect();
+        let sel = super::campaign::selection_text(&o.selected);
         format!(
             "{:<14} seed {:<12} {:>5.1} SE{} {:.3e} {:<6} {:<20} sigma {:.4}{} -> [{}]{}{}{}",
             t.kind.name(),
@@ -929,7 +915,7 @@ impl Campaign for Statics {
             t.design.name(),
             t.sigma,
             if t.sigma_written { "" } else { " (est.)" },
-            sel.join("; "),
+            sel,
             o.unexplained_note(),
             o.z.map_or(String::new(), |z| format!("  z {z:+.2}")),
             o.outliers_and_error("  "),

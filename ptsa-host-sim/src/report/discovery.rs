@@ -11,10 +11,9 @@ use anyhow::Result;
 use crate::discovery::show::{estimate, text_report, write_outputs};
 use crate::discovery::sim::{ClosedLoopSimulator, Simulator};
 use crate::discovery::{Options, TEST_STATEMENT, discover};
-use crate::model::instrument::Instrument;
 use crate::report::r890;
-use crate::report::{Experiment, Finding};
-use crate::simulation::sim::SimOptions;
+use crate::report::{Experiment, Finding, Setup, Sink};
+use crate::simulation::work::Estimate;
 
 /// The analysis of the report's Tables 6.1, 6.2 and 6.3 as a Markdown section, for the
 /// no-argument report. Writes the tables and plots into `out` when given; the Markdown links
@@ -228,17 +227,13 @@ impl Experiment for Step {
 
     /// The closed-loop ticks and the least squares of Tables 6.1–6.3's analyses
     /// ([`crate::discovery::cost`]), the part that always runs.
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
         let sim = ClosedLoopSimulator {
-            instrument: instr.clone(),
-            options: *opts,
+            instrument: s.instr.clone(),
+            options: *s.opts,
         };
-        let mut e = crate::simulation::work::Estimate::default();
-        for f in crate::report::r890::case_files()? {
+        let mut e = Estimate::default();
+        for f in r890::case_files()? {
             let c = crate::discovery::cost::Cost::of(
                 &f.rows,
                 &sim,
@@ -251,23 +246,17 @@ impl Experiment for Step {
     }
 
     /// The section, or why it is missing (the programme goes on without it).
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        _: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
         let sim = ClosedLoopSimulator {
-            instrument: instr.clone(),
-            options: *opts,
+            instrument: s.instr.clone(),
+            options: *s.opts,
         };
-        let s = section(
+        let section = section(
             &sim,
-            &crate::discovery::Options::for_instrument(instr),
-            Some(&dir.join("discover")),
+            &Options::for_instrument(s.instr),
+            Some(&to.dir.join("discover")),
         )
         .map_err(|e| format!("{e:#}"));
-        Ok(Finding::Discovery(s))
+        Ok(Finding::Discovery(section))
     }
 }

@@ -31,24 +31,46 @@ pub trait Experiment: Sync {
     /// Its name (the progress line, the summary's timings, its files' stem).
     fn name(&self) -> &'static str;
 
-    /// Its closed-loop ticks (and seconds of other work) with `instr` and `opts`, counted
-    /// before it runs.
+    /// Its closed-loop ticks (and seconds of other work), counted before it runs.
     ///
     /// # Errors
     /// The report's transcriptions it reads are malformed.
-    fn work(&self, instr: &Instrument, opts: &SimOptions) -> Result<Estimate>;
+    fn work(&self, s: Setup<'_>) -> Result<Estimate>;
 
-    /// Run it: its tables on `out`, its files into `dir`.
+    /// Run it: its tables and files into `to`.
     ///
     /// # Errors
-    /// The experiment, a file or `out` fails.
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &Path,
-        out: &mut dyn Write,
-    ) -> Result<Finding>;
+    /// The experiment, a file or the output fails.
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding>;
+}
+
+/// What every step runs with: the instrument and the run options.
+#[derive(Clone, Copy, Debug)]
+pub struct Setup<'a> {
+    /// The instrument.
+    pub instr: &'a Instrument,
+    /// The run options.
+    pub opts: &'a SimOptions,
+}
+
+/// Where a step's output goes: the report folder (being written) and the text output.
+pub struct Sink<'a> {
+    /// The folder of the step's files.
+    pub dir: &'a Path,
+    /// The tables, as text.
+    pub out: &'a mut dyn Write,
+}
+
+impl Sink<'_> {
+    /// An experiment's output: its tables on the text output, its files into the folder.
+    ///
+    /// # Errors
+    /// The output or a file fails.
+    pub fn emit(&mut self, o: &Output) -> Result<()> {
+        o.print(self.out)?;
+        o.write_files(self.dir)?;
+        Ok(())
+    }
 }
 
 /// What a step of the programme found (for [`Programme`] and the summary).
@@ -93,16 +115,6 @@ pub fn steps() -> Vec<Box<dyn Experiment>> {
         Box::new(discovery::Step),
         Box::new(design::Step),
     ]
-}
-
-/// An experiment's output: its tables on `out`, its files into `dir`.
-///
-/// # Errors
-/// `out` or a file fails.
-pub(crate) fn emit(o: &Output, dir: &Path, out: &mut dyn Write) -> Result<()> {
-    o.print(out)?;
-    o.write_files(dir)?;
-    Ok(())
 }
 
 /// The estimate of a step that counts closed-loop ticks only.
@@ -224,7 +236,7 @@ pub fn work(instr: &Instrument, opts: &SimOptions) -> Result<Estimate> {
         ..Estimate::default()
     };
     for step in steps() {
-        let w = step.work(instr, opts)?;
+        let w = step.work(Setup { instr, opts })?;
         e.ticks += w.ticks;
         e.other_s += w.other_s;
     }
@@ -253,7 +265,11 @@ pub fn run(
     for (k, e) in steps().iter().enumerate() {
         step(k, e.name());
         let t = Instant::now();
-        found.push(e.run(instr, opts, &dir, out)?);
+        let mut to = Sink {
+            dir: &dir,
+            out: &mut *out,
+        };
+        found.push(e.run(Setup { instr, opts }, &mut to)?);
         timings.push((e.name(), t.elapsed().as_secs_f64()));
     }
     let mut p = Programme::of(info, instr, found, timings)?;

@@ -10,8 +10,9 @@ use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num, opt};
 use crate::report::r890;
-use crate::report::{Experiment, Finding, emit, ticks_only};
+use crate::report::{Experiment, Finding, Setup, Sink, ticks_only};
 use crate::simulation::sim::{SimOptions, simulate_difference};
+use crate::simulation::work::Estimate;
 
 /// One row of the anisoinertia experiment.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -214,24 +215,14 @@ impl Experiment for Step {
         "anisoinertia"
     }
 
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
-        Ok(ticks_only(work(instr, opts, [0.0; 3])?))
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
+        Ok(ticks_only(work(s.instr, s.opts, [0.0; 3])?))
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        out: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
         let k = crate::report::r890::section_6_2()?.anisoinertia_g_cm2;
-        let r = run(instr, opts, k, [0.0; 3])?;
-        emit(&r.output, dir, out)?;
+        let r = run(s.instr, s.opts, k, [0.0; 3])?;
+        to.emit(&r.output)?;
         Ok(Finding::Anisoinertia(r))
     }
 }

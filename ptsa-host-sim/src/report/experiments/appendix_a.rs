@@ -13,8 +13,9 @@ use crate::model::design::{Cx, loop_gain, pendulum};
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num};
-use crate::report::{Experiment, Finding, emit, ticks_only};
+use crate::report::{Experiment, Finding, Setup, Sink, ticks_only};
 use crate::simulation::sim::{SimOptions, simulate_difference};
+use crate::simulation::work::Estimate;
 
 /// The set-up of one Appendix A sweep.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -296,23 +297,17 @@ impl Experiment for Step {
         name(self.0)
     }
 
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
-        Ok(ticks_only(work(instr, opts, &TwoAxisPlan::report(self.0))))
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
+        Ok(ticks_only(work(
+            s.instr,
+            s.opts,
+            &TwoAxisPlan::report(self.0),
+        )))
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        out: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
-        let r = run(instr, opts, &TwoAxisPlan::report(self.0))?;
-        emit(&r.output, dir, out)?;
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
+        let r = run(s.instr, s.opts, &TwoAxisPlan::report(self.0))?;
+        to.emit(&r.output)?;
         Ok(Finding::TwoAxis(self.0, r))
     }
 }

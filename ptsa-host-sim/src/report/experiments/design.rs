@@ -2,7 +2,8 @@
 
 use crate::model::design::{Design, margins};
 use crate::model::instrument::Instrument;
-use crate::report::{Experiment, Finding};
+use crate::report::{Experiment, Finding, Setup, Sink};
+use crate::simulation::work::Estimate;
 
 /// The design (text) for an instrument, with the margins of the linearised loop.
 #[must_use]
@@ -24,23 +25,14 @@ impl Experiment for Step {
         "design"
     }
 
-    fn work(
-        &self,
-        _: &Instrument,
-        _: &crate::simulation::sim::SimOptions,
-    ) -> anyhow::Result<crate::simulation::work::Estimate> {
-        Ok(crate::simulation::work::Estimate::default())
+    fn work(&self, s: Setup<'_>) -> anyhow::Result<Estimate> {
+        let _ = s;
+        Ok(Estimate::default())
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        _: &crate::simulation::sim::SimOptions,
-        dir: &std::path::Path,
-        _: &mut dyn std::io::Write,
-    ) -> anyhow::Result<Finding> {
-        let t = text(instr);
-        crate::output::write_atomic(&dir.join("design.txt"), t.as_bytes())?;
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> anyhow::Result<Finding> {
+        let t = text(s.instr);
+        crate::output::write_atomic(&to.dir.join("design.txt"), t.as_bytes())?;
         Ok(Finding::Design(t))
     }
 }

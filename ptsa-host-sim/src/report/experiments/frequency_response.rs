@@ -9,8 +9,9 @@ use crate::model::design::loop_gain;
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, XAxis, num};
-use crate::report::{Experiment, Finding, emit, ticks_only};
+use crate::report::{Experiment, Finding, Setup, Sink, ticks_only};
 use crate::simulation::sim::{SimOptions, simulate_condition};
+use crate::simulation::work::Estimate;
 
 /// Input amplitude, cm/s² (large enough that the 1-count dead band does not matter).
 pub const AMPLITUDE_CM_S2: f64 = 2000.0;
@@ -191,23 +192,13 @@ impl Experiment for Step {
         "frequency response"
     }
 
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
-        Ok(ticks_only(work(instr, opts)))
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
+        Ok(ticks_only(work(s.instr, s.opts)))
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        out: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
-        let r = run(instr, opts)?;
-        emit(&r.output, dir, out)?;
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
+        let r = run(s.instr, s.opts)?;
+        to.emit(&r.output)?;
         Ok(Finding::Response(r))
     }
 }

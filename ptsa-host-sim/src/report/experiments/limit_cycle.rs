@@ -9,8 +9,9 @@ use crate::lab::fixtures;
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Figure, Output, Plot, Series, Table, num};
-use crate::report::{Experiment, Finding, emit, ticks_only};
+use crate::report::{Experiment, Finding, Setup, Sink, ticks_only};
 use crate::simulation::sim::{SimOptions, SimResult, simulate_condition};
+use crate::simulation::work::Estimate;
 
 /// Inputs as fractions of full scale.
 pub const FRACTIONS: [f64; 11] = [
@@ -182,23 +183,13 @@ impl Experiment for Step {
         "limit cycle"
     }
 
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
-        Ok(ticks_only(work(instr, opts)))
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
+        Ok(ticks_only(work(s.instr, s.opts)))
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        out: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
-        let r = run(instr, opts)?;
-        emit(&r.output, dir, out)?;
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
+        let r = run(s.instr, s.opts)?;
+        to.emit(&r.output)?;
         Ok(Finding::LimitCycle(r))
     }
 }

@@ -18,8 +18,9 @@ use crate::model::design::margins;
 use crate::model::effects::Effects;
 use crate::model::instrument::{Instrument, Tolerance};
 use crate::output::{Figure, Output, Plot, Series, Table, num, text};
-use crate::report::{Experiment, Finding, emit, ticks_only};
+use crate::report::{Experiment, Finding, Setup, Sink, ticks_only};
 use crate::simulation::sim::SimOptions;
+use crate::simulation::work::Estimate;
 
 /// Up to this many toleranced parameters every corner is visited.
 pub const MAX_EXHAUSTIVE: usize = 14;
@@ -289,23 +290,13 @@ impl Experiment for Step {
         "monte carlo"
     }
 
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
-        Ok(ticks_only(work(instr, opts, DEFAULT_SAMPLES)))
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
+        Ok(ticks_only(work(s.instr, s.opts, DEFAULT_SAMPLES)))
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        out: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
-        let r = run(instr, opts, DEFAULT_SAMPLES)?;
-        emit(&r.output, dir, out)?;
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
+        let r = run(s.instr, s.opts, DEFAULT_SAMPLES)?;
+        to.emit(&r.output)?;
         Ok(Finding::MonteCarlo(r))
     }
 }

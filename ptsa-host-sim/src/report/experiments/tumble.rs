@@ -12,8 +12,9 @@ use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::{Cell, Figure, Output, Plot, Series, Table, num, text};
 use crate::report::r890;
-use crate::report::{Experiment, Finding, emit, ticks_only};
+use crate::report::{Experiment, Finding, Setup, Sink, ticks_only};
 use crate::simulation::sim::{ClosedLoop, SimOptions, simulate_condition};
+use crate::simulation::work::Estimate;
 
 /// Default counting gate, s (the report's count period is not given; 1 s).
 pub const DEFAULT_GATE_S: f64 = 1.0;
@@ -281,23 +282,13 @@ impl Experiment for Step {
         "tumble"
     }
 
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
-        Ok(ticks_only(work(instr, opts, DEFAULT_GATE_S)))
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
+        Ok(ticks_only(work(s.instr, s.opts, DEFAULT_GATE_S)))
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        out: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
-        let r = run(instr, opts, DEFAULT_GATE_S)?;
-        emit(&r.output, dir, out)?;
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
+        let r = run(s.instr, s.opts, DEFAULT_GATE_S)?;
+        to.emit(&r.output)?;
         Ok(Finding::Tumble(r))
     }
 }

@@ -12,8 +12,9 @@ use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 use crate::output::fs::{persist, temp_beside};
 use crate::output::{Figure, Output, Plot, Series};
-use crate::report::{Experiment, Finding, emit, ticks_only};
+use crate::report::{Experiment, Finding, Setup, Sink, ticks_only};
 use crate::simulation::sim::{ClosedLoop, SimOptions};
+use crate::simulation::work::Estimate;
 
 /// Default constant acceleration along IA, cm/s².
 pub const DEFAULT_ACCEL_CM_S2: f64 = 5000.0;
@@ -145,23 +146,13 @@ impl Experiment for Step {
         "waveform"
     }
 
-    fn work(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-    ) -> Result<crate::simulation::work::Estimate> {
-        Ok(ticks_only(work(instr, opts, DEFAULT_CYCLES)))
+    fn work(&self, s: Setup<'_>) -> Result<Estimate> {
+        Ok(ticks_only(work(s.instr, s.opts, DEFAULT_CYCLES)))
     }
 
-    fn run(
-        &self,
-        instr: &Instrument,
-        opts: &SimOptions,
-        dir: &std::path::Path,
-        out: &mut dyn std::io::Write,
-    ) -> Result<Finding> {
-        let o = run(instr, opts, DEFAULT_ACCEL_CM_S2, DEFAULT_CYCLES, dir)?;
-        emit(&o, dir, out)?;
+    fn run(&self, s: Setup<'_>, to: &mut Sink<'_>) -> Result<Finding> {
+        let o = run(s.instr, s.opts, DEFAULT_ACCEL_CM_S2, DEFAULT_CYCLES, to.dir)?;
+        to.emit(&o)?;
         Ok(Finding::Waveform(o))
     }
 }
