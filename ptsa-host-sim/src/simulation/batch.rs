@@ -42,9 +42,10 @@
 //!   whose noise draws and, for lanes with the same condition, phasor and inputs are made
 //!   once per block for the whole group.
 //!
-//! Measured with `ptsa bench --batch 16` on one core (medians of 7 runs; AMD Zen 5, AVX2):
-//! static batch / single = 1.82 with 4 lanes, 1.58 with 8, 1.18 with 1 (see
-//! docs/host-sim.md). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
+//! Measured with `ptsa bench --batch 16 --runs 7` on one core (three invocations; 2-core AMD
+//! EPYC, AVX2, load 1.0–1.5): static batch / single = 1.26–1.50 with 4 lanes, 1.32–1.48 with
+//! 8, 0.93–1.05 with 1; with `--dynamic` 1.08–1.16, with `--dynamic --shared-condition`
+//! 2.08–2.16 (see docs/host-sim.md). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
 //! (criterion medians, one thread): 16 different oscillating conditions 35.9 ms single,
 //! 29.7 ms with 4 lanes (1.21×); one condition with 16 instruments (identification) 26.2 ms
 //! single, 14.1 ms with 4 lanes (1.85×; it was 23.9 ms, 1.16×, before the dynamic tick ran
