@@ -11,20 +11,22 @@
 //!   noise draws), on one thread (the per-core figure);
 //! * `static_api/...`: the same as whole calls, `sim::run_static` 16 times against one
 //!   `batch::run_static` (construction, settling and noise tables included);
-//! * `dynamic_loop/...`: 16 dynamic conditions (angular oscillation about OA and IA+PA
-//!   vibration at 10–47 Hz, with effects) running `run`;
+//! * `dynamic_loop/...`: 16 dynamic conditions (`lab::fixtures::oscillating_spread`:
+//!   angular oscillation about OA and IA+PA vibration at 10–47.5 Hz, with effects) running
+//!   `run`;
 //! * `dynamic_api/...`: `simulate_condition` 16 times against one `simulate_conditions`;
 //! * `ident_loop/...`, `ident_api/...`: parameter identification, one dynamic condition (20 Hz
-//!   about OA) with 16 instruments (spring 0–15 % stiffer), one seed: the loops running
-//!   `run`, and `simulate_condition` 16 times against one `simulate_jobs`.
+//!   about OA) with 16 instruments (spring 0–15 % stiffer,
+//!   `lab::fixtures::shared_condition_spread`), one seed: the loops running `run`, and
+//!   `simulate_condition` 16 times against one `simulate_jobs`.
 //!
-//! Ratios: divide the `single` time by the `K/k` time (the same ticks).
+//! Ratios: divide the `single` time by the `K/k` time (the same ticks). `ptsa bench --batch 16`
+//! (`--dynamic`, `--dynamic --shared-condition`) measures the `*_api` pairs from the command
+//! line, on the same fixtures.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use ptsa_host_sim::lab::fixtures;
-use ptsa_host_sim::model::condition::{IA, OA, PA};
-use ptsa_host_sim::model::effects::CandidateId;
-use ptsa_host_sim::simulation::batch::{Engine, Job, spread_accels};
+use ptsa_host_sim::simulation::batch::{Engine, Job};
 use ptsa_host_sim::simulation::sim::{ClosedLoop, run_static, simulate_condition};
 use ptsa_host_sim::{Condition, Effects, Instrument, SimOptions};
 use std::hint::black_box;
@@ -32,29 +34,6 @@ use std::hint::black_box;
 const TICKS: u64 = 64_000;
 const N: usize = 16;
 const LANES: [usize; 5] = [1, 2, 4, 8, 16];
-
-#[allow(clippy::cast_precision_loss, reason = "j < N = 16")]
-fn dynamic_conditions() -> Vec<(Condition, Effects)> {
-    (0..N)
-        .map(|j| {
-            let jf = j as f64;
-            let mut c = Condition {
-                g: [0.1 * jf / N as f64, 1.0, 0.0],
-                freq_hz: 10.0 + 2.5 * jf,
-                ..Condition::default()
-            };
-            if j % 2 == 0 {
-                c.ang_mrad[OA] = 1.0 + 0.1 * jf;
-            } else {
-                c.lin_cm_s2[IA] = 100.0 + 20.0 * jf;
-                c.lin_cm_s2[PA] = 200.0;
-                c.lin_deg[PA] = 30.0;
-            }
-            let e = Effects::only(CandidateId::Sculling, 1e-3).with(CandidateId::Anisoinertia, 2.0);
-            (c, e)
-        })
-        .collect()
-}
 
 #[allow(clippy::too_many_lines)] // one benchmark group after another
 fn bench(c: &mut Criterion) {
@@ -64,7 +43,7 @@ fn bench(c: &mut Criterion) {
         .num_threads(1)
         .build()
         .expect("a one-thread pool");
-    let accels = spread_accels(&instr, N);
+    let accels = fixtures::spread_accels(&instr, N);
     let settled = |conds: &[(Condition, Effects)]| -> Vec<ClosedLoop> {
         conds
             .iter()
@@ -79,7 +58,7 @@ fn bench(c: &mut Criterion) {
         .iter()
         .map(|&a| (fixtures::along_ia(a, instr.g_cm_s2), Effects::NONE))
         .collect();
-    let dynamics = dynamic_conditions();
+    let dynamics = fixtures::oscillating_spread(N);
 
     // The loops alone.
     for (name, conds, fast) in [
@@ -121,20 +100,7 @@ fn bench(c: &mut Criterion) {
     }
 
     // Parameter identification: one condition, sixteen instruments.
-    let mut oa = Condition {
-        g: [0.0, 1.0, 0.0],
-        freq_hz: 20.0,
-        ..Condition::default()
-    };
-    oa.ang_mrad[OA] = 2.0;
-    #[allow(clippy::cast_precision_loss, reason = "j < N = 16")]
-    let instrs: Vec<Instrument> = (0..N)
-        .map(|j| {
-            let mut i = instr.clone();
-            i.spring_dyn_cm_rad *= 1.0 + 0.01 * j as f64;
-            i
-        })
-        .collect();
+    let (oa, instrs) = fixtures::shared_condition_spread(&instr, N);
     let ident = |i: &Instrument| {
         let mut l = ClosedLoop::new(i, &oa, &Effects::NONE, &opts);
         l.run(6400);

@@ -15,9 +15,7 @@
 //! * [`report`]: the report programme of R-890 (experiments, tables, summary).
 //! * [`output`]: files, tables and plots, written whole or not at all.
 //! * [`stats`]: dense weighted least squares and the tail probabilities.
-//! * [`bench`](mod@bench): the `ptsa bench` measurements.
 
-pub mod bench;
 pub mod discovery;
 pub mod lab;
 pub mod model;

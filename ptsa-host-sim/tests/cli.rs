@@ -480,6 +480,150 @@ fn bench_batch_prints_both_rates() {
     assert!(names(tmp.path()).is_empty());
 }
 
+/// `bench --batch N --dynamic` (N oscillating conditions) and `--dynamic --shared-condition`
+/// (one condition, N instruments): the header, both rates and their ratio from a tiny run
+/// (a smoke test, not a timing), and the combinations that mean nothing refused.
+#[test]
+fn bench_batch_dynamic_prints_both_rates() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rates = |out: &str, batch: &str| -> (f64, f64, f64) {
+        let rate = |what: &str| -> f64 {
+            let l = out
+                .lines()
+                .find(|l| l.contains(what))
+                .unwrap_or_else(|| panic!("no `{what}` in {out}"));
+            l.strip_suffix(" Mticks/s")
+                .and_then(|l| l.rsplit(' ').next())
+                .unwrap_or_else(|| panic!("{l}"))
+                .parse()
+                .unwrap()
+        };
+        let ratio: f64 = out
+            .lines()
+            .find_map(|l| l.strip_prefix("bench: batch / single = "))
+            .and_then(|l| l.strip_suffix(" (same results bit for bit in every run)"))
+            .unwrap_or_else(|| panic!("{out}"))
+            .parse()
+            .unwrap();
+        (rate("bench: single loop"), rate(batch), ratio)
+    };
+    let (out, err) = succeeds_in(
+        tmp.path(),
+        &[
+            "bench",
+            "--batch",
+            "3",
+            "--dynamic",
+            "--ticks",
+            "1000",
+            "--runs",
+            "2",
+        ],
+    );
+    assert!(err.is_empty(), "{err}");
+    assert!(
+        out.starts_with("bench --batch 3 --dynamic: 3 oscillating conditions from 10.0 to 36.7 Hz (angular oscillation about OA and IA+PA vibration in turn, with sculling and anisoinertia), windows of at least 1000 ticks in whole periods after 6400 settling ticks, "),
+        "{out}"
+    );
+    // 10, 23.3 and 36.7 Hz: whole periods of at least 1000 ticks (6400, 2743 and 3491).
+    assert!(
+        out.contains(", 30088 ticks in all, 2 runs, medians"),
+        "{out}"
+    );
+    assert!(
+        out.contains("one condition after the other (sim::simulate_condition)"),
+        "{out}"
+    );
+    let (single, batch, ratio) = rates(
+        &out,
+        "batch engine, 4 lanes per core, on one thread (Engine::simulate_conditions)",
+    );
+    assert!(single > 0.0 && batch > 0.0, "{out}");
+    assert!(
+        (ratio - batch / single).abs() < 0.02 * ratio + 0.01 / single,
+        "{ratio} vs {batch}/{single}"
+    );
+    let (out, err) = succeeds_in(
+        tmp.path(),
+        &[
+            "bench",
+            "--batch",
+            "3",
+            "--dynamic",
+            "--shared-condition",
+            "--lanes",
+            "2",
+            "--ticks",
+            "1000",
+            "--runs",
+            "1",
+            "--no-noise",
+        ],
+    );
+    assert!(err.is_empty(), "{err}");
+    assert!(
+        out.starts_with("bench --batch 3 --dynamic --shared-condition: one oscillating condition (20 Hz, 2 mrad about OA) with 3 instruments (spring 0 to 10.7 % stiffer), without noise, "),
+        "{out}"
+    );
+    assert!(
+        out.contains(", 28800 ticks in all, 1 run, medians"),
+        "{out}"
+    );
+    let (single, batch, _) = rates(
+        &out,
+        "batch engine, 2 lanes per core, on one thread (Engine::simulate_jobs)",
+    );
+    assert!(single > 0.0 && batch > 0.0, "{out}");
+    assert!(names(tmp.path()).is_empty());
+}
+
+/// `bench --dynamic` and `--shared-condition` refused where they mean nothing, and the
+/// work estimate of `--dynamic` at the dynamic rate.
+#[test]
+fn bench_dynamic_refuses_meaningless_combinations() {
+    // Without --batch (or --dynamic) the flags mean nothing: refused, naming what is missing.
+    refused(
+        &["bench", "--dynamic"],
+        2,
+        &[
+            "the following required arguments were not provided",
+            "--batch <N>",
+        ],
+    );
+    refused(
+        &["bench", "--batch", "2", "--shared-condition"],
+        2,
+        &[
+            "the following required arguments were not provided",
+            "--dynamic",
+        ],
+    );
+    refused(
+        &["bench", "--batch", "2", "--dynamic", "--compare-c"],
+        2,
+        &["'--batch <N>' cannot be used with '--compare-c'"],
+    );
+    // The estimate counts both passes at the dynamic rate: 64 × 2 × 10 runs of 5e7 ticks
+    // (at the static rate it would pass on 2 cores).
+    refused(
+        &[
+            "bench",
+            "--batch",
+            "64",
+            "--dynamic",
+            "--ticks",
+            "50000000",
+            "--runs",
+            "10",
+        ],
+        1,
+        &[
+            "the benchmark would run about 6.40e10 clock ticks",
+            "pass --force",
+        ],
+    );
+}
+
 /// Case 4: the run options, on the report and on a subcommand.
 #[test]
 fn run_options_refuse_nan_everywhere() {

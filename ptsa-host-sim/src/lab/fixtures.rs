@@ -7,7 +7,8 @@
 //! the simulator adds through the `lever_arm` candidate of [`Effects`].
 
 use crate::model::condition::{Condition, IA, OA, PA, cross};
-use crate::model::effects::Effects;
+use crate::model::effects::{CandidateId, Effects};
+use crate::model::instrument::Instrument;
 
 /// A condition and the lever arm of the fixture (cm, case axes).
 #[derive(Clone, Debug, PartialEq)]
@@ -185,9 +186,136 @@ pub fn two_axis(
     }
 }
 
+/// `n` static accelerations along IA spread evenly over ±0.9 of the instrument's full scale,
+/// cm/s² (one: 0): the static conditions of `ptsa bench --batch N` and `benches/batch.rs`,
+/// each a condition through [`along_ia`].
+#[must_use]
+pub fn spread_accels(instr: &Instrument, n: usize) -> Vec<f64> {
+    #[allow(clippy::cast_precision_loss)]
+    let step = |i: usize| {
+        if n < 2 {
+            0.0
+        } else {
+            -0.9 + 1.8 * i as f64 / (n - 1) as f64
+        }
+    };
+    (0..n).map(|i| step(i) * instr.sf_cm_s2).collect()
+}
+
+/// `n` different oscillating conditions with effects, the dynamic conditions of
+/// `ptsa bench --batch N --dynamic` and `benches/batch.rs` (`dynamic_*`). Condition `j` (0 to
+/// `n − 1`) has gravity `g_pa = 1`, `g_ia = 0.1·j/n` and the frequency `10 + 40·j/n` Hz
+/// (10 to 47.5 Hz for 16); an even `j` oscillates about OA with `1 + 1.6·j/n` mrad, an odd
+/// `j` vibrates along IA with `100 + 320·j/n` cm/s² and along PA with 200 cm/s² at 30°.
+/// Every one carries sculling (`k_sc_s2` = 1e-3 s²) and anisoinertia (`k_ai_cm` = 2 cm), so
+/// the effects' torque is computed each tick.
+#[must_use]
+pub fn oscillating_spread(n: usize) -> Vec<(Condition, Effects)> {
+    #[allow(clippy::cast_precision_loss, reason = "j < n, a count of conditions")]
+    let (nf, at) = (n as f64, |j: usize| j as f64);
+    (0..n)
+        .map(|j| {
+            let jf = at(j);
+            let mut c = Condition {
+                label: format!("oscillating {j}"),
+                g: [0.1 * jf / nf, 1.0, 0.0],
+                freq_hz: 10.0 + 40.0 * jf / nf,
+                ..Condition::default()
+            };
+            if j % 2 == 0 {
+                c.ang_mrad[OA] = 1.0 + 1.6 * jf / nf;
+            } else {
+                c.lin_cm_s2[IA] = 100.0 + 320.0 * jf / nf;
+                c.lin_cm_s2[PA] = 200.0;
+                c.lin_deg[PA] = 30.0;
+            }
+            let e = Effects::only(CandidateId::Sculling, 1e-3).with(CandidateId::Anisoinertia, 2.0);
+            (c, e)
+        })
+        .collect()
+}
+
+/// Parameter identification's shape, for `ptsa bench --batch N --dynamic --shared-condition`
+/// and `benches/batch.rs` (`ident_*`): one oscillating condition (2 mrad about OA at 20 Hz,
+/// `g_pa = 1`) and `n` copies of `instr` whose spring is `1 + 0.16·j/n` times the file's (0
+/// to 15 % stiffer for 16), as the parameter sides of `ptsa discover` are.
+#[must_use]
+pub fn shared_condition_spread(instr: &Instrument, n: usize) -> (Condition, Vec<Instrument>) {
+    let mut cond = Condition {
+        label: "20 Hz, 2 mrad about OA".into(),
+        g: [0.0, 1.0, 0.0],
+        freq_hz: 20.0,
+        ..Condition::default()
+    };
+    cond.ang_mrad[OA] = 2.0;
+    #[allow(clippy::cast_precision_loss, reason = "j < n, a count of instruments")]
+    let instrs = (0..n)
+        .map(|j| {
+            let mut i = instr.clone();
+            i.spring_dyn_cm_rad *= 1.0 + 0.16 * j as f64 / n as f64;
+            i
+        })
+        .collect();
+    (cond, instrs)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spread_covers_nine_tenths_of_full_scale() {
+        let i = Instrument::kearfott_2401();
+        let a = spread_accels(&i, 16);
+        assert_eq!(a.len(), 16);
+        assert!((a[0] + 0.9 * i.sf_cm_s2).abs() < 1e-9);
+        assert!((a[15] - 0.9 * i.sf_cm_s2).abs() < 1e-9);
+        assert_eq!(spread_accels(&i, 1), vec![0.0]);
+    }
+
+    /// With 16 the sets are bit for bit the ones `benches/batch.rs` wrote out before they
+    /// moved here (`0.1·j/16`, `10 + 2.5·j`, `1 + 0.1·j`, `100 + 20·j`; spring `1 + 0.01·j`),
+    /// so criterion's earlier figures measure the same runs.
+    #[test]
+    #[allow(clippy::float_cmp, reason = "the same bits are the point")]
+    fn sixteen_are_the_benches_earlier_sets() {
+        let set = oscillating_spread(16);
+        assert_eq!(set.len(), 16);
+        for (j, (c, e)) in set.iter().enumerate() {
+            let jf = f64::from(u8::try_from(j).unwrap());
+            assert_eq!(c.g, [0.1 * jf / 16.0, 1.0, 0.0]);
+            assert_eq!(c.freq_hz, 10.0 + 2.5 * jf);
+            if j % 2 == 0 {
+                assert_eq!(c.ang_mrad, [0.0, 0.0, 1.0 + 0.1 * jf]);
+                assert_eq!(c.lin_cm_s2, [0.0; 3]);
+            } else {
+                assert_eq!(c.ang_mrad, [0.0; 3]);
+                assert_eq!(c.lin_cm_s2[IA], 100.0 + 20.0 * jf);
+                assert_eq!((c.lin_cm_s2[PA], c.lin_deg[PA]), (200.0, 30.0));
+            }
+            assert!(c.prepare(980.665).is_dynamic());
+            assert_eq!(
+                *e,
+                Effects::only(CandidateId::Sculling, 1e-3).with(CandidateId::Anisoinertia, 2.0)
+            );
+        }
+        let i = Instrument::kearfott_2401();
+        let (c, instrs) = shared_condition_spread(&i, 16);
+        assert_eq!(
+            (c.freq_hz, c.ang_mrad[OA], c.g),
+            (20.0, 2.0, [0.0, 1.0, 0.0])
+        );
+        for (j, k) in instrs.iter().enumerate() {
+            let jf = f64::from(u8::try_from(j).unwrap());
+            assert_eq!(k.spring_dyn_cm_rad, i.spring_dyn_cm_rad * (1.0 + 0.01 * jf));
+        }
+        // Any count stays in range: 64 conditions below 50 Hz, springs below 16 % stiffer.
+        let last = &oscillating_spread(64)[63].0;
+        assert!(last.freq_hz < 50.0 && last.lin_cm_s2[IA] < 420.0);
+        let k = &shared_condition_spread(&i, 64).1[63];
+        assert!(k.spring_dyn_cm_rad < 1.16 * i.spring_dyn_cm_rad);
+        assert_eq!(oscillating_spread(1)[0].0.freq_hz, 10.0);
+    }
 
     #[test]
     fn table_6_1_geometry() {

@@ -42,18 +42,18 @@
 //!   whose noise draws and, for lanes with the same condition, phasor and inputs are made
 //!   once per block for the whole group.
 //!
-//! Measured with `ptsa bench --batch 16` on one core (medians of 7 runs; AMD Zen 5, AVX2):
-//! static batch / single = 1.82 with 4 lanes, 1.58 with 8, 1.18 with 1 (see
-//! docs/host-sim.md). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
+//! Measured with `ptsa bench --batch 16 --runs 7` on one core (three invocations; 2-core AMD
+//! EPYC, AVX2, load 1.0–1.5): static batch / single = 1.26–1.50 with 4 lanes, 1.32–1.48 with
+//! 8, 0.93–1.05 with 1; with `--dynamic` 1.08–1.16, with `--dynamic --shared-condition`
+//! 2.08–2.16 (see docs/host-sim.md). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
 //! (criterion medians, one thread): 16 different oscillating conditions 35.9 ms single,
 //! 29.7 ms with 4 lanes (1.21×); one condition with 16 instruments (identification) 26.2 ms
 //! single, 14.1 ms with 4 lanes (1.85×; it was 23.9 ms, 1.16×, before the dynamic tick ran
 //! on lanes).
-//! `cargo bench -p ptsa-host-sim --bench batch` measures every setting; [`batch_rates`] gives
-//! the single and the batch rate to the CLI.
+//! `cargo bench -p ptsa-host-sim --bench batch` measures every setting; `ptsa bench --batch N`
+//! (with `--dynamic`, `--shared-condition`) prints the single and the batch rate.
 
 use std::collections::HashMap;
-use std::time::Instant;
 
 use rayon::prelude::*;
 
@@ -974,91 +974,6 @@ fn adc_bits(a: &Adc) -> [u64; 3] {
     [gain.to_bits(), offset.to_bits(), noise.to_bits()]
 }
 
-/// The single loop's and the batch engine's speed on the static loop, side by side.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BatchRates {
-    /// Lanes in the batch (static conditions spread over ±0.9 of full scale).
-    pub conditions: usize,
-    /// Lanes per core.
-    pub lanes: usize,
-    /// Ticks per condition (settling included).
-    pub ticks: u64,
-    /// [`sim::run_static`] one condition after the other: median ticks per second.
-    pub single_ticks_per_s: f64,
-    /// [`Engine::run_static`] on one thread: median ticks per second (all lanes' ticks).
-    pub batch_ticks_per_s_per_core: f64,
-}
-
-impl BatchRates {
-    /// Batch over single.
-    #[must_use]
-    pub fn ratio(&self) -> f64 {
-        self.batch_ticks_per_s_per_core / self.single_ticks_per_s
-    }
-}
-
-/// The static accelerations of [`batch_rates`] and the batch benchmark: `n` values spread
-/// evenly over ±0.9 of the full scale, cm/s².
-#[must_use]
-pub fn spread_accels(instr: &Instrument, n: usize) -> Vec<f64> {
-    #[allow(clippy::cast_precision_loss)]
-    let step = |i: usize| {
-        if n < 2 {
-            0.0
-        } else {
-            -0.9 + 1.8 * i as f64 / (n - 1) as f64
-        }
-    };
-    (0..n).map(|i| step(i) * instr.sf_cm_s2).collect()
-}
-
-/// For `ptsa bench --batch N`: `conditions` static conditions ([`spread_accels`]) of `ticks`
-/// gate ticks each (plus `opts.warmup_s` of settling), run `runs` times one after the other
-/// with [`sim::run_static`] and as one batch of `lanes` lanes per core on one thread; the
-/// median rates of each. Both give the same pulses (checked).
-///
-/// # Errors
-/// The one-thread pool cannot be built, or the batch disagrees with the single loops.
-pub fn batch_rates(
-    instr: &Instrument,
-    opts: &SimOptions,
-    conditions: usize,
-    lanes: usize,
-    ticks: u64,
-    runs: usize,
-) -> anyhow::Result<BatchRates> {
-    let engine = Engine::new(lanes);
-    let accels = spread_accels(instr, conditions);
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
-    #[allow(clippy::cast_precision_loss)]
-    let all = (conditions as u64 * (ticks + opts.warmup_ticks(instr.clock_hz))) as f64;
-    let mut single = Vec::new();
-    let mut batch = Vec::new();
-    for _ in 0..runs.max(1) {
-        let t = Instant::now();
-        let a: Vec<StaticRun> = accels
-            .iter()
-            .map(|&a| sim::run_static(instr, a, ticks, opts))
-            .collect();
-        single.push(all / t.elapsed().as_secs_f64());
-        let t = Instant::now();
-        let b = pool.install(|| engine.run_static(instr, &accels, ticks, opts));
-        batch.push(all / t.elapsed().as_secs_f64());
-        anyhow::ensure!(a == b, "the batch engine disagrees with the single loop");
-    }
-    let median = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
-    };
-    Ok(BatchRates {
-        conditions,
-        lanes,
-        ticks,
-        single_ticks_per_s: median(&mut single),
-        batch_ticks_per_s_per_core: median(&mut batch),
-    })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1527,16 +1442,6 @@ mod tests {
     }
 
     #[test]
-    fn batch_rates_runs_both_and_agrees() {
-        // Only that it runs and that the batch agrees (no timing is asserted).
-        let i = instr();
-        let r = batch_rates(&i, &short(1, true, 0), 5, 1, 640, 1).expect("rates");
-        assert_eq!((r.conditions, r.lanes, r.ticks), (5, 1, 640));
-        assert!(r.single_ticks_per_s > 0.0 && r.batch_ticks_per_s_per_core > 0.0);
-        assert!(r.ratio() > 0.0);
-    }
-
-    #[test]
     fn same_stream_is_the_same_numbers() {
         let (a, b, c) = (
             NoiseSource::new(5),
@@ -1576,16 +1481,6 @@ mod tests {
         assert!(simulate_conditions(&i, &[], &opts).is_empty());
         assert!(simulate_differences(&i, &[], &opts).is_empty());
         Engine::new(4).run(&mut [], 10);
-    }
-
-    #[test]
-    fn spread_covers_nine_tenths_of_full_scale() {
-        let i = instr();
-        let a = spread_accels(&i, 16);
-        assert_eq!(a.len(), 16);
-        assert!((a[0] + 0.9 * i.sf_cm_s2).abs() < 1e-9);
-        assert!((a[15] - 0.9 * i.sf_cm_s2).abs() < 1e-9);
-        assert_eq!(spread_accels(&i, 1), vec![0.0]);
     }
 
     fn arb_condition() -> impl Strategy<Value = Condition> {

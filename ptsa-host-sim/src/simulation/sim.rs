@@ -869,15 +869,18 @@ impl ClosedLoop {
         TickInputs { s, c, inp }
     }
 
-    /// The parameters of `ptsa-host-sim/benches/c_static/static_loop.c` (the plain C loop
-    /// of `ptsa bench --compare-c`) for this loop's static condition, as whitespace-separated
-    /// numbers (floats in shortest round-trip form, so that C's `strtod` reads the same
-    /// bits): the core's constants, the ADC's gain, bias and noise, the stop angle, the
-    /// applied polarity, the noise generator's state, Φ of the free and the stop regions,
-    /// the per-region, per-polarity plant inputs, the plant state and the noise table.
-    /// `None` for a dynamic condition or a core that is not at reset.
+    /// The static loop's constants and state, for an external implementation of the same
+    /// loop to run it from here bit for bit: this loop's static condition as the input of
+    /// `ptsa-host-sim/benches/c_static/static_loop.c` (the plain C loop that
+    /// `ptsa bench --compare-c` builds, checks and times), whitespace-separated numbers
+    /// (floats in shortest round-trip form, so that C's `strtod` reads the same bits): the
+    /// core's constants, the ADC's gain, bias and noise, the stop angle, the applied
+    /// polarity, the noise generator's state, Φ of the free and the stop regions, the
+    /// per-region, per-polarity plant inputs, the plant state and the noise table. It lives
+    /// here, not with the benchmark, because it reads the loop's internals. `None` for a
+    /// dynamic condition or a core that is not at reset.
     #[must_use]
-    pub(crate) fn c_static_params(&self) -> Option<String> {
+    pub fn c_static_params(&self) -> Option<String> {
         use std::fmt::Write as _;
         if self.dynamic || self.harmonic != 0 || self.core != self.ptsa.initial_state() {
             return None;
