@@ -96,6 +96,8 @@ pub struct Named {
     pub plausible: bool,
     /// Its confounded partners.
     pub partners: Vec<CandidateId>,
+    /// Its coefficient agrees between parts of the data (`None`: not tested).
+    pub stable: Option<bool>,
 }
 
 /// How the pipeline did on one set.
@@ -247,6 +249,7 @@ fn score<T>(
             stderr: s.stderr,
             plausible: s.plausible,
             partners,
+            stable: s.stable,
         });
     }
     o.partner = partner && !o.exact && !o.implausible;
@@ -583,6 +586,9 @@ pub fn selection_text(selected: &[Named]) -> String {
             let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
             if !s.plausible {
                 x.push('?');
+            }
+            if s.stable == Some(false) {
+                x.push_str(" UNSTABLE");
             }
             if !s.partners.is_empty() {
                 let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();

@@ -27,8 +27,8 @@
 //! * **Analysis**: [`discover`](ptsa_host_sim::discovery::discover) with the additive terms
 //!   (the analytic simulator, or the closed loop of the shipped file).
 //! * **Scored**: named exactly or as a partner; coverage `|z| ≤ 1.96` among exact namings;
-//!   confidently misnamed (a plausible selection, the truth neither selected nor a partner,
-//!   no unexplained-structure flag); the unexplained-structure flag; silent (the truth not
+//!   confidently misnamed (a plausible selection not flagged unstable, the truth neither
+//!   selected nor a partner, no unexplained-structure flag); the unexplained-structure flag; silent (the truth not
 //!   named and nothing in the result warns: no warning, no unexplained structure, the
 //!   extended χ² p ≥ 0.05); on the nulls, any selection.
 //!
@@ -423,8 +423,8 @@ pub struct LabStats {
     pub either: Count,
     /// `|z| ≤ 1.96` among the exact namings.
     pub coverage: Count,
-    /// A plausible selection, the truth neither selected nor a partner, no unexplained
-    /// flag (nulls: any selection).
+    /// A plausible selection not flagged unstable, the truth neither selected nor a
+    /// partner, no unexplained flag (nulls: any such selection).
     pub confident: Count,
     /// The unexplained-structure flag.
     pub unexplained: Count,
@@ -447,11 +447,10 @@ impl LabStats {
             {
                 self.coverage.add(z.abs() <= 1.96);
             }
-            self.confident.add(o.misnamed() && o.confident_misnaming());
+            self.confident.add(o.misnamed() && confident(o));
             self.silent.add(!o.exact_or_partner() && o.silent());
         } else {
-            self.confident
-                .add(o.any_selection() && o.confident_misnaming());
+            self.confident.add(o.any_selection() && confident(o));
             self.silent.add(o.any_selection() && o.silent());
         }
     }
@@ -463,6 +462,16 @@ impl Run<Lab> {
     pub fn lab_stats(&self, keep: impl Fn(&LabKind) -> bool) -> LabStats {
         self.stats(|o| keep(&o.truth.kind), LabStats::add)
     }
+}
+
+/// A named cause the result stands behind (issue 21, item 6): a plausible selection whose
+/// coefficient is not flagged unstable between parts of the data, and no
+/// unexplained-structure flag.
+fn confident(o: &LabOutcome) -> bool {
+    !o.unexplained
+        && o.selected
+            .iter()
+            .any(|s| s.plausible && s.stable != Some(false))
 }
 
 /// The hidden kinds.
@@ -629,8 +638,8 @@ impl Campaign for Lab {
         let _ = writeln!(
             s,
             "named: the hidden effect's candidate selected; e|p: selected or named as a confounded partner; coverage: |z| <= 1.96\n\
-             among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection, the truth neither\n\
-             selected nor a partner, no unexplained-structure flag (nulls: any plausible selection without it); unexpl.: the\n\
+             among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection not flagged unstable,\n\
+             the truth neither selected nor a partner, no unexplained-structure flag (nulls: any such selection); unexpl.: the\n\
              unexplained-structure flag; silent: the truth not named (nulls: something selected) and nothing warns (no\n\
              warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
              is below 0.01); partial: the effect's column outside the row-order drift, over its norm.\n\
