@@ -672,15 +672,19 @@ fn static_kernel<const K: usize, const STATS: bool>(
     let mut s = StaticState::<K>::load(std::array::from_fn(|l| &*st[l]));
     let shared =
         (1..K).all(|l| st[l].rng.same_stream(&st[0].rng) && cfg[l].adc.bits() == cfg[0].adc.bits());
-    let mut rngs: Vec<&mut NoiseSource> = st.iter_mut().map(|s| &mut s.rng).collect();
+    // The generators in locals for the run (a shared one may then stay in a register).
+    let mut rngs: [NoiseSource; K] = std::array::from_fn(|l| st[l].rng.clone());
     kernel::dispatch(StaticTicks::<K, STATS> {
         p: &p,
         st: &mut s,
-        adc: cfg.map(|c| &c.adc),
+        adc: cfg.map(|c| c.adc),
         rngs: &mut rngs,
         shared,
         m,
     });
+    for (l, rng) in rngs.into_iter().enumerate() {
+        st[l].rng = rng;
+    }
     if shared {
         share_streams(st, &[(0..K).collect()]);
     }
@@ -690,16 +694,16 @@ fn static_kernel<const K: usize, const STATS: bool>(
 
 /// `m` ticks of [`static_kernel`]'s lanes, as one call compiled for the CPU's SIMD
 /// instructions ([`kernel::dispatch`]).
-struct StaticTicks<'a, 'b, 'c, const K: usize, const STATS: bool> {
+struct StaticTicks<'a, 'b, const K: usize, const STATS: bool> {
     p: &'a StaticLanes<'b, K>,
     st: &'a mut StaticState<K>,
-    adc: [&'a Adc; K],
-    rngs: &'a mut [&'c mut NoiseSource],
+    adc: [Adc; K],
+    rngs: &'a mut [NoiseSource; K],
     shared: bool,
     m: u64,
 }
 
-impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, '_, K, STATS> {
+impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, K, STATS> {
     type Output = ();
 
     #[allow(
@@ -711,10 +715,10 @@ impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, '
         let mut bias = [0.0; K];
         for _ in 0..self.m {
             if self.shared {
-                bias = [self.adc[0].bias(self.rngs[0]); K];
+                bias = [self.adc[0].bias(&mut self.rngs[0]); K];
             } else {
                 for (l, b) in bias.iter_mut().enumerate() {
-                    *b = self.adc[l].bias(self.rngs[l]);
+                    *b = self.adc[l].bias(&mut self.rngs[l]);
                 }
             }
             let _ = kernel::static_tick::<K, STATS>(self.p, self.st, &bias);
