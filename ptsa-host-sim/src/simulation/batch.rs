@@ -8,12 +8,16 @@
 //! and [`Engine::measure`].
 //!
 //! # Bit for bit the single loop
-//! Every lane *is* a [`ClosedLoop`], and a lane's tick is the single loop's tick: the same
-//! functions (`sim::fast_block`, `kernel::static_tick`, `kernel::dynamic_tick`, the ADC,
-//! the noise source, the plant step, the core's [`ptsa_core::Ptsa::tick`]), called with the
-//! same values in the same order. A lane runs a program of steps that are the single loop's
-//! calls (`run`, `run_fast`, `measure`'s window, `run_static`'s gate), each with the single
-//! loop's own start-and-finish bookkeeping, so the running totals are summed the same way.
+//! A lane is a [`ClosedLoop`]'s two halves, its configuration (`config::LoopConfig`, read
+//! only) and its state (`state::LoopState`, plain data), by reference: no copies. A lane's
+//! tick is the single loop's tick: the same functions (`sim::static_block_fast`,
+//! `kernel::static_tick`, `kernel::dynamic_tick`, the ADC, the noise source, the plant step,
+//! the core's [`ptsa_core::Ptsa::tick`]), called with the same values in the same order. A
+//! lane runs a program of steps that are the single loop's calls (`run`, `run_fast`,
+//! `measure`'s window, `run_static`'s gate), each started and ended as the single loop does
+//! (`LoopState::run_start`, `LoopState::end_run`), so the running totals are summed the same
+//! way. This engine is a scheduler: it groups the lanes, shares what lanes in step have in
+//! common (noise draws, a condition's phasor and inputs) and packs them for the kernels.
 //! The pulses, the plant state (`f64` bits), the core state and the window results of every
 //! lane are those of a [`ClosedLoop`] with the same instrument, condition, effects, options
 //! and seed; the tests check it lane by lane, for every `lanes` setting.
@@ -36,11 +40,11 @@
 //!   through the one definition of the static tick, `kernel::static_tick` (the single loop
 //!   runs it with one lane), compiled for the CPU's SIMD instructions at run time (`pulp`:
 //!   AVX2 where present); `lanes = 1` runs one lane after the other, in blocks of 512 ticks,
-//!   with the single loop's polarity-split fast path (`sim::fast_block`).
+//!   with the single loop's polarity-split fast path (`sim::static_block_fast`).
 //! * dynamic lanes: `K` loops side by side through the one definition of the dynamic tick,
-//!   `kernel::dynamic_tick` (the single loop runs it with one lane), in blocks of 128 ticks
-//!   whose noise draws and, for lanes with the same condition, phasor and inputs are made
-//!   once per block for the whole group.
+//!   `kernel::dynamic_tick` (the single loop runs it with one lane), packed once per run,
+//!   in blocks of 128 ticks whose noise draws and, for lanes with the same condition, phasor
+//!   and inputs are made once per block for the whole group.
 //!
 //! Measured with `ptsa bench --batch 16 --runs 7` on one core (three invocations; 2-core AMD
 //! EPYC, AVX2, load 1.0–1.5): static batch / single = 1.26–1.50 with 4 lanes, 1.32–1.48 with

@@ -1,11 +1,15 @@
-//! The closed loop's tick of a static condition, once, for `L` loops side by side.
+//! The closed loop's tick, once, for `L` loops side by side: [`static_tick`] for a static
+//! condition, [`dynamic_tick`] for a dynamic one.
 //!
 //! [`static_tick`] is the whole tick (the ADC's code of the demodulated pickoff, the core's
 //! decision through [`ptsa_core::Ptsa::tick_lanes`], the plant's exact step with the applied
 //! polarity, a tick on a stop, the per-tick statistics) over `L` lanes in structure of
-//! arrays. The single loop runs it with one lane (`ClosedLoop::run`'s static path); the batch
-//! engine with 8 (`batch`), inside [`dispatch`], so that the compiler may put 4 or 8 lanes
-//! in one SIMD instruction on the CPU it runs on. Every step is a loop over the lanes with the
+//! arrays. A kernel's lanes are `L` loops' configurations (`[&LoopConfig; L]`, packed once
+//! into [`StaticLanes`] or [`DynLanes`]) and states (`[&mut LoopState; L]`, loaded into
+//! [`StaticState`] or [`DynState`] for a run and stored back at its end). The single loop runs
+//! it with one lane (`ClosedLoop::run`'s static path); the batch engine with 4 by default
+//! (`batch`), inside [`dispatch`], so that the compiler may put 4 or 8 lanes in one SIMD
+//! instruction on the CPU it runs on. Every step is a loop over the lanes with the
 //! same operations in the same order for every `L` (no fused multiply-add: Rust never
 //! contracts `a·b + c`), so a lane's result does not depend on `L` or on the CPU: bit for bit
 //! the single loop's.
@@ -419,7 +423,7 @@ impl<const L: usize> DynState<L> {
 /// One tick of `L` lanes of dynamic conditions (or static ones with a harmonic requested):
 /// sample each lane's pickoff with the ADC's additive term `bias[l]` (see [`Adc::bias`]), let
 /// the cores decide, form each lane's disturbance torque from its inputs at mid-tick `ti[l]`
-/// (the phasor and the condition's inputs, `ClosedLoop::dynamic_inputs`: the static torque
+/// (the phasor and the condition's inputs, `LoopConfig::dynamic_inputs`: the static torque
 /// of the inputs, the θ-dependent part of `a_PA` and of `W_IA² − W_PA²` beyond what `K_eff`
 /// holds, the stop torque, added physics), step the plants with the applied commands, sum
 /// the requested harmonic and the statistics; the decided polarities become the applied
@@ -519,7 +523,7 @@ pub(super) fn dynamic_tick<const L: usize>(
 }
 
 /// The disturbance torque of each lane's inputs at mid-tick `ti[l]` with the pendulum at
-/// `theta[l]` (rad), dyn·cm, the stops' apart: `ClosedLoop::static_torque` and θ's coupling
+/// `theta[l]` (rad), dyn·cm, the stops' apart: `LoopConfig::static_torque` and θ's coupling
 /// to `a_PA` and `W_IA² − W_PA²` beyond what `K_eff` holds (see [`dynamic_tick`]).
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
@@ -551,7 +555,7 @@ fn input_torque<const L: usize>(
             }
         }
     }
-    // `ClosedLoop::static_torque`, its constants per lane, and θ's coupling to `a_PA` and
+    // `LoopConfig::static_torque`, its constants per lane, and θ's coupling to `a_PA` and
     // `W_IA² − W_PA²` beyond what `K_eff` holds.
     let mut base = [0.0; L];
     for l in 0..L {
