@@ -44,7 +44,8 @@ const SAME_COS: f64 = 0.999;
 const PARTNER_COS: f64 = 0.5;
 
 /// Share of an element's part outside the model on one row above which it tests that row
-/// (the outlier stage's question), not a shape: left out of its family.
+/// (the outlier stage's question), not a shape: left out of its family (the generic basis
+/// keeps its earlier elements).
 const ONE_ROW_SHARE: f64 = 0.5;
 
 /// One element tried.
@@ -268,9 +269,9 @@ fn search(data: &Data, f: &Fitted, selected: &[Selected], alpha: f64) -> Unexpla
                 let unit: Vec<f64> = w.iter().map(|x| x / scale).collect();
                 let part = partial(&unit, &q);
                 let pn = norm(&part);
-                if pn < 1e-6
-                    || part.iter().fold(0.0_f64, |m, x| m.max(x * x)) > ONE_ROW_SHARE * pn * pn
-                {
+                let one_row = family != Family::Basis
+                    && part.iter().fold(0.0_f64, |m, x| m.max(x * x)) > ONE_ROW_SHARE * pn * pn;
+                if pn < 1e-6 || one_row {
                     continue;
                 }
                 let d: f64 = part.iter().zip(&base.resid).map(|(a, b)| a * b).sum();
