@@ -1863,3 +1863,104 @@ fn approach_on_difference_rows_is_warned_unused() {
         "{v}"
     );
 }
+
+/// `--term`: a user's term is tested after the selection and reported with its key, unit,
+/// coefficient and p-value; a term with no column here is not testable; the library's
+/// proposals name a planted cubic in a_PA; a malformed term is refused before any work,
+/// naming the column of the bad token and what was expected.
+#[test]
+fn discover_tests_a_users_term_and_refuses_a_malformed_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // k·a_PA³ with k = −2e-10 s⁴/cm² (a_PA from g_pa and 980.4 cm/s²).
+    let k = -2e-10;
+    let text = lab_tumble(d, r#"{"effects":[]}"#, |_, c| {
+        let a_pa = c[3].parse::<f64>().unwrap() * 980.4;
+        let y = c[4].parse::<f64>().unwrap() + k * a_pa.powi(3);
+        c[4] = format!("{y}");
+    });
+    std::fs::write(d.join("cubic.csv"), &text).unwrap();
+    let (out, err) = succeeds_in(
+        d,
+        &[
+            "discover",
+            "--data",
+            "cubic.csv",
+            "--analytic",
+            "--json",
+            "--no-plots",
+            "--term",
+            "a_pa^3",
+            "--term",
+            "a_pa*w_oa",
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let u = &v["unexplained"];
+    let t = &u["terms"];
+    assert_eq!(t[0]["key"], "term:a_pa^3", "{u}");
+    assert_eq!(t[0]["unit"], "s⁴/cm²");
+    assert_eq!(t[0]["significant"], true, "{u}");
+    let (c, se) = (
+        t[0]["coefficient"].as_f64().unwrap(),
+        t[0]["se"].as_f64().unwrap(),
+    );
+    assert!(
+        (c - k).abs() < 0.2 * k.abs() && se < 0.1 * k.abs(),
+        "{c} ± {se}"
+    );
+    assert_eq!(t[1]["key"], "term:a_pa*w_oa");
+    assert_eq!(t[1]["unit"], "s/rad");
+    assert_eq!(t[1]["testable"], false);
+    assert!(t[1]["coefficient"].is_null() && t[1]["p_value"].is_null());
+    assert_eq!(u["detected"], true, "{u}");
+    assert_eq!(u["proposals"][0]["form"], "a_PA^3", "{u}");
+    assert_eq!(u["proposals"][0]["unit"], "s⁴/cm²");
+    assert!(
+        err.contains("term:a_pa^3: ") && err.contains("(p = "),
+        "{err}"
+    );
+    assert!(err.contains("term:a_pa*w_oa: not testable here"), "{err}");
+    assert!(
+        err.contains("proposal (a form the residual follows, not a cause): a_PA^3 × "),
+        "{err}"
+    );
+    // Refusals: exit 2 before any work, the flag, the column and what was expected.
+    for (term, needle) in [
+        (
+            "a_pa^x",
+            "`a_pa^x`: column 6: expected a whole power from 1 to 6 after `^`, found `x`",
+        ),
+        (
+            "a_pa*b_xx",
+            "`a_pa*b_xx`: column 6: expected a case input (a_ia, a_pa, a_oa",
+        ),
+        (
+            "a_pa + w_oa",
+            "`a_pa + w_oa`: column 6: the terms of a sum must share a unit; expected a term in cm/s² like the one before, found one in rad/s",
+        ),
+        (
+            "(a_ia",
+            "`(a_ia`: column 6: expected `)`, found the end of the term",
+        ),
+        (
+            "2*3",
+            "`2*3`: no variable: expected a product of case inputs",
+        ),
+    ] {
+        let err = refused(
+            &[
+                "discover",
+                "--data",
+                "cubic.csv",
+                "--term",
+                term,
+                "--out",
+                "out",
+            ],
+            2,
+            &["--term <TEXT>", needle],
+        );
+        assert!(!err.contains("wrote"), "{err}");
+    }
+}

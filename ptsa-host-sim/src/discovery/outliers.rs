@@ -621,6 +621,7 @@ mod tests {
             replicate: (0..n).collect(),
             signatures: Vec::new(),
             features: Vec::new(),
+            shapes: Vec::new(),
         }
     }
 

@@ -101,7 +101,7 @@ pub fn discover_with(
     let extended = extend::extend(&p, &selected, &baseline)?;
     // 5. What is left, and the gain out of sample.
     set_stage("cross-validation");
-    let unexplained = unexplained::test(data, &f, &selected, opts.alpha);
+    let unexplained = unexplained::test(&p, &selected);
     let gain = crossval::out_of_sample(&p, &selected, &baseline, &extended.fit);
     let groups = confounding::indistinguishable(data, &f, opts);
     let advice = advice::advise(data, rows, &f, &selected, &groups, sim.g_cm_s2());
