@@ -1678,6 +1678,86 @@ fn discover_names_a_hysteresis_from_the_row_order() {
     );
 }
 
+/// A fixture that places each position of a 24-point tumble about OA with an error of
+/// 1 mrad about OA (the reading moves by `−δ_OA·a_PA`, written here from the rotation of
+/// gravity, not from discovery's code; 0.98 cm/s² rms against a stated noise of 0.01): told
+/// nothing, discovery warns (the stated sigma is far below the scatter), names something or
+/// sees structure; told the fixture's 1 mrad in `sigma_angle_urad`, it names nothing, sees
+/// no structure and has nothing to warn of.
+#[test]
+fn a_declared_fixture_error_is_noise_not_an_effect() {
+    use rand::SeedableRng as _;
+    use rand_distr::Distribution as _;
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let g = 980.665;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let normal = rand_distr::Normal::new(0.0, 1e-3).unwrap();
+    let deltas: Vec<f64> = (0..24).map(|_| normal.sample(&mut rng)).collect();
+    let text = lab_tumble(d, r#"{"effects":[]}"#, |k, c| {
+        let g_pa: f64 = c[3].parse().unwrap();
+        let y: f64 = c[4].parse().unwrap();
+        c[4] = format!("{}", y - deltas[k] * g_pa * g);
+    });
+    let mut declared = String::new();
+    for (k, l) in text.lines().enumerate() {
+        declared.push_str(l);
+        declared.push_str(if k == 0 {
+            ",sigma_angle_urad\n"
+        } else {
+            ",1000\n"
+        });
+    }
+    let discover = |name: &str, text: &str| -> serde_json::Value {
+        std::fs::write(d.join(name), text).unwrap();
+        let (out, _) = succeeds_in(
+            d,
+            &[
+                "discover",
+                "--data",
+                name,
+                "--analytic",
+                "--json",
+                "--no-plots",
+            ],
+        );
+        serde_json::from_str(&out).unwrap()
+    };
+    let named = |v: &serde_json::Value| {
+        v["effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e["name"].as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    let blind = discover("blind.csv", &text);
+    let warned = |v: &serde_json::Value| !v["warnings"].as_array().unwrap().is_empty();
+    assert!(
+        !named(&blind).is_empty() || blind["unexplained"]["detected"] == true || warned(&blind),
+        "{blind}"
+    );
+    let told = discover("told.csv", &declared);
+    assert!(named(&told).is_empty(), "{:?}", named(&told));
+    assert_eq!(told["unexplained"]["detected"], false, "{told}");
+    assert!(!warned(&told), "{}", told["warnings"]);
+    // No sigma stated: the noise is estimated beside the fixture's known variance.
+    let mut estimated = String::new();
+    for l in declared.lines() {
+        let mut c: Vec<&str> = l.split(',').collect();
+        c.remove(c.len() - 2);
+        estimated.push_str(&c.join(","));
+        estimated.push('\n');
+    }
+    assert!(
+        estimated
+            .starts_with("label,kind,g_ia,g_pa,measured_cm_s2,approach,temp_c,sigma_angle_urad\n")
+    );
+    let est = discover("estimated.csv", &estimated);
+    assert!(named(&est).is_empty(), "{:?}", named(&est));
+    assert_eq!(est["unexplained"]["detected"], false, "{est}");
+}
+
 /// The readings of a 24-point tumble over a warming ramp of `temp_c` (24 to 28 °C), with a
 /// scale factor of 40 ppm per °C: the case-frame text.
 fn warm_tumble(d: &Path) -> String {

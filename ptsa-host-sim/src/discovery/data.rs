@@ -51,6 +51,10 @@ pub struct Data {
     /// The simulator's own scatter of each observation's prediction (the standard error of
     /// its mean of runs; 0 where the simulator gives none).
     pub sim_sigma: Vec<f64>,
+    /// The 1-sigma error each observation has from its row's orientation error
+    /// (`sigma_angle_urad`, [`Condition::fixture_sigma_cm_s2`]), cm/s²; 0 without. Included
+    /// in a stated sigma (in quadrature); added to an estimated one ([`super::fit`]).
+    pub fixture: Vec<f64>,
     /// Whether each observation takes its block's bias shift (a difference row's value).
     pub shift: Vec<bool>,
     /// Whether each observation takes the drift (a difference or absolute row's value).
@@ -110,6 +114,7 @@ impl Data {
             base: pick(&self.base, &keep),
             stated: pick(&self.stated, &keep),
             sim_sigma: pick(&self.sim_sigma, &keep),
+            fixture: pick(&self.fixture, &keep),
             shift: pick(&self.shift, &keep),
             drifts: pick(&self.drifts, &keep),
             block: pick(&self.block, &keep),
@@ -269,6 +274,7 @@ pub fn build(
         base: Vec::new(),
         stated: Vec::new(),
         sim_sigma: Vec::new(),
+        fixture: Vec::new(),
         shift: Vec::new(),
         drifts: Vec::new(),
         block: Vec::new(),
@@ -282,6 +288,7 @@ pub fn build(
         features: Vec::new(),
         shapes: Vec::new(),
     };
+    let g = sim.g_cm_s2();
     // Replicate sets numbered in order of first appearance.
     let mut keys: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
     let sim_sigmas: Vec<Observation> = {
@@ -311,9 +318,16 @@ pub fn build(
                     }
                 );
             };
-            // A stated sigma is the measurement's; the simulator's own scatter adds to it.
-            let sigma = sigma.map(|s| s.hypot(own));
+            // A stated sigma is the measurement's; the simulator's own scatter and the
+            // fixture's orientation error add to it.
+            let fixture = if q == Quantity::Value {
+                r.fixture_sigma_cm_s2(g)
+            } else {
+                0.0
+            };
+            let sigma = sigma.map(|s| s.hypot(own).hypot(fixture));
             d.sim_sigma.push(own);
+            d.fixture.push(fixture);
             d.rows.push(i);
             d.quantity.push(q);
             d.y.push(if q == Quantity::Phase {
@@ -345,7 +359,6 @@ pub fn build(
             d.time.push(r.time_s.unwrap_or(k as f64));
         }
     }
-    let g = sim.g_cm_s2();
     let obs_rows: Vec<&Condition> = d.rows.iter().map(|&i| &rows[i]).collect();
     let value: Vec<bool> = d.quantity.iter().map(|&q| q == Quantity::Value).collect();
     // Additive terms act on the values; parameters by the closed loop's sensitivity.
