@@ -15,7 +15,7 @@ use ptsa_tests::hidden::Run;
 use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
 use ptsa_tests::hidden::lab::{self, Lab};
 
-/// Sets of every kind in the CI test: 10 kinds × 20 = 200 sets of 24 rows, analytic.
+/// Sets of every kind in the CI test: 18 kinds × 20 = 360 sets of 24 rows, analytic.
 const CI_SETS: usize = 20;
 
 /// Print the sets that matter and the table (past the harness's capture); the failures.

@@ -1758,6 +1758,86 @@ fn discover_says_when_a_named_term_is_not_stable() {
     );
 }
 
+/// A fixture that places each position of a 24-point tumble about OA with an error of
+/// 1 mrad about OA (the reading moves by `−δ_OA·a_PA`, written here from the rotation of
+/// gravity, not from discovery's code; 0.98 cm/s² rms against a stated noise of 0.01): told
+/// nothing, discovery warns (the stated sigma is far below the scatter), names something or
+/// sees structure; told the fixture's 1 mrad in `sigma_angle_urad`, it names nothing, sees
+/// no structure and has nothing to warn of.
+#[test]
+fn a_declared_fixture_error_is_noise_not_an_effect() {
+    use rand::SeedableRng as _;
+    use rand_distr::Distribution as _;
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let g = 980.665;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(21);
+    let normal = rand_distr::Normal::new(0.0, 1e-3).unwrap();
+    let deltas: Vec<f64> = (0..24).map(|_| normal.sample(&mut rng)).collect();
+    let text = lab_tumble(d, r#"{"effects":[]}"#, |k, c| {
+        let g_pa: f64 = c[3].parse().unwrap();
+        let y: f64 = c[4].parse().unwrap();
+        c[4] = format!("{}", y - deltas[k] * g_pa * g);
+    });
+    let mut declared = String::new();
+    for (k, l) in text.lines().enumerate() {
+        declared.push_str(l);
+        declared.push_str(if k == 0 {
+            ",sigma_angle_urad\n"
+        } else {
+            ",1000\n"
+        });
+    }
+    let discover = |name: &str, text: &str| -> serde_json::Value {
+        std::fs::write(d.join(name), text).unwrap();
+        let (out, _) = succeeds_in(
+            d,
+            &[
+                "discover",
+                "--data",
+                name,
+                "--analytic",
+                "--json",
+                "--no-plots",
+            ],
+        );
+        serde_json::from_str(&out).unwrap()
+    };
+    let named = |v: &serde_json::Value| {
+        v["effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|e| e["name"].as_str().unwrap().to_string())
+            .collect::<Vec<_>>()
+    };
+    let blind = discover("blind.csv", &text);
+    let warned = |v: &serde_json::Value| !v["warnings"].as_array().unwrap().is_empty();
+    assert!(
+        !named(&blind).is_empty() || blind["unexplained"]["detected"] == true || warned(&blind),
+        "{blind}"
+    );
+    let told = discover("told.csv", &declared);
+    assert!(named(&told).is_empty(), "{:?}", named(&told));
+    assert_eq!(told["unexplained"]["detected"], false, "{told}");
+    assert!(!warned(&told), "{}", told["warnings"]);
+    // No sigma stated: the noise is estimated beside the fixture's known variance.
+    let mut estimated = String::new();
+    for l in declared.lines() {
+        let mut c: Vec<&str> = l.split(',').collect();
+        c.remove(c.len() - 2);
+        estimated.push_str(&c.join(","));
+        estimated.push('\n');
+    }
+    assert!(
+        estimated
+            .starts_with("label,kind,g_ia,g_pa,measured_cm_s2,approach,temp_c,sigma_angle_urad\n")
+    );
+    let est = discover("estimated.csv", &estimated);
+    assert!(named(&est).is_empty(), "{:?}", named(&est));
+    assert_eq!(est["unexplained"]["detected"], false, "{est}");
+}
+
 /// The readings of a 24-point tumble over a warming ramp of `temp_c` (24 to 28 °C), with a
 /// scale factor of 40 ppm per °C: the case-frame text.
 fn warm_tumble(d: &Path) -> String {
@@ -1942,4 +2022,105 @@ fn approach_on_difference_rows_is_warned_unused() {
             .any(|w| w.as_str().unwrap().contains("record `approach`")),
         "{v}"
     );
+}
+
+/// `--term`: a user's term is tested after the selection and reported with its key, unit,
+/// coefficient and p-value; a term with no column here is not testable; the library's
+/// proposals name a planted cubic in `a_PA`; a malformed term is refused before any work,
+/// naming the column of the bad token and what was expected.
+#[test]
+fn discover_tests_a_users_term_and_refuses_a_malformed_one() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    // k·a_PA³ with k = −2e-10 s⁴/cm² (a_PA from g_pa and 980.4 cm/s²).
+    let k = -2e-10;
+    let text = lab_tumble(d, r#"{"effects":[]}"#, |_, c| {
+        let a_pa = c[3].parse::<f64>().unwrap() * 980.4;
+        let y = c[4].parse::<f64>().unwrap() + k * a_pa.powi(3);
+        c[4] = format!("{y}");
+    });
+    std::fs::write(d.join("cubic.csv"), &text).unwrap();
+    let (out, err) = succeeds_in(
+        d,
+        &[
+            "discover",
+            "--data",
+            "cubic.csv",
+            "--analytic",
+            "--json",
+            "--no-plots",
+            "--term",
+            "a_pa^3",
+            "--term",
+            "a_pa*w_oa",
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let u = &v["unexplained"];
+    let t = &u["terms"];
+    assert_eq!(t[0]["key"], "term:a_pa^3", "{u}");
+    assert_eq!(t[0]["unit"], "s⁴/cm²");
+    assert_eq!(t[0]["significant"], true, "{u}");
+    let (c, se) = (
+        t[0]["coefficient"].as_f64().unwrap(),
+        t[0]["se"].as_f64().unwrap(),
+    );
+    assert!(
+        (c - k).abs() < 0.2 * k.abs() && se < 0.1 * k.abs(),
+        "{c} ± {se}"
+    );
+    assert_eq!(t[1]["key"], "term:a_pa*w_oa");
+    assert_eq!(t[1]["unit"], "s/rad");
+    assert_eq!(t[1]["testable"], false);
+    assert!(t[1]["coefficient"].is_null() && t[1]["p_value"].is_null());
+    assert_eq!(u["detected"], true, "{u}");
+    assert_eq!(u["proposals"][0]["form"], "a_PA^3", "{u}");
+    assert_eq!(u["proposals"][0]["unit"], "s⁴/cm²");
+    assert!(
+        err.contains("term:a_pa^3: ") && err.contains("(p = "),
+        "{err}"
+    );
+    assert!(err.contains("term:a_pa*w_oa: not testable here"), "{err}");
+    assert!(
+        err.contains("proposal (a form the residual follows, not a cause): a_PA^3 × "),
+        "{err}"
+    );
+    // Refusals: exit 2 before any work, the flag, the column and what was expected.
+    for (term, needle) in [
+        (
+            "a_pa^x",
+            "`a_pa^x`: column 6: expected a whole power from 1 to 6 after `^`, found `x`",
+        ),
+        (
+            "a_pa*b_xx",
+            "`a_pa*b_xx`: column 6: expected a case input (a_ia, a_pa, a_oa",
+        ),
+        (
+            "a_pa + w_oa",
+            "`a_pa + w_oa`: column 6: the terms of a sum must share a unit; expected a term in cm/s² like the one before, found one in rad/s",
+        ),
+        (
+            "(a_ia",
+            "`(a_ia`: column 6: expected `)`, found the end of the term",
+        ),
+        (
+            "2*3",
+            "`2*3`: no variable: expected a product of case inputs",
+        ),
+    ] {
+        let err = refused(
+            &[
+                "discover",
+                "--data",
+                "cubic.csv",
+                "--term",
+                term,
+                "--out",
+                "out",
+            ],
+            2,
+            &["--term <TEXT>", needle],
+        );
+        assert!(!err.contains("wrote"), "{err}");
+    }
 }

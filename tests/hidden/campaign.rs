@@ -126,6 +126,8 @@ pub struct Outcome<T> {
     pub extra: usize,
     /// The unexplained-structure test fired.
     pub unexplained: bool,
+    /// The form of its strongest proposal (`unexplained.proposals`), if any.
+    pub proposal: Option<String>,
     /// Rows flagged as suspected gross errors (none is injected: false alarms).
     pub outliers: Vec<String>,
     /// How many warnings the result gives (`warnings` of the JSON).
@@ -150,6 +152,7 @@ impl<T> Outcome<T> {
             z: None,
             extra: 0,
             unexplained: false,
+            proposal: None,
             outliers: Vec::new(),
             warnings: 0,
             extended_p: f64::NAN,
@@ -254,6 +257,7 @@ fn score<T>(
     }
     o.partner = partner && !o.exact && !o.implausible;
     o.unexplained = d.json.unexplained.detected;
+    o.proposal = d.json.unexplained.proposals.first().map(|p| p.form.clone());
     o.outliers = d.json.outliers.iter().map(|x| x.row.clone()).collect();
     o.warnings = d.json.warnings.len();
     o.extended_p = d.json.extended.p_value;

@@ -8,6 +8,8 @@
 //! | bias per °C | `k·ΔT`, ΔT the temperature of the row (a warming ramp, [`temperature_c`]) less the ramp's mean | `temperature.k0_t_cm_s2_per_c` = k |
 //! | scale factor per °C | `k·1e-6·ΔT·a_IA` | `temperature.k1_t_ppm_per_c` = k |
 //! | warm-up, angle or interleaved order | `A·[(1 − e^(−k/4.8)) − its mean over the rows]`, k the row's place in the measurement order (issue 21's turn-on transient), rows a minute apart in `time_s` from power-on | a `warm_up` grid point (τ = 1/8, 1/4 or 1/2 of the run; the truth's 4.8 rows is 0.21 of it): named, no coverage |
+//! | cross-axis cubic | `k·a_PA³`, `a_PA` this module's own gravity along PA | nothing (outside the vocabulary): scored on the unexplained flag and whether the strongest proposal is `a_PA^3` |
+//! | tumble harmonic | `A·sin 4φ`, `φ = atan2(a_PA, a_IA)` of this module's own gravity | nothing (outside the vocabulary and the library's third order) |
 //! | null, null with `temp_c` | nothing | nothing |
 //!
 //! * **Measurement**: each row's reading is the instrument's own (the closed loop of the
@@ -30,7 +32,10 @@
 //!   confidently misnamed (a plausible selection not flagged unstable, the truth neither
 //!   selected nor a partner, no unexplained-structure flag); the unexplained-structure flag; silent (the truth not
 //!   named and nothing in the result warns: no warning, no unexplained structure, the
-//!   extended χ² p ≥ 0.05); on the nulls, any selection.
+//!   extended χ² p ≥ 0.05); on the nulls, any selection. Outside the vocabulary (the cubic,
+//!   the harmonic) every plausible selection without the flag is a confident misnaming,
+//!   silent is nothing warning whether or not something is selected, and for the cubic the
+//!   strongest of `unexplained.proposals` is scored against `a_PA^3`.
 //!
 //! # Asserted
 //!
@@ -38,14 +43,15 @@
 //! coverage in the 99 % band of Binomial(n, 0.95) over the hidden kinds together, from 20
 //! exact namings; hysteresis and temperature named (exactly or as a partner) in ≥ 95 % of
 //! their sets (less one binomial standard error in the CI subset). Confident misnamings
-//! and silent misses are reported, not asserted (issue 21's item 6).
+//! and silent misses are reported, not asserted (issue 21's item 6), as are the kinds outside
+//! the vocabulary.
 
 use std::fmt::Write as _;
 use std::sync::{Arc, OnceLock};
 
 use ptsa_host_sim::discovery::{self, Options, Selected, Simulator};
 use ptsa_host_sim::lab::plan::{self, Axis};
-use ptsa_host_sim::model::condition::{CaseInputs, Condition, IA};
+use ptsa_host_sim::model::condition::{CaseInputs, Condition, IA, PA};
 use ptsa_host_sim::model::plant::NX;
 use ptsa_host_sim::simulation::sim::{
     ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with,
@@ -97,6 +103,11 @@ pub enum Effect {
     /// A turn-on transient outside the vocabulary, `A·[(1 − e^(−k/τ)) − mean]` with τ =
     /// [`WARM_UP_ROWS`] rows, in the given order.
     WarmUp(Order),
+    /// A cross-axis cubic `k·a_PA³`, s⁴/cm², outside the vocabulary (angle order).
+    CrossCubic,
+    /// A tumble harmonic `A·sin 4φ`, cm/s², φ the tumble angle (of gravity in the IA–PA
+    /// plane from IA), outside the vocabulary and the library (angle order).
+    Harmonic4,
     /// Nothing (angle order, no `temp_c`).
     Null,
     /// Nothing (angle order, `temp_c` recorded).
@@ -114,6 +125,8 @@ impl Effect {
             Effect::TemperatureScaleFactor => "scale factor per °C",
             Effect::WarmUp(Order::Angle) => "warm-up, angle order",
             Effect::WarmUp(Order::Interleaved) => "warm-up, interleaved",
+            Effect::CrossCubic => "cross-axis cubic k·a_PA³",
+            Effect::Harmonic4 => "harmonic sin 4φ",
             Effect::Null => "null",
             Effect::NullTemperature => "null, temp_c ramp",
         }
@@ -131,8 +144,14 @@ impl Effect {
                 CandidateId::WarmUpSpan4,
                 CandidateId::WarmUpSpan2,
             ],
-            Effect::Null | Effect::NullTemperature => &[],
+            Effect::CrossCubic | Effect::Harmonic4 | Effect::Null | Effect::NullTemperature => &[],
         }
+    }
+
+    /// Something is hidden that no candidate names (the out-of-vocabulary kinds).
+    #[must_use]
+    pub fn outside(self) -> bool {
+        matches!(self, Effect::CrossCubic | Effect::Harmonic4)
     }
 
     /// The order of the positions.
@@ -175,6 +194,8 @@ impl LabKind {
             Effect::TemperatureScaleFactor,
             Effect::WarmUp(Order::Angle),
             Effect::WarmUp(Order::Interleaved),
+            Effect::CrossCubic,
+            Effect::Harmonic4,
         ] {
             for strength_se in STRENGTHS {
                 v.push(LabKind {
@@ -248,7 +269,8 @@ pub fn unit_law(effect: Effect, rows: &[Condition], g_cm_s2: f64) -> Vec<(f64, f
     let temps: Vec<f64> = rows.iter().map(|r| r.temp_c.unwrap_or(0.0)).collect();
     #[allow(clippy::cast_precision_loss)]
     let t_mean = temps.iter().sum::<f64>() / n.max(1) as f64;
-    let a: Vec<f64> = rows.iter().map(|r| static_force(r, g_cm_s2)[IA]).collect();
+    let force: Vec<[f64; 3]> = rows.iter().map(|r| static_force(r, g_cm_s2)).collect();
+    let a: Vec<f64> = force.iter().map(|f| f[IA]).collect();
     #[allow(clippy::cast_precision_loss)]
     let warm: Vec<f64> = (0..n)
         .map(|k| 1.0 - (-(k as f64) / WARM_UP_ROWS).exp())
@@ -275,6 +297,8 @@ pub fn unit_law(effect: Effect, rows: &[Condition], g_cm_s2: f64) -> Vec<(f64, f
             Effect::TemperatureBias => (temps[k] - t_mean, 0.0),
             Effect::TemperatureScaleFactor => (0.0, 1e-6 * (temps[k] - t_mean)),
             Effect::WarmUp(_) => (warm[k] - warm_mean, 0.0),
+            Effect::CrossCubic => (force[k][PA].powi(3), 0.0),
+            Effect::Harmonic4 => ((4.0 * force[k][PA].atan2(force[k][IA])).sin(), 0.0),
             Effect::Null | Effect::NullTemperature => (0.0, 0.0),
         })
         .collect()
@@ -432,6 +456,8 @@ pub struct LabStats {
     pub silent: Count,
     /// Any selection (nulls: a false selection).
     pub any: Count,
+    /// The cross-axis cubic: the strongest proposal is `a_PA^3`.
+    pub proposed: Count,
 }
 
 impl LabStats {
@@ -449,6 +475,15 @@ impl LabStats {
             }
             self.confident.add(o.misnamed() && confident(o));
             self.silent.add(!o.exact_or_partner() && o.silent());
+        } else if o.truth.kind.effect.outside() {
+            // Nothing can name it: any plausible selection without the flag is a confident
+            // misnaming, and nothing that warns is silence, selection or not.
+            self.confident
+                .add(o.any_selection() && o.confident_misnaming());
+            self.silent.add(o.silent());
+            if o.truth.kind.effect == Effect::CrossCubic {
+                self.proposed.add(o.proposal.as_deref() == Some("a_PA^3"));
+            }
         } else {
             self.confident.add(o.any_selection() && confident(o));
             self.silent.add(o.any_selection() && o.silent());
@@ -579,6 +614,7 @@ impl Campaign for Lab {
                 vec![("named", 8), ("e|p", 8), ("coverage", 9)],
                 vec![("confident", 9), ("unexpl.", 8), ("silent", 8)],
                 vec![("any sel", 8)],
+                vec![("a_PA^3 top", 10)],
                 vec![("partial", 7)],
             ],
         }
@@ -594,6 +630,7 @@ impl Campaign for Lab {
                 .find(|o| o.truth.kind == kind)
                 .map_or(String::new(), |o| format!("{:.2}", o.truth.partial));
             let null = !hidden(&kind);
+            let outside = kind.effect.outside();
             let dash = |c: Count| if null { "-".to_string() } else { c.cell() };
             let none_hidden = kind.strength_se == 0.0;
             v.push((
@@ -610,7 +647,16 @@ impl Campaign for Lab {
                     s.confident.cell(),
                     s.unexplained.cell(),
                     s.silent.cell(),
-                    if null { s.any.marked() } else { s.any.cell() },
+                    if null && !outside {
+                        s.any.marked()
+                    } else {
+                        s.any.cell()
+                    },
+                    if kind.effect == Effect::CrossCubic {
+                        s.proposed.cell()
+                    } else {
+                        "-".into()
+                    },
                     if none_hidden { "-".into() } else { partial },
                 ],
             ));
@@ -628,6 +674,7 @@ impl Campaign for Lab {
                 all.silent.cell(),
                 all.any.cell(),
                 String::new(),
+                String::new(),
             ],
         ));
         v
@@ -644,6 +691,8 @@ impl Campaign for Lab {
              warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
              is below 0.01); partial: the effect's column outside the row-order drift, over its norm.\n\
              Warm-up: named when a `warm_up` grid point is selected (its τ is the grid's, so no coverage); reported, not asserted.\n\
+             Outside the vocabulary (k·a_PA³, sin 4φ): confident = a plausible selection without the unexplained flag; silent = nothing\n\
+             warns, selection or not; a_PA^3 top: the strongest of `unexplained.proposals` is a_PA^3; reported, not asserted.\n\
              Asserted: no refusal; false selections on each null at most 5%; coverage over the hidden kinds in the 99% band from\n\
              20 exact namings; each hidden effect named (e|p) in >= 95%{} of its sets at 6 and 10 SE together.",
             if ci {
@@ -684,6 +733,8 @@ impl Campaign for Lab {
     fn notable(&self, o: &LabOutcome) -> Option<&'static str> {
         if o.error.is_some() {
             Some("refused")
+        } else if o.truth.kind.effect.outside() {
+            (o.any_selection() && o.confident_misnaming()).then_some("confidently misnamed")
         } else if !o.hidden {
             o.any_selection().then_some("false selection")
         } else if o.misnamed() {
@@ -703,12 +754,15 @@ impl Campaign for Lab {
         let t = &o.truth;
         let sel = super::campaign::selection_text(&o.selected);
         format!(
-            "{:<34} seed {:<12} {:+.3e} -> [{}]{}{}{}{}",
+            "{:<34} seed {:<12} {:+.3e} -> [{}]{}{}{}{}{}",
             t.kind.name(),
             o.seed,
             t.coef,
             sel,
             o.unexplained_note(),
+            o.proposal
+                .as_ref()
+                .map_or(String::new(), |p| format!(" (proposal {p})")),
             if o.silent() { "" } else { " (warned)" },
             o.z.map_or(String::new(), |z| format!("  z {z:+.2}")),
             o.outliers_and_error("  "),

@@ -24,8 +24,9 @@
 //!
 //! `cargo xtask hidden --lab [--sets N] [--seed S] [--analytic]`: the lab campaign
 //! (`tests/hidden_lab.rs`, `hidden_lab_campaign`): a hysteresis in angle and interleaved
-//! order, a bias and a scale factor changing with temperature and a warm-up transient,
-//! hidden at 6 and 10 SE in a 24-point tumble about OA, and nulls; N sets (default 140) per kind; `--analytic`: the
+//! order, a bias and a scale factor changing with temperature, a warm-up transient, and
+//! outside the vocabulary a cross-axis cubic k·a_PA³ and a sin 4φ tumble harmonic, hidden
+//! at 6 and 10 SE in a 24-point tumble about OA, and nulls; N sets (default 140) per kind; `--analytic`: the
 //! closed loop's reading of each position plus the physics, analysed with the analytic
 //! simulator.
 //!
@@ -53,8 +54,8 @@ hidden [--parameters | --statics [--additive] | --lab | --sigma] [--sets N] [--s
                  parameters left out of its vocabulary)
     --lab        the lab campaign instead (hidden_lab_campaign): a hysteresis in angle
                  and interleaved order, a bias and a scale factor per degree C over a
-                 warming ramp, a warm-up transient, at 6 and 10 SE in a 24-point
-                 tumble, and nulls
+                 warming ramp, a warm-up transient, a cubic in a_PA and a sin 4phi
+                 harmonic, at 6 and 10 SE in a 24-point tumble, and nulls
     --sigma      the understated-sigma campaign instead (hidden_sigma_campaign): nulls
                  whose stated sigma is the true noise over 1, 1.5, 2, 3 and 4, and an
                  effect at 6 SE, on Table 6.1's 8 rows and a 24-point tumble (analytic)

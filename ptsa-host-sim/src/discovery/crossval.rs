@@ -125,7 +125,8 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
             held.iter()
                 .map(|&i| {
                     let r = data.resid(i);
-                    // The observation's stated 1 σ, else its group's estimate in the fold.
+                    // The observation's stated 1 σ, else its group's estimate in the fold (with its
+                    // orientation error).
                     let s = if normalise {
                         data.stated[i]
                             .or_else(|| {
@@ -133,7 +134,7 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
                                     .group_sigma
                                     .iter()
                                     .find(|(g, _)| *g == data.group[i])
-                                    .map(|&(_, s)| s)
+                                    .map(|&(_, s)| s.hypot(data.fixture[i]))
                             })
                             .unwrap_or(1.0)
                     } else {

@@ -1,14 +1,16 @@
 //! The measured rows as the method sees them: one observation per measured value (a
 //! difference or absolute row's value, a response row's gain and phase, [`Quantity`]), its
 //! residual to explain (measured − baseline), stated sigma, block, time, variance group and
-//! replicate set, the signature of every candidate and the generic basis of the case
-//! inputs used to look for unexplained structure.
+//! replicate set, the signature of every candidate and the library of shapes (the generic
+//! basis of the case inputs, the history, time shapes, products) used to look for
+//! unexplained structure.
 
 use std::collections::BTreeMap;
 
+use super::library::{Family, Shape, shapes};
 use super::observation::{Observation, Quantity};
 use super::sim::{Simulator, effect_cm_s2, gross_effect_cm_s2};
-use crate::model::condition::{CaseInputs, Condition};
+use crate::model::condition::Condition;
 use crate::model::effects::{CandidateId, Effects};
 
 /// How the drift term's time is measured.
@@ -49,6 +51,10 @@ pub struct Data {
     /// The simulator's own scatter of each observation's prediction (the standard error of
     /// its mean of runs; 0 where the simulator gives none).
     pub sim_sigma: Vec<f64>,
+    /// The 1-sigma error each observation has from its row's orientation error
+    /// (`sigma_angle_urad`, [`Condition::fixture_sigma_cm_s2`]), cm/s²; 0 without. Included
+    /// in a stated sigma (in quadrature); added to an estimated one ([`super::fit`]).
+    pub fixture: Vec<f64>,
     /// Whether each observation takes its block's bias shift (a difference row's value).
     pub shift: Vec<bool>,
     /// Whether each observation takes the drift (a difference or absolute row's value).
@@ -70,8 +76,11 @@ pub struct Data {
     pub replicate: Vec<usize>,
     /// Signatures of the candidates asked for, in registry order.
     pub signatures: Vec<Signature>,
-    /// The generic basis: `(name, column)`.
+    /// The generic basis: `(name, column)` (the library's [`Family::Basis`]).
     pub features: Vec<(String, Vec<f64>)>,
+    /// The library the residuals are searched against ([`super::library::shapes`]): the
+    /// generic basis, the history, time shapes and products up to third order.
+    pub shapes: Vec<Shape>,
 }
 
 impl Data {
@@ -105,6 +114,7 @@ impl Data {
             base: pick(&self.base, &keep),
             stated: pick(&self.stated, &keep),
             sim_sigma: pick(&self.sim_sigma, &keep),
+            fixture: pick(&self.fixture, &keep),
             shift: pick(&self.shift, &keep),
             drifts: pick(&self.drifts, &keep),
             block: pick(&self.block, &keep),
@@ -132,6 +142,15 @@ impl Data {
                 .iter()
                 .map(|(n, c)| (n.clone(), pick(c, &keep)))
                 .filter(|(_, c)| c.iter().any(|&x| x != 0.0))
+                .collect(),
+            shapes: self
+                .shapes
+                .iter()
+                .map(|s| Shape {
+                    col: pick(&s.col, &keep),
+                    ..s.clone()
+                })
+                .filter(|s| s.col.iter().any(|&x| x != 0.0))
                 .collect(),
         }
     }
@@ -255,6 +274,7 @@ pub fn build(
         base: Vec::new(),
         stated: Vec::new(),
         sim_sigma: Vec::new(),
+        fixture: Vec::new(),
         shift: Vec::new(),
         drifts: Vec::new(),
         block: Vec::new(),
@@ -266,7 +286,9 @@ pub fn build(
         replicate: Vec::new(),
         signatures: Vec::new(),
         features: Vec::new(),
+        shapes: Vec::new(),
     };
+    let g = sim.g_cm_s2();
     // Replicate sets numbered in order of first appearance.
     let mut keys: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
     let sim_sigmas: Vec<Observation> = {
@@ -296,9 +318,16 @@ pub fn build(
                     }
                 );
             };
-            // A stated sigma is the measurement's; the simulator's own scatter adds to it.
-            let sigma = sigma.map(|s| s.hypot(own));
+            // A stated sigma is the measurement's; the simulator's own scatter and the
+            // fixture's orientation error add to it.
+            let fixture = if q == Quantity::Value {
+                r.fixture_sigma_cm_s2(g)
+            } else {
+                0.0
+            };
+            let sigma = sigma.map(|s| s.hypot(own).hypot(fixture));
             d.sim_sigma.push(own);
+            d.fixture.push(fixture);
             d.rows.push(i);
             d.quantity.push(q);
             d.y.push(if q == Quantity::Phase {
@@ -330,7 +359,6 @@ pub fn build(
             d.time.push(r.time_s.unwrap_or(k as f64));
         }
     }
-    let g = sim.g_cm_s2();
     let obs_rows: Vec<&Condition> = d.rows.iter().map(|&i| &rows[i]).collect();
     let value: Vec<bool> = d.quantity.iter().map(|&q| q == Quantity::Value).collect();
     // Additive terms act on the values; parameters by the closed loop's sensitivity.
@@ -363,17 +391,20 @@ pub fn build(
     }
     sigs.sort_by_key(|s| s.id);
     d.signatures = sigs;
-    d.features = features(&obs_rows, g)
-        .into_iter()
-        .map(|(n, mut c)| {
-            for (x, &v) in c.iter_mut().zip(&value) {
-                if !v {
-                    *x = 0.0;
-                }
-            }
-            (n, c)
-        })
-        .filter(|(_, c)| c.iter().any(|&x| x != 0.0))
+    d.shapes = shapes(
+        rows,
+        g,
+        &d.rows,
+        &value,
+        &d.time,
+        &d.drifts,
+        d.time_unit == TimeUnit::Seconds,
+    );
+    d.features = d
+        .shapes
+        .iter()
+        .filter(|s| s.family == Family::Basis)
+        .map(|s| (s.name.clone(), s.col.clone()))
         .collect();
     Ok(d)
 }
@@ -589,110 +620,6 @@ pub fn signatures(rows: &[&Condition], candidates: &[CandidateId], g_cm_s2: f64)
             Signature { id, col, null }
         })
         .collect()
-}
-
-/// Samples per oscillation period for the time averages (exact for products of two
-/// sinusoids of the row's frequency).
-const SAMPLES: u32 = 8;
-
-/// The case inputs of a row as the nine signals of the generic basis.
-fn signals(i: &CaseInputs) -> [f64; 9] {
-    let [a0, a1, a2] = i.a_cm_s2;
-    let [w0, w1, w2] = i.w_rad_s;
-    let [d0, d1, d2] = i.dw_rad_s2;
-    [a0, a1, a2, w0, w1, w2, d0, d1, d2]
-}
-
-const SIGNAL_NAMES: [&str; 9] = [
-    "a_IA", "a_PA", "a_OA", "w_IA", "w_PA", "w_OA", "dw_IA", "dw_PA", "dw_OA",
-];
-
-/// Time averages over one period of the nine signals and their 45 pairwise products, in a
-/// condition, by [`SAMPLES`] equally spaced samples (one sample if static).
-fn averages(c: &Condition, g_cm_s2: f64) -> [f64; 54] {
-    let p = c.prepare(g_cm_s2);
-    let n = if c.is_static() { 1 } else { SAMPLES };
-    let mut out = [0.0; 54];
-    for k in 0..n {
-        let ph = std::f64::consts::TAU * f64::from(k) / f64::from(n);
-        let (s, co) = ph.sin_cos();
-        let x = signals(&p.inputs(s, co));
-        let mut m = 0;
-        for (j, v) in x.iter().enumerate() {
-            out[m] += v;
-            m += 1;
-            for w in &x[j..] {
-                out[m] += v * w;
-                m += 1;
-            }
-        }
-    }
-    for v in &mut out {
-        *v /= f64::from(n);
-    }
-    out
-}
-
-/// The names of [`averages`]' entries.
-fn average_names() -> Vec<String> {
-    let mut names = Vec::with_capacity(54);
-    for (j, a) in SIGNAL_NAMES.iter().enumerate() {
-        names.push(format!("mean({a})"));
-        for b in &SIGNAL_NAMES[j..] {
-            names.push(if a == b {
-                format!("mean({a}²)")
-            } else {
-                format!("mean({a}·{b})")
-            });
-        }
-    }
-    names
-}
-
-/// The generic basis over the rows: each feature is the condition's average minus the
-/// reference's; features that vanish here or that repeat an earlier one (|cos| > 0.9999)
-/// are left out.
-#[must_use]
-pub fn features(rows: &[&Condition], g_cm_s2: f64) -> Vec<(String, Vec<f64>)> {
-    let per_row: Vec<[f64; 54]> = rows
-        .iter()
-        .map(|r| {
-            let c = averages(r, g_cm_s2);
-            let f = match r.kind {
-                crate::model::condition::RowKind::Difference => averages(&r.reference(), g_cm_s2),
-                crate::model::condition::RowKind::Absolute
-                | crate::model::condition::RowKind::Response => [0.0; 54],
-            };
-            let mut d = [0.0; 54];
-            for k in 0..54 {
-                // Differences that cancel to rounding are zero.
-                let scale = c[k].abs().max(f[k].abs());
-                d[k] = if (c[k] - f[k]).abs() <= 1e-9 * scale {
-                    0.0
-                } else {
-                    c[k] - f[k]
-                };
-            }
-            d
-        })
-        .collect();
-    let mut out: Vec<(String, Vec<f64>)> = Vec::new();
-    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    for (k, name) in average_names().into_iter().enumerate() {
-        let col: Vec<f64> = per_row.iter().map(|d| d[k]).collect();
-        let nk = norm(&col);
-        if nk == 0.0 {
-            continue;
-        }
-        let repeats = out.iter().any(|(_, o)| {
-            let dot: f64 = o.iter().zip(&col).map(|(a, b)| a * b).sum();
-            (dot / (norm(o) * nk)).abs() > 0.9999
-        });
-        if !repeats {
-            out.push((name, col));
-        }
-    }
-    out
 }
 
 /// Rows per replicate set, for sets of two or more.

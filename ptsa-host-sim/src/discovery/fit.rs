@@ -348,11 +348,16 @@ fn estimate_sigma(
     // Pure error per group.
     let mut ss = vec![0.0; data.group_names.len()];
     let mut df = vec![0.0; data.group_names.len()];
+    // A row's known orientation error (`data.fixture`) is taken out of the replicates'
+    // scatter: that of a set of n about its mean holds (1 − 1/n)·Σ fixture² (and out of
+    // the residuals' below, by `variance_beside`).
     for set in replicate_sets(data, subset) {
         #[allow(clippy::cast_precision_loss)]
-        let m = set.iter().map(|&i| data.resid(i)).sum::<f64>() / set.len() as f64;
+        let n = set.len() as f64;
+        let m = set.iter().map(|&i| data.resid(i)).sum::<f64>() / n;
         for &i in &set {
-            ss[data.group[i]] += (data.resid(i) - m).powi(2);
+            ss[data.group[i]] +=
+                (data.resid(i) - m).powi(2) - (1.0 - 1.0 / n) * data.fixture[i].powi(2);
             df[data.group[i]] += 1.0;
         }
         df[data.group[set[0]]] -= 1.0;
@@ -368,18 +373,46 @@ fn estimate_sigma(
     }
     // The rest from the residuals, per group where a group has the degrees of freedom.
     let (mut ss_r, mut df_r) = (vec![0.0; pure.len()], vec![0.0; pure.len()]);
+    // Each residual's square scaled to its variance (`e²/(1 − h)`), with its row's
+    // orientation error squared, for the groups whose rows declare one.
+    let mut scaled: Vec<(usize, f64, f64)> = Vec::new();
     if let Some((e, lev)) = resid {
         for (k, &i) in subset.iter().enumerate() {
             ss_r[data.group[i]] += e[k] * e[k];
             df_r[data.group[i]] += 1.0 - lev[k];
+            scaled.push((
+                data.group[i],
+                e[k] * e[k] / (1.0 - lev[k]).max(1e-9),
+                data.fixture[i].powi(2),
+            ));
         }
     } else {
         for &i in subset {
             ss_r[data.group[i]] += data.resid(i).powi(2);
             df_r[data.group[i]] += 1.0;
+            scaled.push((
+                data.group[i],
+                data.resid(i).powi(2),
+                data.fixture[i].powi(2),
+            ));
         }
     }
-    let pooled = ss_r.iter().sum::<f64>() / df_r.iter().sum::<f64>().max(1e-9);
+    let declared = |g: Option<usize>| {
+        scaled
+            .iter()
+            .any(|&(h, _, f2)| f2 > 0.0 && g.is_none_or(|g| g == h))
+    };
+    let of_group = |g: Option<usize>| {
+        scaled
+            .iter()
+            .filter(move |&&(h, _, _)| g.is_none_or(|g| g == h))
+            .map(|&(_, r, f2)| (r, f2))
+    };
+    let pooled = if declared(None) {
+        variance_beside(&of_group(None))
+    } else {
+        ss_r.iter().sum::<f64>() / df_r.iter().sum::<f64>().max(1e-9)
+    };
     // Each group's own residual variance where it has the degrees of freedom, else the
     // pooled one. (Shrinking every group towards the pooled variance, with the weight of 4
     // degrees of freedom, was tried: it lifted the false selections on nulls whose groups
@@ -391,7 +424,11 @@ fn estimate_sigma(
         .map(|(g, p)| {
             p.unwrap_or_else(|| {
                 if df_r[g] >= 2.0 {
-                    ss_r[g] / df_r[g]
+                    if declared(Some(g)) {
+                        variance_beside(&of_group(Some(g)))
+                    } else {
+                        ss_r[g] / df_r[g]
+                    }
                 } else {
                     pooled
                 }
@@ -407,11 +444,46 @@ fn estimate_sigma(
         .iter()
         .map(|&i| {
             data.stated[i]
-                .unwrap_or_else(|| var[data.group[i]].max(floor).sqrt())
+                .unwrap_or_else(|| (var[data.group[i]].max(floor) + data.fixture[i].powi(2)).sqrt())
                 .max(f64::MIN_POSITIVE)
         })
         .collect();
     (sigma, source, group_sigma)
+}
+
+/// The variance `v` of the noise beside known variances: the maximum-likelihood `v` of
+/// residuals `rᵢ` (squared, scaled to their variance) distributed as `N(0, v + fᵢ²)`, from
+/// pairs `(rᵢ, fᵢ²)`. The likelihood equation `Σ (rᵢ − v − fᵢ²)/(v + fᵢ²)² = 0` is solved by
+/// its fixed point `v = Σ wᵢ²·(rᵢ − fᵢ²) / Σ wᵢ²`, `wᵢ = 1/(v + fᵢ²)`: the rows with the
+/// smallest known variance weigh the most, as they know `v` best. Never below a millionth
+/// of the mean `rᵢ` (a noise the data cannot tell from 0).
+fn variance_beside(pairs: &(impl Iterator<Item = (f64, f64)> + Clone)) -> f64 {
+    let (mut n, mut sum_r, mut sum_d) = (0.0, 0.0, 0.0);
+    for (r, f2) in pairs.clone() {
+        n += 1.0;
+        sum_r += r;
+        sum_d += r - f2;
+    }
+    if n == 0.0 {
+        return 0.0;
+    }
+    let floor = (sum_r / n).max(f64::MIN_POSITIVE) * 1e-6;
+    let mut v = (sum_d / n).max(floor);
+    for _ in 0..200 {
+        let (mut num, mut den) = (0.0, 0.0);
+        for (r, f2) in pairs.clone() {
+            let w2 = (v + f2).powi(-2);
+            num += w2 * (r - f2);
+            den += w2;
+        }
+        let next = (num / den).max(floor);
+        let done = (next - v).abs() <= 1e-12 * v;
+        v = next;
+        if done {
+            break;
+        }
+    }
+    v
 }
 
 /// Fit the model to `subset`: nuisance terms, noise, stepwise selection over `family`.
@@ -754,7 +826,8 @@ impl Fitted {
 
     /// The sigma the model gives observation `i` of `data`, which need not be in the
     /// subset: its own in the subset, else its stated sigma, else its variance group's
-    /// estimate (`None` when the subset holds no row of that group).
+    /// estimate with its orientation error added (`None` when the subset holds no row of
+    /// that group).
     #[must_use]
     pub fn sigma_at(&self, data: &Data, i: usize) -> Option<f64> {
         if let Some(k) = self.subset.iter().position(|&j| j == i) {
@@ -764,7 +837,7 @@ impl Fitted {
             self.group_sigma
                 .iter()
                 .find(|(g, _)| *g == data.group[i])
-                .map(|&(_, s)| s)
+                .map(|&(_, s)| s.hypot(data.fixture[i]))
         })
     }
 

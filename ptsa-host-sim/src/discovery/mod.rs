@@ -7,7 +7,9 @@
 //! * [`observation`]: what a row is observed as, measured or simulated: a value, or a
 //!   response row's gain and phase.
 //! * [`sim`]: the [`Simulator`] trait, the analytic model and the closed-loop adapter.
-//! * [`data`]: the fitted observations, signatures and the generic basis of the case inputs.
+//! * [`library`]: the variables of the case inputs and of the row before, their units, the
+//!   library of shapes the residuals are searched against, and the `--term` grammar.
+//! * [`data`]: the fitted observations, signatures and the library over them.
 //! * [`fit`]: nuisance terms, noise, stepwise selection with familywise error control.
 //! * [`report`]: the `--json` object's types, every key and its meaning.
 //! * [`slips`]: values in another unit or with the sign reversed, stated sigmas far from
@@ -49,6 +51,7 @@ pub mod crossval;
 pub mod data;
 pub mod extend;
 pub mod fit;
+pub mod library;
 pub mod mirror;
 pub mod observation;
 pub mod outcome;

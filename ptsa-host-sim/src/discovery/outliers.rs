@@ -609,6 +609,7 @@ mod tests {
             base: vec![0.0; n],
             stated: vec![Some(1.0); n],
             sim_sigma: vec![0.0; n],
+            fixture: vec![0.0; n],
             shift: vec![true; n],
             drifts: vec![true; n],
             block: vec![0; n],
@@ -621,6 +622,7 @@ mod tests {
             replicate: (0..n).collect(),
             signatures: Vec::new(),
             features: Vec::new(),
+            shapes: Vec::new(),
         }
     }
 

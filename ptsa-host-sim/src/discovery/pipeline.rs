@@ -107,7 +107,7 @@ pub fn discover_with(
     let stability = stability::test(rows, data, &f, &resid, &mut selected, opts.alpha);
     // 5. What is left, and the gain out of sample.
     set_stage("cross-validation");
-    let unexplained = unexplained::test(data, &f, &selected, opts.alpha);
+    let unexplained = unexplained::test(&p, &selected);
     let gain = crossval::out_of_sample(&p, &selected, &baseline, &extended.fit);
     let groups = confounding::indistinguishable(data, &f, opts);
     let advice = advice::advise(data, rows, &f, &selected, &groups, sim.g_cm_s2());

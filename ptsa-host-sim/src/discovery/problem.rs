@@ -52,6 +52,9 @@ pub struct Options {
     /// them: an instrument mounted with its input axis reversed reads the negative of its
     /// simulation.
     pub units_as_given: bool,
+    /// The user's own terms (`--term`), tested after the selection
+    /// ([`super::unexplained`]).
+    pub terms: Vec<super::library::Term>,
 }
 
 impl Options {
@@ -71,6 +74,7 @@ impl Options {
             seed: 1,
             keep_outliers: false,
             units_as_given: false,
+            terms: Vec::new(),
         }
     }
 

@@ -347,22 +347,80 @@ pub struct Advice {
 /// What the tests found, in the `--json` shape.
 #[derive(Clone, Debug, Serialize)]
 pub struct Unexplained {
-    /// Structure found at the level `alpha` (familywise over both tests).
+    /// Structure found at the level `alpha` (familywise over the tests).
     pub detected: bool,
-    /// Its p-value (Bonferroni over the tests run).
+    /// Its p-value (weighted Bonferroni over the tests run: the lack of fit and the generic
+    /// basis weigh 1, the history, time shapes and products ½ each, the products with the row
+    /// before ¼).
     pub p_value: f64,
     /// `residual follows <input or product>`, or the lack of fit, or `none`.
     pub hint: String,
     /// The tests run, each with its own p-value.
     pub tests: Vec<UnexplainedTest>,
+    /// When structure is detected: the strongest forms of the library that the residual
+    /// follows, each significant under the same familywise control (strongest first, at
+    /// most [`MAX_PROPOSALS`]); never a named cause. Empty when nothing is detected.
+    pub proposals: Vec<Proposal>,
+    /// The user's terms (`--term`), each tested after the selection like a selection step
+    /// against the model (nuisance terms and plausible selected terms), Bonferroni over
+    /// the terms; empty without `--term`. They are not part of `detected` or `p_value`.
+    pub terms: Vec<TermReport>,
+}
+
+/// A user's term (`--term`), in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct TermReport {
+    /// `term:` and the text as given (`term:a_pa^3`).
+    pub key: String,
+    /// The coefficient's unit, derived from the inputs' (cm/s² over the term's unit).
+    pub unit: String,
+    /// The term has a column here outside the model's span (`false`: 0 in every fitted
+    /// row, or a combination of the model's terms; then the next three are `null`).
+    pub testable: bool,
+    /// Its coefficient added to the model, in `unit`.
+    pub coefficient: Option<f64>,
+    /// Its standard error, in `unit`.
+    pub se: Option<f64>,
+    /// Its p-value as a selection step, times the number of terms (at most 1).
+    pub p_value: Option<f64>,
+    /// `p_value` ≤ the level `alpha`.
+    pub significant: bool,
+}
+
+/// The most proposals reported.
+pub const MAX_PROPOSALS: usize = 5;
+
+/// A form the residual follows, in the `--json` shape: a proposal, not a cause.
+#[derive(Clone, Debug, Serialize)]
+pub struct Proposal {
+    /// The form (`a_PA^3`, `a_IA*w_PA`, `delta_a_IA`, `sign_delta_a_IA`, `t^2`,
+    /// `exp(-t/90 s)`); a product's form is valid `--term` text.
+    pub form: String,
+    /// Its coefficient added to the model (nuisance terms and plausible selected terms),
+    /// in `unit`.
+    pub coefficient: f64,
+    /// The coefficient's unit, derived from the inputs' (cm/s² over the form's unit).
+    pub unit: String,
+    /// The coefficient's standard error, in `unit`.
+    pub se: f64,
+    /// Its familywise p-value: the element's p-value times its family's size, over the
+    /// family's share of the level (≤ the level `alpha` for every proposal).
+    pub p_value: f64,
+    /// Its family: `generic_basis`, `history`, `time_shapes`, `products` or
+    /// `history_products`.
+    pub family: &'static str,
+    /// Other forms of the library these data cannot tell from it (partial columns parallel
+    /// to |cos| > 0.999); the form given is the simplest.
+    pub indistinguishable_from: Vec<String>,
 }
 
 /// One test.
 #[derive(Clone, Debug, Serialize)]
 pub struct UnexplainedTest {
-    /// `lack_of_fit` or `generic_basis`.
+    /// `lack_of_fit`, `generic_basis`, `history`, `time_shapes`, `products` or
+    /// `history_products`.
     pub name: &'static str,
-    /// Its p-value (for the basis: Bonferroni over its elements).
+    /// Its p-value (for a family of the library: Bonferroni over its elements).
     pub p_value: f64,
     /// What it looked at.
     pub detail: String,

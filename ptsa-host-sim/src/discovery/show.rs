@@ -369,6 +369,49 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                 .join(", ")
         );
     }
+    for p in &u.proposals {
+        let _ = writeln!(
+            s,
+            "  proposal (a form the residual follows, not a cause): {} × {:.4e} ± {:.2e} {} (p = {}, {}){}",
+            p.form,
+            p.coefficient,
+            p.se,
+            p.unit,
+            pfmt(p.p_value),
+            p.family,
+            if p.indistinguishable_from.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; indistinguishable here from {}",
+                    p.indistinguishable_from.join(", ")
+                )
+            }
+        );
+    }
+    for t in &u.terms {
+        let _ = match (t.coefficient, t.se, t.p_value) {
+            (Some(c), Some(e), Some(pv)) => writeln!(
+                s,
+                "{}: {:.4e} ± {:.2e} {} (p = {} as a step after the selection, {})",
+                t.key,
+                c,
+                e,
+                t.unit,
+                pfmt(pv),
+                if t.significant {
+                    "significant"
+                } else {
+                    "not significant"
+                }
+            ),
+            _ => writeln!(
+                s,
+                "{}: not testable here (0 in every fitted row, or a combination of the model's terms)",
+                t.key
+            ),
+        };
+    }
     let g = &j.gain;
     let _ = writeln!(
         s,

@@ -227,6 +227,13 @@ pub const COLUMNS: &[Column] = &[
         set: |c, v| c.sigma_phase_deg = num(v),
     },
     Column {
+        name: "sigma_angle_urad",
+        expected: "the 1-sigma error of the position's orientation in µrad about each axis across IA (how precisely the fixture sets it), greater than 0, or an empty cell (exact)",
+        check: Check::Positive,
+        get: |c| Value::Num(c.sigma_angle_urad),
+        set: |c, v| c.sigma_angle_urad = num(v),
+    },
+    Column {
         name: "approach",
         expected: "`up` or `+` (the input along IA rose to this reading: approached from below), `down` or `-` (it fell: approached from above), or an empty cell (not recorded: the change of the input along IA since the previous row gives it)",
         check: Check::OneOf(Approach::WORDS),

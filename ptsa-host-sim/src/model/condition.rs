@@ -168,6 +168,11 @@ pub struct Condition {
     pub approach: Option<Approach>,
     /// The instrument's temperature during the row, °C (case-frame column `temp_c`).
     pub temp_c: Option<f64>,
+    /// 1-sigma error of the position's orientation, µrad, about each of the two axes across
+    /// IA (how precisely the fixture sets the case; case-frame column `sigma_angle_urad`).
+    /// It is noise, not physics: an absolute row's reading varies by it times the static
+    /// specific force across IA ([`Condition::fixture_sigma_cm_s2`]).
+    pub sigma_angle_urad: Option<f64>,
     /// When the instrument was last switched on before the row, s on the `time_s` clock
     /// (case-frame column `power_on_s`; `None`: an earlier row's, else the first row's
     /// time).
@@ -237,6 +242,7 @@ impl Condition {
             approach: _,
             temp_c: _,
             power_on_s: _,
+            sigma_angle_urad: _,
             history,
         } = self;
         let mut k: Vec<u64> = Vec::with_capacity(32 + crate::model::effects::N_CANDIDATES);
@@ -277,6 +283,34 @@ impl Condition {
             history: self.history,
             ..Condition::default()
         }
+    }
+
+    /// The 1-sigma error of the row's reading that its orientation error
+    /// (`sigma_angle_urad`) makes, cm/s²: a small rotation `δ` of the case changes the
+    /// specific force along IA by `δ_PA·a_OA − δ_OA·a_PA`, so independent errors of σ about
+    /// PA and OA give `σ·√(a_PA² + a_OA²)`, with `a` the static specific force (gravity and
+    /// a centrifuge arm's). A difference row is read at one placement, condition against
+    /// reference: the error of the gravity cancels and what is left is `σ` times the
+    /// difference of the two specific forces across IA. A response row's gain and phase
+    /// do not depend on it (0), nor does a row without the column.
+    #[must_use]
+    pub fn fixture_sigma_cm_s2(&self, g_cm_s2: f64) -> f64 {
+        let Some(s_urad) = self.sigma_angle_urad else {
+            return 0.0;
+        };
+        let across = |c: &Condition| {
+            let a = c.prepare(g_cm_s2).mean_inputs().a_cm_s2;
+            [a[1], a[2]]
+        };
+        let a = match self.kind {
+            RowKind::Absolute => across(self),
+            RowKind::Difference => {
+                let (c, r) = (across(self), across(&self.reference()));
+                [c[0] - r[0], c[1] - r[1]]
+            }
+            RowKind::Response => return 0.0,
+        };
+        s_urad * 1e-6 * a[0].hypot(a[1])
     }
 
     /// The specific force of a centrifuge arm, cm/s², in case axes: with the proof mass at
@@ -593,6 +627,34 @@ mod tests {
         // IA along the spin axis: undefined.
         c.w_rad_s = [2.0, 0.0, 0.0];
         assert!(c.centripetal_cm_s2(c.w_rad_s).is_none());
+    }
+
+    /// The orientation error of a row, by hand: 1000 µrad at `g = (0.6, 0.8, 0)` is
+    /// 1e-3 · 0.8 g across IA, and at `g = (0, 0, 1)` 1e-3 · g; a difference row on a rate
+    /// table about OA leaves nothing (gravity cancels), nor does an arm there (its push is
+    /// along IA, none of it across); a response row or a row without the column: 0.
+    #[test]
+    fn a_fixture_error_is_the_angle_times_the_specific_force_across_ia() {
+        let g = 980.0;
+        let mut c = Condition {
+            kind: RowKind::Absolute,
+            g: [0.6, 0.8, 0.0],
+            sigma_angle_urad: Some(1000.0),
+            ..Condition::default()
+        };
+        assert!((c.fixture_sigma_cm_s2(g) - 1e-3 * 0.8 * g).abs() < 1e-12);
+        c.g = [0.0, 0.0, 1.0];
+        assert!((c.fixture_sigma_cm_s2(g) - 1e-3 * g).abs() < 1e-12);
+        c.kind = RowKind::Difference;
+        c.w_rad_s = [0.0, 0.0, 2.0];
+        assert!(c.fixture_sigma_cm_s2(g) == 0.0);
+        c.radius_cm = 10.0;
+        assert!(c.fixture_sigma_cm_s2(g) < 1e-12);
+        c.kind = RowKind::Response;
+        assert!(c.fixture_sigma_cm_s2(g) == 0.0);
+        c.kind = RowKind::Absolute;
+        c.sigma_angle_urad = None;
+        assert!(c.fixture_sigma_cm_s2(g) == 0.0);
     }
 
     /// A tumble's rows without `approach`: +1 where `g_ia` rose since the previous row,

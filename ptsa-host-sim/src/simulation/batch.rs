@@ -8,12 +8,16 @@
 //! and [`Engine::measure`].
 //!
 //! # Bit for bit the single loop
-//! Every lane *is* a [`ClosedLoop`], and a lane's tick is the single loop's tick: the same
-//! functions (`sim::fast_block`, `kernel::static_tick`, `kernel::dynamic_tick`, the ADC,
-//! the noise source, the plant step, the core's [`ptsa_core::Ptsa::tick`]), called with the
-//! same values in the same order. A lane runs a program of steps that are the single loop's
-//! calls (`run`, `run_fast`, `measure`'s window, `run_static`'s gate), each with the single
-//! loop's own start-and-finish bookkeeping, so the running totals are summed the same way.
+//! A lane is a [`ClosedLoop`]'s two halves, its configuration (`config::LoopConfig`, read
+//! only) and its state (`state::LoopState`, plain data), by reference: no copies. A lane's
+//! tick is the single loop's tick: the same functions (`sim::static_block_fast`,
+//! `kernel::static_tick`, `kernel::dynamic_tick`, the ADC, the noise source, the plant step,
+//! the core's [`ptsa_core::Ptsa::tick`]), called with the same values in the same order. A
+//! lane runs a program of steps that are the single loop's calls (`run`, `run_fast`,
+//! `measure`'s window, `run_static`'s gate), each started and ended as the single loop does
+//! (`LoopState::run_start`, `LoopState::end_run`), so the running totals are summed the same
+//! way. This engine is a scheduler: it groups the lanes, shares what lanes in step have in
+//! common (noise draws, a condition's phasor and inputs) and packs them for the kernels.
 //! The pulses, the plant state (`f64` bits), the core state and the window results of every
 //! lane are those of a [`ClosedLoop`] with the same instrument, condition, effects, options
 //! and seed; the tests check it lane by lane, for every `lanes` setting.
@@ -36,11 +40,11 @@
 //!   through the one definition of the static tick, `kernel::static_tick` (the single loop
 //!   runs it with one lane), compiled for the CPU's SIMD instructions at run time (`pulp`:
 //!   AVX2 where present); `lanes = 1` runs one lane after the other, in blocks of 512 ticks,
-//!   with the single loop's polarity-split fast path (`sim::fast_block`).
+//!   with the single loop's polarity-split fast path (`sim::static_block_fast`).
 //! * dynamic lanes: `K` loops side by side through the one definition of the dynamic tick,
-//!   `kernel::dynamic_tick` (the single loop runs it with one lane), in blocks of 128 ticks
-//!   whose noise draws and, for lanes with the same condition, phasor and inputs are made
-//!   once per block for the whole group.
+//!   `kernel::dynamic_tick` (the single loop runs it with one lane), packed once per run,
+//!   in blocks of 128 ticks whose noise draws and, for lanes with the same condition, phasor
+//!   and inputs are made once per block for the whole group.
 //!
 //! Measured with `ptsa bench --batch 16 --runs 7` on one core (three invocations; 2-core AMD
 //! EPYC, AVX2, load 1.0–1.5): static batch / single = 1.26–1.50 with 4 lanes, 1.32–1.48 with
@@ -62,12 +66,14 @@ use crate::model::condition::Condition;
 use crate::model::effects::Effects;
 use crate::model::instrument::Instrument;
 
-use crate::simulation::kernel::{self, DynLanes, DynState, StaticLanes, StaticState};
-use crate::simulation::sim::{
-    self, Adc, BIAS_BLOCK, ClosedLoop, DynParams, DynRun, GateStart, NoiseSource, SimDifference,
-    SimOptions, SimResult, StaticParams, StaticRun, StaticRunState, TickInputs, WindowStart,
-    fast_block,
+use super::config::{Adc, LoopConfig, TickInputs};
+use super::kernel::{self, DynLanes, DynState, StaticLanes, StaticState};
+use super::noise::NoiseSource;
+use super::sim::{
+    self, BIAS_BLOCK, ClosedLoop, GateStart, SimDifference, SimOptions, SimResult, StaticRun,
+    WindowStart, static_block_fast,
 };
+use super::state::{LoopState, RunStart};
 
 /// Static lanes side by side per core by default (see the module docs; `benches/batch.rs`
 /// measures 1, 2, 4, 8 and 16).
@@ -307,7 +313,7 @@ impl Engine {
         let mut order: Vec<&mut Lane<'_>> = lanes.iter_mut().collect();
         // Lanes of one condition next to each other, so that dynamic ones share a group and
         // with it the phasor and inputs (identification's sides of a row, Monte Carlo).
-        order.sort_by_cached_key(|l| (l.dynamic, l.total_ticks(), l.lp.prep.key_bits()));
+        order.sort_by_cached_key(|l| (l.cfg.dynamic, l.total_ticks(), l.cfg.prep.key_bits()));
         let k = self.lanes;
         order.par_chunks_mut(per).for_each(|g| run_group(g, k));
         lanes.into_iter().map(|l| l.out).collect()
@@ -406,27 +412,19 @@ enum Mode {
     Dynamic,
 }
 
-/// The run in progress of a lane: the single loop's own run state.
-#[derive(Clone, Debug)]
-enum Live {
-    Idle,
-    Static(Box<StaticRunState>),
-    Dynamic(Box<(DynParams, DynRun)>),
-}
-
-/// One lane: a loop, its program and its run in progress.
+/// One lane: a loop's configuration and state, its program and its run in progress.
 struct Lane<'a> {
-    lp: &'a mut ClosedLoop,
+    cfg: &'a LoopConfig,
+    st: &'a mut LoopState,
     prog: Vec<Step>,
     /// Index of the next step.
     next: usize,
-    /// The loop ticks dynamically (as `ClosedLoop::run` decides).
-    dynamic: bool,
     mode: Mode,
     /// Ticks of the current run and ticks left in it.
     n: u64,
     left: u64,
-    live: Live,
+    /// Where the run in progress started (`None`: no run in progress, the lane is done).
+    run: Option<RunStart>,
     window: Option<WindowStart>,
     gate: Option<GateStart>,
     out: Option<Out>,
@@ -434,16 +432,15 @@ struct Lane<'a> {
 
 impl<'a> Lane<'a> {
     fn new(lp: &'a mut ClosedLoop, prog: Vec<Step>) -> Self {
-        let dynamic = lp.dynamic || lp.harmonic != 0;
         Self {
-            lp,
+            cfg: &lp.cfg,
+            st: &mut lp.st,
             prog,
             next: 0,
-            dynamic,
             mode: Mode::Static,
             n: 0,
             left: 0,
-            live: Live::Idle,
+            run: None,
             window: None,
             gate: None,
             out: None,
@@ -455,7 +452,7 @@ impl<'a> Lane<'a> {
     }
 
     fn done(&self) -> bool {
-        matches!(self.live, Live::Idle)
+        self.run.is_none()
     }
 
     /// Take the program's steps until one has ticks to run (started), or the program ends
@@ -464,31 +461,28 @@ impl<'a> Lane<'a> {
         while let Some(&step) = self.prog.get(self.next) {
             self.next += 1;
             match step {
-                Step::OpenWindow => self.window = Some(self.lp.window_start()),
+                Step::OpenWindow => self.window = Some(WindowStart::open(self.st)),
                 Step::CloseWindow => {
                     let w = self.window.take().expect("window opened");
-                    self.out = Some(Out::Window(self.lp.window_end(&w)));
+                    self.out = Some(Out::Window(w.close(self.cfg, self.st)));
                 }
-                Step::OpenGate => self.gate = Some(self.lp.gate_start()),
+                Step::OpenGate => self.gate = Some(GateStart::open(self.st)),
                 Step::CloseGate(ticks) => {
                     let g = self.gate.take().expect("gate opened");
-                    self.out = Some(Out::Gate(self.lp.gate_end(&g, ticks)));
+                    self.out = Some(Out::Gate(g.close(self.cfg, self.st, ticks)));
                 }
                 Step::Run(n) | Step::RunFast(n) => {
                     self.n = n;
                     self.left = n;
-                    if self.dynamic {
-                        self.mode = Mode::Dynamic;
-                        self.live =
-                            Live::Dynamic(Box::new((self.lp.dyn_params(), self.lp.dyn_run())));
+                    self.mode = if self.cfg.dynamic {
+                        self.st.sync_phasor(self.cfg);
+                        Mode::Dynamic
+                    } else if matches!(step, Step::Run(_)) {
+                        Mode::Static
                     } else {
-                        self.mode = if matches!(step, Step::Run(_)) {
-                            Mode::Static
-                        } else {
-                            Mode::StaticFast
-                        };
-                        self.live = Live::Static(Box::new(self.lp.static_run()));
-                    }
+                        Mode::StaticFast
+                    };
+                    self.run = Some(self.st.run_start());
                     if n > 0 {
                         return;
                     }
@@ -497,17 +491,15 @@ impl<'a> Lane<'a> {
                 }
             }
         }
-        self.live = Live::Idle;
+        self.run = None;
     }
 
-    /// The current run has run all its ticks: its state back into the loop.
+    /// The current run has run all its ticks: its end, as the single loop's.
     fn finish_run(&mut self) {
-        match std::mem::replace(&mut self.live, Live::Idle) {
-            Live::Idle => {}
-            Live::Static(r) => self
-                .lp
-                .finish_static_run(&r, self.n, self.mode == Mode::Static),
-            Live::Dynamic(d) => self.lp.finish_dyn_run(&d.1),
+        if let Some(start) = self.run.take() {
+            let dynamic = self.mode == Mode::Dynamic;
+            self.st
+                .end_run(start, self.n, dynamic, self.mode != Mode::StaticFast);
         }
     }
 }
@@ -528,12 +520,12 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
         let mut rest = &mut active[..];
         while !rest.is_empty() {
             // Lanes in the same mode with the same core configuration (the kernels share it).
-            let (mode, ptsa) = (rest[0].mode, rest[0].lp.ptsa);
+            let (mode, ptsa) = (rest[0].mode, rest[0].cfg.ptsa);
             let same = rest.iter().take_while(|l| l.mode == mode).count();
-            rest[..same].sort_by_key(|l| l.lp.ptsa != ptsa);
+            rest[..same].sort_by_key(|l| l.cfg.ptsa != ptsa);
             let same = rest[..same]
                 .iter()
-                .take_while(|l| l.lp.ptsa == ptsa)
+                .take_while(|l| l.cfg.ptsa == ptsa)
                 .count();
             let (now, later) = rest.split_at_mut(same);
             run_mode(now, mode, m, k);
@@ -554,126 +546,206 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
 /// `m` ticks of lanes all in `mode`, in kernels of `k` lanes and then, for the rest, of
 /// the largest powers of two that fit.
 fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
+    let mut cfg: Vec<&LoopConfig> = lanes.iter().map(|l| l.cfg).collect();
+    let mut st: Vec<&mut LoopState> = lanes.iter_mut().map(|l| &mut *l.st).collect();
     if mode == Mode::Dynamic {
-        dynamic_blocks(lanes, m, k);
+        dynamic_blocks(&cfg, &mut st, m, k);
         return;
     }
     if k == 1 {
         if mode == Mode::Static {
-            static_blocks::<true>(lanes, m);
+            static_blocks::<true>(&cfg, &mut st, m);
         } else {
-            static_blocks::<false>(lanes, m);
+            static_blocks::<false>(&cfg, &mut st, m);
         }
         return;
     }
-    let mut rest = lanes;
-    while !rest.is_empty() {
-        let s = if rest.len() >= k {
-            k
-        } else {
-            1 << rest.len().ilog2()
-        };
-        let (now, later) = rest.split_at_mut(s);
+    let (mut cfg, mut st) = (&mut cfg[..], &mut st[..]);
+    while !cfg.is_empty() {
+        let s = chunk(cfg.len(), k);
+        let (c_now, c_later) = std::mem::take(&mut cfg).split_at_mut(s);
+        let (s_now, s_later) = std::mem::take(&mut st).split_at_mut(s);
         match (mode, s) {
-            (Mode::Static, 16) => static_kernel::<16, true>(now, m),
-            (Mode::Static, 8) => static_kernel::<8, true>(now, m),
-            (Mode::Static, 4) => static_kernel::<4, true>(now, m),
-            (Mode::Static, 2) => static_kernel::<2, true>(now, m),
-            (Mode::Static, _) => static_kernel::<1, true>(now, m),
-            (Mode::StaticFast, 16) => static_kernel::<16, false>(now, m),
-            (Mode::StaticFast, 8) => static_kernel::<8, false>(now, m),
-            (Mode::StaticFast, 4) => static_kernel::<4, false>(now, m),
-            (Mode::StaticFast, 2) => static_kernel::<2, false>(now, m),
-            (Mode::StaticFast, _) => static_kernel::<1, false>(now, m),
+            (Mode::Static, 16) => static_kernel::<16, true>(c_now, s_now, m),
+            (Mode::Static, 8) => static_kernel::<8, true>(c_now, s_now, m),
+            (Mode::Static, 4) => static_kernel::<4, true>(c_now, s_now, m),
+            (Mode::Static, 2) => static_kernel::<2, true>(c_now, s_now, m),
+            (Mode::Static, _) => static_kernel::<1, true>(c_now, s_now, m),
+            (Mode::StaticFast, 16) => static_kernel::<16, false>(c_now, s_now, m),
+            (Mode::StaticFast, 8) => static_kernel::<8, false>(c_now, s_now, m),
+            (Mode::StaticFast, 4) => static_kernel::<4, false>(c_now, s_now, m),
+            (Mode::StaticFast, 2) => static_kernel::<2, false>(c_now, s_now, m),
+            (Mode::StaticFast, _) => static_kernel::<1, false>(c_now, s_now, m),
             (Mode::Dynamic, _) => unreachable!("dynamic lanes run above"),
         }
-        rest = later;
+        (cfg, st) = (c_later, s_later);
     }
+}
+
+/// Lanes of the next kernel out of `n` lanes left: `k`, or the largest power of two that
+/// fits.
+fn chunk(n: usize, k: usize) -> usize {
+    if n >= k { k } else { 1 << n.ilog2() }
 }
 
 /// The lanes that draw the same noise: classes of lane indices, in order, each lane with
 /// the same generator state, the same table and the same ADC as the first of its class.
-fn stream_classes<'a>(lanes: impl Iterator<Item = (&'a NoiseSource, &'a Adc)>) -> Vec<Vec<usize>> {
+fn stream_classes(cfg: &[&LoopConfig], st: &[&mut LoopState]) -> Vec<Vec<usize>> {
     let mut classes: Vec<(&NoiseSource, [u64; 3], Vec<usize>)> = Vec::new();
-    for (l, (rng, adc)) in lanes.enumerate() {
-        let bits = adc_bits(adc);
+    for (l, (c, s)) in cfg.iter().zip(st).enumerate() {
+        let bits = c.adc.bits();
         match classes
             .iter_mut()
-            .find(|(r, a, _)| *a == bits && r.same_stream(rng))
+            .find(|(r, a, _)| *a == bits && r.same_stream(&s.rng))
         {
-            Some(c) => c.2.push(l),
-            None => classes.push((rng, bits, vec![l])),
+            Some(class) => class.2.push(l),
+            None => classes.push((&s.rng, bits, vec![l])),
         }
     }
     classes.into_iter().map(|c| c.2).collect()
 }
 
+/// Give every lane of each class the generator of the first (which drew for all).
+fn share_streams(st: &mut [&mut LoopState], classes: &[Vec<usize>]) {
+    for class in classes {
+        let rng = st[class[0]].rng.clone();
+        for &l in &class[1..] {
+            st[l].rng = rng.clone();
+        }
+    }
+}
+
 /// `m` ticks of static lanes one after the other, in blocks of [`BIAS_BLOCK`] ticks: each
-/// lane runs a block with the single loop's own code (`sim::fast_block`, the fast path split
-/// by polarity, or `sim::static_tick` with the per-tick statistics), its state in locals as
-/// in the single loop. Lanes in step with the same noise generator and ADC share the block
-/// of the ADC's additive terms, drawn once (from the first lane of their class, whose
-/// generator the others take at the end).
+/// lane runs a block with the single loop's own code (`sim::static_block_fast`, the fast
+/// path split by polarity, or [`kernel::static_tick`] with one lane and the per-tick
+/// statistics). Lanes in step with the same noise generator and ADC share the block of the
+/// ADC's additive terms, drawn once (from the first lane of their class, whose generator the
+/// others take at the end).
 #[inline(never)]
-fn static_blocks<const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
-    let mut rs: Vec<&mut StaticRunState> = lanes
-        .iter_mut()
-        .map(|l| match &mut l.live {
-            Live::Static(r) => &mut **r,
-            _ => unreachable!("a static lane"),
-        })
-        .collect();
-    let classes = stream_classes(rs.iter().map(|r| (&r.rng, &r.p.adc)));
+fn static_blocks<const STATS: bool>(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64) {
+    let classes = stream_classes(cfg, st);
     let mut bias = [0.0; BIAS_BLOCK];
     let mut left = m;
     while left > 0 {
         #[allow(clippy::cast_possible_truncation)]
         let b = left.min(BIAS_BLOCK as u64) as usize;
         for class in &classes {
-            let r = &mut *rs[class[0]];
+            let adc = &cfg[class[0]].adc;
+            let rng = &mut st[class[0]].rng;
             for v in &mut bias[..b] {
-                *v = r.p.adc.bias(&mut r.rng);
+                *v = adc.bias(rng);
             }
             for &l in class {
                 if STATS {
-                    lane_block_stats(rs[l], &bias[..b]);
+                    lane_block_stats(cfg[l], st[l], &bias[..b]);
                 } else {
-                    lane_block_fast(rs[l], &bias[..b]);
+                    static_block_fast(cfg[l], st[l], &bias[..b]);
                 }
             }
         }
         left -= b as u64;
     }
-    for class in &classes {
-        let rng = rs[class[0]].rng.clone();
-        for &l in &class[1..] {
-            rs[l].rng = rng.clone();
+    share_streams(st, &classes);
+}
+
+/// One block of a static lane with statistics: `ClosedLoop::run`'s static loop (the tick of
+/// [`kernel::static_tick`] with one lane).
+#[inline(never)]
+fn lane_block_stats(cfg: &LoopConfig, st: &mut LoopState, bias: &[f64]) {
+    let lane = StaticLanes::new([cfg]);
+    let mut s = StaticState::load([&*st]);
+    for &v in bias {
+        let _ = kernel::static_tick::<1, true>(&lane, &mut s, &[v]);
+    }
+    s.store([st]);
+}
+
+/// `m` ticks of `K` static lanes side by side: [`kernel::static_tick`] with `K` lanes, the
+/// same definition the single loop runs with one, compiled for this CPU's SIMD instructions
+/// ([`kernel::dispatch`]); the lanes share the core's configuration (see [`run_mode`]).
+/// Lanes in step with the same noise generator and the same ADC draw the same additive
+/// terms: they are drawn once (the usual batch: one instrument, one seed).
+#[inline(never)]
+fn static_kernel<const K: usize, const STATS: bool>(
+    cfg: &[&LoopConfig],
+    st: &mut [&mut LoopState],
+    m: u64,
+) {
+    let cfg: [&LoopConfig; K] = std::array::from_fn(|l| cfg[l]);
+    let p = StaticLanes::new(cfg);
+    let mut s = StaticState::<K>::load(std::array::from_fn(|l| &*st[l]));
+    let shared =
+        (1..K).all(|l| st[l].rng.same_stream(&st[0].rng) && cfg[l].adc.bits() == cfg[0].adc.bits());
+    // The generators in locals for the run (a shared one may then stay in a register).
+    let mut rngs: [NoiseSource; K] = std::array::from_fn(|l| st[l].rng.clone());
+    kernel::dispatch(StaticTicks::<K, STATS> {
+        p: &p,
+        st: &mut s,
+        adc: cfg.map(|c| c.adc),
+        rngs: &mut rngs,
+        shared,
+        m,
+    });
+    for (l, rng) in rngs.into_iter().enumerate() {
+        st[l].rng = rng;
+    }
+    if shared {
+        share_streams(st, &[(0..K).collect()]);
+    }
+    let mut it = st.iter_mut();
+    s.store(std::array::from_fn(|_| &mut **it.next().expect("K lanes")));
+}
+
+/// `m` ticks of [`static_kernel`]'s lanes, as one call compiled for the CPU's SIMD
+/// instructions ([`kernel::dispatch`]).
+struct StaticTicks<'a, 'b, const K: usize, const STATS: bool> {
+    p: &'a StaticLanes<'b, K>,
+    st: &'a mut StaticState<K>,
+    adc: [Adc; K],
+    rngs: &'a mut [NoiseSource; K],
+    shared: bool,
+    m: u64,
+}
+
+impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, K, STATS> {
+    type Output = ();
+
+    #[allow(
+        clippy::inline_always,
+        reason = "compiled inside the dispatch's target features"
+    )]
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _: S) {
+        let mut bias = [0.0; K];
+        for _ in 0..self.m {
+            if self.shared {
+                bias = [self.adc[0].bias(&mut self.rngs[0]); K];
+            } else {
+                for (l, b) in bias.iter_mut().enumerate() {
+                    *b = self.adc[l].bias(&mut self.rngs[l]);
+                }
+            }
+            let _ = kernel::static_tick::<K, STATS>(self.p, self.st, &bias);
         }
     }
 }
 
+/// Ticks of [`dynamic_blocks`]' blocks (its buffers stay in the first-level cache).
+const DYN_BLOCK: usize = 128;
+
 /// `m` ticks of dynamic lanes, in blocks of [`DYN_BLOCK`] ticks, `k` lanes side by side
 /// through [`kernel::dynamic_tick`] (the single loop runs it with one lane), compiled for
 /// this CPU's SIMD instructions ([`kernel::dispatch`]); the rest of the lanes in the largest
-/// powers of two that fit. Before each block, lanes drawing the same noise draw it once, and
-/// lanes in step with the same condition and clock (parameter identification, Monte Carlo:
-/// one condition, many instruments or effects) compute the phasor and the condition's inputs
-/// of the block once (`ClosedLoop::dynamic_inputs`).
+/// powers of two that fit. The kernels' lanes are packed once; before each block, lanes
+/// drawing the same noise draw it once, and lanes in step with the same condition and clock
+/// (parameter identification, Monte Carlo: one condition, many instruments or effects)
+/// compute the phasor and the condition's inputs of the block once
+/// ([`LoopConfig::dynamic_inputs`]).
 #[inline(never)]
-fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64, k: usize) {
-    let mut rs: Vec<(&ClosedLoop, &mut (DynParams, DynRun))> = lanes
-        .iter_mut()
-        .map(|l| {
-            let lane = &mut **l;
-            match &mut lane.live {
-                Live::Dynamic(d) => (&*lane.lp, &mut **d),
-                _ => unreachable!("a dynamic lane"),
-            }
-        })
-        .collect();
-    let n = rs.len();
-    let noise = stream_classes(rs.iter().map(|(_, d)| (&d.1.rng, &d.0.adc)));
-    let inputs = input_classes(&rs);
+fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usize) {
+    let n = cfg.len();
+    let noise = stream_classes(cfg, st);
+    let inputs = input_classes(cfg, st);
     let mut noise_of = vec![0; n];
     for (c, class) in noise.iter().enumerate() {
         for &l in class {
@@ -686,97 +758,93 @@ fn dynamic_blocks(lanes: &mut [&mut Lane<'_>], m: u64, k: usize) {
             inputs_of[l] = c;
         }
     }
+    // The kernels' lanes, packed once for the whole run.
+    let mut packs = Vec::new();
+    let mut first = 0;
+    while first < n {
+        let s = chunk(n - first, k);
+        let (c, t) = (&cfg[first..first + s], &st[first..first + s]);
+        packs.push(match s {
+            16 => DynKernel::K16(Box::new(DynPack::new(c, t, first))),
+            8 => DynKernel::K8(Box::new(DynPack::new(c, t, first))),
+            4 => DynKernel::K4(Box::new(DynPack::new(c, t, first))),
+            2 => DynKernel::K2(Box::new(DynPack::new(c, t, first))),
+            _ => DynKernel::K1(Box::new(DynPack::new(c, t, first))),
+        });
+        first += s;
+    }
     let mut bias = vec![[0.0; DYN_BLOCK]; noise.len()];
     let mut given = vec![[TickInputs::default(); DYN_BLOCK]; inputs.len()];
-    let mut left = m;
-    while left > 0 {
+    let mut phasor: Vec<(f64, f64)> = inputs.iter().map(|c| st[c[0]].phasor).collect();
+    let mut done = 0;
+    while done < m {
         #[allow(clippy::cast_possible_truncation)]
-        let b = left.min(DYN_BLOCK as u64) as usize;
+        let b = (m - done).min(DYN_BLOCK as u64) as usize;
         for (class, buf) in noise.iter().zip(&mut bias) {
-            let (p, r) = &mut *rs[class[0]].1;
+            let (adc, rng) = (&cfg[class[0]].adc, &mut st[class[0]].rng);
             for v in &mut buf[..b] {
-                *v = p.adc.bias(&mut r.rng);
+                *v = adc.bias(rng);
             }
         }
-        for (class, buf) in inputs.iter().zip(&mut given) {
-            let (lp, d) = &rs[class[0]];
-            let (p, r) = &**d;
-            let mut sc = (r.s, r.c);
+        for ((class, buf), sc) in inputs.iter().zip(&mut given).zip(&mut phasor) {
+            let (c, k0) = (cfg[class[0]], st[class[0]].k + done);
             for (t, ti) in (0u64..).zip(&mut buf[..b]) {
-                *ti = lp.dynamic_inputs(p, r.k + t, r.j + t, &mut sc);
-            }
-            for &l in class {
-                let r = &mut rs[l].1.1;
-                (r.s, r.c) = sc;
-                r.j += b as u64;
+                *ti = c.dynamic_inputs(k0 + t, sc);
             }
         }
-        let mut rest = &mut rs[..];
-        let mut first = 0;
-        while !rest.is_empty() {
-            let s = if rest.len() >= k {
-                k
-            } else {
-                1 << rest.len().ilog2()
-            };
-            let (now, later) = rest.split_at_mut(s);
+        for pack in &mut packs {
             let block = Block {
                 bias: &bias,
                 given: &given,
-                noise_of: &noise_of[first..first + s],
-                inputs_of: &inputs_of[first..first + s],
+                noise_of: &noise_of,
+                inputs_of: &inputs_of,
                 b,
             };
-            match s {
-                16 => dynamic_kernel::<16>(now, &block),
-                8 => dynamic_kernel::<8>(now, &block),
-                4 => dynamic_kernel::<4>(now, &block),
-                2 => dynamic_kernel::<2>(now, &block),
-                _ => dynamic_kernel::<1>(now, &block),
+            match pack {
+                DynKernel::K16(p) => p.run(&block),
+                DynKernel::K8(p) => p.run(&block),
+                DynKernel::K4(p) => p.run(&block),
+                DynKernel::K2(p) => p.run(&block),
+                DynKernel::K1(p) => p.run(&block),
             }
-            first += s;
-            rest = later;
         }
-        left -= b as u64;
+        done += b as u64;
     }
-    for class in &noise {
-        let rng = rs[class[0]].1.1.rng.clone();
-        for &l in &class[1..] {
-            rs[l].1.1.rng = rng.clone();
+    for pack in &packs {
+        match pack {
+            DynKernel::K16(p) => p.store(st),
+            DynKernel::K8(p) => p.store(st),
+            DynKernel::K4(p) => p.store(st),
+            DynKernel::K2(p) => p.store(st),
+            DynKernel::K1(p) => p.store(st),
         }
     }
-}
-
-/// Ticks of [`dynamic_blocks`]' blocks (its buffers stay in the first-level cache).
-const DYN_BLOCK: usize = 128;
-
-/// One block of [`dynamic_blocks`] for a kernel's lanes: the ADC's additive terms of each
-/// noise class, the phasor and inputs of each input class, each lane's classes, the ticks.
-struct Block<'a> {
-    bias: &'a [[f64; DYN_BLOCK]],
-    given: &'a [[TickInputs; DYN_BLOCK]],
-    noise_of: &'a [usize],
-    inputs_of: &'a [usize],
-    b: usize,
+    share_streams(st, &noise);
+    for (class, sc) in inputs.iter().zip(phasor) {
+        for &l in class {
+            st[l].phasor = sc;
+            st[l].phasor_k = st[l].k;
+        }
+    }
 }
 
 /// The dynamic lanes that compute the same phasor and inputs: classes of lane indices, each
-/// lane with the same condition (bits), clock and phasor constants, tick counts and phasor
+/// lane with the same condition (bits), clock and phasor constants, tick index and phasor
 /// as the first of its class.
-fn input_classes(rs: &[(&ClosedLoop, &mut (DynParams, DynRun))]) -> Vec<Vec<usize>> {
-    let key = |(lp, d): &(&ClosedLoop, &mut (DynParams, DynRun))| {
-        let (p, r) = &**d;
-        let mut k: Vec<u64> = [p.t_s, p.w, p.sr, p.cr, r.s, r.c]
+fn input_classes(cfg: &[&LoopConfig], st: &[&mut LoopState]) -> Vec<Vec<usize>> {
+    let key = |c: &LoopConfig, s: &LoopState| {
+        debug_assert_eq!(s.phasor_k, s.k, "the phasor synced at the start of the run");
+        let mut key: Vec<u64> = [c.t_s, c.w, c.sr, c.cr, s.phasor.0, s.phasor.1]
             .iter()
             .map(|x| x.to_bits())
             .collect();
-        k.extend(lp.prep.key_bits());
-        k.extend([r.k, r.j]);
-        k
+        key.extend(c.prep.key_bits());
+        key.push(s.k);
+        key
     };
     let mut classes: Vec<(Vec<u64>, Vec<usize>)> = Vec::new();
-    for (l, lane) in rs.iter().enumerate() {
-        let k = key(lane);
+    for (l, (c, s)) in cfg.iter().zip(st).enumerate() {
+        let k = key(c, s);
         match classes.iter_mut().find(|(c, _)| *c == k) {
             Some(c) => c.1.push(l),
             None => classes.push((k, vec![l])),
@@ -785,37 +853,69 @@ fn input_classes(rs: &[(&ClosedLoop, &mut (DynParams, DynRun))]) -> Vec<Vec<usiz
     classes.into_iter().map(|c| c.1).collect()
 }
 
-/// One block of `K` dynamic lanes side by side: [`kernel::dynamic_tick`] with `K` lanes,
-/// compiled for this CPU's SIMD instructions ([`kernel::dispatch`]).
-#[inline(never)]
-fn dynamic_kernel<const K: usize>(
-    rs: &mut [(&ClosedLoop, &mut (DynParams, DynRun))],
-    block: &Block<'_>,
-) {
-    let (lps, runs): (Vec<&ClosedLoop>, Vec<&mut (DynParams, DynRun)>) =
-        rs.iter_mut().map(|(lp, d)| (*lp, &mut **d)).unzip();
-    let mut it = runs.into_iter();
-    let d: [&mut (DynParams, DynRun); K] = std::array::from_fn(|_| it.next().expect("K lanes"));
-    let ps: [DynParams; K] = std::array::from_fn(|l| d[l].0);
-    let p = DynLanes::new(
-        std::array::from_fn(|l| lps[l]),
-        std::array::from_fn(|l| &ps[l]),
-    );
-    let mut st = DynState::load(std::array::from_fn(|l| &d[l].1));
-    kernel::dispatch(DynTicks::<K> {
-        p: &p,
-        st: &mut st,
-        block,
-    });
-    st.store(d.map(|x| &mut x.1));
+/// One block of [`dynamic_blocks`]: the ADC's additive terms of each noise class, the
+/// phasor and inputs of each input class, each lane's classes, the ticks.
+struct Block<'a> {
+    bias: &'a [[f64; DYN_BLOCK]],
+    given: &'a [[TickInputs; DYN_BLOCK]],
+    noise_of: &'a [usize],
+    inputs_of: &'a [usize],
+    b: usize,
 }
 
-/// A block of [`dynamic_kernel`]'s lanes, as one call compiled for the CPU's SIMD
+/// A kernel of [`dynamic_blocks`] by its lane count.
+enum DynKernel<'a> {
+    K16(Box<DynPack<'a, 16>>),
+    K8(Box<DynPack<'a, 8>>),
+    K4(Box<DynPack<'a, 4>>),
+    K2(Box<DynPack<'a, 2>>),
+    K1(Box<DynPack<'a, 1>>),
+}
+
+/// `K` dynamic lanes packed for [`kernel::dynamic_tick`]: their constants and state, and
+/// the index of the first in the call's lanes.
+struct DynPack<'a, const K: usize> {
+    p: DynLanes<'a, K>,
+    st: DynState<K>,
+    first: usize,
+}
+
+impl<'a, const K: usize> DynPack<'a, K> {
+    fn new(cfg: &[&'a LoopConfig], st: &[&mut LoopState], first: usize) -> Self {
+        Self {
+            p: DynLanes::new(std::array::from_fn(|l| cfg[l])),
+            st: DynState::load(std::array::from_fn(|l| &*st[l])),
+            first,
+        }
+    }
+
+    /// One block of ticks, compiled for this CPU's SIMD instructions
+    /// ([`kernel::dispatch`]).
+    #[inline(never)]
+    fn run(&mut self, block: &Block<'_>) {
+        kernel::dispatch(DynTicks::<K> {
+            p: &self.p,
+            st: &mut self.st,
+            block,
+            first: self.first,
+        });
+    }
+
+    /// The lanes' state back into theirs (`st` is the call's lanes).
+    fn store(&self, st: &mut [&mut LoopState]) {
+        let mut it = st[self.first..self.first + K].iter_mut();
+        self.st
+            .store(std::array::from_fn(|_| &mut **it.next().expect("K lanes")));
+    }
+}
+
+/// A block of a [`DynPack`]'s lanes, as one call compiled for the CPU's SIMD
 /// instructions ([`kernel::dispatch`]).
 struct DynTicks<'a, 'b, 'c, const K: usize> {
     p: &'a DynLanes<'b, K>,
     st: &'a mut DynState<K>,
     block: &'a Block<'c>,
+    first: usize,
 }
 
 impl<const K: usize> pulp::WithSimd for DynTicks<'_, '_, '_, K> {
@@ -834,144 +934,16 @@ impl<const K: usize> pulp::WithSimd for DynTicks<'_, '_, '_, K> {
             inputs_of,
             b,
         } = *self.block;
-        let noise: [&[f64; DYN_BLOCK]; K] = std::array::from_fn(|l| &bias[noise_of[l]]);
-        let inputs: [&[TickInputs; DYN_BLOCK]; K] = std::array::from_fn(|l| &given[inputs_of[l]]);
+        let f = self.first;
+        let noise: [&[f64; DYN_BLOCK]; K] = std::array::from_fn(|l| &bias[noise_of[f + l]]);
+        let inputs: [&[TickInputs; DYN_BLOCK]; K] =
+            std::array::from_fn(|l| &given[inputs_of[f + l]]);
         for t in 0..b {
             let v: [f64; K] = std::array::from_fn(|l| noise[l][t]);
             let ti: [&TickInputs; K] = std::array::from_fn(|l| &inputs[l][t]);
             let _ = kernel::dynamic_tick::<K>(self.p, self.st, &v, &ti);
         }
     }
-}
-
-/// One block of a static lane without statistics: `ClosedLoop::run_static_fast`'s loop,
-/// with its locals.
-#[inline(never)]
-fn lane_block_fast(r: &mut StaticRunState, bias: &[f64]) {
-    let ptsa = r.p.ptsa;
-    let plant = r.p.plant;
-    let add = r.p.add;
-    let adc = r.p.adc;
-    let mut core = r.core;
-    let mut x = r.x;
-    let mut stop = r.acc.stop;
-    let mut positive = r.ui == 0;
-    fast_block(
-        &ptsa,
-        &plant,
-        &add,
-        &adc,
-        bias,
-        &mut core,
-        &mut x,
-        &mut positive,
-        &mut stop,
-    );
-    r.ui = usize::from(!positive);
-    r.core = core;
-    r.x = x;
-    r.acc.stop = stop;
-}
-
-/// One block of a static lane with statistics: `ClosedLoop::run`'s static loop (the tick of
-/// [`kernel::static_tick`] with one lane).
-#[inline(never)]
-fn lane_block_stats(r: &mut StaticRunState, bias: &[f64]) {
-    let p = r.p;
-    let lane = StaticLanes::one_of(&p);
-    let mut st = StaticState::load([&*r]);
-    for &v in bias {
-        let _ = kernel::static_tick::<1, true>(&lane, &mut st, &[v]);
-    }
-    st.store([r]);
-}
-
-/// `m` ticks of `K` static lanes side by side: [`kernel::static_tick`] with `K` lanes, the
-/// same definition the single loop runs with one, compiled for this CPU's SIMD instructions
-/// ([`kernel::dispatch`]); the lanes share the core's configuration (see [`run_mode`]).
-/// Lanes in step with the same noise generator and the same ADC draw the same additive
-/// terms: they are drawn once (the usual batch: one instrument, one seed).
-#[inline(never)]
-fn static_kernel<const K: usize, const STATS: bool>(lanes: &mut [&mut Lane<'_>], m: u64) {
-    let mut it = lanes.iter_mut();
-    let mut rs: [&mut StaticRunState; K] =
-        std::array::from_fn(|_| match &mut it.next().expect("K lanes").live {
-            Live::Static(r) => &mut **r,
-            _ => unreachable!("a static lane"),
-        });
-    let ps: [StaticParams; K] = std::array::from_fn(|l| rs[l].p);
-    let p = StaticLanes::new(
-        ps[0].ptsa,
-        std::array::from_fn(|l| &ps[l].plant),
-        std::array::from_fn(|l| &ps[l].add),
-        std::array::from_fn(|l| &ps[l].adc),
-    );
-    let mut st = StaticState::load(std::array::from_fn(|l| &*rs[l]));
-    let shared = rs
-        .iter()
-        .all(|r| r.rng.same_stream(&rs[0].rng) && adc_bits(&r.p.adc) == adc_bits(&rs[0].p.adc));
-    let mut rngs: Vec<&mut NoiseSource> = rs.iter_mut().map(|r| &mut r.rng).collect();
-    kernel::dispatch(StaticTicks::<K, STATS> {
-        p: &p,
-        st: &mut st,
-        adc: std::array::from_fn(|l| &ps[l].adc),
-        rngs: &mut rngs,
-        shared,
-        m,
-    });
-    drop(rngs);
-    if shared {
-        let rng = rs[0].rng.clone();
-        for r in &mut rs[1..] {
-            r.rng = rng.clone();
-        }
-    }
-    st.store(rs);
-}
-
-/// `m` ticks of [`static_kernel`]'s lanes, as one call compiled for the CPU's SIMD
-/// instructions ([`kernel::dispatch`]).
-struct StaticTicks<'a, 'b, 'c, const K: usize, const STATS: bool> {
-    p: &'a StaticLanes<'b, K>,
-    st: &'a mut StaticState<K>,
-    adc: [&'a Adc; K],
-    rngs: &'a mut [&'c mut NoiseSource],
-    shared: bool,
-    m: u64,
-}
-
-impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, '_, K, STATS> {
-    type Output = ();
-
-    #[allow(
-        clippy::inline_always,
-        reason = "compiled inside the dispatch's target features"
-    )]
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _: S) {
-        let mut bias = [0.0; K];
-        for _ in 0..self.m {
-            if self.shared {
-                bias = [self.adc[0].bias(self.rngs[0]); K];
-            } else {
-                for (l, b) in bias.iter_mut().enumerate() {
-                    *b = self.adc[l].bias(self.rngs[l]);
-                }
-            }
-            let _ = kernel::static_tick::<K, STATS>(self.p, self.st, &bias);
-        }
-    }
-}
-
-/// The ADC's constants as bits (to compare them exactly). The destructuring names every
-/// field, so one added to [`Adc`] does not compile here until it is part of the key.
-fn adc_bits(a: &Adc) -> [u64; 3] {
-    let Adc {
-        gain,
-        offset,
-        noise,
-    } = a;
-    [gain.to_bits(), offset.to_bits(), noise.to_bits()]
 }
 
 #[cfg(test)]
@@ -1017,15 +989,19 @@ mod tests {
         assert_eq!(a.core(), b.core(), "{what}: core state");
         assert_eq!(a.totals().bits(), b.totals().bits(), "{what}: totals");
         assert_eq!(a.ticks(), b.ticks(), "{what}: ticks");
-        assert_eq!(a.u.to_bits(), b.u.to_bits(), "{what}: applied command");
         assert_eq!(
-            a.rng.clone().normal().to_bits(),
-            b.rng.clone().normal().to_bits(),
+            a.st.u.to_bits(),
+            b.st.u.to_bits(),
+            "{what}: applied command"
+        );
+        assert_eq!(
+            a.st.rng.clone().normal().to_bits(),
+            b.st.rng.clone().normal().to_bits(),
             "{what}: noise"
         );
         assert_eq!(
-            (a.reversals, a.prev_pol),
-            (b.reversals, b.prev_pol),
+            (a.st.reversals, a.st.prev_positive),
+            (b.st.reversals, b.st.prev_positive),
             "{what}: reversals"
         );
     }

@@ -1,131 +1,128 @@
-//! The closed loop's tick of a static condition, once, for `L` loops side by side.
+//! The closed loop's tick, once, for `L` loops side by side: [`static_tick`] for a static
+//! condition, [`dynamic_tick`] for a dynamic one.
 //!
 //! [`static_tick`] is the whole tick (the ADC's code of the demodulated pickoff, the core's
 //! decision through [`ptsa_core::Ptsa::tick_lanes`], the plant's exact step with the applied
 //! polarity, a tick on a stop, the per-tick statistics) over `L` lanes in structure of
-//! arrays. The single loop runs it with one lane (`ClosedLoop::run`'s static path); the batch
-//! engine with 8 (`batch`), inside [`dispatch`], so that the compiler may put 4 or 8 lanes
-//! in one SIMD instruction on the CPU it runs on. Every step is a loop over the lanes with the
+//! arrays. A kernel's lanes are `L` loops' configurations (`[&LoopConfig; L]`, packed once
+//! into [`StaticLanes`] or [`DynLanes`]) and states (`[&mut LoopState; L]`, loaded into
+//! [`StaticState`] or [`DynState`] for a run and stored back at its end). The single loop runs
+//! it with one lane (`ClosedLoop::run`'s static path); the batch engine with 4 by default
+//! (`batch`), inside [`dispatch`], so that the compiler may put 4 or 8 lanes in one SIMD
+//! instruction on the CPU it runs on. Every step is a loop over the lanes with the
 //! same operations in the same order for every `L` (no fused multiply-add: Rust never
 //! contracts `a·b + c`), so a lane's result does not depend on `L` or on the CPU: bit for bit
 //! the single loop's.
 
 use ptsa_core::{LaneTicks, Lanes, Ptsa};
 
+use super::config::{Adc, LoopConfig, TickInputs, torque_of_inputs};
+use super::state::LoopState;
 use crate::model::condition::{IA, OA, PA};
-use crate::model::plant::{NX, Plant, ZohLanes};
-use crate::simulation::sim::{
-    Acc, Adc, ClosedLoop, DynParams, DynRun, StaticParams, StaticRunState, TickInputs,
-    torque_of_inputs,
-};
+use crate::model::plant::{NX, ZohLanes};
 
 /// Run `f` with the SIMD instruction sets of this CPU enabled for everything inlined into
 /// it (runtime detection by `pulp`: AVX2 where present, the baseline SSE2 otherwise). `f`'s
 /// `with_simd` and the functions on the tick path are `#[inline(always)]` so that they are
 /// compiled inside.
 #[inline]
-pub(crate) fn dispatch<F: pulp::WithSimd>(f: F) -> F::Output {
+pub(super) fn dispatch<F: pulp::WithSimd>(f: F) -> F::Output {
     pulp::Arch::new().dispatch(f)
 }
 
-/// The constants of a static condition's tick for `L` lanes (one instrument, condition and
-/// ADC per lane; one core configuration for all of them).
+/// The constants of a static condition's tick for `L` lanes (one loop configuration per
+/// lane; one core configuration for all of them), packed as structure of arrays.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct StaticLanes<'a, const L: usize> {
+pub(super) struct StaticLanes<'a, const L: usize> {
     /// The core's configuration, shared.
-    pub(crate) ptsa: Ptsa,
+    ptsa: Ptsa,
     /// The free region's transition of each lane.
-    pub(crate) free: ZohLanes<L>,
+    free: ZohLanes<L>,
     /// The free region's plant input of each lane with the positive polarity applied, and
     /// the bits that flip it to the negative one (so that the polarity selects it without a
     /// branch).
-    pub(crate) add_pos: [[f64; L]; NX],
-    pub(crate) add_flip: [[u64; L]; NX],
+    add_pos: [[f64; L]; NX],
+    add_flip: [[u64; L]; NX],
     /// Stop angle of each lane, rad.
-    pub(crate) theta_stop: [f64; L],
+    theta_stop: [f64; L],
     /// ADC gain of each lane, codes per rad.
-    pub(crate) gain: [f64; L],
-    /// Each lane's plant and plant inputs by region and polarity (`add[region][polarity]`,
-    /// polarity 0 = positive): the stops, a rare and cold path.
-    pub(crate) plant: [&'a Plant; L],
-    pub(crate) add: [&'a [[[f64; NX]; 2]; 3]; L],
+    gain: [f64; L],
+    /// Each lane's configuration: its plant and plant inputs by region and polarity for
+    /// the stops, a rare and cold path.
+    cfg: [&'a LoopConfig; L],
 }
 
 impl<'a, const L: usize> StaticLanes<'a, L> {
-    /// The constants of lane `l` from its plant, plant inputs and ADC.
+    /// The constants of `L` static loops, lane `l` of `cfg[l]` (all with the core
+    /// configuration of `cfg[0]`).
     #[allow(clippy::needless_range_loop)]
-    pub(crate) fn new(
-        ptsa: Ptsa,
-        plant: [&'a Plant; L],
-        add: [&'a [[[f64; NX]; 2]; 3]; L],
-        adc: [&Adc; L],
-    ) -> Self {
+    pub(super) fn new(cfg: [&'a LoopConfig; L]) -> Self {
+        debug_assert!(cfg.iter().all(|c| c.ptsa == cfg[0].ptsa));
         let mut add_pos = [[0.0; L]; NX];
         let mut add_flip = [[0u64; L]; NX];
         for l in 0..L {
             for j in 0..NX {
-                add_pos[j][l] = add[l][0][0][j];
-                add_flip[j][l] = add[l][0][0][j].to_bits() ^ add[l][0][1][j].to_bits();
+                add_pos[j][l] = cfg[l].add[0][0][j];
+                add_flip[j][l] = cfg[l].add[0][0][j].to_bits() ^ cfg[l].add[0][1][j].to_bits();
             }
         }
         Self {
-            ptsa,
-            free: ZohLanes::new(std::array::from_fn(|l| &plant[l].zoh[0])),
+            ptsa: cfg[0].ptsa,
+            free: ZohLanes::new(std::array::from_fn(|l| &cfg[l].plant.zoh[0])),
             add_pos,
             add_flip,
-            theta_stop: std::array::from_fn(|l| plant[l].theta_stop),
-            gain: std::array::from_fn(|l| adc[l].gain),
-            plant,
-            add,
+            theta_stop: std::array::from_fn(|l| cfg[l].plant.theta_stop),
+            gain: std::array::from_fn(|l| cfg[l].adc.gain),
+            cfg,
         }
     }
 }
 
-/// The per-tick statistics of `L` lanes ([`Acc`]'s fields, structure of arrays): ticks,
-/// applied-command sum, `Σθ²` (rad²) and `max |θ|` (rad), limit cycles and those with two
-/// reversals, ticks on a stop, reversals in the current cycle, the last decided polarity.
+/// The per-tick statistics of `L` lanes (the loop state's [`Totals`](super::state::Totals)
+/// that a tick changes, structure of arrays): ticks, applied-command sum, `Σθ²` (rad²) and
+/// `max |θ|` (rad), limit cycles and those with two reversals, ticks on a stop, reversals in
+/// the current cycle, the last decided polarity.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct AccLanes<const L: usize> {
+struct AccLanes<const L: usize> {
     ticks: [u64; L],
     sum_u: [i64; L],
     sum_theta2: [f64; L],
     max_theta: [f64; L],
     cycles: [u64; L],
     cycles_two: [u64; L],
-    pub(crate) stop: [u64; L],
+    stop: [u64; L],
     rev: [u32; L],
     prev_positive: [bool; L],
 }
 
 impl<const L: usize> AccLanes<L> {
-    /// The statistics of `L` runs, lane `l` from `acc[l]`.
-    pub(crate) fn load(acc: [&Acc; L]) -> Self {
+    /// The statistics of `L` loops, lane `l` from `st[l]`.
+    fn load(st: [&LoopState; L]) -> Self {
         Self {
-            ticks: acc.map(|a| a.ticks),
-            sum_u: acc.map(|a| a.sum_u),
-            sum_theta2: acc.map(|a| a.sum_theta2),
-            max_theta: acc.map(|a| a.max_theta),
-            cycles: acc.map(|a| a.cycles),
-            cycles_two: acc.map(|a| a.cycles_two),
-            stop: acc.map(|a| a.stop),
-            rev: acc.map(|a| a.rev),
-            prev_positive: acc.map(|a| a.prev_positive),
+            ticks: st.map(|s| s.totals.ticks),
+            sum_u: st.map(|s| s.totals.sum_u),
+            sum_theta2: st.map(|s| s.totals.sum_theta2),
+            max_theta: st.map(|s| s.totals.max_theta),
+            cycles: st.map(|s| s.totals.cycles),
+            cycles_two: st.map(|s| s.totals.cycles_two),
+            stop: st.map(|s| s.totals.stop_ticks),
+            rev: st.map(|s| s.reversals),
+            prev_positive: st.map(|s| s.prev_positive),
         }
     }
 
-    /// Lane `l`'s statistics.
-    pub(crate) fn get(&self, l: usize) -> Acc {
-        Acc {
-            ticks: self.ticks[l],
-            sum_u: self.sum_u[l],
-            sum_theta2: self.sum_theta2[l],
-            max_theta: self.max_theta[l],
-            cycles: self.cycles[l],
-            cycles_two: self.cycles_two[l],
-            stop: self.stop[l],
-            rev: self.rev[l],
-            prev_positive: self.prev_positive[l],
-        }
+    /// Lane `l` back into `st`.
+    fn store(&self, l: usize, st: &mut LoopState) {
+        let t = &mut st.totals;
+        t.ticks = self.ticks[l];
+        t.sum_u = self.sum_u[l];
+        t.sum_theta2 = self.sum_theta2[l];
+        t.max_theta = self.max_theta[l];
+        t.cycles = self.cycles[l];
+        t.cycles_two = self.cycles_two[l];
+        t.stop_ticks = self.stop[l];
+        st.reversals = self.rev[l];
+        st.prev_positive = self.prev_positive[l];
     }
 
     /// One tick of every lane: the applied polarity (`applied_positive`), the decided one,
@@ -133,7 +130,7 @@ impl<const L: usize> AccLanes<L> {
     /// statistics' one definition, branch-free so that the lanes share SIMD instructions.
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
-    pub(crate) fn tick(
+    fn tick(
         &mut self,
         applied_positive: &[bool; L],
         positive: &[bool; L],
@@ -158,17 +155,17 @@ impl<const L: usize> AccLanes<L> {
 /// What a static tick changes in `L` lanes: the plant state `x[j][lane]`, the cores, the
 /// applied polarity (all ones where negative) and the statistics.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct StaticState<const L: usize> {
-    pub(crate) x: [[f64; L]; NX],
-    pub(crate) core: Lanes<L>,
-    pub(crate) neg: [u64; L],
-    pub(crate) acc: AccLanes<L>,
+pub(super) struct StaticState<const L: usize> {
+    x: [[f64; L]; NX],
+    core: Lanes<L>,
+    neg: [u64; L],
+    acc: AccLanes<L>,
 }
 
 /// The mask of `neg` for an applied polarity: all ones where negative.
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
-pub(crate) fn neg_mask(negative: bool) -> u64 {
+fn neg_mask(negative: bool) -> u64 {
     u64::from(negative).wrapping_neg()
 }
 
@@ -188,7 +185,7 @@ fn free(theta: f64, theta_stop: f64) -> bool {
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 #[allow(clippy::needless_range_loop)]
-pub(crate) fn static_tick<const L: usize, const STATS: bool>(
+pub(super) fn static_tick<const L: usize, const STATS: bool>(
     p: &StaticLanes<'_, L>,
     s: &mut StaticState<L>,
     bias: &[f64; L],
@@ -213,8 +210,9 @@ pub(crate) fn static_tick<const L: usize, const STATS: bool>(
         for l in 0..L {
             if !free(s.x[0][l], p.theta_stop[l]) {
                 let xl = [s.x[0][l], s.x[1][l], s.x[2][l], s.x[3][l]];
-                let r = p.plant[l].region(xl[0]);
-                let yl = p.plant[l].zoh[r].step(&xl, &p.add[l][r][usize::from(s.neg[l] != 0)]);
+                let plant = &p.cfg[l].plant;
+                let r = plant.region(xl[0]);
+                let yl = plant.zoh[r].step(&xl, &p.cfg[l].add[r][usize::from(s.neg[l] != 0)]);
                 for j in 0..NX {
                     y[j][l] = yl[j];
                 }
@@ -234,119 +232,121 @@ pub(crate) fn static_tick<const L: usize, const STATS: bool>(
 }
 
 impl<const L: usize> StaticState<L> {
-    /// The state of `L` static runs in progress, lane `l` from `runs[l]`.
+    /// The state of `L` static loops, lane `l` from `st[l]`.
     #[allow(clippy::needless_range_loop)]
-    pub(crate) fn load(runs: [&StaticRunState; L]) -> Self {
+    pub(super) fn load(st: [&LoopState; L]) -> Self {
         let mut x = [[0.0; L]; NX];
         for l in 0..L {
             for j in 0..NX {
-                x[j][l] = runs[l].x[j];
+                x[j][l] = st[l].x[j];
             }
         }
         Self {
             x,
-            core: Lanes::new(&std::array::from_fn(|l| runs[l].core)),
-            neg: std::array::from_fn(|l| neg_mask(runs[l].ui != 0)),
-            acc: AccLanes::load(std::array::from_fn(|l| &runs[l].acc)),
+            core: Lanes::new(&st.map(|s| s.core)),
+            neg: st.map(|s| neg_mask(s.u < 0.0)),
+            acc: AccLanes::load(st),
         }
     }
 
-    /// Lane `l` back into `runs[l]`.
+    /// Lane `l`'s plant state.
+    pub(super) fn lane_x(&self, l: usize) -> [f64; NX] {
+        [self.x[0][l], self.x[1][l], self.x[2][l], self.x[3][l]]
+    }
+
+    /// Lane `l`'s applied command, ±1.
+    pub(super) fn u(&self, l: usize) -> f64 {
+        if self.neg[l] == 0 { 1.0 } else { -1.0 }
+    }
+
+    /// Lane `l` back into `st[l]` (all but the noise generator, which the caller draws
+    /// from, and the tick index, which [`LoopState::end_run`] advances).
     #[allow(clippy::needless_range_loop)]
-    pub(crate) fn store(&self, runs: [&mut StaticRunState; L]) {
-        for (l, r) in runs.into_iter().enumerate() {
+    pub(super) fn store(&self, st: [&mut LoopState; L]) {
+        for (l, s) in st.into_iter().enumerate() {
             for j in 0..NX {
-                r.x[j] = self.x[j][l];
+                s.x[j] = self.x[j][l];
             }
-            r.core = self.core.get(l);
-            r.ui = usize::from(self.neg[l] != 0);
-            r.acc = self.acc.get(l);
+            s.core = self.core.get(l);
+            s.u = self.u(l);
+            self.acc.store(l, s);
         }
     }
 }
 
-impl<'a> StaticLanes<'a, 1> {
-    /// The constants of one static run.
-    pub(crate) fn one_of(p: &'a StaticParams) -> Self {
-        Self::new(p.ptsa, [&p.plant], [&p.add], [&p.adc])
-    }
-}
-
-/// The constants of a dynamic condition's tick for `L` lanes (one loop per lane, with its
-/// instrument, condition, effects and ADC; one core configuration for all of them).
+/// The constants of a dynamic condition's tick for `L` lanes (one loop configuration per
+/// lane; one core configuration for all of them), packed as structure of arrays.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct DynLanes<'a, const L: usize> {
+pub(super) struct DynLanes<'a, const L: usize> {
     /// The core's configuration, shared.
-    pub(crate) ptsa: Ptsa,
+    ptsa: Ptsa,
     /// The free region's transition of each lane, and its responses to the command and to
     /// the disturbance torque.
-    pub(crate) free: ZohLanes<L>,
-    pub(crate) gu: [[f64; L]; NX],
-    pub(crate) gd: [[f64; L]; NX],
+    free: ZohLanes<L>,
+    gu: [[f64; L]; NX],
+    gd: [[f64; L]; NX],
     /// The free region's constant torque of each lane (0), dyn·cm.
-    pub(crate) stop0: [f64; L],
+    stop0: [f64; L],
     /// Stop angle of each lane, rad.
-    pub(crate) theta_stop: [f64; L],
+    theta_stop: [f64; L],
     /// ADC gain of each lane, codes per rad.
-    pub(crate) gain: [f64; L],
+    gain: [f64; L],
     /// Pendulosity (g·cm), anisoinertia (g·cm²), and the `a_PA` (cm/s²) and `W_IA² − W_PA²`
     /// (rad²/s²) folded into each lane's `K_eff`.
-    pub(crate) pendulosity: [f64; L],
-    pub(crate) anisoinertia: [f64; L],
-    /// Bias (cm/s²) and inertia (dyn·cm·s²) of each lane (see `sim::torque_of_inputs`),
+    pendulosity: [f64; L],
+    anisoinertia: [f64; L],
+    /// Bias (cm/s²) and inertia (dyn·cm·s²) of each lane (see `config::torque_of_inputs`),
     /// whether it has effect terms (the others add the empty sum, `empty`), whether any has.
-    pub(crate) bias: [f64; L],
-    pub(crate) inertia: [f64; L],
-    pub(crate) effects: [bool; L],
-    pub(crate) any_effects: bool,
-    pub(crate) empty: f64,
-    pub(crate) a_pa0: [f64; L],
-    pub(crate) wq0: [f64; L],
-    /// Each lane's loop and tick constants: the static torque of the inputs, the stops, the
-    /// added physics and the harmonic sums (rare or per-lane paths).
-    pub(crate) lp: [&'a ClosedLoop; L],
-    pub(crate) dp: [&'a DynParams; L],
+    bias: [f64; L],
+    inertia: [f64; L],
+    effects: [bool; L],
+    any_effects: bool,
+    empty: f64,
+    a_pa0: [f64; L],
+    wq0: [f64; L],
+    /// Each lane's configuration: the effect terms, the stops, the added physics and the
+    /// harmonic sums (rare or per-lane paths).
+    cfg: [&'a LoopConfig; L],
     /// Some lane has physics added from outside the vocabulary; some lane sums a harmonic.
-    pub(crate) physics: bool,
-    pub(crate) harmonic: bool,
+    physics: bool,
+    harmonic: bool,
 }
 
 impl<'a, const L: usize> DynLanes<'a, L> {
-    /// The constants of lane `l` from its loop `lp[l]` and tick constants `dp[l]` (all with
-    /// the core configuration of `dp[0]`).
+    /// The constants of `L` dynamic loops, lane `l` of `cfg[l]` (all with the core
+    /// configuration of `cfg[0]`).
     #[allow(clippy::needless_range_loop)]
-    pub(crate) fn new(lp: [&'a ClosedLoop; L], dp: [&'a DynParams; L]) -> Self {
-        debug_assert!(dp.iter().all(|p| p.ptsa == dp[0].ptsa));
+    pub(super) fn new(cfg: [&'a LoopConfig; L]) -> Self {
+        debug_assert!(cfg.iter().all(|c| c.ptsa == cfg[0].ptsa));
         let mut gu = [[0.0; L]; NX];
         let mut gd = [[0.0; L]; NX];
         for l in 0..L {
-            let z = &lp[l].plant.zoh[0];
+            let z = &cfg[l].plant.zoh[0];
             for j in 0..NX {
                 gu[j][l] = z.gu[j];
                 gd[j][l] = z.gd[j];
             }
         }
         Self {
-            ptsa: dp[0].ptsa,
-            free: ZohLanes::new(std::array::from_fn(|l| &lp[l].plant.zoh[0])),
+            ptsa: cfg[0].ptsa,
+            free: ZohLanes::new(std::array::from_fn(|l| &cfg[l].plant.zoh[0])),
             gu,
             gd,
-            stop0: std::array::from_fn(|l| lp[l].plant.stop_torque[0]),
-            theta_stop: std::array::from_fn(|l| lp[l].plant.theta_stop),
-            gain: std::array::from_fn(|l| dp[l].adc.gain),
-            pendulosity: std::array::from_fn(|l| dp[l].p),
-            anisoinertia: std::array::from_fn(|l| dp[l].di),
-            bias: std::array::from_fn(|l| lp[l].instr.bias_cm_s2),
-            inertia: std::array::from_fn(|l| lp[l].instr.inertia_dyn_cm_s2),
-            any_effects: lp.iter().any(|l| !l.effect_terms.is_empty()),
-            effects: std::array::from_fn(|l| !lp[l].effect_terms.is_empty()),
+            stop0: cfg.map(|c| c.plant.stop_torque[0]),
+            theta_stop: cfg.map(|c| c.plant.theta_stop),
+            gain: cfg.map(|c| c.adc.gain),
+            pendulosity: cfg.map(|c| c.p),
+            anisoinertia: cfg.map(|c| c.instr.anisoinertia_g_cm2),
+            bias: cfg.map(|c| c.instr.bias_cm_s2),
+            inertia: cfg.map(|c| c.instr.inertia_dyn_cm_s2),
+            any_effects: cfg.iter().any(|c| !c.effect_terms.is_empty()),
+            effects: cfg.map(|c| !c.effect_terms.is_empty()),
             empty: std::iter::empty::<f64>().sum(),
-            a_pa0: std::array::from_fn(|l| lp[l].a_pa0),
-            wq0: std::array::from_fn(|l| lp[l].wq0),
-            physics: lp.iter().any(|l| l.physics.is_some()),
-            harmonic: dp.iter().any(|p| p.harmonic != 0),
-            lp,
-            dp,
+            a_pa0: cfg.map(|c| c.a_pa0),
+            wq0: cfg.map(|c| c.wq0),
+            physics: cfg.iter().any(|c| c.physics.is_some()),
+            harmonic: cfg.iter().any(|c| c.harmonic != 0),
+            cfg,
         }
     }
 }
@@ -354,58 +354,68 @@ impl<'a, const L: usize> DynLanes<'a, L> {
 /// What a dynamic tick changes in `L` lanes: the plant state `x[j][lane]`, the cores, the
 /// applied command (±1), the statistics, the harmonic sums and the absolute tick index.
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct DynState<const L: usize> {
-    pub(crate) x: [[f64; L]; NX],
-    pub(crate) core: Lanes<L>,
-    pub(crate) u: [f64; L],
-    pub(crate) acc: AccLanes<L>,
-    pub(crate) harm: [[f64; 2]; L],
-    pub(crate) harm_q: [[f64; 2]; L],
-    pub(crate) k: [u64; L],
+pub(super) struct DynState<const L: usize> {
+    x: [[f64; L]; NX],
+    core: Lanes<L>,
+    u: [f64; L],
+    acc: AccLanes<L>,
+    harm: [[f64; 2]; L],
+    harm_q: [[f64; 2]; L],
+    k: [u64; L],
 }
 
 impl<const L: usize> DynState<L> {
-    /// The state of `L` dynamic runs in progress, lane `l` from `runs[l]`.
+    /// The state of `L` dynamic loops, lane `l` from `st[l]`.
     #[allow(clippy::needless_range_loop)]
-    pub(crate) fn load(runs: [&DynRun; L]) -> Self {
+    pub(super) fn load(st: [&LoopState; L]) -> Self {
         let mut x = [[0.0; L]; NX];
         for l in 0..L {
             for j in 0..NX {
-                x[j][l] = runs[l].x[j];
+                x[j][l] = st[l].x[j];
             }
         }
         Self {
             x,
-            core: Lanes::new(&std::array::from_fn(|l| runs[l].core)),
-            u: std::array::from_fn(|l| runs[l].u),
-            acc: AccLanes::load(std::array::from_fn(|l| &runs[l].acc)),
-            harm: std::array::from_fn(|l| runs[l].harm),
-            harm_q: std::array::from_fn(|l| runs[l].harm_q),
-            k: std::array::from_fn(|l| runs[l].k),
+            core: Lanes::new(&st.map(|s| s.core)),
+            u: st.map(|s| s.u),
+            acc: AccLanes::load(st),
+            harm: st.map(|s| s.totals.harm),
+            harm_q: st.map(|s| s.totals.harm_q),
+            k: st.map(|s| s.k),
         }
     }
 
-    /// Lane `l` back into `runs[l]` (all but the noise generator and the phasor, which the
-    /// caller keeps).
+    /// Lane `l` back into `st[l]` (all but the noise generator and the phasor, which the
+    /// caller draws from and advances).
     #[allow(clippy::needless_range_loop)]
-    pub(crate) fn store(&self, runs: [&mut DynRun; L]) {
-        for (l, r) in runs.into_iter().enumerate() {
+    pub(super) fn store(&self, st: [&mut LoopState; L]) {
+        for (l, s) in st.into_iter().enumerate() {
             for j in 0..NX {
-                r.x[j] = self.x[j][l];
+                s.x[j] = self.x[j][l];
             }
-            r.core = self.core.get(l);
-            r.u = self.u[l];
-            r.acc = self.acc.get(l);
-            r.harm = self.harm[l];
-            r.harm_q = self.harm_q[l];
-            r.k = self.k[l];
+            s.core = self.core.get(l);
+            s.u = self.u[l];
+            self.acc.store(l, s);
+            s.totals.harm = self.harm[l];
+            s.totals.harm_q = self.harm_q[l];
+            s.k = self.k[l];
         }
+    }
+
+    /// Lane `l`'s applied command, ±1.
+    pub(super) fn u(&self, l: usize) -> f64 {
+        self.u[l]
+    }
+
+    /// Lane `l`'s tick index.
+    pub(super) fn k(&self, l: usize) -> u64 {
+        self.k[l]
     }
 
     /// Lane `l`'s plant state.
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
-    pub(crate) fn lane_x(&self, l: usize) -> [f64; NX] {
+    pub(super) fn lane_x(&self, l: usize) -> [f64; NX] {
         [self.x[0][l], self.x[1][l], self.x[2][l], self.x[3][l]]
     }
 }
@@ -413,7 +423,7 @@ impl<const L: usize> DynState<L> {
 /// One tick of `L` lanes of dynamic conditions (or static ones with a harmonic requested):
 /// sample each lane's pickoff with the ADC's additive term `bias[l]` (see [`Adc::bias`]), let
 /// the cores decide, form each lane's disturbance torque from its inputs at mid-tick `ti[l]`
-/// (the phasor and the condition's inputs, `ClosedLoop::dynamic_inputs`: the static torque
+/// (the phasor and the condition's inputs, `LoopConfig::dynamic_inputs`: the static torque
 /// of the inputs, the θ-dependent part of `a_PA` and of `W_IA² − W_PA²` beyond what `K_eff`
 /// holds, the stop torque, added physics), step the plants with the applied commands, sum
 /// the requested harmonic and the statistics; the decided polarities become the applied
@@ -421,7 +431,7 @@ impl<const L: usize> DynState<L> {
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 #[allow(clippy::needless_range_loop)]
-pub(crate) fn dynamic_tick<const L: usize>(
+pub(super) fn dynamic_tick<const L: usize>(
     p: &DynLanes<'_, L>,
     s: &mut DynState<L>,
     bias: &[f64; L],
@@ -441,9 +451,9 @@ pub(crate) fn dynamic_tick<const L: usize>(
     let mut extra = [0.0; L];
     if p.physics {
         for l in 0..L {
-            if let Some(ph) = &p.lp[l].physics {
+            if let Some(ph) = &p.cfg[l].physics {
                 #[allow(clippy::cast_precision_loss)]
-                let t_mid = (s.k[l] as f64 + 0.5) * p.dp[l].t_s;
+                let t_mid = (s.k[l] as f64 + 0.5) * p.cfg[l].t_s;
                 extra[l] = ph.torque_dyn_cm(t_mid, &ti[l].inp, &s.lane_x(l));
                 d[l] += extra[l];
             }
@@ -463,12 +473,12 @@ pub(crate) fn dynamic_tick<const L: usize>(
     if off {
         for l in 0..L {
             if !free(s.x[0][l], p.theta_stop[l]) {
-                let plant = &p.lp[l].plant;
+                let plant = &p.cfg[l].plant;
                 let xl = s.lane_x(l);
                 let r = plant.region(xl[0]);
                 let z = &plant.zoh[r];
                 let mut dl = base[l] + plant.stop_torque[r];
-                if p.lp[l].physics.is_some() {
+                if p.cfg[l].physics.is_some() {
                     dl += extra[l];
                 }
                 let al: [f64; NX] = std::array::from_fn(|j| z.gu[j] * s.u[l] + z.gd[j] * dl);
@@ -482,7 +492,7 @@ pub(crate) fn dynamic_tick<const L: usize>(
     }
     if p.harmonic {
         for l in 0..L {
-            let q = p.dp[l];
+            let q = p.cfg[l];
             if q.harmonic == 0 {
                 continue;
             }
@@ -513,7 +523,7 @@ pub(crate) fn dynamic_tick<const L: usize>(
 }
 
 /// The disturbance torque of each lane's inputs at mid-tick `ti[l]` with the pendulum at
-/// `theta[l]` (rad), dyn·cm, the stops' apart: `ClosedLoop::static_torque` and θ's coupling
+/// `theta[l]` (rad), dyn·cm, the stops' apart: `LoopConfig::static_torque` and θ's coupling
 /// to `a_PA` and `W_IA² − W_PA²` beyond what `K_eff` holds (see [`dynamic_tick`]).
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
@@ -541,11 +551,11 @@ fn input_torque<const L: usize>(
     if p.any_effects {
         for l in 0..L {
             if p.effects[l] {
-                eff[l] = p.lp[l].effects_cm_s2(&ti[l].inp);
+                eff[l] = p.cfg[l].effects_cm_s2(&ti[l].inp);
             }
         }
     }
-    // `ClosedLoop::static_torque`, its constants per lane, and θ's coupling to `a_PA` and
+    // `LoopConfig::static_torque`, its constants per lane, and θ's coupling to `a_PA` and
     // `W_IA² − W_PA²` beyond what `K_eff` holds.
     let mut base = [0.0; L];
     for l in 0..L {

@@ -1,12 +1,22 @@
 //! The simulation: the closed loop tick by tick, and the engine that runs many.
 //!
-//! * [`sim`]: the closed loop and the charge-balance estimator; [`sim::simulate_condition`]
-//!   and [`sim::simulate_difference`] are the entry points.
-//! * `kernel`: the tick of a static condition, once, for any number of loops side by side.
-//! * [`batch`]: many independent closed loops, lanes per core, all cores.
+//! * `config`: a loop's configuration, built once from the instrument file, the condition,
+//!   the effects and the options; what every tick reads.
+//! * `state`: a loop's state, plain data; what every tick changes.
+//! * `noise`: the pickoff noise source.
+//! * `kernel`: the tick of a static and of a dynamic condition, once, for any number of
+//!   loops side by side (`(&config, &mut state)` lanes).
+//! * [`sim`]: the closed loop [`sim::ClosedLoop`] (one configuration and one state), the
+//!   charge-balance estimator; [`sim::simulate_condition`] and [`sim::simulate_difference`]
+//!   are the entry points.
+//! * [`batch`]: many independent closed loops, lanes per core, all cores: a scheduler of the
+//!   kernels over the loops' configurations and states.
 //! * [`work`]: work estimated before it runs and counted while it runs (ticks, stages).
 
 pub mod batch;
-pub(crate) mod kernel;
+mod config;
+mod kernel;
+mod noise;
 pub mod sim;
+mod state;
 pub mod work;

@@ -9,6 +9,7 @@ use std::time::SystemTime;
 use anyhow::Result;
 use clap::Args;
 use ptsa_host_sim::discovery::cost::Cost;
+use ptsa_host_sim::discovery::library::Term;
 use ptsa_host_sim::discovery::{self, InstrumentOut, Options, Simulator};
 use ptsa_host_sim::model::effects::CandidateId;
 use ptsa_host_sim::report::r890;
@@ -16,7 +17,7 @@ use ptsa_host_sim::simulation::sim::SimOptions;
 use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
 
 use super::{Ctx, simulator};
-use crate::flags::values::{candidate, candidates_help, positive_cm_s2, seed};
+use crate::flags::values::{candidate, candidates_help, positive_cm_s2, seed, term};
 use crate::{paths, work};
 
 /// Arguments of `ptsa discover`.
@@ -37,6 +38,15 @@ pub struct DiscoverArgs {
     #[arg(long, value_name = "LIST", value_delimiter = ',', value_parser = candidate,
           long_help = candidates_help())]
     pub candidates: Vec<Vec<CandidateId>>,
+    /// A term of your own, tested after the selection like a selection step (repeatable;
+    /// Bonferroni over the terms; the JSON's `unexplained.terms`): products, whole powers
+    /// (^1 to ^6), sums of terms of one unit, numbers and parentheses over the case inputs
+    /// a_ia, a_pa, a_oa (cm/s²), w_ia, w_pa, w_oa (rad/s), dw_ia, dw_pa, dw_oa (rad/s²),
+    /// the previous row's prev_X, the change since it delta_X and sign_delta_a_ia (absolute
+    /// rows), e.g. `a_pa^3` or `a_pa*w_oa`. The coefficient's unit is derived (s⁴/cm² for
+    /// a_pa^3).
+    #[arg(long = "term", value_name = "TEXT", value_parser = term)]
+    pub terms: Vec<Term>,
     /// Print exactly one JSON object on stdout (the text report goes to stderr). Without
     /// --data, the object maps each report table's file name to its result.
     #[arg(long)]
@@ -179,6 +189,7 @@ impl DiscoverArgs {
             seed: self.seed,
             keep_outliers: self.keep_outliers,
             units_as_given: self.units_as_given,
+            terms: self.terms,
             ..Options::for_instrument(&ctx.instr)
         };
         Ok(Request::Analyse(Box::new(Analysis {

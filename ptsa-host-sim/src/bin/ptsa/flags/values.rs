@@ -102,6 +102,11 @@ pub fn g_level(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A `--term` expression, parsed (the column of a bad token and what was expected there).
+pub fn term(s: &str) -> Result<ptsa_host_sim::discovery::library::Term, String> {
+    ptsa_host_sim::discovery::library::parse_term(s).map_err(|e| format!("`{s}`: {e}"))
+}
+
 /// `--candidates`' long help, with every known name.
 pub fn candidates_help() -> String {
     format!(
