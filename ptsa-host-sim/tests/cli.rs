@@ -1946,7 +1946,7 @@ fn approach_on_difference_rows_is_warned_unused() {
 
 /// `--term`: a user's term is tested after the selection and reported with its key, unit,
 /// coefficient and p-value; a term with no column here is not testable; the library's
-/// proposals name a planted cubic in a_PA; a malformed term is refused before any work,
+/// proposals name a planted cubic in `a_PA`; a malformed term is refused before any work,
 /// naming the column of the bad token and what was expected.
 #[test]
 fn discover_tests_a_users_term_and_refuses_a_malformed_one() {

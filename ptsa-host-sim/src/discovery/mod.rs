@@ -456,9 +456,10 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 26] = [
+    const LAYERS: [&str; 27] = [
         "observation",
         "sim",
+        "library",
         "data",
         "fit",
         "report",
