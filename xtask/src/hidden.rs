@@ -25,7 +25,7 @@
 //! `cargo xtask hidden --lab [--sets N] [--seed S] [--analytic]`: the lab campaign
 //! (`tests/hidden_lab.rs`, `hidden_lab_campaign`): a hysteresis in angle and interleaved
 //! order, a bias and a scale factor changing with temperature, a warm-up transient, and
-//! outside the vocabulary a cross-axis cubic k·a_PA³ and a sin 4φ tumble harmonic, hidden
+//! outside the vocabulary a cross-axis cubic `k·a_PA³` and a sin 4φ tumble harmonic, hidden
 //! at 6 and 10 SE in a 24-point tumble about OA, and nulls; N sets (default 140) per kind; `--analytic`: the
 //! closed loop's reading of each position plus the physics, analysed with the analytic
 //! simulator.

@@ -972,7 +972,8 @@ fn render_term_unit(d: Dim) -> String {
 #[cfg(test)]
 #[allow(clippy::float_cmp)] // exact small sums of exact numbers
 mod tests {
-    use super::*;
+    // The module by its path, not `super::*`: the layering test reads `super::` as `mod`.
+    use crate::discovery::library::*;
 
     #[test]
     fn units_are_derived_from_the_inputs() {

@@ -462,6 +462,7 @@ mod tests {
     const LAYERS: [&str; 27] = [
         "observation",
         "sim",
+        "library",
         "data",
         "fit",
         "report",
