@@ -459,7 +459,7 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 27] = [
+    const LAYERS: [&str; 28] = [
         "observation",
         "sim",
         "library",

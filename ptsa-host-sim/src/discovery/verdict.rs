@@ -265,6 +265,49 @@ fn gross_errors_sentence(d: &Discovery) -> String {
     v
 }
 
+/// The verdict's sentences on the selected terms (`named`: each one in words, in
+/// `selected`'s order): the stable ones as selected, those whose coefficient disagrees
+/// between parts of the data apart, as no cause, with what to do before acting on them.
+fn selected_sentences(
+    v: &mut String,
+    selected: &[Selected],
+    named: Vec<String>,
+    effects: &[EffectReport],
+) {
+    let mut steady: Vec<String> = Vec::new();
+    let mut shifting: Vec<String> = Vec::new();
+    for (s, t) in selected.iter().zip(named) {
+        if s.stable == Some(false) {
+            shifting.push(t);
+        } else {
+            steady.push(t);
+        }
+    }
+    if !steady.is_empty() {
+        let _ = write!(v, "Selected: {}.", steady.join("; "));
+    }
+    if !shifting.is_empty() {
+        let mut advice: Vec<&str> = effects
+            .iter()
+            .flat_map(|e| &e.stability.tests)
+            .filter(|t| !t.agrees)
+            .map(|t| stability_advice(t.split))
+            .collect();
+        advice.sort_unstable();
+        advice.dedup();
+        let one = shifting.len() == 1;
+        let _ = write!(
+            v,
+            "{}Not given as a cause, because {} not stable (its value on one part of the data disagrees with another's, so it depends on when or how it was measured): {}; before acting on {}, {}.",
+            if steady.is_empty() { "" } else { " " },
+            if one { "it is" } else { "they are" },
+            shifting.join("; "),
+            if one { "it" } else { "them" },
+            advice.join("; ")
+        );
+    }
+}
+
 /// The conclusion in one paragraph: what was named (and how plausible), what stays
 /// unexplained, and the cross-validated gain.
 #[must_use]
@@ -322,44 +365,7 @@ pub fn verdict(d: &Discovery) -> String {
                 t
             })
             .collect();
-        let (steady, shifting): (Vec<(&Selected, String)>, Vec<(&Selected, String)>) = d
-            .selected
-            .iter()
-            .zip(named)
-            .partition(|(s, _)| s.stable != Some(false));
-        let list = |v: &[(&Selected, String)]| {
-            v.iter()
-                .map(|(_, t)| t.as_str())
-                .collect::<Vec<_>>()
-                .join("; ")
-        };
-        if !steady.is_empty() {
-            let _ = write!(v, "Selected: {}.", list(&steady));
-        }
-        if !shifting.is_empty() {
-            let mut advice: Vec<&str> = j
-                .effects
-                .iter()
-                .flat_map(|e| &e.stability.tests)
-                .filter(|t| !t.agrees)
-                .map(|t| stability_advice(t.split))
-                .collect();
-            advice.sort_unstable();
-            advice.dedup();
-            let _ = write!(
-                v,
-                "{}Not given as a cause, because {} not stable (its value on one part of the data disagrees with another's, so it depends on when or how it was measured): {}; before acting on {}, {}.",
-                if steady.is_empty() { "" } else { " " },
-                if shifting.len() == 1 {
-                    "it is"
-                } else {
-                    "they are"
-                },
-                list(&shifting),
-                if shifting.len() == 1 { "it" } else { "them" },
-                advice.join("; ")
-            );
-        }
+        selected_sentences(&mut v, &d.selected, named, &j.effects);
     }
     if j.unexplained.detected {
         let _ = write!(
