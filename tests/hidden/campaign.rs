@@ -172,11 +172,15 @@ impl<T> Outcome<T> {
         !self.selected.is_empty()
     }
 
-    /// A plausible selection while the test for unexplained structure found nothing: a
-    /// named cause the output does not warn about.
+    /// A plausible selection not flagged unstable between parts of the data, while the
+    /// test for unexplained structure found nothing: a named cause the output stands behind
+    /// and does not warn about.
     #[must_use]
     pub fn confident_misnaming(&self) -> bool {
-        self.selected.iter().any(|s| s.plausible) && !self.unexplained
+        self.selected
+            .iter()
+            .any(|s| s.plausible && s.stable != Some(false))
+            && !self.unexplained
     }
 
     /// ` + unexplained` when the unexplained-structure test fired, for the log.
