@@ -519,6 +519,9 @@ pub struct LabStats {
     pub either: Count,
     /// `|z| ≤ 1.96` among the exact namings.
     pub coverage: Count,
+    /// Among the exact namings, the truth's coefficient flagged unstable between parts of
+    /// the data (a true cause withheld).
+    pub unstable: Count,
     /// A plausible selection not flagged unstable, the truth neither selected nor a
     /// partner, no unexplained flag (nulls: any such selection).
     pub confident: Count,
@@ -544,6 +547,14 @@ impl LabStats {
                 && let Some(z) = o.z
             {
                 self.coverage.add(z.abs() <= 1.96);
+            }
+            if o.exact {
+                let names = o.truth.kind.effect.names();
+                self.unstable.add(
+                    o.selected
+                        .iter()
+                        .any(|s| names.contains(&s.id) && s.stable == Some(false)),
+                );
             }
             self.confident.add(o.misnamed() && o.confident_misnaming());
             self.silent.add(!o.exact_or_partner() && o.silent());
@@ -686,7 +697,7 @@ impl Campaign for Lab {
             name: ("hidden", 32),
             groups: vec![
                 vec![("sets", 5)],
-                vec![("named", 8), ("e|p", 8), ("coverage", 9)],
+                vec![("named", 8), ("e|p", 8), ("coverage", 9), ("unstable", 9)],
                 vec![("confident", 9), ("unexpl.", 8), ("silent", 8)],
                 vec![("any sel", 8)],
                 vec![("a_PA^3 top", 10)],
@@ -719,6 +730,7 @@ impl Campaign for Lab {
                     } else {
                         s.coverage.coverage_marked()
                     },
+                    dash(s.unstable),
                     s.confident.cell(),
                     s.unexplained.cell(),
                     s.silent.cell(),
@@ -744,6 +756,7 @@ impl Campaign for Lab {
                 all.exact.cell(),
                 all.either.cell(),
                 all.coverage.coverage_marked(),
+                all.unstable.cell(),
                 all.confident.cell(),
                 all.unexplained.cell(),
                 all.silent.cell(),
@@ -764,7 +777,8 @@ impl Campaign for Lab {
              the truth neither selected nor a partner, no unexplained-structure flag (nulls: any such selection); unexpl.: the\n\
              unexplained-structure flag; silent: the truth not named (nulls: something selected) and nothing warns (no\n\
              warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
-             is below 0.01); partial: the effect's column outside the row-order drift, over its norm.\n\
+             is below 0.01); partial: the effect's column outside the row-order drift, over its norm; unstable: among the exact\n\
+             namings, the truth's coefficient flagged unstable between parts of the data (a true cause withheld).\n\
              Warm-up: named when a `warm_up` grid point is selected (its τ is the grid's, so no coverage); reported, not asserted.\n\
              Outside the vocabulary (k·a_PA³, sin 4φ, a fixture error not declared): confident = a plausible, stable selection without\n\
              the unexplained flag; silent = nothing warns, selection or not; a_PA^3 top: the strongest of `unexplained.proposals` is\n\
