@@ -1678,6 +1678,86 @@ fn discover_names_a_hysteresis_from_the_row_order() {
     );
 }
 
+/// A named term whose value changes halfway through the run (a misalignment toward PA of
+/// 3e-4 rad on the first 12 positions of a 24-point tumble, none on the rest) is reported
+/// `"stable": false` with the parts' values, the text marks it and says why, and the
+/// verdict does not give it as the cause; the same misalignment on every row is
+/// `"stable": true`.
+#[test]
+fn discover_says_when_a_named_term_is_not_stable() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let tilt = r#"{"effects":[{"name":"misalignment","coefficients":{"delta_p_rad":3e-4}}]}"#;
+    let tilted = lab_tumble(d, tilt, |_, _| {});
+    let level = lab_tumble(d, r#"{"effects":[]}"#, |_, _| {});
+    let header = tilted.lines().next().unwrap();
+    let mut halfway = format!("{header}\n");
+    for (k, (a, b)) in tilted.lines().zip(level.lines()).skip(1).enumerate() {
+        halfway.push_str(if k < 12 { a } else { b });
+        halfway.push('\n');
+    }
+    let run = |name: &str, text: &str, json: bool| -> String {
+        std::fs::write(d.join(name), text).unwrap();
+        let mut args = vec!["discover", "--data", name, "--analytic", "--no-plots"];
+        if json {
+            args.push("--json");
+        }
+        succeeds_in(d, &args).0
+    };
+    let effect = |v: &serde_json::Value| -> serde_json::Value {
+        v["effects"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|e| e["name"] == "misalignment")
+            .unwrap_or_else(|| panic!("{v}"))
+            .clone()
+    };
+    let v: serde_json::Value = serde_json::from_str(&run("halfway.csv", &halfway, true)).unwrap();
+    let e = effect(&v);
+    assert_eq!(e["stable"], false, "{e}");
+    let time = e["stability"]["tests"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|t| t["split"] == "time")
+        .unwrap_or_else(|| panic!("{e}"))
+        .clone();
+    assert_eq!(time["agrees"], false, "{time}");
+    let parts = time["parts"].as_array().unwrap();
+    let first = parts[0]["coefficient"].as_f64().unwrap();
+    let second = parts[1]["coefficient"].as_f64().unwrap();
+    assert!(
+        parts[0]["part"] == "first half in time"
+            && (first - 3e-4).abs() < 2e-5
+            && second.abs() < 2e-5,
+        "{time}"
+    );
+    let verdict = v["verdict"].as_str().unwrap();
+    assert!(verdict.contains("Not given as a cause"), "{verdict}");
+    assert!(!verdict.contains("Selected: misalignment"), "{verdict}");
+    let text = run("halfway.csv", &halfway, false);
+    assert!(
+        text.contains("warning: misalignment.delta_p_rad = ")
+            && text.contains("is not stable: first half in time ")
+            && text.contains("its value depends on when or how it was measured"),
+        "{text}"
+    );
+    assert!(
+        text.lines().any(
+            |l| l.starts_with("selected: misalignment delta_p_rad") && l.contains("NOT STABLE")
+        ),
+        "{text}"
+    );
+    let v: serde_json::Value = serde_json::from_str(&run("tilted.csv", &tilted, true)).unwrap();
+    let e = effect(&v);
+    assert_eq!(e["stable"], true, "{e}");
+    assert!(
+        !e["stability"]["tests"].as_array().unwrap().is_empty(),
+        "{e}"
+    );
+}
+
 /// A fixture that places each position of a 24-point tumble about OA with an error of
 /// 1 mrad about OA (the reading moves by `−δ_OA·a_PA`, written here from the rotation of
 /// gravity, not from discovery's code; 0.98 cm/s² rms against a stated noise of 0.01): told

@@ -96,6 +96,8 @@ pub struct Named {
     pub plausible: bool,
     /// Its confounded partners.
     pub partners: Vec<CandidateId>,
+    /// Its coefficient agrees between parts of the data (`None`: not tested).
+    pub stable: Option<bool>,
 }
 
 /// How the pipeline did on one set.
@@ -170,11 +172,15 @@ impl<T> Outcome<T> {
         !self.selected.is_empty()
     }
 
-    /// A plausible selection while the test for unexplained structure found nothing: a
-    /// named cause the output does not warn about.
+    /// A plausible selection not flagged unstable between parts of the data, while the
+    /// test for unexplained structure found nothing: a named cause the output stands behind
+    /// and does not warn about.
     #[must_use]
     pub fn confident_misnaming(&self) -> bool {
-        self.selected.iter().any(|s| s.plausible) && !self.unexplained
+        self.selected
+            .iter()
+            .any(|s| s.plausible && s.stable != Some(false))
+            && !self.unexplained
     }
 
     /// ` + unexplained` when the unexplained-structure test fired, for the log.
@@ -250,6 +256,7 @@ fn score<T>(
             stderr: s.stderr,
             plausible: s.plausible,
             partners,
+            stable: s.stable,
         });
     }
     o.partner = partner && !o.exact && !o.implausible;
@@ -587,6 +594,9 @@ pub fn selection_text(selected: &[Named]) -> String {
             let mut x = format!("{} {:.3e}±{:.1e}", s.id, s.coef, s.stderr);
             if !s.plausible {
                 x.push('?');
+            }
+            if s.stable == Some(false) {
+                x.push_str(" UNSTABLE");
             }
             if !s.partners.is_empty() {
                 let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();

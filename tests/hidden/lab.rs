@@ -10,6 +10,7 @@
 //! | warm-up, angle or interleaved order | `A·[(1 − e^(−k/4.8)) − its mean over the rows]`, k the row's place in the measurement order (issue 21's turn-on transient), rows a minute apart in `time_s` from power-on | a `warm_up` grid point (τ = 1/8, 1/4 or 1/2 of the run; the truth's 4.8 rows is 0.21 of it): named, no coverage |
 //! | cross-axis cubic | `k·a_PA³`, `a_PA` this module's own gravity along PA | nothing (outside the vocabulary): scored on the unexplained flag and whether the strongest proposal is `a_PA^3` |
 //! | tumble harmonic | `A·sin 4φ`, `φ = atan2(a_PA, a_IA)` of this module's own gravity | nothing (outside the vocabulary and the library's third order) |
+//! | fixture error, declared (100 µrad, 1 mrad) or not (1 mrad) | each position set with its own rotation `δ_PA`, `δ_OA`, drawn N(0, σ²) per row, moving the reading by `δ_PA·a_OA − δ_OA·a_PA` (this module's own gravity); declared: `sigma_angle_urad` = σ on every row | nothing: declared, a null (it is noise); not declared, scored like the kinds outside the vocabulary (it should warn) |
 //! | null, null with `temp_c` | nothing | nothing |
 //!
 //! * **Measurement**: each row's reading is the instrument's own (the closed loop of the
@@ -29,8 +30,8 @@
 //! * **Analysis**: [`discover`](ptsa_host_sim::discovery::discover) with the additive terms
 //!   (the analytic simulator, or the closed loop of the shipped file).
 //! * **Scored**: named exactly or as a partner; coverage `|z| ≤ 1.96` among exact namings;
-//!   confidently misnamed (a plausible selection, the truth neither selected nor a partner,
-//!   no unexplained-structure flag); the unexplained-structure flag; silent (the truth not
+//!   confidently misnamed (a plausible selection not flagged unstable, the truth neither
+//!   selected nor a partner, no unexplained-structure flag); the unexplained-structure flag; silent (the truth not
 //!   named and nothing in the result warns: no warning, no unexplained structure, the
 //!   extended χ² p ≥ 0.05); on the nulls, any selection. Outside the vocabulary (the cubic,
 //!   the harmonic) every plausible selection without the flag is a confident misnaming,
@@ -39,7 +40,8 @@
 //!
 //! # Asserted
 //!
-//! No refusal; false selections on the nulls at most 5 % (one-sided binomial test at 1 %);
+//! No refusal; false selections on the nulls and on the declared fixture errors at most 5 %
+//! (one-sided binomial test at 1 %);
 //! coverage in the 99 % band of Binomial(n, 0.95) over the hidden kinds together, from 20
 //! exact namings; hysteresis and temperature named (exactly or as a partner) in ≥ 95 % of
 //! their sets (less one binomial standard error in the CI subset). Confident misnamings
@@ -51,7 +53,7 @@ use std::sync::{Arc, OnceLock};
 
 use ptsa_host_sim::discovery::{self, Options, Selected, Simulator};
 use ptsa_host_sim::lab::plan::{self, Axis};
-use ptsa_host_sim::model::condition::{CaseInputs, Condition, IA, PA};
+use ptsa_host_sim::model::condition::{CaseInputs, Condition, IA, OA, PA};
 use ptsa_host_sim::model::plant::NX;
 use ptsa_host_sim::simulation::sim::{
     ExtraPhysics, SimOptions, simulate_condition, simulate_condition_with,
@@ -108,6 +110,15 @@ pub enum Effect {
     /// A tumble harmonic `A·sin 4φ`, cm/s², φ the tumble angle (of gravity in the IA–PA
     /// plane from IA), outside the vocabulary and the library (angle order).
     Harmonic4,
+    /// A fixture that sets each position with an independent error of `urad` µrad rms
+    /// about PA and about OA (the reading moves by `δ_PA·a_OA − δ_OA·a_PA`, the rotation of
+    /// gravity), `declared` in the case frame's `sigma_angle_urad` or not (angle order).
+    Fixture {
+        /// The angle error, µrad rms per axis.
+        urad: u32,
+        /// The rows state it.
+        declared: bool,
+    },
     /// Nothing (angle order, no `temp_c`).
     Null,
     /// Nothing (angle order, `temp_c` recorded).
@@ -127,6 +138,20 @@ impl Effect {
             Effect::WarmUp(Order::Interleaved) => "warm-up, interleaved",
             Effect::CrossCubic => "cross-axis cubic k·a_PA³",
             Effect::Harmonic4 => "harmonic sin 4φ",
+            Effect::Fixture {
+                urad: 100,
+                declared: true,
+            } => "fixture 100 µrad, declared",
+            Effect::Fixture {
+                urad: 1000,
+                declared: true,
+            } => "fixture 1 mrad, declared",
+            Effect::Fixture { declared: true, .. } => "fixture, declared",
+            Effect::Fixture {
+                urad: 1000,
+                declared: false,
+            } => "fixture 1 mrad, not declared",
+            Effect::Fixture { .. } => "fixture, not declared",
             Effect::Null => "null",
             Effect::NullTemperature => "null, temp_c ramp",
         }
@@ -144,14 +169,36 @@ impl Effect {
                 CandidateId::WarmUpSpan4,
                 CandidateId::WarmUpSpan2,
             ],
-            Effect::CrossCubic | Effect::Harmonic4 | Effect::Null | Effect::NullTemperature => &[],
+            Effect::CrossCubic
+            | Effect::Harmonic4
+            | Effect::Fixture { .. }
+            | Effect::Null
+            | Effect::NullTemperature => &[],
         }
     }
 
-    /// Something is hidden that no candidate names (the out-of-vocabulary kinds).
+    /// Something is hidden that no candidate names (the out-of-vocabulary kinds, and a
+    /// fixture's error the rows do not declare).
     #[must_use]
     pub fn outside(self) -> bool {
-        matches!(self, Effect::CrossCubic | Effect::Harmonic4)
+        matches!(
+            self,
+            Effect::CrossCubic
+                | Effect::Harmonic4
+                | Effect::Fixture {
+                    declared: false,
+                    ..
+                }
+        )
+    }
+
+    /// The fixture's angle error, µrad rms per axis (0: none).
+    #[must_use]
+    pub fn fixture_urad(self) -> f64 {
+        match self {
+            Effect::Fixture { urad, .. } => f64::from(urad),
+            _ => 0.0,
+        }
     }
 
     /// The order of the positions.
@@ -204,7 +251,22 @@ impl LabKind {
                 });
             }
         }
-        for effect in [Effect::Null, Effect::NullTemperature] {
+        for effect in [
+            Effect::Null,
+            Effect::NullTemperature,
+            Effect::Fixture {
+                urad: 100,
+                declared: true,
+            },
+            Effect::Fixture {
+                urad: 1000,
+                declared: true,
+            },
+            Effect::Fixture {
+                urad: 1000,
+                declared: false,
+            },
+        ] {
             v.push(LabKind {
                 effect,
                 strength_se: 0.0,
@@ -248,6 +310,15 @@ pub fn rows(effect: Effect) -> Vec<Condition> {
     if effect.temperature() {
         for (k, r) in rows.iter_mut().enumerate() {
             r.temp_c = Some(temperature_c(k));
+        }
+    }
+    if let Effect::Fixture {
+        urad,
+        declared: true,
+    } = effect
+    {
+        for r in &mut rows {
+            r.sigma_angle_urad = Some(f64::from(urad));
         }
     }
     if matches!(effect, Effect::WarmUp(_)) {
@@ -299,7 +370,8 @@ pub fn unit_law(effect: Effect, rows: &[Condition], g_cm_s2: f64) -> Vec<(f64, f
             Effect::WarmUp(_) => (warm[k] - warm_mean, 0.0),
             Effect::CrossCubic => (force[k][PA].powi(3), 0.0),
             Effect::Harmonic4 => ((4.0 * force[k][PA].atan2(force[k][IA])).sin(), 0.0),
-            Effect::Null | Effect::NullTemperature => (0.0, 0.0),
+            // Drawn per row in the generator.
+            Effect::Fixture { .. } | Effect::Null | Effect::NullTemperature => (0.0, 0.0),
         })
         .collect()
 }
@@ -447,8 +519,11 @@ pub struct LabStats {
     pub either: Count,
     /// `|z| ≤ 1.96` among the exact namings.
     pub coverage: Count,
-    /// A plausible selection, the truth neither selected nor a partner, no unexplained
-    /// flag (nulls: any selection).
+    /// Among the exact namings, the truth's coefficient flagged unstable between parts of
+    /// the data (a true cause withheld).
+    pub unstable: Count,
+    /// A plausible selection not flagged unstable, the truth neither selected nor a
+    /// partner, no unexplained flag (nulls: any such selection).
     pub confident: Count,
     /// The unexplained-structure flag.
     pub unexplained: Count,
@@ -472,6 +547,14 @@ impl LabStats {
                 && let Some(z) = o.z
             {
                 self.coverage.add(z.abs() <= 1.96);
+            }
+            if o.exact {
+                let names = o.truth.kind.effect.names();
+                self.unstable.add(
+                    o.selected
+                        .iter()
+                        .any(|s| names.contains(&s.id) && s.stable == Some(false)),
+                );
             }
             self.confident.add(o.misnamed() && o.confident_misnaming());
             self.silent.add(!o.exact_or_partner() && o.silent());
@@ -538,6 +621,18 @@ impl Campaign for Lab {
             0.0
         };
         let seeds: Vec<u64> = (0..rows.len()).map(|_| r.next_u64()).collect();
+        // The fixture's error: each position set with its own rotation δ about PA and OA,
+        // which moves the specific force along IA by δ_PA·a_OA − δ_OA·a_PA.
+        let sigma_rad = kind.effect.fixture_urad() * 1e-6;
+        let mut law = law;
+        if sigma_rad > 0.0 {
+            for ((c0, _), row) in law.iter_mut().zip(&rows) {
+                let f = static_force(row, g);
+                let (d_pa, d_oa) = (sigma_rad * r.normal(), sigma_rad * r.normal());
+                *c0 = d_pa * f[OA] - d_oa * f[PA];
+            }
+        }
+        let coef = if sigma_rad > 0.0 { 1.0 } else { coef };
         let clean: Vec<f64> = match self.generator {
             LabGenerator::ClosedLoop => rows
                 .par_iter()
@@ -602,7 +697,7 @@ impl Campaign for Lab {
             name: ("hidden", 32),
             groups: vec![
                 vec![("sets", 5)],
-                vec![("named", 8), ("e|p", 8), ("coverage", 9)],
+                vec![("named", 8), ("e|p", 8), ("coverage", 9), ("unstable", 9)],
                 vec![("confident", 9), ("unexpl.", 8), ("silent", 8)],
                 vec![("any sel", 8)],
                 vec![("a_PA^3 top", 10)],
@@ -635,6 +730,7 @@ impl Campaign for Lab {
                     } else {
                         s.coverage.coverage_marked()
                     },
+                    dash(s.unstable),
                     s.confident.cell(),
                     s.unexplained.cell(),
                     s.silent.cell(),
@@ -660,6 +756,7 @@ impl Campaign for Lab {
                 all.exact.cell(),
                 all.either.cell(),
                 all.coverage.coverage_marked(),
+                all.unstable.cell(),
                 all.confident.cell(),
                 all.unexplained.cell(),
                 all.silent.cell(),
@@ -676,15 +773,17 @@ impl Campaign for Lab {
         let _ = writeln!(
             s,
             "named: the hidden effect's candidate selected; e|p: selected or named as a confounded partner; coverage: |z| <= 1.96\n\
-             among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection, the truth neither\n\
-             selected nor a partner, no unexplained-structure flag (nulls: any plausible selection without it); unexpl.: the\n\
+             among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection not flagged unstable,\n\
+             the truth neither selected nor a partner, no unexplained-structure flag (nulls: any such selection); unexpl.: the\n\
              unexplained-structure flag; silent: the truth not named (nulls: something selected) and nothing warns (no\n\
              warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
-             is below 0.01); partial: the effect's column outside the row-order drift, over its norm.\n\
+             is below 0.01); partial: the effect's column outside the row-order drift, over its norm; unstable: among the exact\n\
+             namings, the truth's coefficient flagged unstable between parts of the data (a true cause withheld).\n\
              Warm-up: named when a `warm_up` grid point is selected (its τ is the grid's, so no coverage); reported, not asserted.\n\
-             Outside the vocabulary (k·a_PA³, sin 4φ): confident = a plausible selection without the unexplained flag; silent = nothing\n\
-             warns, selection or not; a_PA^3 top: the strongest of `unexplained.proposals` is a_PA^3; reported, not asserted.\n\
-             Asserted: no refusal; false selections on each null at most 5%; coverage over the hidden kinds in the 99% band from\n\
+             Outside the vocabulary (k·a_PA³, sin 4φ, a fixture error not declared): confident = a plausible, stable selection without\n\
+             the unexplained flag; silent = nothing warns, selection or not; a_PA^3 top: the strongest of `unexplained.proposals` is\n\
+             a_PA^3; reported, not asserted. A declared fixture error is a null (its rows state sigma_angle_urad).\n\
+             Asserted: no refusal; false selections on each null and declared fixture error at most 5%; coverage over the hidden kinds in the 99% band from\n\
              20 exact namings; each hidden effect named (e|p) in >= 95%{} of its sets at 6 and 10 SE together.",
             if ci {
                 " less one binomial standard error"
@@ -696,15 +795,26 @@ impl Campaign for Lab {
     }
 
     fn checks(&self, run: &Run<Self>, ci: bool) -> Vec<String> {
-        let mut f: Vec<String> = [Effect::Null, Effect::NullTemperature]
-            .into_iter()
-            .filter_map(|e| {
-                at_most_rate(
-                    &format!("false selections, {}", e.name()),
-                    run.lab_stats(|k| k.effect == e).any,
-                )
-            })
-            .collect();
+        let mut f: Vec<String> = [
+            Effect::Null,
+            Effect::NullTemperature,
+            Effect::Fixture {
+                urad: 100,
+                declared: true,
+            },
+            Effect::Fixture {
+                urad: 1000,
+                declared: true,
+            },
+        ]
+        .into_iter()
+        .filter_map(|e| {
+            at_most_rate(
+                &format!("false selections, {}", e.name()),
+                run.lab_stats(|k| k.effect == e).any,
+            )
+        })
+        .collect();
         f.extend(coverage_in_band(run.lab_stats(pooled).coverage, 20));
         for e in [
             Effect::Hysteresis(Order::Angle),

@@ -40,6 +40,7 @@ pub mod generate;
 pub mod lab;
 pub mod params;
 pub mod physics;
+pub mod sigma;
 pub mod statics;
 
 #[cfg(test)]

@@ -87,8 +87,8 @@
 //! so each selection step's reference model (the current model plus the remaining
 //! candidates with an independent column) keeps 2 residual degrees of freedom
 //! (`discovery::fit::MIN_REFERENCE_DOF`). A stated sigma those residuals do not reject is
-//! pooled with them as worth 8 degrees of freedom (`discovery::fit::STATED_SIGMA_DOF`), so
-//! the test is about F(1, 10), not F(1, 2), which a 6-SE effect passed in a quarter of the
+//! pooled with them as worth 2 degrees of freedom (`discovery::fit::STATED_SIGMA_DOF`), so
+//! the test is about F(1, 4), not F(1, 2), which a 6-SE effect passed in a quarter of the
 //! sets; with the sigma estimated (a quarter of the sets) the test stays F(1, 2), and 14 of
 //! the 8-point tumble's 22 misses (whole vocabulary) are those. The misses are not silent: nearly all come with
 //! the unexplained-structure warning (column `warned`), whose test does not use that

@@ -29,12 +29,18 @@
 //! at 6 and 10 SE in a 24-point tumble about OA, and nulls; N sets (default 140) per kind; `--analytic`: the
 //! closed loop's reading of each position plus the physics, analysed with the analytic
 //! simulator.
+//!
+//! `cargo xtask hidden --sigma [--sets N] [--seed S]`: the understated-sigma campaign
+//! (`tests/hidden_sigma.rs`, `hidden_sigma_campaign`): null sets whose stated sigma is the
+//! true noise over 1, 1.5, 2, 3 and 4, and sets with one effect at 6 SE, on R-890 Table
+//! 6.1's 8 rows and a 24-point tumble about OA, analysed with the analytic simulator; N sets
+//! (default 600) per kind.
 
 use crate::util::{self, Error};
 
 /// `cargo xtask hidden --help`.
 pub const USAGE: &str = "\
-hidden [--parameters | --statics [--additive] | --lab] [--sets N] [--seed S] [--analytic]
+hidden [--parameters | --statics [--additive] | --lab | --sigma] [--sets N] [--seed S] [--analytic]
     The full hidden-effect campaign of the discovery pipeline (the ignored test
     hidden_effects_campaign): N sets per candidate effect and N null sets, generated,
     analysed blind; prints every set and the rates, fails if the contract's are not met.
@@ -50,9 +56,12 @@ hidden [--parameters | --statics [--additive] | --lab] [--sets N] [--seed S] [--
                  and interleaved order, a bias and a scale factor per degree C over a
                  warming ramp, a warm-up transient, a cubic in a_PA and a sin 4phi
                  harmonic, at 6 and 10 SE in a 24-point tumble, and nulls
+    --sigma      the understated-sigma campaign instead (hidden_sigma_campaign): nulls
+                 whose stated sigma is the true noise over 1, 1.5, 2, 3 and 4, and an
+                 effect at 6 SE, on Table 6.1's 8 rows and a 24-point tumble (analytic)
     --sets N     sets per candidate and null sets, a whole number > 0 (default 50;
                  10 per parameter and design with --parameters; 200 per kind with
-                 --statics; 140 per kind with --lab)
+                 --statics; 140 per kind with --lab; 600 per kind with --sigma)
     --seed S     seed of the campaign, a whole number (default 4242)
     --analytic   generate with the quasi-static model instead of the closed-loop
                  simulator (faster, no loop dynamics; not with --parameters or
@@ -75,6 +84,7 @@ enum Which {
     Parameters,
     Statics,
     Lab,
+    Sigma,
 }
 
 /// Parses and validates `cargo xtask hidden`'s options.
@@ -86,6 +96,7 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
     let mut statics = false;
     let mut additive = false;
     let mut lab = false;
+    let mut sigma = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -115,6 +126,7 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
             "--statics" => statics = true,
             "--additive" => additive = true,
             "--lab" => lab = true,
+            "--sigma" => sigma = true,
             other => return Err(Error::Usage(format!("unknown option `{other}`"))),
         }
     }
@@ -140,6 +152,17 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
             "--lab with --parameters or --statics: one campaign at a time".into(),
         ));
     }
+    if sigma && (parameters || statics || lab) {
+        return Err(Error::Usage(
+            "--sigma with --parameters, --statics or --lab: one campaign at a time".into(),
+        ));
+    }
+    if sigma && analytic {
+        return Err(Error::Usage(
+            "--analytic with --sigma: the sigma campaign is analysed with the analytic simulator already"
+                .into(),
+        ));
+    }
     if additive && !statics {
         return Err(Error::Usage("--additive goes with --statics".into()));
     }
@@ -149,6 +172,8 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
         Which::Statics
     } else if lab {
         Which::Lab
+    } else if sigma {
+        Which::Sigma
     } else {
         Which::Effects
     };
@@ -174,6 +199,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         Which::Parameters => ("hidden_params", "hidden_parameters_campaign", "10"),
         Which::Statics => ("hidden_statics", "hidden_statics_campaign", "200"),
         Which::Lab => ("hidden_lab", "hidden_lab_campaign", "140"),
+        Which::Sigma => ("hidden_sigma", "hidden_sigma_campaign", "600"),
         Which::Effects => ("hidden_effects", "hidden_effects_campaign", "50"),
     };
     let sets = sets.unwrap_or_else(|| default_sets.to_string());

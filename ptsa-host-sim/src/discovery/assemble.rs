@@ -14,7 +14,7 @@ use super::outliers::{Screened, SetAside};
 use super::problem::{Options, Problem, Selected};
 use super::report::{
     EffectReport, Gain, JsonReport, ModelEquation, NoiseReport, NuisanceReport, OutlierReport,
-    RowResult, SearchLimit, StepReport, Term, Unexplained, names,
+    RowResult, SearchLimit, StabilityReport, StepReport, Term, Unexplained, names,
 };
 use super::search::limit_note;
 use super::sim::Simulator;
@@ -53,6 +53,8 @@ pub(crate) struct Found<'a> {
     pub advice: Vec<Advice>,
     /// The stated sigmas against the scatter of the residuals.
     pub scatter: Option<SigmaSlip>,
+    /// Each selected term refitted on disjoint parts of the data (in `selected`'s order).
+    pub stability: Vec<StabilityReport>,
 }
 
 /// The result of the stages' findings: the `--json` object, its warnings and verdict, and
@@ -72,6 +74,7 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
         groups,
         advice,
         scatter,
+        stability,
     } = found;
     let (rows, data, f, sim, opts) = (p.rows, p.data, p.f, p.sim, p.opts);
     let set_aside = &screened.set_aside;
@@ -99,7 +102,8 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
     }
     warnings.extend(verdict::warnings(data, f, &selected));
     warnings.extend(verdict::unused_approach(rows));
-    let effects_json = effect_reports(&selected, opts, sim);
+    let effects_json = effect_reports(&selected, &stability, opts, sim);
+    warnings.extend(verdict::stability_warnings(&selected, &effects_json));
     let mut noise = noise_report(data, f);
     noise.stated_over_scatter = scatter.as_ref().map(|s| s.factor);
     let mut d = Discovery {
@@ -319,9 +323,14 @@ fn model_equation(f: &Fitted, selected: &[Selected], g_cm_s2: f64) -> ModelEquat
 }
 
 /// Group selected coefficients by effect for the JSON.
-fn effect_reports(selected: &[Selected], opts: &Options, sim: &dyn Simulator) -> Vec<EffectReport> {
+fn effect_reports(
+    selected: &[Selected],
+    stability: &[StabilityReport],
+    opts: &Options,
+    sim: &dyn Simulator,
+) -> Vec<EffectReport> {
     let mut reports: Vec<EffectReport> = Vec::new();
-    for s in selected {
+    for (k, s) in selected.iter().enumerate() {
         let cand = s.id.info();
         let pos = reports
             .iter()
@@ -336,10 +345,26 @@ fn effect_reports(selected: &[Selected], opts: &Options, sim: &dyn Simulator) ->
                     bounds: BTreeMap::new(),
                     parameter: s.parameter.clone(),
                     search_limit: None,
+                    stable: s.stable,
+                    stability: StabilityReport::default(),
                 });
                 reports.len() - 1
             });
         let r = &mut reports[pos];
+        // An effect is stable when every component tested is, unstable when one is not.
+        r.stable = match (r.stable, s.stable) {
+            (Some(false), _) | (_, Some(false)) => Some(false),
+            (Some(true), _) | (_, Some(true)) => Some(true),
+            (None, None) => None,
+        };
+        if let Some(st) = stability.get(k) {
+            r.stability.tests.extend(st.tests.iter().cloned());
+            for n in &st.not_tested {
+                if !r.stability.not_tested.contains(n) {
+                    r.stability.not_tested.push(n.clone());
+                }
+            }
+        }
         r.coefficients.insert(cand.key.to_string(), s.coef);
         r.stderr.insert(cand.key.to_string(), s.stderr);
         if s.parameter.is_none() {

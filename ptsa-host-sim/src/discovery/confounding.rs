@@ -80,6 +80,7 @@ pub(crate) fn selected(
                 parameter: None,
                 mirror: false,
                 search_limit: None,
+                stable: None,
             }
         })
         .collect()

@@ -21,7 +21,9 @@
 //!   selection's terms and their partners), [`refine`] (the parameters' Gauss–Newton refit
 //!   through the closed loop), [`prune`], [`scan`], [`check`] and [`mirror`] (the other
 //!   loop parameters that could explain what a selected one does, over [`search`]'s
-//!   closed-loop χ²), [`extend`] (the extended model re-simulated), [`unexplained`]
+//!   closed-loop χ²), [`extend`] (the extended model re-simulated), [`stability`] (each
+//!   named term refitted on disjoint parts of the data: halves in time, the two
+//!   approaches, blocks), [`unexplained`]
 //!   (lack of fit and the search of the residuals), [`crossval`] (the gain out of sample),
 //!   [`advice`] (rows that would break a confounding).
 //! * [`cost`]: what a discovery costs, counted before it runs.
@@ -64,6 +66,7 @@ pub mod search;
 pub mod show;
 pub mod sim;
 pub mod slips;
+pub mod stability;
 pub mod unexplained;
 pub mod verdict;
 
@@ -456,7 +459,7 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 27] = [
+    const LAYERS: [&str; 28] = [
         "observation",
         "sim",
         "library",
@@ -474,6 +477,7 @@ mod tests {
         "check",
         "mirror",
         "extend",
+        "stability",
         "unexplained",
         "crossval",
         "advice",

@@ -11,7 +11,7 @@ use super::problem::{Options, Problem};
 use super::sim::Simulator;
 use super::{
     advice, check, confounding, cost, crossval, data, extend, mirror, outliers, prune, refine,
-    scan, slips, unexplained,
+    scan, slips, stability, unexplained,
 };
 use crate::model::caseframe::EmptyCells;
 use crate::model::condition::{Condition, with_history};
@@ -99,6 +99,12 @@ pub fn discover_with(
     // 4. Extend and re-simulate.
     set_stage("re-simulation");
     let extended = extend::extend(&p, &selected, &baseline)?;
+    // Each named term refitted on disjoint parts of the data (halves in time, the two
+    // approaches, blocks): a value that depends on when or how it was measured is no cause.
+    let resid: Vec<f64> = (0..data.n())
+        .map(|k| data.y[k] - extended.values[k])
+        .collect();
+    let stability = stability::test(rows, data, &f, &resid, &mut selected, opts.alpha);
     // 5. What is left, and the gain out of sample.
     set_stage("cross-validation");
     let unexplained = unexplained::test(&p, &selected);
@@ -121,6 +127,7 @@ pub fn discover_with(
         groups,
         advice,
         scatter,
+        stability,
     }))
 }
 

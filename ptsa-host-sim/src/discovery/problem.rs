@@ -121,6 +121,9 @@ pub struct Selected {
     /// For a parameter found by a search through the closed loop: the change at the end of
     /// the search grid when its best lies there ([`super::search`]).
     pub search_limit: Option<f64>,
+    /// The coefficient is the same on disjoint parts of the data (`super::stability`):
+    /// `Some(false)` its value depends on when or how it was measured; `None` not tested.
+    pub stable: Option<bool>,
 }
 
 /// What every stage after the linear selection works on: the rows, their observations,

@@ -51,6 +51,62 @@ pub struct EffectReport {
     /// For a parameter found by a search through the closed loop whose best lies at the end
     /// of the search grid: that end and what it means (`null` otherwise).
     pub search_limit: Option<SearchLimit>,
+    /// Every coefficient the same, within its errors, on disjoint parts of the data (first
+    /// and second half in time, rows approached from below and from above, blocks;
+    /// familywise over the terms and splits tested): `true` tested and consistent;
+    /// `false` a coefficient disagrees between parts, so its value depends on when or how
+    /// it was measured and it is not given as the cause; `null` no split could test it
+    /// (`stability.not_tested` says why).
+    pub stable: Option<bool>,
+    /// The tests behind `stable`.
+    pub stability: StabilityReport,
+}
+
+/// The refits of an effect's coefficients on disjoint parts of the data, in the `--json`
+/// shape.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct StabilityReport {
+    /// One test per coefficient and split that could be made.
+    pub tests: Vec<SplitTest>,
+    /// The splits that could not test a coefficient, and why, in words.
+    pub not_tested: Vec<String>,
+}
+
+/// One coefficient refitted on the parts of one split, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct SplitTest {
+    /// The candidate (component name for `lever_arm`).
+    pub name: String,
+    /// `time` (first and second half in time), `approach` (approached from below and from
+    /// above) or `block`.
+    pub split: &'static str,
+    /// The coefficient on each part.
+    pub parts: Vec<PartValue>,
+    /// `Σ (c_p − c̄)²/se_p²` over the parts, `c̄` their inverse-variance mean.
+    pub chi2: f64,
+    /// Its degrees of freedom (parts − 1).
+    pub dof: usize,
+    /// Its p-value (with stated sigmas the larger of the χ² and the F test against the
+    /// parts' residual scale, as a selection step).
+    pub p_value: f64,
+    /// Holm's level it was held against (familywise over every test of every effect).
+    pub threshold: f64,
+    /// `false`: the parts disagree at that level.
+    pub agrees: bool,
+}
+
+/// A coefficient on one part of the data, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct PartValue {
+    /// `first half in time`, `second half in time`, `approached from below`, `approached
+    /// from above`, or `` block `name` ``.
+    pub part: String,
+    /// Observations in the part.
+    pub rows: usize,
+    /// The coefficient fitted on it, in the candidate's unit.
+    pub coefficient: f64,
+    /// Its standard error (with the sigmas as used by the whole fit).
+    pub stderr: f64,
 }
 
 /// Where a search through the closed loop stopped, in the `--json` shape.

@@ -108,6 +108,7 @@ pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>, steps: &mut Ve
         confounded: Vec::new(),
         mirror: false,
         search_limit: limit,
+        stable: None,
     });
     true
 }

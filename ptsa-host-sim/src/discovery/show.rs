@@ -256,7 +256,7 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         if let Some(p) = &sel.parameter {
             let _ = writeln!(
                 s,
-                "selected: {}{}{}",
+                "selected: {}{}{}{}",
                 p.sentence(c.name, c.unit),
                 if conf.is_empty() {
                     String::new()
@@ -267,13 +267,14 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                     "  AT THE END OF THE SEARCH GRID (see the warning)"
                 } else {
                     ""
-                }
+                },
+                unstable_mark(sel)
             );
             continue;
         }
         let _ = writeln!(
             s,
-            "selected: {} {} = {} {}{}{}",
+            "selected: {} {} = {} {}{}{}{}",
             c.effect,
             c.key,
             estimate(sel.coef, sel.stderr),
@@ -291,7 +292,8 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                     crate::output::significant(d.options.limits[sel.id.index()], 4),
                     c.unit
                 )
-            }
+            },
+            unstable_mark(sel)
         );
     }
     let e = &j.extended;
@@ -429,6 +431,16 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
 /// `x`, with values that print as ±0.000 made +0 (no "-0.000" in the table).
 fn nz(x: f64) -> f64 {
     if x.abs() < 5e-4 { 0.0 } else { x }
+}
+
+/// The selected line's mark of a term whose coefficient disagrees between parts of the
+/// data.
+fn unstable_mark(sel: &super::problem::Selected) -> &'static str {
+    if sel.stable == Some(false) {
+        "  NOT STABLE between parts of the data (see the warning): not given as the cause"
+    } else {
+        ""
+    }
 }
 
 /// A probability for humans: 3 decimals, or scientific below 0.001.

@@ -9,7 +9,7 @@ use super::fit::{Fitted, NoiseSource};
 use super::outcome::Discovery;
 use super::outliers;
 use super::problem::Selected;
-use super::report::{OutlierReport, ParameterValue, names};
+use super::report::{EffectReport, OutlierReport, ParameterValue, SplitTest, names};
 use super::search::limit_note;
 use super::sim::Simulator;
 use super::slips;
@@ -167,6 +167,70 @@ pub(crate) fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<St
     w
 }
 
+/// What a lab should do about a coefficient that disagrees between the parts of `split`.
+fn stability_advice(split: &str) -> &'static str {
+    match split {
+        "time" => {
+            "repeat the positions in another order (interleaved, or reversed) and look for a warm-up, a temperature change or a drift that is not linear in time"
+        }
+        "approach" => "measure each position approached from both sides and look for a hysteresis",
+        _ => "compare the blocks' set-ups (mounting, reference runs, temperature)",
+    }
+}
+
+/// A failed stability test in words: `first half in time 5.6e-5 ± 0.9e-5, second half in
+/// time 0.3e-5 ± 1.1e-5 (chi2 ... p = ..., familywise level ...)`.
+fn split_text(t: &SplitTest, unit: &str) -> String {
+    let parts: Vec<String> = t
+        .parts
+        .iter()
+        .map(|p| {
+            format!(
+                "{} {} {unit}",
+                p.part,
+                super::show::estimate(p.coefficient, p.stderr)
+            )
+        })
+        .collect();
+    format!(
+        "{} (chi2 {:.1} for {} dof, p = {}, familywise level {})",
+        parts.join(" against "),
+        t.chi2,
+        t.dof,
+        super::show::pfmt(t.p_value),
+        super::show::pfmt(t.threshold)
+    )
+}
+
+/// One warning per selected term whose coefficient disagrees between parts of the data
+/// (`effects`: the JSON's effects, with their stability tests).
+pub(crate) fn stability_warnings(selected: &[Selected], effects: &[EffectReport]) -> Vec<String> {
+    let mut w = Vec::new();
+    for s in selected.iter().filter(|s| s.stable == Some(false)) {
+        let c = s.id.info();
+        let failed: Vec<&SplitTest> = effects
+            .iter()
+            .flat_map(|e| &e.stability.tests)
+            .filter(|t| t.name == c.name && !t.agrees)
+            .collect();
+        let mut advice: Vec<&str> = failed.iter().map(|t| stability_advice(t.split)).collect();
+        advice.dedup();
+        w.push(format!(
+            "{} = {} {} is not stable: {}; its value depends on when or how it was measured, which a fixed property of the instrument does not, so it is not given as the cause: {}",
+            c.name,
+            super::show::estimate(s.coef, s.stderr),
+            c.unit,
+            failed
+                .iter()
+                .map(|t| split_text(t, c.unit))
+                .collect::<Vec<_>>()
+                .join("; "),
+            advice.join("; ")
+        ));
+    }
+    w
+}
+
 /// The verdict's first sentence, on the rows set aside as suspected gross errors (none
 /// when there are none).
 fn gross_errors_sentence(d: &Discovery) -> String {
@@ -199,6 +263,49 @@ fn gross_errors_sentence(d: &Discovery) -> String {
         );
     }
     v
+}
+
+/// The verdict's sentences on the selected terms (`named`: each one in words, in
+/// `selected`'s order): the stable ones as selected, those whose coefficient disagrees
+/// between parts of the data apart, as no cause, with what to do before acting on them.
+fn selected_sentences(
+    v: &mut String,
+    selected: &[Selected],
+    named: Vec<String>,
+    effects: &[EffectReport],
+) {
+    let mut steady: Vec<String> = Vec::new();
+    let mut shifting: Vec<String> = Vec::new();
+    for (s, t) in selected.iter().zip(named) {
+        if s.stable == Some(false) {
+            shifting.push(t);
+        } else {
+            steady.push(t);
+        }
+    }
+    if !steady.is_empty() {
+        let _ = write!(v, "Selected: {}.", steady.join("; "));
+    }
+    if !shifting.is_empty() {
+        let mut advice: Vec<&str> = effects
+            .iter()
+            .flat_map(|e| &e.stability.tests)
+            .filter(|t| !t.agrees)
+            .map(|t| stability_advice(t.split))
+            .collect();
+        advice.sort_unstable();
+        advice.dedup();
+        let one = shifting.len() == 1;
+        let _ = write!(
+            v,
+            "{}Not given as a cause, because {} not stable (its value on one part of the data disagrees with another's, so it depends on when or how it was measured): {}; before acting on {}, {}.",
+            if steady.is_empty() { "" } else { " " },
+            if one { "it is" } else { "they are" },
+            shifting.join("; "),
+            if one { "it" } else { "them" },
+            advice.join("; ")
+        );
+    }
 }
 
 /// The conclusion in one paragraph: what was named (and how plausible), what stays
@@ -258,7 +365,7 @@ pub fn verdict(d: &Discovery) -> String {
                 t
             })
             .collect();
-        let _ = write!(v, "Selected: {}.", named.join("; "));
+        selected_sentences(&mut v, &d.selected, named, &j.effects);
     }
     if j.unexplained.detected {
         let _ = write!(
