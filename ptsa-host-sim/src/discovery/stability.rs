@@ -18,7 +18,7 @@
 //! column per part (the rows in no part keep a column of their own, not tested). The drop
 //! of χ² from the common column to the `K` part columns is χ²(K − 1) when the coefficient
 //! is the same on every part; its p-value follows the selection's rule on the noise scale
-//! ([`fit::scaled_p`]: with stated sigmas the larger of the χ² and the F test against the
+//! (`fit::scaled_p`: with stated sigmas the larger of the χ² and the F test against the
 //! split model's residual scale). A part's coefficient is the final one plus its
 //! correction. The tests of every term and split are held together at familywise level α
 //! by Holm's step-down procedure; a term is `stable: false` when one of its tests is
