@@ -2124,3 +2124,67 @@ fn discover_tests_a_users_term_and_refuses_a_malformed_one() {
         assert!(!err.contains("wrote"), "{err}");
     }
 }
+
+/// A cubic in `a_PA` (`k·a_PA³`, written here from the row's gravity along PA) in a
+/// 24-point tumble about OA is taken for the misalignment toward PA; the result names the
+/// misalignment with `a_PA^3` as its rival outside the vocabulary, in the JSON, the
+/// selected line, a warning and the verdict.
+#[test]
+fn a_cubic_taken_for_a_misalignment_is_named_with_its_rival() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let g = 980.665_f64;
+    let text = lab_tumble(d, r#"{"effects":[]}"#, |_, c| {
+        let g_pa: f64 = c[3].parse().unwrap();
+        let y: f64 = c[4].parse().unwrap();
+        c[4] = format!("{}", y + 1e-10 * (g_pa * g).powi(3));
+    });
+    std::fs::write(d.join("cubic.csv"), &text).unwrap();
+    let (out, _) = succeeds_in(
+        d,
+        &[
+            "discover",
+            "--data",
+            "cubic.csv",
+            "--analytic",
+            "--json",
+            "--no-plots",
+        ],
+    );
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let e = v["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["name"] == "misalignment")
+        .unwrap_or_else(|| panic!("{v}"))
+        .clone();
+    let rivals = e["rivals"].as_array().unwrap();
+    assert!(rivals.iter().any(|r| r["form"] == "a_PA^3"), "{e}");
+    assert!(
+        v["verdict"]
+            .as_str()
+            .unwrap()
+            .contains("or a form outside the vocabulary these data cannot tell from it"),
+        "{}",
+        v["verdict"]
+    );
+    let (out, _) = succeeds_in(
+        d,
+        &[
+            "discover",
+            "--data",
+            "cubic.csv",
+            "--analytic",
+            "--no-plots",
+        ],
+    );
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("selected: misalignment delta_p_rad")
+                && l.contains("outside the vocabulary")
+                && l.contains("a_PA^3")),
+        "{out}"
+    );
+    assert!(out.contains("cannot be told here from a_PA^3"), "{out}");
+}

@@ -98,6 +98,8 @@ pub struct Named {
     pub partners: Vec<CandidateId>,
     /// Its coefficient agrees between parts of the data (`None`: not tested).
     pub stable: Option<bool>,
+    /// The forms outside the vocabulary the data cannot tell it from.
+    pub rivals: Vec<String>,
 }
 
 /// How the pipeline did on one set.
@@ -172,14 +174,14 @@ impl<T> Outcome<T> {
         !self.selected.is_empty()
     }
 
-    /// A plausible selection not flagged unstable between parts of the data, while the
-    /// test for unexplained structure found nothing: a named cause the output stands behind
-    /// and does not warn about.
+    /// A plausible selection not flagged unstable between parts of the data and with no
+    /// rival outside the vocabulary, while the test for unexplained structure found
+    /// nothing: a named cause the output stands behind and does not warn about.
     #[must_use]
     pub fn confident_misnaming(&self) -> bool {
         self.selected
             .iter()
-            .any(|s| s.plausible && s.stable != Some(false))
+            .any(|s| s.plausible && s.stable != Some(false) && s.rivals.is_empty())
             && !self.unexplained
     }
 
@@ -257,6 +259,7 @@ fn score<T>(
             plausible: s.plausible,
             partners,
             stable: s.stable,
+            rivals: s.rivals.iter().map(|r| r.form.clone()).collect(),
         });
     }
     o.partner = partner && !o.exact && !o.implausible;
@@ -597,6 +600,9 @@ pub fn selection_text(selected: &[Named]) -> String {
             }
             if s.stable == Some(false) {
                 x.push_str(" UNSTABLE");
+            }
+            if !s.rivals.is_empty() {
+                let _ = write!(x, " | {}", s.rivals.join("/"));
             }
             if !s.partners.is_empty() {
                 let p: Vec<&str> = s.partners.iter().map(|c| c.info().name).collect();

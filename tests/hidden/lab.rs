@@ -30,7 +30,8 @@
 //! * **Analysis**: [`discover`](ptsa_host_sim::discovery::discover) with the additive terms
 //!   (the analytic simulator, or the closed loop of the shipped file).
 //! * **Scored**: named exactly or as a partner; coverage `|z| ≤ 1.96` among exact namings;
-//!   confidently misnamed (a plausible selection not flagged unstable, the truth neither
+//!   confidently misnamed (a plausible selection not flagged unstable and without a rival
+//!   outside the vocabulary, the truth neither
 //!   selected nor a partner, no unexplained-structure flag); the unexplained-structure flag; silent (the truth not
 //!   named and nothing in the result warns: no warning, no unexplained structure, the
 //!   extended χ² p ≥ 0.05); on the nulls, any selection. Outside the vocabulary (the cubic,
@@ -522,7 +523,11 @@ pub struct LabStats {
     /// Among the exact namings, the truth's coefficient flagged unstable between parts of
     /// the data (a true cause withheld).
     pub unstable: Count,
-    /// A plausible selection not flagged unstable, the truth neither selected nor a
+    /// Among the exact namings, the truth named with a rival outside the vocabulary (a
+    /// true cause hedged).
+    pub rivaled: Count,
+    /// A plausible selection not flagged unstable and without a rival outside the
+    /// vocabulary, the truth neither selected nor a
     /// partner, no unexplained flag (nulls: any such selection).
     pub confident: Count,
     /// The unexplained-structure flag.
@@ -554,6 +559,11 @@ impl LabStats {
                     o.selected
                         .iter()
                         .any(|s| names.contains(&s.id) && s.stable == Some(false)),
+                );
+                self.rivaled.add(
+                    o.selected
+                        .iter()
+                        .any(|s| names.contains(&s.id) && !s.rivals.is_empty()),
                 );
             }
             self.confident.add(o.misnamed() && o.confident_misnaming());
@@ -697,7 +707,13 @@ impl Campaign for Lab {
             name: ("hidden", 32),
             groups: vec![
                 vec![("sets", 5)],
-                vec![("named", 8), ("e|p", 8), ("coverage", 9), ("unstable", 9)],
+                vec![
+                    ("named", 8),
+                    ("e|p", 8),
+                    ("coverage", 9),
+                    ("unstable", 9),
+                    ("rivaled", 9),
+                ],
                 vec![("confident", 9), ("unexpl.", 8), ("silent", 8)],
                 vec![("any sel", 8)],
                 vec![("a_PA^3 top", 10)],
@@ -731,6 +747,7 @@ impl Campaign for Lab {
                         s.coverage.coverage_marked()
                     },
                     dash(s.unstable),
+                    dash(s.rivaled),
                     s.confident.cell(),
                     s.unexplained.cell(),
                     s.silent.cell(),
@@ -757,6 +774,7 @@ impl Campaign for Lab {
                 all.either.cell(),
                 all.coverage.coverage_marked(),
                 all.unstable.cell(),
+                all.rivaled.cell(),
                 all.confident.cell(),
                 all.unexplained.cell(),
                 all.silent.cell(),
@@ -773,12 +791,13 @@ impl Campaign for Lab {
         let _ = writeln!(
             s,
             "named: the hidden effect's candidate selected; e|p: selected or named as a confounded partner; coverage: |z| <= 1.96\n\
-             among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection not flagged unstable,\n\
-             the truth neither selected nor a partner, no unexplained-structure flag (nulls: any such selection); unexpl.: the\n\
+             among exact namings (! outside the 99% band of Binomial(n, 0.95)); confident: a plausible selection not flagged unstable\n\
+             and without a rival outside the vocabulary, the truth neither selected nor a partner, no unexplained-structure flag (nulls: any such selection); unexpl.: the\n\
              unexplained-structure flag; silent: the truth not named (nulls: something selected) and nothing warns (no\n\
              warning, no unexplained structure, extended chi2 p >= 0.05); any sel: sets with a selection (nulls: ! when P(>= k of n) at 5%\n\
              is below 0.01); partial: the effect's column outside the row-order drift, over its norm; unstable: among the exact\n\
-             namings, the truth's coefficient flagged unstable between parts of the data (a true cause withheld).\n\
+             namings, the truth's coefficient flagged unstable between parts of the data (a true cause withheld); rivaled: among the exact\n\
+             namings, the truth named with a rival outside the vocabulary (a true cause hedged).\n\
              Warm-up: named when a `warm_up` grid point is selected (its τ is the grid's, so no coverage); reported, not asserted.\n\
              Outside the vocabulary (k·a_PA³, sin 4φ, a fixture error not declared): confident = a plausible, stable selection without\n\
              the unexplained flag; silent = nothing warns, selection or not; a_PA^3 top: the strongest of `unexplained.proposals` is\n\

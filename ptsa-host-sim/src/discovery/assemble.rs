@@ -104,6 +104,7 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
     warnings.extend(verdict::unused_approach(rows));
     let effects_json = effect_reports(&selected, &stability, opts, sim);
     warnings.extend(verdict::stability_warnings(&selected, &effects_json));
+    warnings.extend(verdict::rival_warnings(&selected));
     let mut noise = noise_report(data, f);
     noise.stated_over_scatter = scatter.as_ref().map(|s| s.factor);
     let mut d = Discovery {
@@ -347,6 +348,7 @@ fn effect_reports(
                     search_limit: None,
                     stable: s.stable,
                     stability: StabilityReport::default(),
+                    rivals: Vec::new(),
                 });
                 reports.len() - 1
             });
@@ -363,6 +365,11 @@ fn effect_reports(
                 if !r.stability.not_tested.contains(n) {
                     r.stability.not_tested.push(n.clone());
                 }
+            }
+        }
+        for v in &s.rivals {
+            if !r.rivals.iter().any(|o| o.form == v.form) {
+                r.rivals.push(v.clone());
             }
         }
         r.coefficients.insert(cand.key.to_string(), s.coef);

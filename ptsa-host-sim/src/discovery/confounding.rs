@@ -81,6 +81,7 @@ pub(crate) fn selected(
                 mirror: false,
                 search_limit: None,
                 stable: None,
+                rivals: Vec::new(),
             }
         })
         .collect()

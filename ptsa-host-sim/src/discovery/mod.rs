@@ -24,7 +24,8 @@
 //!   closed-loop χ²), [`extend`] (the extended model re-simulated), [`stability`] (each
 //!   named term refitted on disjoint parts of the data: halves in time, the two
 //!   approaches, blocks), [`unexplained`]
-//!   (lack of fit and the search of the residuals), [`crossval`] (the gain out of sample),
+//!   (lack of fit and the search of the residuals), [`rivals`] (the forms outside the
+//!   vocabulary that could stand in a named term's place), [`crossval`] (the gain out of sample),
 //!   [`advice`] (rows that would break a confounding).
 //! * [`cost`]: what a discovery costs, counted before it runs.
 //! * [`outcome`]: the typed result, [`Discovery`].
@@ -61,6 +62,7 @@ pub mod problem;
 pub mod prune;
 pub mod refine;
 pub mod report;
+pub mod rivals;
 pub mod scan;
 pub mod search;
 pub mod show;
@@ -459,7 +461,7 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 28] = [
+    const LAYERS: [&str; 29] = [
         "observation",
         "sim",
         "library",
@@ -479,6 +481,7 @@ mod tests {
         "extend",
         "stability",
         "unexplained",
+        "rivals",
         "crossval",
         "advice",
         "cost",

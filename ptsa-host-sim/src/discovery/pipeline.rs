@@ -11,7 +11,7 @@ use super::problem::{Options, Problem};
 use super::sim::Simulator;
 use super::{
     advice, check, confounding, cost, crossval, data, extend, mirror, outliers, prune, refine,
-    scan, slips, stability, unexplained,
+    rivals, scan, slips, stability, unexplained,
 };
 use crate::model::caseframe::EmptyCells;
 use crate::model::condition::{Condition, with_history};
@@ -105,6 +105,8 @@ pub fn discover_with(
         .map(|k| data.y[k] - extended.values[k])
         .collect();
     let stability = stability::test(rows, data, &f, &resid, &mut selected, opts.alpha);
+    // The forms outside the vocabulary that could stand in a named term's place.
+    rivals::find(data, &f, &mut selected, opts.alpha);
     // 5. What is left, and the gain out of sample.
     set_stage("cross-validation");
     let unexplained = unexplained::test(&p, &selected);

@@ -5,7 +5,7 @@
 
 use super::data::Data;
 use super::fit::{Fitted, Settings};
-use super::report::ParameterValue;
+use super::report::{ParameterValue, Rival};
 use super::sim::Simulator;
 use crate::model::condition::Condition;
 use crate::model::effects::{CandidateId, N_CANDIDATES, resolve_candidates};
@@ -124,6 +124,9 @@ pub struct Selected {
     /// The coefficient is the same on disjoint parts of the data (`super::stability`):
     /// `Some(false)` its value depends on when or how it was measured; `None` not tested.
     pub stable: Option<bool>,
+    /// Forms outside the vocabulary that these data cannot tell it from (`super::rivals`;
+    /// empty: none, or not looked for).
+    pub rivals: Vec<Rival>,
 }
 
 /// What every stage after the linear selection works on: the rows, their observations,

@@ -60,6 +60,28 @@ pub struct EffectReport {
     pub stable: Option<bool>,
     /// The tests behind `stable`.
     pub stability: StabilityReport,
+    /// Forms outside the vocabulary that these data cannot tell a coefficient of this
+    /// effect from (empty: none): in its place the fit is not significantly worse and the
+    /// two share the part of the data that decides. Not tested as causes of their own;
+    /// the effect is named with them.
+    pub rivals: Vec<Rival>,
+}
+
+/// A form outside the vocabulary that could stand in a selected term's place, in the
+/// `--json` shape (`discovery/rivals.rs`).
+#[derive(Clone, Debug, Serialize)]
+pub struct Rival {
+    /// The form, as `unexplained.proposals` and `--term` write it (`a_PA^3`,
+    /// `exp(-t/360 s)`, `sign_delta_a_IA`).
+    pub form: String,
+    /// The library family it comes from (`products`, `time_shapes`, `history`,
+    /// `history_products`).
+    pub family: &'static str,
+    /// `|cos|` of its column with the term's, both off the rest of the model.
+    pub cos: f64,
+    /// The p-value of the swap's χ² increase (one degree of freedom, on the model's noise
+    /// scale): above the level, the swap is not significantly worse.
+    pub p_value: f64,
 }
 
 /// The refits of an effect's coefficients on disjoint parts of the data, in the `--json`

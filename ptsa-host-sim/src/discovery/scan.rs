@@ -109,6 +109,7 @@ pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>, steps: &mut Ve
         mirror: false,
         search_limit: limit,
         stable: None,
+        rivals: Vec::new(),
     });
     true
 }

@@ -268,7 +268,7 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                 } else {
                     ""
                 },
-                unstable_mark(sel)
+                marks(sel)
             );
             continue;
         }
@@ -293,7 +293,7 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                     c.unit
                 )
             },
-            unstable_mark(sel)
+            marks(sel)
         );
     }
     let e = &j.extended;
@@ -433,14 +433,24 @@ fn nz(x: f64) -> f64 {
     if x.abs() < 5e-4 { 0.0 } else { x }
 }
 
-/// The selected line's mark of a term whose coefficient disagrees between parts of the
-/// data.
-fn unstable_mark(sel: &super::problem::Selected) -> &'static str {
-    if sel.stable == Some(false) {
-        "  NOT STABLE between parts of the data (see the warning): not given as the cause"
-    } else {
-        ""
+/// The selected line's marks: the forms outside the vocabulary it cannot be told from, and
+/// whether its coefficient disagrees between parts of the data.
+fn marks(sel: &super::problem::Selected) -> String {
+    let mut m = String::new();
+    if !sel.rivals.is_empty() {
+        let forms: Vec<&str> = sel.rivals.iter().map(|r| r.form.as_str()).collect();
+        let _ = write!(
+            m,
+            "  (indistinguishable here from {}, outside the vocabulary: see the warning)",
+            forms.join(", ")
+        );
     }
+    if sel.stable == Some(false) {
+        m.push_str(
+            "  NOT STABLE between parts of the data (see the warning): not given as the cause",
+        );
+    }
+    m
 }
 
 /// A probability for humans: 3 decimals, or scientific below 0.001.

@@ -59,7 +59,7 @@ struct Tried {
 }
 
 /// An orthonormal basis of the span of `cols` (modified Gram–Schmidt, twice).
-fn orthonormal(cols: &[&[f64]]) -> Vec<Vec<f64>> {
+pub(crate) fn orthonormal(cols: &[&[f64]]) -> Vec<Vec<f64>> {
     let mut q: Vec<Vec<f64>> = Vec::new();
     for c in cols {
         let mut v = c.to_vec();
@@ -81,7 +81,7 @@ fn orthonormal(cols: &[&[f64]]) -> Vec<Vec<f64>> {
 }
 
 /// `v` less its projection on the orthonormal `q`.
-fn partial(v: &[f64], q: &[Vec<f64>]) -> Vec<f64> {
+pub(crate) fn partial(v: &[f64], q: &[Vec<f64>]) -> Vec<f64> {
     let mut r = v.to_vec();
     for b in q {
         let d: f64 = b.iter().zip(&r).map(|(x, y)| x * y).sum();

@@ -167,6 +167,37 @@ pub(crate) fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<St
     w
 }
 
+/// One warning per selected term that these data cannot tell from a form outside the
+/// vocabulary, with what would tell them apart.
+pub(crate) fn rival_warnings(selected: &[Selected]) -> Vec<String> {
+    let mut w = Vec::new();
+    for s in selected.iter().filter(|s| !s.rivals.is_empty()) {
+        let c = s.id.info();
+        let forms: Vec<String> = s
+            .rivals
+            .iter()
+            .map(|r| format!("{} (p = {})", r.form, super::show::pfmt(r.p_value)))
+            .collect();
+        let in_time = s
+            .rivals
+            .iter()
+            .any(|r| r.family == "time_shapes" || r.family.starts_with("history"));
+        w.push(format!(
+            "{} = {} {} cannot be told here from {}, outside the vocabulary: in its place the fit is not significantly worse, so these data do not say which it is; before acting on it, measure where the two differ ({})",
+            c.name,
+            super::show::estimate(s.coef, s.stderr),
+            c.unit,
+            forms.join(", "),
+            if in_time {
+                "the positions in another order, interleaved or reversed, and after a warm-up"
+            } else {
+                "a tumble about another axis, or the same positions at another g level"
+            }
+        ));
+    }
+    w
+}
+
 /// What a lab should do about a coefficient that disagrees between the parts of `split`.
 fn stability_advice(split: &str) -> &'static str {
     match split {
@@ -361,6 +392,14 @@ pub fn verdict(d: &Discovery) -> String {
                 if !s.confounded.is_empty() {
                     let o: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
                     let _ = write!(t, " (indistinguishable here from {})", o.join(", "));
+                }
+                if !s.rivals.is_empty() {
+                    let o: Vec<&str> = s.rivals.iter().map(|r| r.form.as_str()).collect();
+                    let _ = write!(
+                        t,
+                        " (or a form outside the vocabulary these data cannot tell from it: {})",
+                        o.join(", ")
+                    );
                 }
                 t
             })
