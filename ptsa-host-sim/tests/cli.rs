@@ -1889,24 +1889,8 @@ fn discover_names_a_scale_factor_per_degree() {
     let d = tmp.path();
     let measured = warm_tumble(d);
     std::fs::write(d.join("temp.csv"), &measured).unwrap();
-    let (out, _) = succeeds_in(
-        d,
-        &[
-            "discover",
-            "--data",
-            "temp.csv",
-            "--analytic",
-            "--json",
-            "--no-plots",
-        ],
-    );
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let e = v["effects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|e| e["name"] == "temperature")
-        .unwrap_or_else(|| panic!("{v}"));
+    let v = discover_json(d, "temp.csv");
+    let e = effect_named(&v, "temperature");
     let (k1, se) = (
         e["coefficients"]["k1_t_ppm_per_c"].as_f64().unwrap(),
         e["stderr"]["k1_t_ppm_per_c"].as_f64().unwrap(),
@@ -2140,25 +2124,8 @@ fn a_cubic_taken_for_a_misalignment_is_named_with_its_rival() {
         c[4] = format!("{}", y + 1e-10 * (g_pa * g).powi(3));
     });
     std::fs::write(d.join("cubic.csv"), &text).unwrap();
-    let (out, _) = succeeds_in(
-        d,
-        &[
-            "discover",
-            "--data",
-            "cubic.csv",
-            "--analytic",
-            "--json",
-            "--no-plots",
-        ],
-    );
-    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
-    let e = v["effects"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|e| e["name"] == "misalignment")
-        .unwrap_or_else(|| panic!("{v}"))
-        .clone();
+    let v = discover_json(d, "cubic.csv");
+    let e = effect_named(&v, "misalignment");
     let rivals = e["rivals"].as_array().unwrap();
     assert!(rivals.iter().any(|r| r["form"] == "a_PA^3"), "{e}");
     assert!(
@@ -2187,4 +2154,31 @@ fn a_cubic_taken_for_a_misalignment_is_named_with_its_rival() {
         "{out}"
     );
     assert!(out.contains("cannot be told here from a_PA^3"), "{out}");
+}
+
+/// `ptsa discover --data FILE --analytic --json --no-plots` in `d`: the JSON.
+fn discover_json(d: &Path, file: &str) -> serde_json::Value {
+    let (out, _) = succeeds_in(
+        d,
+        &[
+            "discover",
+            "--data",
+            file,
+            "--analytic",
+            "--json",
+            "--no-plots",
+        ],
+    );
+    serde_json::from_str(&out).unwrap()
+}
+
+/// The effect `name` of a discovery's JSON (panics, with the JSON, when it is not there).
+fn effect_named(v: &serde_json::Value, name: &str) -> serde_json::Value {
+    v["effects"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|e| e["name"] == name)
+        .unwrap_or_else(|| panic!("{v}"))
+        .clone()
 }

@@ -221,6 +221,21 @@ impl Effect {
     }
 }
 
+/// The kinds that hide nothing the pipeline should name: the nulls, and the fixture errors
+/// the rows declare (noise, not an effect); their false selections are asserted.
+const NULLS: [Effect; 4] = [
+    Effect::Null,
+    Effect::NullTemperature,
+    Effect::Fixture {
+        urad: 100,
+        declared: true,
+    },
+    Effect::Fixture {
+        urad: 1000,
+        declared: true,
+    },
+];
+
 /// A kind of the campaign: an effect at a strength (0 for the nulls).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LabKind {
@@ -252,22 +267,10 @@ impl LabKind {
                 });
             }
         }
-        for effect in [
-            Effect::Null,
-            Effect::NullTemperature,
-            Effect::Fixture {
-                urad: 100,
-                declared: true,
-            },
-            Effect::Fixture {
-                urad: 1000,
-                declared: true,
-            },
-            Effect::Fixture {
-                urad: 1000,
-                declared: false,
-            },
-        ] {
+        for effect in NULLS.into_iter().chain([Effect::Fixture {
+            urad: 1000,
+            declared: false,
+        }]) {
             v.push(LabKind {
                 effect,
                 strength_se: 0.0,
@@ -814,26 +817,15 @@ impl Campaign for Lab {
     }
 
     fn checks(&self, run: &Run<Self>, ci: bool) -> Vec<String> {
-        let mut f: Vec<String> = [
-            Effect::Null,
-            Effect::NullTemperature,
-            Effect::Fixture {
-                urad: 100,
-                declared: true,
-            },
-            Effect::Fixture {
-                urad: 1000,
-                declared: true,
-            },
-        ]
-        .into_iter()
-        .filter_map(|e| {
-            at_most_rate(
-                &format!("false selections, {}", e.name()),
-                run.lab_stats(|k| k.effect == e).any,
-            )
-        })
-        .collect();
+        let mut f: Vec<String> = NULLS
+            .into_iter()
+            .filter_map(|e| {
+                at_most_rate(
+                    &format!("false selections, {}", e.name()),
+                    run.lab_stats(|k| k.effect == e).any,
+                )
+            })
+            .collect();
         f.extend(coverage_in_band(run.lab_stats(pooled).coverage, 20));
         for e in [
             Effect::Hysteresis(Order::Angle),
