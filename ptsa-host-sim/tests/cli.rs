@@ -1634,18 +1634,7 @@ fn discover_names_a_hysteresis_from_the_row_order() {
     let d = tmp.path();
     let discover = |name: &str, text: &str| -> serde_json::Value {
         std::fs::write(d.join(name), text).unwrap();
-        let (out, _) = succeeds_in(
-            d,
-            &[
-                "discover",
-                "--data",
-                name,
-                "--analytic",
-                "--json",
-                "--no-plots",
-            ],
-        );
-        serde_json::from_str(&out).unwrap()
+        discover_json(d, name)
     };
     let coef = |v: &serde_json::Value, name: &str, key: &str| -> Option<(f64, f64)> {
         v["effects"].as_array().unwrap().iter().find_map(|e| {
@@ -1790,18 +1779,7 @@ fn a_declared_fixture_error_is_noise_not_an_effect() {
     }
     let discover = |name: &str, text: &str| -> serde_json::Value {
         std::fs::write(d.join(name), text).unwrap();
-        let (out, _) = succeeds_in(
-            d,
-            &[
-                "discover",
-                "--data",
-                name,
-                "--analytic",
-                "--json",
-                "--no-plots",
-            ],
-        );
-        serde_json::from_str(&out).unwrap()
+        discover_json(d, name)
     };
     let named = |v: &serde_json::Value| {
         v["effects"]

@@ -256,15 +256,7 @@ pub fn histories(rows: &[Condition], g_cm_s2: f64) -> Vec<Option<[f64; 19]>> {
             m
         })
         .collect();
-    let mut order: Vec<usize> = (0..rows.len()).collect();
-    if rows.iter().all(|r| r.time_s.is_some()) {
-        order.sort_by(|&a, &b| {
-            rows[a]
-                .time_s
-                .unwrap_or_default()
-                .total_cmp(&rows[b].time_s.unwrap_or_default())
-        });
-    }
+    let order = crate::model::condition::measurement_order(rows);
     let tol = crate::model::condition::APPROACH_RESOLUTION * g_cm_s2.abs();
     let mut out = vec![None; rows.len()];
     let mut prev: Option<usize> = None;

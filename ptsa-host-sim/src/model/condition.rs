@@ -521,6 +521,22 @@ impl Prepared {
 /// change (0° and 360° of a tumble differ by rounding).
 pub const APPROACH_RESOLUTION: f64 = 1e-9;
 
+/// The rows' indices in the order they were measured: by `time_s` when every row gives it
+/// (ties in file order), else the file's order.
+#[must_use]
+pub fn measurement_order(rows: &[Condition]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..rows.len()).collect();
+    if rows.iter().all(|r| r.time_s.is_some()) {
+        order.sort_by(|&a, &b| {
+            rows[a]
+                .time_s
+                .unwrap_or_default()
+                .total_cmp(&rows[b].time_s.unwrap_or_default())
+        });
+    }
+    order
+}
+
 /// `rows` with their [`History`] set: what each row takes from the rows around it.
 ///
 /// * **Approach sign** of an absolute row: the recorded `approach` (+1 up, −1 down) when
@@ -544,15 +560,7 @@ pub fn with_history(rows: &[Condition], g_cm_s2: f64) -> Vec<Condition> {
     } else {
         temps.iter().sum::<f64>() / temps.len() as f64
     };
-    let mut order: Vec<usize> = (0..rows.len()).collect();
-    if rows.iter().all(|r| r.time_s.is_some()) {
-        order.sort_by(|&a, &b| {
-            rows[a]
-                .time_s
-                .unwrap_or_default()
-                .total_cmp(&rows[b].time_s.unwrap_or_default())
-        });
-    }
+    let order = measurement_order(rows);
     let tol = APPROACH_RESOLUTION * g_cm_s2.abs();
     let timed = !rows.is_empty() && rows.iter().all(|r| r.time_s.is_some());
     let times: Vec<f64> = rows.iter().map(|r| r.time_s.unwrap_or(0.0)).collect();

@@ -510,46 +510,25 @@ impl GateStart {
 /// 1.18e8 against 1.43e8 ticks/s, Rust / C 0.94 against 1.13), the branch-free polarity
 /// select putting the core's decision back on the chain.
 fn run_static_fast(cfg: &LoopConfig, st: &mut LoopState, n: u64) {
-    // The constants by value, so that they can live in registers.
-    let add = cfg.add;
-    let ptsa = cfg.ptsa;
-    let plant = cfg.plant;
-    let adc = cfg.adc;
-    let mut core = st.core;
-    let mut x = st.x;
-    let mut stop = st.totals.stop_ticks;
-    let mut positive = st.u > 0.0;
     // The ADC's additive term of each tick (offset and noise), drawn a block ahead: the
-    // same draws in the same order, off the loop's registers.
+    // same draws in the same order, off the loop's registers; each block runs with the
+    // constants and the state in locals ([`static_block_fast`]).
     let mut bias = [0.0f64; BIAS_BLOCK];
     let mut left = n;
     while left > 0 {
         #[allow(clippy::cast_possible_truncation)]
         let m = left.min(BIAS_BLOCK as u64) as usize;
         for b in &mut bias[..m] {
-            *b = adc.bias(&mut st.rng);
+            *b = cfg.adc.bias(&mut st.rng);
         }
-        fast_block(
-            &ptsa,
-            &plant,
-            &add,
-            &adc,
-            &bias[..m],
-            &mut core,
-            &mut x,
-            &mut positive,
-            &mut stop,
-        );
+        static_block_fast(cfg, st, &bias[..m]);
         left -= m as u64;
     }
-    st.x = x;
-    st.u = if positive { 1.0 } else { -1.0 };
-    st.core = core;
-    st.totals.stop_ticks = stop;
 }
 
 /// One block of a static run without statistics: [`run_static_fast`]'s loop over the ADC
-/// terms `bias`, the state in locals (the batch engine's one-lane-at-a-time path).
+/// terms `bias`, the constants and the state in locals (each block of the single loop, and
+/// the batch engine's one-lane-at-a-time path).
 pub(super) fn static_block_fast(cfg: &LoopConfig, st: &mut LoopState, bias: &[f64]) {
     let ptsa = cfg.ptsa;
     let plant = cfg.plant;
