@@ -69,7 +69,16 @@ pub fn abandon() -> MutexGuard<'static, Vec<PathBuf>> {
 fn remove_any(p: &Path) {
     match std::fs::symlink_metadata(p) {
         Ok(m) if m.is_dir() => {
-            let _ = std::fs::remove_dir_all(p);
+            // Another thread of the run may still be writing into the folder: a file renamed
+            // in while it is emptied makes the last rmdir fail (ENOTEMPTY) and left the
+            // folder behind (seen once in CI after an interrupted report). Try again, up to
+            // about a tenth of a second, until it is gone.
+            for _ in 0..100 {
+                if std::fs::remove_dir_all(p).is_ok() || std::fs::symlink_metadata(p).is_err() {
+                    break;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
         }
         Ok(_) => {
             let _ = std::fs::remove_file(p);
