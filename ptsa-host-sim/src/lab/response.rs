@@ -457,9 +457,8 @@ pub struct Scatter {
 
 /// The variance of the charge the loop holds at a gate boundary, pulse² (uniform over
 /// ±1 pulse: the most the simulated loop shows, with slow inputs; fast ones leave less,
-/// down to a uniform spread over one pulse, 1/12). One definition with the counting error
-/// of a case-frame row's counts ([`crate::model::counts::CARRY_VAR`]).
-pub const CARRY_VAR: f64 = crate::model::counts::CARRY_VAR;
+/// down to a uniform spread over one pulse, 1/12).
+pub const CARRY_VAR: f64 = 1.0 / 3.0;
 /// The gates [`expected_scatter`] averages the ripple over, at most.
 const SCATTER_GATES: usize = 2000;
 /// The start phases in a cycle it averages over, at most.
