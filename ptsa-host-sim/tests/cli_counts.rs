@@ -331,3 +331,38 @@ fn the_counting_error_is_the_simulated_loops() {
         "{sd} against {model} ({n} gates)"
     );
 }
+
+/// A stated sigma is the reading's other noise: the counting error is added to it in
+/// quadrature (discover's table gives each row the sum).
+#[test]
+fn the_counting_error_adds_to_a_stated_sigma() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let (plan, _) = succeeds(d, &["plan", "tumble", "--positions", "8", "--counts"]);
+    let (filled, _) = fill(&plan, 3);
+    // Every row states 0.01 cm/s², in a column added at the end.
+    let text: String = filled
+        .lines()
+        .map(|l| {
+            if l.starts_with('#') {
+                format!("{l}\n")
+            } else if l.starts_with("label") {
+                format!("{l},sigma_cm_s2\n")
+            } else {
+                format!("{l},0.01\n")
+            }
+        })
+        .collect();
+    std::fs::write(d.join("counts.csv"), text).unwrap();
+    let (out, _) = succeeds(
+        d,
+        &["discover", "--data", "counts.csv", "--analytic", "--json"],
+    );
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    #[allow(clippy::cast_precision_loss)]
+    let want = 0.01f64.hypot(2.0 * SF / T as f64 * (1.0f64 / 6.0).sqrt());
+    for row in v["table"].as_array().unwrap() {
+        let s = row["sigma_cm_s2"].as_f64().unwrap();
+        assert!((s - want).abs() < 1e-12, "{row}: {s} against {want}");
+    }
+}
