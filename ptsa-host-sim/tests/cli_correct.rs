@@ -442,3 +442,23 @@ fn help_gives_units() {
         assert!(h.contains(u), "`{u}` not in:\n{h}");
     }
 }
+
+/// Labels are quoted as the case-frame writer quotes them: a comma, a quote or a leading `#`
+/// (which a reader would take for a comment).
+#[test]
+fn labels_are_quoted_in_the_csv() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    std::fs::write(
+        d.join("d.csv"),
+        "label,kind,g_pa,measured_cm_s2,sigma_cm_s2\n\"#1, \"\"up\"\"\",absolute,0.5,500,0.01\n",
+    )
+    .unwrap();
+    std::fs::write(
+        d.join("i.toml"),
+        ptsa_host_sim::model::instrument::KEARFOTT_2401_TOML,
+    )
+    .unwrap();
+    let (out, _) = succeeds(d, &["correct", "--data", "d.csv", "--instrument", "i.toml"]);
+    assert!(out.contains("\n\"#1, \"\"up\"\"\",500,0.01,"), "{out}");
+}

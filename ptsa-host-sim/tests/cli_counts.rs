@@ -163,18 +163,20 @@ fn a_counted_tumble_is_calibrated() {
             "{c} ± {s} against {truth}"
         );
     }
-    // The text report shows the converted value too.
-    let (text, _) = succeeds(d, &["predict", "--data", "counts.csv", "--analytic"]);
-    // (to the digits predict gives a measured value)
+    // The text reports show the converted value too (to the digits they give a measured
+    // value): discover's table and predict's.
     let shown = format!("{:.3}", SF * (2.0 * p0 / tf - 1.0));
-    let line = text
-        .lines()
-        .find(|l| l.starts_with("tumble 0 deg"))
-        .unwrap();
-    assert!(
-        line.contains(&format!(" {shown} ")),
-        "{shown} not in:\n{text}"
-    );
+    for cmd in ["discover", "predict"] {
+        let (text, _) = succeeds(d, &[cmd, "--data", "counts.csv", "--analytic"]);
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("tumble 0 deg"))
+            .unwrap();
+        assert!(
+            line.contains(&format!(" {shown} ")),
+            "{cmd}: {shown} not in:\n{text}"
+        );
+    }
 }
 
 /// `plan centrifuge --counts` writes the count columns; a design of difference rows has no

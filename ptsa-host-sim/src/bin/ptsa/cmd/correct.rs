@@ -269,7 +269,12 @@ fn csv(req: &Request) -> String {
         COLUMNS.join(",")
     );
     for (r, _, c) in &req.rows {
-        let label = if r.label.contains([',', '"']) || r.label.trim() != r.label {
+        // Quoted as the case-frame writer quotes (a label starting with `#` would read as
+        // a comment).
+        let label = if r.label.contains([',', '"', '\n', '\r'])
+            || r.label.starts_with('#')
+            || r.label.trim() != r.label
+        {
             format!("\"{}\"", r.label.replace('"', "\"\""))
         } else {
             r.label.clone()
