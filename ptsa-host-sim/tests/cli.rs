@@ -1269,6 +1269,7 @@ fn help_exits_0_and_names_units() {
         ("discover", "cm/s²"),
         ("response", "dimensionless"),
         ("predict", "_cm_s2"),
+        ("correct", "cm/s²"),
         ("plan tumble", "s ("),
         ("plan rate-table", "rad/s"),
         ("plan shaker", "Hz"),

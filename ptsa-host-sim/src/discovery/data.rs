@@ -52,8 +52,10 @@ pub struct Data {
     /// its mean of runs; 0 where the simulator gives none).
     pub sim_sigma: Vec<f64>,
     /// The 1-sigma error each observation has from its row's orientation error
-    /// (`sigma_angle_urad`, [`Condition::fixture_sigma_cm_s2`]), cm/s²; 0 without. Included
-    /// in a stated sigma (in quadrature); added to an estimated one ([`super::fit`]).
+    /// (`sigma_angle_urad`, [`Condition::fixture_sigma_cm_s2`]) and, for a reading given
+    /// as counts, from the counting ([`Condition::counting_sigma_cm_s2`]), in quadrature,
+    /// cm/s²; 0 without. Included in a stated sigma (in quadrature); added to an estimated
+    /// one ([`super::fit`]).
     pub fixture: Vec<f64>,
     /// Whether each observation takes its block's bias shift (a difference row's value).
     pub shift: Vec<bool>,
@@ -318,10 +320,11 @@ pub fn build(
                     }
                 );
             };
-            // A stated sigma is the measurement's; the simulator's own scatter and the
-            // fixture's orientation error add to it.
+            // A stated sigma is the measurement's; the simulator's own scatter, the
+            // fixture's orientation error and the counting's error add to it.
             let fixture = if q == Quantity::Value {
                 r.fixture_sigma_cm_s2(g)
+                    .hypot(r.counting_sigma_cm_s2.unwrap_or(0.0))
             } else {
                 0.0
             };

@@ -7,6 +7,9 @@
 //! * [`observation`]: what a row is observed as, measured or simulated: a value, or a
 //!   response row's gain and phase.
 //! * [`sim`]: the [`Simulator`] trait, the analytic model and the closed-loop adapter.
+//! * [`correct`]: a row's counts as its reading ([`correct::counts_in`]); `ptsa correct`,
+//!   a calibration applied to a record of readings (the static model equation inverted
+//!   for the specific force along IA).
 //! * [`library`]: the variables of the case inputs and of the row before, their units, the
 //!   library of shapes the residuals are searched against, and the `--term` grammar.
 //! * [`data`]: the fitted observations, signatures and the library over them.
@@ -47,6 +50,7 @@ pub mod advice;
 pub mod assemble;
 pub mod check;
 pub mod confounding;
+pub mod correct;
 pub mod cost;
 pub mod crossval;
 pub mod data;
@@ -461,9 +465,10 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 29] = [
+    const LAYERS: [&str; 30] = [
         "observation",
         "sim",
+        "correct",
         "library",
         "data",
         "fit",

@@ -48,6 +48,8 @@ pub fn discover_with(
             "no row has a measurement (`measured_cm_s2`, or `measured_gain`/`measured_phase_deg` in a response row): nothing to fit"
         );
     }
+    // Counts in: a row's pulses and ticks as its reading (the instrument's nominal SF).
+    let rows = &super::correct::counts_in(rows, sim)?;
     // What each row takes from the rows around it: its direction of approach, its ΔT.
     let rows = &with_history(rows, sim.g_cm_s2())[..];
     // 1. Baseline: every row's observations (measured or not, for the table).

@@ -16,6 +16,7 @@ use std::path::Path;
 use anyhow::{Context, Result, bail};
 
 use crate::model::condition::{Approach, Condition, RowKind};
+use crate::model::counts::MAX_COUNT;
 
 /// A cell's value as read or written.
 #[derive(Clone, Debug, PartialEq)]
@@ -39,6 +40,8 @@ enum Check {
     NonNegative,
     /// A finite number greater than 0.
     Positive,
+    /// A whole number from 0 to [`MAX_COUNT`] (a count of pulses or ticks).
+    Count,
 }
 
 /// One column of the format: its name, what it holds and where it goes in a [`Condition`].
@@ -199,6 +202,20 @@ pub const COLUMNS: &[Column] = &[
         set: |c, v| c.sigma_cm_s2 = num(v),
     },
     Column {
+        name: "pulses",
+        expected: "a whole number of pulses of positive torque counted over the row's gate (0 to `ticks`), or an empty cell (not counted)",
+        check: Check::Count,
+        get: |c| Value::Num(c.pulses),
+        set: |c, v| c.pulses = num(v),
+    },
+    Column {
+        name: "ticks",
+        expected: "a whole number of clock ticks of the row's gate (greater than 0), or an empty cell (not counted)",
+        check: Check::Count,
+        get: |c| Value::Num(c.ticks),
+        set: |c, v| c.ticks = num(v),
+    },
+    Column {
         name: "measured_gain",
         expected: "a response row's gain (output amplitude over input amplitude), greater than 0, or an empty cell",
         check: Check::Positive,
@@ -293,6 +310,8 @@ pub struct Frame {
     pub rows: Vec<Condition>,
     /// The empty input cells read as 0, by row.
     pub empty: Vec<EmptyCells>,
+    /// Each row's 1-based line in the file (for messages about a row).
+    pub lines: Vec<usize>,
 }
 
 /// Whether an empty cell of `col` reads as the number 0 (an input column), rather than as
@@ -383,7 +402,7 @@ pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
         );
     };
     check_temperatures(name, &rows, &lines, &cols)?;
-    Ok(Frame { rows, empty })
+    Ok(Frame { rows, empty, lines })
 }
 
 /// A file that gives `temp_c` gives it on every measured row: a measured row without it
@@ -719,6 +738,7 @@ fn parse_row(
                 && match check {
                     Check::NonNegative => *v >= 0.0,
                     Check::Positive => *v > 0.0,
+                    Check::Count => *v >= 0.0 && v.fract() == 0.0 && *v <= MAX_COUNT,
                     Check::Finite | Check::Text | Check::OneOf(_) => true,
                 }
         });
@@ -802,10 +822,112 @@ fn parse_row(
             Some(_) => {}
         }
     }
+    check_measurement(name, line, &c, cols)?;
     if c.label.is_empty() {
         c.label = format!("line {line}");
     }
     Ok((c, empty))
+}
+
+/// One way a row gives its measurement along IA: the columns that hold it (the first
+/// named in messages) and whether a row gives it.
+struct Source {
+    columns: &'static [&'static str],
+    given: fn(&Condition) -> bool,
+}
+
+/// Every way a row gives its measurement along IA; a row gives one at most (the one
+/// definition of that rule: a further source is one more entry).
+const MEASUREMENT_SOURCES: &[Source] = &[
+    Source {
+        columns: &["measured_cm_s2"],
+        given: |c| c.measured_cm_s2.is_some(),
+    },
+    Source {
+        columns: &["pulses", "ticks"],
+        given: |c| c.pulses.is_some() || c.ticks.is_some(),
+    },
+];
+
+/// The 1-based column of `name` in the header `cols` (0 when it is not there).
+fn column_at(cols: &[usize], name: &str) -> usize {
+    cols.iter()
+        .position(|&k| COLUMNS[k].name == name)
+        .map_or(0, |j| j + 1)
+}
+
+/// A given column of a source: the first of its columns the row fills, else its first.
+fn given_column(cols: &[usize], c: &Condition, source: &Source) -> (usize, &'static str) {
+    let filled = source.columns.iter().copied().find(|&n| {
+        column_index(n).is_some_and(|k| {
+            matches!(
+                (COLUMNS[k].get)(c),
+                Value::Num(Some(_)) | Value::Text(Some(_))
+            )
+        })
+    });
+    let n = filled.unwrap_or(source.columns[0]);
+    (column_at(cols, n), n)
+}
+
+/// A row's measurement along IA from one source at most ([`MEASUREMENT_SOURCES`]), and its
+/// counts, if it gives them, whole and in an absolute row: both `pulses` and `ticks`,
+/// `ticks` > 0 and `pulses` ≤ `ticks`.
+fn check_measurement(name: &str, line: usize, c: &Condition, cols: &[usize]) -> Result<()> {
+    let given: Vec<&Source> = MEASUREMENT_SOURCES
+        .iter()
+        .filter(|s| (s.given)(c))
+        .collect();
+    if let [a, b, ..] = given[..] {
+        let ((ja, na), (jb, nb)) = (given_column(cols, c, a), given_column(cols, c, b));
+        let all: Vec<String> = MEASUREMENT_SOURCES
+            .iter()
+            .map(|s| {
+                s.columns
+                    .iter()
+                    .map(|n| format!("`{n}`"))
+                    .collect::<Vec<_>>()
+                    .join(" with ")
+            })
+            .collect();
+        bail!(
+            "{name}:{line}: column {ja} (`{na}`) and column {jb} (`{nb}`) both give the row's measurement; expected one of {} in a row, the others empty",
+            all.join(", ")
+        );
+    }
+    let (p, t) = (c.pulses, c.ticks);
+    if p.is_none() && t.is_none() {
+        return Ok(());
+    }
+    let (jp, jt) = (column_at(cols, "pulses"), column_at(cols, "ticks"));
+    if c.kind != RowKind::Absolute {
+        let (j, n) = if p.is_some() {
+            (jp, "pulses")
+        } else {
+            (jt, "ticks")
+        };
+        bail!(
+            "{name}:{line}: column {j} (`{n}`) in a {} row; expected counts only in an absolute row (one gate's reading: a tumble or centrifuge position; a difference row gives the difference of two readings in `measured_cm_s2`, a response row comes from a counter record through `ptsa response`)",
+            c.kind.name()
+        );
+    }
+    match (p, t) {
+        (Some(_), None) => bail!(
+            "{name}:{line}: column {jp} (`pulses`) is given but `ticks` is {}; expected both counts of the gate: the pulses P and the clock ticks T",
+            if jt == 0 { "not a column" } else { "empty" }
+        ),
+        (None, Some(_)) => bail!(
+            "{name}:{line}: column {jt} (`ticks`) is given but `pulses` is {}; expected both counts of the gate: the pulses P and the clock ticks T",
+            if jp == 0 { "not a column" } else { "empty" }
+        ),
+        (Some(p), Some(0.0)) => bail!(
+            "{name}:{line}: column {jt} (`ticks`) is 0 (with {p} pulses); expected a gate of at least one clock tick"
+        ),
+        (Some(p), Some(t)) if p > t => bail!(
+            "{name}:{line}: column {jp} (`pulses`) is {p}, more than the gate's {t} ticks (column {jt}); expected 0 ≤ pulses ≤ ticks (one pulse per tick at most)"
+        ),
+        _ => Ok(()),
+    }
 }
 
 /// Read a case-frame file.
@@ -876,22 +998,37 @@ pub fn to_csv(rows: &[Condition], comments: &[&str]) -> String {
 /// (a plan's columns for the lab to fill in, such as `temp_c`).
 #[must_use]
 pub fn to_csv_with(rows: &[Condition], comments: &[&str], also: &[&str]) -> String {
-    let used: Vec<usize> = (0..COLUMNS.len())
+    write(rows, comments, &used_columns(rows, also, "measured_cm_s2"))
+}
+
+/// [`to_csv_with`] for a design whose readings are to be counted: `pulses` and `ticks`,
+/// written even where every cell is empty, in place of `measured_cm_s2` (which is written
+/// only where a row gives it).
+#[must_use]
+pub fn to_csv_counts(rows: &[Condition], comments: &[&str], also: &[&str]) -> String {
+    let mut also = also.to_vec();
+    also.extend(["pulses", "ticks"]);
+    write(rows, comments, &used_columns(rows, &also, "pulses"))
+}
+
+/// The columns [`to_csv_with`] writes: `label`, `always`, the columns in `also`, and
+/// those some row gives.
+fn used_columns(rows: &[Condition], also: &[&str], always: &str) -> Vec<usize> {
+    (0..COLUMNS.len())
         .filter(|&k| {
             let col = &COLUMNS[k];
             // A number where an empty cell means "not given" (`time_s`, `temp_c`, a
             // measurement or a sigma) is given even when it is 0 (0 °C, a phase of 0°).
             let optional = !col.is_text() && !empty_reads_as_zero(col);
             col.name == "label"
-                || col.name == "measured_cm_s2"
+                || col.name == always
                 || also.contains(&col.name)
                 || rows.iter().any(|c| {
                     let v = (col.get)(c);
                     given(&v) || (optional && matches!(v, Value::Num(Some(_))))
                 })
         })
-        .collect();
-    write(rows, comments, &used)
+        .collect()
 }
 
 /// `rows` as case-frame CSV of exactly `columns` (case-frame column names), in that order,
@@ -970,11 +1107,17 @@ mod tests {
                 // A power-on time is on the clock of the row's time.
                 c.time_s = Some(1.0);
             }
+            if col.check == Check::Count {
+                // Counts come in pairs, in an absolute row.
+                c.kind = RowKind::Absolute;
+                (c.pulses, c.ticks) = (Some(3.0), Some(7.0));
+            }
             let v = match col.check {
                 Check::Text => Value::Text(Some("t 1".into())),
                 // A word other than the empty cell's (the first).
                 Check::OneOf(words) => Value::Text(words.get(1).map(|w| (*w).to_string())),
                 Check::Finite | Check::NonNegative | Check::Positive => Value::Num(Some(0.75)),
+                Check::Count => Value::Num(Some(5.0)),
             };
             (col.set)(&mut c, v.clone());
             assert_eq!((col.get)(&c), v, "{}: set, get", col.name);
@@ -1141,6 +1284,91 @@ mod tests {
         // No temperature anywhere, or only unmeasured rows without one: accepted.
         assert!(parse("t.csv", "label,temp_c,measured_cm_s2\na,,1\nb,,2\n").is_ok());
         assert!(parse("t.csv", "label,temp_c,measured_cm_s2\na,21,1\nb,,\n").is_ok());
+    }
+
+    /// `pulses` and `ticks`: whole numbers, both or neither, `ticks` > 0, `pulses` ≤
+    /// `ticks`, in absolute rows, never beside `measured_cm_s2`; each refusal names the
+    /// file, the line, the column and what was expected.
+    #[test]
+    fn count_cells() {
+        let rows = parse(
+            "t.csv",
+            "label,kind,g_ia,pulses,ticks,measured_cm_s2\n\
+             a,absolute,1,2009123,3840000,\n\
+             b,absolute,-1,,,\n\
+             c,absolute,0,,,0.5\n\
+             d,absolute,0,0,1,\n",
+        )
+        .unwrap();
+        assert_eq!(
+            (rows[0].pulses, rows[0].ticks),
+            (Some(2_009_123.0), Some(3_840_000.0))
+        );
+        assert_eq!(rows[0].measured_cm_s2, None);
+        assert!(rows[0].is_measured() && !rows[1].is_measured() && rows[2].is_measured());
+        assert_eq!((rows[3].pulses, rows[3].ticks), (Some(0.0), Some(1.0)));
+        for (text, want) in [
+            (
+                "kind,pulses,ticks\nabsolute,1.5,10\n",
+                "t.csv:2: column 2 (`pulses`) holds `1.5`; expected a whole number of pulses",
+            ),
+            (
+                "kind,pulses,ticks\nabsolute,-1,10\n",
+                "t.csv:2: column 2 (`pulses`) holds `-1`; expected a whole number",
+            ),
+            (
+                "kind,pulses,ticks\nabsolute,1,1e300\n",
+                "t.csv:2: column 3 (`ticks`) holds `1e300`; expected a whole number of clock ticks",
+            ),
+            (
+                "kind,pulses,ticks\nabsolute,11,10\n",
+                "t.csv:2: column 2 (`pulses`) is 11, more than the gate's 10 ticks (column 3); expected 0 ≤ pulses ≤ ticks",
+            ),
+            (
+                "kind,pulses,ticks\nabsolute,0,0\n",
+                "t.csv:2: column 3 (`ticks`) is 0 (with 0 pulses); expected a gate of at least one clock tick",
+            ),
+            (
+                "kind,pulses,ticks\nabsolute,5,\n",
+                "t.csv:2: column 2 (`pulses`) is given but `ticks` is empty; expected both counts",
+            ),
+            (
+                "kind,ticks\nabsolute,5\n",
+                "t.csv:2: column 2 (`ticks`) is given but `pulses` is not a column; expected both counts",
+            ),
+            (
+                "label,pulses,ticks\nx,5,10\n",
+                "t.csv:2: column 2 (`pulses`) in a difference row; expected counts only in an absolute row",
+            ),
+            (
+                "label,kind,freq_hz,lin_ia_cm_s2,ticks\nx,response,10,100,10\n",
+                "t.csv:2: column 5 (`ticks`) in a response row; expected counts only in an absolute row",
+            ),
+            (
+                "kind,measured_cm_s2,ticks,pulses\nabsolute,1.0,10,5\n",
+                "t.csv:2: column 2 (`measured_cm_s2`) and column 4 (`pulses`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks` in a row",
+            ),
+            (
+                "kind,measured_cm_s2,ticks\nabsolute,1.0,10\n",
+                "t.csv:2: column 2 (`measured_cm_s2`) and column 3 (`ticks`) both give",
+            ),
+        ] {
+            let m = err(text);
+            assert!(m.starts_with(want), "{text:?}: {m}");
+        }
+        // A design to count: `pulses` and `ticks` in place of `measured_cm_s2`.
+        let plan = vec![Condition {
+            label: "up".into(),
+            kind: RowKind::Absolute,
+            g: [1.0, 0.0, 0.0],
+            ..Condition::default()
+        }];
+        let text = to_csv_counts(&plan, &["c"], &["temp_c"]);
+        assert_eq!(
+            text,
+            "# c\nlabel,kind,g_ia,pulses,ticks,temp_c\nup,absolute,1,,,\n"
+        );
+        assert_eq!(parse("t.csv", &text).unwrap(), plan);
     }
 
     fn err_bytes(bytes: &[u8]) -> String {

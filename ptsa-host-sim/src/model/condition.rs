@@ -177,18 +177,32 @@ pub struct Condition {
     /// (case-frame column `power_on_s`; `None`: an earlier row's, else the first row's
     /// time).
     pub power_on_s: Option<f64>,
+    /// Pulses of positive torque counted over the row's gate (case-frame column `pulses`;
+    /// an absolute row's measurement given as counts, with [`Condition::ticks`]: a whole
+    /// number from 0 to `ticks`). [`crate::model::counts::with_counts`] turns them into
+    /// `measured_cm_s2` with the instrument's nominal scale factor.
+    pub pulses: Option<f64>,
+    /// Clock ticks of the row's gate (case-frame column `ticks`; a whole number greater
+    /// than 0).
+    pub ticks: Option<f64>,
+    /// The 1-sigma counting error of `measured_cm_s2` when it was converted from
+    /// `pulses` and `ticks`, cm/s² (set by [`crate::model::counts::with_counts`]; not a
+    /// case-frame column). Like the fixture's orientation error it is known noise of the
+    /// row, added in quadrature to its stated or estimated sigma.
+    pub counting_sigma_cm_s2: Option<f64>,
     /// What the row takes from the rows around it ([`with_history`]).
     pub history: History,
 }
 
 impl Condition {
-    /// Whether the row holds a measurement (`measured_cm_s2`, or a response's gain or
-    /// phase).
+    /// Whether the row holds a measurement (`measured_cm_s2` or counts, or a response's
+    /// gain or phase).
     #[must_use]
     pub fn is_measured(&self) -> bool {
         match self.kind {
             RowKind::Response => self.measured_gain.is_some() || self.measured_phase_deg.is_some(),
-            _ => self.measured_cm_s2.is_some(),
+            // Counts are a measurement before they are converted.
+            _ => self.measured_cm_s2.is_some() || self.pulses.is_some(),
         }
     }
 }
@@ -243,6 +257,9 @@ impl Condition {
             temp_c: _,
             power_on_s: _,
             sigma_angle_urad: _,
+            pulses: _,
+            ticks: _,
+            counting_sigma_cm_s2: _,
             history,
         } = self;
         let mut k: Vec<u64> = Vec::with_capacity(32 + crate::model::effects::N_CANDIDATES);

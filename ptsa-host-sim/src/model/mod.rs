@@ -9,9 +9,12 @@
 //!   discretised exactly (zero-order hold).
 //! * [`design`]: the default compensator (`Config::DEFAULT`) and the loop's margins.
 //! * [`caseframe`]: the case-frame CSV format, its one reader and one writer.
+//! * [`counts`]: counts in: an absolute row's pulses and ticks as its indicated
+//!   acceleration, with the counting's own error.
 
 pub mod caseframe;
 pub mod condition;
+pub mod counts;
 pub mod design;
 pub mod effects;
 pub mod instrument;

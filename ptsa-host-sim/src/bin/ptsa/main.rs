@@ -17,7 +17,9 @@ use std::io::Write;
 use std::process::ExitCode;
 
 use anyhow::Result;
-use cmd::{Ctx, bench, design, discover, experiments, plan, predict, report, response, static_};
+use cmd::{
+    Ctx, bench, correct, design, discover, experiments, plan, predict, report, response, static_,
+};
 use flags::{Cli, Cmd};
 use ptsa_host_sim::lab::fixtures::TwoAxisKind;
 
@@ -44,6 +46,7 @@ fn main() -> ExitCode {
 fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
     paths::inputs(cli.inputs());
     let ctx = Ctx::load(cli.instrument.as_deref())?;
+    let instrument_given = cli.instrument.is_some();
     match cli.cmd.unwrap_or(Cmd::Report(cli.report)) {
         Cmd::Report(a) => report::run(&ctx, &a.request(&ctx)?, out),
         Cmd::Tumble(a) => experiments::run(&ctx, &a.request(&ctx)?, out),
@@ -65,5 +68,6 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
         Cmd::Plan(a) => plan::run(&a.request(&ctx)?, out),
         Cmd::Discover(a) => discover::run(&ctx, &a.request(&ctx)?, out),
         Cmd::Response(a) => response::run(&ctx, &a.request()?, out),
+        Cmd::Correct(a) => correct::run(&a.request(&ctx, instrument_given)?, out),
     }
 }

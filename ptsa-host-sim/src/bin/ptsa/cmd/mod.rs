@@ -20,6 +20,7 @@
 )]
 
 pub mod bench;
+pub mod correct;
 pub mod design;
 pub mod discover;
 pub mod experiments;

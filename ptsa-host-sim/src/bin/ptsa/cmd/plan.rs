@@ -40,6 +40,8 @@ pub enum PlanKind {
         #[arg(long, value_enum, default_value = "oa")]
         axis: Axis,
         #[command(flatten)]
+        count: CountArg,
+        #[command(flatten)]
         out: PlanOut,
     },
     /// The dividing head on a rate table (Table 6.1's procedure): difference rows against a
@@ -95,8 +97,21 @@ pub enum PlanKind {
               value_parser = g_level)]
         g_levels: Vec<f64>,
         #[command(flatten)]
+        count: CountArg,
+        #[command(flatten)]
         out: PlanOut,
     },
+}
+
+/// How an absolute design's readings are to be recorded.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct CountArg {
+    /// Write empty pulses and ticks columns (the counts over each position's gate: P pulses
+    /// of positive torque in T clock ticks, whole numbers) in place of measured_cm_s2;
+    /// discover and predict convert them to SF·(2P/T − 1) cm/s² with the instrument file's
+    /// nominal SF (docs/case-frame.md).
+    #[arg(long)]
+    pub counts: bool,
 }
 
 /// Where `ptsa plan` writes.
@@ -119,6 +134,8 @@ pub struct Request {
     dest: Dest,
     /// Columns written empty for the lab to fill in.
     also: &'static [&'static str],
+    /// `pulses` and `ticks` in place of `measured_cm_s2` (`--counts`).
+    counts: bool,
 }
 
 /// Standard output, or a file (checked; with what it held when `--force` replaces it).
@@ -140,15 +157,17 @@ impl PlanArgs {
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         // Refused like every subcommand that simulates: the plan is for this instrument.
         ctx.config()?;
-        let (rows, what, out) = match self.kind {
+        let (rows, what, out, counts) = match self.kind {
             PlanKind::Tumble {
                 positions,
                 axis,
+                count,
                 out,
             } => (
                 plan::tumble(positions, axis),
                 format!("{positions}-point tumble about {axis:?}").to_lowercase(),
                 out,
+                count.counts,
             ),
             PlanKind::RateTable {
                 positions,
@@ -163,6 +182,7 @@ impl PlanArgs {
                     "rate table, {positions} positions about {axis:?}, {rate_rad_s} rad/s against {ref_rate_rad_s} rad/s, arm {radius_cm} cm"
                 ),
                 out,
+                false,
             ),
             PlanKind::Shaker {
                 freq_hz,
@@ -176,10 +196,12 @@ impl PlanArgs {
                     "two-axis oscillator at {freq_hz} Hz, {amplitude_cm_s2} cm/s^2, rocking {rock_mrad} mrad, {phases} phases per block"
                 ),
                 out,
+                false,
             ),
             PlanKind::Centrifuge {
                 radius_cm,
                 g_levels,
+                count,
                 out,
             } => (
                 plan::centrifuge(radius_cm, &g_levels, ctx.instr.g_cm_s2),
@@ -192,6 +214,7 @@ impl PlanArgs {
                         .join(", ")
                 ),
                 out,
+                count.counts,
             ),
         };
         // Absolute rows (a tumble, a centrifuge): the columns a lab records beside each
@@ -217,6 +240,7 @@ impl PlanArgs {
             what,
             dest,
             also,
+            counts,
         })
     }
 }
@@ -229,8 +253,12 @@ impl PlanArgs {
 pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
     let mut comments = vec![
         format!("Test plan written by `ptsa plan`: {}.", req.what),
-        "Fill in measured_cm_s2 (and sigma_cm_s2) from the lab, then `cargo ptsa discover --data FILE`."
-            .to_string(),
+        if req.counts {
+            "Fill in pulses and ticks (each position's counts over its gate: P pulses of positive torque in T clock ticks, whole numbers), then `cargo ptsa discover --data FILE`: they are read as SF*(2P/T - 1) cm/s^2 with the instrument file's nominal SF."
+        } else {
+            "Fill in measured_cm_s2 (and sigma_cm_s2) from the lab, then `cargo ptsa discover --data FILE`."
+        }
+        .to_string(),
     ];
     if !req.also.is_empty() {
         comments.push(
@@ -239,7 +267,11 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
         );
     }
     let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
-    let text = ptsa_host_sim::model::caseframe::to_csv_with(&req.rows, &refs, req.also);
+    let text = if req.counts {
+        ptsa_host_sim::model::caseframe::to_csv_counts(&req.rows, &refs, req.also)
+    } else {
+        ptsa_host_sim::model::caseframe::to_csv_with(&req.rows, &refs, req.also)
+    };
     match &req.dest {
         Dest::File { path, replaced } => {
             write_atomic(path, text.as_bytes())?;

@@ -75,7 +75,11 @@ impl PredictArgs {
     /// The loop cannot be simulated; a file cannot be read or is not what it should be.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         let config = ctx.config()?;
-        let rows = ptsa_host_sim::model::caseframe::read(&self.data)?;
+        // Counts in: shown as the readings they give with the file's nominal SF.
+        let rows = ptsa_host_sim::model::counts::with_counts(
+            &ptsa_host_sim::model::caseframe::read(&self.data)?,
+            ctx.instr.sf_cm_s2,
+        );
         let (effects, sigmas) = match &self.effects {
             Some(p) => load_effects(p)?,
             None => (Effects::NONE, Vec::new()),

@@ -18,8 +18,9 @@ use clap::{Args, CommandFactory as _, FromArgMatches as _, Parser, Subcommand};
 use ptsa_host_sim::simulation::sim::SimOptions;
 
 use crate::cmd::{
-    bench::BenchArgs, design::DesignArgs, discover::DiscoverArgs, experiments, plan::PlanArgs,
-    predict::PredictArgs, report::ReportArgs, response::ResponseArgs, static_::StaticArgs,
+    bench::BenchArgs, correct::CorrectArgs, design::DesignArgs, discover::DiscoverArgs,
+    experiments, plan::PlanArgs, predict::PredictArgs, report::ReportArgs, response::ResponseArgs,
+    static_::StaticArgs,
 };
 use values::{non_negative_s, positive_s, seed};
 
@@ -65,6 +66,7 @@ impl Cli {
             Some(Cmd::Discover(a)) => v.extend(a.inputs()),
             Some(Cmd::Predict(a)) => v.extend(a.inputs()),
             Some(Cmd::Response(a)) => v.extend(a.inputs()),
+            Some(Cmd::Correct(a)) => v.extend(a.inputs()),
             _ => {}
         }
         v
@@ -148,6 +150,24 @@ pub enum Cmd {
     /// (STEM: the record's file name without its extension).
     #[command(allow_negative_numbers = true)]
     Response(ResponseArgs),
+    /// Apply a calibration to a record of readings or counts: per row, the specific force
+    /// along IA that gives the reading, with its 1-sigma uncertainty, cm/s².
+    ///
+    /// The calibration is a `ptsa discover --json` result (--calibration; made with the
+    /// same --instrument file) or an instrument file of the instrument's calibrated values
+    /// (--instrument alone). Each absolute, static row's reading (measured_cm_s2, or pulses
+    /// and ticks read as SF·(2P/T − 1) cm/s² with the file's nominal SF) is inverted
+    /// through the static model equation for a_IA with the row's cross-axis inputs
+    /// (g_pa, g_oa, in g) held. The uncertainty is the reading's noise (sigma_cm_s2 or
+    /// --sigma, the counting error of counts, the fixture's sigma_angle_urad) and the
+    /// calibration's covariance (its terms' standard errors and correlation), each divided
+    /// by the model's slope; terms the calibration did not select carry no uncertainty
+    /// (docs/discovery.md, `ptsa correct`).
+    ///
+    /// Prints CSV (label, reading_cm_s2, sigma_reading_cm_s2, a_pa_cm_s2, a_oa_cm_s2,
+    /// a_ia_cm_s2, a_ia_g, sigma_a_ia_cm_s2, sigma_noise_cm_s2, sigma_calibration_cm_s2:
+    /// cm/s², a_ia_g in g), or one JSON object with --json.
+    Correct(CorrectArgs),
 }
 
 /// Options of every simulated run.

@@ -1,0 +1,366 @@
+//! `ptsa correct`: a calibration (a `ptsa discover --json` result, or an instrument file
+//! of the instrument's own values) applied to a record of readings or counts: per row the
+//! specific force along IA that gives the reading, with its 1-sigma uncertainty, as CSV on
+//! stdout or into a file (never replacing one without `--force`, written atomically), or
+//! as one JSON object.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context as _, Result, bail};
+use clap::Args;
+use ptsa_host_sim::Condition;
+use ptsa_host_sim::discovery::{self, correct as lib};
+use ptsa_host_sim::model::caseframe;
+use ptsa_host_sim::model::condition::{RowKind, with_history};
+use ptsa_host_sim::model::counts;
+use ptsa_host_sim::output::{count, write_atomic};
+
+use super::Ctx;
+use crate::flags::values::positive_cm_s2;
+use crate::paths;
+
+/// Arguments of `ptsa correct`.
+#[derive(Args, Debug, Clone)]
+pub struct CorrectArgs {
+    /// Case-frame CSV file (docs/case-frame.md) of absolute, static rows: each a reading in
+    /// measured_cm_s2 (cm/s²) or counts in pulses and ticks (whole numbers, read as
+    /// SF·(2P/T − 1) cm/s² with the instrument file's nominal SF), with the cross-axis
+    /// inputs g_pa and g_oa in g (absent: 0, with a warning). g_ia is not read: it is what
+    /// the correction recovers.
+    #[arg(long, value_name = "FILE")]
+    pub data: PathBuf,
+    /// The calibration: the JSON of `ptsa discover --json` made with the same --instrument
+    /// file (its effects, their standard errors and their correlation). Without it, the
+    /// instrument file given with --instrument is taken as the instrument's own calibrated
+    /// model, with no uncertainty of its own.
+    #[arg(long, value_name = "FILE.json")]
+    pub calibration: Option<PathBuf>,
+    /// 1-sigma noise of a reading that states none (no sigma_cm_s2 cell), cm/s² (more than
+    /// 0); added in quadrature to the counting error of a row given as counts.
+    #[arg(long, value_name = "CM_S2", value_parser = positive_cm_s2)]
+    pub sigma: Option<f64>,
+    /// Write the CSV here instead of standard output (never an input; an existing file only
+    /// with --force; the file appears whole or not at all).
+    #[arg(long, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Replace an existing --out file.
+    #[arg(long, requires = "out")]
+    pub force: bool,
+    /// Print exactly one JSON object instead of the CSV: {"data", "calibration",
+    /// "instrument", "g_cm_s2", "rows": [{"label", "line", and, for a row with a reading,
+    /// "reading_cm_s2", "sigma_reading_cm_s2", "a_pa_cm_s2", "a_oa_cm_s2", "a_ia_cm_s2",
+    /// "a_ia_g", "sigma_a_ia_cm_s2", "sigma_noise_cm_s2", "sigma_calibration_cm_s2" (cm/s²;
+    /// a_ia_g in g)}], "warnings"}.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The columns of the CSV, after `label`: the reading and its noise, the cross-axis inputs
+/// held, the specific force along IA (cm/s² and g) and its uncertainty with its two parts.
+const COLUMNS: [&str; 9] = [
+    "reading_cm_s2",
+    "sigma_reading_cm_s2",
+    "a_pa_cm_s2",
+    "a_oa_cm_s2",
+    "a_ia_cm_s2",
+    "a_ia_g",
+    "sigma_a_ia_cm_s2",
+    "sigma_noise_cm_s2",
+    "sigma_calibration_cm_s2",
+];
+
+/// A correction to write: every row corrected (or without a reading), the warnings.
+pub struct Request {
+    data: PathBuf,
+    calibration: String,
+    instrument: String,
+    g_cm_s2: f64,
+    rows: Vec<(Condition, usize, Option<lib::Corrected>)>,
+    warnings: Vec<String>,
+    /// The --out file, with what it held when --force replaces it.
+    out: Option<(PathBuf, Option<String>)>,
+    json: bool,
+}
+
+impl CorrectArgs {
+    /// The files the command reads, by their flags: no output may replace them.
+    pub fn inputs(&self) -> [(&'static str, Option<&Path>); 2] {
+        [
+            ("--data", Some(&self.data)),
+            ("--calibration", self.calibration.as_deref()),
+        ]
+    }
+
+    /// The request: the calibration read, every row corrected (the work is small), the
+    /// output checked.
+    ///
+    /// # Errors
+    /// Neither --calibration nor --instrument; a file that cannot be read or is not what it
+    /// should be; a row that is not absolute and static, or whose reading no specific force
+    /// gives; no row with a reading; --out an input, or existing without --force.
+    pub fn request(self, ctx: &Ctx, instrument_given: bool) -> Result<Request> {
+        let (cal, calibration, flag) = self.calibration(ctx, instrument_given)?;
+        let out = match self.out {
+            Some(p) => {
+                let replaced = paths::output_file("--out", &p, self.force)?
+                    .then(|| paths::what_is_replaced(&p));
+                Some((p, replaced))
+            }
+            None => None,
+        };
+        let name = self.data.display().to_string();
+        let frame = caseframe::read_frame(&self.data)?;
+        let mut warnings: Vec<String> = cal.notes.iter().map(|n| format!("{flag}: {n}")).collect();
+        let g = cal.g_cm_s2();
+        let rows = with_history(&counts::with_counts(&frame.rows, ctx.instr.sf_cm_s2), g);
+        let mut done = Vec::with_capacity(rows.len());
+        for (k, r) in rows.iter().enumerate() {
+            let line = frame.lines.get(k).copied().unwrap_or(0);
+            let c = lib::correct_row(&cal, r, self.sigma).map_err(|e| match e {
+                lib::Refusal::Kind(kind) => anyhow::anyhow!(
+                    "{name}:{line}: row `{}` is a {} row; expected absolute rows (one reading of the case at rest each: `kind` = absolute)",
+                    r.label,
+                    kind.name()
+                ),
+                lib::Refusal::NotStatic => anyhow::anyhow!(
+                    "{name}:{line}: row `{}` has a rate, an oscillation or a centrifuge arm; expected static rows (the case at rest: `correct` recovers the specific force of gravity's kind only)",
+                    r.label
+                ),
+                lib::Refusal::NoSolution => anyhow::anyhow!(
+                    "{name}:{line}: row `{}`: no specific force along IA gives the reading {} cm/s² under the calibration; expected a reading within the instrument's range (a value in another unit?)",
+                    r.label,
+                    r.measured_cm_s2.unwrap_or(f64::NAN)
+                ),
+            })?;
+            done.push((frame.rows[k].clone(), line, c));
+        }
+        warnings.extend(untested_warnings(&flag, &cal, &done, &rows));
+        let with_reading = done.iter().filter(|d| d.2.is_some()).count();
+        if with_reading == 0 {
+            bail!(
+                "{name}: no row has a reading; expected `measured_cm_s2` or `pulses` and `ticks` on the rows to correct"
+            );
+        }
+        if with_reading < done.len() {
+            warnings.push(format!(
+                "{name}: {} without a reading (`measured_cm_s2` or counts empty): written without corrected values",
+                count((done.len() - with_reading) as u64, "row")
+            ));
+        }
+        let noiseless = rows
+            .iter()
+            .filter(|r| {
+                r.measured_cm_s2.is_some()
+                    && r.sigma_cm_s2.is_none()
+                    && r.counting_sigma_cm_s2.is_none()
+            })
+            .count();
+        if noiseless > 0 && self.sigma.is_none() {
+            warnings.push(format!(
+                "{name}: {} state no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their sigmas hold the calibration's uncertainty only",
+                count(noiseless as u64, "row with a reading")
+            ));
+        }
+        if rows
+            .iter()
+            .filter(|r| r.kind == RowKind::Absolute)
+            .all(|r| r.g[1] == 0.0 && r.g[2] == 0.0)
+        {
+            warnings.push(format!(
+                "{name}: no row gives a cross-axis input (`g_pa`, `g_oa` absent or 0): a_PA and a_OA are taken as 0, so the calibration's misalignment and cross-axis terms correct nothing; give them where the case is tilted"
+            ));
+        }
+        Ok(Request {
+            data: self.data,
+            calibration,
+            instrument: ctx.name.clone(),
+            g_cm_s2: g,
+            rows: done,
+            warnings,
+            out,
+            json: self.json,
+        })
+    }
+
+    /// The calibration to apply, what it is (for the output) and its flag with its file
+    /// (for messages).
+    ///
+    /// # Errors
+    /// Neither --calibration nor --instrument; the calibration cannot be read or is not a
+    /// `ptsa discover --json` result `correct` can apply.
+    fn calibration(
+        &self,
+        ctx: &Ctx,
+        instrument_given: bool,
+    ) -> Result<(lib::Calibration, String, String)> {
+        Ok(match &self.calibration {
+            Some(p) => {
+                let text = std::fs::read_to_string(p)
+                    .with_context(|| format!("--calibration {}: cannot read", p.display()))?;
+                let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
+                    anyhow::anyhow!(
+                        "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
+                        p.display(),
+                        e.line(),
+                        e.column()
+                    )
+                })?;
+                let effects = discovery::effects_from_json(&v)
+                    .with_context(|| format!("--calibration {}", p.display()))?;
+                let cal = lib::Calibration::from_discover_json(&v, &ctx.instr, effects)
+                    .with_context(|| format!("--calibration {}", p.display()))?;
+                (
+                    cal,
+                    p.display().to_string(),
+                    format!("--calibration {}", p.display()),
+                )
+            }
+            None if instrument_given => (
+                lib::Calibration::of_instrument(&ctx.instr),
+                format!("the instrument file {}", ctx.name),
+                format!("--instrument {}", ctx.name),
+            ),
+            None => bail!(
+                "no calibration to apply; expected --calibration FILE.json (the output of `ptsa discover --json`) or --instrument FILE (an instrument file of the instrument's calibrated values, e.g. written by `ptsa discover --write-instrument`)"
+            ),
+        })
+    }
+}
+
+/// A warning for each term the calibration could not test that acts on some corrected row.
+fn untested_warnings(
+    flag: &str,
+    cal: &lib::Calibration,
+    done: &[(Condition, usize, Option<lib::Corrected>)],
+    rows: &[Condition],
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    // The terms the calibration could not test, by the rows they act on.
+    let mut untested: Vec<(&'static str, usize)> = Vec::new();
+    for ((_, _, c), r) in done.iter().zip(rows) {
+        for id in c.iter().flat_map(|c| lib::untested_terms(cal, r, c)) {
+            let n = id.info().name;
+            match untested.iter_mut().find(|u| u.0 == n) {
+                Some(u) => u.1 += 1,
+                None => untested.push((n, 1)),
+            }
+        }
+    }
+    for (n, k) in untested {
+        warnings.push(format!(
+                "{flag}: `{n}` was not testable in the calibration's data, and it acts on {} here: its error is in neither their corrected values nor their sigmas (calibrate with positions that exercise it)",
+                count(k as u64, "row")
+            ));
+    }
+    warnings
+}
+
+/// The CSV: a comment line naming the data, the calibration and the instrument file, the
+/// header, one line per row (empty cells for a row without a reading). Numbers in Rust's
+/// shortest round-trip form.
+fn csv(req: &Request) -> String {
+    let mut s = format!(
+        "# ptsa correct --data {}: {} applied (instrument file {}, local gravity {} cm/s^2); units in the column names, sigmas 1 sigma\nlabel,{}\n",
+        req.data.display(),
+        req.calibration,
+        req.instrument,
+        req.g_cm_s2,
+        COLUMNS.join(",")
+    );
+    for (r, _, c) in &req.rows {
+        // Quoted as the case-frame writer quotes (a label starting with `#` would read as
+        // a comment).
+        let label = if r.label.contains([',', '"', '\n', '\r'])
+            || r.label.starts_with('#')
+            || r.label.trim() != r.label
+        {
+            format!("\"{}\"", r.label.replace('"', "\"\""))
+        } else {
+            r.label.clone()
+        };
+        let cells: Vec<String> = match c {
+            Some(c) => [
+                c.reading_cm_s2,
+                c.sigma_reading_cm_s2,
+                c.a_pa_cm_s2,
+                c.a_oa_cm_s2,
+                c.a_ia_cm_s2,
+                c.a_ia_g,
+                c.sigma_a_ia_cm_s2,
+                c.sigma_noise_cm_s2,
+                c.sigma_calibration_cm_s2,
+            ]
+            .iter()
+            .map(|x| format!("{x}"))
+            .collect(),
+            None => vec![String::new(); COLUMNS.len()],
+        };
+        s.push_str(&label);
+        s.push(',');
+        s.push_str(&cells.join(","));
+        s.push('\n');
+    }
+    s
+}
+
+/// The JSON object (`--json`).
+fn json(req: &Request) -> serde_json::Value {
+    let rows: Vec<serde_json::Value> = req
+        .rows
+        .iter()
+        .map(|(r, line, c)| {
+            let mut m = serde_json::Map::new();
+            m.insert("label".into(), r.label.clone().into());
+            m.insert("line".into(), (*line).into());
+            if let Some(c) = c
+                && let Ok(serde_json::Value::Object(o)) = serde_json::to_value(c)
+            {
+                m.extend(o);
+            }
+            serde_json::Value::Object(m)
+        })
+        .collect();
+    serde_json::json!({
+        "data": req.data.display().to_string(),
+        "calibration": req.calibration,
+        "instrument": req.instrument,
+        "g_cm_s2": req.g_cm_s2,
+        "rows": rows,
+        "warnings": req.warnings,
+    })
+}
+
+/// Write the corrected rows: the warnings on stderr, the CSV (or JSON) on `out` or into
+/// the --out file.
+///
+/// # Errors
+/// The file or stdout cannot be written.
+pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
+    for w in &req.warnings {
+        eprintln!("warning: {w}");
+    }
+    let text = if req.json {
+        format!("{}\n", json(req))
+    } else {
+        csv(req)
+    };
+    match &req.out {
+        Some((p, replaced)) => {
+            write_atomic(p, text.as_bytes())?;
+            eprintln!(
+                "wrote {} ({} corrected)",
+                p.display(),
+                count(
+                    req.rows.iter().filter(|r| r.2.is_some()).count() as u64,
+                    "row"
+                )
+            );
+            if let Some(w) = replaced {
+                eprintln!("warning: --out {}: replaced {w} (--force)", p.display());
+            }
+        }
+        None => write!(out, "{text}")?,
+    }
+    Ok(())
+}

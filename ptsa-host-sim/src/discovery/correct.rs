@@ -1,0 +1,517 @@
+//! `ptsa correct`: a calibration applied to a record of readings. Each absolute row's
+//! reading (its `measured_cm_s2`, or its counts through the nominal scale factor) is
+//! turned back into the specific force along IA that gives it, by inverting the
+//! instrument's static model equation (the analytic model of the instrument file with the
+//! calibration's effects, [`AnalyticSimulator::absolute_cm_s2`]) for `a_IA` with the row's
+//! cross-axis inputs `a_PA`, `a_OA` held; its 1-sigma uncertainty comes from the reading's
+//! own noise and from the calibration's covariance, both carried through the model's
+//! slope (`docs/discovery.md`, `ptsa correct`). Also where every reading given as counts
+//! becomes a value before it is fitted or corrected ([`counts_in`]).
+
+use anyhow::{Result, bail};
+
+use super::sim::{AnalyticSimulator, Simulator};
+use crate::model::condition::{Condition, IA, OA, PA, RowKind};
+use crate::model::effects::{CandidateId, Effects};
+use crate::model::instrument::Instrument;
+
+/// The rows with their counts (`pulses`, `ticks`) turned into their readings with the
+/// nominal scale factor of `sim`'s instrument ([`crate::model::counts::with_counts`]);
+/// the rows as they are when none gives counts.
+///
+/// # Errors
+/// A row gives counts and `sim` has no instrument file to take the scale factor from.
+pub fn counts_in(rows: &[Condition], sim: &dyn Simulator) -> Result<Vec<Condition>> {
+    if !crate::model::counts::any_counts(rows) {
+        return Ok(rows.to_vec());
+    }
+    let Some(instr) = sim.instrument() else {
+        anyhow::bail!(
+            "rows give their readings as counts (`pulses`, `ticks`), but the {} simulator has no instrument file; expected one whose nominal scale factor (`electronics.scale_factor_cm_s2`) converts them",
+            sim.name()
+        );
+    };
+    Ok(crate::model::counts::with_counts(rows, instr.sf_cm_s2))
+}
+
+/// A calibration to apply: the instrument's model (the instrument file and the fitted
+/// effects) and the covariance of the effects' coefficients.
+pub struct Calibration {
+    sim: AnalyticSimulator,
+    effects: Effects,
+    /// The fitted coefficients with a standard error, in the effects' units.
+    terms: Vec<Term>,
+    /// Their covariance, in the same order.
+    cov: Vec<Vec<f64>>,
+    /// The candidates the calibration's data could not test (`not_testable`): the
+    /// calibration holds nothing of them, whatever the instrument has.
+    untested: Vec<CandidateId>,
+    /// What the caller should hear about the calibration (each a warning's text).
+    pub notes: Vec<String>,
+}
+
+impl Calibration {
+    /// The instrument file's own model, with no uncertainty of its own (a file written
+    /// with the instrument's calibrated values).
+    #[must_use]
+    pub fn of_instrument(instr: &Instrument) -> Self {
+        Self {
+            sim: AnalyticSimulator::for_instrument(instr),
+            effects: Effects::NONE,
+            terms: Vec::new(),
+            cov: Vec::new(),
+            untested: Vec::new(),
+            notes: vec![
+                "the instrument file carries no uncertainty of its values: each corrected value's sigma holds the reading's noise only".to_string(),
+            ],
+        }
+    }
+
+    /// A `ptsa discover --json` result `v` made with the instrument file `instr`: its
+    /// effects (`effects`, read by the caller through `discovery::effects_from_json`), their
+    /// standard errors (`effects[].stderr`) and their correlation (`model_equation`'s
+    /// `terms` and `correlation`; without it the terms are taken as uncorrelated, with a
+    /// note).
+    ///
+    /// # Errors
+    /// The effects change a parameter of the instrument file's loop (the analytic model
+    /// equation has no term for it), or a standard error is not a number of 0 or more.
+    pub fn from_discover_json(
+        v: &serde_json::Value,
+        instr: &Instrument,
+        effects: Effects,
+    ) -> Result<Self> {
+        let params: Vec<&str> = effects
+            .nonzero()
+            .filter(|(id, _)| id.parameter_key().is_some())
+            .map(|(id, _)| id.info().name)
+            .collect();
+        if !params.is_empty() {
+            bail!(
+                "the calibration changes the loop parameter(s) {}, which `correct` cannot apply: it inverts the static model equation, which has no term for a loop parameter; expected a calibration of the model equation's terms (`ptsa discover --analytic`, or `--candidates` without the loop's parameters)",
+                params
+                    .iter()
+                    .map(|p| format!("`{p}`"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+        let (terms, mut notes) = standard_errors(v, &effects)?;
+        let n = terms.len();
+        let mut cov: Vec<Vec<f64>> = (0..n)
+            .map(|i| {
+                (0..n)
+                    .map(|j| if i == j { terms[i].1 * terms[i].1 } else { 0.0 })
+                    .collect()
+            })
+            .collect();
+        match correlation(v) {
+            Some((names, rho)) => {
+                let at = |id: CandidateId| names.iter().position(|n| *n == id.info().name);
+                for i in 0..n {
+                    for j in 0..n {
+                        if i == j {
+                            continue;
+                        }
+                        if let (Some(a), Some(b)) = (at(terms[i].0), at(terms[j].0)) {
+                            let r = rho[a][b].unwrap_or(0.0);
+                            cov[i][j] = r * terms[i].1 * terms[j].1;
+                        }
+                    }
+                }
+            }
+            None if n > 1 => notes.push(
+                "the calibration gives no `model_equation` correlation: its terms are taken as uncorrelated, which may misstate the corrected values' sigmas".to_string(),
+            ),
+            None => {}
+        }
+        notes.extend(partner_notes(v));
+        let untested = untested(v);
+        if effects.is_zero() {
+            notes.push(
+                "the calibration selected no term: the instrument file's model is applied as it is, with no uncertainty of its own".to_string(),
+            );
+        }
+        Ok(Self {
+            sim: AnalyticSimulator::for_instrument(instr),
+            effects,
+            terms,
+            cov,
+            untested,
+            notes,
+        })
+    }
+
+    /// Local gravity of the instrument file, cm/s².
+    #[must_use]
+    pub fn g_cm_s2(&self) -> f64 {
+        self.sim.g_cm_s2()
+    }
+
+    /// The reading the model gives for `row` with `a_IA` = `x` g and effects `e`, cm/s².
+    fn reading(&self, row: &Condition, x: f64, e: &Effects) -> f64 {
+        let mut r = row.clone();
+        r.g[IA] = x;
+        self.sim.absolute_cm_s2(&r, e)
+    }
+}
+
+/// The model equation's term names and their correlation (`null` entries, which a term
+/// without variance gives, as `None`), if the JSON holds them.
+/// A fitted coefficient and its standard error, in the effect's unit.
+type Term = (CandidateId, f64);
+
+/// The standard error of each of `effects`' coefficients (`effects[].stderr`), with a note
+/// for each that has none.
+fn standard_errors(v: &serde_json::Value, effects: &Effects) -> Result<(Vec<Term>, Vec<String>)> {
+    let mut notes = Vec::new();
+    let mut terms: Vec<(CandidateId, f64)> = Vec::new();
+    for (id, _) in effects.nonzero() {
+        let c = id.info();
+        let se = v
+            .get("effects")
+            .and_then(serde_json::Value::as_array)
+            .and_then(|list| {
+                list.iter()
+                    .find(|e| e.get("name").and_then(serde_json::Value::as_str) == Some(c.effect))
+            })
+            .and_then(|e| e.get("stderr"))
+            .and_then(|s| s.get(c.key));
+        match se {
+                Some(x) => match x.as_f64().filter(|x| x.is_finite() && *x >= 0.0) {
+                    Some(x) => terms.push((id, x)),
+                    None => bail!(
+                        "effects: the standard error of `{}.{}` is {x}; expected a finite number of {} of 0 or more",
+                        c.effect,
+                        c.key,
+                        c.unit
+                    ),
+                },
+                None => notes.push(format!(
+                    "the calibration gives no standard error of `{}.{}`: its uncertainty is not in the corrected values' sigmas",
+                    c.effect, c.key
+                )),
+            }
+    }
+    Ok((terms, notes))
+}
+
+/// A note for each effect the calibration's data could not tell from others
+/// (`effects[].confounded_with`).
+fn partner_notes(v: &serde_json::Value) -> Vec<String> {
+    let mut notes = Vec::new();
+    for e in v
+        .get("effects")
+        .and_then(serde_json::Value::as_array)
+        .into_iter()
+        .flatten()
+    {
+        let partners: Vec<&str> = e
+            .get("confounded_with")
+            .and_then(serde_json::Value::as_array)
+            .into_iter()
+            .flatten()
+            .filter_map(serde_json::Value::as_str)
+            .collect();
+        if let (Some(name), false) = (
+            e.get("name").and_then(serde_json::Value::as_str),
+            partners.is_empty(),
+        ) {
+            notes.push(format!(
+                    "the calibration's `{name}` is indistinguishable in its data from {}: at inputs its positions did not span, a row may be corrected by the wrong one of them",
+                    partners
+                        .iter()
+                        .map(|p| format!("`{p}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+        }
+    }
+    notes
+}
+
+/// The model-equation candidates the calibration's data could not test (`not_testable`).
+fn untested(v: &serde_json::Value) -> Vec<CandidateId> {
+    v.get("not_testable")
+        .and_then(serde_json::Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter_map(serde_json::Value::as_str)
+        .filter_map(CandidateId::from_name)
+        .filter(|id| id.parameter_key().is_none())
+        .collect()
+}
+
+/// The model equation's term names and their correlation matrix.
+type Correlation = (Vec<String>, Vec<Vec<Option<f64>>>);
+
+fn correlation(v: &serde_json::Value) -> Option<Correlation> {
+    let m = v.get("model_equation")?;
+    let names: Vec<String> = m
+        .get("terms")?
+        .as_array()?
+        .iter()
+        .map(|t| {
+            t.get("name")
+                .and_then(serde_json::Value::as_str)
+                .map(str::to_string)
+        })
+        .collect::<Option<_>>()?;
+    let rho: Vec<Vec<Option<f64>>> = m
+        .get("correlation")?
+        .as_array()?
+        .iter()
+        .map(|row| {
+            row.as_array()
+                .map(|r| r.iter().map(serde_json::Value::as_f64).collect())
+        })
+        .collect::<Option<_>>()?;
+    (rho.len() == names.len() && rho.iter().all(|r| r.len() == names.len())).then_some((names, rho))
+}
+
+/// One row corrected.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct Corrected {
+    /// The reading, cm/s² (`measured_cm_s2`, or the counts' `SF·(2P/T − 1)`).
+    pub reading_cm_s2: f64,
+    /// Its 1-sigma noise: the stated sigma (or the default), the counting's and the
+    /// fixture's, in quadrature, cm/s².
+    pub sigma_reading_cm_s2: f64,
+    /// The cross-axis inputs held, cm/s² (the row's `g_pa`, `g_oa` times local gravity).
+    pub a_pa_cm_s2: f64,
+    /// See `a_pa_cm_s2`.
+    pub a_oa_cm_s2: f64,
+    /// The specific force along IA that the model says gives the reading, cm/s².
+    pub a_ia_cm_s2: f64,
+    /// The same in g (of the instrument file's local gravity).
+    pub a_ia_g: f64,
+    /// Its 1-sigma uncertainty, cm/s²: the two below in quadrature.
+    pub sigma_a_ia_cm_s2: f64,
+    /// The part from the reading's noise, cm/s².
+    pub sigma_noise_cm_s2: f64,
+    /// The part from the calibration's covariance, cm/s² (shared by every row corrected
+    /// with the same calibration: the rows' errors are correlated through it).
+    pub sigma_calibration_cm_s2: f64,
+}
+
+/// The terms the calibration could not test that act on `row` at its corrected input
+/// (`c.a_ia_g` along IA): their error is in neither the row's value nor its sigma.
+#[must_use]
+pub fn untested_terms(cal: &Calibration, row: &Condition, c: &Corrected) -> Vec<CandidateId> {
+    let mut r = row.clone();
+    r.g[IA] = c.a_ia_g;
+    let inputs = r.inputs_at(0.0, cal.g_cm_s2());
+    cal.untested
+        .iter()
+        .copied()
+        .filter(|id| id.term_cm_s2(&inputs) != 0.0)
+        .collect()
+}
+
+/// Why a row cannot be corrected (the caller names the file and line).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Refusal {
+    /// Not an absolute row.
+    Kind(RowKind),
+    /// Rates, an oscillation or a centrifuge arm.
+    NotStatic,
+    /// No specific force along IA gives the reading (the model's slope vanishes, or the
+    /// search does not converge).
+    NoSolution,
+}
+
+/// Correct one row (after `with_counts` and `with_history`): `None` when it has no
+/// reading; `default_sigma_cm_s2` is its noise when it states none (`sigma_cm_s2`).
+///
+/// # Errors
+/// The row is not absolute, not static, or no specific force gives its reading.
+pub fn correct_row(
+    cal: &Calibration,
+    row: &Condition,
+    default_sigma_cm_s2: Option<f64>,
+) -> Result<Option<Corrected>, Refusal> {
+    if row.kind != RowKind::Absolute {
+        return Err(Refusal::Kind(row.kind));
+    }
+    if !row.is_static() || row.w_rad_s.iter().any(|&w| w != 0.0) || row.radius_cm != 0.0 {
+        return Err(Refusal::NotStatic);
+    }
+    let Some(y) = row.measured_cm_s2 else {
+        return Ok(None);
+    };
+    let g = cal.g_cm_s2();
+    let e = &cal.effects;
+    let f = |x: f64| cal.reading(row, x, e);
+    // Newton's method from the linear model's answer; the slope by central differences
+    // (the model is a polynomial of degree 3 at most in a_IA).
+    let slope = |x: f64| {
+        let h = 1e-4;
+        (f(x + h) - f(x - h)) / (2.0 * h)
+    };
+    let (f0, f1) = (f(0.0), f(1.0));
+    let span = f1 - f0;
+    if !span.is_finite() || span == 0.0 {
+        return Err(Refusal::NoSolution);
+    }
+    let mut x = (y - f0) / span;
+    let mut converged = false;
+    for _ in 0..100 {
+        let d = slope(x);
+        if !d.is_finite() || d.abs() < 1e-9 * g {
+            return Err(Refusal::NoSolution);
+        }
+        let dx = (f(x) - y) / d;
+        x -= dx;
+        if !x.is_finite() {
+            return Err(Refusal::NoSolution);
+        }
+        if dx.abs() <= 1e-14 * x.abs().max(1.0) {
+            converged = true;
+            break;
+        }
+    }
+    if !converged || (f(x) - y).abs() > 1e-9 * y.abs().max(g) {
+        return Err(Refusal::NoSolution);
+    }
+    // cm/s² of reading per cm/s² along IA.
+    let d = slope(x) / g;
+    let sigma_reading = row
+        .sigma_cm_s2
+        .or(default_sigma_cm_s2)
+        .unwrap_or(0.0)
+        .hypot(row.counting_sigma_cm_s2.unwrap_or(0.0))
+        .hypot(row.fixture_sigma_cm_s2(g));
+    let sigma_noise = sigma_reading / d.abs();
+    // The reading's change per coefficient (exact for terms linear in it).
+    let jac: Vec<f64> = cal
+        .terms
+        .iter()
+        .map(|&(id, se)| {
+            let h = if se > 0.0 { se } else { 1.0 };
+            let (mut up, mut down) = (*e, *e);
+            up.add(id, h);
+            down.add(id, -h);
+            (cal.reading(row, x, &up) - cal.reading(row, x, &down)) / (2.0 * h)
+        })
+        .collect();
+    let mut var = 0.0;
+    for (i, ji) in jac.iter().enumerate() {
+        for (j, jj) in jac.iter().enumerate() {
+            var += ji * cal.cov[i][j] * jj;
+        }
+    }
+    let sigma_cal = var.max(0.0).sqrt() / d.abs();
+    let a = x * g;
+    Ok(Some(Corrected {
+        reading_cm_s2: y,
+        sigma_reading_cm_s2: sigma_reading,
+        a_pa_cm_s2: row.g[PA] * g,
+        a_oa_cm_s2: row.g[OA] * g,
+        a_ia_cm_s2: a,
+        a_ia_g: x,
+        sigma_a_ia_cm_s2: sigma_noise.hypot(sigma_cal),
+        sigma_noise_cm_s2: sigma_noise,
+        sigma_calibration_cm_s2: sigma_cal,
+    }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(g_pa: f64, y: f64) -> Condition {
+        Condition {
+            label: "r".into(),
+            kind: RowKind::Absolute,
+            g: [0.0, g_pa, 0.0],
+            measured_cm_s2: Some(y),
+            sigma_cm_s2: Some(0.01),
+            ..Condition::default()
+        }
+    }
+
+    /// The inverse of the model: the reading the model gives at a known `a_IA` comes back
+    /// as that `a_IA`; the noise is divided by the slope; a term's standard error adds its
+    /// part of the reading at that input.
+    #[test]
+    fn the_model_equation_is_inverted() {
+        let instr = Instrument::kearfott_2401();
+        let effects = Effects::NONE
+            .with(CandidateId::Bias, 0.5)
+            .with(CandidateId::ScaleFactor, -150.0)
+            .with(CandidateId::MisalignmentP, 1e-4)
+            .with(CandidateId::Nonlinearity, 2e-8);
+        let v = serde_json::json!({
+            "effects": [
+                {"name": "bias", "coefficients": {"k0_cm_s2": 0.5}, "stderr": {"k0_cm_s2": 0.002}},
+                {"name": "scale_factor", "coefficients": {"k1_ppm": -150.0}, "stderr": {"k1_ppm": 3.0}},
+                {"name": "misalignment", "coefficients": {"delta_p_rad": 1e-4}, "stderr": {"delta_p_rad": 0.0}},
+                {"name": "nonlinearity", "coefficients": {"k2_s2_cm": 2e-8}, "stderr": {"k2_s2_cm": 0.0}},
+            ],
+        });
+        let cal = Calibration::from_discover_json(&v, &instr, effects).unwrap();
+        let g = cal.g_cm_s2();
+        for (a_g, g_pa) in [(0.7, 0.3), (-1.0, 0.0), (0.0, 1.0), (2.5, -0.2)] {
+            let mut r = row(g_pa, 0.0);
+            r.g[IA] = a_g;
+            let y = cal.sim.absolute_cm_s2(&r, &effects);
+            let c = correct_row(&cal, &row(g_pa, y), None).unwrap().unwrap();
+            assert!((c.a_ia_cm_s2 - a_g * g).abs() < 1e-9, "{a_g}: {c:?}");
+            let slope = 1.0 - 150e-6 + 2.0 * 2e-8 * a_g * g;
+            assert!((c.sigma_noise_cm_s2 - 0.01 / slope).abs() < 1e-9, "{c:?}");
+            // Bias and scale factor, uncorrelated (no model_equation): 0.002 and 3 ppm of
+            // the input.
+            let want = 0.002f64.hypot(3e-6 * a_g * g) / slope;
+            assert!(
+                (c.sigma_calibration_cm_s2 / want - 1.0).abs() < 1e-6,
+                "{a_g}: {} against {want}",
+                c.sigma_calibration_cm_s2
+            );
+        }
+        assert!(cal.notes.iter().any(|n| n.contains("uncorrelated")));
+        // A correlation of 1 between bias and scale factor adds the parts.
+        let mut v2 = v.clone();
+        v2["model_equation"] = serde_json::json!({
+            "terms": [{"name": "bias"}, {"name": "scale_factor"}, {"name": "misalignment.delta_p_rad"}, {"name": "nonlinearity"}],
+            "correlation": [[1.0, 1.0, 0.0, 0.0], [1.0, 1.0, 0.0, 0.0], [0.0, 0.0, null, null], [0.0, 0.0, null, null]],
+        });
+        let cal2 = Calibration::from_discover_json(&v2, &instr, effects).unwrap();
+        let mut r = row(0.0, 0.0);
+        r.g[IA] = 1.0;
+        let y = cal2.sim.absolute_cm_s2(&r, &effects);
+        let c = correct_row(&cal2, &row(0.0, y), None).unwrap().unwrap();
+        let slope = 1.0 - 150e-6 + 2.0 * 2e-8 * g;
+        assert!(
+            (c.sigma_calibration_cm_s2 / ((0.002 + 3e-6 * g) / slope) - 1.0).abs() < 1e-6,
+            "{c:?}"
+        );
+    }
+
+    #[test]
+    fn rows_that_cannot_be_corrected_are_refused() {
+        let cal = Calibration::of_instrument(&Instrument::kearfott_2401());
+        let mut r = row(0.0, 1.0);
+        r.kind = RowKind::Difference;
+        assert_eq!(
+            correct_row(&cal, &r, None),
+            Err(Refusal::Kind(RowKind::Difference))
+        );
+        let mut r = row(0.0, 1.0);
+        r.w_rad_s = [0.0, 0.0, 1.0];
+        assert_eq!(correct_row(&cal, &r, None), Err(Refusal::NotStatic));
+        let mut r = row(0.0, 1.0);
+        r.measured_cm_s2 = None;
+        assert_eq!(correct_row(&cal, &r, None), Ok(None));
+        // A loop parameter cannot be applied.
+        let e = Effects::NONE.with(CandidateId::ParamTorquerSf, 0.01);
+        let m = Calibration::from_discover_json(
+            &serde_json::json!({}),
+            &Instrument::kearfott_2401(),
+            e,
+        )
+        .err()
+        .unwrap()
+        .to_string();
+        assert!(m.contains("`torquer_sf`"), "{m}");
+    }
+}
