@@ -125,6 +125,10 @@ pub struct AnalyticSimulator {
     pub loop_bias: [f64; 2],
     /// The instrument and its compensator, for the linear loop model of response rows.
     pub loop_model: Box<(Instrument, ptsa_core::Config)>,
+    /// The instrument file's nominal model-equation terms (`[model_equation]`,
+    /// [`Instrument::with_nominal_terms`]): part of the baseline, added to every row's
+    /// effects.
+    pub nominal: Effects,
 }
 
 impl AnalyticSimulator {
@@ -132,14 +136,27 @@ impl AnalyticSimulator {
     #[must_use]
     pub fn for_instrument(instr: &Instrument) -> Self {
         let b0 = instr.loop_bias_cm_s2(0.0);
-        let config = crate::model::design::check_loop(instr)
-            .map_or(ptsa_core::Config::DEFAULT, |c| c.config);
+        let config = if instr.has_loop {
+            crate::model::design::check_loop(instr).map_or(ptsa_core::Config::DEFAULT, |c| c.config)
+        } else {
+            ptsa_core::Config::DEFAULT
+        };
         Self {
             g_cm_s2: instr.g_cm_s2,
             bias_cm_s2: instr.bias_cm_s2,
             loop_bias: [b0, instr.loop_bias_cm_s2(1.0) - b0],
             loop_model: Box::new((instr.clone(), config)),
+            nominal: instr.nominal,
         }
+    }
+
+    /// `effects` with the nominal terms of the instrument file added.
+    fn total(&self, effects: &Effects) -> Effects {
+        let mut e = *effects;
+        for (id, c) in self.nominal.nonzero() {
+            e.add(id, c);
+        }
+        e
     }
 }
 
@@ -212,7 +229,11 @@ pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> 
 
 impl Simulator for AnalyticSimulator {
     fn name(&self) -> &'static str {
-        "analytic"
+        if self.loop_model.0.has_loop {
+            "analytic"
+        } else {
+            "loop-less analytic"
+        }
     }
 
     fn g_cm_s2(&self) -> f64 {
@@ -220,7 +241,7 @@ impl Simulator for AnalyticSimulator {
     }
 
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        effect_cm_s2(cond, effects, self.g_cm_s2)
+        effect_cm_s2(cond, &self.total(effects), self.g_cm_s2)
     }
 
     fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
@@ -231,7 +252,7 @@ impl Simulator for AnalyticSimulator {
             + self.bias_cm_s2
             + self.loop_bias[0]
             + self.loop_bias[1] * m.a_cm_s2[PA]
-            + mean_effect_cm_s2(cond, effects, self.g_cm_s2)
+            + mean_effect_cm_s2(cond, &self.total(effects), self.g_cm_s2)
     }
 
     fn instrument(&self) -> Option<&Instrument> {
@@ -240,14 +261,20 @@ impl Simulator for AnalyticSimulator {
 
     fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
         // The linear loop model L/(1 + L) of the instrument's loop (with its parameter
-        // changes).
+        // changes); an instrument without a loop is taken as quasi-static: it follows the
+        // input (gain 1, phase 0).
         let (instr, config) = &*self.loop_model;
+        if !instr.has_loop {
+            return [1.0, 0.0];
+        }
         closed_loop_linear(instr, config, cond.freq_hz, effects)
     }
 
     fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
         let (instr, config) = &*self.loop_model;
-        Some(closed_loop_linear(instr, config, f_hz, effects))
+        instr
+            .has_loop
+            .then(|| closed_loop_linear(instr, config, f_hz, effects))
     }
 }
 

@@ -1,5 +1,9 @@
 //! The instrument file (`data/kearfott-2401.toml`): Table 2.1 of R-890 with tolerances, and
-//! the PTSA electronics, validated on load.
+//! the PTSA electronics, validated on load; or, for an accelerometer without a PTSA loop
+//! (`data/navigation.toml`, `data/mems.toml`), only what a calibration needs: its name and
+//! class, its reading's unit and nominal scale, its nominal bias, local gravity, the nominal
+//! terms of its IEEE 1293 model equation (`[model_equation]`, which a file with a loop may
+//! give too) and the plausibility bounds.
 
 use std::fmt;
 use std::path::Path;
@@ -8,8 +12,38 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use toml::Spanned;
 
+use crate::model::effects::{CandidateId, Effects};
+
 /// The shipped instrument file, compiled in.
 pub const KEARFOTT_2401_TOML: &str = include_str!("../../../data/kearfott-2401.toml");
+/// The shipped file of a navigation-grade servo (force-rebalance) accelerometer: no PTSA
+/// loop, the bounds of that class.
+pub const NAVIGATION_TOML: &str = include_str!("../../../data/navigation.toml");
+/// The shipped file of one axis of a consumer MEMS accelerometer: no PTSA loop, the bounds
+/// of that class.
+pub const MEMS_TOML: &str = include_str!("../../../data/mems.toml");
+
+/// The shipped instrument files, by the name `--instrument` and `ptsa instrument new
+/// --class` take: `(name, path in the repository, text)`. The first is the default.
+pub const SHIPPED: &[(&str, &str, &str)] = &[
+    (
+        "kearfott-2401",
+        "data/kearfott-2401.toml",
+        KEARFOTT_2401_TOML,
+    ),
+    ("navigation", "data/navigation.toml", NAVIGATION_TOML),
+    ("mems", "data/mems.toml", MEMS_TOML),
+];
+
+/// The shipped instrument file named `name` ([`SHIPPED`]): its path in the repository and
+/// its text.
+#[must_use]
+pub fn shipped(name: &str) -> Option<(&'static str, &'static str)> {
+    SHIPPED
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .map(|&(_, path, text)| (path, text))
+}
 
 /// Why an instrument file was refused: where and what was expected.
 ///
@@ -250,7 +284,7 @@ struct PlausibilityT {
 #[derive(Debug, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops] (and optionally [plausibility])"
+    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops] (and optionally [instrument], [model_equation] and [plausibility])"
 )]
 struct FileT {
     pendulum: PendulumT,
@@ -258,8 +292,230 @@ struct FileT {
     torquer: TorquerT,
     electronics: ElectronicsT,
     stops: StopsT,
+    instrument: Option<IdentT>,
+    model_equation: Option<ModelEquationT>,
     plausibility: Option<PlausibilityT>,
 }
+
+/// The sections of a file with a PTSA loop (Table 2.1 and the loop's electronics): a file
+/// that has none of them describes an instrument without a loop.
+pub const LOOP_SECTIONS: &[&str] = &["pendulum", "pickoff", "torquer", "electronics", "stops"];
+
+/// A file without a PTSA loop: `[instrument]` (required), `[model_equation]` and
+/// `[plausibility]`.
+#[derive(Debug, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "tables [instrument] (and optionally [model_equation] and [plausibility])"
+)]
+struct LooplessT {
+    instrument: IdentT,
+    model_equation: Option<ModelEquationT>,
+    plausibility: Option<PlausibilityT>,
+}
+
+/// `[instrument]`: what the instrument is and how its reading is scaled. Optional in a file
+/// with a loop (whose bias and local gravity are in `[electronics]`), required without one.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "an [instrument] table")]
+struct IdentT {
+    name: Option<Spanned<String>>,
+    class: Option<Spanned<String>>,
+    reading_unit: Option<Spanned<String>>,
+    scale_factor_per_g: Option<Spanned<Num>>,
+    bias_cm_s2: Option<Spanned<Num>>,
+    local_gravity_cm_s2: Option<Spanned<Num>>,
+}
+
+/// `[model_equation]`: key = number, each key one of [`MODEL_EQUATION`].
+type ModelEquationT = std::collections::BTreeMap<Spanned<String>, Spanned<Num>>;
+
+/// The unit of a raw reading (a case-frame `reading_unit`, an instrument file's
+/// `instrument.reading_unit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReadingUnit {
+    /// Volts (an analogue output).
+    Volt,
+    /// Milliamperes (a servo accelerometer's current output).
+    MilliAmp,
+    /// Least significant bits of a digital output.
+    Lsb,
+    /// g, local gravity (the instrument file's `local_gravity_cm_s2`).
+    G,
+    /// m/s².
+    MPerS2,
+    /// cm/s².
+    CmPerS2,
+}
+
+impl ReadingUnit {
+    /// Every unit, in the order messages list them.
+    pub const ALL: &[ReadingUnit] = &[
+        ReadingUnit::Volt,
+        ReadingUnit::MilliAmp,
+        ReadingUnit::Lsb,
+        ReadingUnit::G,
+        ReadingUnit::MPerS2,
+        ReadingUnit::CmPerS2,
+    ];
+
+    /// Its name as written in files: `V`, `mA`, `LSB`, `g`, `m/s²`, `cm/s²`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            ReadingUnit::Volt => "V",
+            ReadingUnit::MilliAmp => "mA",
+            ReadingUnit::Lsb => "LSB",
+            ReadingUnit::G => "g",
+            ReadingUnit::MPerS2 => "m/s²",
+            ReadingUnit::CmPerS2 => "cm/s²",
+        }
+    }
+
+    /// The unit written `s` (its name, or `m/s2`, `m/s^2`, `cm/s2`, `cm/s^2`).
+    #[must_use]
+    pub fn parse(s: &str) -> Option<Self> {
+        let s = s.trim();
+        let s = s.replace("s^2", "s²").replace("s2", "s²");
+        ReadingUnit::ALL.iter().copied().find(|u| u.name() == s)
+    }
+
+    /// The names of every unit, for messages: `V, mA, LSB, g, m/s², cm/s²`.
+    #[must_use]
+    pub fn names() -> String {
+        ReadingUnit::ALL
+            .iter()
+            .map(|u| u.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// A unit of acceleration, converted by its definition (g with the file's local
+    /// gravity); the others (V, mA, LSB) only through a nominal scale factor.
+    #[must_use]
+    pub fn is_physical(self) -> bool {
+        matches!(
+            self,
+            ReadingUnit::G | ReadingUnit::MPerS2 | ReadingUnit::CmPerS2
+        )
+    }
+}
+
+/// The nominal scale of an instrument's raw reading: `per_g` reading units per g of input.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadingScale {
+    /// The reading's unit (V, mA or LSB).
+    pub unit: ReadingUnit,
+    /// Nominal scale factor, reading units per g (local gravity).
+    pub per_g: f64,
+}
+
+/// One key of `[model_equation]`: a nominal term of the instrument's IEEE Std 1293 model
+/// equation, in the file's cgs unit and under the IEEE sign, and the discovery candidate it
+/// is the nominal value of (the candidate's coefficient is `sign` × the file's value).
+#[derive(Debug, Clone, Copy)]
+pub struct ModelEquationKey {
+    /// Key in `[model_equation]`.
+    pub key: &'static str,
+    /// Unit in the file.
+    pub unit: &'static str,
+    /// IEEE 1293 symbol.
+    pub symbol: &'static str,
+    /// What it is.
+    pub description: &'static str,
+    /// The candidate.
+    pub id: CandidateId,
+    /// The candidate's coefficient over the file's value: 1, or −1 for `δ_p` (the IEEE
+    /// equation has `− δ_p·a_o`; the candidate `misalignment.delta_o_rad` is the coefficient
+    /// of `a_OA`).
+    pub sign: f64,
+}
+
+/// The keys of `[model_equation]`, in the order a written section lists them. Every key is
+/// optional (0 when absent); the baseline model (both simulators) includes them, so that a
+/// discovery's coefficients are changes from them.
+pub const MODEL_EQUATION: &[ModelEquationKey] = &[
+    ModelEquationKey {
+        key: "k1_ppm",
+        unit: "ppm",
+        symbol: "K_1",
+        description: "scale-factor error from the nominal scale factor",
+        id: CandidateId::ScaleFactor,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "delta_o_rad",
+        unit: "rad",
+        symbol: "δ_o",
+        description: "IA misalignment about OA (toward PA): the term + δ_o·a_p",
+        id: CandidateId::MisalignmentP,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "delta_p_rad",
+        unit: "rad",
+        symbol: "δ_p",
+        description: "IA misalignment about PA (toward OA): the term − δ_p·a_o",
+        id: CandidateId::MisalignmentO,
+        sign: -1.0,
+    },
+    ModelEquationKey {
+        key: "k2_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_2",
+        description: "second-order nonlinearity, K_2·a_i²",
+        id: CandidateId::Nonlinearity,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k3_s4_cm2",
+        unit: "s⁴/cm²",
+        symbol: "K_3",
+        description: "third-order nonlinearity, K_3·a_i³",
+        id: CandidateId::Cubic,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_ip_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_ip",
+        description: "cross-coupling K_ip·a_i·a_p",
+        id: CandidateId::Vibropendulosity,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_io_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_io",
+        description: "cross-coupling K_io·a_i·a_o",
+        id: CandidateId::Anisoelasticity,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_pp_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_pp",
+        description: "cross-axis K_pp·a_p²",
+        id: CandidateId::CrossAxisPp,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_oo_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_oo",
+        description: "cross-axis K_oo·a_o²",
+        id: CandidateId::CrossAxisOo,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_po_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_po",
+        description: "cross-axis K_po·a_p·a_o",
+        id: CandidateId::CrossAxisPo,
+        sign: 1.0,
+    },
+];
 
 /// How an entry of the instrument file is written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -750,6 +1006,21 @@ pub struct Instrument {
     pub tolerances: Vec<Tolerance>,
     /// Plausibility bounds of the discovery candidates.
     pub plausibility: Plausibility,
+    /// Whether the file describes a PTSA loop (Table 2.1's sections): without one, every
+    /// loop field above is 0, nothing can run the closed loop, and no loop parameter is a
+    /// discovery candidate.
+    pub has_loop: bool,
+    /// `instrument.name`, if the file gives one.
+    pub name: Option<String>,
+    /// `instrument.class`, if the file gives one.
+    pub class: Option<String>,
+    /// The nominal scale of the raw reading (`instrument.reading_unit`,
+    /// `instrument.scale_factor_per_g`), if the file gives one.
+    pub reading_scale: Option<ReadingScale>,
+    /// The nominal model-equation terms of `[model_equation]` as candidate coefficients
+    /// (0 for every other candidate): the baseline model includes them
+    /// ([`Instrument::with_nominal_terms`]).
+    pub nominal: Effects,
 }
 
 /// The 1-based line and column (in characters) of byte `offset` of `src`.
@@ -895,6 +1166,155 @@ impl Ctx<'_> {
                 ),
             },
         }
+    }
+
+    /// `[instrument]`: the name, class and reading scale; without a loop also the bias and
+    /// local gravity (required then, refused in a file with a loop, which has them in
+    /// `[electronics]`).
+    fn ident(&self, t: &IdentT, instr: &mut Instrument) -> Result<(), InstrumentError> {
+        let text =
+            |key: &str, v: &Option<Spanned<String>>| -> Result<Option<String>, InstrumentError> {
+                match v {
+                    Some(s) if s.get_ref().trim().is_empty() => Err(self.err(
+                        s.span().start,
+                        format!("instrument.{key}: expected a non-empty string"),
+                    )),
+                    Some(s) => Ok(Some(s.get_ref().trim().to_string())),
+                    None => Ok(None),
+                }
+            };
+        instr.name = text("name", &t.name)?;
+        instr.class = text("class", &t.class)?;
+        let table_at = t
+            .name
+            .as_ref()
+            .or(t.class.as_ref())
+            .map_or(0, |s| s.span().start);
+        if !instr.has_loop {
+            for (key, v) in [("name", &instr.name), ("class", &instr.class)] {
+                if v.is_none() {
+                    return Err(self.err(
+                        table_at,
+                        format!("instrument.{key}: missing; a file without a PTSA loop names its instrument and its class (e.g. class = \"mems\")"),
+                    ));
+                }
+            }
+        }
+        instr.reading_scale = self.reading_scale(t)?;
+        for (key, v) in [
+            ("bias_cm_s2", &t.bias_cm_s2),
+            ("local_gravity_cm_s2", &t.local_gravity_cm_s2),
+        ] {
+            match v {
+                Some(s) if instr.has_loop => {
+                    return Err(self.err(
+                        s.span().start,
+                        format!("instrument.{key}: a file with a PTSA loop gives it as electronics.{key}; expected it there only"),
+                    ));
+                }
+                None if !instr.has_loop => {
+                    return Err(self.err(
+                        table_at,
+                        format!("instrument.{key}: missing; a file without a PTSA loop gives its nominal bias (cm/s²) and local gravity (cm/s²) in [instrument]"),
+                    ));
+                }
+                _ => {}
+            }
+        }
+        if let (Some(b), Some(g)) = (&t.bias_cm_s2, &t.local_gravity_cm_s2) {
+            instr.g_cm_s2 = self.scalar(
+                "instrument.local_gravity_cm_s2",
+                g,
+                |x| x > 0.0,
+                "gravity > 0 cm/s²",
+            )?;
+            let limit = 10.0 * instr.g_cm_s2;
+            instr.bias_cm_s2 = self.scalar(
+                "instrument.bias_cm_s2",
+                b,
+                |x| x.abs() < limit,
+                "|bias| below 10 g (10 × local gravity)",
+            )?;
+        }
+        Ok(())
+    }
+
+    /// `instrument.reading_unit` and `instrument.scale_factor_per_g`: both or neither.
+    fn reading_scale(&self, t: &IdentT) -> Result<Option<ReadingScale>, InstrumentError> {
+        match (&t.reading_unit, &t.scale_factor_per_g) {
+            (Some(u), Some(sf)) => {
+                let unit = ReadingUnit::parse(u.get_ref()).ok_or_else(|| {
+                    self.err(
+                        u.span().start,
+                        format!(
+                            "instrument.reading_unit = {:?}: expected one of V, mA, LSB",
+                            u.get_ref()
+                        ),
+                    )
+                })?;
+                if unit.is_physical() {
+                    return Err(self.err(
+                        u.span().start,
+                        format!(
+                            "instrument.reading_unit = {:?}: a reading in {} is converted by its definition; expected the unit of a scale factor: V, mA or LSB",
+                            u.get_ref(),
+                            unit.name()
+                        ),
+                    ));
+                }
+                let per_g = self.scalar(
+                    "instrument.scale_factor_per_g",
+                    sf,
+                    |x| x > 0.0,
+                    &format!("a nominal scale factor > 0 {} per g", unit.name()),
+                )?;
+                Ok(Some(ReadingScale { unit, per_g }))
+            }
+            (Some(s), None) => Err(self.err(
+                    s.span().start,
+                    "instrument.reading_unit without instrument.scale_factor_per_g: expected both (the reading's unit and its nominal scale factor, units per g)".to_string(),
+            )),
+            (None, Some(s)) => Err(self.err(
+                    s.span().start,
+                    "instrument.scale_factor_per_g without instrument.reading_unit: expected both (the reading's unit and its nominal scale factor, units per g)".to_string(),
+            )),
+            (None, None) => Ok(None),
+        }
+    }
+
+    /// `[model_equation]` (optional, every key optional): the nominal terms, into
+    /// `instr.nominal` as candidate coefficients.
+    fn model_equation(
+        &self,
+        t: Option<&ModelEquationT>,
+        instr: &mut Instrument,
+    ) -> Result<(), InstrumentError> {
+        let Some(t) = t else {
+            return Ok(());
+        };
+        for (k, v) in t {
+            let Some(m) = MODEL_EQUATION.iter().find(|m| m.key == k.get_ref()) else {
+                let keys: Vec<&str> = MODEL_EQUATION.iter().map(|m| m.key).collect();
+                return Err(self.err(
+                    k.span().start,
+                    format!(
+                        "model_equation.{}: not a term of the model equation; expected one of {}",
+                        k.get_ref(),
+                        keys.join(", ")
+                    ),
+                ));
+            };
+            let key = format!("model_equation.{}", m.key);
+            let x = if m.id == CandidateId::ScaleFactor {
+                self.scalar(&key, v, |x| x.abs() < 1e6, "|K_1| < 1e6 ppm")?
+            } else if m.unit == "rad" {
+                self.scalar(&key, v, |x| x.abs() < 1.0, "|misalignment| < 1 rad")?
+            } else {
+                self.scalar(&key, v, |_| true, &format!("a number, {}", m.unit))?
+            };
+            instr.nominal.set(m.id, m.sign * x);
+        }
+        Ok(())
     }
 
     /// `[plausibility]` (optional, every key optional): the bounds, with defaults.
@@ -1101,19 +1521,41 @@ impl Instrument {
     pub fn parse(src: &str, file: &str) -> Result<Self, InstrumentError> {
         let src = src.strip_prefix('\u{feff}').unwrap_or(src);
         let cx = Ctx { file, src };
-        let f: FileT = toml::from_str(src).map_err(|e| {
+        let toml_err = |e: toml::de::Error| {
             let at = e.span().map_or(0, |s| s.start);
             cx.err(at, user_message(e.message()))
-        })?;
-        let mut tol = Vec::new();
+        };
+        let table: toml::Table = toml::from_str(src).map_err(toml_err)?;
         let mut instr = Self::zeroed();
-        for p in PARAMETERS {
-            let v = cx.entry(p, &f, &mut tol)?;
-            p.set(&mut instr, v);
+        if LOOP_SECTIONS.iter().any(|s| table.contains_key(*s)) {
+            let f: FileT = toml::from_str(src).map_err(toml_err)?;
+            let mut tol = Vec::new();
+            for p in PARAMETERS {
+                let v = cx.entry(p, &f, &mut tol)?;
+                p.set(&mut instr, v);
+            }
+            instr.full_current_ma = instr.sf_cm_s2 / instr.g_cm_s2 * instr.current_sf_ma_per_g;
+            instr.tolerances = tol;
+            instr.plausibility =
+                cx.plausibility(f.plausibility.as_ref(), instr.inertia_dyn_cm_s2)?;
+            if let Some(id) = &f.instrument {
+                cx.ident(id, &mut instr)?;
+            }
+            cx.model_equation(f.model_equation.as_ref(), &mut instr)?;
+        } else {
+            if !table.contains_key("instrument") {
+                return Err(cx.err(
+                    0,
+                    "expected the tables [pendulum], [pickoff], [torquer], [electronics] and [stops] of a PTSA loop, or, for an accelerometer without one, an [instrument] table (name, class, bias_cm_s2, local_gravity_cm_s2)".to_string(),
+                ));
+            }
+            let f: LooplessT = toml::from_str(src).map_err(toml_err)?;
+            instr.has_loop = false;
+            cx.ident(&f.instrument, &mut instr)?;
+            // No pendulum: the anisoinertia's bound (I_PA − I_IA over m·l) has no default.
+            instr.plausibility = cx.plausibility(f.plausibility.as_ref(), f64::INFINITY)?;
+            cx.model_equation(f.model_equation.as_ref(), &mut instr)?;
         }
-        instr.full_current_ma = instr.sf_cm_s2 / instr.g_cm_s2 * instr.current_sf_ma_per_g;
-        instr.tolerances = tol;
-        instr.plausibility = cx.plausibility(f.plausibility.as_ref(), instr.inertia_dyn_cm_s2)?;
         Ok(instr)
     }
 
@@ -1158,6 +1600,11 @@ impl Instrument {
                 scale_factor_per_c_ppm: 0.0,
                 warm_up_cm_s2: 0.0,
             },
+            has_loop: true,
+            name: None,
+            class: None,
+            reading_scale: None,
+            nominal: Effects::NONE,
         }
     }
 
@@ -1315,9 +1762,225 @@ impl Instrument {
     /// zero for the nominal file (phase error 0).
     #[must_use]
     pub fn loop_bias_cm_s2(&self, a_pa_cm_s2: f64) -> f64 {
+        if !self.has_loop {
+            return 0.0;
+        }
         let theta0 = -self.quadrature_v * self.phase_error_rad.tan() / self.pickoff_v_per_rad;
         let p = self.pendulosity_g_cm();
         -(self.spring_dyn_cm_rad + p * a_pa_cm_s2) * theta0 / p
+    }
+
+    /// The nominal value of candidate `id`'s term in this instrument's model equation, in
+    /// the candidate's unit and sign (so that the instrument's own coefficient is this
+    /// nominal value plus the change `ptsa discover` reports):
+    ///
+    /// * `bias`: the file's bias `A_b` (`electronics.bias_cm_s2`, or `instrument.bias_cm_s2`
+    ///   without a loop), cm/s²;
+    /// * `scale_factor`: `model_equation.k1_ppm`, ppm from the nominal scale factor (0 when
+    ///   absent; the nominal scale factor itself is `electronics.scale_factor_cm_s2` for the
+    ///   loop's pulses, [`Instrument::reading_scale`] for a raw reading);
+    /// * `misalignment.delta_p_rad` (the coefficient of `a_PA`): `model_equation.delta_o_rad`;
+    ///   `misalignment.delta_o_rad` (the coefficient of `a_OA`): minus
+    ///   `model_equation.delta_p_rad` (the IEEE equation's `− δ_p·a_o`), rad;
+    /// * `nonlinearity`, `cubic`, `vibropendulosity`, `anisoelasticity`, `cross_axis_*`:
+    ///   `k2_s2_cm`, `k3_s4_cm2`, `k_ip_s2_cm`, `k_io_s2_cm`, `k_pp_s2_cm`, `k_oo_s2_cm`,
+    ///   `k_po_s2_cm`;
+    /// * every other candidate (dynamic terms, loop parameters): 0 (a loop parameter's
+    ///   nominal is its file value, [`Instrument::get`]).
+    #[must_use]
+    pub fn nominal_model_term(&self, id: CandidateId) -> f64 {
+        if id == CandidateId::Bias {
+            self.bias_cm_s2
+        } else {
+            self.nominal.get(id)
+        }
+    }
+
+    /// `effects` plus the nominal model-equation terms of `[model_equation]`: what the
+    /// simulators put into a run (the baseline, `Effects::NONE`, becomes the nominal
+    /// terms).
+    #[must_use]
+    pub fn with_nominal_terms(&self, effects: &Effects) -> Effects {
+        let mut e = *effects;
+        for (id, c) in self.nominal.nonzero() {
+            e.add(id, c);
+        }
+        e
+    }
+
+    /// The file's name for the instrument: `instrument.name`, or for a file with a loop
+    /// and no name, the PTSA loop's.
+    #[must_use]
+    pub fn display_name(&self) -> &str {
+        self.name
+            .as_deref()
+            .unwrap_or(if self.has_loop { "PTSA loop" } else { "" })
+    }
+
+    /// A raw reading `value` in `unit`, in cm/s²: a unit of acceleration by its definition
+    /// (g with the file's local gravity), V, mA or LSB through the file's nominal scale
+    /// factor when the file gives one in that unit.
+    ///
+    /// # Errors
+    /// A reading in V, mA or LSB when the file gives no scale in that unit (the message
+    /// names the keys to add).
+    pub fn reading_to_cm_s2(&self, value: f64, unit: ReadingUnit) -> Result<f64, String> {
+        match unit {
+            ReadingUnit::CmPerS2 => Ok(value),
+            ReadingUnit::MPerS2 => Ok(value * 100.0),
+            ReadingUnit::G => Ok(value * self.g_cm_s2),
+            _ => match self.reading_scale {
+                Some(sc) if sc.unit == unit => Ok(value / sc.per_g * self.g_cm_s2),
+                Some(sc) => Err(format!(
+                    "a reading in {} needs a nominal scale factor in {} per g; the instrument file gives one in {} per g (instrument.reading_unit = \"{}\")",
+                    unit.name(),
+                    unit.name(),
+                    sc.unit.name(),
+                    sc.unit.name()
+                )),
+                None => Err(format!(
+                    "a reading in {} needs the instrument file's nominal scale factor: expected instrument.reading_unit = \"{}\" and instrument.scale_factor_per_g (in {} per g) in its [instrument] table",
+                    unit.name(),
+                    unit.name(),
+                    unit.name()
+                )),
+            },
+        }
+    }
+
+    /// The text of instrument file `src` with new nominal model-equation terms, everything
+    /// else kept: each `(id, value, note)` sets candidate `id`'s nominal
+    /// ([`Instrument::nominal_model_term`], in the candidate's unit and sign) to `value`:
+    /// the bias into its key (`electronics.bias_cm_s2`, or `instrument.bias_cm_s2` without
+    /// a loop), the others into `[model_equation]` under the file's key and IEEE sign
+    /// (the section is added at the end of the file when absent, a key after its header
+    /// when absent), with `# note` on the line above. The result is parsed again and must
+    /// give each value back.
+    ///
+    /// # Errors
+    /// `src` is not a valid instrument file, `id` is not a term of the model equation, or
+    /// the new text does not give the values back.
+    pub fn rewrite_model_equation(
+        src: &str,
+        file: &str,
+        changes: &[(CandidateId, f64, String)],
+    ) -> Result<String, InstrumentError> {
+        let src = src.strip_prefix('\u{feff}').unwrap_or(src);
+        let before = Self::parse(src, file)?;
+        let cx = Ctx { file, src };
+        let fail = |message: String| InstrumentError {
+            file: file.to_string(),
+            line: 0,
+            column: 0,
+            message,
+        };
+        // The spans of the bias and of the section's keys.
+        let (bias_span, section): (std::ops::Range<usize>, Option<ModelEquationT>) = if before
+            .has_loop
+        {
+            let f: FileT = toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
+            (f.electronics.bias_cm_s2.span(), f.model_equation)
+        } else {
+            let f: LooplessT =
+                toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
+            let b = f
+                .instrument
+                .bias_cm_s2
+                .as_ref()
+                .map(Spanned::span)
+                .ok_or_else(|| fail("instrument.bias_cm_s2: missing".to_string()))?;
+            (b, f.model_equation)
+        };
+        let line_start = |at: usize| src[..at].rfind('\n').map_or(0, |i| i + 1);
+        let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
+        let mut appended = String::new();
+        // Where a key absent from an existing section goes: after its header line.
+        let header_end = src
+            .match_indices("[model_equation]")
+            .find(|&(i, _)| src[line_start(i)..i].trim().is_empty())
+            .map(|(i, _)| src[i..].find('\n').map_or(src.len(), |n| i + n + 1));
+        for (id, v, note) in changes {
+            let note = note.replace('\n', " ");
+            if *id == CandidateId::Bias {
+                let ls = line_start(bias_span.start);
+                edits.push((ls..ls, format!("# {note}\n")));
+                edits.push((bias_span.clone(), format!("{v:?}")));
+                continue;
+            }
+            let m = MODEL_EQUATION
+                .iter()
+                .find(|m| m.id == *id)
+                .ok_or_else(|| fail(format!("{id}: not a term of the model equation")))?;
+            let x = m.sign * v + 0.0;
+            let existing = section
+                .as_ref()
+                .and_then(|t| t.iter().find(|(k, _)| k.get_ref() == m.key));
+            if let Some((_, val)) = existing {
+                let ls = line_start(val.span().start);
+                edits.push((ls..ls, format!("# {note}\n")));
+                edits.push((val.span(), format!("{x:?}")));
+            } else if let Some(at) = header_end.filter(|_| section.is_some()) {
+                // After the header, in the order of the changes (one edit per place).
+                match edits.iter_mut().find(|(r, _)| *r == (at..at)) {
+                    Some((_, t)) => {
+                        let _ = std::fmt::Write::write_fmt(
+                            t,
+                            format_args!("# {note}\n{} = {x:?}\n", m.key),
+                        );
+                    }
+                    None => edits.push((at..at, format!("# {note}\n{} = {x:?}\n", m.key))),
+                }
+            } else {
+                let _ = std::fmt::Write::write_fmt(
+                    &mut appended,
+                    format_args!("# {note}\n{} = {x:?}\n", m.key),
+                );
+            }
+        }
+        edits.sort_by_key(|(r, _)| std::cmp::Reverse((r.start, r.end)));
+        let mut out = src.to_string();
+        for (r, t) in edits {
+            out.replace_range(r, &t);
+        }
+        if !appended.is_empty() {
+            if !out.ends_with('\n') {
+                out.push('\n');
+            }
+            out.push_str(
+                "\n[model_equation]\n# The instrument's nominal IEEE 1293 model-equation terms (cgs units, IEEE signs;\n# 0 when absent): the baseline model includes them.\n",
+            );
+            out.push_str(&appended);
+        }
+        let back = Self::parse(&out, file)?;
+        for (id, v, _) in changes {
+            let b = back.nominal_model_term(*id);
+            if (b - v).abs() > 1e-12 * v.abs().max(1e-300) {
+                return Err(fail(format!(
+                    "{id}: the rewritten file does not give {v} back"
+                )));
+            }
+        }
+        Ok(out)
+    }
+}
+
+impl Instrument {
+    /// The shipped instrument file named `name` ([`SHIPPED`]), parsed.
+    ///
+    /// # Errors
+    /// An unknown name (the message lists the shipped ones).
+    ///
+    /// # Panics
+    /// Never for a shipped file (a unit test parses each).
+    pub fn shipped(name: &str) -> Result<Self, String> {
+        let (path, text) = shipped(name).ok_or_else(|| {
+            let names: Vec<&str> = SHIPPED.iter().map(|s| s.0).collect();
+            format!(
+                "`{name}` is not a shipped instrument; expected one of {}",
+                names.join(", ")
+            )
+        })?;
+        Ok(Self::parse(text, path).expect("a shipped instrument file is valid"))
     }
 }
 

@@ -18,8 +18,9 @@ use clap::{Args, CommandFactory as _, FromArgMatches as _, Parser, Subcommand};
 use ptsa_host_sim::simulation::sim::SimOptions;
 
 use crate::cmd::{
-    bench::BenchArgs, design::DesignArgs, discover::DiscoverArgs, experiments, plan::PlanArgs,
-    predict::PredictArgs, report::ReportArgs, response::ResponseArgs, static_::StaticArgs,
+    bench::BenchArgs, design::DesignArgs, discover::DiscoverArgs, experiments,
+    instrument::InstrumentArgs, plan::PlanArgs, predict::PredictArgs, report::ReportArgs,
+    response::ResponseArgs, static_::StaticArgs,
 };
 use values::{non_negative_s, positive_s, seed};
 
@@ -42,8 +43,10 @@ use values::{non_negative_s, positive_s, seed};
     allow_negative_numbers = true
 )]
 pub struct Cli {
-    /// Instrument file (TOML: Table 2.1 with tolerances and the PTSA electronics; see
-    /// data/kearfott-2401.toml). Default: the shipped Kearfott 2401 file, compiled in.
+    /// Instrument file (TOML: Table 2.1 with tolerances and the PTSA electronics, see
+    /// data/kearfott-2401.toml; or an accelerometer without a PTSA loop, see
+    /// docs/instrument.md), or a shipped instrument by name: kearfott-2401 (the default),
+    /// navigation, mems.
     // Listed after each subcommand's own options (a global option is otherwise sorted in
     // among them by name).
     #[arg(long, global = true, value_name = "FILE", display_order = 900)]
@@ -148,6 +151,9 @@ pub enum Cmd {
     /// (STEM: the record's file name without its extension).
     #[command(allow_negative_numbers = true)]
     Response(ResponseArgs),
+    /// Instrument files: `instrument new --class CLASS --out FILE` writes a commented
+    /// template (kearfott-2401, navigation, mems).
+    Instrument(InstrumentArgs),
 }
 
 /// Options of every simulated run.
