@@ -809,6 +809,57 @@ mod tests {
         assert!((d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * g, "{d2}");
     }
 
+    /// The instrument file's nominal model-equation terms are in both simulators' baseline
+    /// exactly as the same coefficients given as effects: bit for bit, a static absolute
+    /// row and a shaker difference row, analytic and closed loop; the file without them
+    /// reads differently.
+    #[test]
+    fn nominal_model_terms_enter_the_baseline_as_effects_do() {
+        let plain = Instrument::kearfott_2401();
+        let text = format!(
+            "{}\n[model_equation]\nk2_s2_cm = 2e-6\ndelta_p_rad = 1e-3\nk1_ppm = 300.0\n",
+            crate::model::instrument::KEARFOTT_2401_TOML
+        );
+        let with = Instrument::parse(&text, "k.toml").unwrap();
+        let as_effects = Effects::only(CandidateId::Nonlinearity, 2e-6)
+            .with(CandidateId::MisalignmentO, -1e-3)
+            .with(CandidateId::ScaleFactor, 300.0);
+        let rows = [
+            Condition {
+                kind: RowKind::Absolute,
+                g: [0.6, 0.0, 0.8],
+                ..Condition::default()
+            },
+            Condition {
+                g: [1.0, 0.0, 0.0],
+                freq_hz: 20.0,
+                lin_cm_s2: [300.0, 0.0, 0.0],
+                ..Condition::default()
+            },
+        ];
+        let analytic = |i: &Instrument| AnalyticSimulator::for_instrument(i);
+        let closed = |i: &Instrument| ClosedLoopSimulator {
+            instrument: i.clone(),
+            options: crate::simulation::sim::SimOptions {
+                min_window_s: 0.05,
+                warmup_s: 0.02,
+                ..crate::simulation::sim::SimOptions::default()
+            },
+        };
+        for r in &rows {
+            let a = analytic(&with).predict_cm_s2(r, &Effects::NONE);
+            let b = analytic(&plain).predict_cm_s2(r, &as_effects);
+            assert_eq!(a.to_bits(), b.to_bits(), "{r:?}: {a} {b}");
+            assert!(
+                (a - analytic(&plain).predict_cm_s2(r, &Effects::NONE)).abs() > 1e-3,
+                "{r:?}"
+            );
+            let c = closed(&with).predict_cm_s2(r, &Effects::NONE);
+            let d = closed(&plain).predict_cm_s2(r, &as_effects);
+            assert_eq!(c.to_bits(), d.to_bits(), "{r:?}: {c} {d}");
+        }
+    }
+
     /// Rows share a run only when every input, the effects and the seed are the same bits:
     /// three shaker rows share their reference; a gravity of `-0.0` instead of `0.0` along
     /// PA makes another reference; other effects make other runs.

@@ -1527,8 +1527,27 @@ impl Instrument {
         };
         let table: toml::Table = toml::from_str(src).map_err(toml_err)?;
         let mut instr = Self::zeroed();
-        if LOOP_SECTIONS.iter().any(|s| table.contains_key(*s)) {
-            let f: FileT = toml::from_str(src).map_err(toml_err)?;
+        let missing: Vec<String> = LOOP_SECTIONS
+            .iter()
+            .filter(|s| !table.contains_key(**s))
+            .map(|s| format!("[{s}]"))
+            .collect();
+        if missing.len() < LOOP_SECTIONS.len() {
+            let f: FileT = toml::from_str(src).map_err(|e| {
+                // A section of the wrong type or a bad key is serde's to place; a missing
+                // section is named with the others.
+                if missing.is_empty() || !e.message().starts_with("missing field") {
+                    toml_err(e)
+                } else {
+                    cx.err(
+                        0,
+                        format!(
+                            "a file with a PTSA loop has [pendulum], [pickoff], [torquer], [electronics] and [stops]; {} missing (a file without a loop has none of them)",
+                            missing.join(", ")
+                        ),
+                    )
+                }
+            })?;
             let mut tol = Vec::new();
             for p in PARAMETERS {
                 let v = cx.entry(p, &f, &mut tol)?;
@@ -2449,5 +2468,265 @@ mod tests {
         assert_eq!(line_col("aµb\nc", 2), (1, 2));
         assert_eq!(line_col("aµb\nc", 5), (2, 1));
         assert_eq!(line_col("aµb", 99), (1, 4));
+    }
+
+    /// Each shipped file parses, under its name; the two classes without a loop have no
+    /// loop field, no tolerance, their reading scale and their own bounds; an unknown name
+    /// is refused listing the shipped ones.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn the_shipped_instruments_parse_by_name() {
+        let k = Instrument::shipped("kearfott-2401").unwrap();
+        assert_eq!(k, Instrument::kearfott_2401());
+        assert!(k.has_loop && k.reading_scale.is_none() && k.nominal.is_zero());
+        for (name, unit, per_g, sf_ppm) in [
+            ("navigation", ReadingUnit::MilliAmp, 1.33, 1e5),
+            ("mems", ReadingUnit::Lsb, 16384.0, 5e4),
+        ] {
+            let i = Instrument::shipped(name).unwrap();
+            assert!(!i.has_loop, "{name}");
+            assert!(i.tolerances.is_empty(), "{name}");
+            assert_eq!(i.class.as_deref(), Some(name));
+            assert_eq!(i.reading_scale, Some(ReadingScale { unit, per_g }));
+            assert_eq!(i.plausibility.scale_factor_ppm, sf_ppm, "{name}");
+            assert_eq!(i.pendulosity_dyn_cm_per_g, 0.0);
+            assert_eq!(i.loop_bias_cm_s2(500.0), 0.0);
+            assert!((i.g_cm_s2 - 980.665).abs() < 1e-12);
+        }
+        let e = Instrument::shipped("adxl").unwrap_err();
+        assert_eq!(
+            e,
+            "`adxl` is not a shipped instrument; expected one of kearfott-2401, navigation, mems"
+        );
+    }
+
+    /// The text of the shipped MEMS file with `from` replaced by `to` (exactly once).
+    fn mems_with(from: &str, to: &str) -> String {
+        assert_eq!(MEMS_TOML.matches(from).count(), 1, "{from}");
+        MEMS_TOML.replace(from, to)
+    }
+
+    /// The line (1-based) of `text` that starts with `key`.
+    fn line_in(text: &str, key: &str) -> usize {
+        text.lines().position(|l| l.starts_with(key)).unwrap() + 1
+    }
+
+    /// A file without a loop is validated like one with: every refusal names the key, the
+    /// line and what was expected.
+    #[test]
+    fn a_file_without_a_loop_is_refused_with_its_position() {
+        let cases: &[(&str, &str, &str, &str)] = &[
+            (
+                "reading_unit = \"LSB\"",
+                "reading_unit = \"g\"",
+                "reading_unit",
+                "instrument.reading_unit = \"g\": a reading in g is converted by its definition; expected the unit of a scale factor: V, mA or LSB",
+            ),
+            (
+                "reading_unit = \"LSB\"",
+                "reading_unit = \"counts\"",
+                "reading_unit",
+                "instrument.reading_unit = \"counts\": expected one of V, mA, LSB",
+            ),
+            (
+                "reading_unit = \"LSB\"\n",
+                "",
+                "scale_factor_per_g",
+                "instrument.scale_factor_per_g without instrument.reading_unit: expected both",
+            ),
+            (
+                "scale_factor_per_g = 16384.0",
+                "scale_factor_per_g = -16384.0",
+                "scale_factor_per_g",
+                "instrument.scale_factor_per_g = -16384: expected a nominal scale factor > 0 LSB per g",
+            ),
+            (
+                "local_gravity_cm_s2 = 980.665",
+                "local_gravity_cm_s2 = 0.0",
+                "local_gravity_cm_s2",
+                "instrument.local_gravity_cm_s2 = 0: expected gravity > 0 cm/s²",
+            ),
+            (
+                "k2_s2_cm = 0.0",
+                "k2_s2 = 0.0",
+                "k2_s2",
+                "model_equation.k2_s2: not a term of the model equation; expected one of k1_ppm, delta_o_rad,",
+            ),
+            (
+                "k2_s2_cm = 0.0",
+                "delta_p_rad = 2.0",
+                "delta_p_rad",
+                "model_equation.delta_p_rad = 2: expected |misalignment| < 1 rad",
+            ),
+            (
+                "k2_s2_cm = 0.0",
+                "k2_s2_cm = \"small\"",
+                "k2_s2_cm",
+                "expected a number, found the string \"small\"",
+            ),
+        ];
+        for (from, to, key, message) in cases {
+            let text = mems_with(from, to);
+            let e = Instrument::parse(&text, "m.toml").unwrap_err();
+            assert!(e.message.contains(message), "{to}: {e}");
+            assert_eq!(e.line, line_in(&text, key), "{to}: {e}");
+            assert!(e.column >= 1, "{e}");
+        }
+        // Without its name or its bias: the table's first key's line.
+        let e = Instrument::parse(&mems_with("bias_cm_s2 = 0.0\n", ""), "m.toml").unwrap_err();
+        assert!(
+            e.message
+                .starts_with("instrument.bias_cm_s2: missing; a file without a PTSA loop"),
+            "{e}"
+        );
+        assert_eq!(e.line, line_in(MEMS_TOML, "name ="), "{e}");
+        // A loop's section in it: then every loop section is required.
+        let e = Instrument::parse(&format!("{MEMS_TOML}\n[stops]\n"), "m.toml").unwrap_err();
+        assert_eq!(
+            e.message,
+            "a file with a PTSA loop has [pendulum], [pickoff], [torquer], [electronics] and [stops]; [pendulum], [pickoff], [torquer], [electronics] missing (a file without a loop has none of them)"
+        );
+        // No [instrument] and no loop.
+        let e = Instrument::parse("[plausibility]\nbias_cm_s2 = 1.0\n", "p.toml").unwrap_err();
+        assert!(
+            e.message
+                .contains("or, for an accelerometer without one, an [instrument] table"),
+            "{e}"
+        );
+        // A file with a loop keeps its bias and gravity in [electronics].
+        let e = Instrument::parse(
+            &format!("{KEARFOTT_2401_TOML}\n[instrument]\nname = \"k\"\nbias_cm_s2 = 1.0\n"),
+            "k.toml",
+        )
+        .unwrap_err();
+        assert!(
+            e.message.starts_with(
+                "instrument.bias_cm_s2: a file with a PTSA loop gives it as electronics.bias_cm_s2"
+            ),
+            "{e}"
+        );
+    }
+
+    /// `[model_equation]`'s keys are the nominal values of their candidates, `δ_p` under the
+    /// IEEE sign (the candidate of `a_OA` is `−δ_p`); the bias is the file's `A_b`.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn model_equation_keys_are_the_nominal_terms() {
+        let mut text = format!("{KEARFOTT_2401_TOML}\n[model_equation]\n");
+        for (k, m) in MODEL_EQUATION.iter().enumerate() {
+            let _ =
+                std::fmt::Write::write_fmt(&mut text, format_args!("{} = {}e-7\n", m.key, k + 1));
+        }
+        let i = Instrument::parse(&text, "k.toml").unwrap();
+        for (k, m) in MODEL_EQUATION.iter().enumerate() {
+            let x: f64 = format!("{}e-7", k + 1).parse().unwrap();
+            assert_eq!(i.nominal_model_term(m.id), m.sign * x, "{}", m.key);
+        }
+        assert_eq!(
+            i.nominal_model_term(CandidateId::MisalignmentO),
+            -3e-7,
+            "delta_p_rad"
+        );
+        assert_eq!(i.nominal_model_term(CandidateId::Bias), 18.7);
+        assert_eq!(i.nominal_model_term(CandidateId::Anisoinertia), 0.0);
+        let e = i.with_nominal_terms(&Effects::only(CandidateId::Nonlinearity, 1.0));
+        assert_eq!(e.get(CandidateId::Nonlinearity), 1.0 + 4e-7);
+        assert_eq!(e.get(CandidateId::Cubic), 5e-7);
+    }
+
+    /// Raw readings: units of acceleration by their definition (g with the file's local
+    /// gravity), V, mA or LSB only through the file's scale in that unit.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn readings_are_converted_through_the_nominal_scale() {
+        let m = Instrument::shipped("mems").unwrap();
+        let g = 980.665;
+        assert_eq!(m.reading_to_cm_s2(16384.0, ReadingUnit::Lsb), Ok(g));
+        assert_eq!(m.reading_to_cm_s2(-0.5, ReadingUnit::G), Ok(-0.5 * g));
+        assert_eq!(m.reading_to_cm_s2(9.5, ReadingUnit::MPerS2), Ok(950.0));
+        assert_eq!(m.reading_to_cm_s2(3.0, ReadingUnit::CmPerS2), Ok(3.0));
+        let e = m.reading_to_cm_s2(1.0, ReadingUnit::Volt).unwrap_err();
+        assert!(
+            e.contains("a reading in V needs a nominal scale factor in V per g"),
+            "{e}"
+        );
+        let k = Instrument::kearfott_2401();
+        let e = k.reading_to_cm_s2(1.0, ReadingUnit::MilliAmp).unwrap_err();
+        assert!(
+            e.contains(
+                "expected instrument.reading_unit = \"mA\" and instrument.scale_factor_per_g"
+            ),
+            "{e}"
+        );
+        for u in ReadingUnit::ALL {
+            assert_eq!(ReadingUnit::parse(u.name()), Some(*u));
+        }
+        assert_eq!(ReadingUnit::parse("m/s2"), Some(ReadingUnit::MPerS2));
+        assert_eq!(ReadingUnit::parse("cm/s^2"), Some(ReadingUnit::CmPerS2));
+        assert_eq!(ReadingUnit::parse("counts"), None);
+    }
+
+    /// `rewrite_model_equation` sets each term (the bias in its key; the others in
+    /// `[model_equation]`, added when absent), keeps every line it does not set, and the
+    /// result reads back with the new values.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn rewrite_model_equation_sets_the_terms_and_keeps_the_rest() {
+        let changes = vec![
+            (CandidateId::Bias, 20.5, "fitted bias".to_string()),
+            (CandidateId::ScaleFactor, 400.0, "fitted K1".to_string()),
+            (CandidateId::MisalignmentO, -2.5e-4, "fitted".to_string()),
+            (CandidateId::Nonlinearity, 3e-8, "fitted K2".to_string()),
+        ];
+        for (src, bias_key) in [
+            (KEARFOTT_2401_TOML, "bias_cm_s2 = 20.5"),
+            (MEMS_TOML, "bias_cm_s2 = 20.5"),
+        ] {
+            let out = Instrument::rewrite_model_equation(src, "f.toml", &changes).unwrap();
+            let back = Instrument::parse(&out, "f.toml").unwrap();
+            for (id, v, _) in &changes {
+                assert_eq!(back.nominal_model_term(*id), *v, "{id}");
+            }
+            // δ_p is written under its own sign: the candidate's −2.5e-4 is δ_p = 2.5e-4.
+            assert!(out.contains("\ndelta_p_rad = 0.00025\n"), "{out}");
+            assert!(
+                out.contains(&format!("# fitted bias\n{bias_key}\n")),
+                "{out}"
+            );
+            // Every line of the source is still there, but the values set.
+            let kept: Vec<&str> = out.lines().collect();
+            for l in src.lines() {
+                let set = l.starts_with("bias_cm_s2 = 0.0")
+                    || l.starts_with("bias_cm_s2 = 18.7")
+                    || l.starts_with("k2_s2_cm");
+                assert!(set || kept.contains(&l), "lost: {l}");
+            }
+            let before = Instrument::parse(src, "f.toml").unwrap();
+            assert_eq!(back.plausibility, before.plausibility);
+            assert_eq!(back.tolerances, before.tolerances);
+        }
+        // Not a term of the model equation.
+        let e = Instrument::rewrite_model_equation(
+            MEMS_TOML,
+            "f.toml",
+            &[(CandidateId::Anisoinertia, 1.0, String::new())],
+        )
+        .unwrap_err();
+        assert!(
+            e.message.contains("not a term of the model equation"),
+            "{e}"
+        );
     }
 }
