@@ -5,6 +5,7 @@
 
 mod common;
 
+use std::fmt::Write as _;
 use std::path::Path;
 
 use common::{assert_clean_of, ptsa_in, refused_in_folder, stderr, stdout};
@@ -523,4 +524,80 @@ fn instrument_new_writes_a_template_and_keeps_an_existing_file() {
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(!dir.join("x.toml").exists());
+}
+
+/// Raw readings in: the same MEMS record given as `reading` in LSB (through the file's
+/// 16384 LSB/g) is analysed as the record in cm/s²: the same terms to a thousandth of their
+/// sigma. With the Kearfott file, which gives no scale in LSB, it is refused naming the data
+/// file's line and the keys to add; nothing is written.
+#[test]
+fn readings_in_lsb_are_the_record_in_cm_s2() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let truth = Truth {
+        k0: 0.01 * G,
+        k1_ppm: 2e4,
+        delta_o: 2e-3,
+        delta_p: 0.0,
+        k2: 0.0,
+        sigma: 1.0,
+    };
+    tumble_data(dir, "mems", "cm.csv", truth, G, 5);
+    let rows = caseframe::parse(
+        "cm.csv",
+        &std::fs::read_to_string(dir.join("cm.csv")).unwrap(),
+    )
+    .unwrap();
+    let mut lsb = String::from("label,kind,g_ia,g_pa,g_oa,reading,reading_unit,sigma_cm_s2\n");
+    for r in &rows {
+        let m = r.measured_cm_s2.unwrap();
+        let _ = writeln!(
+            lsb,
+            "\"{}\",absolute,{},{},{},{:.3},LSB,{}",
+            r.label,
+            r.g[0],
+            r.g[1],
+            r.g[2],
+            m / G * 16384.0,
+            truth.sigma
+        );
+    }
+    std::fs::write(dir.join("lsb.csv"), &lsb).unwrap();
+    let run = |data: &str| {
+        json_of(
+            dir,
+            &[
+                "--instrument",
+                "mems",
+                "discover",
+                "--data",
+                data,
+                "--no-plots",
+                "--json",
+            ],
+        )
+        .0
+    };
+    let (a, b) = (run("cm.csv"), run("lsb.csv"));
+    for name in ["bias", "scale_factor", "misalignment"] {
+        let (ea, eb) = (effect(&a, name).unwrap(), effect(&b, name).unwrap());
+        for (k, x) in ea["coefficients"].as_object().unwrap() {
+            let y = eb["coefficients"][k].as_f64().unwrap();
+            let s = ea["stderr"][k].as_f64().unwrap();
+            assert!(
+                (x.as_f64().unwrap() - y).abs() < 1e-3 * s,
+                "{k}: {x} {y} ± {s}"
+            );
+        }
+    }
+    let err = refused_in_folder(
+        &[("lsb.csv", lsb.as_bytes())],
+        &["discover", "--analytic", "--data", "lsb.csv", "--no-plots"],
+        1,
+        &[
+            "error: lsb.csv:2: column 7 (`reading_unit`) is `LSB`: a reading in LSB needs the instrument file's nominal scale factor: expected instrument.reading_unit = \"LSB\" and instrument.scale_factor_per_g (in LSB per g) in its [instrument] table",
+        ],
+        &[],
+    );
+    assert_eq!(err.lines().count(), 1, "{err}");
 }

@@ -137,7 +137,18 @@ pub fn analytic() -> Box<dyn Simulator> {
 pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result<()> {
     let opts = &req.options;
     let path = &req.data;
-    let frame = crate::model::caseframe::read_frame(path)?;
+    let mut frame = crate::model::caseframe::read_frame(path)?;
+    if !frame.readings.is_empty() {
+        // Raw readings become cm/s² through the instrument file's nominal scale.
+        let instr = sim.instrument().ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: a `reading` needs an instrument file to convert it, and the {} simulator has none",
+                path.display(),
+                sim.name()
+            )
+        })?;
+        frame.convert_readings(&path.display().to_string(), instr)?;
+    }
     let rows = frame.rows;
     let t0 = Instant::now();
     let d = pipeline::discover_with(&rows, &frame.empty, sim, opts)

@@ -78,7 +78,9 @@ impl PredictArgs {
     /// The loop cannot be simulated; a file cannot be read or is not what it should be.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         let config = ctx.model_config(self.seed)?;
-        let rows = ptsa_host_sim::model::caseframe::read(&self.data)?;
+        let mut frame = ptsa_host_sim::model::caseframe::read_frame(&self.data)?;
+        frame.convert_readings(&self.data.display().to_string(), &ctx.instr)?;
+        let rows = frame.rows;
         let (effects, sigmas) = match &self.effects {
             Some(p) => load_effects(p)?,
             None => (Effects::NONE, Vec::new()),
