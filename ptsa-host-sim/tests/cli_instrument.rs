@@ -154,15 +154,26 @@ fn a_mems_scale_factor_4_percent_off_is_not_unexplained_structure_with_its_class
         .iter()
         .map(|f| f.as_str().unwrap())
         .collect();
-    for p in [
-        "torquer_sf",
-        "pendulosity",
-        "damping",
-        "spring",
-        "pickoff_gain",
-    ] {
-        assert!(!family.contains(&p), "{p} in {family:?}");
+    // No loop parameter anywhere: not in the family, not among the untestable, the
+    // indistinguishable groups or the advice.
+    let loop_parameters: Vec<&str> = ptsa_host_sim::model::effects::REGISTRY
+        .iter()
+        .filter(|c| c.id.parameter().is_some())
+        .map(|c| c.name)
+        .collect();
+    assert!(loop_parameters.contains(&"torquer_sf"));
+    let listed = [
+        v["family"].to_string(),
+        v["not_testable"].to_string(),
+        v["not_testable_nuisance"].to_string(),
+        v["indistinguishable"].to_string(),
+        v["advice"].to_string(),
+    ]
+    .concat();
+    for p in &loop_parameters {
+        assert!(!listed.contains(&format!("\"{p}\"")), "{p} in {listed}");
     }
+    assert!(family.contains(&"scale_factor"), "{family:?}");
     assert!(
         v["warnings"][0]
             .as_str()
