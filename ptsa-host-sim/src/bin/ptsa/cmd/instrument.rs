@@ -26,7 +26,8 @@ pub enum InstrumentAction {
     /// Write a commented template instrument file of a class, to edit: kearfott-2401 (the
     /// PTSA loop of R-890, Table 2.1), navigation (a navigation-grade servo accelerometer,
     /// no PTSA loop: reading in mA) or mems (a consumer MEMS axis, no PTSA loop: reading in
-    /// LSB). Each bound's source is in the file's comments.
+    /// LSB). Each bound's source is in the file's comments; every key names its unit (cgs:
+    /// cm/s², s²/cm, rad; the reading's nominal scale factor in reading units per g).
     New {
         /// The class: kearfott-2401, navigation or mems.
         #[arg(long, value_name = "CLASS",
