@@ -136,6 +136,12 @@ impl DiscoverArgs {
     /// # Errors
     /// The loop cannot be simulated; an output path is refused.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        if self.data.is_none() && self.convert_report_data.is_none() && !ctx.instr.has_loop {
+            anyhow::bail!(
+                "discover without --data analyses R-890's Tables 6.1–6.3, measured on the Kearfott 2401 in its PTSA loop, and {} describes another instrument without a loop; expected --data FILE with this instrument's measurements",
+                ctx.name
+            );
+        }
         let config = ctx.model_config(self.seed)?;
         if let Some(dir) = self.convert_report_data {
             let names: Vec<String> = r890::case_files()?
