@@ -246,7 +246,7 @@ fn bad_count_cells_are_refused_with_file_line_and_column() {
     for (text, needle) in [
         (
             "label,kind,g_ia,measured_cm_s2,pulses,ticks\nup,absolute,1,980,2009123,3840000\n",
-            "data.csv:2: column 4 (`measured_cm_s2`) and column 5 (`pulses`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks` in a row",
+            "data.csv:2: column 4 (`measured_cm_s2`) and column 5 (`pulses`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks`, `reading` with `reading_unit` in a row",
         ),
         (
             "label,kind,g_ia,pulses,ticks\nup,absolute,1,2009123,\n",

@@ -44,7 +44,7 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 
 use crate::model::condition::Condition;
-use crate::model::effects::Effects;
+use crate::model::effects::{CandidateId, Effects};
 
 pub mod advice;
 pub mod assemble;
@@ -141,7 +141,18 @@ pub fn analytic() -> Box<dyn Simulator> {
 pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result<()> {
     let opts = &req.options;
     let path = &req.data;
-    let frame = crate::model::caseframe::read_frame(path)?;
+    let mut frame = crate::model::caseframe::read_frame(path)?;
+    if !frame.readings.is_empty() {
+        // Raw readings become cm/s² through the instrument file's nominal scale.
+        let instr = sim.instrument().ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: a `reading` needs an instrument file to convert it, and the {} simulator has none",
+                path.display(),
+                sim.name()
+            )
+        })?;
+        frame.convert_readings(&path.display().to_string(), instr)?;
+    }
     let rows = frame.rows;
     let t0 = Instant::now();
     let d = pipeline::discover_with(&rows, &frame.empty, sim, opts)
@@ -189,13 +200,30 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         Some((w, Some(t))) => {
             crate::output::write_atomic(&w.path, t.as_bytes())?;
             eprintln!(
-                "wrote {} ({} with the fitted parameters)",
+                "wrote {} ({} with the fitted parameters and model-equation terms)",
                 w.path.display(),
                 w.source_name
             );
+            for s in d
+                .selected
+                .iter()
+                .filter(|s| s.id.model_equation_term() || s.parameter.is_some())
+                .filter(|s| !s.plausible || s.stable == Some(false))
+            {
+                eprintln!(
+                    "warning: --write-instrument {}: {} is written though discover flags it ({}); see its comment in the file",
+                    w.path.display(),
+                    s.id,
+                    if s.plausible {
+                        "not stable between parts of the data"
+                    } else {
+                        "implausible for the instrument's bounds"
+                    }
+                );
+            }
         }
         Some((w, None)) => eprintln!(
-            "no parameter of the instrument file was selected: {} not written",
+            "no parameter of the instrument file and no term of the model equation was selected: {} not written",
             w.path.display()
         ),
         None => {}
@@ -209,8 +237,11 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
     Ok(())
 }
 
-/// The instrument file of `w` with the selected parameters' fitted values, each with a
-/// note of where it came from; `None` when no parameter was selected.
+/// The instrument file of `w` with the selected parameters' fitted values and the selected
+/// model-equation terms as its new nominal values (the nominal plus the change: the bias
+/// into its key, the others into `[model_equation]`, the scale factor as `k1_ppm` against
+/// the file's unchanged nominal scale factor), each with a note of its value ± 1 σ and
+/// where it came from; `None` when nothing was selected that the file holds.
 fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<Option<String>> {
     let changes: Vec<(&str, f64, String)> = d
         .selected
@@ -233,12 +264,93 @@ fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<
             Some((key, p.fitted, note))
         })
         .collect();
-    if changes.is_empty() {
+    let instr = crate::Instrument::parse(&w.source, &w.source_name)
+        .with_context(|| format!("--write-instrument {}", w.path.display()))?;
+    let terms: Vec<(CandidateId, f64, String)> = d
+        .selected
+        .iter()
+        .filter(|s| s.id.model_equation_term())
+        .map(|s| {
+            let nominal = instr.nominal_model_term(s.id);
+            let d = decimals(s.stderr);
+            let value: f64 = format!("{:.d$}", nominal + s.coef)
+                .parse()
+                .unwrap_or(nominal + s.coef);
+            (s.id, value, term_note(data, s, nominal, value))
+        })
+        .collect();
+    // In the file's order: the bias, then `[model_equation]`'s keys.
+    let mut terms = terms;
+    terms.sort_by_key(|(id, _, _)| {
+        crate::model::instrument::MODEL_EQUATION
+            .iter()
+            .position(|m| m.id == *id)
+            .map_or(0, |k| k + 1)
+    });
+    if changes.is_empty() && terms.is_empty() {
         return Ok(None);
     }
-    let t = crate::Instrument::rewrite(&w.source, &w.source_name, &changes)
-        .with_context(|| format!("--write-instrument {}", w.path.display()))?;
+    let mut t = w.source.clone();
+    if !changes.is_empty() {
+        t = crate::Instrument::rewrite(&t, &w.source_name, &changes)
+            .with_context(|| format!("--write-instrument {}", w.path.display()))?;
+    }
+    if !terms.is_empty() {
+        t = crate::Instrument::rewrite_model_equation(&t, &w.source_name, &terms)
+            .with_context(|| format!("--write-instrument {}", w.path.display()))?;
+    }
     Ok(Some(t))
+}
+
+/// The comment above a model-equation term `--write-instrument` writes: the value in the
+/// file's key, unit and IEEE sign, ± 1 σ, the nominal it changed and the data it came from,
+/// and what discover said of it (implausible, not stable, indistinguishable).
+fn term_note(data: &str, s: &Selected, nominal: f64, value: f64) -> String {
+    let (key, unit, sign) = crate::model::instrument::MODEL_EQUATION
+        .iter()
+        .find(|m| m.id == s.id)
+        .map_or(("bias_cm_s2", "cm/s²", 1.0), |m| (m.key, m.unit, m.sign));
+    let d = decimals(s.stderr);
+    // `+ 0.0`: a nominal 0 under the sign −1 is written 0, not −0.
+    let mut note = format!(
+        "ptsa discover --data {data}: {key} = {:.d$} ± {:.d$} {unit} (1 σ): the nominal {} plus the fitted change {:.d$}",
+        sign * value + 0.0,
+        s.stderr,
+        sign * nominal + 0.0,
+        sign * s.coef + 0.0
+    );
+    if !s.plausible {
+        let _ = write!(note, "; IMPLAUSIBLE for this instrument's bounds");
+    }
+    if s.stable == Some(false) {
+        let _ = write!(
+            note,
+            "; NOT STABLE between parts of the data (see discover's warning)"
+        );
+    }
+    if !s.confounded.is_empty() {
+        let others: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
+        let _ = write!(
+            note,
+            "; indistinguishable in these data from {}",
+            others.join(", ")
+        );
+    }
+    note
+}
+
+/// The decimals that write a value of standard error `sigma` to a hundredth of it (at least
+/// 0, at most 17).
+fn decimals(sigma: f64) -> usize {
+    if sigma > 0.0 && sigma.is_finite() {
+        let d = -(sigma / 100.0).log10().floor();
+        // Clamped to 0..=17: a whole number.
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let d = d.clamp(0.0, 17.0) as usize;
+        d
+    } else {
+        17
+    }
 }
 
 /// The effects of a `ptsa discover --json` result (the whole object, or its `effects`

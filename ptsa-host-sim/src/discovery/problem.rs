@@ -58,7 +58,8 @@ pub struct Options {
 }
 
 impl Options {
-    /// The default options with the plausibility bounds of `instr`.
+    /// The default options with the plausibility bounds of `instr`, and its candidates:
+    /// every one, but the loop's parameters when the file has no loop.
     #[must_use]
     pub fn for_instrument(instr: &Instrument) -> Self {
         let mut limits = [0.0; N_CANDIDATES];
@@ -69,7 +70,12 @@ impl Options {
             alpha: 0.05,
             confound_cos: 0.99,
             default_sigma_cm_s2: None,
-            candidates: CandidateId::ALL.to_vec(),
+            // Without a loop in the file, no loop parameter is a candidate.
+            candidates: CandidateId::ALL
+                .iter()
+                .copied()
+                .filter(|id| instr.has_loop || id.parameter().is_none())
+                .collect(),
             limits,
             seed: 1,
             keep_outliers: false,

@@ -125,6 +125,10 @@ pub struct AnalyticSimulator {
     pub loop_bias: [f64; 2],
     /// The instrument and its compensator, for the linear loop model of response rows.
     pub loop_model: Box<(Instrument, ptsa_core::Config)>,
+    /// The instrument file's nominal model-equation terms (`[model_equation]`,
+    /// [`Instrument::with_nominal_terms`]): part of the baseline, added to every row's
+    /// effects.
+    pub nominal: Effects,
 }
 
 impl AnalyticSimulator {
@@ -132,14 +136,27 @@ impl AnalyticSimulator {
     #[must_use]
     pub fn for_instrument(instr: &Instrument) -> Self {
         let b0 = instr.loop_bias_cm_s2(0.0);
-        let config = crate::model::design::check_loop(instr)
-            .map_or(ptsa_core::Config::DEFAULT, |c| c.config);
+        let config = if instr.has_loop {
+            crate::model::design::check_loop(instr).map_or(ptsa_core::Config::DEFAULT, |c| c.config)
+        } else {
+            ptsa_core::Config::DEFAULT
+        };
         Self {
             g_cm_s2: instr.g_cm_s2,
             bias_cm_s2: instr.bias_cm_s2,
             loop_bias: [b0, instr.loop_bias_cm_s2(1.0) - b0],
             loop_model: Box::new((instr.clone(), config)),
+            nominal: instr.nominal,
         }
+    }
+
+    /// `effects` with the nominal terms of the instrument file added.
+    fn total(&self, effects: &Effects) -> Effects {
+        let mut e = *effects;
+        for (id, c) in self.nominal.nonzero() {
+            e.add(id, c);
+        }
+        e
     }
 }
 
@@ -212,7 +229,11 @@ pub fn gross_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> 
 
 impl Simulator for AnalyticSimulator {
     fn name(&self) -> &'static str {
-        "analytic"
+        if self.loop_model.0.has_loop {
+            "analytic"
+        } else {
+            "loop-less analytic"
+        }
     }
 
     fn g_cm_s2(&self) -> f64 {
@@ -220,7 +241,7 @@ impl Simulator for AnalyticSimulator {
     }
 
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
-        effect_cm_s2(cond, effects, self.g_cm_s2)
+        effect_cm_s2(cond, &self.total(effects), self.g_cm_s2)
     }
 
     fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
@@ -231,7 +252,7 @@ impl Simulator for AnalyticSimulator {
             + self.bias_cm_s2
             + self.loop_bias[0]
             + self.loop_bias[1] * m.a_cm_s2[PA]
-            + mean_effect_cm_s2(cond, effects, self.g_cm_s2)
+            + mean_effect_cm_s2(cond, &self.total(effects), self.g_cm_s2)
     }
 
     fn instrument(&self) -> Option<&Instrument> {
@@ -240,14 +261,20 @@ impl Simulator for AnalyticSimulator {
 
     fn response(&self, cond: &Condition, effects: &Effects) -> [f64; 2] {
         // The linear loop model L/(1 + L) of the instrument's loop (with its parameter
-        // changes).
+        // changes); an instrument without a loop is taken as quasi-static: it follows the
+        // input (gain 1, phase 0).
         let (instr, config) = &*self.loop_model;
+        if !instr.has_loop {
+            return [1.0, 0.0];
+        }
         closed_loop_linear(instr, config, cond.freq_hz, effects)
     }
 
     fn linear_response(&self, f_hz: f64, effects: &Effects) -> Option<[f64; 2]> {
         let (instr, config) = &*self.loop_model;
-        Some(closed_loop_linear(instr, config, f_hz, effects))
+        instr
+            .has_loop
+            .then(|| closed_loop_linear(instr, config, f_hz, effects))
     }
 }
 
@@ -780,6 +807,57 @@ mod tests {
         let e2 = Effects::only(CandidateId::Nonlinearity, 1e-6);
         let d2 = sim.difference_cm_s2(&c, &e2);
         assert!((d2 - 1e-6 * 200.0 * 200.0 / 2.0).abs() < 1e-9 * g, "{d2}");
+    }
+
+    /// The instrument file's nominal model-equation terms are in both simulators' baseline
+    /// exactly as the same coefficients given as effects: bit for bit, a static absolute
+    /// row and a shaker difference row, analytic and closed loop; the file without them
+    /// reads differently.
+    #[test]
+    fn nominal_model_terms_enter_the_baseline_as_effects_do() {
+        let plain = Instrument::kearfott_2401();
+        let text = format!(
+            "{}\n[model_equation]\nk2_s2_cm = 2e-6\ndelta_p_rad = 1e-3\nk1_ppm = 300.0\n",
+            crate::model::instrument::KEARFOTT_2401_TOML
+        );
+        let with = Instrument::parse(&text, "k.toml").unwrap();
+        let as_effects = Effects::only(CandidateId::Nonlinearity, 2e-6)
+            .with(CandidateId::MisalignmentO, -1e-3)
+            .with(CandidateId::ScaleFactor, 300.0);
+        let rows = [
+            Condition {
+                kind: RowKind::Absolute,
+                g: [0.6, 0.0, 0.8],
+                ..Condition::default()
+            },
+            Condition {
+                g: [1.0, 0.0, 0.0],
+                freq_hz: 20.0,
+                lin_cm_s2: [300.0, 0.0, 0.0],
+                ..Condition::default()
+            },
+        ];
+        let analytic = |i: &Instrument| AnalyticSimulator::for_instrument(i);
+        let closed = |i: &Instrument| ClosedLoopSimulator {
+            instrument: i.clone(),
+            options: crate::simulation::sim::SimOptions {
+                min_window_s: 0.05,
+                warmup_s: 0.02,
+                ..crate::simulation::sim::SimOptions::default()
+            },
+        };
+        for r in &rows {
+            let a = analytic(&with).predict_cm_s2(r, &Effects::NONE);
+            let b = analytic(&plain).predict_cm_s2(r, &as_effects);
+            assert_eq!(a.to_bits(), b.to_bits(), "{r:?}: {a} {b}");
+            assert!(
+                (a - analytic(&plain).predict_cm_s2(r, &Effects::NONE)).abs() > 1e-3,
+                "{r:?}"
+            );
+            let c = closed(&with).predict_cm_s2(r, &Effects::NONE);
+            let d = closed(&plain).predict_cm_s2(r, &as_effects);
+            assert_eq!(c.to_bits(), d.to_bits(), "{r:?}: {c} {d}");
+        }
     }
 
     /// Rows share a run only when every input, the effects and the seed are the same bits:

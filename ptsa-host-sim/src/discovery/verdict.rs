@@ -41,9 +41,10 @@ impl ParameterValue {
     }
 }
 
-/// The warnings of the slips, first in the report: each suspected gross error, more of
-/// them than the search sets aside, stated sigmas far from the scatter, a search through
-/// the closed loop that ended at its grid's end.
+/// The warnings first in the report: an instrument file without a PTSA loop (what the
+/// analysis then is), and the slips: each suspected gross error, more of them than the
+/// search sets aside, stated sigmas far from the scatter, a search through the closed loop
+/// that ended at its grid's end.
 pub(crate) fn slip_warnings(
     outliers: &[OutlierReport],
     beyond_cap: Option<(&str, outliers::Found)>,
@@ -52,6 +53,12 @@ pub(crate) fn slip_warnings(
     sim: &dyn Simulator,
 ) -> Vec<String> {
     let mut w = Vec::new();
+    if let Some(i) = sim.instrument().filter(|i| !i.has_loop) {
+        w.push(format!(
+            "the instrument file describes an accelerometer without a PTSA loop ({}): the analytic model is used (the model equation of the specific force, no loop dynamics), and no parameter of a loop is a candidate",
+            i.display_name()
+        ));
+    }
     for o in outliers {
         w.push(format!(
             "row `{}` is a suspected gross error: measured {} cm/s², but the model selected without it expects {} (residual {} cm/s², {} σ; p = {} over the {} rows tested, familywise); likely cause: {}; {}",

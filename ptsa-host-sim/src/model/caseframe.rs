@@ -284,6 +284,62 @@ fn column_index(name: &str) -> Option<usize> {
     COLUMNS.iter().position(|c| c.name == name)
 }
 
+/// The columns of a raw reading, read beside [`COLUMNS`] but not into a [`Condition`]:
+/// `reading` (a number in the row's `reading_unit`) and `reading_unit` (V, mA, LSB, g,
+/// m/s², cm/s²). [`Frame::convert_readings`] turns them into `measured_cm_s2` through the
+/// instrument file. In a parsed header they are `COLUMNS.len() + i`.
+pub const READING_COLUMNS: &[&str] = &["reading", "reading_unit"];
+
+/// The ways a row gives its measurement along IA (the one definition of the rule "one per
+/// row, never two": a further source is one more entry): the columns whose filled cell
+/// gives it, and how messages name it.
+pub const MEASUREMENT_SOURCES: &[(&[&str], &str)] = &[
+    (&["measured_cm_s2"], "`measured_cm_s2`"),
+    (&["pulses", "ticks"], "`pulses` with `ticks`"),
+    (&["reading"], "`reading` with `reading_unit`"),
+];
+
+/// The index in [`MEASUREMENT_SOURCES`] of the source a column belongs to.
+fn measurement_source(column: &str) -> Option<usize> {
+    MEASUREMENT_SOURCES
+        .iter()
+        .position(|(cols, _)| cols.contains(&column))
+}
+
+/// The header index of a header cell: [`COLUMNS`]' index, or beyond it a
+/// [`READING_COLUMNS`] entry.
+fn header_index(name: &str) -> Option<usize> {
+    column_index(name).or_else(|| {
+        READING_COLUMNS
+            .iter()
+            .position(|c| *c == name)
+            .map(|i| COLUMNS.len() + i)
+    })
+}
+
+/// The name of header index `k` ([`header_index`]).
+fn header_name(k: usize) -> &'static str {
+    COLUMNS
+        .get(k)
+        .map_or_else(|| READING_COLUMNS[k - COLUMNS.len()], |c| c.name)
+}
+
+/// A row's raw reading as read, before [`Frame::convert_readings`] makes it the row's
+/// `measured_cm_s2`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RawReading {
+    /// Index of the row in the rows read.
+    pub row: usize,
+    /// The row's 1-based line in the file.
+    pub line: usize,
+    /// The 1-based column of `reading_unit` in the header.
+    pub unit_column: usize,
+    /// The reading, in `unit`.
+    pub value: f64,
+    /// Its unit.
+    pub unit: crate::model::instrument::ReadingUnit,
+}
+
 /// How to get UTF-8 out of a spreadsheet (used in encoding errors).
 const SAVE_AS_UTF8: &str = "in a spreadsheet, save the file as \"CSV UTF-8\"";
 
@@ -312,6 +368,37 @@ pub struct Frame {
     pub empty: Vec<EmptyCells>,
     /// Each row's 1-based line in the file (for messages about a row).
     pub lines: Vec<usize>,
+    /// The rows' raw readings (`reading`, `reading_unit`), not yet converted: their rows'
+    /// `measured_cm_s2` is empty until [`Frame::convert_readings`].
+    pub readings: Vec<RawReading>,
+}
+
+impl Frame {
+    /// Each raw reading converted to cm/s² through `instr`
+    /// ([`crate::model::instrument::Instrument::reading_to_cm_s2`]) into its row's
+    /// `measured_cm_s2`; `name` is the data file, for errors.
+    ///
+    /// # Errors
+    /// A reading in V, mA or LSB when the instrument file gives no nominal scale in that
+    /// unit (the message names the data file, the line and column, and the keys to add).
+    pub fn convert_readings(
+        &mut self,
+        name: &str,
+        instr: &crate::model::instrument::Instrument,
+    ) -> Result<()> {
+        for r in &self.readings {
+            let v = instr.reading_to_cm_s2(r.value, r.unit).map_err(|m| {
+                anyhow::anyhow!(
+                    "{name}:{}: column {} (`reading_unit`) is `{}`: {m}",
+                    r.line,
+                    r.unit_column,
+                    r.unit.name()
+                )
+            })?;
+            self.rows[r.row].measured_cm_s2 = Some(v);
+        }
+        Ok(())
+    }
 }
 
 /// Whether an empty cell of `col` reads as the number 0 (an input column), rather than as
@@ -361,6 +448,7 @@ pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
     let mut rows = Vec::new();
     let mut lines = Vec::new();
     let mut empty = Vec::new();
+    let mut readings = Vec::new();
     for record in reader.records() {
         let record = match record {
             Ok(r) => r,
@@ -382,7 +470,16 @@ pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
                 header = Some(parse_header(name, line, raw, &record)?);
             }
             Some(cols) => {
-                let (row, columns) = parse_row(name, line, &record, cols)?;
+                let (row, columns, reading) = parse_row(name, line, &record, cols)?;
+                if let Some((value, unit, unit_column)) = reading {
+                    readings.push(RawReading {
+                        row: rows.len(),
+                        line,
+                        unit_column,
+                        value,
+                        unit,
+                    });
+                }
                 if !columns.is_empty() {
                     empty.push(EmptyCells {
                         row: rows.len(),
@@ -402,7 +499,12 @@ pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
         );
     };
     check_temperatures(name, &rows, &lines, &cols)?;
-    Ok(Frame { rows, empty, lines })
+    Ok(Frame {
+        rows,
+        empty,
+        lines,
+        readings,
+    })
 }
 
 /// A file that gives `temp_c` gives it on every measured row: a measured row without it
@@ -415,7 +517,7 @@ fn check_temperatures(
     lines: &[usize],
     cols: &[usize],
 ) -> Result<()> {
-    let Some(j) = cols.iter().position(|&k| COLUMNS[k].name == "temp_c") else {
+    let Some(j) = cols.iter().position(|&k| header_name(k) == "temp_c") else {
         return Ok(());
     };
     let given = rows.iter().filter(|r| r.temp_c.is_some()).count();
@@ -557,7 +659,7 @@ fn parse_header(
             .copied()
             .flatten()
             .map_or(String::new(), |c| format!(":{c}"));
-        let Some(k) = column_index(cell) else {
+        let Some(k) = header_index(cell) else {
             let hint = near_column(cell).map_or(String::new(), |near| {
                 if near.eq_ignore_ascii_case(cell) {
                     format!(" (did you mean `{near}`? column names are lower case)")
@@ -569,7 +671,9 @@ fn parse_header(
                 "{name}:{line}{place}: column {} of the header is `{cell}`, which is not a \
                  case-frame column{hint}; expected one of: {}",
                 i + 1,
-                column_names().join(", ")
+                [column_names(), READING_COLUMNS.to_vec()]
+                    .concat()
+                    .join(", ")
             );
         };
         if cols.contains(&k) {
@@ -674,14 +778,88 @@ fn blank_before_quote(cell: &str) -> bool {
     cell.starts_with(char::is_whitespace) && cell.trim_start().starts_with('"')
 }
 
-/// One data row, and the columns whose cell was empty and read as 0.
+/// One cell of a [`READING_COLUMNS`] column (`column`, at `(file, line, 1-based column)`):
+/// the reading's number or its unit, checked.
+fn reading_cell(
+    (name, line, j): (&str, usize, usize),
+    column: &str,
+    cell: &str,
+    reading: &mut Option<f64>,
+    unit: &mut Option<(crate::model::instrument::ReadingUnit, usize)>,
+) -> Result<()> {
+    let t = cell.trim();
+    if t.is_empty() {
+        return Ok(());
+    }
+    if column == "reading" {
+        *reading = Some(t.parse::<f64>().ok().filter(|v| v.is_finite()).ok_or_else(|| {
+            anyhow::anyhow!(
+                "{name}:{line}: column {j} (`reading`) holds `{t}`; expected a finite number, the instrument's raw reading in the row's `reading_unit`"
+            )
+        })?);
+    } else {
+        let u = crate::model::instrument::ReadingUnit::parse(t).ok_or_else(|| {
+            anyhow::anyhow!(
+                "{name}:{line}: column {j} (`reading_unit`) holds `{t}`; expected one of {}",
+                crate::model::instrument::ReadingUnit::names()
+            )
+        })?;
+        *unit = Some((u, j));
+    }
+    Ok(())
+}
+
+/// A row's measurement: at most one of [`MEASUREMENT_SOURCES`] (`sources`: the given ones,
+/// by 1-based column), and its raw reading with its unit (none in a response row).
+fn one_source(
+    name: &str,
+    line: usize,
+    cols: &[usize],
+    sources: &[(usize, &str, usize)],
+    reading: Option<f64>,
+    unit: Option<(crate::model::instrument::ReadingUnit, usize)>,
+    kind: RowKind,
+) -> Result<Option<Reading>> {
+    if let [(j1, first, _), (j2, second, _), ..] = sources[..] {
+        let all: Vec<&str> = MEASUREMENT_SOURCES.iter().map(|&(_, n)| n).collect();
+        bail!(
+            "{name}:{line}: column {j1} (`{first}`) and column {j2} (`{second}`) both give the row's measurement; expected one of {} in a row, the others empty",
+            all.join(", ")
+        );
+    }
+    let reading = match (reading, unit) {
+        (Some(v), Some((u, j))) => Some((v, u, j)),
+        (Some(_), None) => {
+            let j = cols
+                .iter()
+                .position(|&k| header_name(k) == "reading")
+                .map_or(0, |j| j + 1);
+            bail!(
+                "{name}:{line}: column {j} (`reading`) is given without its unit; expected a `reading_unit` column and cell on the row ({})",
+                crate::model::instrument::ReadingUnit::names()
+            );
+        }
+        (None, _) => None,
+    };
+    if reading.is_some() && kind == RowKind::Response {
+        bail!(
+            "{name}:{line}: a response row holds `reading`; expected its measurement in `measured_gain` and `measured_phase_deg`"
+        );
+    }
+    Ok(reading)
+}
+
+/// A row's raw reading as read: value, unit, and the 1-based header column of its unit.
+type Reading = (f64, crate::model::instrument::ReadingUnit, usize);
+
+/// One data row, the columns whose cell was empty and read as 0, and its raw reading.
 #[allow(clippy::too_many_lines)] // one row: its cells, then the checks across its columns
 fn parse_row(
     name: &str,
     line: usize,
     record: &csv::StringRecord,
     cols: &[usize],
-) -> Result<(Condition, Vec<&'static str>)> {
+) -> Result<(Condition, Vec<&'static str>, Option<Reading>)> {
     if record.len() != cols.len() {
         let hint = match record.iter().position(blank_before_quote) {
             Some(j) => format!(
@@ -699,7 +877,27 @@ fn parse_row(
     }
     let mut c = Condition::default();
     let mut empty = Vec::new();
+    // The measurement sources the row gives, by header column (one at most), and the raw
+    // reading's cells.
+    let mut sources: Vec<(usize, &'static str, usize)> = Vec::new();
+    let (mut reading, mut unit) = (None, None);
     for (j, (cell, &k)) in record.iter().zip(cols).enumerate() {
+        if let Some(g) = measurement_source(header_name(k))
+            && !cell.trim().is_empty()
+            && !sources.iter().any(|&(_, _, h)| h == g)
+        {
+            sources.push((j + 1, header_name(k), g));
+        }
+        if k >= COLUMNS.len() {
+            reading_cell(
+                (name, line, j + 1),
+                header_name(k),
+                cell,
+                &mut reading,
+                &mut unit,
+            )?;
+            continue;
+        }
         let col = &COLUMNS[k];
         let check = match col.check {
             Check::Text => {
@@ -810,7 +1008,7 @@ fn parse_row(
     if let Some(p) = c.power_on_s {
         let j = cols
             .iter()
-            .position(|&k| COLUMNS[k].name == "power_on_s")
+            .position(|&k| header_name(k) == "power_on_s")
             .map_or(0, |j| j + 1);
         match c.time_s {
             None => bail!(
@@ -822,79 +1020,25 @@ fn parse_row(
             Some(_) => {}
         }
     }
-    check_measurement(name, line, &c, cols)?;
+    let reading = one_source(name, line, cols, &sources, reading, unit, c.kind)?;
+    check_counts(name, line, &c, cols)?;
     if c.label.is_empty() {
         c.label = format!("line {line}");
     }
-    Ok((c, empty))
+    Ok((c, empty, reading))
 }
-
-/// One way a row gives its measurement along IA: the columns that hold it (the first
-/// named in messages) and whether a row gives it.
-struct Source {
-    columns: &'static [&'static str],
-    given: fn(&Condition) -> bool,
-}
-
-/// Every way a row gives its measurement along IA; a row gives one at most (the one
-/// definition of that rule: a further source is one more entry).
-const MEASUREMENT_SOURCES: &[Source] = &[
-    Source {
-        columns: &["measured_cm_s2"],
-        given: |c| c.measured_cm_s2.is_some(),
-    },
-    Source {
-        columns: &["pulses", "ticks"],
-        given: |c| c.pulses.is_some() || c.ticks.is_some(),
-    },
-];
 
 /// The 1-based column of `name` in the header `cols` (0 when it is not there).
 fn column_at(cols: &[usize], name: &str) -> usize {
     cols.iter()
-        .position(|&k| COLUMNS[k].name == name)
+        .position(|&k| header_name(k) == name)
         .map_or(0, |j| j + 1)
 }
 
-/// A given column of a source: the first of its columns the row fills, else its first.
-fn given_column(cols: &[usize], c: &Condition, source: &Source) -> (usize, &'static str) {
-    let filled = source.columns.iter().copied().find(|&n| {
-        column_index(n).is_some_and(|k| {
-            matches!(
-                (COLUMNS[k].get)(c),
-                Value::Num(Some(_)) | Value::Text(Some(_))
-            )
-        })
-    });
-    let n = filled.unwrap_or(source.columns[0]);
-    (column_at(cols, n), n)
-}
-
-/// A row's measurement along IA from one source at most ([`MEASUREMENT_SOURCES`]), and its
-/// counts, if it gives them, whole and in an absolute row: both `pulses` and `ticks`,
-/// `ticks` > 0 and `pulses` ≤ `ticks`.
-fn check_measurement(name: &str, line: usize, c: &Condition, cols: &[usize]) -> Result<()> {
-    let given: Vec<&Source> = MEASUREMENT_SOURCES
-        .iter()
-        .filter(|s| (s.given)(c))
-        .collect();
-    if let [a, b, ..] = given[..] {
-        let ((ja, na), (jb, nb)) = (given_column(cols, c, a), given_column(cols, c, b));
-        let all: Vec<String> = MEASUREMENT_SOURCES
-            .iter()
-            .map(|s| {
-                s.columns
-                    .iter()
-                    .map(|n| format!("`{n}`"))
-                    .collect::<Vec<_>>()
-                    .join(" with ")
-            })
-            .collect();
-        bail!(
-            "{name}:{line}: column {ja} (`{na}`) and column {jb} (`{nb}`) both give the row's measurement; expected one of {} in a row, the others empty",
-            all.join(", ")
-        );
-    }
+/// A row's counts, if it gives them, whole and in an absolute row: both `pulses` and
+/// `ticks`, `ticks` > 0 and `pulses` ≤ `ticks` (that no other source gives the row's
+/// measurement beside them is checked with [`MEASUREMENT_SOURCES`]).
+fn check_counts(name: &str, line: usize, c: &Condition, cols: &[usize]) -> Result<()> {
     let (p, t) = (c.pulses, c.ticks);
     if p.is_none() && t.is_none() {
         return Ok(());
@@ -1346,7 +1490,7 @@ mod tests {
             ),
             (
                 "kind,measured_cm_s2,ticks,pulses\nabsolute,1.0,10,5\n",
-                "t.csv:2: column 2 (`measured_cm_s2`) and column 4 (`pulses`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks` in a row",
+                "t.csv:2: column 2 (`measured_cm_s2`) and column 4 (`pulses`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks`, `reading` with `reading_unit` in a row",
             ),
             (
                 "kind,measured_cm_s2,ticks\nabsolute,1.0,10\n",
@@ -1558,5 +1702,76 @@ mod tests {
             })
             .collect();
         assert_eq!(parse("t.csv", &to_csv(&rows, &[])).unwrap(), rows);
+    }
+
+    /// `reading` and `reading_unit`: read beside the row, converted through the instrument
+    /// file into `measured_cm_s2`; a row gives one measurement source, never two; a reading
+    /// needs its unit, and a unit must be one of the six.
+    #[test]
+    #[allow(clippy::float_cmp, reason = "exact conversions of exact numbers")]
+    fn readings_are_converted_through_the_instrument_file() {
+        use crate::model::instrument::{Instrument, ReadingUnit};
+        let text = "label,g_ia,reading,reading_unit,sigma_cm_s2\n\
+                    a,1,16384,LSB,0.5\n\
+                    b,0,-0.25,g,\n\
+                    c,0,,LSB,\n\
+                    d,1,,,\n";
+        let mut f = parse_frame("r.csv", text).unwrap();
+        assert_eq!(f.readings.len(), 2);
+        assert_eq!(f.readings[0].unit, ReadingUnit::Lsb);
+        assert_eq!((f.readings[1].row, f.readings[1].line), (1, 3));
+        assert!(f.rows.iter().all(|r| r.measured_cm_s2.is_none()));
+        let mems = Instrument::shipped("mems").unwrap();
+        f.convert_readings("r.csv", &mems).unwrap();
+        let m: Vec<Option<f64>> = f.rows.iter().map(|r| r.measured_cm_s2).collect();
+        assert_eq!(m, [Some(980.665), Some(-0.25 * 980.665), None, None]);
+        assert_eq!(f.rows[0].sigma_cm_s2, Some(0.5));
+        // The Kearfott file gives no scale in LSB: refused, naming the keys to add.
+        let mut f = parse_frame("r.csv", text).unwrap();
+        let e = f
+            .convert_readings("r.csv", &Instrument::kearfott_2401())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("r.csv:2: column 4 (`reading_unit`) is `LSB`: a reading in LSB needs the instrument file's nominal scale factor: expected instrument.reading_unit = \"LSB\" and instrument.scale_factor_per_g"),
+            "{e}"
+        );
+        for (text, message) in [
+            (
+                "label,g_ia,measured_cm_s2,reading,reading_unit\na,1,980,1,g\n",
+                "t.csv:2: column 3 (`measured_cm_s2`) and column 4 (`reading`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks`, `reading` with `reading_unit` in a row",
+            ),
+            (
+                "label,g_ia,reading\na,1,1\n",
+                "t.csv:2: column 3 (`reading`) is given without its unit",
+            ),
+            (
+                "label,g_ia,reading,reading_unit\na,1,1,counts\n",
+                "t.csv:2: column 4 (`reading_unit`) holds `counts`; expected one of V, mA, LSB, g, m/s², cm/s²",
+            ),
+            (
+                "label,g_ia,reading,reading_unit\na,1,x,g\n",
+                "t.csv:2: column 3 (`reading`) holds `x`; expected a finite number",
+            ),
+            ("label,reading,reading_unit\nlabel,1,g\n", ""),
+            (
+                "label,kind,freq_hz,lin_ia_cm_s2,reading,reading_unit\nr,response,10,100,1,g\n",
+                "t.csv:2: a response row holds `reading`",
+            ),
+        ] {
+            match parse_frame("t.csv", text) {
+                Ok(_) => assert!(message.is_empty(), "{text}"),
+                Err(e) => assert!(
+                    e.to_string().starts_with(message) && !message.is_empty(),
+                    "{e}"
+                ),
+            }
+        }
+        // The header names them among the columns it expects.
+        let e = err("label,readings\nx,1\n");
+        assert!(
+            e.contains("(did you mean") || e.contains("reading, reading_unit"),
+            "{e}"
+        );
     }
 }

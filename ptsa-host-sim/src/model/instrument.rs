@@ -1,5 +1,9 @@
 //! The instrument file (`data/kearfott-2401.toml`): Table 2.1 of R-890 with tolerances, and
-//! the PTSA electronics, validated on load.
+//! the PTSA electronics, validated on load; or, for an accelerometer without a PTSA loop
+//! (`data/navigation.toml`, `data/mems.toml`), only what a calibration needs: its name and
+//! class, its reading's unit and nominal scale, its nominal bias, local gravity, the nominal
+//! terms of its IEEE 1293 model equation (`[model_equation]`, which a file with a loop may
+//! give too) and the plausibility bounds.
 
 use std::fmt;
 use std::path::Path;
@@ -8,8 +12,38 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use toml::Spanned;
 
+use crate::model::effects::{CandidateId, Effects};
+
 /// The shipped instrument file, compiled in.
 pub const KEARFOTT_2401_TOML: &str = include_str!("../../../data/kearfott-2401.toml");
+/// The shipped file of a navigation-grade servo (force-rebalance) accelerometer: no PTSA
+/// loop, the bounds of that class.
+pub const NAVIGATION_TOML: &str = include_str!("../../../data/navigation.toml");
+/// The shipped file of one axis of a consumer MEMS accelerometer: no PTSA loop, the bounds
+/// of that class.
+pub const MEMS_TOML: &str = include_str!("../../../data/mems.toml");
+
+/// The shipped instrument files, by the name `--instrument` and `ptsa instrument new
+/// --class` take: `(name, path in the repository, text)`. The first is the default.
+pub const SHIPPED: &[(&str, &str, &str)] = &[
+    (
+        "kearfott-2401",
+        "data/kearfott-2401.toml",
+        KEARFOTT_2401_TOML,
+    ),
+    ("navigation", "data/navigation.toml", NAVIGATION_TOML),
+    ("mems", "data/mems.toml", MEMS_TOML),
+];
+
+/// The shipped instrument file named `name` ([`SHIPPED`]): its path in the repository and
+/// its text.
+#[must_use]
+pub fn shipped(name: &str) -> Option<(&'static str, &'static str)> {
+    SHIPPED
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .map(|&(_, path, text)| (path, text))
+}
 
 /// Why an instrument file was refused: where and what was expected.
 ///
@@ -250,7 +284,7 @@ struct PlausibilityT {
 #[derive(Debug, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops] (and optionally [plausibility])"
+    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops] (and optionally [instrument], [model_equation] and [plausibility])"
 )]
 struct FileT {
     pendulum: PendulumT,
@@ -258,8 +292,230 @@ struct FileT {
     torquer: TorquerT,
     electronics: ElectronicsT,
     stops: StopsT,
+    instrument: Option<IdentT>,
+    model_equation: Option<ModelEquationT>,
     plausibility: Option<PlausibilityT>,
 }
+
+/// The sections of a file with a PTSA loop (Table 2.1 and the loop's electronics): a file
+/// that has none of them describes an instrument without a loop.
+pub const LOOP_SECTIONS: &[&str] = &["pendulum", "pickoff", "torquer", "electronics", "stops"];
+
+/// A file without a PTSA loop: `[instrument]` (required), `[model_equation]` and
+/// `[plausibility]`.
+#[derive(Debug, Deserialize)]
+#[serde(
+    deny_unknown_fields,
+    expecting = "tables [instrument] (and optionally [model_equation] and [plausibility])"
+)]
+struct LooplessT {
+    instrument: IdentT,
+    model_equation: Option<ModelEquationT>,
+    plausibility: Option<PlausibilityT>,
+}
+
+/// `[instrument]`: what the instrument is and how its reading is scaled. Optional in a file
+/// with a loop (whose bias and local gravity are in `[electronics]`), required without one.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "an [instrument] table")]
+struct IdentT {
+    name: Option<Spanned<String>>,
+    class: Option<Spanned<String>>,
+    reading_unit: Option<Spanned<String>>,
+    scale_factor_per_g: Option<Spanned<Num>>,
+    bias_cm_s2: Option<Spanned<Num>>,
+    local_gravity_cm_s2: Option<Spanned<Num>>,
+}
+
+/// `[model_equation]`: key = number, each key one of [`MODEL_EQUATION`].
+type ModelEquationT = std::collections::BTreeMap<Spanned<String>, Spanned<Num>>;
+
+/// The unit of a raw reading (a case-frame `reading_unit`, an instrument file's
+/// `instrument.reading_unit`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ReadingUnit {
+    /// Volts (an analogue output).
+    Volt,
+    /// Milliamperes (a servo accelerometer's current output).
+    MilliAmp,
+    /// Least significant bits of a digital output.
+    Lsb,
+    /// g, local gravity (the instrument file's `local_gravity_cm_s2`).
+    G,
+    /// m/s².
+    MPerS2,
+    /// cm/s².
+    CmPerS2,
+}
+
+impl ReadingUnit {
+    /// Every unit, in the order messages list them.
+    pub const ALL: &[ReadingUnit] = &[
+        ReadingUnit::Volt,
+        ReadingUnit::MilliAmp,
+        ReadingUnit::Lsb,
+        ReadingUnit::G,
+        ReadingUnit::MPerS2,
+        ReadingUnit::CmPerS2,
+    ];
+
+    /// Its name as written in files: `V`, `mA`, `LSB`, `g`, `m/s²`, `cm/s²`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            ReadingUnit::Volt => "V",
+            ReadingUnit::MilliAmp => "mA",
+            ReadingUnit::Lsb => "LSB",
+            ReadingUnit::G => "g",
+            ReadingUnit::MPerS2 => "m/s²",
+            ReadingUnit::CmPerS2 => "cm/s²",
+        }
+    }
+
+    /// The unit written `s` (its name, or `m/s2`, `m/s^2`, `cm/s2`, `cm/s^2`).
+    #[must_use]
+    pub fn parse(s: &str) -> Option<Self> {
+        let s = s.trim();
+        let s = s.replace("s^2", "s²").replace("s2", "s²");
+        ReadingUnit::ALL.iter().copied().find(|u| u.name() == s)
+    }
+
+    /// The names of every unit, for messages: `V, mA, LSB, g, m/s², cm/s²`.
+    #[must_use]
+    pub fn names() -> String {
+        ReadingUnit::ALL
+            .iter()
+            .map(|u| u.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    /// A unit of acceleration, converted by its definition (g with the file's local
+    /// gravity); the others (V, mA, LSB) only through a nominal scale factor.
+    #[must_use]
+    pub fn is_physical(self) -> bool {
+        matches!(
+            self,
+            ReadingUnit::G | ReadingUnit::MPerS2 | ReadingUnit::CmPerS2
+        )
+    }
+}
+
+/// The nominal scale of an instrument's raw reading: `per_g` reading units per g of input.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ReadingScale {
+    /// The reading's unit (V, mA or LSB).
+    pub unit: ReadingUnit,
+    /// Nominal scale factor, reading units per g (local gravity).
+    pub per_g: f64,
+}
+
+/// One key of `[model_equation]`: a nominal term of the instrument's IEEE Std 1293 model
+/// equation, in the file's cgs unit and under the IEEE sign, and the discovery candidate it
+/// is the nominal value of (the candidate's coefficient is `sign` × the file's value).
+#[derive(Debug, Clone, Copy)]
+pub struct ModelEquationKey {
+    /// Key in `[model_equation]`.
+    pub key: &'static str,
+    /// Unit in the file.
+    pub unit: &'static str,
+    /// IEEE 1293 symbol.
+    pub symbol: &'static str,
+    /// What it is.
+    pub description: &'static str,
+    /// The candidate.
+    pub id: CandidateId,
+    /// The candidate's coefficient over the file's value: 1, or −1 for `δ_p` (the IEEE
+    /// equation has `− δ_p·a_o`; the candidate `misalignment.delta_o_rad` is the coefficient
+    /// of `a_OA`).
+    pub sign: f64,
+}
+
+/// The keys of `[model_equation]`, in the order a written section lists them. Every key is
+/// optional (0 when absent); the baseline model (both simulators) includes them, so that a
+/// discovery's coefficients are changes from them.
+pub const MODEL_EQUATION: &[ModelEquationKey] = &[
+    ModelEquationKey {
+        key: "k1_ppm",
+        unit: "ppm",
+        symbol: "K_1",
+        description: "scale-factor error from the nominal scale factor",
+        id: CandidateId::ScaleFactor,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "delta_o_rad",
+        unit: "rad",
+        symbol: "δ_o",
+        description: "IA misalignment about OA (toward PA): the term + δ_o·a_p",
+        id: CandidateId::MisalignmentP,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "delta_p_rad",
+        unit: "rad",
+        symbol: "δ_p",
+        description: "IA misalignment about PA (toward OA): the term − δ_p·a_o",
+        id: CandidateId::MisalignmentO,
+        sign: -1.0,
+    },
+    ModelEquationKey {
+        key: "k2_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_2",
+        description: "second-order nonlinearity, K_2·a_i²",
+        id: CandidateId::Nonlinearity,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k3_s4_cm2",
+        unit: "s⁴/cm²",
+        symbol: "K_3",
+        description: "third-order nonlinearity, K_3·a_i³",
+        id: CandidateId::Cubic,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_ip_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_ip",
+        description: "cross-coupling K_ip·a_i·a_p",
+        id: CandidateId::Vibropendulosity,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_io_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_io",
+        description: "cross-coupling K_io·a_i·a_o",
+        id: CandidateId::Anisoelasticity,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_pp_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_pp",
+        description: "cross-axis K_pp·a_p²",
+        id: CandidateId::CrossAxisPp,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_oo_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_oo",
+        description: "cross-axis K_oo·a_o²",
+        id: CandidateId::CrossAxisOo,
+        sign: 1.0,
+    },
+    ModelEquationKey {
+        key: "k_po_s2_cm",
+        unit: "s²/cm",
+        symbol: "K_po",
+        description: "cross-axis K_po·a_p·a_o",
+        id: CandidateId::CrossAxisPo,
+        sign: 1.0,
+    },
+];
 
 /// How an entry of the instrument file is written.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -750,6 +1006,21 @@ pub struct Instrument {
     pub tolerances: Vec<Tolerance>,
     /// Plausibility bounds of the discovery candidates.
     pub plausibility: Plausibility,
+    /// Whether the file describes a PTSA loop (Table 2.1's sections): without one, every
+    /// loop field above is 0, nothing can run the closed loop, and no loop parameter is a
+    /// discovery candidate.
+    pub has_loop: bool,
+    /// `instrument.name`, if the file gives one.
+    pub name: Option<String>,
+    /// `instrument.class`, if the file gives one.
+    pub class: Option<String>,
+    /// The nominal scale of the raw reading (`instrument.reading_unit`,
+    /// `instrument.scale_factor_per_g`), if the file gives one.
+    pub reading_scale: Option<ReadingScale>,
+    /// The nominal model-equation terms of `[model_equation]` as candidate coefficients
+    /// (0 for every other candidate): the baseline model includes them
+    /// ([`Instrument::with_nominal_terms`]).
+    pub nominal: Effects,
 }
 
 /// The 1-based line and column (in characters) of byte `offset` of `src`.
@@ -895,6 +1166,155 @@ impl Ctx<'_> {
                 ),
             },
         }
+    }
+
+    /// `[instrument]`: the name, class and reading scale; without a loop also the bias and
+    /// local gravity (required then, refused in a file with a loop, which has them in
+    /// `[electronics]`).
+    fn ident(&self, t: &IdentT, instr: &mut Instrument) -> Result<(), InstrumentError> {
+        let text =
+            |key: &str, v: &Option<Spanned<String>>| -> Result<Option<String>, InstrumentError> {
+                match v {
+                    Some(s) if s.get_ref().trim().is_empty() => Err(self.err(
+                        s.span().start,
+                        format!("instrument.{key}: expected a non-empty string"),
+                    )),
+                    Some(s) => Ok(Some(s.get_ref().trim().to_string())),
+                    None => Ok(None),
+                }
+            };
+        instr.name = text("name", &t.name)?;
+        instr.class = text("class", &t.class)?;
+        let table_at = t
+            .name
+            .as_ref()
+            .or(t.class.as_ref())
+            .map_or(0, |s| s.span().start);
+        if !instr.has_loop {
+            for (key, v) in [("name", &instr.name), ("class", &instr.class)] {
+                if v.is_none() {
+                    return Err(self.err(
+                        table_at,
+                        format!("instrument.{key}: missing; a file without a PTSA loop names its instrument and its class (e.g. class = \"mems\")"),
+                    ));
+                }
+            }
+        }
+        instr.reading_scale = self.reading_scale(t)?;
+        for (key, v) in [
+            ("bias_cm_s2", &t.bias_cm_s2),
+            ("local_gravity_cm_s2", &t.local_gravity_cm_s2),
+        ] {
+            match v {
+                Some(s) if instr.has_loop => {
+                    return Err(self.err(
+                        s.span().start,
+                        format!("instrument.{key}: a file with a PTSA loop gives it as electronics.{key}; expected it there only"),
+                    ));
+                }
+                None if !instr.has_loop => {
+                    return Err(self.err(
+                        table_at,
+                        format!("instrument.{key}: missing; a file without a PTSA loop gives its nominal bias (cm/s²) and local gravity (cm/s²) in [instrument]"),
+                    ));
+                }
+                _ => {}
+            }
+        }
+        if let (Some(b), Some(g)) = (&t.bias_cm_s2, &t.local_gravity_cm_s2) {
+            instr.g_cm_s2 = self.scalar(
+                "instrument.local_gravity_cm_s2",
+                g,
+                |x| x > 0.0,
+                "gravity > 0 cm/s²",
+            )?;
+            let limit = 10.0 * instr.g_cm_s2;
+            instr.bias_cm_s2 = self.scalar(
+                "instrument.bias_cm_s2",
+                b,
+                |x| x.abs() < limit,
+                "|bias| below 10 g (10 × local gravity)",
+            )?;
+        }
+        Ok(())
+    }
+
+    /// `instrument.reading_unit` and `instrument.scale_factor_per_g`: both or neither.
+    fn reading_scale(&self, t: &IdentT) -> Result<Option<ReadingScale>, InstrumentError> {
+        match (&t.reading_unit, &t.scale_factor_per_g) {
+            (Some(u), Some(sf)) => {
+                let unit = ReadingUnit::parse(u.get_ref()).ok_or_else(|| {
+                    self.err(
+                        u.span().start,
+                        format!(
+                            "instrument.reading_unit = {:?}: expected one of V, mA, LSB",
+                            u.get_ref()
+                        ),
+                    )
+                })?;
+                if unit.is_physical() {
+                    return Err(self.err(
+                        u.span().start,
+                        format!(
+                            "instrument.reading_unit = {:?}: a reading in {} is converted by its definition; expected the unit of a scale factor: V, mA or LSB",
+                            u.get_ref(),
+                            unit.name()
+                        ),
+                    ));
+                }
+                let per_g = self.scalar(
+                    "instrument.scale_factor_per_g",
+                    sf,
+                    |x| x > 0.0,
+                    &format!("a nominal scale factor > 0 {} per g", unit.name()),
+                )?;
+                Ok(Some(ReadingScale { unit, per_g }))
+            }
+            (Some(s), None) => Err(self.err(
+                    s.span().start,
+                    "instrument.reading_unit without instrument.scale_factor_per_g: expected both (the reading's unit and its nominal scale factor, units per g)".to_string(),
+            )),
+            (None, Some(s)) => Err(self.err(
+                    s.span().start,
+                    "instrument.scale_factor_per_g without instrument.reading_unit: expected both (the reading's unit and its nominal scale factor, units per g)".to_string(),
+            )),
+            (None, None) => Ok(None),
+        }
+    }
+
+    /// `[model_equation]` (optional, every key optional): the nominal terms, into
+    /// `instr.nominal` as candidate coefficients.
+    fn model_equation(
+        &self,
+        t: Option<&ModelEquationT>,
+        instr: &mut Instrument,
+    ) -> Result<(), InstrumentError> {
+        let Some(t) = t else {
+            return Ok(());
+        };
+        for (k, v) in t {
+            let Some(m) = MODEL_EQUATION.iter().find(|m| m.key == k.get_ref()) else {
+                let keys: Vec<&str> = MODEL_EQUATION.iter().map(|m| m.key).collect();
+                return Err(self.err(
+                    k.span().start,
+                    format!(
+                        "model_equation.{}: not a term of the model equation; expected one of {}",
+                        k.get_ref(),
+                        keys.join(", ")
+                    ),
+                ));
+            };
+            let key = format!("model_equation.{}", m.key);
+            let x = if m.id == CandidateId::ScaleFactor {
+                self.scalar(&key, v, |x| x.abs() < 1e6, "|K_1| < 1e6 ppm")?
+            } else if m.unit == "rad" {
+                self.scalar(&key, v, |x| x.abs() < 1.0, "|misalignment| < 1 rad")?
+            } else {
+                self.scalar(&key, v, |_| true, &format!("a number, {}", m.unit))?
+            };
+            instr.nominal.set(m.id, m.sign * x);
+        }
+        Ok(())
     }
 
     /// `[plausibility]` (optional, every key optional): the bounds, with defaults.
@@ -1101,19 +1521,60 @@ impl Instrument {
     pub fn parse(src: &str, file: &str) -> Result<Self, InstrumentError> {
         let src = src.strip_prefix('\u{feff}').unwrap_or(src);
         let cx = Ctx { file, src };
-        let f: FileT = toml::from_str(src).map_err(|e| {
+        let toml_err = |e: toml::de::Error| {
             let at = e.span().map_or(0, |s| s.start);
             cx.err(at, user_message(e.message()))
-        })?;
-        let mut tol = Vec::new();
+        };
+        let table: toml::Table = toml::from_str(src).map_err(toml_err)?;
         let mut instr = Self::zeroed();
-        for p in PARAMETERS {
-            let v = cx.entry(p, &f, &mut tol)?;
-            p.set(&mut instr, v);
+        let missing: Vec<String> = LOOP_SECTIONS
+            .iter()
+            .filter(|s| !table.contains_key(**s))
+            .map(|s| format!("[{s}]"))
+            .collect();
+        if missing.len() < LOOP_SECTIONS.len() {
+            let f: FileT = toml::from_str(src).map_err(|e| {
+                // A section of the wrong type or a bad key is serde's to place; a missing
+                // section is named with the others.
+                if missing.is_empty() || !e.message().starts_with("missing field") {
+                    toml_err(e)
+                } else {
+                    cx.err(
+                        0,
+                        format!(
+                            "a file with a PTSA loop has [pendulum], [pickoff], [torquer], [electronics] and [stops]; {} missing (a file without a loop has none of them)",
+                            missing.join(", ")
+                        ),
+                    )
+                }
+            })?;
+            let mut tol = Vec::new();
+            for p in PARAMETERS {
+                let v = cx.entry(p, &f, &mut tol)?;
+                p.set(&mut instr, v);
+            }
+            instr.full_current_ma = instr.sf_cm_s2 / instr.g_cm_s2 * instr.current_sf_ma_per_g;
+            instr.tolerances = tol;
+            instr.plausibility =
+                cx.plausibility(f.plausibility.as_ref(), instr.inertia_dyn_cm_s2)?;
+            if let Some(id) = &f.instrument {
+                cx.ident(id, &mut instr)?;
+            }
+            cx.model_equation(f.model_equation.as_ref(), &mut instr)?;
+        } else {
+            if !table.contains_key("instrument") {
+                return Err(cx.err(
+                    0,
+                    "expected the tables [pendulum], [pickoff], [torquer], [electronics] and [stops] of a PTSA loop, or, for an accelerometer without one, an [instrument] table (name, class, bias_cm_s2, local_gravity_cm_s2)".to_string(),
+                ));
+            }
+            let f: LooplessT = toml::from_str(src).map_err(toml_err)?;
+            instr.has_loop = false;
+            cx.ident(&f.instrument, &mut instr)?;
+            // No pendulum: the anisoinertia's bound (I_PA − I_IA over m·l) has no default.
+            instr.plausibility = cx.plausibility(f.plausibility.as_ref(), f64::INFINITY)?;
+            cx.model_equation(f.model_equation.as_ref(), &mut instr)?;
         }
-        instr.full_current_ma = instr.sf_cm_s2 / instr.g_cm_s2 * instr.current_sf_ma_per_g;
-        instr.tolerances = tol;
-        instr.plausibility = cx.plausibility(f.plausibility.as_ref(), instr.inertia_dyn_cm_s2)?;
         Ok(instr)
     }
 
@@ -1158,6 +1619,11 @@ impl Instrument {
                 scale_factor_per_c_ppm: 0.0,
                 warm_up_cm_s2: 0.0,
             },
+            has_loop: true,
+            name: None,
+            class: None,
+            reading_scale: None,
+            nominal: Effects::NONE,
         }
     }
 
@@ -1315,9 +1781,225 @@ impl Instrument {
     /// zero for the nominal file (phase error 0).
     #[must_use]
     pub fn loop_bias_cm_s2(&self, a_pa_cm_s2: f64) -> f64 {
+        if !self.has_loop {
+            return 0.0;
+        }
         let theta0 = -self.quadrature_v * self.phase_error_rad.tan() / self.pickoff_v_per_rad;
         let p = self.pendulosity_g_cm();
         -(self.spring_dyn_cm_rad + p * a_pa_cm_s2) * theta0 / p
+    }
+
+    /// The nominal value of candidate `id`'s term in this instrument's model equation, in
+    /// the candidate's unit and sign (so that the instrument's own coefficient is this
+    /// nominal value plus the change `ptsa discover` reports):
+    ///
+    /// * `bias`: the file's bias `A_b` (`electronics.bias_cm_s2`, or `instrument.bias_cm_s2`
+    ///   without a loop), cm/s²;
+    /// * `scale_factor`: `model_equation.k1_ppm`, ppm from the nominal scale factor (0 when
+    ///   absent; the nominal scale factor itself is `electronics.scale_factor_cm_s2` for the
+    ///   loop's pulses, [`Instrument::reading_scale`] for a raw reading);
+    /// * `misalignment.delta_p_rad` (the coefficient of `a_PA`): `model_equation.delta_o_rad`;
+    ///   `misalignment.delta_o_rad` (the coefficient of `a_OA`): minus
+    ///   `model_equation.delta_p_rad` (the IEEE equation's `− δ_p·a_o`), rad;
+    /// * `nonlinearity`, `cubic`, `vibropendulosity`, `anisoelasticity`, `cross_axis_*`:
+    ///   `k2_s2_cm`, `k3_s4_cm2`, `k_ip_s2_cm`, `k_io_s2_cm`, `k_pp_s2_cm`, `k_oo_s2_cm`,
+    ///   `k_po_s2_cm`;
+    /// * every other candidate (dynamic terms, loop parameters): 0 (a loop parameter's
+    ///   nominal is its file value, [`Instrument::get`]).
+    #[must_use]
+    pub fn nominal_model_term(&self, id: CandidateId) -> f64 {
+        if id == CandidateId::Bias {
+            self.bias_cm_s2
+        } else {
+            self.nominal.get(id)
+        }
+    }
+
+    /// `effects` plus the nominal model-equation terms of `[model_equation]`: what the
+    /// simulators put into a run (the baseline, `Effects::NONE`, becomes the nominal
+    /// terms).
+    #[must_use]
+    pub fn with_nominal_terms(&self, effects: &Effects) -> Effects {
+        let mut e = *effects;
+        for (id, c) in self.nominal.nonzero() {
+            e.add(id, c);
+        }
+        e
+    }
+
+    /// The file's name for the instrument: `instrument.name`, or for a file with a loop
+    /// and no name, the PTSA loop's.
+    #[must_use]
+    pub fn display_name(&self) -> &str {
+        self.name
+            .as_deref()
+            .unwrap_or(if self.has_loop { "PTSA loop" } else { "" })
+    }
+
+    /// A raw reading `value` in `unit`, in cm/s²: a unit of acceleration by its definition
+    /// (g with the file's local gravity), V, mA or LSB through the file's nominal scale
+    /// factor when the file gives one in that unit.
+    ///
+    /// # Errors
+    /// A reading in V, mA or LSB when the file gives no scale in that unit (the message
+    /// names the keys to add).
+    pub fn reading_to_cm_s2(&self, value: f64, unit: ReadingUnit) -> Result<f64, String> {
+        match unit {
+            ReadingUnit::CmPerS2 => Ok(value),
+            ReadingUnit::MPerS2 => Ok(value * 100.0),
+            ReadingUnit::G => Ok(value * self.g_cm_s2),
+            _ => match self.reading_scale {
+                Some(sc) if sc.unit == unit => Ok(value / sc.per_g * self.g_cm_s2),
+                Some(sc) => Err(format!(
+                    "a reading in {} needs a nominal scale factor in {} per g; the instrument file gives one in {} per g (instrument.reading_unit = \"{}\")",
+                    unit.name(),
+                    unit.name(),
+                    sc.unit.name(),
+                    sc.unit.name()
+                )),
+                None => Err(format!(
+                    "a reading in {} needs the instrument file's nominal scale factor: expected instrument.reading_unit = \"{}\" and instrument.scale_factor_per_g (in {} per g) in its [instrument] table",
+                    unit.name(),
+                    unit.name(),
+                    unit.name()
+                )),
+            },
+        }
+    }
+
+    /// The text of instrument file `src` with new nominal model-equation terms, everything
+    /// else kept: each `(id, value, note)` sets candidate `id`'s nominal
+    /// ([`Instrument::nominal_model_term`], in the candidate's unit and sign) to `value`:
+    /// the bias into its key (`electronics.bias_cm_s2`, or `instrument.bias_cm_s2` without
+    /// a loop), the others into `[model_equation]` under the file's key and IEEE sign
+    /// (the section is added at the end of the file when absent, a key after its header
+    /// when absent), with `# note` on the line above. The result is parsed again and must
+    /// give each value back.
+    ///
+    /// # Errors
+    /// `src` is not a valid instrument file, `id` is not a term of the model equation, or
+    /// the new text does not give the values back.
+    pub fn rewrite_model_equation(
+        src: &str,
+        file: &str,
+        changes: &[(CandidateId, f64, String)],
+    ) -> Result<String, InstrumentError> {
+        let src = src.strip_prefix('\u{feff}').unwrap_or(src);
+        let before = Self::parse(src, file)?;
+        let cx = Ctx { file, src };
+        let fail = |message: String| InstrumentError {
+            file: file.to_string(),
+            line: 0,
+            column: 0,
+            message,
+        };
+        // The spans of the bias and of the section's keys.
+        let (bias_span, section): (std::ops::Range<usize>, Option<ModelEquationT>) = if before
+            .has_loop
+        {
+            let f: FileT = toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
+            (f.electronics.bias_cm_s2.span(), f.model_equation)
+        } else {
+            let f: LooplessT =
+                toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
+            let b = f
+                .instrument
+                .bias_cm_s2
+                .as_ref()
+                .map(Spanned::span)
+                .ok_or_else(|| fail("instrument.bias_cm_s2: missing".to_string()))?;
+            (b, f.model_equation)
+        };
+        let line_start = |at: usize| src[..at].rfind('\n').map_or(0, |i| i + 1);
+        let mut edits: Vec<(std::ops::Range<usize>, String)> = Vec::new();
+        let mut appended = String::new();
+        // Where a key absent from an existing section goes: after its header line.
+        let header_end = src
+            .match_indices("[model_equation]")
+            .find(|&(i, _)| src[line_start(i)..i].trim().is_empty())
+            .map(|(i, _)| src[i..].find('\n').map_or(src.len(), |n| i + n + 1));
+        for (id, v, note) in changes {
+            let note = note.replace('\n', " ");
+            if *id == CandidateId::Bias {
+                let ls = line_start(bias_span.start);
+                edits.push((ls..ls, format!("# {note}\n")));
+                edits.push((bias_span.clone(), format!("{v:?}")));
+                continue;
+            }
+            let m = MODEL_EQUATION
+                .iter()
+                .find(|m| m.id == *id)
+                .ok_or_else(|| fail(format!("{id}: not a term of the model equation")))?;
+            let x = m.sign * v + 0.0;
+            let existing = section
+                .as_ref()
+                .and_then(|t| t.iter().find(|(k, _)| k.get_ref() == m.key));
+            if let Some((_, val)) = existing {
+                let ls = line_start(val.span().start);
+                edits.push((ls..ls, format!("# {note}\n")));
+                edits.push((val.span(), format!("{x:?}")));
+            } else if let Some(at) = header_end.filter(|_| section.is_some()) {
+                // After the header, in the order of the changes (one edit per place).
+                match edits.iter_mut().find(|(r, _)| *r == (at..at)) {
+                    Some((_, t)) => {
+                        let _ = std::fmt::Write::write_fmt(
+                            t,
+                            format_args!("# {note}\n{} = {x:?}\n", m.key),
+                        );
+                    }
+                    None => edits.push((at..at, format!("# {note}\n{} = {x:?}\n", m.key))),
+                }
+            } else {
+                let _ = std::fmt::Write::write_fmt(
+                    &mut appended,
+                    format_args!("# {note}\n{} = {x:?}\n", m.key),
+                );
+            }
+        }
+        edits.sort_by_key(|(r, _)| std::cmp::Reverse((r.start, r.end)));
+        let mut out = src.to_string();
+        for (r, t) in edits {
+            out.replace_range(r, &t);
+        }
+        if !appended.is_empty() {
+            if !out.ends_with('\n') {
+                out.push('\n');
+            }
+            out.push_str(
+                "\n[model_equation]\n# The instrument's nominal IEEE 1293 model-equation terms (cgs units, IEEE signs;\n# 0 when absent): the baseline model includes them.\n",
+            );
+            out.push_str(&appended);
+        }
+        let back = Self::parse(&out, file)?;
+        for (id, v, _) in changes {
+            let b = back.nominal_model_term(*id);
+            if (b - v).abs() > 1e-12 * v.abs().max(1e-300) {
+                return Err(fail(format!(
+                    "{id}: the rewritten file does not give {v} back"
+                )));
+            }
+        }
+        Ok(out)
+    }
+}
+
+impl Instrument {
+    /// The shipped instrument file named `name` ([`SHIPPED`]), parsed.
+    ///
+    /// # Errors
+    /// An unknown name (the message lists the shipped ones).
+    ///
+    /// # Panics
+    /// Never for a shipped file (a unit test parses each).
+    pub fn shipped(name: &str) -> Result<Self, String> {
+        let (path, text) = shipped(name).ok_or_else(|| {
+            let names: Vec<&str> = SHIPPED.iter().map(|s| s.0).collect();
+            format!(
+                "`{name}` is not a shipped instrument; expected one of {}",
+                names.join(", ")
+            )
+        })?;
+        Ok(Self::parse(text, path).expect("a shipped instrument file is valid"))
     }
 }
 
@@ -1786,5 +2468,265 @@ mod tests {
         assert_eq!(line_col("aµb\nc", 2), (1, 2));
         assert_eq!(line_col("aµb\nc", 5), (2, 1));
         assert_eq!(line_col("aµb", 99), (1, 4));
+    }
+
+    /// Each shipped file parses, under its name; the two classes without a loop have no
+    /// loop field, no tolerance, their reading scale and their own bounds; an unknown name
+    /// is refused listing the shipped ones.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn the_shipped_instruments_parse_by_name() {
+        let k = Instrument::shipped("kearfott-2401").unwrap();
+        assert_eq!(k, Instrument::kearfott_2401());
+        assert!(k.has_loop && k.reading_scale.is_none() && k.nominal.is_zero());
+        for (name, unit, per_g, sf_ppm) in [
+            ("navigation", ReadingUnit::MilliAmp, 1.33, 1e5),
+            ("mems", ReadingUnit::Lsb, 16384.0, 5e4),
+        ] {
+            let i = Instrument::shipped(name).unwrap();
+            assert!(!i.has_loop, "{name}");
+            assert!(i.tolerances.is_empty(), "{name}");
+            assert_eq!(i.class.as_deref(), Some(name));
+            assert_eq!(i.reading_scale, Some(ReadingScale { unit, per_g }));
+            assert_eq!(i.plausibility.scale_factor_ppm, sf_ppm, "{name}");
+            assert_eq!(i.pendulosity_dyn_cm_per_g, 0.0);
+            assert_eq!(i.loop_bias_cm_s2(500.0), 0.0);
+            assert!((i.g_cm_s2 - 980.665).abs() < 1e-12);
+        }
+        let e = Instrument::shipped("adxl").unwrap_err();
+        assert_eq!(
+            e,
+            "`adxl` is not a shipped instrument; expected one of kearfott-2401, navigation, mems"
+        );
+    }
+
+    /// The text of the shipped MEMS file with `from` replaced by `to` (exactly once).
+    fn mems_with(from: &str, to: &str) -> String {
+        assert_eq!(MEMS_TOML.matches(from).count(), 1, "{from}");
+        MEMS_TOML.replace(from, to)
+    }
+
+    /// The line (1-based) of `text` that starts with `key`.
+    fn line_in(text: &str, key: &str) -> usize {
+        text.lines().position(|l| l.starts_with(key)).unwrap() + 1
+    }
+
+    /// A file without a loop is validated like one with: every refusal names the key, the
+    /// line and what was expected.
+    #[test]
+    fn a_file_without_a_loop_is_refused_with_its_position() {
+        let cases: &[(&str, &str, &str, &str)] = &[
+            (
+                "reading_unit = \"LSB\"",
+                "reading_unit = \"g\"",
+                "reading_unit",
+                "instrument.reading_unit = \"g\": a reading in g is converted by its definition; expected the unit of a scale factor: V, mA or LSB",
+            ),
+            (
+                "reading_unit = \"LSB\"",
+                "reading_unit = \"counts\"",
+                "reading_unit",
+                "instrument.reading_unit = \"counts\": expected one of V, mA, LSB",
+            ),
+            (
+                "reading_unit = \"LSB\"\n",
+                "",
+                "scale_factor_per_g",
+                "instrument.scale_factor_per_g without instrument.reading_unit: expected both",
+            ),
+            (
+                "scale_factor_per_g = 16384.0",
+                "scale_factor_per_g = -16384.0",
+                "scale_factor_per_g",
+                "instrument.scale_factor_per_g = -16384: expected a nominal scale factor > 0 LSB per g",
+            ),
+            (
+                "local_gravity_cm_s2 = 980.665",
+                "local_gravity_cm_s2 = 0.0",
+                "local_gravity_cm_s2",
+                "instrument.local_gravity_cm_s2 = 0: expected gravity > 0 cm/s²",
+            ),
+            (
+                "k2_s2_cm = 0.0",
+                "k2_s2 = 0.0",
+                "k2_s2",
+                "model_equation.k2_s2: not a term of the model equation; expected one of k1_ppm, delta_o_rad,",
+            ),
+            (
+                "k2_s2_cm = 0.0",
+                "delta_p_rad = 2.0",
+                "delta_p_rad",
+                "model_equation.delta_p_rad = 2: expected |misalignment| < 1 rad",
+            ),
+            (
+                "k2_s2_cm = 0.0",
+                "k2_s2_cm = \"small\"",
+                "k2_s2_cm",
+                "expected a number, found the string \"small\"",
+            ),
+        ];
+        for (from, to, key, message) in cases {
+            let text = mems_with(from, to);
+            let e = Instrument::parse(&text, "m.toml").unwrap_err();
+            assert!(e.message.contains(message), "{to}: {e}");
+            assert_eq!(e.line, line_in(&text, key), "{to}: {e}");
+            assert!(e.column >= 1, "{e}");
+        }
+        // Without its name or its bias: the table's first key's line.
+        let e = Instrument::parse(&mems_with("bias_cm_s2 = 0.0\n", ""), "m.toml").unwrap_err();
+        assert!(
+            e.message
+                .starts_with("instrument.bias_cm_s2: missing; a file without a PTSA loop"),
+            "{e}"
+        );
+        assert_eq!(e.line, line_in(MEMS_TOML, "name ="), "{e}");
+        // A loop's section in it: then every loop section is required.
+        let e = Instrument::parse(&format!("{MEMS_TOML}\n[stops]\n"), "m.toml").unwrap_err();
+        assert_eq!(
+            e.message,
+            "a file with a PTSA loop has [pendulum], [pickoff], [torquer], [electronics] and [stops]; [pendulum], [pickoff], [torquer], [electronics] missing (a file without a loop has none of them)"
+        );
+        // No [instrument] and no loop.
+        let e = Instrument::parse("[plausibility]\nbias_cm_s2 = 1.0\n", "p.toml").unwrap_err();
+        assert!(
+            e.message
+                .contains("or, for an accelerometer without one, an [instrument] table"),
+            "{e}"
+        );
+        // A file with a loop keeps its bias and gravity in [electronics].
+        let e = Instrument::parse(
+            &format!("{KEARFOTT_2401_TOML}\n[instrument]\nname = \"k\"\nbias_cm_s2 = 1.0\n"),
+            "k.toml",
+        )
+        .unwrap_err();
+        assert!(
+            e.message.starts_with(
+                "instrument.bias_cm_s2: a file with a PTSA loop gives it as electronics.bias_cm_s2"
+            ),
+            "{e}"
+        );
+    }
+
+    /// `[model_equation]`'s keys are the nominal values of their candidates, `δ_p` under the
+    /// IEEE sign (the candidate of `a_OA` is `−δ_p`); the bias is the file's `A_b`.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn model_equation_keys_are_the_nominal_terms() {
+        let mut text = format!("{KEARFOTT_2401_TOML}\n[model_equation]\n");
+        for (k, m) in MODEL_EQUATION.iter().enumerate() {
+            let _ =
+                std::fmt::Write::write_fmt(&mut text, format_args!("{} = {}e-7\n", m.key, k + 1));
+        }
+        let i = Instrument::parse(&text, "k.toml").unwrap();
+        for (k, m) in MODEL_EQUATION.iter().enumerate() {
+            let x: f64 = format!("{}e-7", k + 1).parse().unwrap();
+            assert_eq!(i.nominal_model_term(m.id), m.sign * x, "{}", m.key);
+        }
+        assert_eq!(
+            i.nominal_model_term(CandidateId::MisalignmentO),
+            -3e-7,
+            "delta_p_rad"
+        );
+        assert_eq!(i.nominal_model_term(CandidateId::Bias), 18.7);
+        assert_eq!(i.nominal_model_term(CandidateId::Anisoinertia), 0.0);
+        let e = i.with_nominal_terms(&Effects::only(CandidateId::Nonlinearity, 1.0));
+        assert_eq!(e.get(CandidateId::Nonlinearity), 1.0 + 4e-7);
+        assert_eq!(e.get(CandidateId::Cubic), 5e-7);
+    }
+
+    /// Raw readings: units of acceleration by their definition (g with the file's local
+    /// gravity), V, mA or LSB only through the file's scale in that unit.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn readings_are_converted_through_the_nominal_scale() {
+        let m = Instrument::shipped("mems").unwrap();
+        let g = 980.665;
+        assert_eq!(m.reading_to_cm_s2(16384.0, ReadingUnit::Lsb), Ok(g));
+        assert_eq!(m.reading_to_cm_s2(-0.5, ReadingUnit::G), Ok(-0.5 * g));
+        assert_eq!(m.reading_to_cm_s2(9.5, ReadingUnit::MPerS2), Ok(950.0));
+        assert_eq!(m.reading_to_cm_s2(3.0, ReadingUnit::CmPerS2), Ok(3.0));
+        let e = m.reading_to_cm_s2(1.0, ReadingUnit::Volt).unwrap_err();
+        assert!(
+            e.contains("a reading in V needs a nominal scale factor in V per g"),
+            "{e}"
+        );
+        let k = Instrument::kearfott_2401();
+        let e = k.reading_to_cm_s2(1.0, ReadingUnit::MilliAmp).unwrap_err();
+        assert!(
+            e.contains(
+                "expected instrument.reading_unit = \"mA\" and instrument.scale_factor_per_g"
+            ),
+            "{e}"
+        );
+        for u in ReadingUnit::ALL {
+            assert_eq!(ReadingUnit::parse(u.name()), Some(*u));
+        }
+        assert_eq!(ReadingUnit::parse("m/s2"), Some(ReadingUnit::MPerS2));
+        assert_eq!(ReadingUnit::parse("cm/s^2"), Some(ReadingUnit::CmPerS2));
+        assert_eq!(ReadingUnit::parse("counts"), None);
+    }
+
+    /// `rewrite_model_equation` sets each term (the bias in its key; the others in
+    /// `[model_equation]`, added when absent), keeps every line it does not set, and the
+    /// result reads back with the new values.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values read as written, and sums exact in binary"
+    )]
+    fn rewrite_model_equation_sets_the_terms_and_keeps_the_rest() {
+        let changes = vec![
+            (CandidateId::Bias, 20.5, "fitted bias".to_string()),
+            (CandidateId::ScaleFactor, 400.0, "fitted K1".to_string()),
+            (CandidateId::MisalignmentO, -2.5e-4, "fitted".to_string()),
+            (CandidateId::Nonlinearity, 3e-8, "fitted K2".to_string()),
+        ];
+        for (src, bias_key) in [
+            (KEARFOTT_2401_TOML, "bias_cm_s2 = 20.5"),
+            (MEMS_TOML, "bias_cm_s2 = 20.5"),
+        ] {
+            let out = Instrument::rewrite_model_equation(src, "f.toml", &changes).unwrap();
+            let back = Instrument::parse(&out, "f.toml").unwrap();
+            for (id, v, _) in &changes {
+                assert_eq!(back.nominal_model_term(*id), *v, "{id}");
+            }
+            // δ_p is written under its own sign: the candidate's −2.5e-4 is δ_p = 2.5e-4.
+            assert!(out.contains("\ndelta_p_rad = 0.00025\n"), "{out}");
+            assert!(
+                out.contains(&format!("# fitted bias\n{bias_key}\n")),
+                "{out}"
+            );
+            // Every line of the source is still there, but the values set.
+            let kept: Vec<&str> = out.lines().collect();
+            for l in src.lines() {
+                let set = l.starts_with("bias_cm_s2 = 0.0")
+                    || l.starts_with("bias_cm_s2 = 18.7")
+                    || l.starts_with("k2_s2_cm");
+                assert!(set || kept.contains(&l), "lost: {l}");
+            }
+            let before = Instrument::parse(src, "f.toml").unwrap();
+            assert_eq!(back.plausibility, before.plausibility);
+            assert_eq!(back.tolerances, before.tolerances);
+        }
+        // Not a term of the model equation.
+        let e = Instrument::rewrite_model_equation(
+            MEMS_TOML,
+            "f.toml",
+            &[(CandidateId::Anisoinertia, 1.0, String::new())],
+        )
+        .unwrap_err();
+        assert!(
+            e.message.contains("not a term of the model equation"),
+            "{e}"
+        );
     }
 }

@@ -239,7 +239,9 @@ impl LoopConfig {
         let k_eff = instr.spring_dyn_cm_rad + p * self.a_pa0 - di * self.wq0;
         self.plant = Plant::new(instr, k_eff);
         self.prep = prep;
-        self.effect_terms = effects
+        // The instrument file's nominal model-equation terms are part of the baseline.
+        self.effect_terms = instr
+            .with_nominal_terms(effects)
             .nonzero()
             .filter_map(|(id, c)| match id.info().signature {
                 Signature::Term(f) => Some((f, c)),

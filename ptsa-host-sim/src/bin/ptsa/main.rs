@@ -18,7 +18,8 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 use cmd::{
-    Ctx, bench, correct, design, discover, experiments, plan, predict, report, response, static_,
+    Ctx, bench, correct, design, discover, experiments, instrument, plan, predict, report, response,
+    static_,
 };
 use flags::{Cli, Cmd};
 use ptsa_host_sim::lab::fixtures::TwoAxisKind;
@@ -62,12 +63,19 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
         Cmd::Waveform(a) => experiments::run(&ctx, &a.request(&ctx)?, out),
         Cmd::MonteCarlo(a) => experiments::run(&ctx, &a.request(&ctx)?, out),
         Cmd::Static(a) => static_::run(&a.request(&ctx)?, out),
-        Cmd::Design(a) => design::run(&ctx, &a.request(), out),
+        Cmd::Design(a) => {
+            ctx.require_loop()?;
+            design::run(&ctx, &a.request(), out)
+        }
         Cmd::Bench(a) => bench::run(&ctx, &a.request(&ctx)?, out),
         Cmd::Predict(a) => predict::run(&a.request(&ctx)?, out),
         Cmd::Plan(a) => plan::run(&a.request(&ctx)?, out),
         Cmd::Discover(a) => discover::run(&ctx, &a.request(&ctx)?, out),
-        Cmd::Response(a) => response::run(&ctx, &a.request()?, out),
+        Cmd::Response(a) => {
+            ctx.require_loop()?;
+            response::run(&ctx, &a.request()?, out)
+        }
         Cmd::Correct(a) => correct::run(&a.request(&ctx, instrument_given)?, out),
+        Cmd::Instrument(a) => instrument::run(&a.request()?, out),
     }
 }

@@ -110,7 +110,9 @@ impl CorrectArgs {
             None => None,
         };
         let name = self.data.display().to_string();
-        let frame = caseframe::read_frame(&self.data)?;
+        let mut frame = caseframe::read_frame(&self.data)?;
+        // Raw readings (`reading`, `reading_unit`) in cm/s² through the instrument file.
+        frame.convert_readings(&name, &ctx.instr)?;
         let mut warnings: Vec<String> = cal.notes.iter().map(|n| format!("{flag}: {n}")).collect();
         let g = cal.g_cm_s2();
         let rows = with_history(&counts::with_counts(&frame.rows, ctx.instr.sf_cm_s2), g);

@@ -136,7 +136,13 @@ impl DiscoverArgs {
     /// # Errors
     /// The loop cannot be simulated; an output path is refused.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
-        let config = ctx.config()?;
+        if self.data.is_none() && self.convert_report_data.is_none() && !ctx.instr.has_loop {
+            anyhow::bail!(
+                "discover without --data analyses R-890's Tables 6.1–6.3, measured on the Kearfott 2401 in its PTSA loop, and {} describes another instrument without a loop; expected --data FILE with this instrument's measurements",
+                ctx.name
+            );
+        }
+        let config = ctx.model_config(self.seed)?;
         if let Some(dir) = self.convert_report_data {
             let names: Vec<String> = r890::case_files()?
                 .iter()
@@ -146,13 +152,21 @@ impl DiscoverArgs {
             return Ok(Request::Convert(dir));
         }
         let candidates: Vec<CandidateId> = if self.candidates.is_empty() {
-            CandidateId::ALL.to_vec()
+            Options::for_instrument(&ctx.instr).candidates
         } else {
             let mut v: Vec<CandidateId> = self.candidates.iter().flatten().copied().collect();
             v.sort_unstable();
             v.dedup();
             v
         };
+        if let Some(p) = candidates.iter().find(|id| id.parameter().is_some())
+            && !ctx.instr.has_loop
+        {
+            anyhow::bail!(
+                "--candidates {p}: a parameter of the PTSA loop, and {} describes an instrument without one; expected terms of the model equation or other additive effects",
+                ctx.name
+            );
+        }
         if !self.no_plots {
             // The files written: `<stem>-discover.*` of the data file, or, without one,
             // those of each of the report's tables (`report::discovery`).

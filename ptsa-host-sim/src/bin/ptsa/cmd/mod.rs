@@ -24,6 +24,7 @@ pub mod correct;
 pub mod design;
 pub mod discover;
 pub mod experiments;
+pub mod instrument;
 pub mod plan;
 pub mod predict;
 pub mod report;
@@ -37,6 +38,7 @@ use anyhow::{Context as _, Result, bail};
 use ptsa_host_sim::Instrument;
 use ptsa_host_sim::discovery::{self, Simulator};
 use ptsa_host_sim::model::design::{LoopCheck, check_loop};
+use ptsa_host_sim::model::instrument::{SHIPPED, shipped};
 use ptsa_host_sim::output::{Output, count};
 use ptsa_host_sim::simulation::sim::SimOptions;
 
@@ -63,9 +65,34 @@ impl Ctx {
     /// # Errors
     /// The file cannot be read or is not a valid instrument file.
     pub fn load(path: Option<&Path>) -> Result<Self> {
+        // A shipped instrument by its name, unless a file of that name is there.
+        let name_of = |p: &Path| -> Option<String> {
+            p.to_str()
+                .filter(|n| shipped(n).is_some() && !p.exists())
+                .map(str::to_string)
+        };
         let (instr, name, text) = match path {
+            Some(p) if name_of(p).is_some() => {
+                let n = &name_of(p).unwrap_or_default();
+                let (file, text) = shipped(n).unwrap_or_default();
+                (
+                    Instrument::shipped(n).map_err(anyhow::Error::msg)?,
+                    format!("{file} (the shipped `{n}` file, built in)"),
+                    text.to_string(),
+                )
+            }
             Some(p) => {
-                let i = Instrument::load(p)?;
+                let i = Instrument::load(p).map_err(|e| {
+                    if e.position().is_none() && !p.exists() {
+                        let names: Vec<&str> = SHIPPED.iter().map(|s| s.0).collect();
+                        anyhow::anyhow!(
+                            "{e}; expected an instrument file or a shipped instrument: {}",
+                            names.join(", ")
+                        )
+                    } else {
+                        e.into()
+                    }
+                })?;
                 // Read again for `--write-instrument` (load has validated it as UTF-8).
                 let text = std::fs::read_to_string(p)
                     .with_context(|| format!("{}: cannot read", p.display()))?;
@@ -77,7 +104,11 @@ impl Ctx {
                 ptsa_host_sim::model::instrument::KEARFOTT_2401_TOML.to_string(),
             ),
         };
-        let checked = check_loop(&instr);
+        let checked = if instr.has_loop {
+            check_loop(&instr)
+        } else {
+            Err("the file describes an instrument without a PTSA loop".to_string())
+        };
         Ok(Self {
             instr,
             name,
@@ -93,10 +124,45 @@ impl Ctx {
     /// # Errors
     /// The loop check's refusal, under the file's name.
     pub fn config(&self) -> Result<ptsa_core::Config> {
+        self.require_loop()?;
         match &self.checked {
             Ok(c) => Ok(c.config),
             Err(e) => bail!("{}: {e}", self.name),
         }
+    }
+
+    /// Refuse a file without a PTSA loop, for a command that runs or designs the loop.
+    ///
+    /// # Errors
+    /// The file has no loop: one line naming it and what works with it.
+    pub fn require_loop(&self) -> Result<()> {
+        if self.instr.has_loop {
+            return Ok(());
+        }
+        bail!(
+            "{}: an instrument without a PTSA loop (no [pendulum], [pickoff], [torquer], [electronics], [stops]): this command runs the loop; with this file only discover and predict (on the analytic model), plan and instrument work",
+            self.name
+        )
+    }
+
+    /// The loop's configuration for `discover` and `predict`: the checked loop's, or for a
+    /// file without a loop the default (the analytic model, which [`simulator`] then
+    /// uses, runs no loop), with a warning when `--seed` is given a value other than the
+    /// default, which nothing then uses.
+    ///
+    /// # Errors
+    /// The loop of a file with one cannot be simulated.
+    pub fn model_config(&self, seed: u64) -> Result<ptsa_core::Config> {
+        if self.instr.has_loop {
+            return self.config();
+        }
+        if seed != SimOptions::default().seed {
+            eprintln!(
+                "warning: --seed {seed} is not used: {} has no PTSA loop, and the analytic model it is analysed with has no noise to seed",
+                self.name
+            );
+        }
+        Ok(ptsa_core::Config::DEFAULT)
     }
 }
 
@@ -153,14 +219,15 @@ pub fn gate_ticks(flag: &str, gate_s: f64, instr: &Instrument, opts: &SimOptions
 }
 
 /// The simulator of `discover` and `predict`: the closed loop of the instrument file, or
-/// with `analytic` the quasi-static analytic model.
+/// with `analytic` (and always for a file without a PTSA loop) the quasi-static analytic
+/// model.
 pub fn simulator(
     instr: &Instrument,
     config: ptsa_core::Config,
     analytic: bool,
     seed: u64,
 ) -> Box<dyn Simulator> {
-    if analytic {
+    if analytic || !instr.has_loop {
         Box::new(discovery::AnalyticSimulator::for_instrument(instr))
     } else {
         Box::new(discovery::sim::ClosedLoopSimulator {

@@ -156,7 +156,10 @@ impl PlanArgs {
     /// without `--force`.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         // Refused like every subcommand that simulates: the plan is for this instrument.
-        ctx.config()?;
+        // (A file without a loop plans for the analytic model.)
+        if ctx.instr.has_loop {
+            ctx.config()?;
+        }
         let (rows, what, out, counts) = match self.kind {
             PlanKind::Tumble {
                 positions,

@@ -29,8 +29,10 @@ pub struct PredictArgs {
     /// `effects` array). Without it, the baseline model.
     #[arg(long, value_name = "FILE.json")]
     pub effects: Option<PathBuf>,
-    /// Print exactly one JSON object {"rows": [{"label", "predicted_cm_s2"}]} (a response
-    /// row: `predicted_cm_s2` null, and `predicted_gain`, `predicted_phase_deg`).
+    /// Print exactly one JSON object {"rows": [{"label", "predicted_cm_s2"}], "simulator"}
+    /// (a response row: `predicted_cm_s2` null, and `predicted_gain`, `predicted_phase_deg`;
+    /// "simulator": closed-loop, analytic, or loop-less analytic for an instrument file
+    /// without a PTSA loop).
     #[arg(long)]
     pub json: bool,
     /// Seed of the simulator's pickoff noise (closed loop): a whole number from 0 to
@@ -38,7 +40,8 @@ pub struct PredictArgs {
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,
-    /// Use the quasi-static analytic model instead of the closed loop.
+    /// Use the quasi-static analytic model instead of the closed loop (always, for an
+    /// instrument file without a PTSA loop).
     #[arg(long)]
     pub analytic: bool,
     /// Run even when the work is estimated to take more than ten minutes.
@@ -74,12 +77,11 @@ impl PredictArgs {
     /// # Errors
     /// The loop cannot be simulated; a file cannot be read or is not what it should be.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
-        let config = ctx.config()?;
+        let config = ctx.model_config(self.seed)?;
+        let mut frame = ptsa_host_sim::model::caseframe::read_frame(&self.data)?;
+        frame.convert_readings(&self.data.display().to_string(), &ctx.instr)?;
         // Counts in: shown as the readings they give with the file's nominal SF.
-        let rows = ptsa_host_sim::model::counts::with_counts(
-            &ptsa_host_sim::model::caseframe::read(&self.data)?,
-            ctx.instr.sf_cm_s2,
-        );
+        let rows = ptsa_host_sim::model::counts::with_counts(&frame.rows, ctx.instr.sf_cm_s2);
         let (effects, sigmas) = match &self.effects {
             Some(p) => load_effects(p)?,
             None => (Effects::NONE, Vec::new()),
@@ -107,7 +109,7 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
     let pred = discovery::predict(&req.rows, &*req.sim, &req.effects);
     p.finish();
     if req.json {
-        writeln!(out, "{}", json(&req.rows, &pred))?;
+        writeln!(out, "{}", json(&req.rows, &pred, req.sim.name()))?;
     } else {
         write!(out, "{}", table(req, &pred))?;
         writeln!(
@@ -134,10 +136,11 @@ fn estimate(rows: &[Condition], sim: &dyn Simulator, force: bool) -> Result<Esti
     )
 }
 
-/// `{"rows": [...]}`: a response row has no acceleration to predict, so its
+/// `{"rows": [...], "simulator": name}` (`closed-loop`, `analytic`, or `loop-less analytic`
+/// for an instrument file without a PTSA loop): a response row has no acceleration to predict, so its
 /// `predicted_cm_s2` is null and its gain and phase come as `predicted_gain`,
 /// `predicted_phase_deg`.
-fn json(rows: &[Condition], pred: &[Vec<f64>]) -> serde_json::Value {
+fn json(rows: &[Condition], pred: &[Vec<f64>], simulator: &str) -> serde_json::Value {
     let rows: Vec<serde_json::Value> = rows
         .iter()
         .zip(pred)
@@ -154,7 +157,7 @@ fn json(rows: &[Condition], pred: &[Vec<f64>]) -> serde_json::Value {
             }
         })
         .collect();
-    serde_json::json!({ "rows": rows })
+    serde_json::json!({ "rows": rows, "simulator": simulator })
 }
 
 /// The prediction table: a title line naming the file, the simulator and the effects, then

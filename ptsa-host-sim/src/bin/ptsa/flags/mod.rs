@@ -19,8 +19,8 @@ use ptsa_host_sim::simulation::sim::SimOptions;
 
 use crate::cmd::{
     bench::BenchArgs, correct::CorrectArgs, design::DesignArgs, discover::DiscoverArgs,
-    experiments, plan::PlanArgs, predict::PredictArgs, report::ReportArgs, response::ResponseArgs,
-    static_::StaticArgs,
+    experiments, instrument::InstrumentArgs, plan::PlanArgs, predict::PredictArgs,
+    report::ReportArgs, response::ResponseArgs, static_::StaticArgs,
 };
 use values::{non_negative_s, positive_s, seed};
 
@@ -43,8 +43,10 @@ use values::{non_negative_s, positive_s, seed};
     allow_negative_numbers = true
 )]
 pub struct Cli {
-    /// Instrument file (TOML: Table 2.1 with tolerances and the PTSA electronics; see
-    /// data/kearfott-2401.toml). Default: the shipped Kearfott 2401 file, compiled in.
+    /// Instrument file (TOML: Table 2.1 with tolerances and the PTSA electronics, see
+    /// data/kearfott-2401.toml; or an accelerometer without a PTSA loop, see
+    /// docs/instrument.md), or a shipped instrument by name: kearfott-2401 (the default),
+    /// navigation, mems.
     // Listed after each subcommand's own options (a global option is otherwise sorted in
     // among them by name).
     #[arg(long, global = true, value_name = "FILE", display_order = 900)]
@@ -168,6 +170,9 @@ pub enum Cmd {
     /// a_ia_cm_s2, a_ia_g, sigma_a_ia_cm_s2, sigma_noise_cm_s2, sigma_calibration_cm_s2:
     /// cm/s², a_ia_g in g), or one JSON object with --json.
     Correct(CorrectArgs),
+    /// Instrument files: `instrument new --class CLASS --out FILE` writes a commented
+    /// template (kearfott-2401, navigation, mems).
+    Instrument(InstrumentArgs),
 }
 
 /// Options of every simulated run.
