@@ -27,6 +27,8 @@
 //!   (lack of fit and the search of the residuals), [`rivals`] (the forms outside the
 //!   vocabulary that could stand in a named term's place), [`crossval`] (the gain out of sample),
 //!   [`advice`] (rows that would break a confounding).
+//! * [`calibration`]: the instrument's own model equation (absolute values, their
+//!   uncertainties and correlation) from the final selection.
 //! * [`cost`]: what a discovery costs, counted before it runs.
 //! * [`outcome`]: the typed result, [`Discovery`].
 //! * [`show`]: text table, plots and the report section; [`verdict`]: the verdict and
@@ -45,6 +47,7 @@ use crate::model::effects::Effects;
 
 pub mod advice;
 pub mod assemble;
+pub mod calibration;
 pub mod check;
 pub mod confounding;
 pub mod cost;
@@ -461,7 +464,7 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 29] = [
+    const LAYERS: [&str; 30] = [
         "observation",
         "sim",
         "library",
@@ -484,6 +487,7 @@ mod tests {
         "rivals",
         "crossval",
         "advice",
+        "calibration",
         "cost",
         "outcome",
         "show",
