@@ -121,3 +121,210 @@ fn a_tumble_from_the_ieee_equation_gives_back_its_absolute_coefficients() {
     assert_eq!(kip["measured"], false);
     assert!(kip["if_fitted"][1].as_f64().unwrap() > 0.0);
 }
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// Write the two tumbles of [`a_tumble_from_the_ieee_equation_gives_back_its_absolute_coefficients`]
+/// as a case-frame file in `dir`.
+fn tumble_file(dir: &Path) -> std::path::PathBuf {
+    let instr = Instrument::kearfott_2401();
+    let truth = Truth {
+        k0_g: 19_500e-6,
+        eps: -150e-6,
+        delta_o: 120e-6,
+        delta_p: -80e-6,
+        k2: 30e-6,
+    };
+    let rows = tumbles(&truth, &instr, 10e-6, 3);
+    let p = dir.join("tumble.case.csv");
+    std::fs::write(&p, ptsa_host_sim::model::caseframe::to_csv(&rows, &[])).unwrap();
+    p
+}
+
+/// `ptsa args` in `dir` with `SOURCE_DATE_EPOCH` set to `epoch` (or removed).
+fn ptsa_at(dir: &Path, epoch: Option<&str>, args: &[&str]) -> Output {
+    let mut c = Command::new(env!("CARGO_BIN_EXE_ptsa"));
+    c.current_dir(dir).args(args);
+    match epoch {
+        Some(e) => c.env("SOURCE_DATE_EPOCH", e),
+        None => c.env_remove("SOURCE_DATE_EPOCH"),
+    };
+    c.output().unwrap()
+}
+
+/// Every file of `dir` with its bytes.
+fn contents(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    common::names(dir)
+        .into_iter()
+        .map(|n| {
+            let b = std::fs::read(dir.join(&n)).unwrap();
+            (n, b)
+        })
+        .collect()
+}
+
+const SHEET_ARGS: [&str; 6] = [
+    "discover",
+    "--data",
+    "tumble.case.csv",
+    "--analytic",
+    "--no-plots",
+    "--sheet",
+];
+
+#[test]
+fn the_text_report_writes_the_instruments_own_model_equation() {
+    let tmp = tempfile::tempdir().unwrap();
+    tumble_file(tmp.path());
+    let o = common::ptsa_in(tmp.path(), &SHEET_ARGS[..5]);
+    let out = common::stdout(&o);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert!(
+        out.contains("calibration: the instrument's own model equation"),
+        "{out}"
+    );
+    // δ_p under its own sign, the equation written out with the values.
+    assert!(out.contains("− (−"), "{out}");
+    for symbol in ["K_0", "K_1", "K_2", "δ_o", "δ_p", "K_po"] {
+        assert!(
+            out.lines().any(|l| l.trim_start().starts_with(symbol)),
+            "{symbol}: {out}"
+        );
+    }
+    assert!(out.contains("not measured"), "{out}");
+}
+
+#[test]
+fn the_sheet_holds_the_provenance_the_table_and_the_residuals() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tumble_file(tmp.path());
+    let mut args = SHEET_ARGS.to_vec();
+    args.push("sn3-sheet");
+    let o = ptsa_at(tmp.path(), Some("1790000000"), &args);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let dir = tmp.path().join("sn3-sheet");
+    assert_eq!(
+        common::names(&dir),
+        [
+            "sn3-sheet-residuals.png",
+            "sn3-sheet-residuals.svg",
+            "sn3-sheet.csv",
+            "sn3-sheet.md"
+        ]
+    );
+    let md = std::fs::read_to_string(dir.join("sn3-sheet.md")).unwrap();
+    let hash = ptsa_host_sim::discovery::sheet::hex(&ptsa_host_sim::discovery::sheet::sha256(
+        &std::fs::read(&data).unwrap(),
+    ));
+    for needle in [
+        "tumble.case.csv (48 rows)",
+        hash.as_str(),
+        "2026-09-21 14:13:20 UTC (SOURCE_DATE_EPOCH)",
+        "kearfott-2401.toml",
+        "− δ_p·a_o",
+        "| K_0 |",
+        "## Design",
+        "| tumble 90 deg (IA-PA plane, about OA) | absolute | 1 | 0 | 0 |",
+        "## Residuals",
+        "![residuals](sn3-sheet-residuals.svg)",
+    ] {
+        assert!(md.contains(needle), "`{needle}` not in the sheet:\n{md}");
+    }
+    let csv = std::fs::read_to_string(dir.join("sn3-sheet.csv")).unwrap();
+    assert!(csv.contains(&format!("# data SHA-256: {hash}")), "{csv}");
+    let k0 = csv.lines().find(|l| l.starts_with("K_0,")).unwrap();
+    assert!(k0.ends_with(",µg,") || k0.contains(",µg,"), "{k0}");
+    // The same data and date give the same sheet, byte for byte.
+    let mut again = SHEET_ARGS.to_vec();
+    again.push("second-sheet");
+    let o = ptsa_at(tmp.path(), Some("1790000000"), &again);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    assert_eq!(
+        std::fs::read(tmp.path().join("second-sheet/second-sheet.csv"))
+            .unwrap()
+            .len(),
+        std::fs::read(dir.join("sn3-sheet.csv")).unwrap().len()
+    );
+    let strip = |s: String, name: &str| s.replace(name, "NAME");
+    assert_eq!(
+        strip(
+            std::fs::read_to_string(tmp.path().join("second-sheet/second-sheet.md")).unwrap(),
+            "second-sheet"
+        ),
+        strip(md, "sn3-sheet")
+    );
+}
+
+#[test]
+fn an_existing_sheet_is_kept_byte_for_byte_without_force() {
+    let tmp = tempfile::tempdir().unwrap();
+    tumble_file(tmp.path());
+    let mut args = SHEET_ARGS.to_vec();
+    args.push("sheet");
+    let o = ptsa_at(tmp.path(), Some("1790000000"), &args);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let dir = tmp.path().join("sheet");
+    let before = contents(&dir);
+    // Another date: a replaced sheet would differ.
+    let o = ptsa_at(tmp.path(), Some("1800000000"), &args);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--sheet sheet: the folder exists and is not replaced without --force"),
+        "{err}"
+    );
+    common::assert_clean_of(&err, &[]);
+    assert!(o.stdout.is_empty());
+    assert_eq!(contents(&dir), before);
+    // With --force, an earlier sheet is replaced whole.
+    args.push("--force");
+    let o = ptsa_at(tmp.path(), Some("1800000000"), &args);
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("warning: --sheet"), "{err}");
+    let md = std::fs::read_to_string(dir.join("sheet.md")).unwrap();
+    assert!(md.contains("2027-01-15 08:00:00 UTC"), "{md}");
+}
+
+#[test]
+fn force_never_replaces_a_folder_that_is_not_a_sheet() {
+    let tmp = tempfile::tempdir().unwrap();
+    tumble_file(tmp.path());
+    let dir = tmp.path().join("logbook");
+    std::fs::create_dir(&dir).unwrap();
+    std::fs::write(dir.join("notes.txt"), b"the only copy").unwrap();
+    let mut args = SHEET_ARGS.to_vec();
+    args.extend(["logbook", "--force"]);
+    let o = ptsa_at(tmp.path(), None, &args);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("not an earlier sheet"), "{err}");
+    common::assert_clean_of(&err, &[]);
+    assert_eq!(
+        contents(&dir),
+        [("notes.txt".to_string(), b"the only copy".to_vec())]
+    );
+}
+
+#[test]
+fn a_malformed_source_date_epoch_is_refused_before_any_work() {
+    let tmp = tempfile::tempdir().unwrap();
+    tumble_file(tmp.path());
+    let before = contents(tmp.path());
+    let mut args = SHEET_ARGS.to_vec();
+    args.push("s");
+    let o = ptsa_at(tmp.path(), Some("yesterday"), &args);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("SOURCE_DATE_EPOCH=yesterday: expected whole seconds since 1970-01-01"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    common::assert_clean_of(&err, &[]);
+    assert!(o.stdout.is_empty());
+    assert_eq!(contents(tmp.path()), before);
+}

@@ -31,7 +31,8 @@
 //!   uncertainties and correlation) from the final selection.
 //! * [`cost`]: what a discovery costs, counted before it runs.
 //! * [`outcome`]: the typed result, [`Discovery`].
-//! * [`show`]: text table, plots and the report section; [`verdict`]: the verdict and
+//! * [`show`]: text table, plots and the report section; [`sheet`]: the calibration sheet
+//!   (`--sheet`); [`verdict`]: the verdict and
 //!   the warnings in words; [`assemble`]: the result from the stages' findings.
 //! * [`pipeline`]: the stages' order ([`discover`]).
 
@@ -68,6 +69,7 @@ pub mod report;
 pub mod rivals;
 pub mod scan;
 pub mod search;
+pub mod sheet;
 pub mod show;
 pub mod sim;
 pub mod slips;
@@ -97,6 +99,8 @@ pub struct Request {
     pub advice_out: Option<PathBuf>,
     /// Write the instrument file with the fitted parameters here.
     pub write_instrument: Option<InstrumentOut>,
+    /// Write the calibration sheet here (`--sheet`).
+    pub sheet: Option<sheet::SheetOut>,
 }
 
 /// The stem of `ptsa discover`'s files for the data file `data` (`<name>-discover`, the name
@@ -140,6 +144,13 @@ pub fn analytic() -> Box<dyn Simulator> {
 pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result<()> {
     let opts = &req.options;
     let path = &req.data;
+    // The sheet's date is read first: a malformed `SOURCE_DATE_EPOCH` refuses the run before
+    // any work.
+    let sheet_time = req
+        .sheet
+        .as_ref()
+        .map(|_| sheet::sheet_time())
+        .transpose()?;
     let frame = crate::model::caseframe::read_frame(path)?;
     let rows = frame.rows;
     let t0 = Instant::now();
@@ -162,6 +173,25 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
             .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
             .collect();
         eprintln!("wrote {}/{{{}}}", out.display(), names.join(","));
+    }
+    if let (Some(out), Some(time)) = (&req.sheet, sheet_time) {
+        let data_bytes = std::fs::read(path).with_context(|| path.display().to_string())?;
+        let prov = sheet::Provenance {
+            data: path,
+            data_bytes: &data_bytes,
+            rows: &rows,
+            time,
+        };
+        let files = sheet::write(out, &prov, &d)?;
+        let names: Vec<String> = files
+            .iter()
+            .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect();
+        eprintln!(
+            "wrote the calibration sheet {}/{{{}}}",
+            out.dir.display(),
+            names.join(",")
+        );
     }
     eprintln!(
         "discover: {} in {:.3} s ({} simulator)",
@@ -309,6 +339,7 @@ mod tests {
     fn request(data: PathBuf, out: PathBuf) -> Request {
         Request {
             write_instrument: None,
+            sheet: None,
             data,
             options: Options::default(),
             json: true,
@@ -464,7 +495,7 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 30] = [
+    const LAYERS: [&str; 31] = [
         "observation",
         "sim",
         "library",
@@ -491,6 +522,7 @@ mod tests {
         "cost",
         "outcome",
         "show",
+        "sheet",
         "verdict",
         "assemble",
         "pipeline",
