@@ -325,19 +325,21 @@ pub struct CalibrationTerm {
     /// `true`: the value comes from these data (its term was fitted); `false`: listed at
     /// its nominal value, not measured.
     pub measured: bool,
-    /// `selected` (named by the selection and fitted), `fitted` (a first-order term the
-    /// data test but the selection did not name: fitted beside the selected terms, its
-    /// change not significant), `not_significant` (a higher-order term tested and not
-    /// named: nominal; `if_fitted` gives what the data say of it), `not_separable` (its
-    /// column lies in the span of the fitted terms here: nominal), `not_measured` (the
-    /// data do not test it, or it was not a candidate: nominal).
+    /// `selected` (named by the selection and fitted), `fitted` (a core term, `K_0`, `K_1`,
+    /// `δ_o`, `δ_p` or `K_2`, that the data test but the selection did not name: fitted
+    /// beside the others, its change not significant), `not_significant` (another term
+    /// tested and not named: nominal; `if_fitted` gives what the data say of it),
+    /// `not_separable` (its column lies in the span of the fitted terms here,
+    /// `confounded_with` names them: nominal), `not_measured` (the data do not test it, or
+    /// it was not a candidate: nominal).
     pub status: &'static str,
     /// Marks on a measured value: `unstable` (differs between parts of the data),
     /// `rivaled` (a form outside the vocabulary could stand in its place), `implausible`
     /// (beyond the instrument file's plausibility bound), `confounded` (indistinguishable
     /// from `confounded_with` here). Empty: none.
     pub marks: Vec<&'static str>,
-    /// The candidates it cannot be told from in these data.
+    /// The candidates it cannot be told from in these data (for a selected term, discovery's
+    /// partners; for a `not_separable` one, the fitted terms whose columns make up its).
     pub confounded_with: Vec<String>,
     /// For a `not_significant` term: `[value, sigma]` in `unit` when it is fitted beside
     /// the others (`null` otherwise).
