@@ -328,3 +328,30 @@ fn a_malformed_source_date_epoch_is_refused_before_any_work() {
     assert!(o.stdout.is_empty());
     assert_eq!(contents(tmp.path()), before);
 }
+
+#[test]
+fn a_sheet_is_refused_without_data_or_over_a_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    // Without --data there is no calibration of an instrument to write (clap: exit 2).
+    let o = common::ptsa_in(tmp.path(), &["discover", "--sheet", "s"]);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("--data"), "{err}");
+    assert!(common::names(tmp.path()).is_empty());
+    // A file where the folder would go is kept and refused before any work.
+    tumble_file(tmp.path());
+    std::fs::write(tmp.path().join("notes.md"), b"the logbook").unwrap();
+    let before = contents(tmp.path());
+    let mut args = SHEET_ARGS.to_vec();
+    args.push("notes.md");
+    let o = ptsa_at(tmp.path(), None, &args);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--sheet notes.md: this is a file; expected a folder"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    common::assert_clean_of(&err, &[]);
+    assert_eq!(contents(tmp.path()), before);
+}
