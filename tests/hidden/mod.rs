@@ -21,6 +21,10 @@
 //! and interleaved order, a bias and a scale factor changing with temperature) in a
 //! 24-point tumble.
 //!
+//! A sixth, [`calibration`], is not a naming campaign: tumbles generated from the IEEE Std
+//! 1293 model equation with the instrument's absolute coefficients drawn per set, scored on
+//! whether the `calibration` object's k = 2 intervals cover them.
+//!
 //! The four share one core ([`campaign`]): the set seeding, the run over the sets, the
 //! scored outcome of a set ([`Outcome`]), the table and the binomial assertions; each
 //! supplies its kinds, its generator, its truths and its table's columns
@@ -33,6 +37,7 @@
 //! SE is that coefficient's standard error in this design with the nuisance terms the
 //! pipeline always fits, from the design simulated once with a unit physical effect.
 
+pub mod calibration;
 pub mod campaign;
 pub mod designs;
 pub mod effects;

@@ -30,6 +30,13 @@
 //! closed loop's reading of each position plus the physics, analysed with the analytic
 //! simulator.
 //!
+//! `cargo xtask hidden --calibration [--sets N] [--seed S]`: the calibration-coverage
+//! campaign (`tests/hidden_calibration.rs`, `hidden_calibration_campaign`): 8-, 12- and
+//! 24-point tumbles and two 24-point tumbles generated from the IEEE Std 1293 model
+//! equation with the instrument's absolute `K_0`, `K_1`, `δ_o`, `δ_p`, `K_2` drawn per set, analysed
+//! with the analytic simulator; the `calibration` object's k = 2 intervals must cover the
+//! truth 95 ± 2.5 % of the time; N sets (default 2000).
+//!
 //! `cargo xtask hidden --sigma [--sets N] [--seed S]`: the understated-sigma campaign
 //! (`tests/hidden_sigma.rs`, `hidden_sigma_campaign`): null sets whose stated sigma is the
 //! true noise over 1, 1.5, 2, 3 and 4, and sets with one effect at 6 SE, on R-890 Table
@@ -40,7 +47,7 @@ use crate::util::{self, Error};
 
 /// `cargo xtask hidden --help`.
 pub const USAGE: &str = "\
-hidden [--parameters | --statics [--additive] | --lab | --sigma] [--sets N] [--seed S] [--analytic]
+hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration] [--sets N] [--seed S] [--analytic]
     The full hidden-effect campaign of the discovery pipeline (the ignored test
     hidden_effects_campaign): N sets per candidate effect and N null sets, generated,
     analysed blind; prints every set and the rates, fails if the contract's are not met.
@@ -59,9 +66,15 @@ hidden [--parameters | --statics [--additive] | --lab | --sigma] [--sets N] [--s
     --sigma      the understated-sigma campaign instead (hidden_sigma_campaign): nulls
                  whose stated sigma is the true noise over 1, 1.5, 2, 3 and 4, and an
                  effect at 6 SE, on Table 6.1's 8 rows and a 24-point tumble (analytic)
+    --calibration the calibration-coverage campaign instead
+                 (hidden_calibration_campaign): tumbles of 8, 12 and 24 positions and
+                 two 24-point tumbles from the IEEE 1293 equation with absolute
+                 coefficients drawn per set; the k = 2 intervals of the calibration
+                 must cover the truth 95 +- 2.5 % of the time (analytic)
     --sets N     sets per candidate and null sets, a whole number > 0 (default 50;
                  10 per parameter and design with --parameters; 200 per kind with
-                 --statics; 140 per kind with --lab; 600 per kind with --sigma)
+                 --statics; 140 per kind with --lab; 600 per kind with --sigma;
+                 2000 sets in all with --calibration)
     --seed S     seed of the campaign, a whole number (default 4242)
     --analytic   generate with the quasi-static model instead of the closed-loop
                  simulator (faster, no loop dynamics; not with --parameters or
@@ -85,6 +98,24 @@ enum Which {
     Statics,
     Lab,
     Sigma,
+    Calibration,
+}
+
+/// `--calibration` goes with no other campaign (`other`) and not with `--analytic`.
+fn calibration_alone(calibration: bool, other: bool, analytic: bool) -> Result<(), Error> {
+    if calibration && other {
+        return Err(Error::Usage(
+            "--calibration with --parameters, --statics, --lab or --sigma: one campaign at a time"
+                .into(),
+        ));
+    }
+    if calibration && analytic {
+        return Err(Error::Usage(
+            "--analytic with --calibration: the calibration campaign is analysed with the analytic simulator already"
+                .into(),
+        ));
+    }
+    Ok(())
 }
 
 /// Parses and validates `cargo xtask hidden`'s options.
@@ -97,6 +128,7 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
     let mut additive = false;
     let mut lab = false;
     let mut sigma = false;
+    let mut calibration = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
@@ -127,6 +159,7 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
             "--additive" => additive = true,
             "--lab" => lab = true,
             "--sigma" => sigma = true,
+            "--calibration" => calibration = true,
             other => return Err(Error::Usage(format!("unknown option `{other}`"))),
         }
     }
@@ -163,6 +196,7 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
                 .into(),
         ));
     }
+    calibration_alone(calibration, parameters || statics || lab || sigma, analytic)?;
     if additive && !statics {
         return Err(Error::Usage("--additive goes with --statics".into()));
     }
@@ -174,6 +208,8 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
         Which::Lab
     } else if sigma {
         Which::Sigma
+    } else if calibration {
+        Which::Calibration
     } else {
         Which::Effects
     };
@@ -200,6 +236,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         Which::Statics => ("hidden_statics", "hidden_statics_campaign", "200"),
         Which::Lab => ("hidden_lab", "hidden_lab_campaign", "140"),
         Which::Sigma => ("hidden_sigma", "hidden_sigma_campaign", "600"),
+        Which::Calibration => ("hidden_calibration", "hidden_calibration_campaign", "2000"),
         Which::Effects => ("hidden_effects", "hidden_effects_campaign", "50"),
     };
     let sets = sets.unwrap_or_else(|| default_sets.to_string());

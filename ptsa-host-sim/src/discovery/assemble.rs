@@ -115,6 +115,7 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
             effects: effects_json,
             extended: ext.fit,
             model_equation: model_equation(f, &selected, sim.g_cm_s2()),
+            calibration: super::calibration::calibration(&p, &selected),
             advice,
             nuisance: nuisance_report(data, f),
             unexplained,

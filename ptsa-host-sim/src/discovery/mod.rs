@@ -30,9 +30,12 @@
 //!   (lack of fit and the search of the residuals), [`rivals`] (the forms outside the
 //!   vocabulary that could stand in a named term's place), [`crossval`] (the gain out of sample),
 //!   [`advice`] (rows that would break a confounding).
+//! * [`calibration`]: the instrument's own model equation (absolute values, their
+//!   uncertainties and correlation) from the final selection.
 //! * [`cost`]: what a discovery costs, counted before it runs.
 //! * [`outcome`]: the typed result, [`Discovery`].
-//! * [`show`]: text table, plots and the report section; [`verdict`]: the verdict and
+//! * [`show`]: text table, plots and the report section; [`sheet`]: the calibration sheet
+//!   (`--sheet`); [`verdict`]: the verdict and
 //!   the warnings in words; [`assemble`]: the result from the stages' findings.
 //! * [`pipeline`]: the stages' order ([`discover`]).
 
@@ -48,6 +51,7 @@ use crate::model::effects::{CandidateId, Effects};
 
 pub mod advice;
 pub mod assemble;
+pub mod calibration;
 pub mod check;
 pub mod confounding;
 pub mod correct;
@@ -69,6 +73,7 @@ pub mod report;
 pub mod rivals;
 pub mod scan;
 pub mod search;
+pub mod sheet;
 pub mod show;
 pub mod sim;
 pub mod slips;
@@ -98,6 +103,8 @@ pub struct Request {
     pub advice_out: Option<PathBuf>,
     /// Write the instrument file with the fitted parameters here.
     pub write_instrument: Option<InstrumentOut>,
+    /// Write the calibration sheet here (`--sheet`).
+    pub sheet: Option<sheet::SheetOut>,
 }
 
 /// The stem of `ptsa discover`'s files for the data file `data` (`<name>-discover`, the name
@@ -141,6 +148,13 @@ pub fn analytic() -> Box<dyn Simulator> {
 pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result<()> {
     let opts = &req.options;
     let path = &req.data;
+    // The sheet's date is read first: a malformed `SOURCE_DATE_EPOCH` refuses the run before
+    // any work.
+    let sheet_time = req
+        .sheet
+        .as_ref()
+        .map(|_| sheet::sheet_time())
+        .transpose()?;
     let mut frame = crate::model::caseframe::read_frame(path)?;
     if !frame.readings.is_empty() {
         // Raw readings become cm/s² through the instrument file's nominal scale.
@@ -174,6 +188,25 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
             .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
             .collect();
         eprintln!("wrote {}/{{{}}}", out.display(), names.join(","));
+    }
+    if let (Some(out), Some(time)) = (&req.sheet, sheet_time) {
+        let data_bytes = std::fs::read(path).with_context(|| path.display().to_string())?;
+        let prov = sheet::Provenance {
+            data: path,
+            data_bytes: &data_bytes,
+            rows: &rows,
+            time,
+        };
+        let files = sheet::write(out, &prov, &d)?;
+        let names: Vec<String> = files
+            .iter()
+            .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+            .collect();
+        eprintln!(
+            "wrote the calibration sheet {}/{{{}}}",
+            out.dir.display(),
+            names.join(",")
+        );
     }
     eprintln!(
         "discover: {} in {:.3} s ({} simulator)",
@@ -422,6 +455,7 @@ mod tests {
     fn request(data: PathBuf, out: PathBuf) -> Request {
         Request {
             write_instrument: None,
+            sheet: None,
             data,
             options: Options::default(),
             json: true,
@@ -577,7 +611,7 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 30] = [
+    const LAYERS: [&str; 32] = [
         "observation",
         "sim",
         "correct",
@@ -601,9 +635,11 @@ mod tests {
         "rivals",
         "crossval",
         "advice",
+        "calibration",
         "cost",
         "outcome",
         "show",
+        "sheet",
         "verdict",
         "assemble",
         "pipeline",

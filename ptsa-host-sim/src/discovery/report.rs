@@ -284,6 +284,90 @@ pub struct ModelEquation {
     pub correlation: Vec<Vec<f64>>,
 }
 
+/// One term of the instrument's own model equation (`calibration.terms`), in the `--json`
+/// shape: its absolute value, not its change from the instrument file (the `model_equation`
+/// object gives the changes).
+#[derive(Clone, Debug, Serialize)]
+pub struct CalibrationTerm {
+    /// IEEE Std 1293 symbol: `K_0`, `K_1`, `K_2`, `K_3`, `δ_o`, `δ_p`, `K_ip`, `K_io`,
+    /// `K_po`, `K_pp`, `K_oo`. `δ_p` is the misalignment itself, entering the equation as
+    /// `− δ_p·a_o` (never the negated value).
+    pub symbol: String,
+    /// The candidate whose coefficient measures it (`bias`, `scale_factor`,
+    /// `misalignment.delta_p_rad`, ...).
+    pub candidate: String,
+    /// The instrument's value, in `unit`: the instrument file's nominal value plus the
+    /// change the data measure (or the nominal value when `measured` is false).
+    pub value: f64,
+    /// Its 1 σ, in `unit` (`null` when not measured).
+    pub sigma: Option<f64>,
+    /// The expanded uncertainty with coverage factor k = 2, `2·sigma`, in `unit` (`null`
+    /// when not measured). About 95 % when the noise is stated or estimated with many
+    /// degrees of freedom (`calibration.dof`).
+    pub expanded_k2: Option<f64>,
+    /// The standard's unit: µg, (pulse/s)/g, µg/g², µg/g³, µrad.
+    pub unit: String,
+    /// The instrument file's nominal value, in `unit`.
+    pub nominal: f64,
+    /// `value − nominal` in `change_unit` (`unit`, except `K_1`: ppm of its nominal).
+    pub change: f64,
+    /// Its 1 σ, in `change_unit`.
+    pub change_sigma: Option<f64>,
+    /// `unit`, or `ppm` for `K_1`.
+    pub change_unit: String,
+    /// The value in cgs (`K_0` in cm/s², `δ_o`, `δ_p` in rad, `K_2` in s²/cm, ...; `K_1` as
+    /// the full scale in cm/s², the instrument file's `scale_factor_cm_s2` form).
+    pub value_cgs: f64,
+    /// Its 1 σ in `unit_cgs`.
+    pub sigma_cgs: Option<f64>,
+    /// The cgs unit.
+    pub unit_cgs: String,
+    /// `true`: the value comes from these data (its term was fitted); `false`: listed at
+    /// its nominal value, not measured.
+    pub measured: bool,
+    /// `selected` (named by the selection and fitted), `fitted` (a core term, `K_0`, `K_1`,
+    /// `δ_o`, `δ_p` or `K_2`, that the data test but the selection did not name: fitted
+    /// beside the others, its change not significant), `not_significant` (another term
+    /// tested and not named: nominal; `if_fitted` gives what the data say of it),
+    /// `not_separable` (its column lies in the span of the fitted terms here,
+    /// `confounded_with` names them: nominal), `not_measured` (the data do not test it, or
+    /// it was not a candidate: nominal).
+    pub status: &'static str,
+    /// Marks on a measured value: `unstable` (differs between parts of the data),
+    /// `rivaled` (a form outside the vocabulary could stand in its place), `implausible`
+    /// (beyond the instrument file's plausibility bound), `confounded` (indistinguishable
+    /// from `confounded_with` here). Empty: none.
+    pub marks: Vec<&'static str>,
+    /// The candidates it cannot be told from in these data (for a selected term, discovery's
+    /// partners; for a `not_separable` one, the fitted terms whose columns make up its).
+    pub confounded_with: Vec<String>,
+    /// For a `not_significant` term: `[value, sigma]` in `unit` when it is fitted beside
+    /// the others (`null` otherwise).
+    pub if_fitted: Option<[f64; 2]>,
+}
+
+/// The instrument's own model equation with its uncertainties (`calibration`), in the
+/// `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct Calibration {
+    /// The model equation (IEEE Std 1293, pendulous accelerometer), symbols only.
+    pub equation: String,
+    /// How the scale factor `K_1` is expressed, in words.
+    pub scale_factor: String,
+    /// Every term of the model equation, in the equation's order.
+    pub terms: Vec<CalibrationTerm>,
+    /// Correlation matrix of the terms, in their order (`null` where either term is not
+    /// measured).
+    pub correlation: Vec<Vec<Option<f64>>>,
+    /// Residual degrees of freedom of the calibration's fit.
+    pub dof: usize,
+    /// Where the noise came from (`stated`, `replicates`, `residuals`; as `noise.source`).
+    pub noise: &'static str,
+    /// What to keep in mind (terms of the fit outside the model equation, a noise estimated
+    /// with few degrees of freedom).
+    pub notes: Vec<String>,
+}
+
 /// The `--json` object.
 #[derive(Clone, Debug, Serialize)]
 pub struct JsonReport {
@@ -299,6 +383,10 @@ pub struct JsonReport {
     pub extended: FitSummary,
     /// The selected terms as a model equation (IEEE Std 1293 units) with their correlation.
     pub model_equation: ModelEquation,
+    /// The instrument's own model equation: every term's absolute value (the file's nominal
+    /// value plus the measured change), its 1 σ and k = 2 uncertainty, the correlation
+    /// (`null` when the simulator has no instrument file).
+    pub calibration: Option<Calibration>,
     /// Rows that would break each confounding (or test an untestable model-equation term).
     pub advice: Vec<Advice>,
     /// The nuisance terms (always in the model, never discoveries).

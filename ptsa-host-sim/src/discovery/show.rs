@@ -340,6 +340,13 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             );
         }
     }
+    if let Some(c) = j
+        .calibration
+        .as_ref()
+        .filter(|c| c.terms.iter().any(|t| t.measured))
+    {
+        s.push_str(&super::calibration::text_block(c));
+    }
     for a in &j.advice {
         let _ = writeln!(s, "advice: {}", a.note);
         for r in &a.rows {

@@ -78,6 +78,15 @@ pub struct DiscoverArgs {
     /// when no parameter is selected.
     #[arg(long, value_name = "FILE", requires = "data")]
     pub write_instrument: Option<PathBuf>,
+    /// Write a calibration sheet into the folder DIR, which appears whole or not at all:
+    /// DIR/NAME.md (the data and instrument files with their SHA-256, the date in UTC, or
+    /// SOURCE_DATE_EPOCH's when set, the model equation with the instrument's values, the
+    /// calibration table in IEEE Std 1293 units with 1 σ and k = 2, the correlation, the
+    /// design, the residuals in cm/s²), DIR/NAME.csv (the calibration table) and
+    /// DIR/NAME-residuals.png and .svg, NAME the folder's name. An existing DIR is replaced
+    /// only with --force, and only when it is empty or an earlier sheet.
+    #[arg(long, value_name = "DIR", requires = "data")]
+    pub sheet: Option<PathBuf>,
     /// Keep the rows the outlier test flags as suspected gross errors in the fit (they are
     /// still reported and warned about). Without it such a row (its value many sigma from
     /// what the model selected without it expects, familywise 1 %) is set aside.
@@ -92,7 +101,7 @@ pub struct DiscoverArgs {
     #[arg(long, value_name = "DIR")]
     pub convert_report_data: Option<PathBuf>,
     /// Replace an existing --advice-out or --write-instrument file (never an input of the
-    /// run), and run even when the work is estimated to take more than ten minutes (before
+    /// run) or an earlier --sheet folder, and run even when the work is estimated to take more than ten minutes (before
     /// it starts, or, when a parameter of the loop is selected, before the closed-loop
     /// search of the other parameters).
     #[arg(long)]
@@ -117,6 +126,8 @@ pub struct Analysis {
     plots: Option<PathBuf>,
     advice_out: Option<PathBuf>,
     write_instrument: Option<PathBuf>,
+    /// The calibration sheet's folder (`--sheet`).
+    sheet: Option<PathBuf>,
     /// The single files `--force` will replace: the flag, the file, its time of change
     /// (to see whether the run wrote it) and what it holds.
     replaced: Vec<(&'static str, PathBuf, Option<SystemTime>, String)>,
@@ -197,6 +208,13 @@ impl DiscoverArgs {
                 replaced.push((flag, p.clone(), before, paths::what_is_replaced(p)));
             }
         }
+        if let Some(dir) = &self.sheet {
+            paths::folder("--sheet", dir)?;
+            if discovery::sheet::check_target(dir, self.force)? {
+                let before = std::fs::metadata(dir).and_then(|m| m.modified()).ok();
+                replaced.push(("--sheet", dir.clone(), before, "an earlier sheet".into()));
+            }
+        }
         let options = Options {
             default_sigma_cm_s2: self.sigma,
             candidates,
@@ -214,6 +232,7 @@ impl DiscoverArgs {
             json: self.json,
             advice_out: self.advice_out,
             write_instrument: self.write_instrument,
+            sheet: self.sheet,
             replaced,
             force: self.force,
         })))
@@ -252,6 +271,12 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
                     path: p.clone(),
                     source: ctx.text.clone(),
                     source_name: ctx.name.clone(),
+                }),
+                sheet: a.sheet.as_ref().map(|dir| discovery::sheet::SheetOut {
+                    dir: dir.clone(),
+                    instrument_name: ctx.name.clone(),
+                    instrument_text: ctx.text.clone(),
+                    replace: a.force,
                 }),
             };
             discovery::run(&req, &*a.sim, out)
