@@ -23,6 +23,7 @@ pub mod output;
 pub mod report;
 pub mod simulation;
 pub mod stats;
+pub mod triad;
 
 pub use model::condition::{CaseInputs, Condition};
 pub use model::effects::{CandidateId, Effects};

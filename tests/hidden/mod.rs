@@ -42,6 +42,7 @@ pub mod params;
 pub mod physics;
 pub mod sigma;
 pub mod statics;
+pub mod triad;
 
 #[cfg(test)]
 mod outliers;
