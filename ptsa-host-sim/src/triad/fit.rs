@@ -782,13 +782,28 @@ pub const FLAG_P: f64 = 0.01;
 /// Largest estimated rotation from nominal within "small angles", rad (2°).
 pub const SMALL_ANGLE_RAD: f64 = 0.035;
 
+/// A tail probability for the text: 3 significant digits, or `< 1e-99`.
+#[must_use]
+pub fn p_text(p: f64) -> String {
+    if p < 1e-99 {
+        "< 1e-99".into()
+    } else if p < 1e-3 {
+        format!("= {p:.1e}")
+    } else {
+        format!("= {p:.3}")
+    }
+}
+
 /// The warnings of a fit.
 fn warnings(t: &Triad) -> Vec<String> {
     let mut w = Vec::new();
     if t.sigma_source == SigmaSource::Stated && t.p_value < FLAG_P {
         let mut s = format!(
-            "the fit's χ² = {:.1} for {} degrees of freedom (p = {:.1e}): the readings scatter more than their stated sigmas allow about the triad's model; the uncertainties are scaled by {:.2}",
-            t.chi2, t.dof, t.p_value, t.sigma_scale
+            "the fit's χ² = {:.1} for {} degrees of freedom (p {}): the readings scatter more than their stated sigmas allow about the triad's model; the uncertainties are scaled by {:.2}",
+            t.chi2,
+            t.dof,
+            p_text(t.p_value),
+            t.sigma_scale
         );
         if t.orientation == Orientation::Exact {
             s.push_str(" (an orientation error of the fixture does this: with a hand-placed block use --orientation approximate)");
@@ -798,12 +813,12 @@ fn warnings(t: &Triad) -> Vec<String> {
     let gc = &t.g_check;
     if !gc.positions.is_empty() && gc.p_value < FLAG_P {
         w.push(format!(
-            "the |g| check fails: the corrected specific force's magnitude differs from the local gravity by {:.3} cm/s² RMS (worst {:.3} at `{}`) where the readings' noise gives {:.3} (p = {:.1e}); the calibration does not describe these readings",
+            "the |g| check fails: the corrected specific force's magnitude differs from the local gravity by {:.3} cm/s² RMS (worst {:.3} at `{}`) where the readings' noise gives {:.3} (p {}); the calibration does not describe these readings",
             gc.rms_cm_s2,
             gc.worst.0,
             t.positions[gc.worst.1].label,
             gc.expected_rms_cm_s2,
-            gc.p_value
+            p_text(gc.p_value)
         ));
     }
     if let Some((i, a)) = t

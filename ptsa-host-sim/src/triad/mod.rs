@@ -91,7 +91,7 @@ pub fn text(t: &Triad, data: &str) -> String {
     } else {
         let _ = writeln!(
             s,
-            "|g| check ({} positions): |f̂| − g RMS {:.4} cm/s² ({:.1} µg), worst {:.4} cm/s² at `{}`; the noise gives {:.4} RMS; χ² {:.1} (p = {:.3}): {}",
+            "|g| check ({} positions): |f̂| − g RMS {:.4} cm/s² ({:.1} µg), worst {:.4} cm/s² at `{}`; the noise gives {:.4} RMS; χ² {:.1} (p {}): {}",
             gc.positions.len(),
             gc.rms_cm_s2,
             gc.rms_cm_s2 * 1e6 / g,
@@ -99,7 +99,7 @@ pub fn text(t: &Triad, data: &str) -> String {
             t.positions[gc.worst.1].label,
             gc.expected_rms_cm_s2,
             gc.chi2,
-            gc.p_value,
+            fit::p_text(gc.p_value),
             if gc.p_value >= fit::FLAG_P {
                 "consistent"
             } else {
@@ -111,10 +111,10 @@ pub fn text(t: &Triad, data: &str) -> String {
         SigmaSource::Stated => {
             let _ = writeln!(
                 s,
-                "fit: χ² {:.1} for {} degrees of freedom (p = {:.3}), stated sigmas (RMS {:.4} cm/s²){}; {} Gauss–Newton iterations",
+                "fit: χ² {:.1} for {} degrees of freedom (p {}), stated sigmas (RMS {:.4} cm/s²){}; {} Gauss–Newton iterations",
                 t.chi2,
                 t.dof,
-                t.p_value,
+                fit::p_text(t.p_value),
                 t.sigma_cm_s2,
                 if t.sigma_scale > 1.0 {
                     format!(", errors scaled by {:.2}", t.sigma_scale)
@@ -147,7 +147,39 @@ pub fn text(t: &Triad, data: &str) -> String {
         );
     }
     let _ = writeln!(s);
-    let _ = writeln!(s, "correction: {}", report::formula(t));
+    let m = fit::matrix_m(t);
+    let _ = writeln!(
+        s,
+        "correction: f = M·(u − b), u the readings (x, y, z) in cm/s² through the nominal scale factors, f in the {} frame",
+        if t.orientation == fit::Orientation::Exact {
+            "block's"
+        } else {
+            "triad's (x along the x axis, y in the x–y plane)"
+        }
+    );
+    let _ = writeln!(
+        s,
+        "  b = ({:+.5}, {:+.5}, {:+.5}) cm/s²",
+        t.bias[0].value, t.bias[1].value, t.bias[2].value
+    );
+    for r in 0..3 {
+        let _ = writeln!(
+            s,
+            "  {} [{:+.9} {:+.9} {:+.9}]",
+            if r == 0 { "M =" } else { "   " },
+            m[(r, 0)],
+            m[(r, 1)],
+            m[(r, 2)]
+        );
+    }
+    let _ = writeln!(s, "  M = (diag(1 + k)·(I + Γ))⁻¹");
+    if let Some(k2) = t.k2 {
+        let _ = writeln!(
+            s,
+            "  with K_2, first u_j − b_j less q_j·((u_j − b_j)/(1 + k_j))², q = ({:+.4e}, {:+.4e}, {:+.4e}) (cm/s²)⁻¹ = K_2/g",
+            k2[0].value, k2[1].value, k2[2].value
+        );
+    }
     s
 }
 

@@ -25,7 +25,9 @@ use crate::{paths, work};
 #[command(allow_negative_numbers = true)]
 pub struct DiscoverArgs {
     /// Case-frame CSV file of measured conditions (docs/case-frame.md). Without it, the
-    /// report's Tables 6.1, 6.2 and 6.3 are analysed.
+    /// report's Tables 6.1, 6.2 and 6.3 are analysed. A triad file (columns g_x, g_y, g_z,
+    /// measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2) is one calibration of three
+    /// accelerometers on one block instead (docs/discovery.md, "A triad").
     #[arg(long, value_name = "FILE")]
     pub data: Option<PathBuf>,
     /// 1-sigma uncertainty of the rows without `sigma_cm_s2`, cm/s² (more than 0). Without
@@ -97,6 +99,10 @@ pub struct DiscoverArgs {
     /// search of the other parameters).
     #[arg(long)]
     pub force: bool,
+    /// With a triad file: what its positions' nominal orientations are worth (default
+    /// exact).
+    #[arg(long, value_enum, value_name = "HOW", requires = "data")]
+    pub orientation: Option<super::triad::OrientationArg>,
 }
 
 /// A discovery to run, or the report's files to regenerate.
@@ -105,6 +111,8 @@ pub enum Request {
     Convert(PathBuf),
     /// An analysis.
     Analyse(Box<Analysis>),
+    /// A triad file's calibration (`cmd::triad`).
+    Triad(Box<super::triad::Request>),
 }
 
 /// An analysis of `data` (or of the report's tables), its output files checked.
@@ -136,6 +144,14 @@ impl DiscoverArgs {
     /// # Errors
     /// The loop cannot be simulated; an output path is refused.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        // A triad file needs no loop: dispatched before the loop's check.
+        if let Some(d) = &self.data
+            && ptsa_host_sim::triad::frame::is_triad_file(d)
+        {
+            return Ok(Request::Triad(Box::new(super::triad::request(
+                &self, d, ctx,
+            )?)));
+        }
         let config = ctx.config()?;
         if let Some(dir) = self.convert_report_data {
             let names: Vec<String> = r890::case_files()?
@@ -144,6 +160,14 @@ impl DiscoverArgs {
                 .collect();
             paths::folder_with("--convert-report-data", &dir, &names)?;
             return Ok(Request::Convert(dir));
+        }
+        if self.orientation.is_some() {
+            anyhow::bail!(
+                "--orientation applies to a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...), but {} is a single-axis case-frame file; expected --orientation only with a triad file",
+                self.data
+                    .as_deref()
+                    .map_or(String::new(), |d| d.display().to_string())
+            );
         }
         let candidates: Vec<CandidateId> = if self.candidates.is_empty() {
             CandidateId::ALL.to_vec()
@@ -220,6 +244,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
             return Ok(());
         }
         Request::Analyse(a) => a,
+        Request::Triad(t) => return super::triad::run(ctx, t, out),
     };
     let est = estimate(a)?;
     // The search of the loop's parameters, whose length is known only once they are
