@@ -86,19 +86,23 @@ pub enum SigmaSource {
 #[derive(Clone, Debug, Default)]
 pub struct GCheck {
     /// Per position (those with three readings): its index and `|f̂| − g`, cm/s², and that
-    /// difference's 1 σ from the readings' noise.
+    /// difference's 1 σ from the readings' noise as the fit leaves it (its hat matrix).
     pub positions: Vec<(usize, f64, f64)>,
     /// RMS of `|f̂| − g` over the positions, cm/s².
     pub rms_cm_s2: f64,
     /// The largest `||f̂| − g|`, cm/s², and its position's index.
     pub worst: (f64, usize),
-    /// RMS the readings' noise alone would give, cm/s².
+    /// RMS the readings' noise alone would give after the fit, cm/s².
     pub expected_rms_cm_s2: f64,
     /// `Σ ((|f̂| − g)/σ)²`.
     pub chi2: f64,
-    /// `P(χ²_N ≥ chi2)`, N the positions (conservative: the fit's parameters are not
-    /// counted).
+    /// `P(χ²_N ≥ chi2)`, N the positions (each difference standardised by its own σ; their
+    /// correlation through the fit is left out).
     pub p_value: f64,
+    /// `P(χ²_N ≤ chi2)`: the magnitudes agree with gravity far better than the noise allows
+    /// when small (with exact orientations: a misfit across gravity, i.e. the fixture's
+    /// orientation errors, taken for noise).
+    pub p_lower: f64,
 }
 
 /// The triad's calibration.
@@ -666,17 +670,42 @@ pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> 
         iterations,
         warnings: Vec::new(),
     };
-    let noise: Vec<f64> = positions
-        .iter()
-        .map(|p| {
-            let s0 = p.sigma_cm_s2.or(opts.default_sigma_cm_s2);
-            match source {
-                SigmaSource::Stated => s0.unwrap_or(1.0),
-                SigmaSource::Estimated => sigma_cm_s2,
+    // The covariance of each position's three residuals, cm/s²: D·(I − H)·D over its
+    // readings (H the fit's hat matrix, D their sigmas; with estimated sigmas scaled by the
+    // estimate), so that the |g| check is weighed against what the noise leaves after the
+    // fit has taken its share.
+    let scale_noise = match source {
+        SigmaSource::Stated => 1.0,
+        SigmaSource::Estimated => scale2,
+    };
+    let rows_of = |o: usize| -> Vec<f64> { sc.iter().map(|c| c[o]).collect() };
+    let mut resid_cov: Vec<Option<Matrix3<f64>>> = vec![None; positions.len()];
+    for (k, &i) in used.iter().enumerate() {
+        let idx: Vec<(usize, usize)> = obs
+            .iter()
+            .enumerate()
+            .filter(|(_, o)| o.pos == k && o.axis < 3)
+            .map(|(oi, o)| (oi, o.axis))
+            .collect();
+        if idx.len() < 3 {
+            continue;
+        }
+        let a: Vec<nalgebra::DVector<f64>> = idx
+            .iter()
+            .map(|&(oi, _)| nalgebra::DVector::from_vec(rows_of(oi)))
+            .collect();
+        let ca: Vec<nalgebra::DVector<f64>> = a.iter().map(|r| &lin.cov * r).collect();
+        let mut v = Matrix3::zeros();
+        for (x, &(ox, jx)) in idx.iter().enumerate() {
+            for (y, &(oy, jy)) in idx.iter().enumerate() {
+                let h = a[x].dot(&ca[y]);
+                let delta = if x == y { 1.0 } else { 0.0 };
+                v[(jx, jy)] = obs[ox].sigma * (delta - h) * obs[oy].sigma * scale_noise;
             }
-        })
-        .collect();
-    t.g_check = g_check(&t, &noise);
+        }
+        resid_cov[i] = Some(v);
+    }
+    t.g_check = g_check(&t, &resid_cov);
     t.warnings = warnings(&t);
     Ok(t)
 }
@@ -742,20 +771,21 @@ pub fn matrix_m(t: &Triad) -> Matrix3<f64> {
         .unwrap_or_else(Matrix3::identity)
 }
 
-/// The |g| check of `t`, each reading of position `i` of 1 σ `noise[i]`.
-fn g_check(t: &Triad, noise: &[f64]) -> GCheck {
+/// The |g| check of `t`, the residuals of position `i` of covariance `resid_cov[i]`.
+fn g_check(t: &Triad, resid_cov: &[Option<Matrix3<f64>>]) -> GCheck {
     let m = matrix_m(t);
     let mut out = GCheck::default();
     for (i, p) in t.positions.iter().enumerate() {
-        let [Some(ux), Some(uy), Some(uz)] = p.measured else {
+        let ([Some(ux), Some(uy), Some(uz)], Some(v)) = (p.measured, resid_cov[i]) else {
             continue;
         };
         let f = Vector3::from(corrected(t, [ux, uy, uz]));
         let mag = f.norm();
         let d = mag - t.g_cm_s2;
-        // σ of |f̂| from the readings' noise: the gradient f̂/|f̂| through M.
+        // σ of |f̂| − g: to first order it is the position's residuals through M onto
+        // f̂/|f̂| (the fitted force has magnitude g).
         let grad = m.transpose() * (f / mag);
-        let s = noise[i] * grad.norm();
+        let s = (grad.transpose() * v * grad)[(0, 0)].max(0.0).sqrt();
         out.positions.push((i, d, s));
     }
     let n = out.positions.len();
@@ -773,11 +803,16 @@ fn g_check(t: &Triad, noise: &[f64]) -> GCheck {
         .fold((0.0, 0), |a, b| if b.0 > a.0 { b } else { a });
     out.chi2 = out.positions.iter().map(|x| (x.1 / x.2).powi(2)).sum();
     out.p_value = stats::chi2_sf(out.chi2, nf);
+    out.p_lower = 1.0 - out.p_value;
     out
 }
 
 /// Below this tail probability the g check and the χ² flag the calibration.
 pub const FLAG_P: f64 = 0.01;
+
+/// Below this lower-tail probability of the |g| check's χ², with exact orientations, the
+/// misfit is taken to lie across gravity (the fixture's orientation errors), not to be noise.
+pub const ACROSS_P: f64 = 1e-3;
 
 /// Largest estimated rotation from nominal within "small angles", rad (2°).
 pub const SMALL_ANGLE_RAD: f64 = 0.035;
@@ -819,6 +854,15 @@ fn warnings(t: &Triad) -> Vec<String> {
             t.positions[gc.worst.1].label,
             gc.expected_rms_cm_s2,
             p_text(gc.p_value)
+        ));
+    }
+    if t.orientation == Orientation::Exact && gc.positions.len() >= 6 && gc.p_lower < ACROSS_P {
+        w.push(format!(
+            "the |g| check agrees with the local gravity far better than the readings' scatter allows ({:.3} cm/s² RMS where their σ gives {:.3}; P(χ² ≤ {:.1}) {}): the misfit lies across gravity, as an orientation error of the fixture does, not along it as noise would; with a hand-placed block use --orientation approximate",
+            gc.rms_cm_s2,
+            gc.expected_rms_cm_s2,
+            gc.chi2,
+            p_text(gc.p_lower)
         ));
     }
     if let Some((i, a)) = t

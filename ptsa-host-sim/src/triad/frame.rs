@@ -17,7 +17,9 @@ use anyhow::{Context as _, Result, bail};
 
 use crate::model::caseframe::{self, COLUMNS};
 
-/// The columns that make a file a triad file (none of them is a case-frame column).
+/// The columns that make a file a triad file (none of them is a case-frame column; the
+/// triad's other columns, `label`, `time_s`, `sigma_cm_s2` and `sigma_angle_urad`, are
+/// also the case-frame's).
 pub const TRIAD_ONLY: &[&str] = &[
     "g_x",
     "g_y",
@@ -25,7 +27,6 @@ pub const TRIAD_ONLY: &[&str] = &[
     "measured_x_cm_s2",
     "measured_y_cm_s2",
     "measured_z_cm_s2",
-    "sigma_angle_urad",
 ];
 
 /// Every column of a triad file, in the order the writer uses.
@@ -330,6 +331,12 @@ mod tests {
     fn reads_a_triad_and_names_its_columns() {
         assert!(is_triad(OK.as_bytes()));
         assert!(!is_triad(b"label,g_ia,measured_cm_s2\nx,1,980\n"));
+        assert!(!is_triad(
+            b"label,g_ia,measured_cm_s2,sigma_angle_urad,sigma_cm_s2,time_s\nx,1,980,5,0.1,0\n"
+        ));
+        for c in TRIAD_ONLY {
+            assert!(COLUMNS.iter().all(|k| k.name != *c), "{c}");
+        }
         let p = parse_bytes("t.csv", OK.as_bytes()).unwrap();
         assert_eq!(p.len(), 2);
         assert_eq!(p[0].measured, [Some(981.2), Some(0.3), Some(-0.1)]);

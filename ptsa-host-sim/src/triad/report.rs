@@ -100,15 +100,20 @@ pub struct GCheckJson {
     pub worst_cm_s2: f64,
     /// Its position's label.
     pub worst_position: String,
-    /// The RMS the readings' noise alone gives, cm/s² (from their sigmas through `M`).
+    /// The RMS the readings' noise alone gives, cm/s² (from their sigmas through `M`, less
+    /// what the fit takes up: the hat matrix).
     pub expected_rms_cm_s2: f64,
     /// `Σ ((|f̂| − g)/σ)²` over the positions.
     pub chi2: f64,
-    /// `P(χ²_N ≥ chi2)`, N the positions (conservative: the fitted parameters are not
-    /// subtracted).
+    /// `P(χ²_N ≥ chi2)`, N the positions (each difference standardised by its own σ after
+    /// the fit; their correlation through the fit is left out).
     pub p_value: f64,
     /// `p_value ≥ 0.01`: the magnitudes agree with the local gravity to the noise.
     pub consistent: bool,
+    /// `P(χ²_N ≤ chi2)`: small when the magnitudes agree far better than the noise allows
+    /// (with exact orientations, below 0.001, a warning: the misfit lies across gravity, as
+    /// the fixture's orientation errors put it).
+    pub p_lower: f64,
 }
 
 /// One position of the result.
@@ -192,6 +197,7 @@ impl TriadJson {
                 chi2: gc.chi2,
                 p_value: gc.p_value,
                 consistent: gc.positions.is_empty() || gc.p_value >= fit::FLAG_P,
+                p_lower: gc.p_lower,
             },
             rows: t
                 .positions
