@@ -185,6 +185,60 @@ fn a_hand_placed_triad_is_flagged_exact_and_fits_approximate() {
     assert!((m - 0.004).abs() < 4.0 * s + 1e-5, "{m} ± {s}");
     let rot = t["rows"][0]["rotation_urad"].as_f64().unwrap();
     assert!((rot - 12_000.0).abs() < 500.0, "{rot}");
+    // Turned 3° from nominal: beyond the small angles, warned.
+    std::fs::write(tmp.path().join("w.csv"), triad_csv(0.052, 4)).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "discover",
+            "--data",
+            "w.csv",
+            "--orientation",
+            "approximate",
+            "--no-plots",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("from its nominal orientation, beyond the small angles"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// The eight corners alone (every `a_j² = g²/3`): `K_2` cannot be told from the bias; it
+/// is left out, with a warning and the JSON's note, and the rest is fitted.
+#[test]
+fn eight_corners_leave_k2_out_with_a_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut s = String::from("g_x,g_y,g_z,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2\n");
+    let c = 1.0 / 3f64.sqrt();
+    for i in 0..8u8 {
+        let n = [0, 1, 2].map(|b| if i >> b & 1 == 1 { -c } else { c });
+        let u: Vec<String> = (0..3)
+            .map(|j| {
+                format!(
+                    "{}",
+                    BIAS[j] + (1.0 + SF[j]) * G * n[j] + 0.01 * f64::from(i % 3)
+                )
+            })
+            .collect();
+        let _ = writeln!(s, "{},{},{},{}", n[0], n[1], n[2], u.join(","));
+    }
+    std::fs::write(tmp.path().join("c.csv"), s).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["discover", "--data", "c.csv", "--json", "--no-plots"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: K_2 not fitted"),
+        "{}",
+        stderr(&o)
+    );
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert!(j["triad"]["k2_ug_per_g2"].is_null());
+    assert!(j["triad"]["k2_note"].as_str().unwrap().contains("bias"));
 }
 
 /// The triad's refusals of flags: each names the flag and what was expected.

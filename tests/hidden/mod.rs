@@ -21,6 +21,10 @@
 //! and interleaved order, a bias and a scale factor changing with temperature) in a
 //! 24-point tumble.
 //!
+//! A fifth, [`triad`], stands apart from the pipeline: three accelerometers on one block,
+//! their readings generated from the equations, calibrated blind by
+//! `ptsa_host_sim::triad::fit`; it borrows the core's counts and binomial bands.
+//!
 //! The four share one core ([`campaign`]): the set seeding, the run over the sets, the
 //! scored outcome of a set ([`Outcome`]), the table and the binomial assertions; each
 //! supplies its kinds, its generator, its truths and its table's columns

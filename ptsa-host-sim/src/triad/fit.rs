@@ -501,7 +501,7 @@ pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> 
         k2_note = Some(if obs.len() <= layout.len() + 3 {
             "K_2 not fitted: the readings are too few for it too".to_string()
         } else {
-            "K_2 not fitted: these positions do not separate it from the bias (each axis needs positions at three different |a|, e.g. 0, 1/√2 and 1 g)".to_string()
+            "K_2 not fitted: these positions do not separate it from the bias (each axis needs readings at two or more different |a|, e.g. 0 and 1 g)".to_string()
         });
         let x0 = vec![0.0; layout.len()];
         let (_, cols) = evaluate(&x0, &layout, &pos, &bases, &obs, g);

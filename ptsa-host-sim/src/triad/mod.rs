@@ -68,7 +68,12 @@ pub fn text(t: &Triad, data: &str) -> String {
     let _ = writeln!(s);
     let _ = writeln!(
         s,
-        "misalignment Γ, µrad (row: the axis; column: the block's axis it leans toward; ± 1 σ)"
+        "misalignment Γ, µrad (row: the axis; column: the {} axis it leans toward; ± 1 σ)",
+        if t.orientation == fit::Orientation::Exact {
+            "block's"
+        } else {
+            "triad frame's"
+        }
     );
     for j in 0..3 {
         let cells: Vec<String> = (0..3)
@@ -150,11 +155,11 @@ pub fn text(t: &Triad, data: &str) -> String {
     let m = fit::matrix_m(t);
     let _ = writeln!(
         s,
-        "correction: f = M·(u − b), u the readings (x, y, z) in cm/s² through the nominal scale factors, f in the {} frame",
+        "correction: f = M·(u − b), u the readings (x, y, z) in cm/s² through the nominal scale factors, f in the {}",
         if t.orientation == fit::Orientation::Exact {
-            "block's"
+            "block's frame"
         } else {
-            "triad's (x along the x axis, y in the x–y plane)"
+            "triad's frame (x along the x axis, y in the x–y plane)"
         }
     );
     let _ = writeln!(
