@@ -284,6 +284,16 @@ fn triad_flag_refusals() {
         &["sideways", "exact", "approximate"],
         &[],
     );
+    refused_in_folder(
+        &[],
+        &["plan", "triad", "--positions", "7"],
+        2,
+        &[
+            "'7'",
+            "expected one of the triad designs' position counts: 6, 8, 12, 24, 37",
+        ],
+        &[],
+    );
     let single = "label,g_ia,measured_cm_s2\na,1,980\nb,-1,-980\n";
     refused_in_folder(
         &[("s.csv", single.as_bytes())],
@@ -361,4 +371,85 @@ fn triad_file_refusals() {
         ],
         &[],
     );
+}
+
+/// `ptsa plan triad` → the lab fills the readings in → `discover` calibrates: the truth
+/// comes back within 4 σ; the plan as written (nothing measured) is refused.
+#[test]
+fn plan_filled_in_and_calibrated() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["plan", "triad", "--positions", "24", "--out", "p.csv"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("wrote p.csv (24 rows)"),
+        "{}",
+        stderr(&o)
+    );
+    let plan = std::fs::read_to_string(tmp.path().join("p.csv")).unwrap();
+    let o = ptsa_in(tmp.path(), &["discover", "--data", "p.csv", "--no-plots"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("p.csv: no row has a measurement"),
+        "{}",
+        stderr(&o)
+    );
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let noise = rand_distr::Normal::new(0.0, 0.05).unwrap();
+    let mut filled = String::new();
+    for line in plan.lines() {
+        let cells: Vec<&str> = line.split(',').collect();
+        let Ok(n) = cells
+            .get(1..4)
+            .unwrap_or_default()
+            .iter()
+            .map(|c| c.parse::<f64>())
+            .collect::<Result<Vec<f64>, _>>()
+        else {
+            let _ = writeln!(filled, "{line}");
+            continue;
+        };
+        if n.len() != 3 {
+            let _ = writeln!(filled, "{line}");
+            continue;
+        }
+        let f: Vec<f64> = n.iter().map(|x| x * G).collect();
+        let u: Vec<String> = (0..3)
+            .map(|j| {
+                let a = f[j] + (0..3).map(|k| GAMMA[j][k] * f[k]).sum::<f64>();
+                format!("{}", BIAS[j] + (1.0 + SF[j]) * a + noise.sample(&mut rng))
+            })
+            .collect();
+        let _ = writeln!(
+            filled,
+            "{},{},{},{},{},0.05",
+            cells[0],
+            cells[1],
+            cells[2],
+            cells[3],
+            u.join(",")
+        );
+    }
+    std::fs::write(tmp.path().join("p.csv"), filled).unwrap();
+    let j = json(
+        tmp.path(),
+        &["discover", "--data", "p.csv", "--json", "--no-plots"],
+    );
+    let t = &j["triad"];
+    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (k, ks) = (
+        arr(&t["scale_factor_ppm"]),
+        arr(&t["scale_factor_sigma_ppm"]),
+    );
+    for a in 0..3 {
+        assert!((b[a] - BIAS[a]).abs() < 4.0 * bs[a], "bias {b:?} ± {bs:?}");
+        assert!(
+            (k[a] - SF[a] * 1e6).abs() < 4.0 * ks[a],
+            "sf {k:?} ± {ks:?}"
+        );
+    }
+    assert_eq!(t["positions"], 24);
+    assert_eq!(t["g_check"]["consistent"], true);
 }

@@ -963,6 +963,70 @@ mod tests {
         assert!((f[0] - g * s).abs() < 1e-6 && (f[1] - g * s).abs() < 1e-6 && f[2].abs() < 1e-6);
     }
 
+    /// A fixture known to 1 mrad (`sigma_angle_urad`): with exact orientations the
+    /// readings' variance takes the orientation error in and the χ² passes, where without
+    /// it the χ² fails; with approximate orientations the angles get the prior (two more
+    /// observations per position).
+    #[test]
+    fn a_stated_orientation_uncertainty_is_weighed() {
+        use rand::SeedableRng as _;
+        use rand_distr::Distribution as _;
+        let g = 980.0;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let tilt = rand_distr::Normal::new(0.0, 1e-3).unwrap();
+        let noise = rand_distr::Normal::new(0.0, 0.01).unwrap();
+        let s = 1.0 / 14f64.sqrt();
+        let mut dirs = Vec::new();
+        for sx in [1.0, -1.0] {
+            for sy in [1.0, -1.0] {
+                for sz in [1.0, -1.0] {
+                    for p in [[1.0, 2.0, 3.0], [3.0, 1.0, 2.0], [2.0, 3.0, 1.0]] {
+                        dirs.push([sx * p[0] * s, sy * p[1] * s, sz * p[2] * s]);
+                    }
+                }
+            }
+        }
+        let rows: Vec<Position> = dirs
+            .iter()
+            .map(|&n| {
+                let d = Vector3::new(
+                    tilt.sample(&mut rng),
+                    tilt.sample(&mut rng),
+                    tilt.sample(&mut rng),
+                );
+                let f = (Vector3::from(n) + d.cross(&Vector3::from(n))).normalize() * g;
+                let mut p = pos(n, [0, 1, 2].map(|j| f[j] + noise.sample(&mut rng)));
+                p.sigma_angle_rad = Some(1e-3);
+                p
+            })
+            .collect();
+        let opts = |o| Options {
+            orientation: o,
+            default_sigma_cm_s2: None,
+            g_cm_s2: g,
+        };
+        let with = fit("t", &rows, &opts(Orientation::Exact)).unwrap();
+        assert!(with.p_value > FLAG_P, "χ² {} dof {}", with.chi2, with.dof);
+        let bare: Vec<Position> = rows
+            .iter()
+            .map(|p| Position {
+                sigma_angle_rad: None,
+                ..p.clone()
+            })
+            .collect();
+        let without = fit("t", &bare, &opts(Orientation::Exact)).unwrap();
+        assert!(
+            without.p_value < FLAG_P,
+            "χ² {} dof {}",
+            without.chi2,
+            without.dof
+        );
+        let approx = fit("t", &rows, &opts(Orientation::Approximate)).unwrap();
+        let free = fit("t", &bare, &opts(Orientation::Approximate)).unwrap();
+        assert_eq!(approx.dof, free.dof + 2 * rows.len());
+        assert!(approx.p_value > FLAG_P && free.p_value > FLAG_P);
+    }
+
     #[test]
     fn positions_in_one_plane_are_refused() {
         let rows: Vec<Position> = (0..8)

@@ -320,6 +320,25 @@ pub fn to_csv(positions: &[Position], comments: &[&str]) -> String {
     out
 }
 
+/// A triad plan: `design`'s positions (`p1`, `p2`, …) with the measured columns and
+/// `sigma_cm_s2` empty for the lab to fill in, after `comments` (each a `# ` line).
+#[must_use]
+pub fn plan_csv(design: &[[f64; 3]], comments: &[&str]) -> String {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    for c in comments {
+        let _ = writeln!(out, "# {c}");
+    }
+    let _ = writeln!(
+        out,
+        "label,g_x,g_y,g_z,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2,sigma_cm_s2"
+    );
+    for (i, n) in design.iter().enumerate() {
+        let _ = writeln!(out, "p{},{},{},{},,,,", i + 1, n[0], n[1], n[2]);
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

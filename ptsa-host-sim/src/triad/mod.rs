@@ -19,6 +19,87 @@ use std::fmt::Write as _;
 
 use fit::{AXES, SigmaSource, Triad};
 
+/// The position counts [`design`] knows.
+pub const DESIGNS: [usize; 5] = [6, 8, 12, 24, 37];
+
+/// The nominal gravity directions of an `n`-position triad design (block frame, unit
+/// vectors), or `None` for a count not in [`DESIGNS`]: 6, the faces; 8, the faces and two
+/// opposite corners; 12, the edge directions `(±1, ±1, 0)/√2` and their permutations; 24,
+/// the cube's 24 proper rotations applied to `(1, 2, 3)/√14` (every position tilted, every
+/// axis at three levels: the design for approximate orientations); 37, those 24, the 12
+/// edges and the `+z` face.
+#[must_use]
+pub fn design(n: usize) -> Option<Vec<[f64; 3]>> {
+    let faces = || {
+        let mut v = Vec::new();
+        for j in 0..3 {
+            for s in [1.0, -1.0] {
+                let mut d = [0.0; 3];
+                d[j] = s;
+                v.push(d);
+            }
+        }
+        v
+    };
+    let edges = || {
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        let mut v = Vec::new();
+        for (j, k) in [(0, 1), (1, 2), (0, 2)] {
+            for (a, b) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+                let mut d = [0.0; 3];
+                d[j] = a * h;
+                d[k] = b * h;
+                v.push(d);
+            }
+        }
+        v
+    };
+    let turns = || {
+        let s = 1.0 / 14f64.sqrt();
+        let base = [1.0, 2.0, 3.0];
+        // The even permutations with an even number of sign flips, the odd ones with an odd
+        // number: the 24 signed permutation matrices of determinant +1.
+        let perms: [([usize; 3], bool); 6] = [
+            ([0, 1, 2], true),
+            ([1, 2, 0], true),
+            ([2, 0, 1], true),
+            ([1, 0, 2], false),
+            ([0, 2, 1], false),
+            ([2, 1, 0], false),
+        ];
+        let mut v = Vec::new();
+        for (p, even) in perms {
+            for flips in 0..8u32 {
+                if (flips.count_ones() % 2 == 0) == even {
+                    v.push([0, 1, 2].map(|r| {
+                        let sign = if flips >> r & 1 == 1 { -1.0 } else { 1.0 };
+                        sign * base[p[r]] * s
+                    }));
+                }
+            }
+        }
+        v
+    };
+    let c = 1.0 / 3f64.sqrt();
+    match n {
+        6 => Some(faces()),
+        8 => {
+            let mut v = faces();
+            v.extend([[c, c, c], [-c, -c, -c]]);
+            Some(v)
+        }
+        12 => Some(edges()),
+        24 => Some(turns()),
+        37 => {
+            let mut v = turns();
+            v.extend(edges());
+            v.push([0.0, 0.0, 1.0]);
+            Some(v)
+        }
+        _ => None,
+    }
+}
+
 /// The text report of a fit: the three axes' coefficients with 1 σ, the misalignment
 /// matrix, the |g| check, the χ² and the correction written out.
 #[must_use]

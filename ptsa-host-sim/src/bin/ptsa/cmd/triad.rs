@@ -127,3 +127,33 @@ pub fn run(ctx: &Ctx, r: &Request, out: &mut dyn Write) -> Result<()> {
     }
     Ok(())
 }
+
+/// `ptsa plan triad --positions N`: a design the triad module knows.
+///
+/// # Errors
+/// Not a whole number, or not one of `triad::DESIGNS`.
+pub fn design_positions(s: &str) -> std::result::Result<usize, String> {
+    let list = triad::DESIGNS
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    s.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|n| triad::DESIGNS.contains(n))
+        .ok_or_else(|| format!("expected one of the triad designs' position counts: {list}"))
+}
+
+/// The plan of `positions` positions: what it is, and the file's text.
+#[must_use]
+pub fn plan(positions: usize) -> (String, String) {
+    let design = triad::design(positions).unwrap_or_default();
+    let what = format!("{positions}-position triad");
+    let comments = [
+        format!("Triad plan written by `ptsa plan triad`: {what} (g_x, g_y, g_z: the block's nominal gravity, g)."),
+        "Fill in measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 (each axis's reading through its nominal scale factor, cm/s²) and sigma_cm_s2, then `cargo ptsa discover --data FILE` (with --orientation approximate for a block placed by hand).".to_string(),
+    ];
+    let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
+    (what, frame::plan_csv(&design, &refs))
+}
