@@ -1273,6 +1273,7 @@ fn help_exits_0_and_names_units() {
         ("plan rate-table", "rad/s"),
         ("plan shaker", "Hz"),
         ("plan centrifuge", "cm ("),
+        ("plan triad", "cm/s²"),
     ];
     // Every subcommand the help lists (a group's: each of its own) has its unit above.
     let listed = |text: &str| -> Vec<String> {

@@ -560,7 +560,13 @@ mod tests {
             ..TriadTruth::default()
         };
         let c = in_triad_frame(&t);
-        assert!(c.gamma[0][1] == 0.0 && c.gamma[0][2] == 0.0 && c.gamma[1][2].abs() < 1e-15);
+        assert!(
+            [c.gamma[0][1], c.gamma[0][2], c.gamma[1][2]]
+                .iter()
+                .all(|x| x.abs() < 1e-15),
+            "{:?}",
+            c.gamma
+        );
         let r0 = [1.0, 0.004, -0.007];
         let n0 = dot(r0, r0).sqrt();
         let ex = r0.map(|x| x / n0);

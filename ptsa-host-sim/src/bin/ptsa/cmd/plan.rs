@@ -98,8 +98,8 @@ pub enum PlanKind {
         out: PlanOut,
     },
     /// A triad's calibration: N static positions of a block carrying three accelerometers
-    /// (docs/discovery.md, "A triad"): the nominal gravity g_x, g_y, g_z and the three
-    /// measured columns to fill in.
+    /// (docs/discovery.md, "A triad"): the block's nominal gravity g_x, g_y, g_z (g) and
+    /// the three measured columns (cm/s²) to fill in.
     Triad {
         /// Positions: 6 (the faces), 8 (the faces and two corners), 12 (the edges), 24
         /// (every position tilted: for a block placed by hand) or 37 (24, the edges and a
