@@ -12,6 +12,7 @@
 //! * [`simulation`]: the closed loop tick by tick and the batch engine that runs many;
 //!   [`simulate_condition`] and [`simulate_difference`] are the entry points.
 //! * [`discovery`]: what measured data say the model gets wrong.
+//! * [`triad`]: three accelerometers on one block calibrated together (a triad file).
 //! * [`report`]: the report programme of R-890 (experiments, tables, summary).
 //! * [`output`]: files, tables and plots, written whole or not at all.
 //! * [`stats`]: dense weighted least squares and the tail probabilities.
@@ -23,6 +24,7 @@ pub mod output;
 pub mod report;
 pub mod simulation;
 pub mod stats;
+pub mod triad;
 
 pub use model::condition::{CaseInputs, Condition};
 pub use model::effects::{CandidateId, Effects};

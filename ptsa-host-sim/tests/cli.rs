@@ -1275,6 +1275,7 @@ fn help_exits_0_and_names_units() {
         ("plan shaker", "Hz"),
         ("plan centrifuge", "cm ("),
         ("instrument new", "cm/s²"),
+        ("plan triad", "cm/s²"),
     ];
     // Every subcommand the help lists (a group's: each of its own) has its unit above.
     let listed = |text: &str| -> Vec<String> {

@@ -24,6 +24,9 @@
 //! A sixth, [`calibration`], is not a naming campaign: tumbles generated from the IEEE Std
 //! 1293 model equation with the instrument's absolute coefficients drawn per set, scored on
 //! whether the `calibration` object's k = 2 intervals cover them.
+//! A seventh, [`triad`], stands apart from the pipeline: three accelerometers on one block,
+//! their readings generated from the equations, calibrated blind by
+//! `ptsa_host_sim::triad::fit`; it borrows the core's counts and binomial bands.
 //!
 //! The four share one core ([`campaign`]): the set seeding, the run over the sets, the
 //! scored outcome of a set ([`Outcome`]), the table and the binomial assertions; each
@@ -47,6 +50,7 @@ pub mod params;
 pub mod physics;
 pub mod sigma;
 pub mod statics;
+pub mod triad;
 
 #[cfg(test)]
 mod outliers;

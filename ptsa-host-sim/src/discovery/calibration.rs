@@ -170,9 +170,7 @@ pub fn nominal(instr: &Instrument, term: Coefficient) -> f64 {
     match term {
         Coefficient::K0 => file + instr.loop_bias_cm_s2(0.0),
         Coefficient::K1 => scale_base(instr) * (1.0 + 1e-6 * file),
-        Coefficient::DeltaO => {
-            file + instr.loop_bias_cm_s2(1.0) - instr.loop_bias_cm_s2(0.0)
-        }
+        Coefficient::DeltaO => file + instr.loop_bias_cm_s2(1.0) - instr.loop_bias_cm_s2(0.0),
         _ => def.sign * file,
     }
 }
@@ -184,7 +182,10 @@ fn scale_base(instr: &Instrument) -> f64 {
     if instr.has_loop {
         instr.clock_hz * instr.g_cm_s2 / instr.sf_cm_s2
     } else {
-        instr.reading_scale.as_ref().map_or(instr.g_cm_s2, |r| r.per_g)
+        instr
+            .reading_scale
+            .as_ref()
+            .map_or(instr.g_cm_s2, |r| r.per_g)
     }
 }
 
@@ -194,10 +195,10 @@ pub fn scale_unit(instr: &Instrument) -> String {
     if instr.has_loop {
         SCALE_UNIT.to_string()
     } else {
-        instr
-            .reading_scale
-            .as_ref()
-            .map_or_else(|| "(cm/s²)/g".to_string(), |r| format!("{}/g", r.unit.name()))
+        instr.reading_scale.as_ref().map_or_else(
+            || "(cm/s²)/g".to_string(),
+            |r| format!("{}/g", r.unit.name()),
+        )
     }
 }
 

@@ -1222,6 +1222,133 @@ fn quote(s: &str) -> String {
     }
 }
 
+/// One CSV record of a case-frame-like file: its 1-based line in the file and its cells.
+#[derive(Clone, Debug)]
+pub(crate) struct Record {
+    /// The record's line in the file.
+    pub line: usize,
+    /// Its cells, as written (not trimmed).
+    pub cells: Vec<String>,
+}
+
+/// The records of a case-frame-like file under the case-frame's CSV rules and with its
+/// errors (for another reader of the same kind of file, such as the triad's): UTF-8 (a
+/// UTF-16 file, bytes that are not UTF-8 or a NUL refused), a byte-order mark and CRLF
+/// line ends accepted, comment and blank lines skipped, no cell spanning lines, every data
+/// row as many cells as the header. Returns the header, the 1-based character column of
+/// each of its cells (`None` where it cannot be found) and the data records. `header_of`
+/// names what the header should hold, for the error of a file without one.
+///
+/// # Errors
+/// As [`parse_bytes`] for the encoding and the CSV itself; no header line.
+pub(crate) fn records(
+    name: &str,
+    bytes: &[u8],
+    header_of: &str,
+) -> Result<(Record, Vec<Option<usize>>, Vec<Record>)> {
+    if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
+        bail!(
+            "{name}:1: the file is UTF-16 text (it starts with a UTF-16 byte-order mark); \
+             expected UTF-8 text ({SAVE_AS_UTF8})"
+        );
+    }
+    let text = match std::str::from_utf8(bytes) {
+        Ok(t) => t,
+        Err(e) => {
+            let off = e.valid_up_to();
+            let byte = bytes.get(off).copied().unwrap_or_default();
+            bail!(
+                "{name}:{}: the file is not UTF-8 text: byte 0x{byte:02X} at byte offset {off} \
+                 is not valid UTF-8; expected UTF-8 text ({SAVE_AS_UTF8})",
+                line_of(bytes, off)
+            );
+        }
+    };
+    if let Some(off) = text.find('\0') {
+        bail!(
+            "{name}:{}: the file holds a NUL character (byte offset {off}); expected UTF-8 \
+             text, not UTF-16 or a binary file ({SAVE_AS_UTF8})",
+            line_of(text.as_bytes(), off)
+        );
+    }
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let data = DataLines::new(text);
+    let mut reader = csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(data.text.as_bytes());
+    let mut header: Option<(Record, Vec<Option<usize>>)> = None;
+    let mut rows = Vec::new();
+    for record in reader.records() {
+        let record = match record {
+            Ok(r) => r,
+            Err(e) => {
+                let line = e.position().map_or(0, |p| data.file_line(p.line()));
+                bail!("{name}:{line}: malformed CSV line: {e}");
+            }
+        };
+        let line = record.position().map_or(0, |p| data.file_line(p.line()));
+        if record.iter().any(|cell| cell.contains('\n')) {
+            bail!(
+                "{name}:{line}: malformed CSV line: unterminated quoted cell; expected a \
+                 closing `\"` on the same line (a cell cannot span lines)"
+            );
+        }
+        let cells: Vec<String> = record.iter().map(str::to_string).collect();
+        match &header {
+            None => {
+                let raw = text.lines().nth(line.saturating_sub(1)).unwrap_or_default();
+                header = Some((Record { line, cells }, header_columns(raw, &record)));
+            }
+            Some((h, _)) => {
+                if cells.len() != h.cells.len() {
+                    let hint = match record.iter().position(blank_before_quote) {
+                        Some(j) => format!(
+                            "; column {} starts with a blank before `\"`, so it is not a quoted \
+                             cell: put the quote right after the comma",
+                            j + 1
+                        ),
+                        None => String::new(),
+                    };
+                    bail!(
+                        "{name}:{line}: {} cells, expected {} (one per header column){hint}",
+                        cells.len(),
+                        h.cells.len()
+                    );
+                }
+                rows.push(Record { line, cells });
+            }
+        }
+    }
+    let Some((h, at)) = header else {
+        bail!(
+            "{name}: no header line (the file is empty or holds only comments and blank \
+             lines); expected a CSV header of {header_of}"
+        );
+    };
+    Ok((h, at, rows))
+}
+
+/// The first header cell (trimmed, in order) of a case-frame-like text, without reading
+/// further: what a caller looks at to tell one kind of file from another. Empty when the
+/// bytes are not UTF-8 or hold no header (the reader then says why).
+pub(crate) fn header_cells(bytes: &[u8]) -> Vec<String> {
+    let Ok(text) = std::str::from_utf8(bytes) else {
+        return Vec::new();
+    };
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    let data = DataLines::new(text);
+    csv::ReaderBuilder::new()
+        .has_headers(false)
+        .flexible(true)
+        .from_reader(data.text.as_bytes())
+        .records()
+        .next()
+        .and_then(Result::ok)
+        .map(|r| r.iter().map(|c| c.trim().to_string()).collect())
+        .unwrap_or_default()
+}
+
 #[cfg(test)]
 #[allow(clippy::float_cmp)]
 mod tests {

@@ -18,8 +18,8 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 use cmd::{
-    Ctx, bench, correct, design, discover, experiments, instrument, plan, predict, report, response,
-    static_,
+    Ctx, bench, correct, design, discover, experiments, instrument, plan, predict, report,
+    response, static_,
 };
 use flags::{Cli, Cmd};
 use ptsa_host_sim::lab::fixtures::TwoAxisKind;

@@ -25,7 +25,9 @@ use crate::{paths, work};
 #[command(allow_negative_numbers = true)]
 pub struct DiscoverArgs {
     /// Case-frame CSV file of measured conditions (docs/case-frame.md). Without it, the
-    /// report's Tables 6.1, 6.2 and 6.3 are analysed.
+    /// report's Tables 6.1, 6.2 and 6.3 are analysed. A triad file (columns g_x, g_y, g_z,
+    /// measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2) is one calibration of three
+    /// accelerometers on one block instead (docs/discovery.md, "A triad").
     #[arg(long, value_name = "FILE")]
     pub data: Option<PathBuf>,
     /// 1-sigma uncertainty of the rows without `sigma_cm_s2`, cm/s² (more than 0). Without
@@ -106,6 +108,10 @@ pub struct DiscoverArgs {
     /// search of the other parameters).
     #[arg(long)]
     pub force: bool,
+    /// With a triad file: what its positions' nominal orientations are worth (default
+    /// exact).
+    #[arg(long, value_enum, value_name = "HOW", requires = "data")]
+    pub orientation: Option<super::triad::OrientationArg>,
 }
 
 /// A discovery to run, or the report's files to regenerate.
@@ -114,6 +120,8 @@ pub enum Request {
     Convert(PathBuf),
     /// An analysis.
     Analyse(Box<Analysis>),
+    /// A triad file's calibration (`cmd::triad`).
+    Triad(Box<super::triad::Request>),
 }
 
 /// An analysis of `data` (or of the report's tables), its output files checked.
@@ -147,6 +155,14 @@ impl DiscoverArgs {
     /// # Errors
     /// The loop cannot be simulated; an output path is refused.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        // A triad file needs no loop: dispatched before the loop's check.
+        if let Some(d) = &self.data
+            && ptsa_host_sim::triad::frame::is_triad_file(d)
+        {
+            return Ok(Request::Triad(Box::new(super::triad::request(
+                &self, d, ctx,
+            )?)));
+        }
         if self.data.is_none() && self.convert_report_data.is_none() && !ctx.instr.has_loop {
             anyhow::bail!(
                 "discover without --data analyses R-890's Tables 6.1–6.3, measured on the Kearfott 2401 in its PTSA loop, and {} describes another instrument without a loop; expected --data FILE with this instrument's measurements",
@@ -161,6 +177,14 @@ impl DiscoverArgs {
                 .collect();
             paths::folder_with("--convert-report-data", &dir, &names)?;
             return Ok(Request::Convert(dir));
+        }
+        if self.orientation.is_some() {
+            anyhow::bail!(
+                "--orientation applies to a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...), but {} is a single-axis case-frame file; expected --orientation only with a triad file",
+                self.data
+                    .as_deref()
+                    .map_or(String::new(), |d| d.display().to_string())
+            );
         }
         let candidates: Vec<CandidateId> = if self.candidates.is_empty() {
             Options::for_instrument(&ctx.instr).candidates
@@ -253,6 +277,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
             return Ok(());
         }
         Request::Analyse(a) => a,
+        Request::Triad(t) => return super::triad::run(ctx, t, out),
     };
     let est = estimate(a)?;
     // The search of the loop's parameters, whose length is known only once they are

@@ -30,6 +30,7 @@ pub mod predict;
 pub mod report;
 pub mod response;
 pub mod static_;
+pub mod triad;
 
 use std::io::Write;
 use std::path::Path;

@@ -101,6 +101,19 @@ pub enum PlanKind {
         #[command(flatten)]
         out: PlanOut,
     },
+    /// A triad's calibration: N static positions of a block carrying three accelerometers
+    /// (docs/discovery.md, "A triad"): the block's nominal gravity g_x, g_y, g_z (g) and
+    /// the three measured columns (cm/s²) to fill in.
+    Triad {
+        /// Positions: 6 (the faces), 8 (the faces and two corners), 12 (the edges), 24
+        /// (every position tilted: for a block placed by hand) or 37 (24, the edges and a
+        /// face).
+        #[arg(long, default_value_t = 24, value_name = "N",
+              value_parser = super::triad::design_positions)]
+        positions: usize,
+        #[command(flatten)]
+        out: PlanOut,
+    },
 }
 
 /// How an absolute design's readings are to be recorded.
@@ -136,6 +149,8 @@ pub struct Request {
     also: &'static [&'static str],
     /// `pulses` and `ticks` in place of `measured_cm_s2` (`--counts`).
     counts: bool,
+    /// The file's text when it is not case-frame rows (a triad plan).
+    text: Option<String>,
 }
 
 /// Standard output, or a file (checked; with what it held when `--force` replaces it).
@@ -155,6 +170,17 @@ impl PlanArgs {
     /// The loop cannot be simulated; `--out` is an input, cannot be written, or exists
     /// without `--force`.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        if let PlanKind::Triad { positions, out } = self.kind {
+            let (what, text) = super::triad::plan(positions);
+            return Ok(Request {
+                rows: Vec::new(),
+                what,
+                dest: dest(out)?,
+                also: &[],
+                counts: false,
+                text: Some(text),
+            });
+        }
         // Refused like every subcommand that simulates: the plan is for this instrument.
         // (A file without a loop plans for the analytic model.)
         if ctx.instr.has_loop {
@@ -219,6 +245,7 @@ impl PlanArgs {
                 out,
                 count.counts,
             ),
+            PlanKind::Triad { .. } => unreachable!("a triad plan returned above"),
         };
         // Absolute rows (a tumble, a centrifuge): the columns a lab records beside each
         // reading, written empty for it to fill in.
@@ -230,22 +257,28 @@ impl PlanArgs {
         } else {
             &[]
         };
-        let dest = match out.out {
-            None => Dest::Stdout,
-            Some(path) => {
-                let replaced = paths::output_file("--out", &path, out.force)?
-                    .then(|| paths::what_is_replaced(&path));
-                Dest::File { path, replaced }
-            }
-        };
         Ok(Request {
             rows,
             what,
-            dest,
+            dest: dest(out)?,
             also,
             counts,
+            text: None,
         })
     }
+}
+
+/// Standard output, or the `--out` file checked (and, when `--force` replaces one, what it
+/// holds).
+fn dest(out: PlanOut) -> Result<Dest> {
+    Ok(match out.out {
+        None => Dest::Stdout,
+        Some(path) => {
+            let replaced = paths::output_file("--out", &path, out.force)?
+                .then(|| paths::what_is_replaced(&path));
+            Dest::File { path, replaced }
+        }
+    })
 }
 
 /// Write the plan as a case-frame file with two comment lines (what it is, what to do
@@ -270,19 +303,18 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
         );
     }
     let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
-    let text = if req.counts {
-        ptsa_host_sim::model::caseframe::to_csv_counts(&req.rows, &refs, req.also)
-    } else {
-        ptsa_host_sim::model::caseframe::to_csv_with(&req.rows, &refs, req.also)
+    let text = match &req.text {
+        Some(t) => t.clone(),
+        None if req.counts => {
+            ptsa_host_sim::model::caseframe::to_csv_counts(&req.rows, &refs, req.also)
+        }
+        None => ptsa_host_sim::model::caseframe::to_csv_with(&req.rows, &refs, req.also),
     };
     match &req.dest {
         Dest::File { path, replaced } => {
             write_atomic(path, text.as_bytes())?;
-            eprintln!(
-                "wrote {} ({})",
-                path.display(),
-                count(req.rows.len() as u64, "row")
-            );
+            let rows = text.lines().filter(|l| !l.starts_with('#')).count() - 1;
+            eprintln!("wrote {} ({})", path.display(), count(rows as u64, "row"));
             if let Some(w) = replaced {
                 eprintln!("warning: --out {}: replaced {w} (--force)", path.display());
             }

@@ -1,0 +1,159 @@
+//! `ptsa discover --data FILE` on a triad file (`g_x`, `g_y`, `g_z`,
+//! `measured_x_cm_s2`, …): one calibration of three accelerometers on one block
+//! (`ptsa_host_sim::triad`), dispatched here from `discover`'s request. The flags that
+//! belong to the single-axis analysis are refused, `--orientation` is this command's own.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+use anyhow::{Result, bail};
+use clap::ValueEnum;
+use ptsa_host_sim::triad::{self, fit, frame, report::TriadJson};
+
+use super::Ctx;
+use super::discover::DiscoverArgs;
+use crate::paths;
+
+/// `--orientation`: what the positions' nominal gravity directions are worth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum OrientationArg {
+    /// The nominal orientations are the true ones (a precision fixture, dividing head or
+    /// cube: errors well below the noise over g, e.g. 10 µrad for 10 µg); the six
+    /// misalignments are fitted relative to the block.
+    Exact,
+    /// Each position is its nominal orientation turned by a small unknown rotation (a block
+    /// placed by hand, up to about 2°): two angles per position are fitted too (the turn
+    /// about gravity cannot be seen), the three misalignments below the diagonal only (the
+    /// triad's own frame: x along the x axis, y in the x–y plane); needs about 24 or more
+    /// positions.
+    Approximate,
+}
+
+impl From<OrientationArg> for fit::Orientation {
+    fn from(o: OrientationArg) -> Self {
+        match o {
+            OrientationArg::Exact => fit::Orientation::Exact,
+            OrientationArg::Approximate => fit::Orientation::Approximate,
+        }
+    }
+}
+
+/// A triad calibration to run: the file read, the options, where the table goes.
+pub struct Request {
+    data: PathBuf,
+    positions: Vec<frame::Position>,
+    options: fit::Options,
+    json: bool,
+    /// `STEM-triad.csv`'s folder, or `None` (`--no-plots`).
+    table: Option<PathBuf>,
+}
+
+/// The request for a triad file: the single-axis flags refused, the file read, the output
+/// folder checked.
+///
+/// # Errors
+/// A flag of the single-axis analysis; the file cannot be read or parsed; `--out` refused.
+pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Request> {
+    let single = [
+        ("--candidates", !a.candidates.is_empty()),
+        ("--term", !a.terms.is_empty()),
+        ("--analytic", a.analytic),
+        ("--advice-out", a.advice_out.is_some()),
+        ("--write-instrument", a.write_instrument.is_some()),
+        ("--keep-outliers", a.keep_outliers),
+        ("--units-as-given", a.units_as_given),
+    ];
+    if let Some((flag, _)) = single.iter().find(|(_, on)| *on) {
+        bail!(
+            "{flag} applies to a single-axis case-frame file, but {} is a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...); expected the triad's options only: --orientation, --sigma, --json, --out, --no-plots (docs/discovery.md, \"A triad\")",
+            data.display()
+        );
+    }
+    let positions = frame::read(data)?;
+    let table = if a.no_plots {
+        None
+    } else {
+        paths::folder_with("--out", &a.out, &[table_name(data)])?;
+        Some(a.out.clone())
+    };
+    Ok(Request {
+        data: data.to_path_buf(),
+        positions,
+        options: fit::Options {
+            orientation: a.orientation.unwrap_or(OrientationArg::Exact).into(),
+            default_sigma_cm_s2: a.sigma,
+            g_cm_s2: ctx.instr.g_cm_s2,
+        },
+        json: a.json,
+        table,
+    })
+}
+
+/// `STEM-triad.csv` of the data file (STEM: its name without `.csv`).
+fn table_name(data: &std::path::Path) -> String {
+    let stem = data
+        .file_stem()
+        .map_or_else(|| "triad".to_string(), |s| s.to_string_lossy().into_owned());
+    format!("{stem}-triad.csv")
+}
+
+/// Fit, print (text, or with `--json` the text on stderr and one JSON object on stdout),
+/// warn, and write the per-position table.
+///
+/// # Errors
+/// The fit is refused; a write fails.
+pub fn run(ctx: &Ctx, r: &Request, out: &mut dyn Write) -> Result<()> {
+    let name = r.data.display().to_string();
+    let t = fit::fit(&name, &r.positions, &r.options)?;
+    let text = triad::text(&t, &name);
+    if r.json {
+        eprint!("{text}");
+        let j = serde_json::json!({
+            "data": name,
+            "instrument": ctx.name,
+            "triad": TriadJson::of(&t),
+        });
+        writeln!(out, "{j}")?;
+    } else {
+        write!(out, "{text}")?;
+    }
+    for w in &t.warnings {
+        eprintln!("warning: {w}");
+    }
+    if let Some(dir) = &r.table {
+        let p = dir.join(table_name(&r.data));
+        ptsa_host_sim::output::fs::write_atomic(&p, triad::table_csv(&t).as_bytes())?;
+        eprintln!("wrote {}", p.display());
+    }
+    Ok(())
+}
+
+/// `ptsa plan triad --positions N`: a design the triad module knows.
+///
+/// # Errors
+/// Not a whole number, or not one of `triad::DESIGNS`.
+pub fn design_positions(s: &str) -> std::result::Result<usize, String> {
+    let list = triad::DESIGNS
+        .iter()
+        .map(ToString::to_string)
+        .collect::<Vec<_>>()
+        .join(", ");
+    s.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|n| triad::DESIGNS.contains(n))
+        .ok_or_else(|| format!("expected one of the triad designs' position counts: {list}"))
+}
+
+/// The plan of `positions` positions: what it is, and the file's text.
+#[must_use]
+pub fn plan(positions: usize) -> (String, String) {
+    let design = triad::design(positions).unwrap_or_default();
+    let what = format!("{positions}-position triad");
+    let comments = [
+        format!("Triad plan written by `ptsa plan triad`: {what} (g_x, g_y, g_z: the block's nominal gravity, g)."),
+        "Fill in measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 (each axis's reading through its nominal scale factor, cm/s²) and sigma_cm_s2, then `cargo ptsa discover --data FILE` (with --orientation approximate for a block placed by hand).".to_string(),
+    ];
+    let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
+    (what, frame::plan_csv(&design, &refs))
+}

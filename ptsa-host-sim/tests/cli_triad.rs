@@ -1,0 +1,455 @@
+//! `ptsa discover --data` on a triad file: the calibration printed and in `--json`'s
+//! `"triad"`, `--orientation`, the per-position table, and every refusal with its exit
+//! status and message.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use rand::SeedableRng as _;
+use rand_distr::Distribution as _;
+
+mod common;
+use common::{ptsa_in, refused_in_folder, stderr, stdout};
+
+/// Local gravity of the shipped instrument file, cm/s².
+const G: f64 = 980.4;
+
+/// The 24 directions `(±1, ±2, ±3)/√14` under the cube's proper rotations.
+fn design24() -> Vec<[f64; 3]> {
+    let s = 1.0 / 14f64.sqrt();
+    let base = [1.0, 2.0, 3.0];
+    let perms: [([usize; 3], f64); 6] = [
+        ([0, 1, 2], 1.0),
+        ([1, 2, 0], 1.0),
+        ([2, 0, 1], 1.0),
+        ([1, 0, 2], -1.0),
+        ([0, 2, 1], -1.0),
+        ([2, 1, 0], -1.0),
+    ];
+    let mut v = Vec::new();
+    for (p, parity) in perms {
+        for signs in 0..8u32 {
+            let sg: [f64; 3] = [0, 1, 2].map(|b| if signs >> b & 1 == 1 { -1.0 } else { 1.0 });
+            if sg[0] * sg[1] * sg[2] * parity > 0.0 {
+                v.push([0, 1, 2].map(|r| sg[r] * base[p[r]] * s));
+            }
+        }
+    }
+    v
+}
+
+/// The triad of the files: bias, scale-factor change, Γ (rad).
+const BIAS: [f64; 3] = [12.0, -8.0, 30.0];
+const SF: [f64; 3] = [0.01, -0.005, 0.002];
+const GAMMA: [[f64; 3]; 3] = [[0.0, 0.0, 0.0], [0.004, 0.0, 0.0], [-0.002, 0.003, 0.0]];
+
+/// A triad file of the 24 positions, each turned by `tilt_rad` about a fixed axis
+/// perpendicular to its gravity (0: a precision fixture), noise 0.1 cm/s² stated.
+fn triad_csv(tilt_rad: f64, seed: u64) -> String {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let noise = rand_distr::Normal::new(0.0, 0.1).unwrap();
+    let mut s = String::from(
+        "# a triad\nlabel,g_x,g_y,g_z,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2,sigma_cm_s2\n",
+    );
+    for (i, n) in design24().iter().enumerate() {
+        // Turn n toward a perpendicular direction by tilt (alternating in sign).
+        let e = if n[0].abs() < 0.5 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
+        let d = e[0] * n[0] + e[1] * n[1] + e[2] * n[2];
+        let mut p = [0, 1, 2].map(|k| e[k] - d * n[k]);
+        let pn = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        p = p.map(|x| x / pn);
+        let t = if i % 2 == 0 { tilt_rad } else { -tilt_rad };
+        let f = [0, 1, 2].map(|k| G * (n[k] * t.cos() + p[k] * t.sin()));
+        let u: Vec<String> = (0..3)
+            .map(|j| {
+                let a = f[j] + (0..3).map(|k| GAMMA[j][k] * f[k]).sum::<f64>();
+                format!(
+                    "{:.5}",
+                    BIAS[j] + (1.0 + SF[j]) * a + noise.sample(&mut rng)
+                )
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            "p{},{:.9},{:.9},{:.9},{},0.1",
+            i + 1,
+            n[0],
+            n[1],
+            n[2],
+            u.join(",")
+        );
+    }
+    s
+}
+
+fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
+    let o = ptsa_in(dir, args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    serde_json::from_str(&stdout(&o)).unwrap()
+}
+
+fn arr(v: &serde_json::Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect()
+}
+
+#[test]
+fn a_triad_file_is_calibrated_and_its_json_holds_the_truth() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = triad_csv(0.0, 1);
+    std::fs::write(tmp.path().join("t.csv"), &text).unwrap();
+    let j = json(tmp.path(), &["discover", "--data", "t.csv", "--json"]);
+    // The input is untouched; the per-position table is written.
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("t.csv")).unwrap(),
+        text
+    );
+    let table = std::fs::read_to_string(tmp.path().join("out/discover/t-triad.csv")).unwrap();
+    assert_eq!(table.lines().count(), 25);
+    let t = &j["triad"];
+    assert_eq!(t["orientation"], "exact");
+    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (k, ks) = (
+        arr(&t["scale_factor_ppm"]),
+        arr(&t["scale_factor_sigma_ppm"]),
+    );
+    for a in 0..3 {
+        assert!((b[a] - BIAS[a]).abs() < 4.0 * bs[a], "bias {b:?} ± {bs:?}");
+        assert!(
+            (k[a] - SF[a] * 1e6).abs() < 4.0 * ks[a],
+            "sf {k:?} ± {ks:?}"
+        );
+        for c in 0..3 {
+            let m = t["misalignment_rad"][a][c].as_f64().unwrap();
+            match t["misalignment_sigma_rad"][a][c].as_f64() {
+                Some(s) => assert!((m - GAMMA[a][c]).abs() < 4.0 * s, "Γ{a}{c} {m} ± {s}"),
+                None => assert_eq!(a, c),
+            }
+        }
+    }
+    assert_eq!(t["g_check"]["consistent"], true);
+    assert_eq!(t["g_check"]["positions"], 24);
+    assert!(t["p_value"].as_f64().unwrap() > 0.001);
+    assert_eq!(t["correction_matrix"].as_array().unwrap().len(), 3);
+    assert!(
+        t["warnings"].as_array().unwrap().is_empty(),
+        "{}",
+        t["warnings"]
+    );
+}
+
+#[test]
+fn a_hand_placed_triad_is_flagged_exact_and_fits_approximate() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("h.csv"), triad_csv(0.012, 2)).unwrap();
+    // Exact orientations assumed: the χ² and the |g| check flag it, with a warning.
+    let o = ptsa_in(tmp.path(), &["discover", "--data", "h.csv", "--no-plots"]);
+    assert_eq!(o.status.code(), Some(0));
+    let err = stderr(&o);
+    assert!(
+        err.contains("warning: the fit's χ²") && err.contains("--orientation approximate"),
+        "{err}"
+    );
+    assert!(err.contains("warning: the |g| check fails"), "{err}");
+    assert!(stdout(&o).contains("NOT consistent"));
+    // Approximate: the misalignments above the diagonal are the convention's zeros, the
+    // rest recovered, the g check consistent, the tilts estimated.
+    let j = json(
+        tmp.path(),
+        &[
+            "discover",
+            "--data",
+            "h.csv",
+            "--orientation",
+            "approximate",
+            "--json",
+            "--no-plots",
+        ],
+    );
+    let t = &j["triad"];
+    assert_eq!(t["orientation"], "approximate");
+    assert_eq!(t["g_check"]["consistent"], true);
+    assert!(
+        t["misalignment_sigma_rad"][0][1].is_null() && t["misalignment_sigma_rad"][1][2].is_null()
+    );
+    let m = t["misalignment_rad"][1][0].as_f64().unwrap();
+    let s = t["misalignment_sigma_rad"][1][0].as_f64().unwrap();
+    // The triad's frame here is the block's within 1e-5 rad (Γ_xy = Γ_xz = Γ_yz = 0).
+    assert!((m - 0.004).abs() < 4.0 * s + 1e-5, "{m} ± {s}");
+    let rot = t["rows"][0]["rotation_urad"].as_f64().unwrap();
+    assert!((rot - 12_000.0).abs() < 500.0, "{rot}");
+    // Turned 3° from nominal: beyond the small angles, warned.
+    std::fs::write(tmp.path().join("w.csv"), triad_csv(0.052, 4)).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "discover",
+            "--data",
+            "w.csv",
+            "--orientation",
+            "approximate",
+            "--no-plots",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0));
+    assert!(
+        stderr(&o).contains("from its nominal orientation, beyond the small angles"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// The eight corners alone (every `a_j² = g²/3`): `K_2` cannot be told from the bias; it
+/// is left out, with a warning and the JSON's note, and the rest is fitted.
+#[test]
+fn eight_corners_leave_k2_out_with_a_warning() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut s = String::from("g_x,g_y,g_z,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2\n");
+    let c = 1.0 / 3f64.sqrt();
+    for i in 0..8u8 {
+        let n = [0, 1, 2].map(|b| if i >> b & 1 == 1 { -c } else { c });
+        let u: Vec<String> = (0..3)
+            .map(|j| {
+                format!(
+                    "{}",
+                    BIAS[j] + (1.0 + SF[j]) * G * n[j] + 0.01 * f64::from(i % 3)
+                )
+            })
+            .collect();
+        let _ = writeln!(s, "{},{},{},{}", n[0], n[1], n[2], u.join(","));
+    }
+    std::fs::write(tmp.path().join("c.csv"), s).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["discover", "--data", "c.csv", "--json", "--no-plots"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: K_2 not fitted"),
+        "{}",
+        stderr(&o)
+    );
+    let j: serde_json::Value = serde_json::from_str(&stdout(&o)).unwrap();
+    assert!(j["triad"]["k2_ug_per_g2"].is_null());
+    assert!(j["triad"]["k2_note"].as_str().unwrap().contains("bias"));
+}
+
+/// The triad's refusals of flags: each names the flag and what was expected.
+#[test]
+fn triad_flag_refusals() {
+    let good = triad_csv(0.0, 3);
+    let t: &[(&str, &[u8])] = &[("t.csv", good.as_bytes())];
+    refused_in_folder(
+        t,
+        &[
+            "discover",
+            "--data",
+            "t.csv",
+            "--candidates",
+            "bias",
+            "--no-plots",
+        ],
+        1,
+        &[
+            "--candidates applies to a single-axis",
+            "t.csv is a triad file",
+        ],
+        &[],
+    );
+    refused_in_folder(
+        t,
+        &[
+            "discover",
+            "--data",
+            "t.csv",
+            "--advice-out",
+            "a.csv",
+            "--no-plots",
+        ],
+        1,
+        &["--advice-out applies to a single-axis"],
+        &[],
+    );
+    refused_in_folder(
+        t,
+        &["discover", "--data", "t.csv", "--orientation", "sideways"],
+        2,
+        &["sideways", "exact", "approximate"],
+        &[],
+    );
+    refused_in_folder(
+        &[],
+        &["plan", "triad", "--positions", "7"],
+        2,
+        &[
+            "'7'",
+            "expected one of the triad designs' position counts: 6, 8, 12, 24, 37",
+        ],
+        &[],
+    );
+    let single = "label,g_ia,measured_cm_s2\na,1,980\nb,-1,-980\n";
+    refused_in_folder(
+        &[("s.csv", single.as_bytes())],
+        &[
+            "discover",
+            "--data",
+            "s.csv",
+            "--orientation",
+            "exact",
+            "--no-plots",
+        ],
+        1,
+        &[
+            "--orientation applies to a triad file",
+            "s.csv is a single-axis",
+        ],
+        &[],
+    );
+}
+
+/// The triad file's refusals: each names the file's place and what was expected.
+#[test]
+fn triad_file_refusals() {
+    let good = triad_csv(0.0, 3);
+    let mixed = good.replacen("sigma_cm_s2", "measured_cm_s2", 1);
+    refused_in_folder(
+        &[("m.csv", mixed.as_bytes())],
+        &["discover", "--data", "m.csv", "--no-plots"],
+        1,
+        &[
+            "m.csv:2:",
+            "single-axis case-frame column",
+            "`g_x`",
+            "one kind of file",
+        ],
+        &[],
+    );
+    let bad = good.replacen(",0.1\n", ",-0.1\n", 1);
+    refused_in_folder(
+        &[("b.csv", bad.as_bytes())],
+        &["discover", "--data", "b.csv", "--no-plots"],
+        1,
+        &[
+            "b.csv:3: column 8 (`sigma_cm_s2`) holds `-0.1`",
+            "greater than 0",
+        ],
+        &[],
+    );
+    let planar = "g_x,g_y,g_z,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2\n\
+                  1,0,0,980,0,0\n-1,0,0,-980,0,0\n0,1,0,0,980,0\n0,-1,0,0,-980,0\n\
+                  0.7071068,0.7071068,0,693,693,0\n-0.7071068,0.7071068,0,-693,693,0\n\
+                  0.7071068,-0.7071068,0,693,-693,0\n-0.7071068,-0.7071068,0,-693,-693,0\n";
+    refused_in_folder(
+        &[("p.csv", planar.as_bytes())],
+        &["discover", "--data", "p.csv", "--no-plots"],
+        1,
+        &["p.csv: the 8 positions do not determine", "one plane"],
+        &[],
+    );
+    let few = good.lines().take(8).collect::<Vec<_>>().join("\n") + "\n";
+    refused_in_folder(
+        &[("f.csv", few.as_bytes())],
+        &[
+            "discover",
+            "--data",
+            "f.csv",
+            "--orientation",
+            "approximate",
+            "--no-plots",
+        ],
+        1,
+        &[
+            "f.csv: 6 positions give 18 readings for 21 unknowns",
+            "more positions",
+        ],
+        &[],
+    );
+}
+
+/// `ptsa plan triad` → the lab fills the readings in → `discover` calibrates: the truth
+/// comes back within 4 σ; the plan as written (nothing measured) is refused.
+#[test]
+fn plan_filled_in_and_calibrated() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["plan", "triad", "--positions", "24", "--out", "p.csv"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("wrote p.csv (24 rows)"),
+        "{}",
+        stderr(&o)
+    );
+    let plan = std::fs::read_to_string(tmp.path().join("p.csv")).unwrap();
+    let o = ptsa_in(tmp.path(), &["discover", "--data", "p.csv", "--no-plots"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("p.csv: no row has a measurement"),
+        "{}",
+        stderr(&o)
+    );
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let noise = rand_distr::Normal::new(0.0, 0.05).unwrap();
+    let mut filled = String::new();
+    for line in plan.lines() {
+        let cells: Vec<&str> = line.split(',').collect();
+        let Ok(n) = cells
+            .get(1..4)
+            .unwrap_or_default()
+            .iter()
+            .map(|c| c.parse::<f64>())
+            .collect::<Result<Vec<f64>, _>>()
+        else {
+            let _ = writeln!(filled, "{line}");
+            continue;
+        };
+        if n.len() != 3 {
+            let _ = writeln!(filled, "{line}");
+            continue;
+        }
+        let f: Vec<f64> = n.iter().map(|x| x * G).collect();
+        let u: Vec<String> = (0..3)
+            .map(|j| {
+                let a = f[j] + (0..3).map(|k| GAMMA[j][k] * f[k]).sum::<f64>();
+                format!("{}", BIAS[j] + (1.0 + SF[j]) * a + noise.sample(&mut rng))
+            })
+            .collect();
+        let _ = writeln!(
+            filled,
+            "{},{},{},{},{},0.05",
+            cells[0],
+            cells[1],
+            cells[2],
+            cells[3],
+            u.join(",")
+        );
+    }
+    std::fs::write(tmp.path().join("p.csv"), filled).unwrap();
+    let j = json(
+        tmp.path(),
+        &["discover", "--data", "p.csv", "--json", "--no-plots"],
+    );
+    let t = &j["triad"];
+    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (k, ks) = (
+        arr(&t["scale_factor_ppm"]),
+        arr(&t["scale_factor_sigma_ppm"]),
+    );
+    for a in 0..3 {
+        assert!((b[a] - BIAS[a]).abs() < 4.0 * bs[a], "bias {b:?} ± {bs:?}");
+        assert!(
+            (k[a] - SF[a] * 1e6).abs() < 4.0 * ks[a],
+            "sf {k:?} ± {ks:?}"
+        );
+    }
+    assert_eq!(t["positions"], 24);
+    assert_eq!(t["g_check"]["consistent"], true);
+}

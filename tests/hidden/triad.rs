@@ -1,0 +1,581 @@
+//! The triad campaign: three accelerometers on one block, calibrated blind by
+//! `ptsa_host_sim::triad::fit` from readings generated here from the equations.
+//!
+//! A set is a design of static positions ([`TriadKind`]: 8, 12 or 24 positions on a
+//! precision fixture, analysed with exact orientations; 24 or 37 positions placed by hand,
+//! each turned from its nominal orientation by 0.5–1° about a random axis, analysed with
+//! `--orientation approximate`) and a triad drawn at random:
+//!
+//! * bias `b_j` uniform in ±50 cm/s², scale-factor change `k_j` in ±2 %, all six
+//!   misalignments `Γ_jk` in ±10 mrad, `K_2` in ±2000 µg/g² (a consumer MEMS triad's
+//!   class);
+//! * the reading of axis j in position i: `u_j = b_j + (1 + k_j)·a_j + q_j·a_j² + σ·N(0,1)`,
+//!   `a = (I + Γ)·f_i`, `f_i = g·R_i·n_i` with `n_i` the nominal direction and `R_i` the
+//!   hand placement's rotation (a rotation matrix built here from its axis and angle), `σ`
+//!   uniform in 0.05–0.5 cm/s² per set; the sigma is written on every row in half of the
+//!   sets, left for the fit to estimate in the other half.
+//!
+//! Nothing here calls the fit's code: the rotations, the triad frame's convention and the
+//! truth in it are written here. With approximate orientations the fit estimates the triad
+//! in its own frame (x along the x axis's input axis, y in the plane of x and y): the truth
+//! is carried into that frame by Gram–Schmidt of the rows of `I + Γ` ([`in_triad_frame`]).
+//!
+//! Scored: every fitted coefficient against its truth, covered when
+//! `|fitted − true| ≤ coverage_factor_95·σ`; the coverage per kind is asserted inside the
+//! 99 % band of Binomial(n, 0.95) (the CI subset) and, in the full run, also within
+//! 95 ± 2.5 %. A kind whose fit is refused fails. Every warning is a false alarm here (the
+//! model is the generator's): the sets with one are asserted at most 5 % (one-sided
+//! binomial test at 1 %).
+
+use std::fmt::Write as _;
+use std::time::Instant;
+
+use ptsa_host_sim::triad::fit::{self, Orientation, Triad};
+use ptsa_host_sim::triad::frame::Position;
+use rayon::prelude::*;
+
+use super::Draw as _;
+use super::campaign::{Count, at_most_rate, binomial_interval, coverage_in_band, set_seed};
+
+/// Local gravity of the sets, cm/s².
+pub const G: f64 = 980.4;
+
+/// A design and how it is placed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TriadKind {
+    /// The six faces and two opposite corners, precision fixture.
+    Exact8,
+    /// The twelve edge directions, precision fixture.
+    Exact12,
+    /// The 24 rotations of the cube applied to (1, 2, 3)/√14, precision fixture.
+    Exact24,
+    /// The same 24, placed by hand.
+    Hand24,
+    /// 24 + the 12 edges + one face, placed by hand.
+    Hand37,
+}
+
+impl TriadKind {
+    /// Every kind, in table order.
+    pub const ALL: [TriadKind; 5] = [
+        TriadKind::Exact8,
+        TriadKind::Exact12,
+        TriadKind::Exact24,
+        TriadKind::Hand24,
+        TriadKind::Hand37,
+    ];
+
+    /// Its name in the table.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            TriadKind::Exact8 => "8 fixture",
+            TriadKind::Exact12 => "12 fixture",
+            TriadKind::Exact24 => "24 fixture",
+            TriadKind::Hand24 => "24 by hand",
+            TriadKind::Hand37 => "37 by hand",
+        }
+    }
+
+    /// The nominal directions.
+    #[must_use]
+    pub fn design(self) -> Vec<[f64; 3]> {
+        match self {
+            TriadKind::Exact8 => {
+                let c = 1.0 / 3f64.sqrt();
+                let mut v = faces();
+                v.push([c, c, c]);
+                v.push([-c, -c, -c]);
+                v
+            }
+            TriadKind::Exact12 => edges(),
+            TriadKind::Exact24 | TriadKind::Hand24 => cube_turns([1.0, 2.0, 3.0]),
+            TriadKind::Hand37 => {
+                let mut v = cube_turns([1.0, 2.0, 3.0]);
+                v.extend(edges());
+                v.push([0.0, 0.0, 1.0]);
+                v
+            }
+        }
+    }
+
+    /// Placed by hand (analysed with approximate orientations).
+    #[must_use]
+    pub fn by_hand(self) -> bool {
+        matches!(self, TriadKind::Hand24 | TriadKind::Hand37)
+    }
+}
+
+/// The six faces.
+#[must_use]
+pub fn faces() -> Vec<[f64; 3]> {
+    let mut v = Vec::new();
+    for j in 0..3 {
+        for s in [1.0, -1.0] {
+            let mut n = [0.0; 3];
+            n[j] = s;
+            v.push(n);
+        }
+    }
+    v
+}
+
+/// The twelve edge directions `(±1, ±1, 0)/√2` and their permutations.
+#[must_use]
+pub fn edges() -> Vec<[f64; 3]> {
+    let s = 1.0 / 2f64.sqrt();
+    let mut v = Vec::new();
+    for (j, k) in [(0, 1), (1, 2), (0, 2)] {
+        for (a, b) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+            let mut n = [0.0; 3];
+            n[j] = a * s;
+            n[k] = b * s;
+            v.push(n);
+        }
+    }
+    v
+}
+
+/// The 24 proper rotations of the cube (signed permutations of determinant +1) applied
+/// to `v`, normalised.
+#[must_use]
+pub fn cube_turns(v: [f64; 3]) -> Vec<[f64; 3]> {
+    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let perms: [([usize; 3], f64); 6] = [
+        ([0, 1, 2], 1.0),
+        ([1, 2, 0], 1.0),
+        ([2, 0, 1], 1.0),
+        ([1, 0, 2], -1.0),
+        ([0, 2, 1], -1.0),
+        ([2, 1, 0], -1.0),
+    ];
+    let mut out = Vec::new();
+    for (p, parity) in perms {
+        for signs in 0..8u32 {
+            let s: [f64; 3] = [0, 1, 2].map(|b| if signs >> b & 1 == 1 { -1.0 } else { 1.0 });
+            if s[0] * s[1] * s[2] * parity < 0.0 {
+                continue;
+            }
+            out.push([0, 1, 2].map(|r| s[r] * v[p[r]] / norm));
+        }
+    }
+    out
+}
+
+/// The rotation matrix of `angle` about the unit vector `axis` (Rodrigues' formula as a
+/// matrix: `I cos θ + sin θ [k]× + (1 − cos θ) k kᵀ`).
+#[must_use]
+pub fn rotation(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
+    let (s, c) = angle.sin_cos();
+    let [x, y, z] = axis;
+    [
+        [
+            c + x * x * (1.0 - c),
+            x * y * (1.0 - c) - z * s,
+            x * z * (1.0 - c) + y * s,
+        ],
+        [
+            y * x * (1.0 - c) + z * s,
+            c + y * y * (1.0 - c),
+            y * z * (1.0 - c) - x * s,
+        ],
+        [
+            z * x * (1.0 - c) - y * s,
+            z * y * (1.0 - c) + x * s,
+            c + z * z * (1.0 - c),
+        ],
+    ]
+}
+
+fn mul(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    [0, 1, 2].map(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])
+}
+
+fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// A triad's coefficients: bias (cm/s²), scale-factor change, `Γ` (rad, row = axis) and
+/// `q` (`K_2` in (cm/s²)⁻¹).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TriadTruth {
+    /// Bias, cm/s².
+    pub b: [f64; 3],
+    /// Scale-factor change.
+    pub k: [f64; 3],
+    /// Misalignment, rad.
+    pub gamma: [[f64; 3]; 3],
+    /// `K_2`, (cm/s²)⁻¹.
+    pub q: [f64; 3],
+}
+
+/// The truth in the triad's own frame (x along the x axis's input axis `e_x + Γ_x`, y in
+/// the plane of the x and y input axes): Gram–Schmidt of the rows `r_j` of `I + Γ` gives
+/// the frame `E`; `L_jk = r_j·E_k` is lower triangular, and the same readings follow from
+/// `Γ'_jk = L_jk/L_jj`, `1 + k'_j = (1 + k_j)·L_jj`, `q'_j = q_j·L_jj²`.
+#[must_use]
+#[allow(clippy::needless_range_loop)] // j indexes L, k, q and Γ alike
+pub fn in_triad_frame(t: &TriadTruth) -> TriadTruth {
+    let r: [[f64; 3]; 3] =
+        [0, 1, 2].map(|j| [0, 1, 2].map(|k| f64::from(u8::from(j == k)) + t.gamma[j][k]));
+    let unit = |v: [f64; 3]| {
+        let n = dot(v, v).sqrt();
+        v.map(|x| x / n)
+    };
+    let ex = unit(r[0]);
+    let ey = unit({
+        let d = dot(r[1], ex);
+        [0, 1, 2].map(|i| r[1][i] - d * ex[i])
+    });
+    let ez = [
+        ex[1] * ey[2] - ex[2] * ey[1],
+        ex[2] * ey[0] - ex[0] * ey[2],
+        ex[0] * ey[1] - ex[1] * ey[0],
+    ];
+    let e = [ex, ey, ez];
+    let l: [[f64; 3]; 3] = [0, 1, 2].map(|j| [0, 1, 2].map(|k| dot(r[j], e[k])));
+    let mut out = *t;
+    for j in 0..3 {
+        out.k[j] = (1.0 + t.k[j]) * l[j][j] - 1.0;
+        out.q[j] = t.q[j] * l[j][j] * l[j][j];
+        for k in 0..3 {
+            out.gamma[j][k] = if j == k { 0.0 } else { l[j][k] / l[j][j] };
+        }
+    }
+    out
+}
+
+/// A generated set: its positions (readings filled in), its truth in the frame the fit
+/// reports, its noise and whether the sigma is stated.
+#[derive(Clone, Debug)]
+pub struct TriadSet {
+    /// The rows.
+    pub positions: Vec<Position>,
+    /// The truth (in the triad's frame for a set placed by hand).
+    pub truth: TriadTruth,
+    /// The noise, cm/s².
+    pub sigma: f64,
+}
+
+/// The set of `seed` of `kind`: by hand (each position turned 0.5–1° about a random axis)
+/// when `by_hand`, whatever the kind's own placement.
+#[must_use]
+pub fn generate_triad(seed: u64, design: &[[f64; 3]], by_hand: bool) -> TriadSet {
+    let mut rng = super::rng(seed);
+    let mut t = TriadTruth::default();
+    for j in 0..3 {
+        t.b[j] = rng.range(-50.0, 50.0);
+        t.k[j] = rng.range(-0.02, 0.02);
+        t.q[j] = rng.range(-2000.0, 2000.0) * 1e-6 / G;
+        for k in 0..3 {
+            if j != k {
+                t.gamma[j][k] = rng.range(-0.01, 0.01);
+            }
+        }
+    }
+    let sigma = rng.range(0.05, 0.5);
+    let stated = rng.uniform() < 0.5;
+    let positions = design
+        .iter()
+        .enumerate()
+        .map(|(i, &n)| {
+            let f = if by_hand {
+                // A random axis (uniform on the sphere) and an angle of 0.5–1°.
+                let z = rng.range(-1.0, 1.0);
+                let phi = rng.range(0.0, std::f64::consts::TAU);
+                let rho = (1.0 - z * z).sqrt();
+                let axis = [rho * phi.cos(), rho * phi.sin(), z];
+                let angle = rng.range(0.5, 1.0).to_radians();
+                mul(&rotation(axis, angle), n)
+            } else {
+                n
+            }
+            .map(|x| x * G);
+            let mut measured = [None; 3];
+            for (j, m) in measured.iter_mut().enumerate() {
+                let a = f[j] + (0..3).map(|k| t.gamma[j][k] * f[k]).sum::<f64>();
+                *m = Some(t.b[j] + (1.0 + t.k[j]) * a + t.q[j] * a * a + sigma * rng.normal());
+            }
+            Position {
+                label: format!("p{}", i + 1),
+                line: i + 2,
+                time_s: None,
+                g_nominal: n,
+                g_unit: n,
+                measured,
+                sigma_cm_s2: stated.then_some(sigma),
+                sigma_angle_rad: None,
+            }
+        })
+        .collect();
+    TriadSet {
+        positions,
+        truth: if by_hand { in_triad_frame(&t) } else { t },
+        sigma,
+    }
+}
+
+/// The coverage of one set: per group (bias, scale factor, misalignment, `K_2`), the
+/// coefficients whose 95 % interval holds the truth.
+#[must_use]
+pub fn covered(fit: &Triad, truth: &TriadTruth) -> [Count; 4] {
+    let mut c = [Count::default(); 4];
+    let k = fit.coverage_factor;
+    let hit = |e: fit::Estimate, t: f64| (e.value - t).abs() <= k * e.sigma;
+    for j in 0..3 {
+        c[0].add(hit(fit.bias[j], truth.b[j]));
+        c[1].add(hit(fit.scale[j], truth.k[j]));
+        for kk in 0..3 {
+            if let Some(e) = fit.misalignment[j][kk] {
+                c[2].add(hit(e, truth.gamma[j][kk]));
+            }
+        }
+        if let Some(q) = fit.k2 {
+            c[3].add(hit(q[j], truth.q[j]));
+        }
+    }
+    c
+}
+
+/// One kind's outcome.
+#[derive(Clone, Debug, Default)]
+pub struct KindRun {
+    /// Coverage per group.
+    pub groups: [Count; 4],
+    /// Sets fitted without `K_2`.
+    pub no_k2: usize,
+    /// Sets whose result warns (every warning is a false alarm here: the model is right).
+    pub warned: Count,
+    /// Refusals: seed and message.
+    pub refused: Vec<(u64, String)>,
+    /// Largest fit time of a set, s.
+    pub slowest_s: f64,
+}
+
+impl KindRun {
+    /// All groups together.
+    #[must_use]
+    pub fn all(&self) -> Count {
+        self.groups.iter().fold(Count::default(), |a, c| Count {
+            k: a.k + c.k,
+            n: a.n + c.n,
+        })
+    }
+}
+
+/// The whole campaign: `sets` of every kind.
+#[derive(Clone, Debug)]
+pub struct TriadRun {
+    /// Sets per kind.
+    pub sets: usize,
+    /// Campaign seed.
+    pub seed: u64,
+    /// Per kind, in [`TriadKind::ALL`]'s order.
+    pub kinds: Vec<(TriadKind, KindRun)>,
+    /// Wall time, s.
+    pub seconds: f64,
+}
+
+/// A set's seed, its fit and truth (or the refusal) and the fit's time, s.
+type SetFit = (u64, Result<(Triad, TriadTruth), String>, f64);
+
+/// Make and fit `sets` sets of every kind.
+#[must_use]
+pub fn run(sets: usize, seed: u64) -> TriadRun {
+    let t0 = Instant::now();
+    let kinds = TriadKind::ALL
+        .iter()
+        .enumerate()
+        .map(|(ki, &kind)| {
+            let design = kind.design();
+            let outs: Vec<SetFit> = (0..sets)
+                .into_par_iter()
+                .map(|s| {
+                    let seed = set_seed(seed, ki, s);
+                    let set = generate_triad(seed, &design, kind.by_hand());
+                    let opts = fit::Options {
+                        orientation: if kind.by_hand() {
+                            Orientation::Approximate
+                        } else {
+                            Orientation::Exact
+                        },
+                        default_sigma_cm_s2: None,
+                        g_cm_s2: G,
+                    };
+                    let t = Instant::now();
+                    let r = fit::fit("set", &set.positions, &opts)
+                        .map(|f| (f, set.truth))
+                        .map_err(|e| format!("{e:#}"));
+                    (seed, r, t.elapsed().as_secs_f64())
+                })
+                .collect();
+            let mut k = KindRun::default();
+            for (seed, r, dt) in outs {
+                k.slowest_s = k.slowest_s.max(dt);
+                match r {
+                    Ok((f, truth)) => {
+                        if f.k2.is_none() {
+                            k.no_k2 += 1;
+                        }
+                        k.warned.add(!f.warnings.is_empty());
+                        if !f.warnings.is_empty() && super::campaign::env_flag("PTSA_HIDDEN_LOG") {
+                            eprintln!("{} set {seed}: {}", kind.name(), f.warnings.join(" | "));
+                        }
+                        for (g, c) in k.groups.iter_mut().zip(covered(&f, &truth)) {
+                            g.k += c.k;
+                            g.n += c.n;
+                        }
+                    }
+                    Err(e) => k.refused.push((seed, e)),
+                }
+            }
+            (kind, k)
+        })
+        .collect();
+    TriadRun {
+        sets,
+        seed,
+        kinds,
+        seconds: t0.elapsed().as_secs_f64(),
+    }
+}
+
+/// Largest distance of the full run's coverage from 95 %.
+pub const COVERAGE_TOLERANCE: f64 = 0.025;
+
+impl TriadRun {
+    /// The table.
+    #[must_use]
+    pub fn table(&self, ci: bool) -> String {
+        let mut s = format!(
+            "triad campaign: {} sets per kind, seed {}, {:.1} s\n",
+            self.sets, self.seed, self.seconds
+        );
+        let _ = writeln!(
+            s,
+            "{:<12} {:>10} {:>10} {:>10} {:>10} | {:>11} {:>6} {:>8} | {:>5} {:>8}",
+            "design",
+            "bias",
+            "scale",
+            "misalign",
+            "K_2",
+            "all",
+            "no K_2",
+            "warned",
+            "refused",
+            "max ms"
+        );
+        for (kind, k) in &self.kinds {
+            let _ = writeln!(
+                s,
+                "{:<12} {:>10} {:>10} {:>10} {:>10} | {:>11} {:>6} {:>8} | {:>7} {:>8.1}",
+                kind.name(),
+                k.groups[0].cell(),
+                k.groups[1].cell(),
+                k.groups[2].cell(),
+                k.groups[3].cell(),
+                k.all().coverage_marked(),
+                k.no_k2,
+                k.warned.marked(),
+                k.refused.len(),
+                k.slowest_s * 1e3
+            );
+        }
+        let _ = writeln!(
+            s,
+            "cells: coefficients whose 95 % interval (± coverage_factor_95·σ) holds the truth; `!`: outside the 99 % band of Binomial(n, 0.95); warned: sets with a warning (false alarms: the model is right), `!` beyond 5 % by the one-sided binomial test at 1 %{}",
+            if ci {
+                ""
+            } else {
+                "; the full run also asserts 95 ± 2.5 % per design"
+            }
+        );
+        for f in self.failures(ci) {
+            let _ = writeln!(s, "NOT MET: {f}");
+        }
+        s
+    }
+
+    /// The asserted rates that are not met.
+    #[must_use]
+    pub fn failures(&self, ci: bool) -> Vec<String> {
+        let mut f = Vec::new();
+        for (kind, k) in &self.kinds {
+            for (seed, e) in &k.refused {
+                f.push(format!("{}: set {seed} refused: {e}", kind.name()));
+            }
+            let all = k.all();
+            if let Some(e) =
+                at_most_rate(&format!("{}: sets with a warning", kind.name()), k.warned)
+            {
+                f.push(e);
+            }
+            if let Some(e) = coverage_in_band(all, 1) {
+                f.push(format!("{}: {e}", kind.name()));
+            }
+            if !ci && (all.rate() - 0.95).abs() > COVERAGE_TOLERANCE {
+                let (lo, hi) = binomial_interval(all.n, 0.95, 0.99);
+                f.push(format!(
+                    "{}: coverage {} = {:.1} %, beyond 95 ± 2.5 % (the 99 % band is [{lo}, {hi}])",
+                    kind.name(),
+                    all.cell(),
+                    100.0 * all.rate()
+                ));
+            }
+        }
+        f
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn designs_have_their_sizes_and_unit_directions() {
+        for (kind, n) in TriadKind::ALL.iter().zip([8, 12, 24, 24, 37]) {
+            let d = kind.design();
+            assert_eq!(d.len(), n, "{kind:?}");
+            assert!(d.iter().all(|v| (dot(*v, *v) - 1.0).abs() < 1e-12));
+        }
+        let mut c = cube_turns([1.0, 2.0, 3.0]);
+        c.sort_by(|a, b| a.partial_cmp(b).unwrap());
+        c.dedup();
+        assert_eq!(c.len(), 24);
+    }
+
+    /// The truth carried into the triad's frame reads the same: the x axis's reading needs
+    /// only the force's component along the x input axis, and the frame's Γ' is lower
+    /// triangular.
+    #[test]
+    fn the_triad_frame_keeps_the_readings() {
+        let t = TriadTruth {
+            k: [0.01, -0.02, 0.005],
+            q: [1e-6, -2e-6, 5e-7],
+            gamma: [
+                [0.0, 0.004, -0.007],
+                [0.002, 0.0, 0.009],
+                [-0.006, 0.003, 0.0],
+            ],
+            ..TriadTruth::default()
+        };
+        let c = in_triad_frame(&t);
+        assert!(
+            [c.gamma[0][1], c.gamma[0][2], c.gamma[1][2]]
+                .iter()
+                .all(|x| x.abs() < 1e-15),
+            "{:?}",
+            c.gamma
+        );
+        let r0 = [1.0, 0.004, -0.007];
+        let n0 = dot(r0, r0).sqrt();
+        let ex = r0.map(|x| x / n0);
+        for f in [[G, 0.0, 0.0], [0.0, G, 0.0], [300.0, -400.0, 800.0]] {
+            let a = f[0] + t.gamma[0][1] * f[1] + t.gamma[0][2] * f[2];
+            let u = (1.0 + t.k[0]) * a + t.q[0] * a * a;
+            let fx = dot(f, ex);
+            let ux = (1.0 + c.k[0]) * fx + c.q[0] * fx * fx;
+            assert!((u - ux).abs() < 1e-9, "{u} {ux}");
+        }
+    }
+}
