@@ -154,17 +154,15 @@ pub const SCALE_UNIT: &str = "(pulse/s)/g";
 /// This is the one place the nominal model-equation terms are looked up: the bias
 /// (`bias_cm_s2` of `[electronics]`, or of `[instrument]` for a file without a loop, plus the
 /// loop's own bias at `a_p = 0`, zero for a file with no pickoff phase error), the scale
-/// factor ([`scale_base`] times `1 + model_equation.k1_ppm·1e-6`), `δ_o` (the file's
+/// factor (`scale_base` times `1 + model_equation.k1_ppm·1e-6`), `δ_o` (the file's
 /// `model_equation.delta_o_rad` plus the loop's own bias per cm/s² of `a_p`), and every other
 /// term from the file's `[model_equation]` section
 /// ([`crate::model::instrument::Instrument::nominal_model_term`], 0 where absent; `δ_p`
 /// under its own sign).
 #[must_use]
 pub fn nominal(instr: &Instrument, term: Coefficient) -> f64 {
-    let def = TERMS
-        .iter()
-        .find(|d| d.coefficient == term)
-        .expect("every coefficient has its row in TERMS");
+    // TERMS is in the enum's order (`terms_are_in_the_enums_order`).
+    let def = &TERMS[term as usize];
     // The file's `[model_equation]` term, in the candidate's unit and sign.
     let file = instr.nominal_model_term(def.candidate);
     match term {
@@ -790,4 +788,18 @@ pub fn text_block(c: &Calibration) -> String {
         let _ = writeln!(s, "  note: {n}");
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{Coefficient, TERMS};
+
+    /// [`super::nominal`] finds a term's row by its enum discriminant.
+    #[test]
+    fn terms_are_in_the_enums_order() {
+        for (i, d) in TERMS.iter().enumerate() {
+            assert_eq!(d.coefficient as usize, i, "{}", d.symbol);
+        }
+        assert_eq!(TERMS.len(), Coefficient::Koo as usize + 1);
+    }
 }

@@ -41,7 +41,7 @@
 
 use std::fmt::Write as _;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
@@ -139,6 +139,62 @@ pub fn analytic() -> Box<dyn Simulator> {
     ))
 }
 
+/// The data file read, its raw readings (`reading`, `reading_unit`) in cm/s² through the
+/// simulator's instrument file.
+fn read_rows(path: &Path, sim: &dyn Simulator) -> Result<crate::model::caseframe::Frame> {
+    let mut frame = crate::model::caseframe::read_frame(path)?;
+    if !frame.readings.is_empty() {
+        // Raw readings become cm/s² through the instrument file's nominal scale.
+        let instr = sim.instrument().ok_or_else(|| {
+            anyhow::anyhow!(
+                "{}: a `reading` needs an instrument file to convert it, and the {} simulator has none",
+                path.display(),
+                sim.name()
+            )
+        })?;
+        frame.convert_readings(&path.display().to_string(), instr)?;
+    }
+    Ok(frame)
+}
+
+/// `--write-instrument`: the corrected instrument file `text` written to `w` (with a
+/// warning for each flagged term it holds), or, when nothing was selected, a line saying
+/// it was not written.
+fn write_instrument_file(w: &InstrumentOut, text: Option<&str>, d: &Discovery) -> Result<()> {
+    match text {
+        Some(t) => {
+            crate::output::write_atomic(&w.path, t.as_bytes())?;
+            eprintln!(
+                "wrote {} ({} with the fitted parameters and model-equation terms)",
+                w.path.display(),
+                w.source_name
+            );
+            for s in d
+                .selected
+                .iter()
+                .filter(|s| s.id.model_equation_term() || s.parameter.is_some())
+                .filter(|s| !s.plausible || s.stable == Some(false))
+            {
+                eprintln!(
+                    "warning: --write-instrument {}: {} is written though discover flags it ({}); see its comment in the file",
+                    w.path.display(),
+                    s.id,
+                    if s.plausible {
+                        "not stable between parts of the data"
+                    } else {
+                        "implausible for the instrument's bounds"
+                    }
+                );
+            }
+        }
+        None => eprintln!(
+            "no parameter of the instrument file and no term of the model equation was selected: {} not written",
+            w.path.display()
+        ),
+    }
+    Ok(())
+}
+
 /// Run `ptsa discover` with simulator `sim` (the closed loop of the instrument file and run
 /// options, or the analytic model): the text (or JSON) goes to `stdout`, logs to stderr.
 ///
@@ -155,18 +211,7 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         .as_ref()
         .map(|_| sheet::sheet_time())
         .transpose()?;
-    let mut frame = crate::model::caseframe::read_frame(path)?;
-    if !frame.readings.is_empty() {
-        // Raw readings become cm/s² through the instrument file's nominal scale.
-        let instr = sim.instrument().ok_or_else(|| {
-            anyhow::anyhow!(
-                "{}: a `reading` needs an instrument file to convert it, and the {} simulator has none",
-                path.display(),
-                sim.name()
-            )
-        })?;
-        frame.convert_readings(&path.display().to_string(), instr)?;
-    }
+    let frame = read_rows(path, sim)?;
     let rows = frame.rows;
     let t0 = Instant::now();
     let d = pipeline::discover_with(&rows, &frame.empty, sim, opts)
@@ -229,37 +274,8 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
             crate::output::count(rows.len() as u64, "advised row")
         );
     }
-    match instrument {
-        Some((w, Some(t))) => {
-            crate::output::write_atomic(&w.path, t.as_bytes())?;
-            eprintln!(
-                "wrote {} ({} with the fitted parameters and model-equation terms)",
-                w.path.display(),
-                w.source_name
-            );
-            for s in d
-                .selected
-                .iter()
-                .filter(|s| s.id.model_equation_term() || s.parameter.is_some())
-                .filter(|s| !s.plausible || s.stable == Some(false))
-            {
-                eprintln!(
-                    "warning: --write-instrument {}: {} is written though discover flags it ({}); see its comment in the file",
-                    w.path.display(),
-                    s.id,
-                    if s.plausible {
-                        "not stable between parts of the data"
-                    } else {
-                        "implausible for the instrument's bounds"
-                    }
-                );
-            }
-        }
-        Some((w, None)) => eprintln!(
-            "no parameter of the instrument file and no term of the model equation was selected: {} not written",
-            w.path.display()
-        ),
-        None => {}
+    if let Some((w, t)) = instrument {
+        write_instrument_file(w, t.as_deref(), &d)?;
     }
     if req.json {
         eprint!("{text}");

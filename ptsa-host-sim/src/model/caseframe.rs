@@ -1617,7 +1617,7 @@ mod tests {
             ),
             (
                 "kind,measured_cm_s2,ticks,pulses\nabsolute,1.0,10,5\n",
-                "t.csv:2: column 2 (`measured_cm_s2`) and column 4 (`pulses`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks`, `reading` with `reading_unit` in a row",
+                "t.csv:2: column 2 (`measured_cm_s2`) and column 3 (`ticks`) both give the row's measurement; expected one of `measured_cm_s2`, `pulses` with `ticks`, `reading` with `reading_unit` in a row",
             ),
             (
                 "kind,measured_cm_s2,ticks\nabsolute,1.0,10\n",

@@ -186,22 +186,7 @@ impl DiscoverArgs {
                     .map_or(String::new(), |d| d.display().to_string())
             );
         }
-        let candidates: Vec<CandidateId> = if self.candidates.is_empty() {
-            Options::for_instrument(&ctx.instr).candidates
-        } else {
-            let mut v: Vec<CandidateId> = self.candidates.iter().flatten().copied().collect();
-            v.sort_unstable();
-            v.dedup();
-            v
-        };
-        if let Some(p) = candidates.iter().find(|id| id.parameter().is_some())
-            && !ctx.instr.has_loop
-        {
-            anyhow::bail!(
-                "--candidates {p}: a parameter of the PTSA loop, and {} describes an instrument without one; expected terms of the model equation or other additive effects",
-                ctx.name
-            );
-        }
+        let candidates = self.candidates(ctx)?;
         if !self.no_plots {
             // The files written: `<stem>-discover.*` of the data file, or, without one,
             // those of each of the report's tables (`report::discovery`).
@@ -260,6 +245,28 @@ impl DiscoverArgs {
             replaced,
             force: self.force,
         })))
+    }
+
+    /// The candidates: `--candidates` (each once, in the registry's order), else the
+    /// instrument's defaults; a loop parameter is refused for a file without a loop.
+    fn candidates(&self, ctx: &Ctx) -> Result<Vec<CandidateId>> {
+        let candidates: Vec<CandidateId> = if self.candidates.is_empty() {
+            Options::for_instrument(&ctx.instr).candidates
+        } else {
+            let mut v: Vec<CandidateId> = self.candidates.iter().flatten().copied().collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        };
+        if let Some(p) = candidates.iter().find(|id| id.parameter().is_some())
+            && !ctx.instr.has_loop
+        {
+            anyhow::bail!(
+                "--candidates {p}: a parameter of the PTSA loop, and {} describes an instrument without one; expected terms of the model equation or other additive effects",
+                ctx.name
+            );
+        }
+        Ok(candidates)
     }
 }
 
