@@ -302,14 +302,7 @@ fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<
                 "ptsa discover --data {data}: fitted {} ± {} (1 σ), was {}",
                 p.fitted, p.sigma, p.nominal
             );
-            if !s.confounded.is_empty() {
-                let others: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
-                let _ = write!(
-                    note,
-                    "; indistinguishable in these data from {}",
-                    others.join(", ")
-                );
-            }
+            confounded_note(&mut note, s);
             Some((key, p.fitted, note))
         })
         .collect();
@@ -377,6 +370,12 @@ fn term_note(data: &str, s: &Selected, nominal: f64, value: f64) -> String {
             "; NOT STABLE between parts of the data (see discover's warning)"
         );
     }
+    confounded_note(&mut note, s);
+    note
+}
+
+/// `; indistinguishable in these data from …` after `note` when `s` has partners.
+fn confounded_note(note: &mut String, s: &Selected) {
     if !s.confounded.is_empty() {
         let others: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
         let _ = write!(
@@ -385,7 +384,6 @@ fn term_note(data: &str, s: &Selected, nominal: f64, value: f64) -> String {
             others.join(", ")
         );
     }
-    note
 }
 
 /// The decimals that write a value of standard error `sigma` to a hundredth of it (at least
@@ -400,6 +398,23 @@ fn decimals(sigma: f64) -> usize {
     } else {
         17
     }
+}
+
+/// A `ptsa discover --json` result file read as JSON (`predict --effects`, `correct
+/// --calibration`); `what` prefixes the message when it cannot be read (e.g. the flag).
+///
+/// # Errors
+/// The file cannot be read, or is not JSON (`file:line:column` and what was expected).
+pub fn read_result_json(p: &Path, what: &str) -> Result<serde_json::Value> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("{what}: cannot read"))?;
+    serde_json::from_str(&text).map_err(|e| {
+        anyhow::anyhow!(
+            "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
+            p.display(),
+            e.line(),
+            e.column()
+        )
+    })
 }
 
 /// The effects of a `ptsa discover --json` result (the whole object, or its `effects`

@@ -198,16 +198,7 @@ impl CorrectArgs {
     ) -> Result<(lib::Calibration, String, String)> {
         Ok(match &self.calibration {
             Some(p) => {
-                let text = std::fs::read_to_string(p)
-                    .with_context(|| format!("--calibration {}: cannot read", p.display()))?;
-                let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-                    anyhow::anyhow!(
-                        "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
-                        p.display(),
-                        e.line(),
-                        e.column()
-                    )
-                })?;
+                let v = discovery::read_result_json(p, &format!("--calibration {}", p.display()))?;
                 let effects = discovery::effects_from_json(&v)
                     .with_context(|| format!("--calibration {}", p.display()))?;
                 let cal = lib::Calibration::from_discover_json(&v, &ctx.instr, effects)

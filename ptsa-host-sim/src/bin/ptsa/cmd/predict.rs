@@ -222,16 +222,7 @@ fn table(req: &Request, pred: &[Vec<f64>]) -> String {
 /// The effects of a `ptsa discover --json` result file (`predict --effects`), and the
 /// standard error of each coefficient the file gives one for (its `"stderr"`).
 fn load_effects(p: &Path) -> Result<(Effects, Vec<(CandidateId, f64)>)> {
-    let text =
-        std::fs::read_to_string(p).with_context(|| format!("{}: cannot read", p.display()))?;
-    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| {
-        anyhow::anyhow!(
-            "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
-            p.display(),
-            e.line(),
-            e.column()
-        )
-    })?;
+    let v = discovery::read_result_json(p, &p.display().to_string())?;
     let effects = discovery::effects_from_json(&v).with_context(|| p.display().to_string())?;
     let list = v.get("effects").unwrap_or(&v);
     let mut sigmas = Vec::new();
