@@ -2,12 +2,15 @@
 //! positions and two 24-point tumbles, generated from the IEEE Std 1293 model equation with
 //! the instrument's absolute `K_0`, `K_1`, `δ_o`, `δ_p`, `K_2` drawn per set, analysed by
 //! `ptsa_host_sim::discovery::discover` with the analytic simulator; the `calibration`
-//! object's k = 2 intervals must cover the truth.
+//! object's k = 2 intervals must cover the truth. One set in three gives its positions as
+//! counts (`pulses`, `ticks`) instead of readings.
 //!
 //! * `hidden_calibration_ci`: [`CI_SETS`] sets (in `cargo test --workspace`): the
-//!   stated-sigma coverage, pooled, within the central 99 % of Binomial(n, 0.95).
+//!   stated-sigma coverage, pooled (and of the counted sets alone), within the central
+//!   99 % of Binomial(n, 0.95).
 //! * `hidden_calibration_campaign` (ignored): `PTSA_HIDDEN_SETS` sets (default 2000), seed
-//!   `PTSA_HIDDEN_SEED`, the stated-sigma coverage within 95 ± 2.5 %; run by
+//!   `PTSA_HIDDEN_SEED`, the stated-sigma coverage (pooled, and of the counted sets
+//!   alone) within 95 ± 2.5 %; run by
 //!   `cargo xtask hidden --calibration`.
 
 use ptsa_tests::hidden::calibration::Calibration;

@@ -453,3 +453,208 @@ fn plan_filled_in_and_calibrated() {
     assert_eq!(t["positions"], 24);
     assert_eq!(t["g_check"]["consistent"], true);
 }
+
+/// The shipped instrument file's nominal scale factor, cm/s² (what counts are read through).
+fn nominal_sf() -> f64 {
+    ptsa_host_sim::Instrument::kearfott_2401().sf_cm_s2
+}
+
+/// The pulses a gate of `ticks` counts at an indicated acceleration `a` (cm/s²), written
+/// from the equations, not the project's conversion: the loop's mean duty `d` of positive
+/// pulses is `(1 + a/SF)/2`, and with the charge it holds at the gate's start uniform over
+/// one pulse (`c₀`) it counts `P = ⌊T·d + c₀⌋` = `T·d + c₀ − c₁`, `c₁` what it holds at
+/// the end: whole, unbiased, and scattered by `√(1/6)` pulse on average over `T·d`.
+fn counted(a: f64, ticks: f64, rng: &mut rand_chacha::ChaCha8Rng) -> f64 {
+    let c0: f64 = rand_distr::Uniform::new(0.0, 1.0).unwrap().sample(rng);
+    (ticks * (1.0 + a / nominal_sf()) / 2.0 + c0).floor()
+}
+
+/// `ptsa plan triad --counts` → the lab counts every axis over 10 s gates → `discover`
+/// calibrates: the truth within 4 σ, and the χ² against the stated sigma (0.02 cm/s²)
+/// consistent only because each reading's counting error (0.027 cm/s² on a 10 s gate at
+/// 64 kHz) is added to it in quadrature; the plan as written is refused, the file is
+/// untouched.
+#[test]
+fn a_counted_triad_is_calibrated_within_its_intervals() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "plan",
+            "triad",
+            "--positions",
+            "24",
+            "--counts",
+            "--out",
+            "p.csv",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let plan = std::fs::read_to_string(tmp.path().join("p.csv")).unwrap();
+    let header = plan.lines().find(|l| !l.starts_with('#')).unwrap();
+    assert_eq!(
+        header,
+        "label,g_x,g_y,g_z,pulses_x,ticks_x,pulses_y,ticks_y,pulses_z,ticks_z,sigma_cm_s2"
+    );
+    assert!(plan.contains("pulses_x, ticks_x"), "{plan}");
+    let o = ptsa_in(tmp.path(), &["discover", "--data", "p.csv", "--no-plots"]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("p.csv: no row has a measurement"),
+        "{}",
+        stderr(&o)
+    );
+    let ticks = 640_000.0;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let noise = rand_distr::Normal::new(0.0, 0.02).unwrap();
+    let mut filled = String::new();
+    for line in plan.lines() {
+        let cells: Vec<&str> = line.split(',').collect();
+        let n: Vec<f64> = cells
+            .get(1..4)
+            .unwrap_or_default()
+            .iter()
+            .filter_map(|c| c.parse::<f64>().ok())
+            .collect();
+        if line.starts_with('#') || n.len() != 3 {
+            let _ = writeln!(filled, "{line}");
+            continue;
+        }
+        let f: Vec<f64> = n.iter().map(|x| x * G).collect();
+        let counts: Vec<String> = (0..3)
+            .map(|j| {
+                let a = f[j] + (0..3).map(|k| GAMMA[j][k] * f[k]).sum::<f64>();
+                let u = BIAS[j] + (1.0 + SF[j]) * a + noise.sample(&mut rng);
+                format!("{},{ticks}", counted(u, ticks, &mut rng))
+            })
+            .collect();
+        let _ = writeln!(
+            filled,
+            "{},{},{},{},{},0.02",
+            cells[0],
+            cells[1],
+            cells[2],
+            cells[3],
+            counts.join(",")
+        );
+    }
+    std::fs::write(tmp.path().join("p.csv"), &filled).unwrap();
+    let j = json(
+        tmp.path(),
+        &["discover", "--data", "p.csv", "--json", "--no-plots"],
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("p.csv")).unwrap(),
+        filled
+    );
+    let t = &j["triad"];
+    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (k, ks) = (
+        arr(&t["scale_factor_ppm"]),
+        arr(&t["scale_factor_sigma_ppm"]),
+    );
+    for a in 0..3 {
+        assert!((b[a] - BIAS[a]).abs() < 4.0 * bs[a], "bias {b:?} ± {bs:?}");
+        assert!(
+            (k[a] - SF[a] * 1e6).abs() < 4.0 * ks[a],
+            "sf {k:?} ± {ks:?}"
+        );
+        for c in 0..3 {
+            let m = t["misalignment_rad"][a][c].as_f64().unwrap();
+            if let Some(s) = t["misalignment_sigma_rad"][a][c].as_f64() {
+                assert!((m - GAMMA[a][c]).abs() < 4.0 * s, "Γ{a}{c} {m} ± {s}");
+            }
+        }
+    }
+    assert_eq!(t["readings"], 72);
+    // The stated 0.02 alone would give χ²/dof ≈ 2.8 (p ≈ 1e-11): the counting error is in.
+    let p = t["p_value"].as_f64().unwrap();
+    assert!(p > 0.001, "p {p}, χ² {}", t["chi2"]);
+    assert_eq!(t["g_check"]["consistent"], true);
+}
+
+/// Every refusal of a triad's counts, with the single-axis rules' words: an axis given as
+/// its reading and its counts, one count without the other, a gate of 0 ticks, more pulses
+/// than ticks, a count that is not whole, a header without an axis.
+#[test]
+fn triad_count_refusals() {
+    let head =
+        "label,g_x,g_y,g_z,measured_x_cm_s2,pulses_x,ticks_x,pulses_y,ticks_y,pulses_z,ticks_z\n";
+    let ok = "a,1,0,0,,1000,2000,500,1000,10,20\n";
+    let run = |name: &str, row: &str, needles: &[&str]| {
+        let text = format!("{head}{ok}{row}");
+        refused_in_folder(
+            &[(name, text.as_bytes())],
+            &["discover", "--data", name, "--no-plots"],
+            1,
+            needles,
+            &[],
+        );
+    };
+    run(
+        "both.csv",
+        "b,-1,0,0,-980,500,1000,500,1000,10,20\n",
+        &[
+            "both.csv:3: column 5 (`measured_x_cm_s2`) and column 6 (`pulses_x`) both give the x axis's measurement; expected one of `measured_x_cm_s2`, `pulses_x` with `ticks_x` in a row, the others empty",
+        ],
+    );
+    run(
+        "half.csv",
+        "b,-1,0,0,,500,1000,500,,10,20\n",
+        &[
+            "half.csv:3: column 8 (`pulses_y`) is given but `ticks_y` is empty; expected both counts of the gate: the pulses P and the clock ticks T",
+        ],
+    );
+    run(
+        "zero.csv",
+        "b,-1,0,0,,500,1000,500,1000,0,0\n",
+        &[
+            "zero.csv:3: column 11 (`ticks_z`) is 0 (with 0 pulses); expected a gate of at least one clock tick",
+        ],
+    );
+    run(
+        "more.csv",
+        "b,-1,0,0,,1001,1000,500,1000,10,20\n",
+        &[
+            "more.csv:3: column 6 (`pulses_x`) is 1001, more than the gate's 1000 ticks (column 7); expected 0 ≤ pulses ≤ ticks",
+        ],
+    );
+    run(
+        "whole.csv",
+        "b,-1,0,0,,500.5,1000,500,1000,10,20\n",
+        &[
+            "whole.csv:3: column 6 (`pulses_x`) holds `500.5`; expected a whole number of pulses of positive torque counted over the row's gate (0 to `ticks`)",
+        ],
+    );
+    let no_ticks = "g_x,g_y,g_z,pulses_x,measured_y_cm_s2,measured_z_cm_s2\n1,0,0,1000,0,0\n";
+    refused_in_folder(
+        &[("nt.csv", no_ticks.as_bytes())],
+        &["discover", "--data", "nt.csv", "--no-plots"],
+        1,
+        &["nt.csv:2: column 4 (`pulses_x`) is given but `ticks_x` is not a column"],
+        &[],
+    );
+    let no_axis = "g_x,g_y,g_z,pulses_x,ticks_x,measured_y_cm_s2\n1,0,0,1000,2000,0\n";
+    refused_in_folder(
+        &[("na.csv", no_axis.as_bytes())],
+        &["discover", "--data", "na.csv", "--no-plots"],
+        1,
+        &[
+            "na.csv:1: the triad header has no `measured_z_cm_s2`",
+            "pulses_x with ticks_x",
+        ],
+        &[],
+    );
+}
+
+/// `plan triad --help` gives `--counts` with its units.
+#[test]
+fn plan_triad_counts_help_gives_units() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(tmp.path(), &["plan", "triad", "--help"]);
+    assert_eq!(o.status.code(), Some(0));
+    let h = stdout(&o);
+    for w in ["--counts", "pulses_x", "clock ticks", "cm/s²", "nominal SF"] {
+        assert!(h.contains(w), "`{w}` not in: {h}");
+    }
+}

@@ -303,6 +303,8 @@ pub fn generate_triad(seed: u64, design: &[[f64; 3]], by_hand: bool) -> TriadSet
                 g_nominal: n,
                 g_unit: n,
                 measured,
+                counts: [None; 3],
+                counting_sigma_cm_s2: [None; 3],
                 sigma_cm_s2: stated.then_some(sigma),
                 sigma_angle_rad: None,
             }

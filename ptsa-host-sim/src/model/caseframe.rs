@@ -809,6 +809,25 @@ fn reading_cell(
     Ok(())
 }
 
+/// The refusal of a row whose measurement `what` (e.g. "the row's measurement") two
+/// sources give, each a 1-based column and its name; `all` the sources a row may give it
+/// in (the case frame's [`MEASUREMENT_SOURCES`], a triad file's per axis): one wording for
+/// every file that takes more than one source.
+#[must_use]
+pub fn two_sources(
+    name: &str,
+    line: usize,
+    (j1, first): (usize, &str),
+    (j2, second): (usize, &str),
+    what: &str,
+    all: &[&str],
+) -> String {
+    format!(
+        "{name}:{line}: column {j1} (`{first}`) and column {j2} (`{second}`) both give {what}; expected one of {} in a row, the others empty",
+        all.join(", ")
+    )
+}
+
 /// A row's measurement: at most one of [`MEASUREMENT_SOURCES`] (`sources`: the given ones,
 /// by 1-based column), and its raw reading with its unit (none in a response row).
 fn one_source(
@@ -822,10 +841,14 @@ fn one_source(
 ) -> Result<Option<Reading>> {
     if let [(j1, first, _), (j2, second, _), ..] = sources[..] {
         let all: Vec<&str> = MEASUREMENT_SOURCES.iter().map(|&(_, n)| n).collect();
-        bail!(
-            "{name}:{line}: column {j1} (`{first}`) and column {j2} (`{second}`) both give the row's measurement; expected one of {} in a row, the others empty",
-            all.join(", ")
-        );
+        bail!(two_sources(
+            name,
+            line,
+            (j1, first),
+            (j2, second),
+            "the row's measurement",
+            &all
+        ));
     }
     let reading = match (reading, unit) {
         (Some(v), Some((u, j))) => Some((v, u, j)),
@@ -936,7 +959,7 @@ fn parse_row(
                 && match check {
                     Check::NonNegative => *v >= 0.0,
                     Check::Positive => *v > 0.0,
-                    Check::Count => *v >= 0.0 && v.fract() == 0.0 && *v <= MAX_COUNT,
+                    Check::Count => is_count(*v),
                     Check::Finite | Check::Text | Check::OneOf(_) => true,
                 }
         });
@@ -1055,23 +1078,47 @@ fn check_counts(name: &str, line: usize, c: &Condition, cols: &[usize]) -> Resul
             c.kind.name()
         );
     }
+    check_gate(name, line, (p, jp, "pulses"), (t, jt, "ticks"))
+}
+
+/// The checks of one gate's counts, whole numbers already (the cells' [`Column::expected`]
+/// of `pulses` and `ticks`): both or neither, `ticks` > 0, `pulses` ≤ `ticks`. Each count
+/// comes with its 1-based column (0: not a column of the file) and its column's name
+/// (`pulses`, `ticks`; a triad file's `pulses_x`, `ticks_x`, …).
+///
+/// # Errors
+/// One count without the other; a gate of 0 ticks; more pulses than ticks. The message
+/// names `name`, the line and the column.
+pub fn check_gate(
+    name: &str,
+    line: usize,
+    (p, jp, pn): (Option<f64>, usize, &str),
+    (t, jt, tn): (Option<f64>, usize, &str),
+) -> Result<()> {
     match (p, t) {
         (Some(_), None) => bail!(
-            "{name}:{line}: column {jp} (`pulses`) is given but `ticks` is {}; expected both counts of the gate: the pulses P and the clock ticks T",
+            "{name}:{line}: column {jp} (`{pn}`) is given but `{tn}` is {}; expected both counts of the gate: the pulses P and the clock ticks T",
             if jt == 0 { "not a column" } else { "empty" }
         ),
         (None, Some(_)) => bail!(
-            "{name}:{line}: column {jt} (`ticks`) is given but `pulses` is {}; expected both counts of the gate: the pulses P and the clock ticks T",
+            "{name}:{line}: column {jt} (`{tn}`) is given but `{pn}` is {}; expected both counts of the gate: the pulses P and the clock ticks T",
             if jp == 0 { "not a column" } else { "empty" }
         ),
         (Some(p), Some(0.0)) => bail!(
-            "{name}:{line}: column {jt} (`ticks`) is 0 (with {p} pulses); expected a gate of at least one clock tick"
+            "{name}:{line}: column {jt} (`{tn}`) is 0 (with {p} pulses); expected a gate of at least one clock tick"
         ),
         (Some(p), Some(t)) if p > t => bail!(
-            "{name}:{line}: column {jp} (`pulses`) is {p}, more than the gate's {t} ticks (column {jt}); expected 0 ≤ pulses ≤ ticks (one pulse per tick at most)"
+            "{name}:{line}: column {jp} (`{pn}`) is {p}, more than the gate's {t} ticks (column {jt}); expected 0 ≤ pulses ≤ ticks (one pulse per tick at most)"
         ),
         _ => Ok(()),
     }
+}
+
+/// Whether a cell's number `v` is a count: a whole number from 0 to [`MAX_COUNT`] (the
+/// check of the `pulses` and `ticks` columns, and of a triad file's counts).
+#[must_use]
+pub fn is_count(v: f64) -> bool {
+    v.is_finite() && v >= 0.0 && v.fract() == 0.0 && v <= MAX_COUNT
 }
 
 /// Read a case-frame file.

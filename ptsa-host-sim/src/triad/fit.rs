@@ -388,6 +388,16 @@ fn t975(dof: usize) -> f64 {
 #[allow(clippy::too_many_lines)] // the fit in its order: readings, design, iterations, figures
 pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> {
     let g = opts.g_cm_s2;
+    if let Some((p, j)) = positions
+        .iter()
+        .find_map(|p| p.unconverted().map(|j| (p, j)))
+    {
+        bail!(
+            "{name}:{}: the {} axis's counts are not converted to its reading; expected `triad::frame::with_counts` with the instrument's nominal scale factor before the fit",
+            p.line,
+            AXES[j]
+        );
+    }
     let stated = positions
         .iter()
         .filter(|p| p.is_measured())
@@ -420,11 +430,17 @@ pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> 
                     (false, Some(a)) => (a * g).powi(2) * (1.0 - p.g_unit[j].powi(2)).max(0.0),
                     _ => 0.0,
                 };
+                // An axis given as counts: its counting error, in quadrature with a stated
+                // sigma (without one, the σ estimated from the residuals holds it).
+                let counting = match source {
+                    SigmaSource::Stated => p.counting_sigma_cm_s2[j].unwrap_or(0.0).powi(2),
+                    SigmaSource::Estimated => 0.0,
+                };
                 obs.push(Obs {
                     pos: i,
                     axis: j,
                     value: v,
-                    sigma: (s * s + extra).sqrt(),
+                    sigma: (s * s + extra + counting).sqrt(),
                 });
             }
         }
@@ -906,6 +922,8 @@ mod tests {
             g_nominal: n,
             g_unit: n,
             measured: u.map(Some),
+            counts: [None; 3],
+            counting_sigma_cm_s2: [None; 3],
             sigma_cm_s2: Some(0.01),
             sigma_angle_rad: None,
         }

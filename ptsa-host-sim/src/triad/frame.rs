@@ -5,11 +5,15 @@
 //! Columns: `g_x`, `g_y`, `g_z` (the block's nominal gravity in g, block frame: the input
 //! the three axes feel, as `g_ia` is for a single axis), `measured_x_cm_s2`,
 //! `measured_y_cm_s2`, `measured_z_cm_s2` (each axis's reading through its nominal scale
-//! factor, cm/s²; an empty cell: that axis not measured in that position), and optional
-//! `label`, `time_s`, `sigma_cm_s2` (1 σ of each of the row's three readings) and
-//! `sigma_angle_urad` (1 σ of the fixture's orientation about each axis, µrad). A file that
-//! mixes these with a single-axis case-frame column (`g_ia`, `measured_cm_s2`, …) is
-//! refused: it is one kind of file or the other.
+//! factor, cm/s²; an empty cell: that axis not measured in that position) or, per axis,
+//! its counts over its gate, `pulses_x` with `ticks_x` (and `_y`, `_z`; read as
+//! `SF·(2P/T − 1)` with the instrument file's nominal scale factor, [`with_counts`],
+//! through `model::counts`, and checked as the case frame's `pulses` and `ticks` are), and
+//! optional `label`, `time_s`, `sigma_cm_s2` (1 σ of each of the row's three readings) and
+//! `sigma_angle_urad` (1 σ of the fixture's orientation about each axis, µrad). An axis of
+//! a row gives its measured column or its counts, never both. A file that mixes these with
+//! a single-axis case-frame column (`g_ia`, `measured_cm_s2`, …) is refused: it is one kind
+//! of file or the other.
 
 use std::path::Path;
 
@@ -27,6 +31,12 @@ pub const TRIAD_ONLY: &[&str] = &[
     "measured_x_cm_s2",
     "measured_y_cm_s2",
     "measured_z_cm_s2",
+    "pulses_x",
+    "ticks_x",
+    "pulses_y",
+    "ticks_y",
+    "pulses_z",
+    "ticks_z",
 ];
 
 /// Every column of a triad file, in the order the writer uses.
@@ -39,11 +49,18 @@ pub const TRIAD_COLUMNS: &[&str] = &[
     "measured_x_cm_s2",
     "measured_y_cm_s2",
     "measured_z_cm_s2",
+    "pulses_x",
+    "ticks_x",
+    "pulses_y",
+    "ticks_y",
+    "pulses_z",
+    "ticks_z",
     "sigma_cm_s2",
     "sigma_angle_urad",
 ];
 
-/// The columns every triad file has.
+/// The columns every triad file has: the gravity, and per axis its measured column or its
+/// counts ([`AXIS_COLUMNS`]).
 const REQUIRED: &[&str] = &[
     "g_x",
     "g_y",
@@ -51,6 +68,13 @@ const REQUIRED: &[&str] = &[
     "measured_x_cm_s2",
     "measured_y_cm_s2",
     "measured_z_cm_s2",
+];
+
+/// Per axis (x, y, z): its measured column, then its counts' (`pulses_*`, `ticks_*`).
+pub const AXIS_COLUMNS: [[&str; 3]; 3] = [
+    ["measured_x_cm_s2", "pulses_x", "ticks_x"],
+    ["measured_y_cm_s2", "pulses_y", "ticks_y"],
+    ["measured_z_cm_s2", "pulses_z", "ticks_z"],
 ];
 
 /// How far the nominal gravity's magnitude may be from 1 g (its direction is used).
@@ -70,8 +94,15 @@ pub struct Position {
     /// Its direction (unit vector): what the fit uses, with the instrument file's local
     /// gravity as its magnitude.
     pub g_unit: [f64; 3],
-    /// The three axes' readings, cm/s² (`None`: not measured).
+    /// The three axes' readings, cm/s² (`None`: not measured; an axis given as counts
+    /// has its reading once [`with_counts`] has converted them).
     pub measured: [Option<f64>; 3],
+    /// Each axis's counts over its gate as read, `[pulses, ticks]` (`None`: not counted).
+    pub counts: [Option<[f64; 2]>; 3],
+    /// Each counted axis's counting error, cm/s² (1 σ, `model::counts`), once
+    /// [`with_counts`] has converted its counts; it adds to the reading's stated sigma in
+    /// quadrature.
+    pub counting_sigma_cm_s2: [Option<f64>; 3],
     /// 1 σ of each reading of the row, cm/s², if given.
     pub sigma_cm_s2: Option<f64>,
     /// 1 σ of the fixture's orientation about each axis, rad, if given.
@@ -79,10 +110,32 @@ pub struct Position {
 }
 
 impl Position {
-    /// Whether any axis is measured.
+    /// Whether any axis is measured (its reading given, or its counts).
     #[must_use]
     pub fn is_measured(&self) -> bool {
-        self.measured.iter().any(Option::is_some)
+        self.measured.iter().any(Option::is_some) || self.counts.iter().any(Option::is_some)
+    }
+
+    /// The first axis whose counts are not yet converted to its reading ([`with_counts`]).
+    #[must_use]
+    pub fn unconverted(&self) -> Option<usize> {
+        (0..3).find(|&j| self.counts[j].is_some() && self.measured[j].is_none())
+    }
+}
+
+/// The positions with every axis given as counts turned into its reading
+/// `SF·(2P/T − 1)` and its counting error, with the instrument file's nominal scale
+/// factor `sf_cm_s2` (cm/s²): the single-axis rows' conversion (`model::counts`). The
+/// counts stay in the positions.
+pub fn with_counts(positions: &mut [Position], sf_cm_s2: f64) {
+    use crate::model::counts::{counting_sigma_cm_s2, indicated_cm_s2};
+    for p in positions {
+        for j in 0..3 {
+            if let Some([pulses, ticks]) = p.counts[j] {
+                p.measured[j] = Some(indicated_cm_s2(pulses, ticks, sf_cm_s2));
+                p.counting_sigma_cm_s2[j] = Some(counting_sigma_cm_s2(ticks, sf_cm_s2));
+            }
+        }
     }
 }
 
@@ -122,7 +175,7 @@ pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Position>> {
     let (header, at, records) = caseframe::records(
         name,
         bytes,
-        "triad columns (g_x, g_y, g_z, measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2, ...)",
+        "triad columns (g_x, g_y, g_z, measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 or pulses_x, ticks_x, ..., ...)",
     )?;
     let line = header.line;
     let mut cols: Vec<&'static str> = Vec::with_capacity(header.cells.len());
@@ -164,15 +217,24 @@ pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Position>> {
         }
         cols.push(k);
     }
+    // An axis is in the header by its measured column or by either of its counts' (a
+    // count without its partner is refused row by row, as in the case frame).
     let missing: Vec<&str> = REQUIRED
         .iter()
         .copied()
-        .filter(|c| !cols.contains(c))
+        .filter(|c| {
+            !cols.contains(c)
+                && AXIS_COLUMNS
+                    .iter()
+                    .find(|a| a[0] == *c)
+                    .is_none_or(|a| !cols.contains(&a[1]) && !cols.contains(&a[2]))
+        })
         .collect();
     if !missing.is_empty() {
         bail!(
             "{name}:{line}: the triad header has no {}; expected all of {} (the block's \
-             nominal gravity in g and the three axes' readings in cm/s²)",
+             nominal gravity in g and the three axes' readings in cm/s²; an axis may give \
+             its counts instead, pulses_x with ticks_x, ...)",
             missing
                 .iter()
                 .map(|c| format!("`{c}`"))
@@ -188,7 +250,8 @@ pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Position>> {
     if !rows.iter().any(Position::is_measured) {
         bail!(
             "{name}: no row has a measurement; expected `measured_x_cm_s2`, \
-             `measured_y_cm_s2` or `measured_z_cm_s2` filled in on at least one row"
+             `measured_y_cm_s2` or `measured_z_cm_s2` (or an axis's counts) filled in on at \
+             least one row"
         );
     }
     Ok(rows)
@@ -203,8 +266,18 @@ fn expected(col: &str) -> &'static str {
         }
         "sigma_cm_s2" => "a finite number of cm/s² greater than 0, or an empty cell",
         "sigma_angle_urad" => "a finite number of µrad greater than 0, or an empty cell",
+        "pulses_x" | "pulses_y" | "pulses_z" => count_expected("pulses"),
+        "ticks_x" | "ticks_y" | "ticks_z" => count_expected("ticks"),
         _ => "a finite number of cm/s², or an empty cell (not measured)",
     }
+}
+
+/// What a count cell must hold: the case frame's `pulses` or `ticks` column's words.
+fn count_expected(col: &str) -> &'static str {
+    COLUMNS
+        .iter()
+        .find(|c| c.name == col)
+        .map_or("a whole number, or an empty cell", |c| c.expected)
 }
 
 /// One data row.
@@ -216,9 +289,13 @@ fn parse_row(name: &str, line: usize, cells: &[String], cols: &[&str]) -> Result
         g_nominal: [0.0; 3],
         g_unit: [0.0; 3],
         measured: [None; 3],
+        counts: [None; 3],
+        counting_sigma_cm_s2: [None; 3],
         sigma_cm_s2: None,
         sigma_angle_rad: None,
     };
+    // Each axis's counts as read: pulses, ticks.
+    let mut counts = [[None; 2]; 3];
     for (j, (cell, &col)) in cells.iter().zip(cols).enumerate() {
         if col == "label" {
             p.label.clone_from(cell);
@@ -229,11 +306,10 @@ fn parse_row(name: &str, line: usize, cells: &[String], cols: &[&str]) -> Result
             continue;
         }
         let positive = matches!(col, "sigma_cm_s2" | "sigma_angle_urad");
-        let Some(v) = s
-            .parse::<f64>()
-            .ok()
-            .filter(|v| v.is_finite() && (!positive || *v > 0.0))
-        else {
+        let count = col.starts_with("pulses_") || col.starts_with("ticks_");
+        let Some(v) = s.parse::<f64>().ok().filter(|v| {
+            v.is_finite() && (!positive || *v > 0.0) && (!count || caseframe::is_count(*v))
+        }) else {
             bail!(
                 "{name}:{line}: column {} (`{col}`) holds `{s}`; expected {}",
                 j + 1,
@@ -249,7 +325,40 @@ fn parse_row(name: &str, line: usize, cells: &[String], cols: &[&str]) -> Result
             "measured_y_cm_s2" => p.measured[1] = Some(v),
             "measured_z_cm_s2" => p.measured[2] = Some(v),
             "sigma_cm_s2" => p.sigma_cm_s2 = Some(v),
-            _ => p.sigma_angle_rad = Some(v * 1e-6),
+            "sigma_angle_urad" => p.sigma_angle_rad = Some(v * 1e-6),
+            c => {
+                let axis = AXIS_COLUMNS
+                    .iter()
+                    .position(|a| a.contains(&c))
+                    .unwrap_or(0);
+                counts[axis][usize::from(c.starts_with("ticks_"))] = Some(v);
+            }
+        }
+    }
+    let at = |c: &str| cols.iter().position(|k| *k == c).map_or(0, |j| j + 1);
+    for (axis, names) in AXIS_COLUMNS.iter().enumerate() {
+        let [pulses, ticks] = counts[axis];
+        if p.measured[axis].is_some() && (pulses.is_some() || ticks.is_some()) {
+            let second = if pulses.is_some() { names[1] } else { names[2] };
+            let one = format!("`{}`", names[0]);
+            let both = format!("`{}` with `{}`", names[1], names[2]);
+            bail!(caseframe::two_sources(
+                name,
+                line,
+                (at(names[0]), names[0]),
+                (at(second), second),
+                &format!("the {} axis's measurement", super::fit::AXES[axis]),
+                &[one.as_str(), both.as_str()]
+            ));
+        }
+        caseframe::check_gate(
+            name,
+            line,
+            (pulses, at(names[1]), names[1]),
+            (ticks, at(names[2]), names[2]),
+        )?;
+        if let (Some(pv), Some(tv)) = (pulses, ticks) {
+            p.counts[axis] = Some([pv, tv]);
         }
     }
     let mag = p.g_nominal.iter().map(|x| x * x).sum::<f64>().sqrt();
@@ -272,8 +381,9 @@ fn parse_row(name: &str, line: usize, cells: &[String], cols: &[&str]) -> Result
 }
 
 /// `positions` as a triad file (the columns of [`TRIAD_COLUMNS`] that any row gives, and
-/// always `label`, the gravity and the three measured columns), after `comments` (each a
-/// `# ` line): the writer of `ptsa plan triad` and of the tests.
+/// always `label`, the gravity and the three measured columns; an axis given as counts
+/// keeps its counts and leaves its measured cell empty), after `comments` (each a `# `
+/// line): the writer of the tests.
 #[must_use]
 pub fn to_csv(positions: &[Position], comments: &[&str]) -> String {
     use std::fmt::Write as _;
@@ -281,6 +391,9 @@ pub fn to_csv(positions: &[Position], comments: &[&str]) -> String {
     let time = positions.iter().any(|p| p.time_s.is_some());
     let sigma = positions.iter().any(|p| p.sigma_cm_s2.is_some());
     let angle = positions.iter().any(|p| p.sigma_angle_rad.is_some());
+    let counted = positions
+        .iter()
+        .any(|p| p.counts.iter().any(Option::is_some));
     let mut out = String::new();
     for c in comments {
         let _ = writeln!(out, "# {c}");
@@ -290,6 +403,9 @@ pub fn to_csv(positions: &[Position], comments: &[&str]) -> String {
         head.push("time_s");
     }
     head.extend(REQUIRED);
+    if counted {
+        head.extend(AXIS_COLUMNS.iter().flat_map(|a| [a[1], a[2]]));
+    }
     if sigma {
         head.push("sigma_cm_s2");
     }
@@ -308,7 +424,13 @@ pub fn to_csv(positions: &[Position], comments: &[&str]) -> String {
             cells.push(num(p.time_s));
         }
         cells.extend(p.g_nominal.iter().map(|v| format!("{v}")));
-        cells.extend(p.measured.iter().map(|&v| num(v)));
+        cells.extend((0..3).map(|j| num(p.measured[j].filter(|_| p.counts[j].is_none()))));
+        if counted {
+            for c in p.counts {
+                cells.push(num(c.map(|c| c[0])));
+                cells.push(num(c.map(|c| c[1])));
+            }
+        }
         if sigma {
             cells.push(num(p.sigma_cm_s2));
         }
@@ -320,21 +442,25 @@ pub fn to_csv(positions: &[Position], comments: &[&str]) -> String {
     out
 }
 
-/// A triad plan: `design`'s positions (`p1`, `p2`, …) with the measured columns and
-/// `sigma_cm_s2` empty for the lab to fill in, after `comments` (each a `# ` line).
+/// A triad plan: `design`'s positions (`p1`, `p2`, …) with the measured columns (with
+/// `counts`, each axis's `pulses_*` and `ticks_*` in their place) and `sigma_cm_s2` empty
+/// for the lab to fill in, after `comments` (each a `# ` line).
 #[must_use]
-pub fn plan_csv(design: &[[f64; 3]], comments: &[&str]) -> String {
+pub fn plan_csv(design: &[[f64; 3]], comments: &[&str], counts: bool) -> String {
     use std::fmt::Write as _;
     let mut out = String::new();
     for c in comments {
         let _ = writeln!(out, "# {c}");
     }
-    let _ = writeln!(
-        out,
-        "label,g_x,g_y,g_z,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2,sigma_cm_s2"
-    );
+    let measured: Vec<&str> = if counts {
+        AXIS_COLUMNS.iter().flat_map(|a| [a[1], a[2]]).collect()
+    } else {
+        AXIS_COLUMNS.iter().map(|a| a[0]).collect()
+    };
+    let _ = writeln!(out, "label,g_x,g_y,g_z,{},sigma_cm_s2", measured.join(","));
+    let empty = ",".repeat(measured.len() + 1);
     for (i, n) in design.iter().enumerate() {
-        let _ = writeln!(out, "p{},{},{},{},,,,", i + 1, n[0], n[1], n[2]);
+        let _ = writeln!(out, "p{},{},{},{}{empty}", i + 1, n[0], n[1], n[2]);
     }
     out
 }
@@ -366,6 +492,44 @@ mod tests {
         assert_eq!(
             back.iter().map(|q| q.measured).collect::<Vec<_>>(),
             [p[0].measured, p[1].measured]
+        );
+    }
+
+    /// An axis given as counts: kept as read, converted by [`with_counts`] through the
+    /// single-axis conversion, written back as counts.
+    #[test]
+    fn counts_per_axis_are_read_converted_and_written_back() {
+        use crate::model::counts::{counting_sigma_cm_s2, indicated_cm_s2};
+        let text = "label,g_x,g_y,g_z,pulses_x,ticks_x,measured_y_cm_s2,pulses_z,ticks_z\n\
+                    +x,1,0,0,2009123,3840000,0.3,,\n-y,0,-1,0,,,-980.1,32000,64000\n";
+        let mut p = parse_bytes("t.csv", text.as_bytes()).unwrap();
+        assert_eq!(p[0].counts, [Some([2_009_123.0, 3_840_000.0]), None, None]);
+        assert_eq!(p[0].measured, [None, Some(0.3), None]);
+        assert!(p[0].is_measured());
+        assert_eq!(p[0].unconverted(), Some(0));
+        assert_eq!(p[1].unconverted(), Some(2));
+        let sf = 21_121.1;
+        with_counts(&mut p, sf);
+        assert_eq!(p[0].unconverted(), None);
+        assert_eq!(
+            p[0].measured[0],
+            Some(indicated_cm_s2(2_009_123.0, 3_840_000.0, sf))
+        );
+        assert_eq!(
+            p[0].counting_sigma_cm_s2,
+            [Some(counting_sigma_cm_s2(3_840_000.0, sf)), None, None]
+        );
+        assert_eq!(p[1].measured[2], Some(0.0));
+        let back = parse_bytes("t.csv", to_csv(&p, &[]).as_bytes()).unwrap();
+        assert_eq!(back[0].counts, p[0].counts);
+        assert_eq!(back[1].counts, p[1].counts);
+        assert_eq!(back[0].measured, [None, Some(0.3), None]);
+        let plan = plan_csv(&[[1.0, 0.0, 0.0]], &[], true);
+        assert!(
+            plan.starts_with(
+                "label,g_x,g_y,g_z,pulses_x,ticks_x,pulses_y,ticks_y,pulses_z,ticks_z,sigma_cm_s2\np1,1,0,0,,,,,,,\n"
+            ),
+            "{plan}"
         );
     }
 

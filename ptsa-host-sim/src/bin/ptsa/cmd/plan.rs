@@ -103,7 +103,7 @@ pub enum PlanKind {
     },
     /// A triad's calibration: N static positions of a block carrying three accelerometers
     /// (docs/discovery.md, "A triad"): the block's nominal gravity g_x, g_y, g_z (g) and
-    /// the three measured columns (cm/s²) to fill in.
+    /// the three measured columns (cm/s²) to fill in, or with --counts each axis's counts.
     Triad {
         /// Positions: 6 (the faces), 8 (the faces and two corners), 12 (the edges), 24
         /// (every position tilted: for a block placed by hand) or 37 (24, the edges and a
@@ -111,6 +111,12 @@ pub enum PlanKind {
         #[arg(long, default_value_t = 24, value_name = "N",
               value_parser = super::triad::design_positions)]
         positions: usize,
+        /// Write empty pulses_x, ticks_x, pulses_y, ticks_y, pulses_z, ticks_z columns (each
+        /// axis's counts over its gate: P pulses of positive torque in T clock ticks, whole
+        /// numbers) in place of the measured columns; discover converts them to
+        /// SF·(2P/T − 1) cm/s² with the instrument file's nominal SF (docs/case-frame.md).
+        #[arg(long)]
+        counts: bool,
         #[command(flatten)]
         out: PlanOut,
     },
@@ -170,8 +176,13 @@ impl PlanArgs {
     /// The loop cannot be simulated; `--out` is an input, cannot be written, or exists
     /// without `--force`.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
-        if let PlanKind::Triad { positions, out } = self.kind {
-            let (what, text) = super::triad::plan(positions);
+        if let PlanKind::Triad {
+            positions,
+            counts,
+            out,
+        } = self.kind
+        {
+            let (what, text) = super::triad::plan(positions, counts);
             return Ok(Request {
                 rows: Vec::new(),
                 what,

@@ -69,7 +69,8 @@ pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Re
             data.display()
         );
     }
-    let positions = frame::read(data)?;
+    let mut positions = frame::read(data)?;
+    frame::with_counts(&mut positions, ctx.instr.sf_cm_s2);
     let table = if a.no_plots {
         None
     } else {
@@ -147,13 +148,22 @@ pub fn design_positions(s: &str) -> std::result::Result<usize, String> {
 
 /// The plan of `positions` positions: what it is, and the file's text.
 #[must_use]
-pub fn plan(positions: usize) -> (String, String) {
+pub fn plan(positions: usize, counts: bool) -> (String, String) {
     let design = triad::design(positions).unwrap_or_default();
     let what = format!("{positions}-position triad");
+    let fill = if counts {
+        "Fill in pulses_x, ticks_x, pulses_y, ticks_y, pulses_z, ticks_z (each axis's counts over its gate: P pulses of positive torque in T clock ticks, whole numbers; read as SF*(2P/T - 1) cm/s² with the instrument file's nominal SF) and sigma_cm_s2 (the rest of a reading's noise, cm/s², or empty on every row),"
+    } else {
+        "Fill in measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 (each axis's reading through its nominal scale factor, cm/s²) and sigma_cm_s2,"
+    };
     let comments = [
-        format!("Triad plan written by `ptsa plan triad`: {what} (g_x, g_y, g_z: the block's nominal gravity, g)."),
-        "Fill in measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 (each axis's reading through its nominal scale factor, cm/s²) and sigma_cm_s2, then `cargo ptsa discover --data FILE` (with --orientation approximate for a block placed by hand).".to_string(),
+        format!(
+            "Triad plan written by `ptsa plan triad`: {what} (g_x, g_y, g_z: the block's nominal gravity, g)."
+        ),
+        format!(
+            "{fill} then `cargo ptsa discover --data FILE` (with --orientation approximate for a block placed by hand)."
+        ),
     ];
     let refs: Vec<&str> = comments.iter().map(String::as_str).collect();
-    (what, frame::plan_csv(&design, &refs))
+    (what, frame::plan_csv(&design, &refs, counts))
 }
