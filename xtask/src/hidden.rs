@@ -76,7 +76,8 @@ hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration 
     --calibration the calibration-coverage campaign instead
                  (hidden_calibration_campaign): tumbles of 8, 12 and 24 positions and
                  two 24-point tumbles from the IEEE 1293 equation with absolute
-                 coefficients drawn per set; the k = 2 intervals of the calibration
+                 coefficients drawn per set (one set in three given as counts over
+                 a gate, pulses and ticks); the k = 2 intervals of the calibration
                  must cover the truth 95 +- 2.5 % of the time (analytic)
     --triad      the triad campaign instead (hidden_triad_campaign): triads of 8, 12
                  and 24 positions on a precision fixture and of 24 and 37 placed by
