@@ -8,7 +8,7 @@
 //! * `hidden_stability_ci`: [`CI_SETS`] sets (in `cargo test --workspace`).
 //! * `hidden_stability_campaign` (ignored): `PTSA_HIDDEN_SETS` sets (default 2000), seed
 //!   `PTSA_HIDDEN_SEED`:
-//!   `cargo test --release -p ptsa-tests --test hidden_stability -- --ignored --nocapture`.
+//!   `PTSA_HIDDEN_SETS=2000 cargo test -q -p ptsa-tests --test hidden_stability -- --ignored hidden_stability_campaign`.
 
 use ptsa_tests::hidden::campaign::{assert_met, env};
 use ptsa_tests::hidden::stability::Stability;
@@ -28,7 +28,7 @@ fn hidden_stability_ci() {
 }
 
 #[test]
-#[ignore = "full campaign: cargo test --release -p ptsa-tests --test hidden_stability -- --ignored"]
+#[ignore = "full campaign: cargo test -p ptsa-tests --test hidden_stability -- --ignored"]
 fn hidden_stability_campaign() {
     let n: usize = env("PTSA_HIDDEN_SETS", 2000);
     let seed: u64 = env("PTSA_HIDDEN_SEED", 4242);
