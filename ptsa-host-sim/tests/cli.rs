@@ -1725,6 +1725,15 @@ fn discover_says_when_a_named_term_is_not_stable() {
             && second.abs() < 2e-5,
         "{time}"
     );
+    // The parts' difference with its standard error from their whole covariance: its
+    // square over its variance is the test's chi2 (stated sigmas).
+    let [diff, se] = [0, 1].map(|k| time["difference"][k].as_f64().unwrap());
+    assert!((diff - (second - first)).abs() < 1e-12, "{time}");
+    let chi2 = time["chi2"].as_f64().unwrap();
+    assert!(
+        ((diff / se).powi(2) - chi2).abs() < 1e-6 * chi2 && time["statistic"] == time["chi2"],
+        "{time}"
+    );
     let verdict = v["verdict"].as_str().unwrap();
     assert!(verdict.contains("Not given as a cause"), "{verdict}");
     assert!(!verdict.contains("Selected: misalignment"), "{verdict}");
@@ -1732,6 +1741,7 @@ fn discover_says_when_a_named_term_is_not_stable() {
     assert!(
         text.contains("warning: misalignment.delta_p_rad = ")
             && text.contains("is not stable: first half in time ")
+            && text.contains(" rad, difference -")
             && text.contains("its value depends on when or how it was measured"),
         "{text}"
     );

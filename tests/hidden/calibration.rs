@@ -135,7 +135,7 @@ pub fn reading_cm_s2(t: &Truth, instr: &Instrument, a: [f64; 3]) -> f64 {
 
 /// `K_2`'s standard error (g/g² per g of noise) in `rows` beside a bias, the scale factor,
 /// the tested misalignments and the drift in row order.
-fn k2_se(rows: &[Condition]) -> f64 {
+pub(super) fn k2_se(rows: &[Condition]) -> f64 {
     #[allow(clippy::cast_precision_loss)]
     let mut cols: Vec<Vec<f64>> = vec![
         rows.iter().map(|_| 1.0).collect(),

@@ -49,6 +49,7 @@ pub mod lab;
 pub mod params;
 pub mod physics;
 pub mod sigma;
+pub mod stability;
 pub mod statics;
 pub mod triad;
 

@@ -104,13 +104,28 @@ pub struct SplitTest {
     pub split: &'static str,
     /// The coefficient on each part.
     pub parts: Vec<PartValue>,
-    /// `Σ (c_p − c̄)²/se_p²` over the parts, `c̄` their inverse-variance mean.
+    /// The drop of χ² (with the sigmas as used by the whole fit) from the model with one
+    /// coefficient for every part to the model with one per part, the other terms split
+    /// alike and the nuisance terms common. It is `Σ (c_p − c̄)²/se_p²` only when the
+    /// parts' coefficients are uncorrelated: a nuisance term common to the parts (the drift
+    /// in row order) correlates them, and then the parts' standard errors alone do not give
+    /// it; `difference` does.
     pub chi2: f64,
     /// Its degrees of freedom (parts − 1).
     pub dof: usize,
     /// Its p-value (with stated sigmas the larger of the χ² and the F test against the
-    /// parts' residual scale, as a selection step).
+    /// parts' residual scale, as a selection step; with estimated sigmas the F test).
     pub p_value: f64,
+    /// Two parts: the second part's coefficient minus the first's and its standard error
+    /// from the parts' whole covariance, on the noise scale the p-value used (the sigmas
+    /// as stated; with estimated sigmas, the split model's residual scale), so that
+    /// `(difference/se)²` is the test's statistic (`chi2`, or with estimated sigmas the F
+    /// statistic). `None` for more than two parts.
+    pub difference: Option<[f64; 2]>,
+    /// The test's statistic on the noise scale the p-value used (`chi2` with stated
+    /// sigmas; with estimated sigmas `chi2` over the split model's residual variance, the
+    /// F statistic times the dof): the figure that `p_value` is the tail of.
+    pub statistic: f64,
     /// Holm's level it was held against (familywise over every test of every effect).
     pub threshold: f64,
     /// `false`: the parts disagree at that level.

@@ -20,7 +20,11 @@
 //! is the same on every part; its p-value follows the selection's rule on the noise scale
 //! (`fit::scaled_p`: with stated sigmas the larger of the χ² and the F test against the
 //! split model's residual scale). A part's coefficient is the final one plus its
-//! correction. The tests of every term and split are held together at familywise level α
+//! correction. The parts share the nuisance terms (the drift in row order), so their
+//! coefficients are correlated and their standard errors alone do not give the test: with
+//! two parts the test also reports their difference with its standard error from their
+//! whole covariance, on the noise scale of the p-value (the stated sigmas, else the split
+//! model's residual scale), whose square over its variance is the test's `statistic`. The tests of every term and split are held together at familywise level α
 //! by Holm's step-down procedure; a term is `stable: false` when one of its tests is
 //! rejected, `true` when it was tested and none is, `None` when no split could test it.
 //!
@@ -320,6 +324,24 @@ pub(crate) fn test_splits(
                 resid: Vec::new(),
             };
             let p_value = fit::scaled_p(q, df, f.stated(), &reference);
+            // The noise scale the p-value is on: the sigmas as stated, else the split
+            // model's residual variance (the F test's denominator).
+            let s2 = if f.stated() {
+                1.0
+            } else {
+                reference.s2.max(f64::MIN_POSITIVE)
+            };
+            let difference = match mine.as_slice() {
+                &[(_, a, sa), (_, b, sb)] => {
+                    let var = full.cov[(a, a)] / (sa * sa) + full.cov[(b, b)] / (sb * sb)
+                        - 2.0 * full.cov[(a, b)] / (sa * sb);
+                    Some([
+                        full.beta[b] / sb - full.beta[a] / sa,
+                        (var.max(0.0) * s2).sqrt(),
+                    ])
+                }
+                _ => None,
+            };
             let values: Vec<PartValue> = mine
                 .iter()
                 .map(|&(p, c, scale)| PartValue {
@@ -336,6 +358,8 @@ pub(crate) fn test_splits(
                 chi2: q,
                 dof: mine.len() - 1,
                 p_value,
+                difference,
+                statistic: q / s2,
                 threshold: f64::NAN,
                 agrees: true,
             });
@@ -426,6 +450,54 @@ mod tests {
             .find(|s| s.id == CandidateId::MisalignmentP)
             .unwrap_or_else(|| panic!("seed {seed}: the misalignment is not selected"))
             .stable
+    }
+
+    /// A 48-point tumble about OA with a constant misalignment (2e-4 rad) and Gaussian
+    /// noise of 0.02 cm/s², with `sigma_cm_s2` written or not: every two-part test's
+    /// `difference` is the second part's coefficient minus the first's, and its square over
+    /// its variance is the test's statistic on the p-value's noise scale (`chi2` with the
+    /// sigmas stated; with them estimated, `chi2` over the split model's residual variance,
+    /// larger or smaller than `chi2`).
+    #[test]
+    fn the_parts_difference_gives_the_tests_statistic() {
+        let sim = AnalyticSimulator::for_instrument(&Instrument::kearfott_2401());
+        for stated in [true, false] {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+            let noise = rand_distr::Normal::new(0.0, 0.02).unwrap();
+            let mut rows: Vec<Condition> = crate::lab::plan::tumble(48, crate::lab::plan::Axis::Oa);
+            for r in &mut rows {
+                let truth = Effects::only(CandidateId::MisalignmentP, 2e-4);
+                r.measured_cm_s2 = Some(sim.absolute_cm_s2(r, &truth) + noise.sample(&mut rng));
+                r.sigma_cm_s2 = stated.then_some(0.02);
+            }
+            let d = discover(&rows, &sim, &Options::default()).unwrap();
+            let mut seen = 0;
+            let mut rescaled = false;
+            for t in d.json.effects.iter().flat_map(|e| &e.stability.tests) {
+                let [diff, se] = t.difference.expect("two parts");
+                let expect = t.parts[1].coefficient - t.parts[0].coefficient;
+                assert!(
+                    (diff - expect).abs() <= 1e-9 * expect.abs().max(se),
+                    "{t:?}"
+                );
+                let z2 = (diff / se).powi(2);
+                assert!(
+                    (z2 - t.statistic).abs() <= 1e-6 * t.statistic.max(1e-9),
+                    "{t:?}"
+                );
+                if stated {
+                    assert_eq!(t.statistic.to_bits(), t.chi2.to_bits(), "{t:?}");
+                } else {
+                    rescaled |= (t.statistic - t.chi2).abs() > 1e-3 * t.chi2;
+                }
+                seen += 1;
+            }
+            assert!(seen >= 2, "stated {stated}: {seen} tests");
+            assert!(
+                stated || rescaled,
+                "estimated: the statistic is chi2 unscaled"
+            );
+        }
     }
 
     /// 2e-4 rad on the first half, 1e-4 on the second (the halves' estimates are about

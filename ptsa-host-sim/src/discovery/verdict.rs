@@ -216,8 +216,9 @@ fn stability_advice(split: &str) -> &'static str {
     }
 }
 
-/// A failed stability test in words: `first half in time 5.6e-5 ± 0.9e-5, second half in
-/// time 0.3e-5 ± 1.1e-5 (chi2 ... p = ..., familywise level ...)`.
+/// A failed stability test in words: `first half in time 5.6e-5 ± 0.9e-5 against second
+/// half in time 0.3e-5 ± 1.1e-5, difference -5.3e-5 ± 1.2e-5 (chi2 ... p = ..., familywise
+/// level ...)`; the chi2 is the test's statistic on the noise scale its p-value used.
 fn split_text(t: &SplitTest, unit: &str) -> String {
     let parts: Vec<String> = t
         .parts
@@ -230,10 +231,16 @@ fn split_text(t: &SplitTest, unit: &str) -> String {
             )
         })
         .collect();
+    // Two parts: their difference from their whole covariance (the parts share the
+    // nuisance terms, so it is not the parts' standard errors combined), on the test's
+    // noise scale, as the statistic.
+    let difference = t.difference.map_or(String::new(), |[d, se]| {
+        format!(", difference {} {unit}", super::show::estimate(d, se))
+    });
     format!(
-        "{} (chi2 {:.1} for {} dof, p = {}, familywise level {})",
+        "{}{difference} (chi2 {:.1} for {} dof, p = {}, familywise level {})",
         parts.join(" against "),
-        t.chi2,
+        t.statistic,
         t.dof,
         super::show::pfmt(t.p_value),
         super::show::pfmt(t.threshold)
