@@ -11,11 +11,11 @@
 //! * `firmware [--vector NAME]...` — build the firmware and run the golden vectors (all, or
 //!   the named ones) and the budgets on the emulated Cortex-M4.
 //! * `hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration |
-//!   --triad] [--sets N] [--seed S] [--analytic]` — the full hidden-effect campaign of the
+//!   --triad | --stability] [--sets N] [--seed S] [--analytic]` — the full hidden-effect campaign of the
 //!   discovery pipeline, or with `--parameters` the hidden-parameter one, with `--statics` the
 //!   hidden-statics one, with `--lab` the lab one, with `--sigma` the understated-sigma one,
 //!   with `--calibration` the calibration-coverage one, with `--triad` the triad
-//!   calibration's.
+//!   calibration's, with `--stability` the stability stage's false alarms.
 //!
 //! Before its first step, each command looks for everything it needs from the machine
 //! (`needs`: QEMU, the thumbv7em target, rustfmt, clippy, a C compiler) and, if anything is
