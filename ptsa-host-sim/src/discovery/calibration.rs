@@ -169,7 +169,8 @@ pub fn nominal(instr: &Instrument, term: Coefficient) -> f64 {
         Coefficient::K0 => file + instr.loop_bias_cm_s2(0.0),
         Coefficient::K1 => scale_base(instr) * (1.0 + 1e-6 * file),
         Coefficient::DeltaO => file + instr.loop_bias_cm_s2(1.0) - instr.loop_bias_cm_s2(0.0),
-        _ => def.sign * file,
+        // `+ 0.0`: a nominal 0 under the sign −1 is 0, not −0.
+        _ => def.sign * file + 0.0,
     }
 }
 
@@ -801,5 +802,13 @@ mod tests {
             assert_eq!(d.coefficient as usize, i, "{}", d.symbol);
         }
         assert_eq!(TERMS.len(), Coefficient::Koo as usize + 1);
+    }
+
+    /// A nominal 0 under the sign −1 (`δ_p`) is written 0, not −0.
+    #[test]
+    fn a_zero_nominal_is_not_negative_zero() {
+        let instr = crate::Instrument::kearfott_2401();
+        let n = super::nominal(&instr, Coefficient::DeltaP);
+        assert!(n == 0.0 && n.is_sign_positive(), "{n}");
     }
 }
