@@ -513,6 +513,10 @@ proptest! {
                 pushed_g += 1;
             } else if let Some(c) = q.pop() {
                 prop_assert_eq!(c.ticks, 1000 * u64::from(c.gates));
+                // The entry follows the last one popped: its gates are numbered on from
+                // the last one's, its ticks end where the last one's did plus its own.
+                prop_assert_eq!(c.seq, popped_g + u64::from(c.gates));
+                prop_assert_eq!(c.end_tick, popped_t + c.ticks);
                 popped_p += c.pulses;
                 popped_t += c.ticks;
                 popped_g += u64::from(c.gates);

@@ -13,8 +13,11 @@
 //!    read from its ELF section headers, are at most [`MAX_FLASH`] and [`MAX_RAM`] bytes;
 //! 4. the production image built for QEMU (`--features qemu`) sets TIM2 to exactly 64 kHz,
 //!    runs its timer interrupt, reports [`PRODUCTION_GATES`] gates of
-//!    [`PRODUCTION_GATE_TICKS`] ticks with the counts the host model gives, spaced as the
-//!    timer predicts, a stack high-water mark within [`MAX_STACK_BYTES`], and exits 0.
+//!    [`PRODUCTION_GATE_TICKS`] ticks with the counts the host model gives, numbered 1, 2,
+//!    3 (`seq=`) with their closing tick counts (`tick=`), spaced as the timer predicts, a
+//!    stack high-water mark within [`MAX_STACK_BYTES`], and exits 0; its gate reports equal
+//!    the recorded log [`LOG`] field for field (`t_ns=` and `stack=` aside), which the host's
+//!    `ptsa record` tests parse (`--overwrite-log` re-records it after an intended change).
 
 use std::fmt::Write as _;
 use std::io::Read as _;
@@ -27,7 +30,7 @@ use crate::util::{self, Error};
 
 /// `cargo xtask firmware --help`.
 pub const USAGE: &str = "\
-firmware [--vector NAME]...
+firmware [--vector NAME]... [--overwrite-log]
     Build the firmware (firmware/, its own workspace) for thumbv7em-none-eabihf into
     <cargo's target directory>/firmware and check it on QEMU's netduinoplus2: rustfmt and
     clippy of the firmware crate, every golden vector bit-exact on the emulated Cortex-M4,
@@ -37,7 +40,14 @@ firmware [--vector NAME]...
     Needs qemu-system-arm (Debian package), the thumbv7em-none-eabihf target, rustfmt and
     clippy; it looks for all of them first and, if any is missing, says how to install
     each and stops (it installs nothing).
-    --vector NAME  run only this golden vector (tests/golden/NAME.in); repeatable";
+    --vector NAME  run only this golden vector (tests/golden/NAME.in); repeatable
+    --overwrite-log  write the production image's QEMU output to tests/golden/firmware-qemu.stdout
+                   (the log `ptsa record`'s tests read) instead of comparing its gate
+                   reports with it; for an intended change of the reports";
+
+/// The production image's QEMU output as recorded (`--overwrite-log`), relative to the
+/// repository root: `ptsa-host-sim/tests/cli_record.rs` runs `ptsa record` on it.
+pub const LOG: &str = "tests/golden/firmware-qemu.stdout";
 
 /// Rust target of the firmware (listed in `rust-toolchain.toml`).
 pub const TARGET: &str = crate::ci::THUMB;
@@ -65,9 +75,11 @@ const RAM_START: u64 = 0x2000_0000;
 /// or only the named ones).
 pub fn run(args: &[String]) -> Result<(), Error> {
     let mut only = Vec::new();
+    let mut overwrite_log = false;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         match a.as_str() {
+            "--overwrite-log" => overwrite_log = true,
             "--vector" => only.push(
                 it.next()
                     .ok_or_else(|| Error::Usage("--vector needs a vector name (e.g. zero)".into()))?
@@ -77,7 +89,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         }
     }
     needs::check(&NEEDS, None)?;
-    Ok(check(&only)?)
+    Ok(check(&only, overwrite_log)?)
 }
 
 /// Where the firmware is built: `firmware/` under cargo's target directory of the host
@@ -90,10 +102,10 @@ fn firmware_target_dir() -> Result<PathBuf, String> {
 /// budgets, the production image under QEMU. Prints `N passed, M failed`. `ci` has checked
 /// [`NEEDS`] before its first step.
 pub fn ci() -> Result<(), String> {
-    check(&[])
+    check(&[], false)
 }
 
-fn check(only: &[String]) -> Result<(), String> {
+fn check(only: &[String], overwrite_log: bool) -> Result<(), String> {
     let root = util::root();
     let fw = root.join("firmware");
     let t0 = Instant::now();
@@ -184,7 +196,7 @@ fn check(only: &[String]) -> Result<(), String> {
     }
 
     // The production image on the emulated board.
-    match production_under_qemu(&root, &fw, &fw_target, &elf_dir.join("ptsa")) {
+    match production_under_qemu(&root, &fw, &fw_target, &elf_dir.join("ptsa"), overwrite_log) {
         Ok(msg) => report.pass(&msg),
         Err(e) => report.fail(&format!("production image under QEMU: {e}")),
     }
@@ -626,6 +638,7 @@ fn production_under_qemu(
     fw: &Path,
     fw_target: &Path,
     elf: &Path,
+    overwrite_log: bool,
 ) -> Result<String, String> {
     cargo_firmware(
         fw,
@@ -662,12 +675,14 @@ fn production_under_qemu(
     let mut summary = Vec::new();
     let mut times = Vec::new();
     let mut stack = 0;
-    for (g, want) in gates.iter().zip(&expected) {
+    for ((g, want), k) in gates.iter().zip(&expected).zip(1u64..) {
         let field = |k: &str| -> Option<u64> { field(g, k) };
-        let (Some(p), Some(t), Some(n), Some(ns), Some(st)) = (
+        let (Some(seq), Some(p), Some(t), Some(n), Some(tick), Some(ns), Some(st)) = (
+            field("seq"),
             field("P"),
             field("T"),
             field("gates"),
+            field("tick"),
             field("t_ns"),
             field("stack"),
         ) else {
@@ -676,6 +691,13 @@ fn production_under_qemu(
         if t != PRODUCTION_GATE_TICKS || n != 1 || p > t {
             return Err(format!(
                 "gate report `{g}`: expected T={PRODUCTION_GATE_TICKS}, gates=1, P<=T"
+            ));
+        }
+        if seq != k || tick != k * PRODUCTION_GATE_TICKS {
+            return Err(format!(
+                "gate report `{g}`: expected seq={k} tick={} (the {k}th gate of {} ticks)",
+                k * PRODUCTION_GATE_TICKS,
+                PRODUCTION_GATE_TICKS
             ));
         }
         if p != *want {
@@ -694,10 +716,12 @@ fn production_under_qemu(
         ));
     }
     let spacing = check_gate_spacing(&times, &tim2)?;
+    let logged = record_or_compare_log(root, &run.stdout, overwrite_log)?;
     Ok(format!(
         "production image under QEMU: TIM2 at 1 GHz / ({} x {}) = 64 kHz, its interrupt ran; \
          {} gates reported (P/T: {}, as the host model gives for QEMU's ADC input, constant \
-         {QEMU_ADC_SAMPLE}); {spacing}; stack high-water {stack} B (limit {MAX_STACK_BYTES})",
+         {QEMU_ADC_SAMPLE}), numbered 1.. with their closing ticks; {spacing}; stack high-water \
+         {stack} B (limit {MAX_STACK_BYTES}); {logged}",
         tim2.psc + 1,
         tim2.arr + 1,
         gates.len(),
@@ -708,6 +732,63 @@ fn production_under_qemu(
 /// Largest stack the production image may use, bytes (the high-water mark it reports from
 /// its painted stack, `ptsa_firmware::stack_high_water_bytes`).
 pub const MAX_STACK_BYTES: u64 = 2_048;
+
+/// With `overwrite` write the production image's QEMU output to [`LOG`]; otherwise compare
+/// its gate reports with the recorded ones ([`same_reports`]). Returns what was done.
+fn record_or_compare_log(root: &Path, stdout: &str, overwrite: bool) -> Result<String, String> {
+    let log = root.join(LOG);
+    if overwrite {
+        std::fs::write(&log, stdout).map_err(|e| format!("cannot write {}: {e}", log.display()))?;
+        return Ok(format!("its output recorded in {LOG} (--overwrite-log)"));
+    }
+    let recorded = std::fs::read_to_string(&log).map_err(|e| {
+        format!(
+            "cannot read {}: {e} (record it with --overwrite-log)",
+            log.display()
+        )
+    })?;
+    same_reports(&recorded, stdout).map_err(|e| {
+        format!(
+            "{LOG}: {e}; after an intended change of the reports re-record it with \
+             `cargo xtask firmware --overwrite-log`"
+        )
+    })?;
+    Ok(format!("its gate reports as recorded in {LOG}"))
+}
+
+/// Whether the gate reports of two runs' outputs are the same, field for field, but for the
+/// virtual time `t_ns=` and the stack mark `stack=` (which move with any change of the
+/// image's code, not with what it counts). The error names the first report that differs.
+fn same_reports(recorded: &str, run: &str) -> Result<(), String> {
+    let reports = |text: &str| -> Vec<String> {
+        text.lines()
+            .filter(|l| l.starts_with("gate "))
+            .map(|l| {
+                l.split_whitespace()
+                    .filter(|w| !w.starts_with("t_ns=") && !w.starts_with("stack="))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            })
+            .collect()
+    };
+    let (a, b) = (reports(recorded), reports(run));
+    for (k, (x, y)) in a.iter().zip(&b).enumerate() {
+        if x != y {
+            return Err(format!(
+                "gate report {} differs: recorded `{x}`, this run `{y}`",
+                k + 1
+            ));
+        }
+    }
+    if a.len() != b.len() {
+        return Err(format!(
+            "{} gate reports recorded, {} in this run",
+            a.len(),
+            b.len()
+        ));
+    }
+    Ok(())
+}
 
 /// The value of `key=<number>` among the words of `line`.
 fn field(line: &str, key: &str) -> Option<u64> {
@@ -820,6 +901,18 @@ mod tests {
     use super::*;
 
     #[test]
+    fn reports_compare_without_time_and_stack() {
+        let a = "tim2 psc=0 arr=15624 ug_ns=1\ngate seq=1 P=0 T=6400 gates=1 tick=6400 t_ns=5 stack=500\n";
+        let b = "tim2 psc=0 arr=15624 ug_ns=2\ngate seq=1 P=0 T=6400 gates=1 tick=6400 t_ns=9 stack=512\n";
+        assert_eq!(same_reports(a, b), Ok(()));
+        let c = b.replace("P=0", "P=1");
+        let e = same_reports(a, &c).unwrap_err();
+        assert!(e.contains("gate report 1 differs"), "{e}");
+        let e = same_reports(a, "").unwrap_err();
+        assert!(e.contains("1 gate reports recorded, 0 in this run"), "{e}");
+    }
+
+    #[test]
     fn first_difference_names_line_and_tick() {
         let e = b"+\n- c1\nend ticks=2 pulses=1 sat=0,0,0 digest=00\n+\n-\n";
         let g = b"+\n- c1\nend ticks=2 pulses=1 sat=0,0,0 digest=00\n+\n+\n";
@@ -865,7 +958,7 @@ mod tests {
         assert!(Tim2::parse("tim2 psc=0 arr=15625 ug_ns=1").is_err());
         assert!(Tim2::parse("tim2 psc=1 arr=7811 ug_ns=1").is_err());
         assert!(Tim2::parse("tim2 psc=0 arr=15624").is_err());
-        assert!(Tim2::parse("gate 1: P=0").is_err());
+        assert!(Tim2::parse("gate seq=1 P=0").is_err());
     }
 
     #[test]

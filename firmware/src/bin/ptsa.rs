@@ -1,14 +1,23 @@
 //! Production image: the PTSA loop at 64 kHz, gated counts reported over defmt (RTT).
 //!
 //! `TIM2` fires at 64 kHz and runs [`ptsa_firmware::on_tick`]; the main loop pops closed
-//! gates from [`ptsa_firmware::GATES`] and logs `P` (data pulses) over `T` (clock ticks),
-//! with the stack's high-water mark so far ([`ptsa_firmware::stack_high_water_bytes`]).
+//! gates from [`ptsa_firmware::GATES`] and logs each as one gate report,
+//!
+//! `gate seq=<n> P=<pulses> T=<ticks> gates=<merged> tick=<ticks at its close> stack=<bytes>`
+//!
+//! `seq` the number of the report's last gate (from 1), `P` data pulses over `T` clock
+//! ticks, `gates` how many gates the queue merged into it (1 unless the main loop fell
+//! behind), `tick` the ticks from the loop's first tick to the close of its last gate (a
+//! `u64`, never wrapping) and the stack's high-water mark so far
+//! ([`ptsa_firmware::stack_high_water_bytes`]). `ptsa record` turns these lines into a
+//! counter record (docs/firmware.md).
 //!
 //! With the `qemu` feature (QEMU `netduinoplus2`, see docs/firmware.md) the clock set-up is
 //! skipped, TIM2's registers are printed (`tim2 psc=<PSC> arr=<ARR> ug_ns=<virtual time of
-//! the update generation, ns>`), each count is also printed as text through semihosting
-//! (`gate <n>: P=<pulses> T=<ticks> gates=<merged> t_ns=<virtual time, ns> stack=<bytes>`),
-//! and after `QEMU_GATES` (3) gates the image exits QEMU with status 0.
+//! the update generation, ns>`), each report is also printed as text through semihosting,
+//! the same fields with the virtual time added (`gate seq=.. P=.. T=.. gates=.. tick=..
+//! t_ns=<virtual time, ns> stack=..`), and after `QEMU_GATES` (3) reports the image exits
+//! QEMU with status 0.
 #![no_std]
 #![no_main]
 #![deny(unsafe_code)]
@@ -69,10 +78,12 @@ fn main() -> ! {
         };
         let stack = ptsa_firmware::stack_high_water_bytes();
         defmt::info!(
-            "gate P={=u64} T={=u64} ({=u32} gate(s)); stack high-water {=u32} B",
+            "gate seq={=u64} P={=u64} T={=u64} gates={=u32} tick={=u64} stack={=u32}",
+            count.seq,
             count.pulses,
             count.ticks,
             count.gates,
+            count.end_tick,
             stack
         );
         #[cfg(feature = "qemu")]
@@ -80,11 +91,12 @@ fn main() -> ! {
             reported += 1;
             // Virtual time under `-icount shift=0`: TIM5 counts 1 GHz, i.e. nanoseconds.
             semihosting::println!(
-                "gate {}: P={} T={} gates={} t_ns={} stack={}",
-                reported,
+                "gate seq={} P={} T={} gates={} tick={} t_ns={} stack={}",
+                count.seq,
                 count.pulses,
                 count.ticks,
                 count.gates,
+                count.end_tick,
                 ptsa_firmware::stopwatch(&board_stopwatch),
                 stack
             );
