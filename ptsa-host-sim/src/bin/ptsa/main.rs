@@ -18,7 +18,7 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 use cmd::{
-    Ctx, bench, correct, design, discover, experiments, instrument, plan, predict, report,
+    Ctx, bench, correct, design, discover, experiments, instrument, plan, predict, record, report,
     response, static_,
 };
 use flags::{Cli, Cmd};
@@ -75,6 +75,7 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
             ctx.require_loop()?;
             response::run(&ctx, &a.request()?, out)
         }
+        Cmd::Record(a) => record::run(&ctx, &a.request()?, out),
         Cmd::Correct(a) => correct::run(&a.request(&ctx, instrument_given)?, out),
         Cmd::Instrument(a) => instrument::run(&a.request()?, out),
     }

@@ -27,6 +27,7 @@ pub mod experiments;
 pub mod instrument;
 pub mod plan;
 pub mod predict;
+pub mod record;
 pub mod report;
 pub mod response;
 pub mod static_;

@@ -20,7 +20,7 @@ use ptsa_host_sim::simulation::sim::SimOptions;
 use crate::cmd::{
     bench::BenchArgs, correct::CorrectArgs, design::DesignArgs, discover::DiscoverArgs,
     experiments, instrument::InstrumentArgs, plan::PlanArgs, predict::PredictArgs,
-    report::ReportArgs, response::ResponseArgs, static_::StaticArgs,
+    record::RecordArgs, report::ReportArgs, response::ResponseArgs, static_::StaticArgs,
 };
 use values::{non_negative_s, positive_s, seed};
 
@@ -68,6 +68,7 @@ impl Cli {
             Some(Cmd::Discover(a)) => v.extend(a.inputs()),
             Some(Cmd::Predict(a)) => v.extend(a.inputs()),
             Some(Cmd::Response(a)) => v.extend(a.inputs()),
+            Some(Cmd::Record(a)) => v.extend(a.inputs()),
             Some(Cmd::Correct(a)) => v.extend(a.inputs()),
             _ => {}
         }
@@ -152,6 +153,22 @@ pub enum Cmd {
     /// (STEM: the record's file name without its extension).
     #[command(allow_negative_numbers = true)]
     Response(ResponseArgs),
+    /// Turn the firmware's log into a counter record for `ptsa response`: the gate reports
+    /// of probe-rs run's defmt output, QEMU's semihosting lines or a saved copy.
+    ///
+    /// A report is a line holding `gate [axis=K] seq=N P=N T=N gates=N tick=N` (anything
+    /// before it, such as probe-rs's timestamp and level, and fields after it are
+    /// ignored; so are all other lines): seq the number of its last gate, P data pulses, T
+    /// clock ticks, gates how many gates the firmware merged into it, tick the clock ticks
+    /// from the loop's start to its close. The reports' numbers are checked: a gap (reports
+    /// lost on the way) is refused unless --allow-gaps, a restart (board reset, logs
+    /// joined) always; merged gates are written as one longer gate, with a warning. A last
+    /// line cut short by the log's end is dropped, with a warning.
+    ///
+    /// Writes CSV `time_s,pulses,ticks` with a `#` comment naming the source: time_s the
+    /// gate's start, (tick − T) over the instrument file's clock_hz, in s. To standard
+    /// output, or to --out (written whole or not at all). A summary goes to stderr.
+    Record(RecordArgs),
     /// Apply a calibration to a record of readings or counts: per row, the specific force
     /// along IA that gives the reading, with its 1-sigma uncertainty, cm/s².
     ///
