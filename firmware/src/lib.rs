@@ -49,6 +49,8 @@ pub use stm32f4::stm32f405 as pac;
 
 pub mod rt;
 pub mod testimage;
+pub mod triad;
+pub mod triadtest;
 
 /// Tick (clock) frequency of the PTSA loop, in hertz.
 pub const TICK_HZ: u32 = 64_000;
@@ -175,7 +177,7 @@ impl Board {
         // ADC1: ADCCLK = PCLK2 / 4 = 20 MHz, channel 1, 15-cycle sampling, left-aligned.
         dp.ADC_COMMON.ccr().modify(|_, w| w.adcpre().div4());
         dp.ADC1.smpr2().modify(|_, w| w.smp1().cycles15());
-        select_channel_1(&dp.ADC1);
+        select_channel(&dp.ADC1, 1);
         dp.ADC1
             .cr2()
             .write(|w| w.adon().enabled().align().left().cont().continuous());
@@ -250,19 +252,24 @@ pub fn stopwatch(tim5: &pac::TIM5) -> u32 {
     tim5.cnt().read().bits()
 }
 
-/// A second handle on port D for leg B.
+/// A further handle on port D for a leg (leg B here; every leg of the triad, `triad`).
 #[allow(unsafe_code)]
 fn second_gpiod_handle() -> pac::GPIOD {
-    // SAFETY: the two legs only write BSRR, whose writes are atomic and touch only the bits
-    // written as 1 (leg A bits 12 and 28, leg B bits 14 and 30); nothing else in the firmware
-    // uses port D after `Board::new` has configured MODER.
+    // SAFETY: the legs only write BSRR, whose writes are atomic and touch only the bits
+    // written as 1: each leg its own pin's set and reset bits (single axis: leg A bits 12
+    // and 28, leg B bits 14 and 30; the triad adds pins 13, 15, 8 and 9, bits 13/29, 15/31,
+    // 8/24, 9/25). Nothing else in the firmware uses port D after `Board::new` or
+    // `TriadBoard::new` has configured MODER.
     unsafe { pac::GPIOD::steal() }
 }
 
+/// Select the ADC's one regular channel, `channel` (1, 2 or 3: `ADC123_IN1`..`IN3`).
 #[allow(unsafe_code)]
-fn select_channel_1(adc: &pac::ADC1) {
-    // SAFETY: SQ1 is a 5-bit channel number; 1 is a valid regular channel (ADC123_IN1).
-    adc.sqr3().write(|w| unsafe { w.sq1().bits(1) });
+fn select_channel(adc: &pac::adc1::RegisterBlock, channel: u8) {
+    debug_assert!((1..=3).contains(&channel));
+    // SAFETY: SQ1 is a 5-bit channel number; every caller passes a constant 1, 2 or 3,
+    // valid regular channels (ADC123_IN1..IN3).
+    adc.sqr3().write(|w| unsafe { w.sq1().bits(channel) });
 }
 
 /// Unmask an interrupt in the NVIC.

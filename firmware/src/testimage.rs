@@ -68,7 +68,7 @@ where
 }
 
 /// Buffered semihosting file as a `fmt::Write` sink.
-struct Out {
+pub(crate) struct Out {
     file: File,
     buf: [u8; OUT_BUF],
     len: usize,
@@ -76,6 +76,23 @@ struct Out {
 }
 
 impl Out {
+    /// Create the file `path` (also for the triad's test image, `triadtest`).
+    pub(crate) fn create(path: &CStr) -> Result<Self, Failure> {
+        let file = File::create(path).map_err(|e| fail!("cannot create {:?}: {:?}", path, e))?;
+        Ok(Self {
+            file,
+            buf: [0; OUT_BUF],
+            len: 0,
+            failed: false,
+        })
+    }
+
+    /// Write out what is buffered; whether every write succeeded.
+    pub(crate) fn finish(&mut self) -> bool {
+        self.flush();
+        !self.failed
+    }
+
     fn flush(&mut self) {
         if self.len > 0 && self.file.write_all(&self.buf[..self.len]).is_err() {
             self.failed = true;

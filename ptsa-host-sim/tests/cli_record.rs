@@ -18,6 +18,12 @@ const QEMU_LOG: &str = concat!(
     "/../tests/golden/firmware-qemu.stdout"
 );
 
+/// The triad image's QEMU output, recorded the same way.
+const TRIAD_LOG: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/../tests/golden/triad-qemu.stdout"
+);
+
 /// The value of `key=` in a report line.
 fn field(line: &str, key: &str) -> u64 {
     line.split_whitespace()
@@ -432,6 +438,43 @@ fn a_triad_log_is_split_by_axis() {
         &["record", "--from", "s.log", "--axis", "0"],
         1,
         &["--axis 0: s.log is a single-axis log"],
+        &[],
+    );
+}
+
+/// The triad image's own QEMU log splits into its three axes: each axis's record holds
+/// that axis's reports (read here from the log's own fields), in order.
+#[test]
+fn the_triad_images_own_log_splits_by_axis() {
+    let log = std::fs::read_to_string(TRIAD_LOG).unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    for a in 0..3u64 {
+        let reports: Vec<&str> = log
+            .lines()
+            .filter(|l| l.starts_with(&format!("gate axis={a} ")))
+            .collect();
+        assert!(reports.len() >= 3, "{log}");
+        let o = ptsa_in(
+            tmp.path(),
+            &["record", "--from", TRIAD_LOG, "--axis", &a.to_string()],
+        );
+        let err = stderr(&o);
+        assert!(o.status.success(), "{err}");
+        assert!(!err.contains("warning:"), "{err}");
+        let got = rows(&stdout(&o));
+        assert_eq!(got.len(), reports.len());
+        for (r, (t, p, n)) in reports.iter().zip(&got) {
+            assert_eq!((*p, *n), (field(r, "P"), field(r, "T")));
+            #[allow(clippy::cast_precision_loss)]
+            let want = (field(r, "tick") - field(r, "T")) as f64 / 64_000.0;
+            assert!((t - want).abs() < 1e-12, "{t} vs {want}");
+        }
+    }
+    refused_in_folder(
+        &[],
+        &["record", "--from", TRIAD_LOG],
+        1,
+        &["reports of axes 0, 1, 2 (a triad's log); expected --axis N"],
         &[],
     );
 }
