@@ -13,6 +13,10 @@
 //! The images' `HardFault` handler, panic path and [`rt::exit`] are in [`rt`], each image
 //! choosing with [`image_runtime!`] whether it reports over defmt or semihosting.
 //!
+//! The strapdown triad (three loops in one tick handler, its own images `triad`,
+//! `triad_golden`, `triad_budget`) is in [`triad`], its test images' helpers in
+//! [`triadtest`].
+//!
 //! The production image `ptsa` and the QEMU test image `budget` have the same `TIM2`
 //! handler (`on_tick`, differing only in the address the pickoff word is read from), so what
 //! the test image measures is what runs on the board.

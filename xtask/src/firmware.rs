@@ -41,8 +41,11 @@ firmware [--vector NAME]... [--overwrite-log]
     <cargo's target directory>/firmware and check it on QEMU's netduinoplus2: rustfmt and
     clippy of the firmware crate, every golden vector bit-exact on the emulated Cortex-M4,
     instructions per tick (limit 150), flash and static RAM of the production image
-    (16 KiB, 2 KiB), and the production image under QEMU (64 kHz tick, gate counts, stack
-    within 2 KiB). Closes with `N passed, M failed`.
+    (16 KiB, 2 KiB), the production image under QEMU (64 kHz tick, numbered gate reports
+    as recorded in tests/golden/firmware-qemu.stdout, stack within 2 KiB), and the strapdown
+    triad (every vector bit-exact as one axis of three, instructions per tick of the three
+    loops (limit 420, goal 400), flash 24 KiB, RAM with stack 4 KiB, its reports under
+    QEMU). Closes with `N passed, M failed`.
     Needs qemu-system-arm (Debian package), the thumbv7em-none-eabihf target, rustfmt and
     clippy; it looks for all of them first and, if any is missing, says how to install
     each and stops (it installs nothing).
