@@ -1268,6 +1268,7 @@ fn help_exits_0_and_names_units() {
         ("report", "s ("),
         ("discover", "cm/s²"),
         ("response", "dimensionless"),
+        ("record", "clock_hz, in s"),
         ("predict", "_cm_s2"),
         ("correct", "cm/s²"),
         ("plan tumble", "s ("),

@@ -34,8 +34,8 @@ pub struct RecordArgs {
     /// are absent. Without it such a log is refused, naming the lines around each gap.
     #[arg(long)]
     pub allow_gaps: bool,
-    /// The axis to take from a triad's log (its reports carry axis=N: 0, 1 or 2); refused
-    /// for a single-axis log.
+    /// The axis to take from a triad's log (its reports carry axis=N: 0, 1 or 2; a number,
+    /// no unit); refused for a single-axis log.
     #[arg(long, value_name = "N")]
     pub axis: Option<u64>,
     /// Print one JSON object on standard output instead of the summary on stderr (needs

@@ -371,7 +371,7 @@ mod tests {
     /// that is not a number (a path, a list of names, a text).
     fn unit_of(value_name: &str) -> Option<&'static [&'static str]> {
         Some(match value_name {
-            "FILE" | "FILE.json" | "DIR" | "LIST" | "TEXT" | "oa|pa" => return None,
+            "FILE" | "FILE.json" | "FILE|-" | "DIR" | "LIST" | "TEXT" | "oa|pa" => return None,
             "S" => &[", s"],
             "HZ" => &["Hz"],
             "CM_S2" => &["cm/s²"],
