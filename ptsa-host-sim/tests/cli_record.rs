@@ -479,6 +479,74 @@ fn the_triad_images_own_log_splits_by_axis() {
     );
 }
 
+/// The other refusals, each with its one-line message and nothing written: a field given
+/// twice, a report whose numbers cannot be (seq below gates), a report that does not follow
+/// its predecessor, a log mixing reports with and without axis=, --force without --out,
+/// --from a folder, a log whose only report is cut short.
+#[test]
+fn the_other_refusals_name_what_was_expected() {
+    let twice = "gate seq=1 P=1 T=10 gates=1 tick=10 P=2\n";
+    refused_in_folder(
+        &[("a.log", twice.as_bytes())],
+        &["record", "--from", "a.log"],
+        1,
+        &["a.log:1:39: gate report gives `P=` twice"],
+        &[],
+    );
+    let low = "gate seq=1 P=1 T=10 gates=2 tick=10\n";
+    refused_in_folder(
+        &[("a.log", low.as_bytes())],
+        &["record", "--from", "a.log"],
+        1,
+        &[
+            "a.log:1:1: gate report with seq=1 P=1 T=10 gates=2 tick=10; expected T >= 1, P <= T, gates >= 1, seq >= gates",
+        ],
+        &[],
+    );
+    let skew = [report(1, 1, 10, 1, 10), report(3, 1, 10, 3, 40)].concat();
+    refused_in_folder(
+        &[("a.log", skew.as_bytes())],
+        &["record", "--from", "a.log", "--allow-gaps"],
+        1,
+        &["a.log:2: gate report seq=3 gates=3 tick=40 T=10 does not follow line 1's seq=1 tick=10"],
+        &[],
+    );
+    let mixed = [
+        "gate axis=0 seq=1 P=1 T=10 gates=1 tick=10\n".to_string(),
+        report(1, 1, 10, 1, 10),
+    ]
+    .concat();
+    refused_in_folder(
+        &[("a.log", mixed.as_bytes())],
+        &["record", "--from", "a.log", "--axis", "0"],
+        1,
+        &["a.log:2: a report without `axis=` in a log whose other reports name axes"],
+        &[],
+    );
+    let one = report(1, 1, 10, 1, 10);
+    refused_in_folder(
+        &[("a.log", one.as_bytes())],
+        &["record", "--from", "a.log", "--force"],
+        1,
+        &["--force: nothing to replace without --out; expected --out FILE"],
+        &[],
+    );
+    refused_in_folder(
+        &[("a.log", one.as_bytes())],
+        &["record", "--from", "{dir}"],
+        1,
+        &["this is a folder; expected a log file or - for standard input"],
+        &[],
+    );
+    refused_in_folder(
+        &[("a.log", b"boot\ngate seq=1 P=1 T=10 gat")],
+        &["record", "--from", "a.log"],
+        1,
+        &["a.log: no gate reports in 2 lines (the one on line 2 is cut short by the log's end)"],
+        &[],
+    );
+}
+
 /// `--help` names the units and the format.
 #[test]
 fn record_help_names_the_format_and_units() {
