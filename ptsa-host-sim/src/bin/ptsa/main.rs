@@ -18,7 +18,7 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 use cmd::{
-    Ctx, bench, correct, design, discover, experiments, instrument, plan, predict, report,
+    Ctx, bench, correct, design, discover, experiments, instrument, noise, plan, predict, report,
     response, static_,
 };
 use flags::{Cli, Cmd};
@@ -77,5 +77,6 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
         }
         Cmd::Correct(a) => correct::run(&a.request(&ctx, instrument_given)?, out),
         Cmd::Instrument(a) => instrument::run(&a.request()?, out),
+        Cmd::Noise(a) => noise::run(&ctx, &a.request(&ctx)?, out),
     }
 }
