@@ -350,3 +350,65 @@ fn bad_options_are_refused() {
     assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
     assert!(o.stdout.is_empty());
 }
+
+/// `--compare`: a record of the shipped loop (another seed) agrees with its simulation at
+/// every τ; the same record against a file whose pickoff noise is 10 µV (the shipped file's
+/// 0.5 µV replaced) differs at several τ, with a warning.
+#[test]
+fn compare_tells_the_files_noise_from_anothers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "noise",
+            "--simulate",
+            "--seconds",
+            "60",
+            "--seed",
+            "3",
+            "--out",
+            "r.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = ptsa_in(
+        tmp.path(),
+        &["noise", "--counts", "r.csv", "--compare", "--json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    let c = &v["comparison"];
+    assert_eq!(c["differing"], 0, "{c}");
+    assert_eq!(c["points"].as_array().unwrap().len(), 12, "{c}");
+    assert!(c["input_cm_s2"].as_f64().unwrap().abs() < 0.01, "{c}");
+    let shipped = include_str!("../../data/kearfott-2401.toml");
+    let old = "noise_uv_rms = { value = 0.5, min = 0.0, max = 2.0 }";
+    assert!(shipped.contains(old));
+    let noisy = shipped.replace(
+        old,
+        "noise_uv_rms = { value = 10.0, min = 0.0, max = 20.0 }",
+    );
+    std::fs::write(tmp.path().join("noisy.toml"), noisy).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "noise",
+            "--instrument",
+            "noisy.toml",
+            "--counts",
+            "r.csv",
+            "--compare",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    let n = v["comparison"]["differing"].as_u64().unwrap();
+    assert!(n >= 3, "{}", v["comparison"]);
+    assert!(
+        stderr(&o).contains(&format!("differs from the record's at {n} of 12 taus")),
+        "{}",
+        stderr(&o)
+    );
+    refused_in_folder(&[], &["noise", "--compare"], 2, &["--counts"], &[]);
+}

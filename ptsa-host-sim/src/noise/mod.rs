@@ -559,11 +559,71 @@ where
     Ok(())
 }
 
+/// One averaging time of a measured record against the simulated one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Compared {
+    /// The measured record's point.
+    pub measured: Point,
+    /// The simulated record's point at the same τ.
+    pub simulated: Point,
+    /// `ln(σ_measured/σ_simulated)` over its standard error `√(1/(2ν_m) + 1/(2ν_s))` (the
+    /// log of a deviation with ν degrees of freedom has a variance of about `1/(2ν)`).
+    pub z: f64,
+    /// Two-sided p-value of `z` (normal).
+    pub p: f64,
+    /// The two differ at this τ, Holm's step-down over all the τ at the familywise level.
+    pub differs: bool,
+}
+
+/// Familywise level of [`compare`]'s Holm step-down over the τ.
+pub const COMPARE_ALPHA: f64 = 0.05;
+
+/// The measured and simulated Allan deviations τ by τ (the τ both have), each difference's
+/// `z` on the log scale and whether it is significant under Holm's step-down at
+/// [`COMPARE_ALPHA`] over all those τ.
+#[must_use]
+pub fn compare(measured: &[Point], simulated: &[Point]) -> Vec<Compared> {
+    let mut out: Vec<Compared> = measured
+        .iter()
+        .filter_map(|m| {
+            let s = simulated
+                .iter()
+                .find(|s| (s.tau_s - m.tau_s).abs() <= 1e-9 * m.tau_s)?;
+            let z = (m.adev / s.adev).ln() / (0.5 / m.edf + 0.5 / s.edf).sqrt();
+            let p = if z.is_finite() {
+                use statrs::distribution::{ContinuousCDF as _, Normal};
+                Normal::standard().sf(z.abs()) * 2.0
+            } else {
+                0.0
+            };
+            Some(Compared {
+                measured: *m,
+                simulated: *s,
+                z,
+                p,
+                differs: false,
+            })
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..out.len()).collect();
+    order.sort_by(|&a, &b| out[a].p.total_cmp(&out[b].p));
+    let k = order.len();
+    for (rank, &i) in order.iter().enumerate() {
+        if out[i].p <= COMPARE_ALPHA / (k - rank) as f64 {
+            out[i].differs = true;
+        } else {
+            break;
+        }
+    }
+    out
+}
+
 /// Ticks between two calls of [`simulate_record`]'s progress callback (at least).
 pub const PROGRESS_TICKS: u64 = 1 << 22;
 
 /// A counter record of the closed loop at rest: the instrument file's loop (its bias and
-/// pickoff noise `noise_uv_rms` included) with no acceleration along IA, settled for
+/// pickoff noise `noise_uv_rms` included) with `accel_cm_s2` along IA (0 at rest on a
+/// level bench; a tilt's share of gravity otherwise), settled for
 /// `opts.warmup_s` from reset, then `gates` gates of `gate_ticks` ticks back to back,
 /// `time_s` counted from the end of the settling. The single loop's fast static path
 /// (`ClosedLoop::run_fast`, bit for bit the path of `ptsa static`); `progress(done,
@@ -571,11 +631,12 @@ pub const PROGRESS_TICKS: u64 = 1 << 22;
 pub fn simulate_record(
     instr: &Instrument,
     opts: &SimOptions,
+    accel_cm_s2: f64,
     gate_ticks: u64,
     gates: u64,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Vec<Gate> {
-    let cond = crate::lab::fixtures::along_ia(0.0, instr.g_cm_s2);
+    let cond = crate::lab::fixtures::along_ia(accel_cm_s2, instr.g_cm_s2);
     let mut l = ClosedLoop::new(instr, &cond, &Effects::NONE, opts);
     let settle = opts.warmup_ticks(instr.clock_hz);
     let total = settle + gate_ticks * gates;
@@ -681,7 +742,7 @@ mod tests {
     fn a_simulated_record_reads_back() {
         let instr = Instrument::kearfott_2401();
         let opts = SimOptions::default();
-        let g = simulate_record(&instr, &opts, 640, 200, &mut |_, _| {});
+        let g = simulate_record(&instr, &opts, 0.0, 640, 200, &mut |_, _| {});
         let csv = record_csv(&g, &["test".into()]);
         let back = response::parse("sim", &csv).unwrap();
         assert_eq!(back, g);

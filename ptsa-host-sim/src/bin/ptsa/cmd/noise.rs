@@ -42,18 +42,25 @@ pub struct NoiseArgs {
     /// bias and pickoff noise noise_uv_rms included) for --seconds, and analyse that record.
     #[arg(long, requires = "seconds")]
     pub simulate: bool,
+    /// With --counts: simulate the instrument file's loop for as long as the record, with its
+    /// gate and with the acceleration along IA that gives the record's mean (less the file's
+    /// bias), and compare the two Allan deviations tau by tau: z of the log ratio from both
+    /// EDFs, Holm's step-down over the taus at 5 % familywise.
+    #[arg(long, requires = "counts")]
+    pub compare: bool,
     /// With --simulate: the simulated record's length after the settling, s (more than 0).
     #[arg(long, value_name = "S", value_parser = positive_s, requires = "simulate")]
     pub seconds: Option<f64>,
     /// With --simulate: the gate, s (at least one limit cycle, 0.001 s at 64 kHz).
     #[arg(long, default_value_t = 0.01, value_name = "S", value_parser = positive_s)]
     pub gate_s: f64,
-    /// With --simulate: seed of the pickoff noise, a whole number from 0 to 2^64 − 1, no
-    /// unit.
+    /// With --simulate or --compare: seed of the pickoff noise, a whole number from 0 to
+    /// 2^64 − 1, no unit.
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,
-    /// With --simulate: settling time from reset before the first gate, s (0 or more).
+    /// With --simulate or --compare: settling time from reset before the first gate, s (0 or
+    /// more).
     #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
           value_parser = non_negative_s)]
     pub warmup_s: f64,
@@ -72,7 +79,10 @@ pub struct NoiseArgs {
     /// "mdev_cm_s2", "alpha", "alpha_source", "slope_to_next"), "terms" (quantization,
     /// velocity_random_walk, bias_instability, acceleration_random_walk: "symbol",
     /// "adev_slope", "resolved", "values": [{"unit", "value", "sigma"}]),
-    /// "terms_fit_chi2", "terms_fit_dof", "warnings".
+    /// "terms_fit_chi2", "terms_fit_dof", "warnings"; with --compare also "comparison"
+    /// ("input_cm_s2", "simulated_mean_cm_s2", "familywise_alpha", "test", "differing",
+    /// "points": "tau_s", "measured_adev_cm_s2", "measured_ci95", "simulated_adev_cm_s2",
+    /// "simulated_ci95", "z", "p", "differs").
     #[arg(long)]
     pub json: bool,
     /// Replace an existing --out or --plot file; run a simulation estimated beyond ten
@@ -83,8 +93,9 @@ pub struct NoiseArgs {
 
 /// What to analyse.
 enum Source {
-    /// A record read and checked, by its name.
-    Counts(String, Record),
+    /// A record read and checked, by its name; with the options of the comparison's
+    /// simulation (`--compare`).
+    Counts(String, Record, Option<SimOptions>),
     /// The loop to simulate: options, gate ticks, gates.
     Simulate {
         opts: SimOptions,
@@ -138,7 +149,17 @@ impl NoiseArgs {
         let source = if let Some(path) = &self.counts {
             ctx.require_loop()?;
             let rec = noise::read_record(path, ctx.instr.clock_hz)?;
-            Source::Counts(path.display().to_string(), rec)
+            let compare = if self.compare {
+                Some(SimOptions {
+                    seed: self.seed,
+                    warmup_s: self.warmup_s,
+                    config: ctx.config()?,
+                    ..SimOptions::default()
+                })
+            } else {
+                None
+            };
+            Source::Counts(path.display().to_string(), rec, compare)
         } else {
             let opts = SimOptions {
                 seed: self.seed,
@@ -192,14 +213,18 @@ impl NoiseArgs {
 pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     let instr = &ctx.instr;
     let mut warnings: Vec<String> = Vec::new();
+    let mut compare_opts = None;
     let (name, record) = match &req.source {
-        Source::Counts(name, rec) => (name.clone(), rec.clone()),
+        Source::Counts(name, rec, opts) => {
+            compare_opts = *opts;
+            (name.clone(), rec.clone())
+        }
         Source::Simulate { opts, ticks, gates } => {
             let est = Work::new(instr, opts)
                 .gate(ticks * gates)
                 .check(req.force, "this simulated record")?;
             let bar = work::Progress::start("noise --simulate", &est);
-            let g = noise::simulate_record(instr, opts, *ticks, *gates, &mut |_, _| {});
+            let g = noise::simulate_record(instr, opts, 0.0, *ticks, *gates, &mut |_, _| {});
             bar.finish();
             #[allow(clippy::cast_precision_loss)]
             let gate = *ticks as f64 / instr.clock_hz;
@@ -251,6 +276,20 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
             a.fit_dof
         ));
     }
+    let comparison = match &compare_opts {
+        Some(opts) => Some(simulate_and_compare(ctx, req, opts, &record, &a)?),
+        None => None,
+    };
+    if let Some(c) = &comparison {
+        let n = c.points.iter().filter(|p| p.differs).count();
+        if n > 0 {
+            warnings.push(format!(
+                "{name}: the simulated loop's Allan deviation differs from the record's at {} of {} taus (Holm, 5 % familywise): the instrument file's noise is not the instrument's there",
+                n,
+                c.points.len()
+            ));
+        }
+    }
     if let Some((path, replaced)) = &req.plot {
         let svg = a.svg(&format!("Allan deviation: {name}"))?;
         write_atomic(path, svg.as_bytes())?;
@@ -263,9 +302,113 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         eprintln!("warning: {w}");
     }
     if req.json {
-        writeln!(out, "{}", a.json(&name, &warnings))?;
+        let mut v = a.json(&name, &warnings);
+        if let (Some(c), Some(map)) = (&comparison, v.as_object_mut()) {
+            map.insert("comparison".into(), c.json());
+        }
+        writeln!(out, "{v}")?;
     } else {
         write!(out, "{}", a.text(&name))?;
+        if let Some(c) = &comparison {
+            write!(out, "{}", c.text())?;
+        }
     }
     Ok(())
+}
+
+/// The record against the simulated loop (`--compare`).
+struct Comparison {
+    /// The acceleration along IA simulated, cm/s².
+    input_cm_s2: f64,
+    /// The simulated record's mean, cm/s².
+    simulated_mean_cm_s2: f64,
+    points: Vec<noise::Compared>,
+}
+
+impl Comparison {
+    fn json(&self) -> serde_json::Value {
+        let points: Vec<serde_json::Value> = self
+            .points
+            .iter()
+            .map(|c| {
+                serde_json::json!({
+                    "tau_s": c.measured.tau_s,
+                    "measured_adev_cm_s2": c.measured.adev,
+                    "measured_ci95": [c.measured.ci95_lo, c.measured.ci95_hi],
+                    "simulated_adev_cm_s2": c.simulated.adev,
+                    "simulated_ci95": [c.simulated.ci95_lo, c.simulated.ci95_hi],
+                    "z": c.z,
+                    "p": c.p,
+                    "differs": c.differs,
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "input_cm_s2": self.input_cm_s2,
+            "simulated_mean_cm_s2": self.simulated_mean_cm_s2,
+            "familywise_alpha": noise::COMPARE_ALPHA,
+            "test": "z = ln(adev_measured/adev_simulated)/sqrt(1/(2 edf_measured) + 1/(2 edf_simulated)), two-sided normal p, Holm step-down over the taus",
+            "points": points,
+            "differing": self.points.iter().filter(|c| c.differs).count(),
+        })
+    }
+
+    fn text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "against the simulated loop ({} cm/s^2 along IA, simulated mean {} cm/s^2); differs: Holm at 5 % familywise over the taus:",
+            sig(self.input_cm_s2, 8),
+            sig(self.simulated_mean_cm_s2, 8)
+        );
+        let _ = writeln!(
+            s,
+            "{:>12} {:>12} {:>25} {:>12} {:>25} {:>8} {:>8}",
+            "tau_s", "measured", "ci95", "simulated", "ci95", "z", "differs"
+        );
+        for c in &self.points {
+            let _ = writeln!(
+                s,
+                "{:>12} {:>12.5e} {:>25} {:>12.5e} {:>25} {:>8.2} {:>8}",
+                sig(c.measured.tau_s, 6),
+                c.measured.adev,
+                format!("[{:.4e}, {:.4e}]", c.measured.ci95_lo, c.measured.ci95_hi),
+                c.simulated.adev,
+                format!("[{:.4e}, {:.4e}]", c.simulated.ci95_lo, c.simulated.ci95_hi),
+                c.z,
+                if c.differs { "yes" } else { "no" }
+            );
+        }
+        s
+    }
+}
+
+/// Simulate the loop as long as `record`, with its gate, at the acceleration along IA that
+/// gives its mean, and compare the deviations.
+fn simulate_and_compare(
+    ctx: &Ctx,
+    req: &Request,
+    opts: &SimOptions,
+    record: &Record,
+    measured: &Analysis,
+) -> Result<Comparison> {
+    let instr = &ctx.instr;
+    let ticks = record.gates[0].ticks;
+    let gates = record.gates.len() as u64;
+    let est = Work::new(instr, opts)
+        .gate(ticks * gates)
+        .check(req.force, "the comparison's simulated record")?;
+    let input_cm_s2 = measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0);
+    let bar = work::Progress::start("noise --compare", &est);
+    let g = noise::simulate_record(instr, opts, input_cm_s2, ticks, gates, &mut |_, _| {});
+    bar.finish();
+    let lines: Vec<usize> = (0..g.len()).map(|k| k + 1).collect();
+    let sim = noise::check_record("the simulated record", g, &lines, instr.clock_hz)?;
+    let s = Analysis::of(&sim, instr.sf_cm_s2, instr.clock_hz);
+    Ok(Comparison {
+        input_cm_s2,
+        simulated_mean_cm_s2: s.mean_cm_s2,
+        points: noise::compare(&measured.points, &s.points),
+    })
 }
