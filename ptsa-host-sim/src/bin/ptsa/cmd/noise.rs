@@ -219,47 +219,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
             compare_opts = *opts;
             (name.clone(), rec.clone())
         }
-        Source::Simulate { opts, ticks, gates } => {
-            let est = Work::new(instr, opts)
-                .gate(ticks * gates)
-                .check(req.force, "this simulated record")?;
-            let bar = work::Progress::start("noise --simulate", &est);
-            let g = noise::simulate_record(instr, opts, 0.0, *ticks, *gates, &mut |_, _| {});
-            bar.finish();
-            #[allow(clippy::cast_precision_loss)]
-            let gate = *ticks as f64 / instr.clock_hz;
-            let comments = [
-                format!(
-                    "the simulated closed loop at rest (`ptsa noise --simulate`): {}, pickoff noise noise_uv_rms = {} uV, bias {} cm/s^2, seed {}",
-                    ctx.name,
-                    instr.noise_v_rms * 1e6,
-                    instr.bias_cm_s2,
-                    opts.seed
-                ),
-                format!(
-                    "{gates} gates of {ticks} ticks ({} s) back to back after {} s of settling from reset; time_s from the end of the settling",
-                    sig(gate, 8),
-                    opts.warmup_s
-                ),
-            ];
-            if let Some((path, replaced)) = &req.out {
-                write_atomic(path, noise::record_csv(&g, &comments).as_bytes())?;
-                if let Some(w) = replaced {
-                    eprintln!("warning: --out {}: replaced {w} (--force)", path.display());
-                }
-                eprintln!("wrote the record {}", path.display());
-            }
-            let name = req.out.as_ref().map_or_else(
-                || format!("simulated ({}, seed {})", ctx.name, opts.seed),
-                |(p, _)| p.display().to_string(),
-            );
-            // The lines the gates have in the written record: the comments, the header.
-            let lines: Vec<usize> = (0..g.len()).map(|k| k + comments.len() + 2).collect();
-            (
-                name.clone(),
-                noise::check_record(&name, g, &lines, instr.clock_hz)?,
-            )
-        }
+        Source::Simulate { opts, ticks, gates } => simulated(ctx, req, opts, *ticks, *gates)?,
     };
     let a = Analysis::of(&record, instr.sf_cm_s2, instr.clock_hz);
     if a.points.len() < 4 {
@@ -314,6 +274,55 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// Simulate the loop at rest (refused beyond the work limit without `--force`), write its
+/// record to `--out` if given; the record's name and the record.
+fn simulated(
+    ctx: &Ctx,
+    req: &Request,
+    opts: &SimOptions,
+    ticks: u64,
+    gates: u64,
+) -> Result<(String, Record)> {
+    let instr = &ctx.instr;
+    let est = Work::new(instr, opts)
+        .gate(ticks * gates)
+        .check(req.force, "this simulated record")?;
+    let bar = work::Progress::start("noise --simulate", &est);
+    let g = noise::simulate_record(instr, opts, 0.0, ticks, gates, &mut |_, _| {});
+    bar.finish();
+    #[allow(clippy::cast_precision_loss)]
+    let gate = ticks as f64 / instr.clock_hz;
+    let comments = [
+        format!(
+            "the simulated closed loop at rest (`ptsa noise --simulate`): {}, pickoff noise noise_uv_rms = {} uV, bias {} cm/s^2, seed {}",
+            ctx.name,
+            instr.noise_v_rms * 1e6,
+            instr.bias_cm_s2,
+            opts.seed
+        ),
+        format!(
+            "{gates} gates of {ticks} ticks ({} s) back to back after {} s of settling from reset; time_s from the end of the settling",
+            sig(gate, 8),
+            opts.warmup_s
+        ),
+    ];
+    if let Some((path, replaced)) = &req.out {
+        write_atomic(path, noise::record_csv(&g, &comments).as_bytes())?;
+        if let Some(w) = replaced {
+            eprintln!("warning: --out {}: replaced {w} (--force)", path.display());
+        }
+        eprintln!("wrote the record {}", path.display());
+    }
+    let name = req.out.as_ref().map_or_else(
+        || format!("simulated ({}, seed {})", ctx.name, opts.seed),
+        |(p, _)| p.display().to_string(),
+    );
+    // The lines the gates have in the written record: the comments, the header.
+    let lines: Vec<usize> = (0..g.len()).map(|k| k + comments.len() + 2).collect();
+    let record = noise::check_record(&name, g, &lines, instr.clock_hz)?;
+    Ok((name, record))
 }
 
 /// The record against the simulated loop (`--compare`).
