@@ -730,6 +730,42 @@ mod tests {
         assert!(e.contains("at least 8"), "{e}");
     }
 
+    /// The comparison: the same curve differs nowhere (z = 0); a curve twice as high at one
+    /// τ with many degrees of freedom differs there only; Holm's threshold for the smallest
+    /// p of k is 0.05/k (a p of 0.02 among 4 is not significant).
+    #[test]
+    fn compare_is_holm_over_the_taus() {
+        let y: Vec<f64> = (0..64).map(|k| f64::from(k % 5)).collect();
+        let pts = allan::analyse(&y, 0.01);
+        let same = compare(&pts, &pts);
+        assert!(same.iter().all(|c| !c.differs && c.z == 0.0), "{same:?}");
+        let mut other = pts.clone();
+        other[1].adev *= 2.0;
+        for p in &mut other {
+            p.edf = 1000.0;
+        }
+        let mut meas = pts.clone();
+        for p in &mut meas {
+            p.edf = 1000.0;
+        }
+        let c = compare(&meas, &other);
+        assert!(
+            c[1].differs && c.iter().filter(|c| c.differs).count() == 1,
+            "{c:?}"
+        );
+        // z for a p of 0.02: 2.326; among 4 taus Holm asks p <= 0.0125 first.
+        let mut four: Vec<Point> = pts[..4].to_vec();
+        for p in &mut four {
+            p.edf = 1000.0;
+        }
+        let mut shifted = four.clone();
+        let z = 2.326_348;
+        shifted[0].adev = four[0].adev / (z * (1.0 / 1000.0f64).sqrt()).exp();
+        let c = compare(&four, &shifted);
+        assert!((c[0].p - 0.02).abs() < 1e-4, "{}", c[0].p);
+        assert!(c.iter().all(|c| !c.differs), "{c:?}");
+    }
+
     #[test]
     fn gate_lines_follow_the_readers_rule() {
         let t = "\u{feff}# c\n\ntime_s,pulses,ticks\n0,1,2\n# x\n0.1,1,2\n";
