@@ -11,6 +11,8 @@
 //! * [`lab`]: lab set-ups (fixtures), test plans and the counter record's frequency response.
 //! * [`simulation`]: the closed loop tick by tick and the batch engine that runs many;
 //!   [`simulate_condition`] and [`simulate_difference`] are the entry points.
+//! * [`noise`]: the Allan deviation of a static counter record and its noise terms, and
+//!   the same for the simulated loop at rest (`ptsa noise`).
 //! * [`discovery`]: what measured data say the model gets wrong.
 //! * [`triad`]: three accelerometers on one block calibrated together (a triad file).
 //! * [`report`]: the report programme of R-890 (experiments, tables, summary).
@@ -20,6 +22,7 @@
 pub mod discovery;
 pub mod lab;
 pub mod model;
+pub mod noise;
 pub mod output;
 pub mod report;
 pub mod simulation;

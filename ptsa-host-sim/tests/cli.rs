@@ -1271,6 +1271,7 @@ fn help_exits_0_and_names_units() {
         ("record", "clock_hz, in s"),
         ("predict", "_cm_s2"),
         ("correct", "cm/s²"),
+        ("noise", "cm/s²"),
         ("plan tumble", "s ("),
         ("plan rate-table", "rad/s"),
         ("plan shaker", "Hz"),

@@ -18,8 +18,8 @@ use std::process::ExitCode;
 
 use anyhow::Result;
 use cmd::{
-    Ctx, bench, correct, design, discover, experiments, instrument, plan, predict, record, report,
-    response, static_,
+    Ctx, bench, correct, design, discover, experiments, instrument, noise, plan, predict, record,
+    report, response, static_,
 };
 use flags::{Cli, Cmd};
 use ptsa_host_sim::lab::fixtures::TwoAxisKind;
@@ -78,5 +78,6 @@ fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
         Cmd::Record(a) => record::run(&ctx, &a.request()?, out),
         Cmd::Correct(a) => correct::run(&a.request(&ctx, instrument_given)?, out),
         Cmd::Instrument(a) => instrument::run(&a.request()?, out),
+        Cmd::Noise(a) => noise::run(&ctx, &a.request(&ctx)?, out),
     }
 }

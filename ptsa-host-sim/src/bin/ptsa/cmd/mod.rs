@@ -25,6 +25,7 @@ pub mod design;
 pub mod discover;
 pub mod experiments;
 pub mod instrument;
+pub mod noise;
 pub mod plan;
 pub mod predict;
 pub mod record;

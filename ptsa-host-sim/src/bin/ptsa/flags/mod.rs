@@ -19,8 +19,9 @@ use ptsa_host_sim::simulation::sim::SimOptions;
 
 use crate::cmd::{
     bench::BenchArgs, correct::CorrectArgs, design::DesignArgs, discover::DiscoverArgs,
-    experiments, instrument::InstrumentArgs, plan::PlanArgs, predict::PredictArgs,
-    record::RecordArgs, report::ReportArgs, response::ResponseArgs, static_::StaticArgs,
+    experiments, instrument::InstrumentArgs, noise::NoiseArgs, plan::PlanArgs,
+    predict::PredictArgs, record::RecordArgs, report::ReportArgs, response::ResponseArgs,
+    static_::StaticArgs,
 };
 use values::{non_negative_s, positive_s, seed};
 
@@ -70,6 +71,7 @@ impl Cli {
             Some(Cmd::Response(a)) => v.extend(a.inputs()),
             Some(Cmd::Record(a)) => v.extend(a.inputs()),
             Some(Cmd::Correct(a)) => v.extend(a.inputs()),
+            Some(Cmd::Noise(a)) => v.extend(a.inputs()),
             _ => {}
         }
         v
@@ -187,6 +189,26 @@ pub enum Cmd {
     /// a_ia_cm_s2, a_ia_g, sigma_a_ia_cm_s2, sigma_noise_cm_s2, sigma_calibration_cm_s2:
     /// cm/s², a_ia_g in g), or one JSON object with --json.
     Correct(CorrectArgs),
+    /// Noise of a static counter record, or of the simulated loop at rest: the overlapping
+    /// and modified Allan deviations (cm/s²) at octave averaging times with 95 % intervals,
+    /// and the noise terms read from their slopes.
+    ///
+    /// --counts FILE reads a record `time_s,pulses,ticks` (as for `ptsa response`) of gates
+    /// back to back; each gate indicates SF·(2P/T − 1) cm/s² with the instrument file's
+    /// nominal SF. --simulate --seconds N runs the instrument file's closed loop at rest
+    /// (its bias and pickoff noise included) and analyses its record the same way
+    /// (--out FILE keeps the record).
+    ///
+    /// The intervals are chi-squared intervals with the simple equivalent-degrees-of-freedom
+    /// formulas for the overlapping ADEV (NIST SP 1065, section 5.3), the noise type at each
+    /// tau identified by the lag-1 autocorrelation; the modified deviation has none. The terms
+    /// (IEEE Std 952: quantization Q, slope −1; velocity random walk N, −1/2; bias instability
+    /// B, 0; acceleration random walk K, +1/2) come from a weighted fit of the variance curve,
+    /// in cgs and in µg, µg/√Hz, (m/s)/√h, (m/s)/h^1.5, with 1-sigma uncertainties
+    /// (docs/noise.md). Prints a table, or one JSON object with --json; --plot FILE writes
+    /// the log–log plot (SVG).
+    #[command(allow_negative_numbers = true)]
+    Noise(NoiseArgs),
     /// Instrument files: `instrument new --class CLASS --out FILE` writes a commented
     /// template (kearfott-2401, navigation, mems).
     Instrument(InstrumentArgs),

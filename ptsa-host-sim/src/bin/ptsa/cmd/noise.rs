@@ -1,0 +1,423 @@
+//! `ptsa noise`: the overlapping and modified Allan deviations of a static counter record
+//! (`--counts`) or of the simulated loop at rest (`--simulate`), with their 95 % intervals,
+//! the noise terms read from them, a table or JSON, and a log–log plot (`ptsa_host_sim::noise`).
+#![allow(
+    clippy::cast_precision_loss,
+    reason = "gate counts, far below 2^52, as f64"
+)]
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Result, bail};
+use clap::Args;
+use ptsa_host_sim::noise::{self, Analysis, Record};
+use ptsa_host_sim::output::significant as sig;
+use ptsa_host_sim::output::write_atomic;
+use ptsa_host_sim::simulation::sim::SimOptions;
+
+use super::{Ctx, gate_ticks};
+use crate::flags::values::{non_negative_s, positive_s, seed};
+use crate::paths;
+use crate::work::{self, Work};
+
+/// Most gates `--simulate` writes (memory: a record of that many gates is about 0.5 GB of
+/// gates and text).
+pub const MAX_SIMULATED_GATES: f64 = 2e7;
+
+/// Arguments of `ptsa noise`.
+#[derive(Args, Debug, Clone)]
+pub struct NoiseArgs {
+    /// Static counter record: CSV `time_s,pulses,ticks` with that header (as `ptsa
+    /// response` reads), gates back to back (each starting one gate, T/clock_hz s, after
+    /// the previous, within 1 %), of equal length, at least 8.
+    #[arg(
+        long,
+        value_name = "FILE",
+        conflicts_with = "simulate",
+        required_unless_present = "simulate"
+    )]
+    pub counts: Option<PathBuf>,
+    /// Simulate the instrument file's closed loop at rest (no acceleration along IA; its
+    /// bias and pickoff noise noise_uv_rms included) for --seconds, and analyse that record.
+    #[arg(long, requires = "seconds")]
+    pub simulate: bool,
+    /// With --counts: simulate the instrument file's loop for as long as the record, with its
+    /// gate and with the acceleration along IA that gives the record's mean (less the file's
+    /// bias), and compare the two Allan deviations tau by tau: z of the log ratio from both
+    /// EDFs, Holm's step-down over the taus at 5 % familywise.
+    #[arg(long, requires = "counts")]
+    pub compare: bool,
+    /// With --simulate: the simulated record's length after the settling, s (more than 0).
+    #[arg(long, value_name = "S", value_parser = positive_s, requires = "simulate")]
+    pub seconds: Option<f64>,
+    /// With --simulate: the gate, s (at least one limit cycle, 0.001 s at 64 kHz).
+    #[arg(long, default_value_t = 0.01, value_name = "S", value_parser = positive_s)]
+    pub gate_s: f64,
+    /// With --simulate or --compare: seed of the pickoff noise, a whole number from 0 to
+    /// 2^64 − 1, no unit.
+    #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
+          value_parser = seed)]
+    pub seed: u64,
+    /// With --simulate or --compare: settling time from reset before the first gate, s (0 or
+    /// more).
+    #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
+          value_parser = non_negative_s)]
+    pub warmup_s: f64,
+    /// With --simulate: write the simulated counter record (time_s,pulses,ticks) to FILE;
+    /// an existing file is replaced only with --force.
+    #[arg(long, value_name = "FILE", requires = "simulate")]
+    pub out: Option<PathBuf>,
+    /// Write the log–log plot (SVG: ADEV with its 95 % bars, MDEV, the fitted terms) to
+    /// FILE; an existing file is replaced only with --force.
+    #[arg(long, value_name = "FILE")]
+    pub plot: Option<PathBuf>,
+    /// Print exactly one JSON object: "record", "gates", "gate_s", "span_s", "mean_cm_s2",
+    /// "sf_cm_s2", "pulse_cm_s" (one pulse as a velocity step, cm/s),
+    /// "lag1_autocorrelation", "edf_method", "points" (one per octave tau: "tau_s",
+    /// "adev_cm_s2", "ci95_lo", "ci95_hi" (cm/s², 95 %), "edf", "m", "n_pairs",
+    /// "mdev_cm_s2", "alpha", "alpha_source", "slope_to_next"), "terms" (quantization,
+    /// velocity_random_walk, bias_instability, acceleration_random_walk: "symbol",
+    /// "adev_slope", "resolved", "values": [{"unit", "value", "sigma"}]),
+    /// "terms_fit_chi2", "terms_fit_dof", "warnings"; with --compare also "comparison"
+    /// ("input_cm_s2", "simulated_mean_cm_s2", "familywise_alpha", "test", "differing",
+    /// "points": "tau_s", "measured_adev_cm_s2", "measured_ci95", "simulated_adev_cm_s2",
+    /// "simulated_ci95", "z", "p", "differs").
+    #[arg(long)]
+    pub json: bool,
+    /// Replace an existing --out or --plot file; run a simulation estimated beyond ten
+    /// minutes.
+    #[arg(long)]
+    pub force: bool,
+}
+
+/// What to analyse.
+enum Source {
+    /// A record read and checked, by its name; with the options of the comparison's
+    /// simulation (`--compare`).
+    Counts(String, Record, Option<SimOptions>),
+    /// The loop to simulate: options, gate ticks, gates.
+    Simulate {
+        opts: SimOptions,
+        ticks: u64,
+        gates: u64,
+    },
+}
+
+/// A noise analysis to run.
+pub struct Request {
+    source: Source,
+    out: Option<(PathBuf, Option<String>)>,
+    plot: Option<(PathBuf, Option<String>)>,
+    json: bool,
+    force: bool,
+}
+
+impl NoiseArgs {
+    /// The files the command reads, by their flags: no output may replace them.
+    pub fn inputs(&self) -> [(&'static str, Option<&Path>); 1] {
+        [("--counts", self.counts.as_deref())]
+    }
+
+    /// The request: the outputs checked (never an input, an existing file only with
+    /// `--force`), the record read and checked, or the simulation's gate and length.
+    ///
+    /// # Errors
+    /// An output refused; the record cannot be read, is not a counter record or its gates
+    /// are not back to back; the gate does not fit the loop; too many gates.
+    pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        let checked = |flag: &str, p: Option<PathBuf>| -> Result<_> {
+            Ok(match p {
+                Some(p) => {
+                    let replaced = paths::output_file(flag, &p, self.force)?
+                        .then(|| paths::what_is_replaced(&p));
+                    Some((p, replaced))
+                }
+                None => None,
+            })
+        };
+        let out = checked("--out", self.out.clone())?;
+        let plot = checked("--plot", self.plot.clone())?;
+        if let (Some((o, _)), Some((p, _))) = (&out, &plot)
+            && o == p
+        {
+            bail!(
+                "--plot {}: the same file as --out; expected two files (the record and its plot)",
+                p.display()
+            );
+        }
+        let source = if let Some(path) = &self.counts {
+            ctx.require_loop()?;
+            let rec = noise::read_record(path, ctx.instr.clock_hz)?;
+            let compare = if self.compare {
+                Some(SimOptions {
+                    seed: self.seed,
+                    warmup_s: self.warmup_s,
+                    config: ctx.config()?,
+                    ..SimOptions::default()
+                })
+            } else {
+                None
+            };
+            Source::Counts(path.display().to_string(), rec, compare)
+        } else {
+            let opts = SimOptions {
+                seed: self.seed,
+                warmup_s: self.warmup_s,
+                config: ctx.config()?,
+                ..SimOptions::default()
+            };
+            let ticks = gate_ticks("--gate-s", self.gate_s, &ctx.instr, &opts)?;
+            let seconds = self.seconds.unwrap_or(0.0);
+            #[allow(clippy::cast_precision_loss)]
+            let gate = ticks as f64 / ctx.instr.clock_hz;
+            let n = (seconds / gate).floor();
+            if n < noise::MIN_GATES as f64 {
+                bail!(
+                    "--seconds {}: {} gates of {} s; expected at least {} gates (--seconds at least {} s)",
+                    sig(seconds, 8),
+                    n,
+                    sig(gate, 8),
+                    noise::MIN_GATES,
+                    sig(gate * noise::MIN_GATES as f64, 8)
+                );
+            }
+            if n > MAX_SIMULATED_GATES {
+                bail!(
+                    "--seconds {}: {} gates of {} s; expected at most {} gates (a longer --gate-s, or fewer --seconds)",
+                    sig(seconds, 8),
+                    sig(n, 6),
+                    sig(gate, 8),
+                    sig(MAX_SIMULATED_GATES, 3)
+                );
+            }
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let gates = n as u64;
+            Source::Simulate { opts, ticks, gates }
+        };
+        Ok(Request {
+            source,
+            out,
+            plot,
+            json: self.json,
+            force: self.force,
+        })
+    }
+}
+
+/// Simulate (refused beyond the work limit without `--force`) or take the record; analyse
+/// it; write the record and the plot; print the table or the JSON.
+///
+/// # Errors
+/// Refused work; a write fails.
+pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
+    let instr = &ctx.instr;
+    let mut warnings: Vec<String> = Vec::new();
+    let mut compare_opts = None;
+    let (name, record) = match &req.source {
+        Source::Counts(name, rec, opts) => {
+            compare_opts = *opts;
+            (name.clone(), rec.clone())
+        }
+        Source::Simulate { opts, ticks, gates } => simulated(ctx, req, opts, *ticks, *gates)?,
+    };
+    let a = Analysis::of(&record, instr.sf_cm_s2, instr.clock_hz);
+    if a.points.len() < 4 {
+        warnings.push(format!(
+            "{name}: {} gates give {} octaves of tau: too few to read the noise terms from the slopes",
+            a.gates,
+            a.points.len()
+        ));
+    }
+    if a.fit_dof > 0 && ptsa_host_sim::stats::chi2_sf(a.fit_chi2, a.fit_dof as f64) < 1e-3 {
+        warnings.push(format!(
+            "{name}: the Allan variance is not a sum of the four power laws (the terms' fit has chi2 {} on {} dof): the terms are the fit's compromise, not readings; a loop's count pattern (its limit cycle's tones) gives stretches of slope -1/2 and sudden drops that no noise term makes (docs/noise.md)",
+            sig(a.fit_chi2, 4),
+            a.fit_dof
+        ));
+    }
+    let comparison = match &compare_opts {
+        Some(opts) => Some(simulate_and_compare(ctx, req, opts, &record, &a)?),
+        None => None,
+    };
+    if let Some(c) = &comparison {
+        let n = c.points.iter().filter(|p| p.differs).count();
+        if n > 0 {
+            warnings.push(format!(
+                "{name}: the simulated loop's Allan deviation differs from the record's at {} of {} taus (Holm, 5 % familywise): the instrument file's noise is not the instrument's there",
+                n,
+                c.points.len()
+            ));
+        }
+    }
+    if let Some((path, replaced)) = &req.plot {
+        let svg = a.svg(&format!("Allan deviation: {name}"))?;
+        write_atomic(path, svg.as_bytes())?;
+        if let Some(w) = replaced {
+            eprintln!("warning: --plot {}: replaced {w} (--force)", path.display());
+        }
+        eprintln!("wrote the plot {}", path.display());
+    }
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    if req.json {
+        let mut v = a.json(&name, &warnings);
+        if let (Some(c), Some(map)) = (&comparison, v.as_object_mut()) {
+            map.insert("comparison".into(), c.json());
+        }
+        writeln!(out, "{v}")?;
+    } else {
+        write!(out, "{}", a.text(&name))?;
+        if let Some(c) = &comparison {
+            write!(out, "{}", c.text())?;
+        }
+    }
+    Ok(())
+}
+
+/// Simulate the loop at rest (refused beyond the work limit without `--force`), write its
+/// record to `--out` if given; the record's name and the record.
+fn simulated(
+    ctx: &Ctx,
+    req: &Request,
+    opts: &SimOptions,
+    ticks: u64,
+    gates: u64,
+) -> Result<(String, Record)> {
+    let instr = &ctx.instr;
+    let est = Work::new(instr, opts)
+        .gate(ticks * gates)
+        .check(req.force, "this simulated record")?;
+    let bar = work::Progress::start("noise --simulate", &est);
+    let g = noise::simulate_record(instr, opts, 0.0, ticks, gates, &mut |_, _| {});
+    bar.finish();
+    #[allow(clippy::cast_precision_loss)]
+    let gate = ticks as f64 / instr.clock_hz;
+    let comments = [
+        format!(
+            "the simulated closed loop at rest (`ptsa noise --simulate`): {}, pickoff noise noise_uv_rms = {} uV, bias {} cm/s^2, seed {}",
+            ctx.name,
+            instr.noise_v_rms * 1e6,
+            instr.bias_cm_s2,
+            opts.seed
+        ),
+        format!(
+            "{gates} gates of {ticks} ticks ({} s) back to back after {} s of settling from reset; time_s from the end of the settling",
+            sig(gate, 8),
+            opts.warmup_s
+        ),
+    ];
+    if let Some((path, replaced)) = &req.out {
+        write_atomic(path, noise::record_csv(&g, &comments).as_bytes())?;
+        if let Some(w) = replaced {
+            eprintln!("warning: --out {}: replaced {w} (--force)", path.display());
+        }
+        eprintln!("wrote the record {}", path.display());
+    }
+    let name = req.out.as_ref().map_or_else(
+        || format!("simulated ({}, seed {})", ctx.name, opts.seed),
+        |(p, _)| p.display().to_string(),
+    );
+    // The lines the gates have in the written record: the comments, the header.
+    let lines: Vec<usize> = (0..g.len()).map(|k| k + comments.len() + 2).collect();
+    let record = noise::check_record(&name, g, &lines, instr.clock_hz)?;
+    Ok((name, record))
+}
+
+/// The record against the simulated loop (`--compare`).
+struct Comparison {
+    /// The acceleration along IA simulated, cm/s².
+    input_cm_s2: f64,
+    /// The simulated record's mean, cm/s².
+    simulated_mean_cm_s2: f64,
+    points: Vec<noise::Compared>,
+}
+
+impl Comparison {
+    fn json(&self) -> serde_json::Value {
+        let points: Vec<serde_json::Value> = self
+            .points
+            .iter()
+            .map(|c| {
+                serde_json::json!({
+                    "tau_s": c.measured.tau_s,
+                    "measured_adev_cm_s2": c.measured.adev,
+                    "measured_ci95": [c.measured.ci95_lo, c.measured.ci95_hi],
+                    "simulated_adev_cm_s2": c.simulated.adev,
+                    "simulated_ci95": [c.simulated.ci95_lo, c.simulated.ci95_hi],
+                    "z": c.z,
+                    "p": c.p,
+                    "differs": c.differs,
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "input_cm_s2": self.input_cm_s2,
+            "simulated_mean_cm_s2": self.simulated_mean_cm_s2,
+            "familywise_alpha": noise::COMPARE_ALPHA,
+            "test": "z = ln(adev_measured/adev_simulated)/sqrt(1/(2 edf_measured) + 1/(2 edf_simulated)), two-sided normal p, Holm step-down over the taus",
+            "points": points,
+            "differing": self.points.iter().filter(|c| c.differs).count(),
+        })
+    }
+
+    fn text(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "against the simulated loop ({} cm/s^2 along IA, simulated mean {} cm/s^2); differs: Holm at 5 % familywise over the taus:",
+            sig(self.input_cm_s2, 8),
+            sig(self.simulated_mean_cm_s2, 8)
+        );
+        let _ = writeln!(
+            s,
+            "{:>12} {:>12} {:>25} {:>12} {:>25} {:>8} {:>8}",
+            "tau_s", "measured", "ci95", "simulated", "ci95", "z", "differs"
+        );
+        for c in &self.points {
+            let _ = writeln!(
+                s,
+                "{:>12} {:>12.5e} {:>25} {:>12.5e} {:>25} {:>8.2} {:>8}",
+                sig(c.measured.tau_s, 6),
+                c.measured.adev,
+                format!("[{:.4e}, {:.4e}]", c.measured.ci95_lo, c.measured.ci95_hi),
+                c.simulated.adev,
+                format!("[{:.4e}, {:.4e}]", c.simulated.ci95_lo, c.simulated.ci95_hi),
+                c.z,
+                if c.differs { "yes" } else { "no" }
+            );
+        }
+        s
+    }
+}
+
+/// Simulate the loop as long as `record`, with its gate, at the acceleration along IA that
+/// gives its mean, and compare the deviations.
+fn simulate_and_compare(
+    ctx: &Ctx,
+    req: &Request,
+    opts: &SimOptions,
+    record: &Record,
+    measured: &Analysis,
+) -> Result<Comparison> {
+    let instr = &ctx.instr;
+    let ticks = record.gates[0].ticks;
+    let gates = record.gates.len() as u64;
+    let est = Work::new(instr, opts)
+        .gate(ticks * gates)
+        .check(req.force, "the comparison's simulated record")?;
+    let input_cm_s2 = measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0);
+    let bar = work::Progress::start("noise --compare", &est);
+    let g = noise::simulate_record(instr, opts, input_cm_s2, ticks, gates, &mut |_, _| {});
+    bar.finish();
+    let lines: Vec<usize> = (0..g.len()).map(|k| k + 1).collect();
+    let sim = noise::check_record("the simulated record", g, &lines, instr.clock_hz)?;
+    let s = Analysis::of(&sim, instr.sf_cm_s2, instr.clock_hz);
+    Ok(Comparison {
+        input_cm_s2,
+        simulated_mean_cm_s2: s.mean_cm_s2,
+        points: noise::compare(&measured.points, &s.points),
+    })
+}

@@ -1,0 +1,796 @@
+//! Noise (`ptsa noise`): the Allan deviation of a static counter record, the noise terms
+//! read from it, and the same analysis of the simulated loop at rest.
+//!
+//! * [`allan`]: the overlapping and modified Allan deviations in `O(N)` per averaging time,
+//!   the noise type by the lag-1 autocorrelation, the equivalent degrees of freedom and the
+//!   95 % intervals;
+//! * [`terms`]: IEEE Std 952's noise terms (quantization, velocity random walk, bias
+//!   instability, acceleration random walk) fitted to the curve, in cgs and navigation
+//!   units;
+//! * here: the record checked for what the analysis needs (gates back to back, of equal
+//!   length), the analysis of a record ([`Analysis`]: its JSON, its table, its plot), and a
+//!   record of the simulated closed loop at rest ([`simulate_record`]).
+//!
+//! The record is `ptsa response`'s (`time_s,pulses,ticks`, read by
+//! [`crate::lab::response::read`]); each gate indicates `SF·(2P/T − 1)` cm/s² with the
+//! instrument file's nominal SF.
+#![allow(
+    clippy::cast_precision_loss,
+    reason = "gate counts and averaging factors, far below 2^52, as f64"
+)]
+
+pub mod allan;
+pub mod terms;
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::{Context as _, Result, bail};
+use plotters::prelude::*;
+
+use crate::lab::response::{self, Gate};
+use crate::model::effects::Effects;
+use crate::model::instrument::Instrument;
+use crate::output::plot::font_ready;
+use crate::output::significant as sig;
+use crate::simulation::sim::{ClosedLoop, SimOptions};
+use allan::Point;
+use terms::{Fitted, Term};
+
+/// Fewest gates `ptsa noise` analyses: three octaves (τ₀, 2τ₀, 4τ₀).
+pub const MIN_GATES: usize = 8;
+
+/// The largest departure of a gate's start from the previous start plus one gate that
+/// counts as back to back, as a fraction of the gate (time stamps rounded by the counter).
+pub const SPACING_TOL: f64 = 0.01;
+
+/// The lines of a record's gates, in order: the rule of [`response::parse`] (a byte-order
+/// mark dropped, blank and `#` lines skipped, the first other line the header).
+fn gate_lines(text: &str) -> Vec<usize> {
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| {
+            let t = l.trim();
+            !t.is_empty() && !t.starts_with('#')
+        })
+        .skip(1)
+        .map(|(i, _)| i + 1)
+        .collect()
+}
+
+/// A static record, read and checked for the Allan analysis.
+#[derive(Clone, Debug)]
+pub struct Record {
+    /// The gates.
+    pub gates: Vec<Gate>,
+    /// The gate `T/f_clock`, s.
+    pub tau0_s: f64,
+}
+
+/// Read the counter record at `path` ([`response::read`]'s reader and its refusals) and
+/// check it for the analysis: at least [`MIN_GATES`] gates, each starting one gate
+/// (`T/clock_hz`) after the previous one, within [`SPACING_TOL`] of a gate.
+///
+/// # Errors
+/// The reader's refusals; too few gates; a gap, an overlap or dead time between two gates,
+/// or a counter clock other than `clock_hz` (the first gate pair already off): named by
+/// `file:line`, with what was expected.
+pub fn read_record(path: &Path, clock_hz: f64) -> Result<Record> {
+    let gates = response::read(path)?;
+    let name = path.display().to_string();
+    let text = std::fs::read_to_string(path).with_context(|| format!("{name}: cannot read"))?;
+    let lines = gate_lines(&text);
+    check_record(&name, gates, &lines, clock_hz)
+}
+
+/// [`read_record`]'s checks on gates already read; `lines[k]` is gate `k`'s line.
+///
+/// # Errors
+/// As [`read_record`].
+pub fn check_record(
+    name: &str,
+    gates: Vec<Gate>,
+    lines: &[usize],
+    clock_hz: f64,
+) -> Result<Record> {
+    let line = |k: usize| lines.get(k).copied().unwrap_or(0);
+    if gates.len() < MIN_GATES {
+        bail!(
+            "{name}:{}: the record ends after {} gates; expected at least {MIN_GATES} (the Allan deviation at 3 octaves of the gate)",
+            line(gates.len().saturating_sub(1)),
+            gates.len()
+        );
+    }
+    #[allow(clippy::cast_precision_loss)]
+    let tau0_s = gates[0].ticks as f64 / clock_hz;
+    for (k, w) in gates.windows(2).enumerate() {
+        let step = w[1].time_s - w[0].time_s;
+        if (step - tau0_s).abs() > SPACING_TOL * tau0_s {
+            let what = if k == 0 {
+                format!(
+                    "every gate is {} s long ({} ticks at the instrument file's clock_hz {} Hz); if the counter's clock is another, give its instrument file",
+                    sig(tau0_s, 8),
+                    gates[0].ticks,
+                    sig(clock_hz, 10)
+                )
+            } else if step > tau0_s {
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                let missing = ((step / tau0_s).round() as u64).saturating_sub(1);
+                format!(
+                    "a gap of {} s after the gate of line {} ({} missing, or dead time between gates)",
+                    sig(step - tau0_s, 6),
+                    line(k),
+                    if missing == 0 {
+                        "less than a gate".to_string()
+                    } else {
+                        crate::output::count(missing, "gate")
+                    }
+                )
+            } else {
+                format!(
+                    "it overlaps the gate of line {} by {} s",
+                    line(k),
+                    sig(tau0_s - step, 6)
+                )
+            };
+            bail!(
+                "{name}:{}: column 1 (`time_s`) holds {}, {} s after the previous gate's start; expected back-to-back gates {} s apart (T/clock_hz): {what}; the Allan deviation needs contiguous gates",
+                line(k + 1),
+                w[1].time_s,
+                sig(step, 8),
+                sig(tau0_s, 8)
+            );
+        }
+    }
+    Ok(Record { gates, tau0_s })
+}
+
+/// Everything `ptsa noise` reports about a record.
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    /// Gates analysed.
+    pub gates: usize,
+    /// The gate, s.
+    pub tau0_s: f64,
+    /// Mean indicated acceleration, cm/s².
+    pub mean_cm_s2: f64,
+    /// The nominal SF the counts were read with, cm/s².
+    pub sf_cm_s2: f64,
+    /// One data pulse as a velocity step, `2·SF/f_clock`, cm/s.
+    pub pulse_cm_s: f64,
+    /// Lag-1 autocorrelation of the gates' indicated accelerations (−0.5 for pure count
+    /// quantization: adjacent gates share the charge stored at their common boundary).
+    pub lag1: f64,
+    /// The octave points.
+    pub points: Vec<Point>,
+    /// The fitted noise terms.
+    pub terms: Vec<Fitted>,
+    /// The terms' fit: `χ²` and degrees of freedom.
+    pub fit_chi2: f64,
+    /// Degrees of freedom of the fit.
+    pub fit_dof: usize,
+}
+
+/// The statement of the confidence intervals, for the JSON and the docs.
+pub const EDF_METHOD: &str = "chi-squared intervals with the simple EDF formulas for the overlapping ADEV (Howe, Allan & Barnes 1981, as NIST SP 1065 section 5.3 tabulates them), the noise type at each tau by the lag-1 autocorrelation (Riley & Greenhall 2004); not Greenhall's general EDF algorithm";
+
+impl Analysis {
+    /// Analyse `record` with the nominal SF `sf_cm_s2` and clock `clock_hz`.
+    #[must_use]
+    pub fn of(record: &Record, sf_cm_s2: f64, clock_hz: f64) -> Self {
+        let y: Vec<f64> = record
+            .gates
+            .iter()
+            .map(|g| g.indicated_cm_s2(sf_cm_s2))
+            .collect();
+        Self::of_series(&y, record.tau0_s, sf_cm_s2, clock_hz)
+    }
+
+    /// Analyse the gates' indicated accelerations `y` (cm/s²), gates of `tau0_s`.
+    #[must_use]
+    pub fn of_series(y: &[f64], tau0_s: f64, sf_cm_s2: f64, clock_hz: f64) -> Self {
+        let points = allan::analyse(y, tau0_s);
+        let (terms, fit_chi2, fit_dof) = terms::fit(
+            &points
+                .iter()
+                .map(|p| (p.tau_s, p.adev * p.adev, p.edf))
+                .collect::<Vec<_>>(),
+        );
+        #[allow(clippy::cast_precision_loss)]
+        let mean_cm_s2 = y.iter().sum::<f64>() / y.len().max(1) as f64;
+        let den: f64 = y.iter().map(|v| (v - mean_cm_s2).powi(2)).sum();
+        let num: f64 = y
+            .windows(2)
+            .map(|w| (w[0] - mean_cm_s2) * (w[1] - mean_cm_s2))
+            .sum();
+        Self {
+            gates: y.len(),
+            tau0_s,
+            mean_cm_s2,
+            sf_cm_s2,
+            pulse_cm_s: 2.0 * sf_cm_s2 / clock_hz,
+            lag1: if den > 0.0 { num / den } else { 0.0 },
+            points,
+            terms,
+            fit_chi2,
+            fit_dof,
+        }
+    }
+
+    /// The local slope of `log ADEV` against `log τ` from point `k` to the next.
+    #[must_use]
+    pub fn slope(&self, k: usize) -> Option<f64> {
+        let (a, b) = (self.points.get(k)?, self.points.get(k + 1)?);
+        if a.adev > 0.0 && b.adev > 0.0 {
+            Some((b.adev / a.adev).ln() / (b.tau_s / a.tau_s).ln())
+        } else {
+            None
+        }
+    }
+
+    /// The JSON object (`ptsa noise --json`): the record's figures, the points, the terms.
+    #[must_use]
+    pub fn json(&self, record: &str, warnings: &[String]) -> serde_json::Value {
+        let points: Vec<serde_json::Value> = self
+            .points
+            .iter()
+            .enumerate()
+            .map(|(k, p)| {
+                serde_json::json!({
+                    "tau_s": p.tau_s,
+                    "adev_cm_s2": p.adev,
+                    "ci95_lo": p.ci95_lo,
+                    "ci95_hi": p.ci95_hi,
+                    "edf": p.edf,
+                    "m": p.m,
+                    "n_pairs": p.n_pairs,
+                    "mdev_cm_s2": p.mdev,
+                    "alpha": p.alpha,
+                    "alpha_source": p.alpha_source.name(),
+                    "slope_to_next": self.slope(k),
+                })
+            })
+            .collect();
+        let mut terms = serde_json::Map::new();
+        for f in &self.terms {
+            let values: Vec<serde_json::Value> = f
+                .term
+                .units()
+                .into_iter()
+                .map(|(unit, factor)| {
+                    serde_json::json!({
+                        "unit": unit,
+                        "value": f.value.map(|v| v.0 * factor),
+                        "sigma": f.value.map(|v| v.1 * factor),
+                    })
+                })
+                .collect();
+            terms.insert(
+                f.term.key().into(),
+                serde_json::json!({
+                    "symbol": f.term.symbol(),
+                    "adev_slope": f.term.slope(),
+                    "resolved": f.value.is_some(),
+                    "values": values,
+                }),
+            );
+        }
+        serde_json::json!({
+            "record": record,
+            "gates": self.gates,
+            "gate_s": self.tau0_s,
+            "span_s": self.tau0_s * self.gates as f64,
+            "mean_cm_s2": self.mean_cm_s2,
+            "sf_cm_s2": self.sf_cm_s2,
+            "pulse_cm_s": self.pulse_cm_s,
+            "lag1_autocorrelation": self.lag1,
+            "edf_method": EDF_METHOD,
+            "points": points,
+            "terms": serde_json::Value::Object(terms),
+            "terms_fit_chi2": self.fit_chi2,
+            "terms_fit_dof": self.fit_dof,
+            "warnings": warnings,
+        })
+    }
+
+    /// The text report: the table of points, then the terms.
+    #[must_use]
+    pub fn text(&self, record: &str) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "noise: {record}: {} gates of {} s ({} s), mean {} cm/s^2; one pulse = {} cm/s; lag-1 autocorrelation of the gates {:.3}",
+            self.gates,
+            sig(self.tau0_s, 8),
+            sig(self.tau0_s * self.gates as f64, 8),
+            sig(self.mean_cm_s2, 8),
+            sig(self.pulse_cm_s, 4),
+            self.lag1
+        );
+        let _ = writeln!(
+            s,
+            "{:>12} {:>9} {:>12} {:>12} {:>12} {:>9} {:>6} {:>12} {:>7}",
+            "tau_s",
+            "m",
+            "adev cm/s^2",
+            "ci95_lo",
+            "ci95_hi",
+            "edf",
+            "alpha",
+            "mdev cm/s^2",
+            "slope"
+        );
+        for (k, p) in self.points.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "{:>12} {:>9} {:>12.5e} {:>12.5e} {:>12.5e} {:>9.1} {:>5}{} {:>12} {:>7}",
+                sig(p.tau_s, 6),
+                p.m,
+                p.adev,
+                p.ci95_lo,
+                p.ci95_hi,
+                p.edf,
+                p.alpha,
+                match p.alpha_source {
+                    allan::NoiseIdSource::Acf => " ",
+                    allan::NoiseIdSource::Inherited => "*",
+                    allan::NoiseIdSource::Assumed => "?",
+                },
+                p.mdev.map_or_else(|| "-".into(), |v| format!("{v:.5e}")),
+                self.slope(k)
+                    .map_or_else(|| "-".into(), |v| format!("{v:.2}"))
+            );
+        }
+        let _ = writeln!(
+            s,
+            "alpha: the noise type (2 white velocity/quantization, 0 white acceleration, -1 flicker, -2 random walk) by the lag-1 autocorrelation; * inherited from a shorter tau, ? assumed. 95 % intervals: {EDF_METHOD}."
+        );
+        let _ = writeln!(
+            s,
+            "terms (AVAR = 3Q^2/tau^2 + N^2/tau + 0.4413 B^2 + K^2 tau/3, weighted fit; chi2 {:.1} on {} dof; 1-sigma):",
+            self.fit_chi2, self.fit_dof
+        );
+        for f in &self.terms {
+            let name = match f.term {
+                Term::Quantization => "quantization",
+                Term::VelocityRandomWalk => "velocity random walk",
+                Term::BiasInstability => "bias instability",
+                Term::AccelerationRandomWalk => "acceleration random walk",
+            };
+            match f.value {
+                None => {
+                    let _ = writeln!(
+                        s,
+                        "  {} {name} (slope {}): not resolved",
+                        f.term.symbol(),
+                        f.term.slope()
+                    );
+                }
+                Some((v, e)) => {
+                    let parts: Vec<String> = f
+                        .term
+                        .units()
+                        .into_iter()
+                        .map(|(u, k)| format!("{:.4} ± {:.4} {u}", v * k, e * k))
+                        .collect();
+                    let _ = writeln!(
+                        s,
+                        "  {} {name} (slope {}): {}",
+                        f.term.symbol(),
+                        f.term.slope(),
+                        parts.join(" = ")
+                    );
+                }
+            }
+        }
+        s
+    }
+
+    /// The log–log plot as SVG text: ADEV with its 95 % bars, MDEV, each fitted term's line
+    /// and their sum. Without a font the plot is drawn without text.
+    ///
+    /// # Errors
+    /// Drawing fails.
+    pub fn svg(&self, title: &str) -> Result<String> {
+        let mut s = String::new();
+        draw(
+            &SVGBackend::with_string(&mut s, (960, 640)).into_drawing_area(),
+            self,
+            title,
+        )?;
+        Ok(s)
+    }
+}
+
+fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
+    anyhow::anyhow!("{e:?}")
+}
+
+/// Colours of the terms' lines, in [`terms::TERMS`]' order.
+const TERM_COLORS: [RGBColor; 4] = [
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+];
+
+#[allow(
+    clippy::too_many_lines,
+    reason = "one plot: axes, bars, points, lines, legend in drawing order"
+)]
+fn draw<DB: DrawingBackend>(
+    root: &DrawingArea<DB, plotters::coord::Shift>,
+    a: &Analysis,
+    title: &str,
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let fonts = font_ready();
+    root.fill(&WHITE).map_err(err)?;
+    let pos = |v: f64| v > 0.0 && v.is_finite();
+    let taus: Vec<f64> = a.points.iter().map(|p| p.tau_s).collect();
+    let (t0, t1) = (
+        taus.first().copied().unwrap_or(1.0),
+        taus.last().copied().unwrap_or(1.0),
+    );
+    let mut ys: Vec<f64> = a
+        .points
+        .iter()
+        .flat_map(|p| [p.ci95_lo, p.ci95_hi, p.adev, p.mdev.unwrap_or(p.adev)])
+        .filter(|v| pos(*v))
+        .collect();
+    ys.sort_by(f64::total_cmp);
+    let (y0, y1) = match (ys.first(), ys.last()) {
+        (Some(&lo), Some(&hi)) => (lo / 2.0, hi * 3.0),
+        _ => (1e-6, 1.0),
+    };
+    let xr = (t0 / 1.5)..(t1 * 1.5);
+    let mut b = ChartBuilder::on(root);
+    b.margin(14).margin_right(30);
+    if fonts {
+        b.caption(title, ("sans-serif", 18))
+            .x_label_area_size(44)
+            .y_label_area_size(90);
+    }
+    let mut chart = b
+        .build_cartesian_2d(xr.log_scale(), (y0..y1).log_scale())
+        .map_err(err)?;
+    {
+        let mut m = chart.configure_mesh();
+        if fonts {
+            let f = |v: &f64| sig(*v, 3);
+            m.x_desc("averaging time tau, s")
+                .y_desc("Allan deviation, cm/s²")
+                .x_label_formatter(&f)
+                .y_label_formatter(&f)
+                .label_style(("sans-serif", 13));
+            m.draw().map_err(err)?;
+        } else {
+            m.x_labels(0).y_labels(0).draw().map_err(err)?;
+        }
+    }
+    let blue = RGBColor(31, 119, 180);
+    chart
+        .draw_series(
+            a.points
+                .iter()
+                .filter(|p| pos(p.ci95_lo) && pos(p.ci95_hi))
+                .map(|p| PathElement::new(vec![(p.tau_s, p.ci95_lo), (p.tau_s, p.ci95_hi)], blue)),
+        )
+        .map_err(err)?;
+    let ann = chart
+        .draw_series(
+            a.points
+                .iter()
+                .filter(|p| pos(p.adev))
+                .map(|p| Circle::new((p.tau_s, p.adev), 4, blue.filled())),
+        )
+        .map_err(err)?;
+    if fonts {
+        ann.label("overlapping ADEV, 95 % interval")
+            .legend(move |(x, y)| Circle::new((x + 9, y), 4, blue.filled()));
+    }
+    let ann = chart
+        .draw_series(
+            a.points
+                .iter()
+                .filter_map(|p| p.mdev.filter(|v| pos(*v)).map(|v| (p.tau_s, v)))
+                .map(|p| TriangleMarker::new(p, 5, BLACK.filled())),
+        )
+        .map_err(err)?;
+    if fonts {
+        ann.label("modified ADEV")
+            .legend(|(x, y)| TriangleMarker::new((x + 9, y), 5, BLACK.filled()));
+    }
+    // 60 points a line across the τ range.
+    let grid: Vec<f64> = (0..=60)
+        .map(|i| t0 / 1.5 * ((t1 * 2.25 / t0).powf(f64::from(i) / 60.0)))
+        .collect();
+    for (f, c) in a.terms.iter().zip(TERM_COLORS) {
+        let Some((v, _)) = f.value else { continue };
+        let pts: Vec<(f64, f64)> = grid
+            .iter()
+            .map(|&t| (t, (v * v * f.term.shape(t)).sqrt()))
+            .filter(|p| p.1 >= y0 && p.1 <= y1)
+            .collect();
+        let ann = chart
+            .draw_series(LineSeries::new(pts, c.stroke_width(2)))
+            .map_err(err)?;
+        if fonts {
+            let label = format!(
+                "{} (slope {}): {} {}",
+                f.term.symbol(),
+                f.term.slope(),
+                sig(v, 3),
+                f.term.units()[0].0
+            );
+            ann.label(label).legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2))
+            });
+        }
+    }
+    if a.terms.iter().any(|f| f.value.is_some()) {
+        let pts: Vec<(f64, f64)> = grid
+            .iter()
+            .map(|&t| (t, terms::model_avar(&a.terms, t).sqrt()))
+            .filter(|p| p.1 >= y0 && p.1 <= y1)
+            .collect();
+        let ann = chart
+            .draw_series(LineSeries::new(pts, BLACK.stroke_width(1)))
+            .map_err(err)?;
+        if fonts {
+            ann.label("sum of the fitted terms")
+                .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
+        }
+    }
+    if fonts {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 13))
+            .draw()
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// One averaging time of a measured record against the simulated one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Compared {
+    /// The measured record's point.
+    pub measured: Point,
+    /// The simulated record's point at the same τ.
+    pub simulated: Point,
+    /// `ln(σ_measured/σ_simulated)` over its standard error `√(1/(2ν_m) + 1/(2ν_s))` (the
+    /// log of a deviation with ν degrees of freedom has a variance of about `1/(2ν)`).
+    pub z: f64,
+    /// Two-sided p-value of `z` (normal).
+    pub p: f64,
+    /// The two differ at this τ, Holm's step-down over all the τ at the familywise level.
+    pub differs: bool,
+}
+
+/// Familywise level of [`compare`]'s Holm step-down over the τ.
+pub const COMPARE_ALPHA: f64 = 0.05;
+
+/// The measured and simulated Allan deviations τ by τ (the τ both have), each difference's
+/// `z` on the log scale and whether it is significant under Holm's step-down at
+/// [`COMPARE_ALPHA`] over all those τ.
+#[must_use]
+pub fn compare(measured: &[Point], simulated: &[Point]) -> Vec<Compared> {
+    let mut out: Vec<Compared> = measured
+        .iter()
+        .filter_map(|m| {
+            let s = simulated
+                .iter()
+                .find(|s| (s.tau_s - m.tau_s).abs() <= 1e-9 * m.tau_s)?;
+            let z = (m.adev / s.adev).ln() / (0.5 / m.edf + 0.5 / s.edf).sqrt();
+            let p = if z.is_finite() {
+                use statrs::distribution::{ContinuousCDF as _, Normal};
+                Normal::standard().sf(z.abs()) * 2.0
+            } else {
+                0.0
+            };
+            Some(Compared {
+                measured: *m,
+                simulated: *s,
+                z,
+                p,
+                differs: false,
+            })
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..out.len()).collect();
+    order.sort_by(|&a, &b| out[a].p.total_cmp(&out[b].p));
+    let k = order.len();
+    for (rank, &i) in order.iter().enumerate() {
+        if out[i].p <= COMPARE_ALPHA / (k - rank) as f64 {
+            out[i].differs = true;
+        } else {
+            break;
+        }
+    }
+    out
+}
+
+/// Ticks between two calls of [`simulate_record`]'s progress callback (at least).
+pub const PROGRESS_TICKS: u64 = 1 << 22;
+
+/// A counter record of the closed loop at rest: the instrument file's loop (its bias and
+/// pickoff noise `noise_uv_rms` included) with `accel_cm_s2` along IA (0 at rest on a
+/// level bench; a tilt's share of gravity otherwise), settled for
+/// `opts.warmup_s` from reset, then `gates` gates of `gate_ticks` ticks back to back,
+/// `time_s` counted from the end of the settling. The single loop's fast static path
+/// (`ClosedLoop::run_fast`, bit for bit the path of `ptsa static`); `progress(done,
+/// total)` in ticks, about every [`PROGRESS_TICKS`].
+pub fn simulate_record(
+    instr: &Instrument,
+    opts: &SimOptions,
+    accel_cm_s2: f64,
+    gate_ticks: u64,
+    gates: u64,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Vec<Gate> {
+    let cond = crate::lab::fixtures::along_ia(accel_cm_s2, instr.g_cm_s2);
+    let mut l = ClosedLoop::new(instr, &cond, &Effects::NONE, opts);
+    let settle = opts.warmup_ticks(instr.clock_hz);
+    let total = settle + gate_ticks * gates;
+    l.run_fast(settle);
+    let mut done = settle;
+    let mut since = 0;
+    #[allow(clippy::cast_precision_loss)]
+    let tau0 = gate_ticks as f64 / instr.clock_hz;
+    let mut out = Vec::with_capacity(usize::try_from(gates).unwrap_or(0));
+    let mut p0 = l.core().total_pulses();
+    for k in 0..gates {
+        l.run_fast(gate_ticks);
+        let p1 = l.core().total_pulses();
+        #[allow(clippy::cast_precision_loss)]
+        out.push(Gate {
+            time_s: k as f64 * tau0,
+            pulses: u64::from((p1 - p0).0),
+            ticks: gate_ticks,
+        });
+        p0 = p1;
+        done += gate_ticks;
+        since += gate_ticks;
+        if since >= PROGRESS_TICKS {
+            since = 0;
+            progress(done, total);
+        }
+    }
+    progress(total, total);
+    out
+}
+
+/// A record as the CSV `ptsa response` and `ptsa noise --counts` read: `# ` comment lines
+/// (`comments`, one per entry), the header, one line per gate (times in Rust's shortest
+/// round-trip form).
+#[must_use]
+pub fn record_csv(gates: &[Gate], comments: &[String]) -> String {
+    let mut s = String::with_capacity(gates.len() * 24 + 200);
+    for c in comments {
+        let _ = writeln!(s, "# {c}");
+    }
+    s.push_str("time_s,pulses,ticks\n");
+    for g in gates {
+        let _ = writeln!(s, "{},{},{}", g.time_s, g.pulses, g.ticks);
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gates(times: &[f64]) -> Vec<Gate> {
+        times
+            .iter()
+            .map(|&t| Gate {
+                time_s: t,
+                pulses: 320,
+                ticks: 640,
+            })
+            .collect()
+    }
+
+    /// Back-to-back gates pass; a missing gate, dead time, and another clock are refused at
+    /// the right line.
+    #[test]
+    fn contiguity_is_checked_at_its_line() {
+        let ok: Vec<f64> = (0..10).map(|k| f64::from(k) * 0.01).collect();
+        let lines: Vec<usize> = (3..13).collect();
+        assert!(check_record("r.csv", gates(&ok), &lines, 64_000.0).is_ok());
+        let mut gap = ok.clone();
+        for t in &mut gap[5..] {
+            *t += 0.01;
+        }
+        let e = check_record("r.csv", gates(&gap), &lines, 64_000.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("r.csv:8:") && e.contains("1 gate missing"),
+            "{e}"
+        );
+        let e = check_record("r.csv", gates(&ok), &lines, 32_000.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.starts_with("r.csv:4:") && e.contains("clock_hz 32000"),
+            "{e}"
+        );
+        let e = check_record("r.csv", gates(&ok[..7]), &lines, 64_000.0)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("at least 8"), "{e}");
+    }
+
+    /// The comparison: the same curve differs nowhere (z = 0); a curve twice as high at one
+    /// τ with many degrees of freedom differs there only; Holm's threshold for the smallest
+    /// p of k is 0.05/k (a p of 0.02 among 4 is not significant).
+    #[test]
+    fn compare_is_holm_over_the_taus() {
+        let y: Vec<f64> = (0..64).map(|k| f64::from(k % 5)).collect();
+        let pts = allan::analyse(&y, 0.01);
+        let same = compare(&pts, &pts);
+        assert!(same.iter().all(|c| !c.differs && c.z == 0.0), "{same:?}");
+        let mut other = pts.clone();
+        other[1].adev *= 2.0;
+        for p in &mut other {
+            p.edf = 1000.0;
+        }
+        let mut meas = pts.clone();
+        for p in &mut meas {
+            p.edf = 1000.0;
+        }
+        let c = compare(&meas, &other);
+        assert!(
+            c[1].differs && c.iter().filter(|c| c.differs).count() == 1,
+            "{c:?}"
+        );
+        // z for a p of 0.02: 2.326; among 4 taus Holm asks p <= 0.0125 first.
+        let mut four: Vec<Point> = pts[..4].to_vec();
+        for p in &mut four {
+            p.edf = 1000.0;
+        }
+        let mut shifted = four.clone();
+        let z = 2.326_348;
+        shifted[0].adev = four[0].adev / (z * (1.0 / 1000.0f64).sqrt()).exp();
+        let c = compare(&four, &shifted);
+        assert!((c[0].p - 0.02).abs() < 1e-4, "{}", c[0].p);
+        assert!(c.iter().all(|c| !c.differs), "{c:?}");
+    }
+
+    #[test]
+    fn gate_lines_follow_the_readers_rule() {
+        let t = "\u{feff}# c\n\ntime_s,pulses,ticks\n0,1,2\n# x\n0.1,1,2\n";
+        assert_eq!(gate_lines(t), [4, 6]);
+    }
+
+    /// The simulated record: contiguous, the CSV read back by the record reader bit for
+    /// bit, the mean indicating the loop's bias.
+    #[test]
+    fn a_simulated_record_reads_back() {
+        let instr = Instrument::kearfott_2401();
+        let opts = SimOptions::default();
+        let g = simulate_record(&instr, &opts, 0.0, 640, 200, &mut |_, _| {});
+        let csv = record_csv(&g, &["test".into()]);
+        let back = response::parse("sim", &csv).unwrap();
+        assert_eq!(back, g);
+        let lines = gate_lines(&csv);
+        let r = check_record("sim", back, &lines, instr.clock_hz).unwrap();
+        let a = Analysis::of(&r, instr.sf_cm_s2, instr.clock_hz);
+        assert!(
+            (a.mean_cm_s2 - instr.bias_cm_s2).abs() < 1.0,
+            "{} {}",
+            a.mean_cm_s2,
+            instr.bias_cm_s2
+        );
+        assert!(a.points[0].adev > 0.0);
+    }
+}

@@ -1,0 +1,414 @@
+//! `ptsa noise`: a counter record made here with a known white acceleration noise comes back
+//! with its Allan deviation inside the intervals and its velocity random walk; a simulated
+//! record analyses the same from its file as in the run that wrote it; every bad record and
+//! option is refused naming what was wrong, with nothing written, no file replaced.
+
+use std::fmt::Write as _;
+
+use rand::SeedableRng as _;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::Distribution as _;
+
+/// The shipped file's SF, cm/s², and clock, Hz.
+const SF: f64 = 21121.1;
+const CLOCK_HZ: f64 = 64000.0;
+
+mod common;
+use common::{assert_clean_of, ptsa_in, refused_in_folder, stderr, stdout};
+
+/// A static record of `n` gates of `ticks` ticks: a mean `mean` cm/s² and white noise of
+/// `sigma` cm/s² per gate, counted as a charge-balancing loop counts (what a gate leaves
+/// over goes into the next, so the count quantization is white in velocity).
+fn record(seed: u64, n: u32, ticks: u32, mean: f64, sigma: f64) -> String {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let normal = rand_distr::Normal::new(0.0, sigma).unwrap();
+    let tau = f64::from(ticks) / CLOCK_HZ;
+    let (mut total, mut counted) = (0.0f64, 0.0f64);
+    let mut s = String::from("# made by cli_noise.rs\ntime_s,pulses,ticks\n");
+    for k in 0..n {
+        let a = mean + normal.sample(&mut rng);
+        total += f64::from(ticks) * (1.0 + a / SF) / 2.0;
+        let p = (total - counted).round();
+        counted += p;
+        writeln!(s, "{},{},{ticks}", f64::from(k) * tau, p).unwrap();
+    }
+    s
+}
+
+fn json(o: &std::process::Output) -> serde_json::Value {
+    serde_json::from_str(&stdout(o)).unwrap_or_else(|e| panic!("{e}: {}", stdout(o)))
+}
+
+/// White acceleration noise of σ per gate of τ₀: ADEV(mτ₀) = σ/√m inside the 95 %
+/// intervals (at most two octaves of fourteen outside), the velocity random walk
+/// N = σ·√τ₀ within 3 of its standard errors, the points' keys as documented.
+#[test]
+fn white_acceleration_noise_comes_back() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (sigma, ticks) = (50.0, 6400);
+    std::fs::write(
+        tmp.path().join("r.csv"),
+        record(5, 20_000, ticks, 18.7, sigma),
+    )
+    .unwrap();
+    let o = ptsa_in(tmp.path(), &["noise", "--counts", "r.csv", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    let pts = v["points"].as_array().unwrap();
+    assert_eq!(pts.len(), 14, "{v}");
+    let mut outside = 0;
+    for p in pts {
+        for k in [
+            "tau_s",
+            "adev_cm_s2",
+            "ci95_lo",
+            "ci95_hi",
+            "edf",
+            "mdev_cm_s2",
+        ] {
+            assert!(p.get(k).is_some(), "{k} missing: {p}");
+        }
+        let m = p["m"].as_f64().unwrap();
+        let want = sigma / m.sqrt();
+        let (lo, hi) = (
+            p["ci95_lo"].as_f64().unwrap(),
+            p["ci95_hi"].as_f64().unwrap(),
+        );
+        assert!(lo < p["adev_cm_s2"].as_f64().unwrap() && hi > lo, "{p}");
+        if want < lo || want > hi {
+            outside += 1;
+        }
+    }
+    assert!(outside <= 2, "{outside} outside: {v}");
+    let n = &v["terms"]["velocity_random_walk"];
+    assert_eq!(n["resolved"], true, "{n}");
+    let cgs = &n["values"][0];
+    assert_eq!(cgs["unit"], "cm/s^2/rtHz");
+    let want = sigma * (f64::from(ticks) / CLOCK_HZ).sqrt();
+    let (got, s) = (
+        cgs["value"].as_f64().unwrap(),
+        cgs["sigma"].as_f64().unwrap(),
+    );
+    assert!(
+        (got - want).abs() < 3.0 * s + 0.02 * want,
+        "{got} ± {s} vs {want}"
+    );
+    assert_eq!(n["values"][1]["unit"], "ug/rtHz");
+    assert!((n["values"][1]["value"].as_f64().unwrap() / got - 1019.716).abs() < 0.01);
+    assert!(v["edf_method"].as_str().unwrap().contains("NIST SP 1065"));
+}
+
+/// The text table: a header with units and one line per octave.
+#[test]
+fn the_table_has_a_line_per_octave() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("r.csv"), record(1, 64, 640, 0.0, 10.0)).unwrap();
+    let o = ptsa_in(tmp.path(), &["noise", "--counts", "r.csv"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains("adev cm/s^2") && out.contains("ci95_lo"),
+        "{out}"
+    );
+    for tau in ["0.01 ", "0.02 ", "0.32 "] {
+        assert!(out.contains(tau), "{tau}: {out}");
+    }
+    assert!(out.contains("velocity random walk"), "{out}");
+}
+
+/// The plot: an SVG written whole; an existing one is not replaced without --force (its
+/// bytes unchanged), and is with it; the record given to --counts never.
+#[test]
+fn the_plot_is_written_and_never_replaced_without_force() {
+    let tmp = tempfile::tempdir().unwrap();
+    let rec = record(2, 256, 640, 5.0, 20.0);
+    std::fs::write(tmp.path().join("r.csv"), &rec).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["noise", "--counts", "r.csv", "--plot", "p.svg"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let svg = std::fs::read_to_string(tmp.path().join("p.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") || svg.starts_with("<?xml"),
+        "{}",
+        &svg[..80]
+    );
+    std::fs::write(tmp.path().join("p.svg"), b"lab notes").unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["noise", "--counts", "r.csv", "--plot", "p.svg"],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    let err = stderr(&o);
+    assert!(
+        err.contains("--plot p.svg") && err.contains("--force"),
+        "{err}"
+    );
+    assert_clean_of(&err, &[]);
+    assert_eq!(
+        std::fs::read(tmp.path().join("p.svg")).unwrap(),
+        b"lab notes"
+    );
+    let o = ptsa_in(
+        tmp.path(),
+        &["noise", "--counts", "r.csv", "--plot", "p.svg", "--force"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stderr(&o).contains("warning: --plot p.svg: replaced"));
+    assert_ne!(
+        std::fs::read(tmp.path().join("p.svg")).unwrap(),
+        b"lab notes"
+    );
+    let o = ptsa_in(
+        tmp.path(),
+        &["noise", "--counts", "r.csv", "--plot", "r.csv", "--force"],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("never replaces an input"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("r.csv")).unwrap(),
+        rec
+    );
+}
+
+/// A simulated record: written with its comments, read back by `--counts` to the same
+/// analysis, bit for bit; an existing --out is not replaced without --force.
+#[test]
+fn a_simulated_record_analyses_the_same_from_its_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let args = [
+        "noise",
+        "--simulate",
+        "--seconds",
+        "3",
+        "--out",
+        "sim.csv",
+        "--json",
+    ];
+    let o = ptsa_in(tmp.path(), &args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let sim = json(&o);
+    let text = std::fs::read_to_string(tmp.path().join("sim.csv")).unwrap();
+    assert!(
+        text.starts_with("# the simulated closed loop at rest"),
+        "{text:.200}"
+    );
+    assert!(text.contains("noise_uv_rms = 0.5 uV"), "{text:.300}");
+    assert_eq!(sim["gates"], 300);
+    let o = ptsa_in(tmp.path(), &["noise", "--counts", "sim.csv", "--json"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let back = json(&o);
+    assert_eq!(back["points"], sim["points"]);
+    assert_eq!(back["terms"], sim["terms"]);
+    // The mean is the loop's bias (the shipped A_b, 18.7 cm/s²).
+    assert!(
+        (sim["mean_cm_s2"].as_f64().unwrap() - 18.7).abs() < 0.5,
+        "{sim}"
+    );
+    let o = ptsa_in(tmp.path(), &args);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--out sim.csv: the file exists"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("sim.csv")).unwrap(),
+        text
+    );
+}
+
+/// Records the analysis cannot take, refused at their line with what was expected.
+#[test]
+fn bad_records_are_refused_at_their_line() {
+    let good = record(3, 20, 640, 0.0, 10.0);
+    // Gate 10 (line 12) dropped: a gap of one gate after line 11.
+    let lines: Vec<&str> = good.lines().collect();
+    let gap = [&lines[..12], &lines[13..]].concat().join("\n") + "\n";
+    refused_in_folder(
+        &[("r.csv", gap.as_bytes())],
+        &["noise", "--counts", "r.csv"],
+        1,
+        &[
+            "r.csv:13:",
+            "1 gate missing",
+            "expected back-to-back gates 0.01 s apart",
+        ],
+        &[],
+    );
+    // Gates 0.01 s apart but 1280 ticks (0.02 s) long: another clock.
+    let spaced = good.replace(",640", ",1280");
+    refused_in_folder(
+        &[("r.csv", spaced.as_bytes())],
+        &["noise", "--counts", "r.csv"],
+        1,
+        &["r.csv:4:", "every gate is 0.02 s long", "clock_hz 64000"],
+        &[],
+    );
+    let short = lines[..9].join("\n") + "\n";
+    refused_in_folder(
+        &[("r.csv", short.as_bytes())],
+        &["noise", "--counts", "r.csv"],
+        1,
+        &["r.csv:9:", "7 gates", "expected at least 8"],
+        &[],
+    );
+    // The reader's own refusals come through (unequal gates).
+    let unequal = good
+        .replacen(",640\n", ",641\n", 2)
+        .replacen(",641\n", ",640\n", 1);
+    refused_in_folder(
+        &[("r.csv", unequal.as_bytes())],
+        &["noise", "--counts", "r.csv"],
+        1,
+        &["r.csv:4:", "expected gates of equal length"],
+        &[],
+    );
+}
+
+/// Options that do not go together or make no record, refused before any work.
+#[test]
+fn bad_options_are_refused() {
+    let good = record(4, 20, 640, 0.0, 10.0);
+    let files: [(&str, &[u8]); 1] = [("r.csv", good.as_bytes())];
+    refused_in_folder(
+        &files,
+        &["noise", "--counts", "r.csv", "--simulate", "--seconds", "1"],
+        2,
+        &["--counts", "--simulate"],
+        &[],
+    );
+    refused_in_folder(&files, &["noise", "--simulate"], 2, &["--seconds"], &[]);
+    refused_in_folder(&files, &["noise"], 2, &["--counts"], &[]);
+    refused_in_folder(
+        &files,
+        &["noise", "--simulate", "--seconds", "0.05"],
+        1,
+        &["--seconds 0.05", "expected at least 8 gates"],
+        &[],
+    );
+    refused_in_folder(
+        &files,
+        &[
+            "noise",
+            "--simulate",
+            "--seconds",
+            "1",
+            "--gate-s",
+            "0.0001",
+        ],
+        1,
+        &["--gate-s 1e-4", "at least one limit cycle"],
+        &[],
+    );
+    refused_in_folder(
+        &files,
+        &[
+            "noise",
+            "--simulate",
+            "--seconds",
+            "1e6",
+            "--gate-s",
+            "0.001",
+        ],
+        1,
+        &["--seconds 1e6:", "expected at most", "a longer --gate-s"],
+        &[],
+    );
+    refused_in_folder(
+        &files,
+        &[
+            "noise",
+            "--simulate",
+            "--seconds",
+            "1",
+            "--out",
+            "x.csv",
+            "--plot",
+            "x.csv",
+        ],
+        1,
+        &["--plot x.csv", "the same file as --out"],
+        &[],
+    );
+    // A long simulation is refused beyond the work limit without --force.
+    let o = {
+        let tmp = tempfile::tempdir().unwrap();
+        std::process::Command::new(env!("CARGO_BIN_EXE_ptsa"))
+            .current_dir(tmp.path())
+            .env("PTSA_LIMIT_S", "0.001")
+            .args(["noise", "--simulate", "--seconds", "100"])
+            .output()
+            .unwrap()
+    };
+    assert_eq!(o.status.code(), Some(1));
+    assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
+    assert!(o.stdout.is_empty());
+}
+
+/// `--compare`: a record of the shipped loop (another seed) agrees with its simulation at
+/// every τ; the same record against a file whose pickoff noise is 10 µV (the shipped file's
+/// 0.5 µV replaced) differs at several τ, with a warning.
+#[test]
+fn compare_tells_the_files_noise_from_anothers() {
+    let tmp = tempfile::tempdir().unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "noise",
+            "--simulate",
+            "--seconds",
+            "60",
+            "--seed",
+            "3",
+            "--out",
+            "r.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = ptsa_in(
+        tmp.path(),
+        &["noise", "--counts", "r.csv", "--compare", "--json"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    let c = &v["comparison"];
+    assert_eq!(c["differing"], 0, "{c}");
+    assert_eq!(c["points"].as_array().unwrap().len(), 12, "{c}");
+    assert!(c["input_cm_s2"].as_f64().unwrap().abs() < 0.01, "{c}");
+    let shipped = include_str!("../../data/kearfott-2401.toml");
+    let old = "noise_uv_rms = { value = 0.5, min = 0.0, max = 2.0 }";
+    assert!(shipped.contains(old));
+    let noisy = shipped.replace(
+        old,
+        "noise_uv_rms = { value = 10.0, min = 0.0, max = 20.0 }",
+    );
+    std::fs::write(tmp.path().join("noisy.toml"), noisy).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "noise",
+            "--instrument",
+            "noisy.toml",
+            "--counts",
+            "r.csv",
+            "--compare",
+            "--json",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let v = json(&o);
+    let n = v["comparison"]["differing"].as_u64().unwrap();
+    assert!(n >= 3, "{}", v["comparison"]);
+    assert!(
+        stderr(&o).contains(&format!("differs from the record's at {n} of 12 taus")),
+        "{}",
+        stderr(&o)
+    );
+    refused_in_folder(&[], &["noise", "--compare"], 2, &["--counts"], &[]);
+}
