@@ -362,8 +362,13 @@ fn untested_warnings(
     }
     for (n, k) in untested {
         warnings.push(format!(
-                "{flag}: `{n}` was not testable in the calibration's data, and it acts on {} here: its error is in neither their corrected values nor their sigmas (calibrate with positions that exercise it)",
-                count(k as u64, "row")
+                "{flag}: `{n}` was not testable in the calibration's data, and it acts on {} here: {} (calibrate with positions that exercise it)",
+                count(k as u64, "row"),
+                if lib::at_its_bound(cal, n) {
+                    "not corrected; its plausibility bound is in their sigmas, which it may dominate"
+                } else {
+                    "its error is in neither their corrected values nor their sigmas"
+                }
             ));
     }
     warnings
