@@ -217,9 +217,7 @@ fn a_term_the_calibration_did_not_measure_is_in_the_sigmas() {
         range(&v, "sigma_calibration_cm_s2")
     );
     for (r, (t, c)) in v["rows"].as_array().unwrap().iter().zip(&truth) {
-        let a = r["a_ia_cm_s2"].as_f64().unwrap();
-        let s = r["sigma_a_ia_cm_s2"].as_f64().unwrap();
-        assert!(((a - t) / s).abs() < 3.5, "{r}: truth {t}");
+        assert_within(r, *t);
         // The calibration's part holds δ_p at its bound over √3, times a_o.
         let want = bound / 3f64.sqrt() * c.abs() * G;
         let cal = r["sigma_calibration_cm_s2"].as_f64().unwrap();
@@ -252,11 +250,16 @@ fn a_term_the_calibration_did_not_measure_is_in_the_sigmas() {
         range(&v, "sigma_calibration_cm_s2")
     );
     for (r, (t, _)) in v["rows"].as_array().unwrap().iter().zip(&truth) {
-        let a = r["a_ia_cm_s2"].as_f64().unwrap();
-        let s = r["sigma_a_ia_cm_s2"].as_f64().unwrap();
-        assert!(((a - t) / s).abs() < 3.5, "{r}: truth {t}");
-        assert!(s < 0.15, "{r}");
+        assert_within(r, *t);
+        assert!(r["sigma_a_ia_cm_s2"].as_f64().unwrap() < 0.15, "{r}");
     }
+}
+
+/// A corrected row's `a_ia_cm_s2` within 3.5 of its `sigma_a_ia_cm_s2` of the truth `t`.
+fn assert_within(r: &serde_json::Value, t: f64) {
+    let a = r["a_ia_cm_s2"].as_f64().unwrap();
+    let s = r["sigma_a_ia_cm_s2"].as_f64().unwrap();
+    assert!(((a - t) / s).abs() < 3.5, "{r}: truth {t}");
 }
 
 /// `--out` writes the file whole; an existing one is replaced only with --force (its bytes

@@ -811,15 +811,10 @@ fn applied_to_a_record(dir: &Path) {
     assert_eq!(out.lines().count(), 14);
 }
 
-/// The triad's calibration and correction refusals: each names its file or flag and what
-/// was expected, and writes nothing.
-#[test]
-fn triad_calibration_refusals() {
-    let tmp = tempfile::tempdir().unwrap();
-    let text = triad_csv(0.0, 6);
-    std::fs::write(tmp.path().join("t.csv"), &text).unwrap();
+/// `discover --data t.csv --write-instrument cal.toml` in `dir`; it must succeed.
+fn calibrate_to_file(dir: &Path) {
     let o = ptsa_in(
-        tmp.path(),
+        dir,
         &[
             "discover",
             "--data",
@@ -830,6 +825,16 @@ fn triad_calibration_refusals() {
         ],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// The triad's calibration and correction refusals: each names its file or flag and what
+/// was expected, and writes nothing.
+#[test]
+fn triad_calibration_refusals() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = triad_csv(0.0, 6);
+    std::fs::write(tmp.path().join("t.csv"), &text).unwrap();
+    calibrate_to_file(tmp.path());
     let cal = std::fs::read(tmp.path().join("cal.toml")).unwrap();
     let (rec, _) = record(3);
     let single = "label,g_pa,measured_cm_s2\na,0,980\n";
@@ -909,18 +914,7 @@ fn triad_calibration_refusals() {
 fn a_triad_row_without_three_readings_is_written_empty() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("t.csv"), triad_csv(0.0, 6)).unwrap();
-    let o = ptsa_in(
-        tmp.path(),
-        &[
-            "discover",
-            "--data",
-            "t.csv",
-            "--no-plots",
-            "--write-instrument",
-            "cal.toml",
-        ],
-    );
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    calibrate_to_file(tmp.path());
     let (rec, _) = record(3);
     let mut lines: Vec<String> = rec.lines().map(String::from).collect();
     let cells: Vec<String> = lines[1].split(',').map(String::from).collect();

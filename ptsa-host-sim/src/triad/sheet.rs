@@ -19,7 +19,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context as _, Result};
 
 use super::fit::{AXES, SigmaSource, Triad};
-use crate::discovery::sheet::{check_target, hex, sha256, utc};
+use crate::discovery::sheet::check_target;
 use crate::output::{Figure, Plot, Series, StagedDir, XAxis, significant};
 
 /// What the triad's sheet (and its calibration file) records of its inputs.
@@ -45,36 +45,23 @@ fn file_name(p: &Path) -> String {
 /// file's `[source]`.
 #[must_use]
 pub fn provenance(s: &Inputs<'_>, t: &Triad) -> Vec<(&'static str, String)> {
-    vec![
-        (
-            "data file",
-            format!("{} ({} positions)", file_name(s.data.0), t.positions.len()),
+    let mut v = crate::discovery::sheet::provenance(
+        format!("{} ({} positions)", file_name(s.data.0), t.positions.len()),
+        s.data.1,
+        s.instrument,
+        s.time,
+    );
+    v.push((
+        "analysis",
+        format!(
+            "ptsa discover {} (triad, orientations {}; {} readings, {} parameters)",
+            env!("CARGO_PKG_VERSION"),
+            t.orientation.name(),
+            t.readings,
+            t.parameters
         ),
-        ("data SHA-256", hex(&sha256(s.data.1))),
-        ("instrument file", s.instrument.0.to_string()),
-        (
-            "instrument SHA-256",
-            hex(&sha256(s.instrument.1.as_bytes())),
-        ),
-        (
-            "date",
-            format!(
-                "{}{}",
-                utc(s.time.0),
-                if s.time.1 { " (SOURCE_DATE_EPOCH)" } else { "" }
-            ),
-        ),
-        (
-            "analysis",
-            format!(
-                "ptsa discover {} (triad, orientations {}; {} readings, {} parameters)",
-                env!("CARGO_PKG_VERSION"),
-                t.orientation.name(),
-                t.readings,
-                t.parameters
-            ),
-        ),
-    ]
+    ));
+    v
 }
 
 /// 1 σ of reading `j` of position `i` as the fit weighed it, cm/s².

@@ -387,18 +387,8 @@ fn csv(req: &AxisRequest) -> String {
         COLUMNS.join(",")
     );
     for (r, _, c) in &req.rows {
-        // Quoted as the case-frame writer quotes (a label starting with `#` would read as
-        // a comment).
-        let label = if r.label.contains([',', '"', '\n', '\r'])
-            || r.label.starts_with('#')
-            || r.label.trim() != r.label
-        {
-            format!("\"{}\"", r.label.replace('"', "\"\""))
-        } else {
-            r.label.clone()
-        };
-        let cells: Vec<String> = match c {
-            Some(c) => [
+        let cells = c.as_ref().map(|c| {
+            [
                 c.reading_cm_s2,
                 c.sigma_reading_cm_s2,
                 c.a_pa_cm_s2,
@@ -409,17 +399,30 @@ fn csv(req: &AxisRequest) -> String {
                 c.sigma_noise_cm_s2,
                 c.sigma_calibration_cm_s2,
             ]
-            .iter()
-            .map(|x| format!("{x}"))
-            .collect(),
-            None => vec![String::new(); COLUMNS.len()],
-        };
-        s.push_str(&label);
-        s.push(',');
-        s.push_str(&cells.join(","));
-        s.push('\n');
+            .to_vec()
+        });
+        s.push_str(&csv_line(&r.label, cells.as_deref(), COLUMNS.len()));
     }
     s
+}
+
+/// One CSV line: `label` quoted as the case-frame writer quotes (a label starting with `#`
+/// would read as a comment), then `cells` in Rust's shortest round-trip form, or `n` empty
+/// cells for a row without a reading.
+fn csv_line(label: &str, cells: Option<&[f64]>, n: usize) -> String {
+    let label = if label.contains([',', '"', '\n', '\r'])
+        || label.starts_with('#')
+        || label.trim() != label
+    {
+        format!("\"{}\"", label.replace('"', "\"\""))
+    } else {
+        label.to_string()
+    };
+    let cells: Vec<String> = match cells {
+        Some(c) => c.iter().map(|x| format!("{x}")).collect(),
+        None => vec![String::new(); n],
+    };
+    format!("{label},{}\n", cells.join(","))
 }
 
 /// The JSON object (`--json`).
@@ -585,25 +588,8 @@ fn triad_csv(req: &TriadRequest) -> String {
         TRIAD_COLUMNS.join(",")
     );
     for r in &req.rows {
-        let label = if r.p.label.contains([',', '"', '\n', '\r'])
-            || r.p.label.starts_with('#')
-            || r.p.label.trim() != r.p.label
-        {
-            format!("\"{}\"", r.p.label.replace('"', "\"\""))
-        } else {
-            r.p.label.clone()
-        };
-        let cells: Vec<String> = match &r.c {
-            Some((sig, c)) => triad_cells(&r.p, *sig, c)
-                .iter()
-                .map(|x| format!("{x}"))
-                .collect(),
-            None => vec![String::new(); TRIAD_COLUMNS.len()],
-        };
-        s.push_str(&label);
-        s.push(',');
-        s.push_str(&cells.join(","));
-        s.push('\n');
+        let cells = r.c.as_ref().map(|(sig, c)| triad_cells(&r.p, *sig, c));
+        s.push_str(&csv_line(&r.p.label, cells.as_deref(), TRIAD_COLUMNS.len()));
     }
     s
 }
