@@ -11,37 +11,28 @@ use rand_distr::Distribution as _;
 mod common;
 use common::{ptsa_in, refused_in_folder, stderr, stdout};
 
-/// Local gravity of the shipped instrument file, cm/s².
-const G: f64 = 980.4;
+/// The triad generator written from the equations (shared with the triad campaign and
+/// the benchmark; it uses nothing of `ptsa_host_sim`).
+#[path = "../../tests/hidden/triad_gen.rs"]
+mod triad_gen;
+use triad_gen::{G, TriadTruth};
 
 /// The 24 directions `(±1, ±2, ±3)/√14` under the cube's proper rotations.
 fn design24() -> Vec<[f64; 3]> {
-    let s = 1.0 / 14f64.sqrt();
-    let base = [1.0, 2.0, 3.0];
-    let perms: [([usize; 3], f64); 6] = [
-        ([0, 1, 2], 1.0),
-        ([1, 2, 0], 1.0),
-        ([2, 0, 1], 1.0),
-        ([1, 0, 2], -1.0),
-        ([0, 2, 1], -1.0),
-        ([2, 1, 0], -1.0),
-    ];
-    let mut v = Vec::new();
-    for (p, parity) in perms {
-        for signs in 0..8u32 {
-            let sg: [f64; 3] = [0, 1, 2].map(|b| if signs >> b & 1 == 1 { -1.0 } else { 1.0 });
-            if sg[0] * sg[1] * sg[2] * parity > 0.0 {
-                v.push([0, 1, 2].map(|r| sg[r] * base[p[r]] * s));
-            }
-        }
-    }
-    v
+    triad_gen::cube_turns([1.0, 2.0, 3.0])
 }
 
 /// The triad of the files: bias, scale-factor change, Γ (rad).
 const BIAS: [f64; 3] = [12.0, -8.0, 30.0];
 const SF: [f64; 3] = [0.01, -0.005, 0.002];
 const GAMMA: [[f64; 3]; 3] = [[0.0, 0.0, 0.0], [0.004, 0.0, 0.0], [-0.002, 0.003, 0.0]];
+/// The same as the generator's truth (no `K_2`).
+const TRUTH: TriadTruth = TriadTruth {
+    b: BIAS,
+    k: SF,
+    gamma: GAMMA,
+    q: [0.0; 3],
+};
 
 /// A triad file of the 24 positions, each turned by `tilt_rad` about a fixed axis
 /// perpendicular to its gravity (0: a precision fixture), noise 0.1 cm/s² stated.
@@ -64,14 +55,10 @@ fn triad_csv(tilt_rad: f64, seed: u64) -> String {
         p = p.map(|x| x / pn);
         let t = if i % 2 == 0 { tilt_rad } else { -tilt_rad };
         let f = [0, 1, 2].map(|k| G * (n[k] * t.cos() + p[k] * t.sin()));
-        let u: Vec<String> = (0..3)
-            .map(|j| {
-                let a = f[j] + (0..3).map(|k| GAMMA[j][k] * f[k]).sum::<f64>();
-                format!(
-                    "{:.5}",
-                    BIAS[j] + (1.0 + SF[j]) * a + noise.sample(&mut rng)
-                )
-            })
+        let u: Vec<String> = TRUTH
+            .readings(f)
+            .iter()
+            .map(|u| format!("{:.5}", u + noise.sample(&mut rng)))
             .collect();
         let _ = writeln!(
             s,
@@ -415,12 +402,10 @@ fn plan_filled_in_and_calibrated() {
             let _ = writeln!(filled, "{line}");
             continue;
         }
-        let f: Vec<f64> = n.iter().map(|x| x * G).collect();
-        let u: Vec<String> = (0..3)
-            .map(|j| {
-                let a = f[j] + (0..3).map(|k| GAMMA[j][k] * f[k]).sum::<f64>();
-                format!("{}", BIAS[j] + (1.0 + SF[j]) * a + noise.sample(&mut rng))
-            })
+        let u: Vec<String> = TRUTH
+            .readings([n[0] * G, n[1] * G, n[2] * G])
+            .iter()
+            .map(|u| format!("{}", u + noise.sample(&mut rng)))
             .collect();
         let _ = writeln!(
             filled,
@@ -520,11 +505,11 @@ fn a_counted_triad_is_calibrated_within_its_intervals() {
             let _ = writeln!(filled, "{line}");
             continue;
         }
-        let f: Vec<f64> = n.iter().map(|x| x * G).collect();
-        let counts: Vec<String> = (0..3)
-            .map(|j| {
-                let a = f[j] + (0..3).map(|k| GAMMA[j][k] * f[k]).sum::<f64>();
-                let u = BIAS[j] + (1.0 + SF[j]) * a + noise.sample(&mut rng);
+        let counts: Vec<String> = TRUTH
+            .readings([n[0] * G, n[1] * G, n[2] * G])
+            .iter()
+            .map(|u| {
+                let u = u + noise.sample(&mut rng);
                 format!("{},{ticks}", counted(u, ticks, &mut rng))
             })
             .collect();
@@ -657,4 +642,294 @@ fn plan_triad_counts_help_gives_units() {
     for w in ["--counts", "pulses_x", "clock ticks", "cm/s²", "nominal SF"] {
         assert!(h.contains(w), "`{w}` not in: {h}");
     }
+}
+
+/// `ptsa args` in `dir` with `SOURCE_DATE_EPOCH` set.
+fn ptsa_dated(dir: &Path, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_ptsa"))
+        .current_dir(dir)
+        .args(args)
+        .env("SOURCE_DATE_EPOCH", "1790000000")
+        .output()
+        .unwrap()
+}
+
+/// A record to correct: the 12 edge directions, readings of the triad of the files
+/// written from the equations with 0.1 cm/s² of noise stated (no gravity columns: the force
+/// is what is recovered), and the true forces.
+fn record(seed: u64) -> (String, Vec<[f64; 3]>) {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let forces: Vec<[f64; 3]> = triad_gen::edges()
+        .iter()
+        .map(|n| n.map(|x| x * G))
+        .collect();
+    let mut s =
+        String::from("label,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2,sigma_cm_s2\n");
+    for (i, f) in forces.iter().enumerate() {
+        let u = TRUTH
+            .readings(*f)
+            .map(|u| u + 0.1 * triad_gen::normal(&mut rng));
+        let _ = writeln!(s, "r{},{},{},{},0.1", i + 1, u[0], u[1], u[2]);
+    }
+    (s, forces)
+}
+
+/// `--sheet` and `--write-instrument` on a triad file: the sheet folder (Markdown with the
+/// data file's SHA-256, the coefficients, the non-orthogonality, the correlation, the
+/// residual table; CSV; the plot), the same bytes again with `SOURCE_DATE_EPOCH`; the
+/// calibration file, one for the three axes, which `correct` applies as it applies the
+/// `--json` result: every corrected force of a record within its covariance of the truth
+/// (Mahalanobis χ² with 3 dof below 16.3, p = 0.001), the same from both.
+#[test]
+fn a_triad_sheet_and_calibration_file_are_written_and_applied() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = triad_csv(0.0, 5);
+    std::fs::write(tmp.path().join("t.csv"), &text).unwrap();
+    let args = [
+        "discover",
+        "--data",
+        "t.csv",
+        "--no-plots",
+        "--sheet",
+        "sh",
+        "--write-instrument",
+        "cal.toml",
+        "--json",
+    ];
+    let o = ptsa_dated(tmp.path(), &args);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    std::fs::write(tmp.path().join("cal.json"), &o.stdout).unwrap();
+    let dir = tmp.path().join("sh");
+    assert_eq!(
+        common::names(&dir),
+        ["sh-residuals.png", "sh-residuals.svg", "sh.csv", "sh.md"]
+    );
+    let md = std::fs::read_to_string(dir.join("sh.md")).unwrap();
+    let hash = ptsa_host_sim::discovery::sheet::hex(&ptsa_host_sim::discovery::sheet::sha256(
+        text.as_bytes(),
+    ));
+    for needle in [
+        "# Calibration sheet: accelerometer triad",
+        "t.csv (24 positions)",
+        hash.as_str(),
+        "2026-09-21 14:13:20 UTC (SOURCE_DATE_EPOCH)",
+        "| Γ_yx |",
+        "| k_z |",
+        "## Correlation of the parameters",
+        "## Design and residuals",
+        "| p24 |",
+        "|g| check (24 positions)",
+        "M = (diag(1 + k)·(I + Γ))⁻¹",
+        "![residuals](sh-residuals.svg)",
+    ] {
+        assert!(md.contains(needle), "`{needle}` not in the sheet:\n{md}");
+    }
+    let csv = std::fs::read_to_string(dir.join("sh.csv")).unwrap();
+    assert!(csv.contains(&format!("# data SHA-256: {hash}")), "{csv}");
+    assert!(csv.lines().any(|l| l.starts_with("Γ_zy,")), "{csv}");
+    let first = std::fs::read(dir.join("sh.md")).unwrap();
+    // Again over the earlier sheet (--force): the same bytes, and the replacement warned.
+    let mut again = args.to_vec();
+    again.push("--force");
+    let o = ptsa_dated(tmp.path(), &again);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: --sheet sh: replaced an earlier sheet (--force)"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(dir.join("sh.md")).unwrap(), first);
+    let cal = std::fs::read_to_string(tmp.path().join("cal.toml")).unwrap();
+    assert!(
+        cal.contains("format = \"ptsa triad calibration 1\""),
+        "{cal}"
+    );
+    assert!(cal.contains(&hash), "{cal}");
+    applied_to_a_record(tmp.path());
+}
+
+/// `correct` with the calibration file `cal.toml` and the `--json` result `cal.json` in
+/// `dir` on a record of other directions: every force within its covariance of the truth,
+/// the same from both, and the CSV's columns.
+fn applied_to_a_record(dir: &Path) {
+    // Applied to a record of other directions, from the file and from the JSON.
+    let (rec, forces) = record(9);
+    std::fs::write(dir.join("rec.csv"), &rec).unwrap();
+    let mut results = Vec::new();
+    for c in ["cal.toml", "cal.json"] {
+        let j = json(
+            dir,
+            &["correct", "--data", "rec.csv", "--calibration", c, "--json"],
+        );
+        assert_eq!(j["frame"], "exact");
+        let rows = j["rows"].as_array().unwrap();
+        assert_eq!(rows.len(), 12);
+        for (r, f) in rows.iter().zip(&forces) {
+            let got = arr(&r["f_cm_s2"]);
+            let cov =
+                nalgebra::Matrix3::from_fn(|a, b| r["covariance_cm2_s4"][a][b].as_f64().unwrap());
+            let d = nalgebra::Vector3::new(got[0] - f[0], got[1] - f[1], got[2] - f[2]);
+            let chi2 = (d.transpose() * cov.try_inverse().unwrap() * d)[(0, 0)];
+            assert!(chi2 < 16.3, "{c}: {got:?} against {f:?}: χ² {chi2}");
+            // The noise's part is about the readings' 0.1 per axis.
+            let noise = r["covariance_noise_cm2_s4"][0][0].as_f64().unwrap().sqrt();
+            assert!((noise - 0.1).abs() < 0.02, "{noise}");
+        }
+        results.push(j["rows"].clone());
+    }
+    for (a, b) in results[0]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(results[1].as_array().unwrap())
+    {
+        let (fa, fb) = (arr(&a["f_cm_s2"]), arr(&b["f_cm_s2"]));
+        for k in 0..3 {
+            assert!((fa[k] - fb[k]).abs() < 1e-9, "{fa:?} {fb:?}");
+        }
+        let (sa, sb) = (
+            a["sigma_f_magnitude_cm_s2"].as_f64().unwrap(),
+            b["sigma_f_magnitude_cm_s2"].as_f64().unwrap(),
+        );
+        assert!((sa / sb - 1.0).abs() < 1e-9, "{sa} {sb}");
+    }
+    // The CSV: a row per record row, the force and its covariance.
+    let o = ptsa_in(
+        dir,
+        &["correct", "--data", "rec.csv", "--calibration", "cal.toml"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.lines()
+            .nth(1)
+            .unwrap()
+            .starts_with("label,reading_x_cm_s2,reading_y_cm_s2,reading_z_cm_s2,"),
+        "{out}"
+    );
+    assert!(out.contains("cov_xy_cm2_s4"), "{out}");
+    assert_eq!(out.lines().count(), 14);
+}
+
+/// `discover --data t.csv --write-instrument cal.toml` in `dir`; it must succeed.
+fn calibrate_to_file(dir: &Path) {
+    let o = ptsa_in(
+        dir,
+        &[
+            "discover",
+            "--data",
+            "t.csv",
+            "--no-plots",
+            "--write-instrument",
+            "cal.toml",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+/// The triad's calibration and correction refusals: each names its file or flag and what
+/// was expected, and writes nothing.
+#[test]
+fn triad_calibration_refusals() {
+    let tmp = tempfile::tempdir().unwrap();
+    let text = triad_csv(0.0, 6);
+    std::fs::write(tmp.path().join("t.csv"), &text).unwrap();
+    calibrate_to_file(tmp.path());
+    let cal = std::fs::read(tmp.path().join("cal.toml")).unwrap();
+    let (rec, _) = record(3);
+    let single = "label,g_pa,measured_cm_s2\na,0,980\n";
+    let single_cal = r#"{"effects": [{"name": "bias", "coefficients": {"k0_cm_s2": 0.4}, "stderr": {"k0_cm_s2": 0.01}}]}"#;
+    let files: &[(&str, &[u8])] = &[
+        ("t.csv", text.as_bytes()),
+        ("cal.toml", &cal),
+        ("rec.csv", rec.as_bytes()),
+        ("s.csv", single.as_bytes()),
+        ("s.json", single_cal.as_bytes()),
+    ];
+    // The calibration file exists: not replaced without --force.
+    refused_in_folder(
+        files,
+        &[
+            "discover",
+            "--data",
+            "t.csv",
+            "--no-plots",
+            "--write-instrument",
+            "cal.toml",
+        ],
+        1,
+        &["--write-instrument", "cal.toml", "--force"],
+        &[],
+    );
+    refused_in_folder(
+        files,
+        &["correct", "--data", "rec.csv"],
+        1,
+        &["rec.csv is a triad record", "expected --calibration FILE"],
+        &[],
+    );
+    refused_in_folder(
+        files,
+        &["correct", "--data", "rec.csv", "--calibration", "s.json"],
+        1,
+        &[
+            "--calibration s.json: a single-axis calibration",
+            "rec.csv is a triad record",
+        ],
+        &[],
+    );
+    refused_in_folder(
+        files,
+        &["correct", "--data", "s.csv", "--calibration", "cal.toml"],
+        1,
+        &[
+            "--calibration cal.toml: a triad's calibration",
+            "s.csv is a single-axis record",
+        ],
+        &[],
+    );
+    let broken = String::from_utf8(cal.clone())
+        .unwrap()
+        .replace("values = [", "values = [x");
+    let line = broken
+        .lines()
+        .position(|l| l.starts_with("values = [x"))
+        .unwrap()
+        + 1;
+    refused_in_folder(
+        &[("rec.csv", rec.as_bytes()), ("b.toml", broken.as_bytes())],
+        &["correct", "--data", "rec.csv", "--calibration", "b.toml"],
+        1,
+        &[
+            &format!("b.toml:{line}:"),
+            "expected a triad calibration file",
+        ],
+        &[],
+    );
+}
+
+/// A row of a triad record without its three readings is written with empty cells, with a
+/// warning.
+#[test]
+fn a_triad_row_without_three_readings_is_written_empty() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("t.csv"), triad_csv(0.0, 6)).unwrap();
+    calibrate_to_file(tmp.path());
+    let (rec, _) = record(3);
+    let mut lines: Vec<String> = rec.lines().map(String::from).collect();
+    let cells: Vec<String> = lines[1].split(',').map(String::from).collect();
+    lines[1] = format!("r1x,{},,{},0.1", cells[1], cells[3]);
+    let partial = lines.join("\n") + "\n";
+    std::fs::write(tmp.path().join("p.csv"), &partial).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["correct", "--data", "p.csv", "--calibration", "cal.toml"],
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("warning: p.csv: 1 row without all three axes' readings"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(stdout(&o).contains("\nr1x,,,,"), "{}", stdout(&o));
 }

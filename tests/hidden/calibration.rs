@@ -85,12 +85,8 @@ impl Design {
     #[must_use]
     pub fn rows(self) -> Vec<Condition> {
         match self {
-            Design::Tumble(n, axis) => tumble(n, axis),
-            Design::Two24 => {
-                let mut v = tumble(24, Axis::Oa);
-                v.extend(tumble(24, Axis::Pa));
-                v
-            }
+            Design::Tumble(n, axis) => tumbles(n, &[axis]),
+            Design::Two24 => tumbles(24, &[Axis::Oa, Axis::Pa]),
         }
     }
 
@@ -124,13 +120,22 @@ pub struct Truth {
     pub k2: f64,
 }
 
-/// The reading (cm/s²) of a position whose specific force is `a` (IA, PA, OA, g): the IEEE
-/// equation's output in pulse/s read through the file's nominal scale factor.
+/// The reading (cm/s²) of a position whose specific force is `a` (IA, PA, OA, g) at local
+/// gravity `g` (cm/s²): the IEEE equation `E/K_1 = K_0 + a_i + K_2·a_i² + δ_o·a_p − δ_p·a_o`
+/// with `K_1 = (1 + ε)·K_1,nom`, read through the nominal scale factor, i.e.
+/// `(1 + ε)·g·(K_0 + a_i + …)` (for the PTSA loop, `SF·E/f_clk` with the nominal
+/// `K_1,nom = f_clk·g/SF`). The one writer of the equation for this campaign and the
+/// stability campaign's (`stability.rs`).
 #[must_use]
-pub fn reading_cm_s2(t: &Truth, instr: &Instrument, a: [f64; 3]) -> f64 {
-    let k1 = (1.0 + t.eps) * instr.clock_hz * instr.g_cm_s2 / instr.sf_cm_s2;
-    let e = k1 * (t.k0_g + a[0] + t.k2 * a[0] * a[0] + t.delta_o * a[1] - t.delta_p * a[2]);
-    instr.sf_cm_s2 * e / instr.clock_hz
+pub fn reading_cm_s2(t: &Truth, g: f64, a: [f64; 3]) -> f64 {
+    let [ai, ap, ao] = a;
+    (1.0 + t.eps) * g * (t.k0_g + ai + t.k2 * ai * ai + t.delta_o * ap - t.delta_p * ao)
+}
+
+/// The tumbles of `n` positions about each of `axes`, one after the other (unmeasured).
+#[must_use]
+pub fn tumbles(n: usize, axes: &[Axis]) -> Vec<Condition> {
+    axes.iter().flat_map(|&a| tumble(n, a)).collect()
 }
 
 /// `K_2`'s standard error (g/g² per g of noise) in `rows` beside a bias, the scale factor,
@@ -230,7 +235,7 @@ pub fn generate(seed: u64, index: u64) -> Set {
     };
     let sigma = noise_g * instr.g_cm_s2;
     for row in &mut rows {
-        let u = reading_cm_s2(&truth, &instr, row.g) + sigma * r.normal();
+        let u = reading_cm_s2(&truth, instr.g_cm_s2, row.g) + sigma * r.normal();
         if let Some(t) = ticks {
             // The net pulse rate E (pulses/s) of that reading; 2P − T = E·T/f_clk, with
             // the charge held at the gate's start uniform over one pulse.

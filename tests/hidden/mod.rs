@@ -25,8 +25,9 @@
 //! 1293 model equation with the instrument's absolute coefficients drawn per set, scored on
 //! whether the `calibration` object's k = 2 intervals cover them.
 //! A seventh, [`triad`], stands apart from the pipeline: three accelerometers on one block,
-//! their readings generated from the equations, calibrated blind by
-//! `ptsa_host_sim::triad::fit`; it borrows the core's counts and binomial bands.
+//! their readings generated from the equations ([`triad_gen`], shared with the triad CLI
+//! tests and benchmark), calibrated blind by `ptsa_host_sim::triad::fit`; it borrows the
+//! core's counts and binomial bands.
 //!
 //! The four share one core ([`campaign`]): the set seeding, the run over the sets, the
 //! scored outcome of a set ([`Outcome`]), the table and the binomial assertions; each
@@ -52,6 +53,7 @@ pub mod sigma;
 pub mod stability;
 pub mod statics;
 pub mod triad;
+pub mod triad_gen;
 
 #[cfg(test)]
 mod outliers;

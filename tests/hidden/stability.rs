@@ -17,7 +17,8 @@
 //!   (SE as in the calibration campaign: strong enough to be named).
 //! * **Reading** of a position with specific force `a` (g along IA, PA, OA):
 //!   `(1 + ε)·g·(K_0 + a_i + K_2·a_i² + δ_o·a_p − δ_p·a_o)` cm/s² (the IEEE equation's
-//!   output read through the file's nominal scale factor) plus white noise;
+//!   output read through the file's nominal scale factor; `calibration::reading_cm_s2`,
+//!   the one writer of the equation for both campaigns) plus white noise;
 //!   `sigma_cm_s2` is written in three sets of four, estimated by the pipeline in the
 //!   fourth.
 //! * **Scored**: a set is a false alarm when any selected term has `stable: false`.
@@ -29,11 +30,12 @@
 
 use ptsa_host_sim::Instrument;
 use ptsa_host_sim::discovery::{AnalyticSimulator, Options, discover};
-use ptsa_host_sim::lab::plan::{Axis, tumble};
+use ptsa_host_sim::lab::plan::Axis;
 use ptsa_host_sim::model::condition::Condition;
 
 use std::fmt::Write as _;
 
+use super::calibration::{Truth, reading_cm_s2, tumbles};
 use super::campaign::binomial_interval;
 use super::{Draw, rng};
 
@@ -96,15 +98,14 @@ pub fn generate(seed: u64, index: u64) -> Set {
     let two_axes = r.uniform() < 0.5;
     let stated = index % 4 != 3;
     let with_k2 = r.uniform() < 0.5;
-    let mut rows = if two_axes {
-        let mut v = tumble(positions, Axis::Oa);
-        v.extend(tumble(positions, Axis::Pa));
-        v
+    let axes: &[Axis] = if two_axes {
+        &[Axis::Oa, Axis::Pa]
     } else if r.uniform() < 0.5 {
-        tumble(positions, Axis::Oa)
+        &[Axis::Oa]
     } else {
-        tumble(positions, Axis::Pa)
+        &[Axis::Pa]
     };
+    let mut rows = tumbles(positions, axes);
     let (k0, eps, tilt, noise) = if mems {
         (
             r.range(-50e-3, 50e-3),
@@ -136,10 +137,15 @@ pub fn generate(seed: u64, index: u64) -> Set {
         Instrument::kearfott_2401().g_cm_s2
     };
     let sigma = noise * g;
+    let truth = Truth {
+        k0_g: k0,
+        eps,
+        delta_o,
+        delta_p,
+        k2,
+    };
     for row in &mut rows {
-        let [ai, ap, ao] = row.g;
-        let reading = (1.0 + eps) * g * (k0 + ai + k2 * ai * ai + delta_o * ap - delta_p * ao);
-        row.measured_cm_s2 = Some(reading + sigma * r.normal());
+        row.measured_cm_s2 = Some(reading_cm_s2(&truth, g, row.g) + sigma * r.normal());
         row.sigma_cm_s2 = stated.then_some(sigma);
     }
     Set {

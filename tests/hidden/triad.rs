@@ -16,9 +16,10 @@
 //!   sets, left for the fit to estimate in the other half.
 //!
 //! Nothing here calls the fit's code: the rotations, the triad frame's convention and the
-//! truth in it are written here. With approximate orientations the fit estimates the triad
-//! in its own frame (x along the x axis's input axis, y in the plane of x and y): the truth
-//! is carried into that frame by Gram–Schmidt of the rows of `I + Γ` ([`in_triad_frame`]).
+//! truth in it are written in [`super::triad_gen`] (shared with the triad CLI tests and
+//! benchmark; it uses nothing of `ptsa_host_sim`). With approximate orientations the fit
+//! estimates the triad in its own frame (x along the x axis's input axis, y in the plane of
+//! x and y): the truth is carried into that frame by Gram–Schmidt of the rows of `I + Γ` ([`in_triad_frame`]).
 //!
 //! Scored: every fitted coefficient against its truth, covered when
 //! `|fitted − true| ≤ coverage_factor_95·σ`; the coverage per kind is asserted inside the
@@ -38,7 +39,7 @@ use super::Draw as _;
 use super::campaign::{Count, at_most_rate, binomial_interval, coverage_in_band, set_seed};
 
 /// Local gravity of the sets, cm/s².
-pub const G: f64 = 980.4;
+pub use super::triad_gen::G;
 
 /// A design and how it is placed.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -106,144 +107,9 @@ impl TriadKind {
     }
 }
 
-/// The six faces.
-#[must_use]
-pub fn faces() -> Vec<[f64; 3]> {
-    let mut v = Vec::new();
-    for j in 0..3 {
-        for s in [1.0, -1.0] {
-            let mut n = [0.0; 3];
-            n[j] = s;
-            v.push(n);
-        }
-    }
-    v
-}
-
-/// The twelve edge directions `(±1, ±1, 0)/√2` and their permutations.
-#[must_use]
-pub fn edges() -> Vec<[f64; 3]> {
-    let s = 1.0 / 2f64.sqrt();
-    let mut v = Vec::new();
-    for (j, k) in [(0, 1), (1, 2), (0, 2)] {
-        for (a, b) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
-            let mut n = [0.0; 3];
-            n[j] = a * s;
-            n[k] = b * s;
-            v.push(n);
-        }
-    }
-    v
-}
-
-/// The 24 proper rotations of the cube (signed permutations of determinant +1) applied
-/// to `v`, normalised.
-#[must_use]
-pub fn cube_turns(v: [f64; 3]) -> Vec<[f64; 3]> {
-    let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let perms: [([usize; 3], f64); 6] = [
-        ([0, 1, 2], 1.0),
-        ([1, 2, 0], 1.0),
-        ([2, 0, 1], 1.0),
-        ([1, 0, 2], -1.0),
-        ([0, 2, 1], -1.0),
-        ([2, 1, 0], -1.0),
-    ];
-    let mut out = Vec::new();
-    for (p, parity) in perms {
-        for signs in 0..8u32 {
-            let s: [f64; 3] = [0, 1, 2].map(|b| if signs >> b & 1 == 1 { -1.0 } else { 1.0 });
-            if s[0] * s[1] * s[2] * parity < 0.0 {
-                continue;
-            }
-            out.push([0, 1, 2].map(|r| s[r] * v[p[r]] / norm));
-        }
-    }
-    out
-}
-
-/// The rotation matrix of `angle` about the unit vector `axis` (Rodrigues' formula as a
-/// matrix: `I cos θ + sin θ [k]× + (1 − cos θ) k kᵀ`).
-#[must_use]
-pub fn rotation(axis: [f64; 3], angle: f64) -> [[f64; 3]; 3] {
-    let (s, c) = angle.sin_cos();
-    let [x, y, z] = axis;
-    [
-        [
-            c + x * x * (1.0 - c),
-            x * y * (1.0 - c) - z * s,
-            x * z * (1.0 - c) + y * s,
-        ],
-        [
-            y * x * (1.0 - c) + z * s,
-            c + y * y * (1.0 - c),
-            y * z * (1.0 - c) - x * s,
-        ],
-        [
-            z * x * (1.0 - c) - y * s,
-            z * y * (1.0 - c) + x * s,
-            c + z * z * (1.0 - c),
-        ],
-    ]
-}
-
-fn mul(m: &[[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    [0, 1, 2].map(|r| m[r][0] * v[0] + m[r][1] * v[1] + m[r][2] * v[2])
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-/// A triad's coefficients: bias (cm/s²), scale-factor change, `Γ` (rad, row = axis) and
-/// `q` (`K_2` in (cm/s²)⁻¹).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct TriadTruth {
-    /// Bias, cm/s².
-    pub b: [f64; 3],
-    /// Scale-factor change.
-    pub k: [f64; 3],
-    /// Misalignment, rad.
-    pub gamma: [[f64; 3]; 3],
-    /// `K_2`, (cm/s²)⁻¹.
-    pub q: [f64; 3],
-}
-
-/// The truth in the triad's own frame (x along the x axis's input axis `e_x + Γ_x`, y in
-/// the plane of the x and y input axes): Gram–Schmidt of the rows `r_j` of `I + Γ` gives
-/// the frame `E`; `L_jk = r_j·E_k` is lower triangular, and the same readings follow from
-/// `Γ'_jk = L_jk/L_jj`, `1 + k'_j = (1 + k_j)·L_jj`, `q'_j = q_j·L_jj²`.
-#[must_use]
-#[allow(clippy::needless_range_loop)] // j indexes L, k, q and Γ alike
-pub fn in_triad_frame(t: &TriadTruth) -> TriadTruth {
-    let r: [[f64; 3]; 3] =
-        [0, 1, 2].map(|j| [0, 1, 2].map(|k| f64::from(u8::from(j == k)) + t.gamma[j][k]));
-    let unit = |v: [f64; 3]| {
-        let n = dot(v, v).sqrt();
-        v.map(|x| x / n)
-    };
-    let ex = unit(r[0]);
-    let ey = unit({
-        let d = dot(r[1], ex);
-        [0, 1, 2].map(|i| r[1][i] - d * ex[i])
-    });
-    let ez = [
-        ex[1] * ey[2] - ex[2] * ey[1],
-        ex[2] * ey[0] - ex[0] * ey[2],
-        ex[0] * ey[1] - ex[1] * ey[0],
-    ];
-    let e = [ex, ey, ez];
-    let l: [[f64; 3]; 3] = [0, 1, 2].map(|j| [0, 1, 2].map(|k| dot(r[j], e[k])));
-    let mut out = *t;
-    for j in 0..3 {
-        out.k[j] = (1.0 + t.k[j]) * l[j][j] - 1.0;
-        out.q[j] = t.q[j] * l[j][j] * l[j][j];
-        for k in 0..3 {
-            out.gamma[j][k] = if j == k { 0.0 } else { l[j][k] / l[j][j] };
-        }
-    }
-    out
-}
+pub use super::triad_gen::{
+    TriadTruth, cube_turns, dot, edges, faces, in_triad_frame, mul, rotation,
+};
 
 /// A generated set: its positions (readings filled in), its truth in the frame the fit
 /// reports, its noise and whether the sigma is stated.
@@ -280,21 +146,15 @@ pub fn generate_triad(seed: u64, design: &[[f64; 3]], by_hand: bool) -> TriadSet
         .enumerate()
         .map(|(i, &n)| {
             let f = if by_hand {
-                // A random axis (uniform on the sphere) and an angle of 0.5–1°.
-                let z = rng.range(-1.0, 1.0);
-                let phi = rng.range(0.0, std::f64::consts::TAU);
-                let rho = (1.0 - z * z).sqrt();
-                let axis = [rho * phi.cos(), rho * phi.sin(), z];
-                let angle = rng.range(0.5, 1.0).to_radians();
-                mul(&rotation(axis, angle), n)
+                super::triad_gen::hand_placed(n, &mut rng)
             } else {
                 n
             }
             .map(|x| x * G);
+            let u = t.readings(f);
             let mut measured = [None; 3];
             for (j, m) in measured.iter_mut().enumerate() {
-                let a = f[j] + (0..3).map(|k| t.gamma[j][k] * f[k]).sum::<f64>();
-                *m = Some(t.b[j] + (1.0 + t.k[j]) * a + t.q[j] * a * a + sigma * rng.normal());
+                *m = Some(u[j] + sigma * rng.normal());
             }
             Position {
                 label: format!("p{}", i + 1),

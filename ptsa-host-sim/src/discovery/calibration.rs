@@ -477,6 +477,12 @@ pub(crate) fn calibration(p: &Problem<'_>, selected: &[Selected]) -> Option<Cali
         dof: fit.dof,
         noise,
         notes,
+        design_g: p
+            .rows
+            .iter()
+            .filter(|r| r.kind == crate::model::condition::RowKind::Absolute && r.is_static())
+            .map(|r| r.g)
+            .collect(),
     })
 }
 

@@ -10,6 +10,7 @@
 
 use anyhow::{Result, bail};
 
+use super::calibration::{Coefficient, TERMS};
 use super::sim::{AnalyticSimulator, Simulator};
 use crate::model::condition::{Condition, IA, OA, PA, RowKind};
 use crate::model::effects::{CandidateId, Effects};
@@ -46,6 +47,9 @@ pub struct Calibration {
     /// The candidates the calibration's data could not test (`not_testable`): the
     /// calibration holds nothing of them, whatever the instrument has.
     untested: Vec<CandidateId>,
+    /// The model-equation terms the calibration does not apply (not selected), each with
+    /// the uncertainty it enters with.
+    unapplied: Vec<Unapplied>,
     /// What the caller should hear about the calibration (each a warning's text).
     pub notes: Vec<String>,
 }
@@ -61,6 +65,7 @@ impl Calibration {
             terms: Vec::new(),
             cov: Vec::new(),
             untested: Vec::new(),
+            unapplied: Vec::new(),
             notes: vec![
                 "the instrument file carries no uncertainty of its values: each corrected value's sigma holds the reading's noise only".to_string(),
             ],
@@ -127,6 +132,7 @@ impl Calibration {
         }
         notes.extend(partner_notes(v));
         let untested = untested(v);
+        let unapplied = unapplied(v, instr, &mut notes);
         if effects.is_zero() {
             notes.push(
                 "the calibration selected no term: the instrument file's model is applied as it is, with no uncertainty of its own".to_string(),
@@ -138,6 +144,7 @@ impl Calibration {
             terms,
             cov,
             untested,
+            unapplied,
             notes,
         })
     }
@@ -154,6 +161,155 @@ impl Calibration {
         r.g[IA] = x;
         self.sim.absolute_cm_s2(&r, e)
     }
+}
+
+/// A model-equation term the calibration does not apply: its status in the calibration is
+/// not `selected` (docs/discovery.md, `ptsa correct`).
+#[derive(Clone, Debug)]
+struct Unapplied {
+    /// Which term.
+    term: Coefficient,
+    /// The 1 σ it enters with, in its IEEE change unit (µg, ppm, µrad, µg/g², µg/g³):
+    /// `√(change² + σ²)` when the data measured it (`fitted`, or `not_significant` with
+    /// `if_fitted`), its plausibility bound over √3 (uniform within the bound) when they did
+    /// not (`not_measured`, `not_separable`).
+    sigma_ieee: f64,
+    /// The applied terms (the selected ones) whose columns took up part of it over the
+    /// calibration's design, with how much of each.
+    absorbed: Vec<(Coefficient, f64)>,
+    /// Whether `sigma_ieee` is the plausibility bound's (the data did not measure it).
+    from_bound: bool,
+}
+
+impl Unapplied {
+    /// What of the term's column at `a` (`a_i`, `a_p`, `a_o` in g) the applied terms do not hold.
+    fn left_over(&self, a: [f64; 3]) -> f64 {
+        column(self.term, a)
+            - self
+                .absorbed
+                .iter()
+                .map(|&(t, c)| c * column(t, a))
+                .sum::<f64>()
+    }
+}
+
+/// A term's column in the model equation at `a` (`a_i`, `a_p`, `a_o` in g), dimensionless: its
+/// contribution to `E/K_1` in g is its IEEE value (10⁻⁶ of its change unit) times this.
+fn column(t: Coefficient, [i, p, o]: [f64; 3]) -> f64 {
+    match t {
+        Coefficient::K0 => 1.0,
+        Coefficient::K1 => i,
+        Coefficient::K2 => i * i,
+        Coefficient::K3 => i * i * i,
+        Coefficient::DeltaO => p,
+        Coefficient::DeltaP => -o,
+        Coefficient::Kip => i * p,
+        Coefficient::Kio => i * o,
+        Coefficient::Kpo => p * o,
+        Coefficient::Kpp => p * p,
+        Coefficient::Koo => o * o,
+    }
+}
+
+/// The terms of `calibration.terms` the result does not apply, each with its uncertainty
+/// and, from `calibration.design_g`, the part of its column the selected terms took up; a
+/// note when the result has no `calibration` object or no design.
+fn unapplied(v: &serde_json::Value, instr: &Instrument, notes: &mut Vec<String>) -> Vec<Unapplied> {
+    let Some(terms) = v
+        .get("calibration")
+        .and_then(|c| c.get("terms"))
+        .and_then(serde_json::Value::as_array)
+    else {
+        notes.push("the calibration gives no `calibration` object (a `ptsa discover --json` result has one): the model-equation terms it did not select carry no uncertainty in the corrected values' sigmas".to_string());
+        return Vec::new();
+    };
+    let g = instr.g_cm_s2;
+    let def_of = |t: &serde_json::Value| {
+        let sym = t.get("symbol").and_then(serde_json::Value::as_str)?;
+        TERMS.iter().find(|d| d.symbol == sym)
+    };
+    let selected: Vec<Coefficient> = terms
+        .iter()
+        .filter(|t| status(t) == Some("selected"))
+        .filter_map(|t| def_of(t).map(|d| d.coefficient))
+        .collect();
+    let design: Vec<[f64; 3]> = v
+        .get("calibration")
+        .and_then(|c| c.get("design_g"))
+        .and_then(serde_json::Value::as_array)
+        .map(|rows| {
+            rows.iter()
+                .filter_map(|r| {
+                    let r = r.as_array()?;
+                    Some([
+                        r.first()?.as_f64()?,
+                        r.get(1)?.as_f64()?,
+                        r.get(2)?.as_f64()?,
+                    ])
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    if design.is_empty() {
+        notes.push("the calibration gives no design (`calibration.design_g`): the terms it did not select enter the sigmas with their whole column, as if its selected terms had taken up none of them".to_string());
+    }
+    let num = |t: &serde_json::Value, k: &str| t.get(k).and_then(serde_json::Value::as_f64);
+    let mut out = Vec::new();
+    for t in terms {
+        let (Some(def), Some(st)) = (def_of(t), status(t)) else {
+            continue;
+        };
+        let measured = match st {
+            "selected" => continue,
+            "fitted" => num(t, "change")
+                .zip(num(t, "change_sigma"))
+                .map(|(c, s)| c.hypot(s)),
+            _ => t
+                .get("if_fitted")
+                .and_then(serde_json::Value::as_array)
+                .and_then(|a| Some(a.first()?.as_f64()?.hypot(a.get(1)?.as_f64()?))),
+        };
+        let from_bound = measured.is_none();
+        let sigma_ieee = measured.unwrap_or_else(|| {
+            let c = def.candidate.info();
+            c.bound.limit(instr) * (c.ieee.2)(g) / 3f64.sqrt()
+        });
+        if !(sigma_ieee.is_finite() && sigma_ieee > 0.0) {
+            continue;
+        }
+        out.push(Unapplied {
+            term: def.coefficient,
+            sigma_ieee,
+            absorbed: absorbed(def.coefficient, &selected, &design),
+            from_bound,
+        });
+    }
+    out
+}
+
+/// A calibration term's `status`.
+fn status(t: &serde_json::Value) -> Option<&str> {
+    t.get("status").and_then(serde_json::Value::as_str)
+}
+
+/// How much of each selected term's column takes up `term`'s over `design` (least squares;
+/// nothing when the design is empty or the fit fails).
+fn absorbed(
+    term: Coefficient,
+    selected: &[Coefficient],
+    design: &[[f64; 3]],
+) -> Vec<(Coefficient, f64)> {
+    if design.is_empty() || selected.is_empty() {
+        return Vec::new();
+    }
+    let z: Vec<f64> = design.iter().map(|&a| column(term, a)).collect();
+    let cols: Vec<Vec<f64>> = selected
+        .iter()
+        .map(|&s| design.iter().map(|&a| column(s, a)).collect())
+        .collect();
+    let refs: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
+    crate::stats::lsq(&z, &refs)
+        .map_or_else(Vec::new, |f| selected.iter().copied().zip(f.beta).collect())
 }
 
 /// The model equation's term names and their correlation (`null` entries, which a term
@@ -294,6 +450,15 @@ pub struct Corrected {
     pub sigma_calibration_cm_s2: f64,
 }
 
+/// Whether the candidate named `name` is a model-equation term `cal` enters at its
+/// plausibility bound (not measured by the calibration's data).
+#[must_use]
+pub fn at_its_bound(cal: &Calibration, name: &str) -> bool {
+    cal.unapplied
+        .iter()
+        .any(|u| u.from_bound && TERMS[u.term as usize].candidate.info().name == name)
+}
+
 /// The terms the calibration could not test that act on `row` at its corrected input
 /// (`c.a_ia_g` along IA): their error is in neither the row's value nor its sigma.
 #[must_use]
@@ -399,6 +564,12 @@ pub fn correct_row(
         for (j, jj) in jac.iter().enumerate() {
             var += ji * cal.cov[i][j] * jj;
         }
+    }
+    // The terms not applied: each at its uncertainty times what of its column the applied
+    // terms did not take up over the calibration's design.
+    let at = [x, row.g[PA], row.g[OA]];
+    for u in &cal.unapplied {
+        var += (u.sigma_ieee * 1e-6 * g * u.left_over(at)).powi(2);
     }
     let sigma_cal = var.max(0.0).sqrt() / d.abs();
     let a = x * g;

@@ -7,9 +7,6 @@
 //! * [`observation`]: what a row is observed as, measured or simulated: a value, or a
 //!   response row's gain and phase.
 //! * [`sim`]: the [`Simulator`] trait, the analytic model and the closed-loop adapter.
-//! * [`correct`]: a row's counts as its reading ([`correct::counts_in`]); `ptsa correct`,
-//!   a calibration applied to a record of readings (the static model equation inverted
-//!   for the specific force along IA).
 //! * [`library`]: the variables of the case inputs and of the row before, their units, the
 //!   library of shapes the residuals are searched against, and the `--term` grammar.
 //! * [`data`]: the fitted observations, signatures and the library over them.
@@ -32,6 +29,10 @@
 //!   [`advice`] (rows that would break a confounding).
 //! * [`calibration`]: the instrument's own model equation (absolute values, their
 //!   uncertainties and correlation) from the final selection.
+//! * [`correct`]: a row's counts as its reading ([`correct::counts_in`]); `ptsa correct`,
+//!   a calibration applied to a record of readings (the static model equation inverted
+//!   for the specific force along IA; the terms it does not apply sized after
+//!   [`calibration`]'s).
 //! * [`cost`]: what a discovery costs, counted before it runs.
 //! * [`outcome`]: the typed result, [`Discovery`].
 //! * [`show`]: text table, plots and the report section; [`sheet`]: the calibration sheet
@@ -645,7 +646,6 @@ mod tests {
     const LAYERS: [&str; 32] = [
         "observation",
         "sim",
-        "correct",
         "library",
         "data",
         "fit",
@@ -667,6 +667,7 @@ mod tests {
         "crossval",
         "advice",
         "calibration",
+        "correct",
         "cost",
         "outcome",
         "show",

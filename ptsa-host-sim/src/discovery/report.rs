@@ -381,6 +381,11 @@ pub struct Calibration {
     /// What to keep in mind (terms of the fit outside the model equation, a noise estimated
     /// with few degrees of freedom).
     pub notes: Vec<String>,
+    /// The calibration's design: each absolute static row's gravity along IA, PA, OA (g),
+    /// in the file's order. `ptsa correct` needs it to tell, at a record's row, how much of
+    /// a term the calibration did not apply its partners took up (docs/discovery.md,
+    /// `ptsa correct`).
+    pub design_g: Vec<[f64; 3]>,
 }
 
 /// The `--json` object.

@@ -249,37 +249,51 @@ fn cell(x: Option<f64>) -> String {
     x.map_or_else(|| "—".to_string(), |x| significant(x, 6))
 }
 
-/// The header lines both files carry: `(what, value)`.
-fn header(out: &SheetOut, p: &Provenance<'_>, d: &Discovery) -> Vec<(&'static str, String)> {
+/// The provenance every sheet carries, `(what, value)`: the data file (`data_what`: its
+/// name and size in words) and its SHA-256, the instrument file's name and SHA-256, the
+/// date (`time`: seconds since 1970-01-01 UTC, and whether from `SOURCE_DATE_EPOCH`); the
+/// triad's sheet and calibration file too.
+#[must_use]
+pub fn provenance(
+    data_what: String,
+    data_bytes: &[u8],
+    instrument: (&str, &str),
+    time: (i64, bool),
+) -> Vec<(&'static str, String)> {
     vec![
-        (
-            "data file",
-            format!("{} ({} rows)", file_name(p.data), p.rows.len()),
-        ),
-        ("data SHA-256", hex(&sha256(p.data_bytes))),
-        ("instrument file", out.instrument_name.clone()),
-        (
-            "instrument SHA-256",
-            hex(&sha256(out.instrument_text.as_bytes())),
-        ),
+        ("data file", data_what),
+        ("data SHA-256", hex(&sha256(data_bytes))),
+        ("instrument file", instrument.0.to_string()),
+        ("instrument SHA-256", hex(&sha256(instrument.1.as_bytes()))),
         (
             "date",
             format!(
                 "{}{}",
-                utc(p.time.0),
-                if p.time.1 { " (SOURCE_DATE_EPOCH)" } else { "" }
-            ),
-        ),
-        (
-            "analysis",
-            format!(
-                "ptsa discover {} ({} simulator; {} fitted observations)",
-                env!("CARGO_PKG_VERSION"),
-                d.simulator,
-                d.json.rows
+                utc(time.0),
+                if time.1 { " (SOURCE_DATE_EPOCH)" } else { "" }
             ),
         ),
     ]
+}
+
+/// The header lines both files carry: `(what, value)`.
+fn header(out: &SheetOut, p: &Provenance<'_>, d: &Discovery) -> Vec<(&'static str, String)> {
+    let mut v = provenance(
+        format!("{} ({} rows)", file_name(p.data), p.rows.len()),
+        p.data_bytes,
+        (&out.instrument_name, &out.instrument_text),
+        p.time,
+    );
+    v.push((
+        "analysis",
+        format!(
+            "ptsa discover {} ({} simulator; {} fitted observations)",
+            env!("CARGO_PKG_VERSION"),
+            d.simulator,
+            d.json.rows
+        ),
+    ));
+    v
 }
 
 /// The sheet in Markdown (`NAME.md`), with the residual plot `plot` (a file name beside it).

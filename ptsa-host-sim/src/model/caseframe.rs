@@ -431,73 +431,35 @@ pub fn parse(name: &str, text: &str) -> Result<Vec<Condition>> {
 /// # Errors
 /// As [`parse`].
 pub fn parse_frame(name: &str, text: &str) -> Result<Frame> {
-    if let Some(off) = text.find('\0') {
-        bail!(
-            "{name}:{}: the file holds a NUL character (byte offset {off}); expected UTF-8 \
-             text, not UTF-16 or a binary file ({SAVE_AS_UTF8})",
-            line_of(text.as_bytes(), off)
-        );
-    }
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let data = DataLines::new(text);
-    let mut reader = csv::ReaderBuilder::new()
-        .has_headers(false)
-        .flexible(true)
-        .from_reader(data.text.as_bytes());
-    let mut header: Option<Vec<usize>> = None;
-    let mut rows = Vec::new();
-    let mut lines = Vec::new();
+    let (cols, records) = records_with(name, text.as_bytes(), "case-frame columns", |h, at| {
+        parse_header(name, h.line, at, &h.cells)
+    })?;
+    let mut rows = Vec::with_capacity(records.len());
+    let mut lines = Vec::with_capacity(records.len());
     let mut empty = Vec::new();
     let mut readings = Vec::new();
-    for record in reader.records() {
-        let record = match record {
-            Ok(r) => r,
-            Err(e) => {
-                let line = e.position().map_or(0, |p| data.file_line(p.line()));
-                bail!("{name}:{line}: malformed CSV line: {e}");
-            }
-        };
-        let line = record.position().map_or(0, |p| data.file_line(p.line()));
-        if record.iter().any(|cell| cell.contains('\n')) {
-            bail!(
-                "{name}:{line}: malformed CSV line: unterminated quoted cell; expected a \
-                 closing `\"` on the same line (a cell cannot span lines)"
-            );
+    for r in &records {
+        let line = r.line;
+        let (row, columns, reading) = parse_row(name, line, &r.cells, &cols)?;
+        if let Some((value, unit, unit_column)) = reading {
+            readings.push(RawReading {
+                row: rows.len(),
+                line,
+                unit_column,
+                value,
+                unit,
+            });
         }
-        match &header {
-            None => {
-                let raw = text.lines().nth(line.saturating_sub(1)).unwrap_or_default();
-                header = Some(parse_header(name, line, raw, &record)?);
-            }
-            Some(cols) => {
-                let (row, columns, reading) = parse_row(name, line, &record, cols)?;
-                if let Some((value, unit, unit_column)) = reading {
-                    readings.push(RawReading {
-                        row: rows.len(),
-                        line,
-                        unit_column,
-                        value,
-                        unit,
-                    });
-                }
-                if !columns.is_empty() {
-                    empty.push(EmptyCells {
-                        row: rows.len(),
-                        line,
-                        columns,
-                    });
-                }
-                rows.push(row);
-                lines.push(line);
-            }
+        if !columns.is_empty() {
+            empty.push(EmptyCells {
+                row: rows.len(),
+                line,
+                columns,
+            });
         }
+        rows.push(row);
+        lines.push(line);
     }
-    let Some(cols) = header else {
-        bail!(
-            "{name}: no header line (the file is empty or holds only comments and blank \
-             lines); expected a CSV header of case-frame columns"
-        );
-    };
     check_temperatures(name, &rows, &lines, &cols)?;
     Ok(Frame {
         rows,
@@ -631,16 +593,16 @@ impl DataLines {
     }
 }
 
-/// The header: the column index (into [`COLUMNS`]) of every cell. `raw` is the header's
-/// line as written (for the column of a bad cell).
+/// The header: the column index (into [`COLUMNS`]) of every cell. `at` is the 1-based
+/// character column of each cell in the header's line (for the column of a bad cell).
 fn parse_header(
     name: &str,
     line: usize,
-    raw: &str,
-    record: &csv::StringRecord,
+    at: &[Option<usize>],
+    cells: &[String],
 ) -> Result<Vec<usize>> {
-    if record.len() == 1 {
-        let cell = record[0].trim();
+    if let [cell] = cells {
+        let cell = cell.trim();
         if let Some(kind) = separator_hint(cell) {
             bail!(
                 "{name}:{line}: the header has one column `{cell}`, which is not a case-frame \
@@ -650,9 +612,8 @@ fn parse_header(
             );
         }
     }
-    let at = header_columns(raw, record);
-    let mut cols = Vec::with_capacity(record.len());
-    for (i, cell) in record.iter().enumerate() {
+    let mut cols = Vec::with_capacity(cells.len());
+    for (i, cell) in cells.iter().enumerate() {
         let cell = cell.trim();
         let place = at
             .get(i)
@@ -880,31 +841,17 @@ type Reading = (f64, crate::model::instrument::ReadingUnit, usize);
 fn parse_row(
     name: &str,
     line: usize,
-    record: &csv::StringRecord,
+    cells: &[String],
     cols: &[usize],
 ) -> Result<(Condition, Vec<&'static str>, Option<Reading>)> {
-    if record.len() != cols.len() {
-        let hint = match record.iter().position(blank_before_quote) {
-            Some(j) => format!(
-                "; column {} starts with a blank before `\"`, so it is not a quoted cell: \
-                 put the quote right after the comma",
-                j + 1
-            ),
-            None => String::new(),
-        };
-        bail!(
-            "{name}:{line}: {} cells, expected {} (one per header column){hint}",
-            record.len(),
-            cols.len()
-        );
-    }
+    // As many cells as the header: `records` checked it.
     let mut c = Condition::default();
     let mut empty = Vec::new();
     // The measurement sources the row gives, by header column (one at most), and the raw
     // reading's cells.
     let mut sources: Vec<(usize, &'static str, usize)> = Vec::new();
     let (mut reading, mut unit) = (None, None);
-    for (j, (cell, &k)) in record.iter().zip(cols).enumerate() {
+    for (j, (cell, &k)) in cells.iter().map(String::as_str).zip(cols).enumerate() {
         if let Some(g) = measurement_source(header_name(k))
             && !cell.trim().is_empty()
             && !sources.iter().any(|&(_, _, h)| h == g)
@@ -1293,6 +1240,25 @@ pub(crate) fn records(
     bytes: &[u8],
     header_of: &str,
 ) -> Result<(Record, Vec<Option<usize>>, Vec<Record>)> {
+    let ((h, at), rows) =
+        records_with(name, bytes, header_of, |h, at| Ok((h.clone(), at.to_vec())))?;
+    Ok((h, at, rows))
+}
+
+/// [`records`], with the header read by `on_header` (given the header and the column of
+/// each of its cells) as soon as it is met, before any data row is checked: a header's
+/// error is the file's first.
+///
+/// # Errors
+/// As [`records`], and `on_header`'s.
+pub(crate) fn records_with<H>(
+    name: &str,
+    bytes: &[u8],
+    header_of: &str,
+    on_header: impl FnOnce(&Record, &[Option<usize>]) -> Result<H>,
+) -> Result<(H, Vec<Record>)> {
+    let mut on_header = Some(on_header);
+    let mut read: Option<H> = None;
     if bytes.starts_with(&[0xFF, 0xFE]) || bytes.starts_with(&[0xFE, 0xFF]) {
         bail!(
             "{name}:1: the file is UTF-16 text (it starts with a UTF-16 byte-order mark); \
@@ -1345,7 +1311,12 @@ pub(crate) fn records(
         match &header {
             None => {
                 let raw = text.lines().nth(line.saturating_sub(1)).unwrap_or_default();
-                header = Some((Record { line, cells }, header_columns(raw, &record)));
+                let h = Record { line, cells };
+                let at = header_columns(raw, &record);
+                if let Some(f) = on_header.take() {
+                    read = Some(f(&h, &at)?);
+                }
+                header = Some((h, at));
             }
             Some((h, _)) => {
                 if cells.len() != h.cells.len() {
@@ -1367,13 +1338,13 @@ pub(crate) fn records(
             }
         }
     }
-    let Some((h, at)) = header else {
+    let (Some(_), Some(h)) = (header, read) else {
         bail!(
             "{name}: no header line (the file is empty or holds only comments and blank \
              lines); expected a CSV header of {header_of}"
         );
     };
-    Ok((h, at, rows))
+    Ok((h, rows))
 }
 
 /// The first header cell (trimmed, in order) of a case-frame-like text, without reading

@@ -172,6 +172,22 @@ pub fn read(path: &Path) -> Result<Vec<Position>> {
 /// gravity whose magnitude is not 1 g within 1 %; no measured row. Each error names `name`,
 /// the line and, for a cell, the column.
 pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Position>> {
+    parse(name, bytes, false)
+}
+
+/// Read a triad record to correct (`ptsa correct`): a triad file whose gravity columns
+/// are not needed (the specific force is what the correction recovers; given, they are
+/// read as numbers and not used).
+///
+/// # Errors
+/// As [`parse_bytes`], less the gravity's columns and magnitude.
+pub fn read_record(path: &Path) -> Result<Vec<Position>> {
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+    parse(&path.display().to_string(), &bytes, true)
+}
+
+/// [`parse_bytes`], or with `record` a record to correct.
+fn parse(name: &str, bytes: &[u8], record: bool) -> Result<Vec<Position>> {
     let (header, at, records) = caseframe::records(
         name,
         bytes,
@@ -222,6 +238,7 @@ pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Position>> {
     let missing: Vec<&str> = REQUIRED
         .iter()
         .copied()
+        .filter(|c| !(record && c.starts_with("g_")))
         .filter(|c| {
             !cols.contains(c)
                 && AXIS_COLUMNS
@@ -245,7 +262,7 @@ pub fn parse_bytes(name: &str, bytes: &[u8]) -> Result<Vec<Position>> {
     }
     let mut rows = Vec::with_capacity(records.len());
     for r in &records {
-        rows.push(parse_row(name, r.line, &r.cells, &cols)?);
+        rows.push(parse_row(name, r.line, &r.cells, &cols, record)?);
     }
     if !rows.iter().any(Position::is_measured) {
         bail!(
@@ -281,7 +298,13 @@ fn count_expected(col: &str) -> &'static str {
 }
 
 /// One data row.
-fn parse_row(name: &str, line: usize, cells: &[String], cols: &[&str]) -> Result<Position> {
+fn parse_row(
+    name: &str,
+    line: usize,
+    cells: &[String],
+    cols: &[&str],
+    record: bool,
+) -> Result<Position> {
     let mut p = Position {
         label: String::new(),
         line,
@@ -362,7 +385,7 @@ fn parse_row(name: &str, line: usize, cells: &[String], cols: &[&str]) -> Result
         }
     }
     let mag = p.g_nominal.iter().map(|x| x * x).sum::<f64>().sqrt();
-    if (mag - 1.0).abs() > G_MAGNITUDE_TOLERANCE {
+    if !record && (mag - 1.0).abs() > G_MAGNITUDE_TOLERANCE {
         bail!(
             "{name}:{line}: the nominal gravity (g_x, g_y, g_z) = ({}, {}, {}) has a magnitude \
              of {mag:.4} g; expected 1 g within {:.0} % (a static position: its direction is \
@@ -373,7 +396,11 @@ fn parse_row(name: &str, line: usize, cells: &[String], cols: &[&str]) -> Result
             G_MAGNITUDE_TOLERANCE * 100.0
         );
     }
-    p.g_unit = p.g_nominal.map(|x| x / mag);
+    p.g_unit = if mag > 0.0 {
+        p.g_nominal.map(|x| x / mag)
+    } else {
+        [0.0; 3]
+    };
     if p.label.is_empty() {
         p.label = format!("line {line}");
     }

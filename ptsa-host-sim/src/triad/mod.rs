@@ -1,7 +1,8 @@
 //! A triad: one calibration of three accelerometers on one block (`ptsa discover --data`
 //! on a triad file; `docs/discovery.md`, "A triad"). A layer of its own beside
 //! `discovery`: it uses only the model's file rules (`model::caseframe`), the instrument's
-//! local gravity and `stats`.
+//! local gravity and `stats` (and, for its sheet, `discovery::sheet`'s SHA-256, date and
+//! folder check).
 //!
 //! * [`frame`]: the triad file (`g_x`, `g_y`, `g_z`, `measured_x_cm_s2`, …), read with the
 //!   case-frame's CSV rules and errors.
@@ -9,11 +10,17 @@
 //!   orientation per position, optionally each position's small rotation) fitted by
 //!   Gauss–Newton; the |g| check.
 //! * [`report`]: the `"triad"` JSON object, every key documented.
+//! * [`apply`]: the calibration applied (`ptsa correct`), and its file
+//!   (`--write-instrument`): one file for the three axes.
+//! * [`sheet`]: the calibration sheet (`--sheet DIR`; the provenance helpers of
+//!   `discovery::sheet`).
 //! * this module: the text report and the per-position table.
 
+pub mod apply;
 pub mod fit;
 pub mod frame;
 pub mod report;
+pub mod sheet;
 
 use std::fmt::Write as _;
 

@@ -27,13 +27,17 @@ pub struct CorrectArgs {
     /// measured_cm_s2 (cm/s²) or counts in pulses and ticks (whole numbers, read as
     /// SF·(2P/T − 1) cm/s² with the instrument file's nominal SF), with the cross-axis
     /// inputs g_pa and g_oa in g (absent: 0, with a warning). g_ia is not read: it is what
-    /// the correction recovers.
+    /// the correction recovers. Or a triad record (measured_x_cm_s2, measured_y_cm_s2,
+    /// measured_z_cm_s2 in cm/s², or each axis's pulses_x, ticks_x, ...; sigma_cm_s2; no
+    /// gravity columns needed), corrected with a triad's calibration into the specific-force
+    /// vector with its covariance.
     #[arg(long, value_name = "FILE")]
     pub data: PathBuf,
     /// The calibration: the JSON of `ptsa discover --json` made with the same --instrument
     /// file (its effects, their standard errors and their correlation). Without it, the
     /// instrument file given with --instrument is taken as the instrument's own calibrated
-    /// model, with no uncertainty of its own.
+    /// model, with no uncertainty of its own. For a triad record: the triad's calibration
+    /// file (`discover --write-instrument` on a triad file) or its `discover --json`.
     #[arg(long, value_name = "FILE.json")]
     pub calibration: Option<PathBuf>,
     /// 1-sigma noise of a reading that states none (no sigma_cm_s2 cell), cm/s² (more than
@@ -70,8 +74,17 @@ const COLUMNS: [&str; 9] = [
     "sigma_calibration_cm_s2",
 ];
 
-/// A correction to write: every row corrected (or without a reading), the warnings.
-pub struct Request {
+/// A correction to write: one axis's record, or a triad's.
+pub enum Request {
+    /// A single-axis case-frame record.
+    Axis(AxisRequest),
+    /// A triad record (`g_x`… not needed; three readings per row).
+    Triad(TriadRequest),
+}
+
+/// A single-axis correction to write: every row corrected (or without a reading), the
+/// warnings.
+pub struct AxisRequest {
     data: PathBuf,
     calibration: String,
     instrument: String,
@@ -100,15 +113,11 @@ impl CorrectArgs {
     /// should be; a row that is not absolute and static, or whose reading no specific force
     /// gives; no row with a reading; --out an input, or existing without --force.
     pub fn request(self, ctx: &Ctx, instrument_given: bool) -> Result<Request> {
+        if ptsa_host_sim::triad::frame::is_triad_file(&self.data) {
+            return self.triad_request(ctx).map(Request::Triad);
+        }
         let (cal, calibration, flag) = self.calibration(ctx, instrument_given)?;
-        let out = match self.out {
-            Some(p) => {
-                let replaced = paths::output_file("--out", &p, self.force)?
-                    .then(|| paths::what_is_replaced(&p));
-                Some((p, replaced))
-            }
-            None => None,
-        };
+        let out = self.out_checked()?;
         let name = self.data.display().to_string();
         let mut frame = caseframe::read_frame(&self.data)?;
         // Raw readings (`reading`, `reading_unit`) in cm/s² through the instrument file.
@@ -173,12 +182,105 @@ impl CorrectArgs {
                 "{name}: no row gives a cross-axis input (`g_pa`, `g_oa` absent or 0): a_PA and a_OA are taken as 0, so the calibration's misalignment and cross-axis terms correct nothing; give them where the case is tilted"
             ));
         }
-        Ok(Request {
+        Ok(Request::Axis(AxisRequest {
             data: self.data,
             calibration,
             instrument: ctx.name.clone(),
             g_cm_s2: g,
             rows: done,
+            warnings,
+            out,
+            json: self.json,
+        }))
+    }
+
+    /// The --out file checked, with what it holds when --force replaces it.
+    fn out_checked(&self) -> Result<Option<(PathBuf, Option<String>)>> {
+        Ok(match &self.out {
+            Some(p) => {
+                let replaced =
+                    paths::output_file("--out", p, self.force)?.then(|| paths::what_is_replaced(p));
+                Some((p.clone(), replaced))
+            }
+            None => None,
+        })
+    }
+
+    /// A triad record: the triad calibration read (a triad calibration file or a triad's
+    /// `discover --json`), every row with three readings corrected.
+    ///
+    /// # Errors
+    /// No --calibration, or one that is not a triad's; the record cannot be read; no row
+    /// has three readings; --out refused.
+    fn triad_request(&self, ctx: &Ctx) -> Result<TriadRequest> {
+        use ptsa_host_sim::triad::{apply::TriadCalibration, frame};
+        let Some(p) = &self.calibration else {
+            bail!(
+                "{} is a triad record (three axes' readings per row); expected --calibration FILE: a triad's calibration file (`ptsa discover --data TRIAD.csv --write-instrument FILE`) or the triad's `ptsa discover --json` result",
+                self.data.display()
+            );
+        };
+        let flag = format!("--calibration {}", p.display());
+        let text = std::fs::read_to_string(p).with_context(|| format!("{flag}: cannot read"))?;
+        let cal = match serde_json::from_str::<serde_json::Value>(&text) {
+            Ok(v) if v.get("triad").is_some() => TriadCalibration::from_json(&flag, &v)?,
+            Ok(_) => bail!(
+                "{flag}: a single-axis calibration, but {} is a triad record (three axes' readings per row); expected a triad's calibration (`ptsa discover --data TRIAD.csv --json` or its --write-instrument file)",
+                self.data.display()
+            ),
+            Err(_) => TriadCalibration::parse(&p.display().to_string(), &text)?,
+        };
+        let out = self.out_checked()?;
+        let name = self.data.display().to_string();
+        let mut positions = frame::read_record(&self.data)?;
+        frame::with_counts(&mut positions, ctx.instr.sf_cm_s2);
+        let mut warnings = Vec::new();
+        let mut noiseless = 0usize;
+        let rows: Vec<TriadRow> = positions
+            .into_iter()
+            .map(|p| {
+                let c = if let [Some(x), Some(y), Some(z)] = p.measured {
+                    let stated = p.sigma_cm_s2.or(self.sigma);
+                    if stated.is_none() && p.counting_sigma_cm_s2.iter().all(Option::is_none) {
+                        noiseless += 1;
+                    }
+                    let var = [0, 1, 2].map(|j| {
+                        stated
+                            .unwrap_or(0.0)
+                            .hypot(p.counting_sigma_cm_s2[j].unwrap_or(0.0))
+                            .powi(2)
+                    });
+                    Some((var.map(f64::sqrt), cal.correct([x, y, z], var)))
+                } else {
+                    None
+                };
+                TriadRow { p, c }
+            })
+            .collect();
+        let with = rows.iter().filter(|r| r.c.is_some()).count();
+        if with == 0 {
+            bail!(
+                "{name}: no row has all three axes' readings; expected `measured_x_cm_s2`, `measured_y_cm_s2` and `measured_z_cm_s2` (or each axis's counts) on the rows to correct"
+            );
+        }
+        if with < rows.len() {
+            warnings.push(format!(
+                "{name}: {} without all three axes' readings: written without corrected values (the triad's correction needs the three at once)",
+                count((rows.len() - with) as u64, "row")
+            ));
+        }
+        if noiseless > 0 && self.sigma.is_none() {
+            warnings.push(format!(
+                "{name}: {} state no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their covariance holds the calibration's uncertainty only",
+                count(noiseless as u64, "row with readings")
+            ));
+        }
+        Ok(TriadRequest {
+            data: self.data.clone(),
+            calibration: p.display().to_string(),
+            instrument: ctx.name.clone(),
+            cal,
+            rows,
             warnings,
             out,
             json: self.json,
@@ -198,7 +300,25 @@ impl CorrectArgs {
     ) -> Result<(lib::Calibration, String, String)> {
         Ok(match &self.calibration {
             Some(p) => {
-                let v = discovery::read_result_json(p, &format!("--calibration {}", p.display()))?;
+                let triad_file = std::fs::read_to_string(p).is_ok_and(|t| {
+                    t.contains(ptsa_host_sim::triad::apply::FORMAT)
+                        && !t.trim_start().starts_with('{')
+                });
+                let v = if triad_file {
+                    None
+                } else {
+                    Some(discovery::read_result_json(
+                        p,
+                        &format!("--calibration {}", p.display()),
+                    )?)
+                };
+                let Some(v) = v.filter(|v| v.get("triad").is_none()) else {
+                    bail!(
+                        "--calibration {}: a triad's calibration, but {} is a single-axis record; expected a single-axis `ptsa discover --json` result, or a triad record (g_x, ..., measured_x_cm_s2, ... or each axis's counts)",
+                        p.display(),
+                        self.data.display()
+                    );
+                };
                 let effects = discovery::effects_from_json(&v)
                     .with_context(|| format!("--calibration {}", p.display()))?;
                 let cal = lib::Calibration::from_discover_json(&v, &ctx.instr, effects)
@@ -242,8 +362,13 @@ fn untested_warnings(
     }
     for (n, k) in untested {
         warnings.push(format!(
-                "{flag}: `{n}` was not testable in the calibration's data, and it acts on {} here: its error is in neither their corrected values nor their sigmas (calibrate with positions that exercise it)",
-                count(k as u64, "row")
+                "{flag}: `{n}` was not testable in the calibration's data, and it acts on {} here: {} (calibrate with positions that exercise it)",
+                count(k as u64, "row"),
+                if lib::at_its_bound(cal, n) {
+                    "not corrected; its plausibility bound is in their sigmas, which it may dominate"
+                } else {
+                    "its error is in neither their corrected values nor their sigmas"
+                }
             ));
     }
     warnings
@@ -252,7 +377,7 @@ fn untested_warnings(
 /// The CSV: a comment line naming the data, the calibration and the instrument file, the
 /// header, one line per row (empty cells for a row without a reading). Numbers in Rust's
 /// shortest round-trip form.
-fn csv(req: &Request) -> String {
+fn csv(req: &AxisRequest) -> String {
     let mut s = format!(
         "# ptsa correct --data {}: {} applied (instrument file {}, local gravity {} cm/s^2); units in the column names, sigmas 1 sigma\nlabel,{}\n",
         req.data.display(),
@@ -262,18 +387,8 @@ fn csv(req: &Request) -> String {
         COLUMNS.join(",")
     );
     for (r, _, c) in &req.rows {
-        // Quoted as the case-frame writer quotes (a label starting with `#` would read as
-        // a comment).
-        let label = if r.label.contains([',', '"', '\n', '\r'])
-            || r.label.starts_with('#')
-            || r.label.trim() != r.label
-        {
-            format!("\"{}\"", r.label.replace('"', "\"\""))
-        } else {
-            r.label.clone()
-        };
-        let cells: Vec<String> = match c {
-            Some(c) => [
+        let cells = c.as_ref().map(|c| {
+            [
                 c.reading_cm_s2,
                 c.sigma_reading_cm_s2,
                 c.a_pa_cm_s2,
@@ -284,21 +399,34 @@ fn csv(req: &Request) -> String {
                 c.sigma_noise_cm_s2,
                 c.sigma_calibration_cm_s2,
             ]
-            .iter()
-            .map(|x| format!("{x}"))
-            .collect(),
-            None => vec![String::new(); COLUMNS.len()],
-        };
-        s.push_str(&label);
-        s.push(',');
-        s.push_str(&cells.join(","));
-        s.push('\n');
+            .to_vec()
+        });
+        s.push_str(&csv_line(&r.label, cells.as_deref(), COLUMNS.len()));
     }
     s
 }
 
+/// One CSV line: `label` quoted as the case-frame writer quotes (a label starting with `#`
+/// would read as a comment), then `cells` in Rust's shortest round-trip form, or `n` empty
+/// cells for a row without a reading.
+fn csv_line(label: &str, cells: Option<&[f64]>, n: usize) -> String {
+    let label = if label.contains([',', '"', '\n', '\r'])
+        || label.starts_with('#')
+        || label.trim() != label
+    {
+        format!("\"{}\"", label.replace('"', "\"\""))
+    } else {
+        label.to_string()
+    };
+    let cells: Vec<String> = match cells {
+        Some(c) => c.iter().map(|x| format!("{x}")).collect(),
+        None => vec![String::new(); n],
+    };
+    format!("{label},{}\n", cells.join(","))
+}
+
 /// The JSON object (`--json`).
-fn json(req: &Request) -> serde_json::Value {
+fn json(req: &AxisRequest) -> serde_json::Value {
     let rows: Vec<serde_json::Value> = req
         .rows
         .iter()
@@ -330,24 +458,38 @@ fn json(req: &Request) -> serde_json::Value {
 /// # Errors
 /// The file or stdout cannot be written.
 pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
-    for w in &req.warnings {
+    let (warnings, text, target, corrected) = match req {
+        Request::Axis(r) => (
+            &r.warnings,
+            if r.json {
+                format!("{}\n", json(r))
+            } else {
+                csv(r)
+            },
+            &r.out,
+            r.rows.iter().filter(|r| r.2.is_some()).count(),
+        ),
+        Request::Triad(r) => (
+            &r.warnings,
+            if r.json {
+                format!("{}\n", triad_json(r))
+            } else {
+                triad_csv(r)
+            },
+            &r.out,
+            r.rows.iter().filter(|r| r.c.is_some()).count(),
+        ),
+    };
+    for w in warnings {
         eprintln!("warning: {w}");
     }
-    let text = if req.json {
-        format!("{}\n", json(req))
-    } else {
-        csv(req)
-    };
-    match &req.out {
+    match target {
         Some((p, replaced)) => {
             write_atomic(p, text.as_bytes())?;
             eprintln!(
                 "wrote {} ({} corrected)",
                 p.display(),
-                count(
-                    req.rows.iter().filter(|r| r.2.is_some()).count() as u64,
-                    "row"
-                )
+                count(corrected as u64, "row")
             );
             if let Some(w) = replaced {
                 eprintln!("warning: --out {}: replaced {w} (--force)", p.display());
@@ -356,4 +498,144 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
         None => write!(out, "{text}")?,
     }
     Ok(())
+}
+
+/// A triad correction to write.
+pub struct TriadRequest {
+    data: PathBuf,
+    calibration: String,
+    instrument: String,
+    cal: ptsa_host_sim::triad::apply::TriadCalibration,
+    rows: Vec<TriadRow>,
+    warnings: Vec<String>,
+    out: Option<(PathBuf, Option<String>)>,
+    json: bool,
+}
+
+/// One row of a triad record: the position as read and, with three readings, their 1 σ
+/// and the corrected force.
+struct TriadRow {
+    p: ptsa_host_sim::triad::frame::Position,
+    c: Option<([f64; 3], ptsa_host_sim::triad::apply::Corrected)>,
+}
+
+/// The triad CSV's columns after `label`: the readings and their noise, `f` and `|f|` with
+/// their 1 σ, `f`'s whole covariance (six entries) and each axis's σ from the noise and
+/// from the calibration.
+const TRIAD_COLUMNS: [&str; 26] = [
+    "reading_x_cm_s2",
+    "reading_y_cm_s2",
+    "reading_z_cm_s2",
+    "sigma_reading_x_cm_s2",
+    "sigma_reading_y_cm_s2",
+    "sigma_reading_z_cm_s2",
+    "f_x_cm_s2",
+    "f_y_cm_s2",
+    "f_z_cm_s2",
+    "f_magnitude_cm_s2",
+    "sigma_f_x_cm_s2",
+    "sigma_f_y_cm_s2",
+    "sigma_f_z_cm_s2",
+    "sigma_f_magnitude_cm_s2",
+    "cov_xx_cm2_s4",
+    "cov_xy_cm2_s4",
+    "cov_xz_cm2_s4",
+    "cov_yy_cm2_s4",
+    "cov_yz_cm2_s4",
+    "cov_zz_cm2_s4",
+    "sigma_noise_x_cm_s2",
+    "sigma_noise_y_cm_s2",
+    "sigma_noise_z_cm_s2",
+    "sigma_calibration_x_cm_s2",
+    "sigma_calibration_y_cm_s2",
+    "sigma_calibration_z_cm_s2",
+];
+
+/// The cells of a corrected triad row, in [`TRIAD_COLUMNS`]' order.
+fn triad_cells(
+    p: &ptsa_host_sim::triad::frame::Position,
+    sig: [f64; 3],
+    c: &ptsa_host_sim::triad::apply::Corrected,
+) -> Vec<f64> {
+    let u = p.measured.map(|x| x.unwrap_or(f64::NAN));
+    let cov = c.covariance();
+    let (mag, smag) = c.magnitude();
+    let mut v = Vec::with_capacity(TRIAD_COLUMNS.len());
+    v.extend(u);
+    v.extend(sig);
+    v.extend(c.f);
+    v.push(mag);
+    v.extend([0, 1, 2].map(|j| cov[j][j].max(0.0).sqrt()));
+    v.push(smag);
+    v.extend([
+        cov[0][0], cov[0][1], cov[0][2], cov[1][1], cov[1][2], cov[2][2],
+    ]);
+    v.extend([0, 1, 2].map(|j| c.noise[j][j].max(0.0).sqrt()));
+    v.extend([0, 1, 2].map(|j| c.calibration[j][j].max(0.0).sqrt()));
+    v
+}
+
+/// The triad CSV: a `#` line naming the data, the calibration, the frame; the header; one
+/// line per row (empty cells for a row without three readings).
+fn triad_csv(req: &TriadRequest) -> String {
+    let mut s = format!(
+        "# ptsa correct --data {}: the triad calibration {} applied (instrument file {} for counts; local gravity {} cm/s^2); f = the specific force in the {}; units in the column names, sigmas 1 sigma, cov the whole covariance of f\nlabel,{}\n",
+        req.data.display(),
+        req.calibration,
+        req.instrument,
+        req.cal.g_cm_s2,
+        ptsa_host_sim::triad::apply::frame_words(req.cal.orientation),
+        TRIAD_COLUMNS.join(",")
+    );
+    for r in &req.rows {
+        let cells = r.c.as_ref().map(|(sig, c)| triad_cells(&r.p, *sig, c));
+        s.push_str(&csv_line(&r.p.label, cells.as_deref(), TRIAD_COLUMNS.len()));
+    }
+    s
+}
+
+/// The triad JSON (`--json`): `data`, `calibration`, `instrument`, `g_cm_s2`, `frame`,
+/// `rows` (per row `label`, `line` and, with three readings, `reading_cm_s2`,
+/// `sigma_reading_cm_s2`, `f_cm_s2`, `f_g`, `f_magnitude_cm_s2`,
+/// `sigma_f_magnitude_cm_s2`, `covariance_cm2_s4` (3×3, whole), `covariance_noise_cm2_s4`,
+/// `covariance_calibration_cm2_s4`), `warnings`.
+fn triad_json(req: &TriadRequest) -> serde_json::Value {
+    let g = req.cal.g_cm_s2;
+    let rows: Vec<serde_json::Value> = req
+        .rows
+        .iter()
+        .map(|r| {
+            let mut m = serde_json::Map::new();
+            m.insert("label".into(), r.p.label.clone().into());
+            m.insert("line".into(), r.p.line.into());
+            if let Some((sig, c)) = &r.c {
+                let (mag, smag) = c.magnitude();
+                m.insert("reading_cm_s2".into(), serde_json::json!(r.p.measured));
+                m.insert("sigma_reading_cm_s2".into(), serde_json::json!(sig));
+                m.insert("f_cm_s2".into(), serde_json::json!(c.f));
+                m.insert("f_g".into(), serde_json::json!(c.f.map(|x| x / g)));
+                m.insert("f_magnitude_cm_s2".into(), mag.into());
+                m.insert("sigma_f_magnitude_cm_s2".into(), smag.into());
+                m.insert(
+                    "covariance_cm2_s4".into(),
+                    serde_json::json!(c.covariance()),
+                );
+                m.insert("covariance_noise_cm2_s4".into(), serde_json::json!(c.noise));
+                m.insert(
+                    "covariance_calibration_cm2_s4".into(),
+                    serde_json::json!(c.calibration),
+                );
+            }
+            serde_json::Value::Object(m)
+        })
+        .collect();
+    serde_json::json!({
+        "data": req.data.display().to_string(),
+        "calibration": req.calibration,
+        "instrument": req.instrument,
+        "g_cm_s2": g,
+        "frame": req.cal.orientation.name(),
+        "rows": rows,
+        "warnings": req.warnings,
+    })
 }

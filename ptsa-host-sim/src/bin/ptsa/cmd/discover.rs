@@ -77,7 +77,9 @@ pub struct DiscoverArgs {
     /// Write the instrument file (--instrument, or the shipped one) to FILE with the
     /// fitted values of the selected parameters (damping, spring, ...; each with a comment
     /// of its value ± 1 σ and where it came from), everything else as it was. Not written
-    /// when no parameter is selected.
+    /// when no parameter is selected. With a triad file: the triad's calibration, one file
+    /// for the three axes (biases in cm/s², scale-factor changes, misalignments in rad,
+    /// K_2, their covariance), which `ptsa correct --calibration FILE` applies.
     #[arg(long, value_name = "FILE", requires = "data")]
     pub write_instrument: Option<PathBuf>,
     /// Write a calibration sheet into the folder DIR, which appears whole or not at all:
@@ -86,7 +88,9 @@ pub struct DiscoverArgs {
     /// calibration table in IEEE Std 1293 units with 1 σ and k = 2, the correlation, the
     /// design, the residuals in cm/s²), DIR/NAME.csv (the calibration table) and
     /// DIR/NAME-residuals.png and .svg, NAME the folder's name. An existing DIR is replaced
-    /// only with --force, and only when it is empty or an earlier sheet.
+    /// only with --force, and only when it is empty or an earlier sheet. With a triad file:
+    /// the three axes' coefficients, the non-orthogonality, the correlation, the fit's χ²
+    /// and |g| check, the per-position residuals and their plot.
     #[arg(long, value_name = "DIR", requires = "data")]
     pub sheet: Option<PathBuf>,
     /// Keep the rows the outlier test flags as suspected gross errors in the fit (they are

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::ValueEnum;
-use ptsa_host_sim::triad::{self, fit, frame, report::TriadJson};
+use ptsa_host_sim::triad::{self, apply::TriadCalibration, fit, frame, report::TriadJson, sheet};
 
 use super::Ctx;
 use super::discover::DiscoverArgs;
@@ -41,11 +41,23 @@ impl From<OrientationArg> for fit::Orientation {
 /// A triad calibration to run: the file read, the options, where the table goes.
 pub struct Request {
     data: PathBuf,
+    /// The data file's bytes as read (hashed on the sheet and the calibration file).
+    data_bytes: Vec<u8>,
     positions: Vec<frame::Position>,
     options: fit::Options,
     json: bool,
     /// `STEM-triad.csv`'s folder, or `None` (`--no-plots`).
     table: Option<PathBuf>,
+    /// `--sheet DIR`.
+    sheet: Option<PathBuf>,
+    /// `--write-instrument FILE`: the triad's calibration file.
+    write_instrument: Option<PathBuf>,
+    /// `--force`: an earlier sheet or calibration file may be replaced.
+    force: bool,
+    /// The sheet's time (`SOURCE_DATE_EPOCH` or now), read before the fit.
+    time: (i64, bool),
+    /// What `--force` replaces: the flag, the path, its time before, what it held.
+    replaced: Vec<(&'static str, PathBuf, Option<std::time::SystemTime>, String)>,
 }
 
 /// The request for a triad file: the single-axis flags refused, the file read, the output
@@ -59,18 +71,39 @@ pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Re
         ("--term", !a.terms.is_empty()),
         ("--analytic", a.analytic),
         ("--advice-out", a.advice_out.is_some()),
-        ("--write-instrument", a.write_instrument.is_some()),
         ("--keep-outliers", a.keep_outliers),
         ("--units-as-given", a.units_as_given),
     ];
     if let Some((flag, _)) = single.iter().find(|(_, on)| *on) {
         bail!(
-            "{flag} applies to a single-axis case-frame file, but {} is a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...); expected the triad's options only: --orientation, --sigma, --json, --out, --no-plots (docs/discovery.md, \"A triad\")",
+            "{flag} applies to a single-axis case-frame file, but {} is a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...); expected the triad's options only: --orientation, --sigma, --json, --out, --no-plots, --sheet, --write-instrument, --force (docs/discovery.md, \"A triad\")",
             data.display()
         );
     }
-    let mut positions = frame::read(data)?;
+    let data_bytes =
+        std::fs::read(data).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", data.display()))?;
+    let mut positions = frame::parse_bytes(&data.display().to_string(), &data_bytes)?;
     frame::with_counts(&mut positions, ctx.instr.sf_cm_s2);
+    let mut replaced = Vec::new();
+    if let Some(p) = &a.write_instrument
+        && paths::output_file("--write-instrument", p, a.force)?
+    {
+        let before = std::fs::metadata(p).and_then(|m| m.modified()).ok();
+        replaced.push((
+            "--write-instrument",
+            p.clone(),
+            before,
+            paths::what_is_replaced(p),
+        ));
+    }
+    if let Some(dir) = &a.sheet {
+        paths::folder("--sheet", dir)?;
+        if ptsa_host_sim::discovery::sheet::check_target(dir, a.force)? {
+            let before = std::fs::metadata(dir).and_then(|m| m.modified()).ok();
+            replaced.push(("--sheet", dir.clone(), before, "an earlier sheet".into()));
+        }
+    }
+    let time = ptsa_host_sim::discovery::sheet::sheet_time()?;
     let table = if a.no_plots {
         None
     } else {
@@ -79,6 +112,7 @@ pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Re
     };
     Ok(Request {
         data: data.to_path_buf(),
+        data_bytes,
         positions,
         options: fit::Options {
             orientation: a.orientation.unwrap_or(OrientationArg::Exact).into(),
@@ -87,6 +121,11 @@ pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Re
         },
         json: a.json,
         table,
+        sheet: a.sheet.clone(),
+        write_instrument: a.write_instrument.clone(),
+        force: a.force,
+        time,
+        replaced,
     })
 }
 
@@ -125,6 +164,31 @@ pub fn run(ctx: &Ctx, r: &Request, out: &mut dyn Write) -> Result<()> {
         let p = dir.join(table_name(&r.data));
         ptsa_host_sim::output::fs::write_atomic(&p, triad::table_csv(&t).as_bytes())?;
         eprintln!("wrote {}", p.display());
+    }
+    let inputs = sheet::Inputs {
+        data: (&r.data, &r.data_bytes),
+        instrument: (&ctx.name, &ctx.text),
+        time: r.time,
+        default_sigma_cm_s2: r.options.default_sigma_cm_s2,
+    };
+    if let Some(p) = &r.write_instrument {
+        let text = TriadCalibration::of(&t).to_file(&sheet::provenance(&inputs, &t));
+        ptsa_host_sim::output::fs::write_atomic(p, text.as_bytes())?;
+        eprintln!(
+            "wrote {} (the triad's calibration, one file for the three axes: apply it with `ptsa correct --calibration {}`)",
+            p.display(),
+            p.display()
+        );
+    }
+    if let Some(dir) = &r.sheet {
+        for f in sheet::write(dir, r.force, &inputs, &t)? {
+            eprintln!("wrote {}", f.display());
+        }
+    }
+    for (flag, p, before, w) in &r.replaced {
+        if std::fs::metadata(p).and_then(|m| m.modified()).ok() != *before {
+            eprintln!("warning: {flag} {}: replaced {w} (--force)", p.display());
+        }
     }
     Ok(())
 }
