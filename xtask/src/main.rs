@@ -8,6 +8,8 @@
 //! * `golden [--overwrite | --c-twin]` — regenerate `tests/golden/*` and check that the files
 //!   are what the generator makes; `--overwrite` re-records them, `--c-twin` instead checks
 //!   the C twin against every vector.
+//! * `constants [--instrument FILE] [--check]` — write (or check) the firmware's generated
+//!   constants, `firmware/src/constants.rs`, from an instrument file.
 //! * `firmware [--vector NAME]...` — build the firmware and run the golden vectors (all, or
 //!   the named ones) and the budgets on the emulated Cortex-M4.
 //! * `hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration |
@@ -30,6 +32,7 @@ use std::process::ExitCode;
 use util::Error;
 
 mod ci;
+mod constants;
 mod firmware;
 mod golden;
 mod hidden;
@@ -37,9 +40,10 @@ mod needs;
 mod util;
 
 /// The commands: name and usage (first line the synopsis, then what it does).
-const COMMANDS: [(&str, &str); 4] = [
+const COMMANDS: [(&str, &str); 5] = [
     ("ci", ci::USAGE),
     ("golden", golden::USAGE),
+    ("constants", constants::USAGE),
     ("firmware", firmware::USAGE),
     ("hidden", hidden::USAGE),
 ];
@@ -97,7 +101,7 @@ fn main() -> ExitCode {
                 ExitCode::SUCCESS
             }
             _ => {
-                eprintln!("xtask help: expected one of ci, golden, firmware, hidden");
+                eprintln!("xtask help: expected one of ci, golden, constants, firmware, hidden");
                 eprint!("{}", usage());
                 ExitCode::from(2)
             }
@@ -115,6 +119,7 @@ fn main() -> ExitCode {
     let result = match cmd.as_str() {
         "ci" => ci::run(rest),
         "golden" => golden::run(rest),
+        "constants" => constants::run(rest),
         "firmware" => firmware::run(rest),
         "hidden" => hidden::run(rest),
         other => Err(Error::Usage(format!("unknown command `{other}`"))),

@@ -333,12 +333,16 @@ impl ClosedLoop {
     /// polarity, the noise generator's state, Φ of the free and the stop regions, the
     /// per-region, per-polarity plant inputs, the plant state and the noise table. It lives
     /// here, not with the benchmark, because it reads the loop's internals. `None` for a
-    /// dynamic condition or a core that is not at reset.
+    /// dynamic condition, a core that is not at reset, or a board's converter of fewer than
+    /// 16 bits (the C loop quantizes to 16).
     #[must_use]
     pub fn c_static_params(&self) -> Option<String> {
         use std::fmt::Write as _;
         let (cfg, st) = (&self.cfg, &self.st);
-        if cfg.dynamic || st.core != cfg.ptsa.initial_state() {
+        if cfg.dynamic
+            || st.core != cfg.ptsa.initial_state()
+            || cfg.adc.mask != ptsa_core::adc::AdcFormat::SIGNED_16.mask()
+        {
             return None;
         }
         let c = cfg.ptsa.config();
@@ -358,7 +362,7 @@ impl ClosedLoop {
             s,
             "{:e} {:e} {:e} {:e} {}",
             cfg.adc.gain,
-            cfg.adc.offset + 32768.5,
+            cfg.adc.offset + cfg.adc.round,
             cfg.adc.noise,
             cfg.plant.theta_stop,
             if st.u > 0.0 { 1 } else { -1 }
