@@ -88,7 +88,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
 
 /// Where the firmware is built: `firmware/` under cargo's target directory of the host
 /// workspace (so it follows the caller's `CARGO_TARGET_DIR`), not `firmware/target`.
-fn firmware_target_dir() -> Result<PathBuf, String> {
+pub(crate) fn firmware_target_dir() -> Result<PathBuf, String> {
     Ok(util::target_dir()?.join("firmware"))
 }
 
@@ -240,7 +240,7 @@ fn qemu_version() -> Option<String> {
 /// target directory `target` ([`firmware_target_dir`]) in place of the caller's
 /// `CARGO_TARGET_DIR`: a directory of its own, inside the host workspace's, so that the
 /// firmware's lock file, profiles and build scripts never mix with the host's artifacts.
-fn cargo_firmware(fw: &Path, target: &Path, args: &[&str]) -> Result<(), String> {
+pub(crate) fn cargo_firmware(fw: &Path, target: &Path, args: &[&str]) -> Result<(), String> {
     let cargo = util::cargo();
     eprintln!(
         "+ (cd firmware && CARGO_TARGET_DIR={} cargo {})",
@@ -460,16 +460,16 @@ fn parse_budget(stdout: &str) -> Result<Budget, String> {
 }
 
 /// What a QEMU run gave.
-struct QemuRun {
-    status_ok: bool,
-    status: String,
-    stdout: String,
-    stderr: String,
+pub(crate) struct QemuRun {
+    pub(crate) status_ok: bool,
+    pub(crate) status: String,
+    pub(crate) stdout: String,
+    pub(crate) stderr: String,
 }
 
 /// Run `elf` on `netduinoplus2` with `-icount shift=0` (one nanosecond of virtual time per
 /// instruction, so QEMU's 1 GHz timers count instructions), in `dir`.
-fn qemu(dir: &Path, elf: &Path, extra: &[&str]) -> Result<QemuRun, String> {
+pub(crate) fn qemu(dir: &Path, elf: &Path, extra: &[&str]) -> Result<QemuRun, String> {
     let mut cmd = Command::new("qemu-system-arm");
     cmd.args([
         "-M",
