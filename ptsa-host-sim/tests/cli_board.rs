@@ -255,3 +255,98 @@ fn a_bad_board_is_refused_at_its_position() {
         assert_eq!(err.lines().count(), 1, "{err}");
     }
 }
+
+/// `ptsa static --pil-params`: the parameters of one noiseless run, every line the image
+/// reads; refused with noise, with several accelerations, over an existing file without
+/// `--force`.
+#[test]
+fn pil_params_are_written_for_one_noiseless_run_only() {
+    let quiet = board_text().replace(
+        "noise_uv_rms = { value = 0.5,",
+        "noise_uv_rms = { value = 0.0,",
+    );
+    assert_ne!(quiet, board_text());
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("q.toml"), &quiet).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "--instrument",
+            "q.toml",
+            "static",
+            "--accel-cm-s2",
+            "1000",
+            "--seconds",
+            "0.1",
+            "--warmup-s",
+            "0.05",
+            "--pil-params",
+            "p.txt",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).is_empty());
+    let p = std::fs::read_to_string(tmp.path().join("p.txt")).unwrap();
+    for key in [
+        "config 362602752 -360827191 64262 224131 64 0",
+        "adc ",
+        " 65520\n",
+        "stop ",
+        "phi0 0 ",
+        "phi2 3 ",
+        "add0 0 ",
+        "add2 1 ",
+        "x0 ",
+        "run 3200 6400",
+    ] {
+        assert!(p.contains(key), "`{key}` not in:\n{p}");
+    }
+    // Every f64 as 16 hexadecimal digits: the ADC's gain is the board's codes per rad.
+    let gain = p
+        .lines()
+        .find_map(|l| l.strip_prefix("adc "))
+        .and_then(|l| l.split_whitespace().next())
+        .map(|h| f64::from_bits(u64::from_str_radix(h, 16).unwrap()))
+        .unwrap();
+    assert!(
+        (gain - 10.0 * 100.0 / (2.5 / 32768.0)).abs() < 1e-6 * gain,
+        "{gain}"
+    );
+
+    let before = std::fs::read(tmp.path().join("p.txt")).unwrap();
+    let base = [
+        "--instrument",
+        "{dir}/q.toml",
+        "static",
+        "--accel-cm-s2",
+        "1000",
+        "--pil-params",
+        "{dir}/p.txt",
+    ];
+    refused_in_folder(
+        &[("q.toml", quiet.as_bytes()), ("p.txt", &before)],
+        &base,
+        1,
+        &["p.txt", "exists"],
+        &[],
+    );
+    let several = base.map(|a| if a == "1000" { "1000,2000" } else { a });
+    refused_in_folder(
+        &[("q.toml", quiet.as_bytes())],
+        &several,
+        1,
+        &[
+            "--pil-params writes the parameters of one run; expected one --accel-cm-s2 value with it, not 2",
+        ],
+        &[],
+    );
+    refused_in_folder(
+        &[("q.toml", board_text().as_bytes())],
+        &base,
+        1,
+        &[
+            "--pil-params: the processor-in-the-loop image draws no pickoff noise; expected an instrument file with pickoff.noise_uv_rms = 0 (this one gives 0.5 µV rms)",
+        ],
+        &[],
+    );
+}

@@ -102,10 +102,13 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     build_ptsa(&root, true)?;
     let (counts, speed) = run_pil(&root, &req)?;
     eprintln!(
-        "pil: {} emulated ticks in {:.2} s of host time: {:.0} emulated ticks per host second",
+        "pil: {} emulated ticks in {:.2} s of host time: {:.0} emulated ticks per host second; \
+         {} guest instructions, {:.0} per tick",
         speed.ticks,
         speed.seconds,
-        speed.ticks_per_s()
+        speed.ticks_per_s(),
+        speed.instructions,
+        speed.instructions_per_tick()
     );
     if compare {
         let host = host_static(&root, &req)?;
@@ -146,6 +149,8 @@ pub struct Speed {
     pub ticks: u64,
     /// Host seconds of the QEMU run.
     pub seconds: f64,
+    /// Guest instructions of the image's loop (plant, ADC model, tick, gates).
+    pub instructions: u64,
 }
 
 impl Speed {
@@ -154,6 +159,14 @@ impl Speed {
     #[allow(clippy::cast_precision_loss, reason = "tick counts far below 2^52")]
     pub fn ticks_per_s(&self) -> f64 {
         self.ticks as f64 / self.seconds
+    }
+
+    /// Guest instructions per emulated tick (times the 64 000 ticks of a second: per
+    /// emulated second).
+    #[must_use]
+    #[allow(clippy::cast_precision_loss, reason = "counts far below 2^52")]
+    pub fn instructions_per_tick(&self) -> f64 {
+        self.instructions as f64 / self.ticks.max(1) as f64
     }
 }
 
@@ -263,7 +276,7 @@ pub fn run_pil(root: &Path, req: &Pil) -> Result<(Counts, Speed), String> {
             run.stderr.trim()
         ));
     }
-    let (counts, _gate) = parse_pil(&run.stdout)?;
+    let (counts, _gate, instructions) = parse_pil(&run.stdout)?;
     let text = std::fs::read_to_string(&params)
         .map_err(|e| format!("cannot read {}: {e}", params.display()))?;
     let warmup: u64 = text
@@ -276,12 +289,14 @@ pub fn run_pil(root: &Path, req: &Pil) -> Result<(Counts, Speed), String> {
         Speed {
             ticks: warmup + counts.ticks,
             seconds,
+            instructions,
         },
     ))
 }
 
-/// `pil ticks=<T> pulses=<P> gates=<n> gate_ticks=<G>`: the counts and the gate length.
-fn parse_pil(stdout: &str) -> Result<(Counts, u64), String> {
+/// `pil ticks=<T> pulses=<P> gates=<n> gate_ticks=<G> instructions=<I>`: the counts, the
+/// gate length and the guest instructions.
+fn parse_pil(stdout: &str) -> Result<(Counts, u64, u64), String> {
     let line = stdout
         .lines()
         .find(|l| l.starts_with("pil "))
@@ -297,6 +312,7 @@ fn parse_pil(stdout: &str) -> Result<(Counts, u64), String> {
             pulses: field("pulses")?,
         },
         field("gate_ticks")?,
+        field("instructions")?,
     ))
 }
 
@@ -337,10 +353,11 @@ pub fn ci() -> Result<String, String> {
     Ok(format!(
         "processor in the loop (QEMU): 1234.5 cm/s², 0.1 s after 0.1 s of settling: the \
          firmware counted P = {} in T = {}, as `ptsa static` does bit for bit ({:.0} emulated \
-         ticks per host second)",
+         ticks per host second, {:.0} guest instructions per tick)",
         counts.pulses,
         counts.ticks,
-        speed.ticks_per_s()
+        speed.ticks_per_s(),
+        speed.instructions_per_tick()
     ))
 }
 
@@ -350,9 +367,10 @@ mod tests {
 
     #[test]
     fn the_image_line_parses() {
-        let (c, g) =
-            parse_pil("gate 1 P=3 T=8\npil ticks=6400 pulses=3352 gates=1 gate_ticks=6400\n")
-                .unwrap();
+        let (c, g, i) = parse_pil(
+            "gate 1 P=3 T=8\npil ticks=6400 pulses=3352 gates=1 gate_ticks=6400 instructions=9\n",
+        )
+        .unwrap();
         assert_eq!(
             c,
             Counts {
@@ -360,7 +378,7 @@ mod tests {
                 pulses: 3352
             }
         );
-        assert_eq!(g, 6400);
+        assert_eq!((g, i), (6400, 9));
         assert!(parse_pil("gate 1 P=3 T=8\n").is_err());
         assert!(parse_pil("pil ticks=1 gates=1 gate_ticks=1").is_err());
     }

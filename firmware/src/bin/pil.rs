@@ -23,7 +23,8 @@
 //! that gates close at the end of the settling and at the end of the run; the image sums
 //! the gates after the settling and prints
 //!
-//! `pil ticks=<T> pulses=<P> gates=<n> gate_ticks=<G>`
+//! `pil ticks=<T> pulses=<P> gates=<n> gate_ticks=<G> instructions=<guest instructions of
+//! the whole run, plant and gate printing included>`
 //!
 //! and, for each gate, `gate <k> P=<pulses> T=<ticks>` (k from 1), then exits QEMU with
 //! status 0, or 1 with a message on standard error.
@@ -40,7 +41,7 @@ use ptsa_firmware::constants::ADC;
 use ptsa_firmware::rt::exit;
 use ptsa_firmware::testimage::{Failure, PATH, for_each_line, next_path};
 use ptsa_firmware::{
-    Board, GATES, INJECTED, TICK, TickContext, on_tick, pac, pac::interrupt, unmask_tick,
+    Board, GATES, INJECTED, TICK, TickContext, on_tick, pac, pac::interrupt, stopwatch, unmask_tick,
 };
 use semihosting::{eprintln, println};
 
@@ -225,6 +226,7 @@ fn run() -> Result<(), Failure> {
     };
     // TIM2 is set up but never started: the loop below pends its interrupt once per tick.
     let board = Board::new(dp, ptsa);
+    let watch = board.stopwatch;
     critical_section::with(|cs| TICK.borrow(cs).replace(Some(board.tick)));
     unmask_tick();
     // The first interrupt moves the context into the handler and returns without a tick.
@@ -236,6 +238,10 @@ fn run() -> Result<(), Failure> {
     let mut positive = p.u0_positive;
     let mut pulses_before = PULSES.load(Ordering::Relaxed);
     let (mut sum_p, mut sum_t, mut gates, mut closed) = (0u64, 0u64, 0u32, 0u32);
+    // Guest instructions of the whole loop (TIM5 counts one per instruction under
+    // `-icount shift=0`), summed tick by tick so that the 32-bit counter may wrap.
+    let mut instructions = 0u64;
+    let mut last = stopwatch(&watch);
     for _ in 0..total {
         let sample = AdcFormat::sample_masked(p.mask, x[3] * p.gain + p.bias);
         INJECTED.store(ADC.word_of_sample(sample), Ordering::Relaxed);
@@ -263,10 +269,13 @@ fn run() -> Result<(), Failure> {
                 gates += 1;
             }
         }
+        let now = stopwatch(&watch);
+        instructions += u64::from(now.wrapping_sub(last));
+        last = now;
     }
     println!(
-        "pil ticks={} pulses={} gates={} gate_ticks={}",
-        sum_t, sum_p, gates, gate
+        "pil ticks={} pulses={} gates={} gate_ticks={} instructions={}",
+        sum_t, sum_p, gates, gate, instructions
     );
     Ok(())
 }
