@@ -25,7 +25,7 @@ pub const CONFIG: Config = Config {
     noise_shaping: false,
 };
 
-/// The converter whose data register the tick reads ([board] of the instrument file).
+/// The converter whose data register the tick reads (`[board]` of the instrument file).
 pub const ADC: AdcFormat = match AdcFormat::new(12, Coding::OffsetBinary, Alignment::Left) {
     Some(f) => f,
     None => panic!("the converter has 1 to 16 bits"),

@@ -792,7 +792,7 @@ pub fn run_static_with(
 /// * `config b0 b1 a1 ki ticks_per_cycle noise_shaping` (the core's configuration: raw bits
 ///   in decimal, `noise_shaping` 0 or 1);
 /// * `adc gain bias mask`: the ADC's gain (units of the sample per rad), the additive term of
-///   every sample (offset, range and rounding: [`Adc::bias`] without noise) and the
+///   every sample (offset, range and rounding: `Adc::bias` without noise) and the
 ///   converter's mask (decimal);
 /// * `stop theta_stop u0`: the stop angle (rad) and the command applied at reset (1 or −1);
 /// * `phi<r> <i>` and 4 values: row `i` of Φ of region `r` (0 free, 1 and 2 the stops);
@@ -801,7 +801,7 @@ pub fn run_static_with(
 /// * `x0`: the plant state at reset (4);
 /// * `run warmup gate`: the settling ticks and the gate's ticks.
 ///
-/// A tick of the image is [`kernel::static_tick`]'s and `static_phase`'s: the sample
+/// A tick of the image is `kernel::static_tick`'s and `static_phase`'s: the sample
 /// `AdcFormat::sample_masked(mask, x[3]·gain + bias)`, the core's tick, then `x = Φ_r x +
 /// add_r[applied]` with `r` the region of `x[0]` before the step (free while `|x[0]| ≤
 /// theta_stop`), the terms of `Φ x` in `Zoh::step`'s order.

@@ -221,7 +221,7 @@ pub fn firmware_constants(ctx: &Ctx, checked: &LoopCheck) -> Result<String> {
          \x20   noise_shaping: {},\n\
          }};\n\
          \n\
-         /// The converter whose data register the tick reads ([board] of the instrument file).\n\
+         /// The converter whose data register the tick reads (`[board]` of the instrument file).\n\
          pub const ADC: AdcFormat = match AdcFormat::new({}, Coding::{coding}, Alignment::{align}) {{\n\
          \x20   Some(f) => f,\n\
          \x20   None => panic!(\"the converter has 1 to 16 bits\"),\n\
