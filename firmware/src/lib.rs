@@ -51,13 +51,15 @@ use ptsa_core::{Gate, GateFifo, HBridge, Ptsa, State};
 
 pub use stm32f4::stm32f405 as pac;
 
+pub mod constants;
 pub mod rt;
 pub mod testimage;
 pub mod triad;
 pub mod triadtest;
 
-/// Tick (clock) frequency of the PTSA loop, in hertz.
-pub const TICK_HZ: u32 = 64_000;
+/// Tick (clock) frequency of the PTSA loop, in hertz (generated from the instrument file:
+/// [`constants::TICK_HZ`]).
+pub const TICK_HZ: u32 = constants::TICK_HZ;
 
 /// Core clock on the board, in hertz.
 pub const SYSCLK_HZ: u32 = 160_000_000;
@@ -375,8 +377,8 @@ fn read_word(addr: usize) -> u32 {
 }
 
 /// Test images only: the pickoff word [`on_tick`] reads instead of the ADC's data register
-/// when `INJECT` is set, as the ADC would deliver it: bits 15..0 left-aligned offset binary
-/// (the `i16` sample XOR `0x8000`).
+/// when `INJECT` is set, as the ADC would deliver it (for the board's left-aligned offset
+/// binary converter, [`constants::ADC`], the `i16` sample XOR `0x8000`).
 pub static INJECTED: AtomicU32 = AtomicU32::new(0);
 
 /// A gate closed by the tick interrupt, waiting for [`on_gate`] to queue it: pulses,
@@ -416,9 +418,9 @@ pub fn on_tick<const INJECT: bool>(ctx: &mut Option<TickContext>) {
     } else {
         c.adc.dr().read().bits()
     };
-    // Left-aligned 12-bit code in bits 15..4, offset binary: flip the top bit.
-    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
-    let x = (raw as u16 ^ 0x8000) as i16;
+    // The board's converter ([`constants::ADC`]): on the STM32F4, a left-aligned 12-bit
+    // code in bits 15..4, offset binary, so this is `raw ^ 0x8000` as `i16`.
+    let x = constants::ADC.sample_of_word(raw);
     let t = c.ptsa.tick(&mut c.state, x);
     let Ok(()) = c.bridge.set(t.polarity);
     if let Some(g) = t.gate {

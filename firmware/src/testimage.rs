@@ -152,7 +152,11 @@ pub fn golden_pass(input: &CStr, output: &CStr) -> Result<(), Failure> {
 
 /// Calls `f` with every line of `input` (without its `\n`), in order; stops early when `f`
 /// returns `Ok(false)`.
-fn for_each_line(
+///
+/// # Errors
+/// The file cannot be opened or read, is not UTF-8, has a line longer than
+/// [`trace::MAX_LINE`], or `f` fails (message printed).
+pub fn for_each_line(
     input: &CStr,
     mut f: impl FnMut(&str) -> Result<bool, Failure>,
 ) -> Result<(), Failure> {

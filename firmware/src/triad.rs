@@ -194,13 +194,12 @@ static CLOSED_PULSES: [AtomicU32; AXES] = [const { AtomicU32::new(0) }; AXES];
 static CLOSED_TICKS: [AtomicU32; AXES] = [const { AtomicU32::new(0) }; AXES];
 static CLOSED_MASK: AtomicU32 = AtomicU32::new(0);
 
-/// The pickoff word as an `i16` sample: left-aligned 12-bit offset binary, top bit flipped.
+/// The pickoff word as an `i16` sample, through the board's converter
+/// ([`crate::constants::ADC`], the single axis's conversion).
 #[allow(clippy::inline_always, reason = "tick path: inside the TIM2 handler")]
 #[inline(always)]
 fn sample(raw: u32) -> i16 {
-    #[allow(clippy::cast_possible_truncation, clippy::cast_possible_wrap)]
-    let x = (raw as u16 ^ 0x8000) as i16;
-    x
+    crate::constants::ADC.sample_of_word(raw)
 }
 
 /// Service one tick of the triad (the body of its `TIM2` interrupt): acknowledge the

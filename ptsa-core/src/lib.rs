@@ -39,6 +39,7 @@
 // Every narrowing or widening conversion on the tick path must be visible and justified.
 #![warn(clippy::cast_possible_truncation, clippy::cast_lossless)]
 
+pub mod adc;
 mod bridge;
 mod config;
 mod counter;

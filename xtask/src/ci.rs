@@ -5,7 +5,7 @@ use std::time::Instant;
 
 use crate::needs::{self, Need};
 use crate::util::{self, Error};
-use crate::{firmware, golden};
+use crate::{firmware, golden, pil};
 
 /// `cargo xtask ci --help`.
 pub const USAGE: &str = "\
@@ -15,8 +15,10 @@ ci [--no-firmware]
     (`cargo package --list`, its README's links in it, `cargo publish --dry-run`), the
     golden vectors, the C twin (in cargo's target directory, then again in a fresh
     temporary CARGO_TARGET_DIR), host tests and doctests, ptsa-core built for
-    thumbv7em-none-eabihf with and without defmt, and the firmware checks of `firmware`
-    (QEMU).
+    thumbv7em-none-eabihf with and without defmt, the firmware checks of `firmware`
+    (QEMU) and one short processor-in-the-loop case of `pil` (QEMU), whose counts must be
+    `ptsa static`'s bit for bit. The host tests include the freshness check of the
+    firmware's generated constants (`cargo xtask constants`).
     Needs rustfmt, clippy, a C compiler, the thumbv7em-none-eabihf target and (unless
     --no-firmware) qemu-system-arm; it looks for all of them first and, if any is
     missing, says how to install each and stops (it installs nothing; `.ci/run` does, on
@@ -125,6 +127,8 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     } else {
         step("firmware on the emulated STM32F405 (QEMU)");
         firmware::ci()?;
+        step("processor in the loop (QEMU): one short case, bit for bit against ptsa static");
+        eprintln!("{}", pil::ci()?);
     }
 
     eprintln!("\nci passed in {:.0} s", t0.elapsed().as_secs_f64());

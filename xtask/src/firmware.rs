@@ -34,6 +34,12 @@ use std::time::{Duration, Instant};
 use crate::needs::{self, Need};
 use crate::util::{self, Error};
 
+/// The firmware's generated constants (`firmware/src/constants.rs`, written by `cargo xtask
+/// constants`), the same file the images compile: the host model of the checks uses the
+/// loop and the converter the firmware runs.
+#[path = "../../firmware/src/constants.rs"]
+pub mod constants;
+
 /// `cargo xtask firmware --help`.
 pub const USAGE: &str = "\
 firmware [--vector NAME]... [--overwrite-log]
@@ -114,7 +120,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
 
 /// Where the firmware is built: `firmware/` under cargo's target directory of the host
 /// workspace (so it follows the caller's `CARGO_TARGET_DIR`), not `firmware/target`.
-fn firmware_target_dir() -> Result<PathBuf, String> {
+pub(crate) fn firmware_target_dir() -> Result<PathBuf, String> {
     Ok(util::target_dir()?.join("firmware"))
 }
 
@@ -279,7 +285,7 @@ fn qemu_version() -> Option<String> {
 /// target directory `target` ([`firmware_target_dir`]) in place of the caller's
 /// `CARGO_TARGET_DIR`: a directory of its own, inside the host workspace's, so that the
 /// firmware's lock file, profiles and build scripts never mix with the host's artifacts.
-fn cargo_firmware(fw: &Path, target: &Path, args: &[&str]) -> Result<(), String> {
+pub(crate) fn cargo_firmware(fw: &Path, target: &Path, args: &[&str]) -> Result<(), String> {
     let cargo = util::cargo();
     eprintln!(
         "+ (cd firmware && CARGO_TARGET_DIR={} cargo {})",
@@ -499,16 +505,16 @@ fn parse_budget(stdout: &str) -> Result<Budget, String> {
 }
 
 /// What a QEMU run gave.
-struct QemuRun {
-    status_ok: bool,
-    status: String,
-    stdout: String,
-    stderr: String,
+pub(crate) struct QemuRun {
+    pub(crate) status_ok: bool,
+    pub(crate) status: String,
+    pub(crate) stdout: String,
+    pub(crate) stderr: String,
 }
 
 /// Run `elf` on `netduinoplus2` with `-icount shift=0` (one nanosecond of virtual time per
 /// instruction, so QEMU's 1 GHz timers count instructions), in `dir`.
-fn qemu(dir: &Path, elf: &Path, extra: &[&str]) -> Result<QemuRun, String> {
+pub(crate) fn qemu(dir: &Path, elf: &Path, extra: &[&str]) -> Result<QemuRun, String> {
     let mut cmd = Command::new("qemu-system-arm");
     cmd.args([
         "-M",
@@ -864,7 +870,7 @@ impl Tim2 {
         };
         let t = Self { psc, arr, ug_ns };
         // QEMU's timers count at 1 GHz: the registers must divide it to exactly 64 kHz.
-        if (psc + 1) * (arr + 1) * 64_000 != 1_000_000_000 {
+        if (psc + 1) * (arr + 1) * u64::from(constants::TICK_HZ) != 1_000_000_000 {
             return Err(format!(
                 "`{line}`: 1 GHz / ((PSC + 1)(ARR + 1)) is not 64 kHz"
             ));
@@ -918,16 +924,16 @@ fn check_gate_spacing(times: &[u64], tim2: &Tim2) -> Result<String, String> {
 
 /// The pickoff sample the production image sees under QEMU: QEMU 7.2's ADC model returns a
 /// synthetic value only on the first data-register read after a software start (7, shifted
-/// left-aligned to 0), then 0, as the firmware starts it once in continuous mode; 0 in
-/// offset binary is negative full scale.
-const QEMU_ADC_SAMPLE: i16 = i16::MIN;
+/// left-aligned to 0), then 0, as the firmware starts it once in continuous mode; the word 0
+/// read by the board's converter ([`constants::ADC`]: offset binary) is negative full scale.
+const QEMU_ADC_SAMPLE: i16 = constants::ADC.sample_of_word(0);
 
 /// Data pulses of the first `n` gates of the production image's QEMU configuration (default
 /// loop, [`PRODUCTION_GATE_TICKS`]-tick gate) on the host, for QEMU's ADC input.
 fn host_gate_pulses(n: usize) -> Result<Vec<u64>, String> {
     let ptsa = ptsa_core::Config {
         gate_ticks: u32::try_from(PRODUCTION_GATE_TICKS).map_err(|e| e.to_string())?,
-        ..ptsa_core::Config::DEFAULT
+        ..constants::CONFIG
     }
     .build()
     .map_err(|e| format!("host model refused the QEMU configuration: {e}"))?;

@@ -8,8 +8,13 @@
 //! * `golden [--overwrite | --c-twin]` — regenerate `tests/golden/*` and check that the files
 //!   are what the generator makes; `--overwrite` re-records them, `--c-twin` instead checks
 //!   the C twin against every vector.
+//! * `constants [--instrument FILE] [--check]` — write (or check) the firmware's generated
+//!   constants, `firmware/src/constants.rs`, from an instrument file.
 //! * `firmware [--vector NAME]...` — build the firmware and run the golden vectors (all, or
 //!   the named ones) and the budgets on the emulated Cortex-M4.
+//! * `pil --accel-cm-s2 A --seconds S --warmup-s W [--instrument FILE] [--json] [--compare]`
+//!   — processor in the loop: the firmware's production tick handler around the pendulum
+//!   stepped on the emulated MCU; the gates it counted.
 //! * `hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration |
 //!   --triad | --stability] [--sets N] [--seed S] [--analytic]` — the full hidden-effect campaign of the
 //!   discovery pipeline, or with `--parameters` the hidden-parameter one, with `--statics` the
@@ -30,17 +35,21 @@ use std::process::ExitCode;
 use util::Error;
 
 mod ci;
+mod constants;
 mod firmware;
 mod golden;
 mod hidden;
 mod needs;
+mod pil;
 mod util;
 
 /// The commands: name and usage (first line the synopsis, then what it does).
-const COMMANDS: [(&str, &str); 4] = [
+const COMMANDS: [(&str, &str); 6] = [
     ("ci", ci::USAGE),
     ("golden", golden::USAGE),
+    ("constants", constants::USAGE),
     ("firmware", firmware::USAGE),
+    ("pil", pil::USAGE),
     ("hidden", hidden::USAGE),
 ];
 
@@ -97,7 +106,9 @@ fn main() -> ExitCode {
                 ExitCode::SUCCESS
             }
             _ => {
-                eprintln!("xtask help: expected one of ci, golden, firmware, hidden");
+                eprintln!(
+                    "xtask help: expected one of ci, golden, constants, firmware, pil, hidden"
+                );
                 eprint!("{}", usage());
                 ExitCode::from(2)
             }
@@ -115,7 +126,9 @@ fn main() -> ExitCode {
     let result = match cmd.as_str() {
         "ci" => ci::run(rest),
         "golden" => golden::run(rest),
+        "constants" => constants::run(rest),
         "firmware" => firmware::run(rest),
+        "pil" => pil::run(rest),
         "hidden" => hidden::run(rest),
         other => Err(Error::Usage(format!("unknown command `{other}`"))),
     };

@@ -23,7 +23,9 @@
 #![deny(unsafe_code)]
 
 use cortex_m_rt::entry;
+#[cfg(feature = "qemu")]
 use ptsa_core::Config;
+use ptsa_firmware::constants::CONFIG;
 use ptsa_firmware::{Board, GATES, TICK, TickContext, on_tick, pac, pac::interrupt, unmask_tick};
 
 /// Gates to report before exiting QEMU (`qemu` feature only). The test configuration uses a
@@ -36,12 +38,13 @@ ptsa_firmware::image_runtime!(defmt);
 
 #[entry]
 fn main() -> ! {
+    // The loop designed for the board's instrument file (`cargo xtask constants`).
     #[cfg(not(feature = "qemu"))]
-    let config = Config::DEFAULT;
+    let config = CONFIG;
     #[cfg(feature = "qemu")]
     let config = Config {
         gate_ticks: 6_400,
-        ..Config::DEFAULT
+        ..CONFIG
     };
     let ptsa = match config.build() {
         Ok(p) => p,

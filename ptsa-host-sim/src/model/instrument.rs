@@ -12,6 +12,8 @@ use serde::Deserialize;
 use serde::de::{self, Deserializer, MapAccess, SeqAccess, Visitor};
 use toml::Spanned;
 
+use ptsa_core::adc::{AdcFormat, Alignment, Coding};
+
 use crate::model::effects::{CandidateId, Effects};
 
 /// The shipped instrument file, compiled in.
@@ -264,6 +266,21 @@ struct StopsT {
     damping_dyn_cm_s: Spanned<Num>,
 }
 
+/// `[board]`: the electronics between the demodulated pickoff and the tick, as a board
+/// builds them (optional; without it the loop reads the design's signed 16-bit converter).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, expecting = "a [board] table")]
+struct BoardT {
+    name: Option<Spanned<String>>,
+    adc_bits: Spanned<Num>,
+    adc_reference_v: Spanned<Num>,
+    adc_coding: Spanned<String>,
+    adc_alignment: Spanned<String>,
+    front_end_gain: Spanned<Num>,
+    front_end_offset_v: Spanned<Num>,
+    torquer_current_ma: Option<Spanned<Num>>,
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, expecting = "a [plausibility] table")]
 struct PlausibilityT {
@@ -284,7 +301,7 @@ struct PlausibilityT {
 #[derive(Debug, Deserialize)]
 #[serde(
     deny_unknown_fields,
-    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops] (and optionally [instrument], [model_equation] and [plausibility])"
+    expecting = "tables [pendulum], [pickoff], [torquer], [electronics] and [stops] (and optionally [board], [instrument], [model_equation] and [plausibility])"
 )]
 struct FileT {
     pendulum: PendulumT,
@@ -292,6 +309,7 @@ struct FileT {
     torquer: TorquerT,
     electronics: ElectronicsT,
     stops: StopsT,
+    board: Option<BoardT>,
     instrument: Option<IdentT>,
     model_equation: Option<ModelEquationT>,
     plausibility: Option<PlausibilityT>,
@@ -951,6 +969,53 @@ pub struct Tolerance {
     pub hi: f64,
 }
 
+/// The board's front end (`[board]` of the instrument file): the converter that delivers the
+/// tick's sample and the analogue stage in front of it. The amplifier's output
+/// (`electronics.amplifier_gain` times the demodulated pickoff, plus
+/// `electronics.adc_offset_mv`) goes through the front end, `v_pin = front_end_gain · v +
+/// front_end_offset_v`, into the converter ([`ptsa_core::adc`]). The converter's range then
+/// spans ±`adc_reference_v / 2 / front_end_gain` at the amplifier's output: the file's
+/// `electronics.adc_full_scale_v` must say the same (it is the full scale the compensator is
+/// designed for).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Board {
+    /// `board.name`, if given.
+    pub name: Option<String>,
+    /// Resolution, coding and alignment of the converter.
+    pub adc: AdcFormat,
+    /// Width of the converter's input range, V (`0..V_REF` offset binary, `±V_REF/2` two's
+    /// complement).
+    pub reference_v: f64,
+    /// Gain from the amplifier's output to the converter's pin, V/V.
+    pub front_end_gain: f64,
+    /// Voltage at the converter's pin for 0 V at the amplifier's output, V (the level
+    /// shift: `V_REF/2` centres a unipolar converter).
+    pub front_end_offset_v: f64,
+    /// The torquer current the board's current source is set to, mA, when the file gives it
+    /// (it then sets [`Instrument::full_current_ma`]).
+    pub torquer_current_ma: Option<f64>,
+}
+
+impl Board {
+    /// The constant of the conversion that places the input in the converter's range and
+    /// rounds, in units of the `i16` sample: half a step, plus 2^15 for a bipolar range.
+    #[must_use]
+    pub fn round_term(&self) -> f64 {
+        let half = f64::from(self.adc.step()) / 2.0;
+        match self.adc.coding() {
+            Coding::OffsetBinary => half,
+            Coding::TwosComplement => 32768.0 + half,
+        }
+    }
+
+    /// The converter's full scale at the amplifier's output, ±V:
+    /// `adc_reference_v / 2 / front_end_gain`.
+    #[must_use]
+    pub fn full_scale_v(&self) -> f64 {
+        self.reference_v / 2.0 / self.front_end_gain
+    }
+}
+
 /// The instrument and its electronics, in the simulator's units (cgs, rad, s, V).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Instrument {
@@ -1006,6 +1071,9 @@ pub struct Instrument {
     pub tolerances: Vec<Tolerance>,
     /// Plausibility bounds of the discovery candidates.
     pub plausibility: Plausibility,
+    /// The board's front end (`[board]`), if the file describes one: the host loop then
+    /// quantizes the pickoff as that converter does.
+    pub board: Option<Board>,
     /// Whether the file describes a PTSA loop (Table 2.1's sections): without one, every
     /// loop field above is 0, nothing can run the closed loop, and no loop parameter is a
     /// discovery candidate.
@@ -1166,6 +1234,104 @@ impl Ctx<'_> {
                 ),
             },
         }
+    }
+
+    /// `[board]`: every entry in range, and the converter's full scale at the amplifier's
+    /// output the same as `electronics.adc_full_scale_v`.
+    fn board(&self, b: &BoardT, e: &ElectronicsT) -> Result<Board, InstrumentError> {
+        let bits = self.scalar(
+            "board.adc_bits",
+            &b.adc_bits,
+            |x| x.fract() == 0.0 && (1.0..=16.0).contains(&x),
+            "a whole number of bits from 1 to 16",
+        )?;
+        let word = |key: &str, v: &Spanned<String>, options: &[&str]| {
+            let t = v.get_ref().trim();
+            options.iter().position(|o| *o == t).ok_or_else(|| {
+                self.err(
+                    v.span().start,
+                    format!(
+                        "board.{key} = {:?}: expected one of {}",
+                        v.get_ref(),
+                        options
+                            .iter()
+                            .map(|o| format!("\"{o}\""))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                )
+            })
+        };
+        let coding = if word(
+            "adc_coding",
+            &b.adc_coding,
+            &["offset_binary", "twos_complement"],
+        )? == 0
+        {
+            Coding::OffsetBinary
+        } else {
+            Coding::TwosComplement
+        };
+        let alignment = if word("adc_alignment", &b.adc_alignment, &["left", "right"])? == 0 {
+            Alignment::Left
+        } else {
+            Alignment::Right
+        };
+        let reference_v = self.scalar(
+            "board.adc_reference_v",
+            &b.adc_reference_v,
+            positive,
+            "a reference > 0 V",
+        )?;
+        let front_end_gain = self.scalar(
+            "board.front_end_gain",
+            &b.front_end_gain,
+            positive,
+            "a gain > 0 V/V",
+        )?;
+        let front_end_offset_v = self.scalar(
+            "board.front_end_offset_v",
+            &b.front_end_offset_v,
+            |x| x.abs() < reference_v,
+            "an offset within the converter's reference, |offset| < board.adc_reference_v",
+        )?;
+        let torquer_current_ma = b
+            .torquer_current_ma
+            .as_ref()
+            .map(|t| self.scalar("board.torquer_current_ma", t, positive, "a current > 0 mA"))
+            .transpose()?;
+        let name = match &b.name {
+            Some(n) if n.get_ref().trim().is_empty() => {
+                return Err(self.err(
+                    n.span().start,
+                    "board.name: expected a non-empty string".to_string(),
+                ));
+            }
+            n => n.as_ref().map(|n| n.get_ref().trim().to_string()),
+        };
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let adc = AdcFormat::new(bits as u8, coding, alignment)
+            .ok_or_else(|| self.err(b.adc_bits.span().start, "board.adc_bits".into()))?;
+        let board = Board {
+            name,
+            adc,
+            reference_v,
+            front_end_gain,
+            front_end_offset_v,
+            torquer_current_ma,
+        };
+        let fs = board.full_scale_v();
+        let file_fs = e.adc_full_scale_v.get_ref().0;
+        if (fs - file_fs).abs() > 1e-6 * fs {
+            return Err(self.err(
+                e.adc_full_scale_v.span().start,
+                format!(
+                    "electronics.adc_full_scale_v = {file_fs} V disagrees with [board]: its converter spans ±{fs:.6} V at the amplifier's output (board.adc_reference_v / 2 / board.front_end_gain = {reference_v} / 2 / {front_end_gain}); expected them equal (the compensator is designed for this full scale): set adc_full_scale_v = {fs:.6}, or board.front_end_gain = {:.6} for this full scale",
+                    reference_v / 2.0 / file_fs
+                ),
+            ));
+        }
+        Ok(board)
     }
 
     /// `[instrument]`: the name, class and reading scale; without a loop also the bias and
@@ -1554,6 +1720,14 @@ impl Instrument {
                 p.set(&mut instr, v);
             }
             instr.full_current_ma = instr.sf_cm_s2 / instr.g_cm_s2 * instr.current_sf_ma_per_g;
+            if let Some(b) = &f.board {
+                let board = cx.board(b, &f.electronics)?;
+                if let Some(ma) = board.torquer_current_ma {
+                    instr.full_current_ma = ma;
+                }
+                instr.adc_full_scale_v = board.full_scale_v();
+                instr.board = Some(board);
+            }
             instr.tolerances = tol;
             instr.plausibility =
                 cx.plausibility(f.plausibility.as_ref(), instr.inertia_dyn_cm_s2)?;
@@ -1619,6 +1793,7 @@ impl Instrument {
                 scale_factor_per_c_ppm: 0.0,
                 warm_up_cm_s2: 0.0,
             },
+            board: None,
             has_loop: true,
             name: None,
             class: None,

@@ -591,7 +591,7 @@ fn chunk(n: usize, k: usize) -> usize {
 /// The lanes that draw the same noise: classes of lane indices, in order, each lane with
 /// the same generator state, the same table and the same ADC as the first of its class.
 fn stream_classes(cfg: &[&LoopConfig], st: &[&mut LoopState]) -> Vec<Vec<usize>> {
-    let mut classes: Vec<(&NoiseSource, [u64; 3], Vec<usize>)> = Vec::new();
+    let mut classes: Vec<(&NoiseSource, [u64; 5], Vec<usize>)> = Vec::new();
     for (l, (c, s)) in cfg.iter().zip(st).enumerate() {
         let bits = c.adc.bits();
         match classes

@@ -6,6 +6,7 @@
 use std::sync::Arc;
 
 use ptsa_core::Ptsa;
+use ptsa_core::adc::AdcFormat;
 
 use super::noise::NoiseSource;
 use crate::model::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
@@ -27,13 +28,22 @@ pub trait ExtraPhysics: Send + Sync + std::fmt::Debug {
 /// An effect term per unit coefficient: extra indicated acceleration, cm/s².
 type TermFn = fn(&CaseInputs) -> f64;
 
-/// The ADC: demodulated pickoff (rad) to a code, with the quadrature leak and noise.
+/// The ADC: demodulated pickoff (rad) to a code, with the quadrature leak and noise; the
+/// design's signed 16-bit converter, or the board's (`[board]` of the instrument file) through
+/// the conversion of [`ptsa_core::adc`].
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Adc {
-    /// Codes per rad.
+    /// Codes per rad, in units of the `i16` sample.
     pub(super) gain: f64,
-    /// Offset (quadrature leak), codes.
+    /// Offset (quadrature leak, the offset at the amplifier's output and, with a board, the
+    /// front end's level shift), in units of the `i16` sample.
     pub(super) offset: f64,
+    /// The constant that places the input in the converter's range and rounds: half a step
+    /// of the converter, plus 2^15 for a bipolar (two's complement) range (32768.5 for the
+    /// design's 16-bit converter).
+    pub(super) round: f64,
+    /// The bits of the sample the converter sets ([`AdcFormat::mask`]: 0xFFFF for 16 bits).
+    pub(super) mask: u16,
     /// Noise, codes rms.
     pub(super) noise: f64,
 }
@@ -43,23 +53,33 @@ impl Adc {
     fn of(instr: &Instrument, noise: bool) -> Self {
         let lsb_v = instr.adc_full_scale_v / 32768.0;
         let noise = if noise { instr.noise_v_rms } else { 0.0 };
+        let mut offset = (instr.quadrature_v * instr.phase_error_rad.sin() * instr.amp_gain
+            + instr.adc_offset_v)
+            / lsb_v;
+        let (round, mask) = match &instr.board {
+            None => (32768.5, AdcFormat::SIGNED_16.mask()),
+            Some(b) => {
+                offset += b.front_end_offset_v / b.reference_v * 65536.0;
+                (b.round_term(), b.adc.mask())
+            }
+        };
         Self {
             gain: instr.lsb_per_rad() * instr.phase_error_rad.cos(),
-            offset: (instr.quadrature_v * instr.phase_error_rad.sin() * instr.amp_gain
-                + instr.adc_offset_v)
-                / lsb_v,
+            offset,
+            round,
+            mask,
             noise: noise * instr.amp_gain / lsb_v,
         }
     }
 
-    /// The additive term of one sample: offset, the rounding half and a noise draw (none
-    /// without noise). Drawn apart from the plant state (ahead, in blocks, or shared between
-    /// the lanes of a batch), so that the chain from the plant state to the code is one
-    /// multiply-add ([`Adc::quantize`]).
+    /// The additive term of one sample: offset, the range's placement and rounding, and a
+    /// noise draw (none without noise). Drawn apart from the plant state (ahead, in blocks,
+    /// or shared between the lanes of a batch), so that the chain from the plant state to
+    /// the code is one multiply-add ([`Adc::quantize`]).
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(super) fn bias(&self, rng: &mut NoiseSource) -> f64 {
-        let mut bias = self.offset + 32768.5;
+        let mut bias = self.offset + self.round;
         if self.noise != 0.0 {
             bias += self.noise * rng.normal();
         }
@@ -70,32 +90,35 @@ impl Adc {
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
     pub(super) fn quantize(&self, y: f64, bias: f64) -> i16 {
-        Self::quantize_with(self.gain, y, bias)
+        Self::quantize_with(self.gain, self.mask, y, bias)
     }
 
-    /// The code of `y` with the gain `gain` (codes per rad) and the additive term `bias`.
+    /// The code of `y` with the gain `gain` (codes per rad), the converter's `mask` and the
+    /// additive term `bias`: [`AdcFormat::sample_masked`] of `y·gain + bias`, the one
+    /// conversion the firmware's processor-in-the-loop image uses too.
     #[allow(clippy::inline_always, reason = "per-tick path")]
     #[inline(always)]
-    pub(super) fn quantize_with(gain: f64, y: f64, bias: f64) -> i16 {
-        // Round half up and clip to the i16 range without a libm call: `as u16` truncates
-        // toward zero and saturates to `0..=65535` (NaN to 0), the same as an explicit clamp
-        // before the cast but with one max/min pair instead of two.
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let z = (y * gain + bias) as u16;
-        #[allow(clippy::cast_possible_wrap)]
-        let z = (z ^ 0x8000) as i16;
-        z
+    pub(super) fn quantize_with(gain: f64, mask: u16, y: f64, bias: f64) -> i16 {
+        AdcFormat::sample_masked(mask, y * gain + bias)
     }
 
     /// The constants as bits (to compare them exactly). The destructuring names every
     /// field, so one added here does not compile until it is part of the key.
-    pub(super) fn bits(&self) -> [u64; 3] {
+    pub(super) fn bits(&self) -> [u64; 5] {
         let Adc {
             gain,
             offset,
+            round,
+            mask,
             noise,
         } = self;
-        [gain.to_bits(), offset.to_bits(), noise.to_bits()]
+        [
+            gain.to_bits(),
+            offset.to_bits(),
+            round.to_bits(),
+            u64::from(*mask),
+            noise.to_bits(),
+        ]
     }
 }
 

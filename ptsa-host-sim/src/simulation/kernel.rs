@@ -45,8 +45,9 @@ pub(super) struct StaticLanes<'a, const L: usize> {
     add_flip: [[u64; L]; NX],
     /// Stop angle of each lane, rad.
     theta_stop: [f64; L],
-    /// ADC gain of each lane, codes per rad.
+    /// ADC gain of each lane, codes per rad, and its converter's mask.
     gain: [f64; L],
+    mask: [u16; L],
     /// Each lane's configuration: its plant and plant inputs by region and polarity for
     /// the stops, a rare and cold path.
     cfg: [&'a LoopConfig; L],
@@ -73,6 +74,7 @@ impl<'a, const L: usize> StaticLanes<'a, L> {
             add_flip,
             theta_stop: std::array::from_fn(|l| cfg[l].plant.theta_stop),
             gain: std::array::from_fn(|l| cfg[l].adc.gain),
+            mask: std::array::from_fn(|l| cfg[l].adc.mask),
             cfg,
         }
     }
@@ -192,7 +194,7 @@ pub(super) fn static_tick<const L: usize, const STATS: bool>(
 ) -> ([i16; L], LaneTicks<L>) {
     let mut codes = [0i16; L];
     for l in 0..L {
-        codes[l] = Adc::quantize_with(p.gain[l], s.x[3][l], bias[l]);
+        codes[l] = Adc::quantize_with(p.gain[l], p.mask[l], s.x[3][l], bias[l]);
     }
     let t = p.ptsa.tick_lanes(&mut s.core, &codes);
     let mut add = [[0.0; L]; NX];
@@ -289,8 +291,9 @@ pub(super) struct DynLanes<'a, const L: usize> {
     stop0: [f64; L],
     /// Stop angle of each lane, rad.
     theta_stop: [f64; L],
-    /// ADC gain of each lane, codes per rad.
+    /// ADC gain of each lane, codes per rad, and its converter's mask.
     gain: [f64; L],
+    mask: [u16; L],
     /// Pendulosity (g·cm), anisoinertia (g·cm²), and the `a_PA` (cm/s²) and `W_IA² − W_PA²`
     /// (rad²/s²) folded into each lane's `K_eff`.
     pendulosity: [f64; L],
@@ -335,6 +338,7 @@ impl<'a, const L: usize> DynLanes<'a, L> {
             stop0: cfg.map(|c| c.plant.stop_torque[0]),
             theta_stop: cfg.map(|c| c.plant.theta_stop),
             gain: cfg.map(|c| c.adc.gain),
+            mask: cfg.map(|c| c.adc.mask),
             pendulosity: cfg.map(|c| c.p),
             anisoinertia: cfg.map(|c| c.instr.anisoinertia_g_cm2),
             bias: cfg.map(|c| c.instr.bias_cm_s2),
@@ -439,7 +443,7 @@ pub(super) fn dynamic_tick<const L: usize>(
 ) -> ([i16; L], LaneTicks<L>) {
     let mut codes = [0i16; L];
     for l in 0..L {
-        codes[l] = Adc::quantize_with(p.gain[l], s.x[3][l], bias[l]);
+        codes[l] = Adc::quantize_with(p.gain[l], p.mask[l], s.x[3][l], bias[l]);
     }
     let t = p.ptsa.tick_lanes(&mut s.core, &codes);
     // The torque of the inputs and of θ's coupling to them (the stops' apart).

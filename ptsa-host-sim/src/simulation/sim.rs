@@ -333,12 +333,16 @@ impl ClosedLoop {
     /// polarity, the noise generator's state, Φ of the free and the stop regions, the
     /// per-region, per-polarity plant inputs, the plant state and the noise table. It lives
     /// here, not with the benchmark, because it reads the loop's internals. `None` for a
-    /// dynamic condition or a core that is not at reset.
+    /// dynamic condition, a core that is not at reset, or a board's converter of fewer than
+    /// 16 bits (the C loop quantizes to 16).
     #[must_use]
     pub fn c_static_params(&self) -> Option<String> {
         use std::fmt::Write as _;
         let (cfg, st) = (&self.cfg, &self.st);
-        if cfg.dynamic || st.core != cfg.ptsa.initial_state() {
+        if cfg.dynamic
+            || st.core != cfg.ptsa.initial_state()
+            || cfg.adc.mask != ptsa_core::adc::AdcFormat::SIGNED_16.mask()
+        {
             return None;
         }
         let c = cfg.ptsa.config();
@@ -358,7 +362,7 @@ impl ClosedLoop {
             s,
             "{:e} {:e} {:e} {:e} {}",
             cfg.adc.gain,
-            cfg.adc.offset + 32768.5,
+            cfg.adc.offset + cfg.adc.round,
             cfg.adc.noise,
             cfg.plant.theta_stop,
             if st.u > 0.0 { 1 } else { -1 }
@@ -778,6 +782,104 @@ pub fn run_static_with(
     let g = GateStart::open(&l.st);
     run(&mut l, ticks);
     g.close(&l.cfg, &l.st, ticks)
+}
+
+/// The parameters of [`run_static`]'s run for the firmware's processor-in-the-loop image
+/// (`cargo xtask pil`, `firmware/src/bin/pil.rs`): text lines, each a keyword and its
+/// values, every `f64` as the 16 hexadecimal digits of its bits (so that the image reads the
+/// very bits the host steps with), `#` starting a comment:
+///
+/// * `config b0 b1 a1 ki ticks_per_cycle noise_shaping` (the core's configuration: raw bits
+///   in decimal, `noise_shaping` 0 or 1);
+/// * `adc gain bias mask`: the ADC's gain (units of the sample per rad), the additive term of
+///   every sample (offset, range and rounding: `Adc::bias` without noise) and the
+///   converter's mask (decimal);
+/// * `stop theta_stop u0`: the stop angle (rad) and the command applied at reset (1 or −1);
+/// * `phi<r> <i>` and 4 values: row `i` of Φ of region `r` (0 free, 1 and 2 the stops);
+/// * `add<r> <u>` and 4 values: region `r`'s plant input with the polarity `u` applied (0
+///   positive, 1 negative);
+/// * `x0`: the plant state at reset (4);
+/// * `run warmup gate`: the settling ticks and the gate's ticks.
+///
+/// A tick of the image is `kernel::static_tick`'s and `static_phase`'s: the sample
+/// `AdcFormat::sample_masked(mask, x[3]·gain + bias)`, the core's tick, then `x = Φ_r x +
+/// add_r[applied]` with `r` the region of `x[0]` before the step (free while `|x[0]| ≤
+/// theta_stop`), the terms of `Φ x` in `Zoh::step`'s order.
+///
+/// # Errors
+/// The instrument's pickoff noise is not zero (the image draws none).
+pub fn static_pil_params(
+    instr: &Instrument,
+    accel_cm_s2: f64,
+    ticks: u64,
+    opts: &SimOptions,
+) -> Result<String, String> {
+    use std::fmt::Write as _;
+    let cond = crate::lab::fixtures::along_ia(accel_cm_s2, instr.g_cm_s2);
+    let l = ClosedLoop::new(instr, &cond, &Effects::NONE, opts);
+    let (cfg, st) = (&l.cfg, &l.st);
+    if cfg.adc.noise != 0.0 {
+        return Err(format!(
+            "the processor-in-the-loop image draws no pickoff noise; expected an instrument file with pickoff.noise_uv_rms = 0 (this one gives {} µV rms)",
+            instr.noise_v_rms * 1e6
+        ));
+    }
+    let hex = |v: f64| format!("{:016x}", v.to_bits());
+    let c = cfg.ptsa.config();
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# ptsa static --pil-params: {accel_cm_s2} cm/s^2 along IA, bias {} cm/s^2; f64 as hex bits",
+        instr.bias_cm_s2
+    );
+    let _ = writeln!(
+        s,
+        "config {} {} {} {} {} {}",
+        c.b0.to_bits(),
+        c.b1.to_bits(),
+        c.a1.to_bits(),
+        c.ki.to_bits(),
+        c.ticks_per_cycle,
+        u8::from(c.noise_shaping)
+    );
+    let _ = writeln!(
+        s,
+        "adc {} {} {}",
+        hex(cfg.adc.gain),
+        hex(cfg.adc.offset + cfg.adc.round),
+        cfg.adc.mask
+    );
+    let _ = writeln!(
+        s,
+        "stop {} {}",
+        hex(cfg.plant.theta_stop),
+        if st.u > 0.0 { 1 } else { -1 }
+    );
+    for (r, z) in cfg.plant.zoh.iter().enumerate() {
+        for (i, row) in z.phi.iter().enumerate() {
+            let _ = write!(s, "phi{r} {i}");
+            for v in row {
+                let _ = write!(s, " {}", hex(*v));
+            }
+            s.push('\n');
+        }
+    }
+    for (r, region) in cfg.add.iter().enumerate() {
+        for (u, add) in region.iter().enumerate() {
+            let _ = write!(s, "add{r} {u}");
+            for v in add {
+                let _ = write!(s, " {}", hex(*v));
+            }
+            s.push('\n');
+        }
+    }
+    let _ = write!(s, "x0");
+    for v in st.x {
+        let _ = write!(s, " {}", hex(v));
+    }
+    s.push('\n');
+    let _ = writeln!(s, "run {} {ticks}", opts.warmup_ticks(instr.clock_hz));
+    Ok(s)
 }
 
 #[cfg(test)]

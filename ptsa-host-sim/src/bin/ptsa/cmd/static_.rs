@@ -10,7 +10,7 @@ use clap::Args;
 use ptsa_host_sim::Instrument;
 use ptsa_host_sim::output::fs::{persist, temp_beside};
 use ptsa_host_sim::output::{Column, Table, count, num, text};
-use ptsa_host_sim::simulation::sim::{SimOptions, StaticRun, run_static_with};
+use ptsa_host_sim::simulation::sim::{SimOptions, StaticRun, run_static_with, static_pil_params};
 
 use super::{Ctx, gate_ticks};
 use crate::flags::values::{accel_item, non_negative_s, positive_s, seed};
@@ -51,6 +51,11 @@ pub struct StaticArgs {
     /// golden-vector style) to FILE (one acceleration only).
     #[arg(long, value_name = "FILE")]
     pub trace: Option<PathBuf>,
+    /// Write, instead of running, this run's discrete-time plant, ADC and loop constants
+    /// (settling and gate in ticks) to FILE for the firmware's processor-in-the-loop image
+    /// (`cargo xtask pil`); one acceleration, an instrument file without pickoff noise.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["trace", "json"])]
+    pub pil_params: Option<PathBuf>,
     /// Run even when the work is estimated to take more than ten minutes.
     #[arg(long)]
     pub force: bool,
@@ -68,8 +73,13 @@ pub struct Request {
     runs: Runs,
 }
 
-/// One acceleration (with its trace file, checked) or several in one batch.
+/// One acceleration (with its trace file, checked) or several in one batch, or the
+/// parameters of one run for the processor-in-the-loop image.
 enum Runs {
+    Pil {
+        accel_cm_s2: f64,
+        path: PathBuf,
+    },
     One {
         accel_cm_s2: f64,
         trace: Option<PathBuf>,
@@ -91,8 +101,19 @@ impl StaticArgs {
             config: ctx.config()?,
             ..SimOptions::default()
         };
-        let runs = match (&self.accel_cm_s2[..], self.trace) {
-            ([a], trace) => {
+        let runs = match (&self.accel_cm_s2[..], self.trace, self.pil_params) {
+            ([a], None, Some(path)) => {
+                paths::output_file("--pil-params", &path, self.force)?;
+                Runs::Pil {
+                    accel_cm_s2: *a,
+                    path,
+                }
+            }
+            (several, None, Some(_)) => bail!(
+                "--pil-params writes the parameters of one run; expected one --accel-cm-s2 value with it, not {}",
+                several.len()
+            ),
+            ([a], trace, None) => {
                 if let Some(t) = &trace {
                     paths::output_file("--trace", t, self.force)?;
                 }
@@ -101,11 +122,11 @@ impl StaticArgs {
                     trace,
                 }
             }
-            (several, Some(_)) => bail!(
+            (several, Some(_), _) => bail!(
                 "--trace writes the ADC samples of one run; expected one --accel-cm-s2 value with it, not {}",
                 several.len()
             ),
-            (several, None) => Runs::Batch(several.to_vec()),
+            (several, None, None) => Runs::Batch(several.to_vec()),
         };
         let mut instr = ctx.instr.clone();
         if !self.with_bias {
@@ -130,6 +151,15 @@ impl StaticArgs {
 /// Refused work; the trace or stdout cannot be written.
 pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
     match &req.runs {
+        Runs::Pil { accel_cm_s2, path } => {
+            let text = static_pil_params(&req.instr, *accel_cm_s2, req.ticks, &req.opts)
+                .map_err(|e| anyhow::anyhow!("--pil-params: {e}"))?;
+            let tmp = temp_beside(path)?;
+            std::fs::write(tmp.path(), text)
+                .with_context(|| format!("writing {}", path.display()))?;
+            persist(tmp, path)?;
+            Ok(())
+        }
         Runs::One { accel_cm_s2, trace } => one(req, *accel_cm_s2, trace.as_ref(), out),
         Runs::Batch(accels) => batch(req, accels, out),
     }
