@@ -393,6 +393,20 @@ pub fn distinct_runs<'a>(
     (runs, slots)
 }
 
+/// The order in which [`ClosedLoopSimulator::observe_all`] hands `runs` to the batch
+/// engine, [`RUN_CHUNK`] at a time: the runs of one condition next to each other (by
+/// [`Condition::input_bits`], stable), whatever the order of the jobs. A pass over the
+/// parameters' sides lists each parameter's rows in turn; in that order a call of 2048 runs
+/// held two sides of each of 1000 rows, and the engine, which computes a condition's phasor
+/// and inputs once for the lanes in step that share it, computed them for every second
+/// lane. Each run is independent of the others in its call, so the order moves no value.
+#[must_use]
+pub fn by_condition(runs: &[Run<'_>]) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..runs.len()).collect();
+    order.sort_by_cached_key(|&k| runs[k].0.input_bits());
+    order
+}
+
 /// What makes one closed-loop run of [`distinct_runs`]: every input of the condition
 /// ([`Condition::input_bits`]), every coefficient of the effects, and the noise seed, as
 /// bits (`-0.0` and `0.0` are different keys; a NaN never meets another).
@@ -457,22 +471,22 @@ impl Simulator for ClosedLoopSimulator {
     fn observe_all(&self, jobs: &[(&Condition, &Effects)]) -> Vec<Observation> {
         let seed = self.options.seed;
         let (runs, slots) = distinct_runs(jobs, seed);
-        let mut value: Vec<f64> = Vec::with_capacity(runs.len());
-        for chunk in runs.chunks(RUN_CHUNK) {
+        let order = by_condition(&runs);
+        let mut value: Vec<f64> = vec![0.0; runs.len()];
+        for chunk in order.chunks(RUN_CHUNK) {
             let batch: Vec<crate::simulation::batch::Job<'_>> = chunk
                 .iter()
-                .map(|(cond, e)| crate::simulation::batch::Job {
+                .map(|&k| crate::simulation::batch::Job {
                     instr: &self.instrument,
-                    cond: cond.as_ref(),
-                    effects: **e,
+                    cond: runs[k].0.as_ref(),
+                    effects: *runs[k].1,
                     seed,
                 })
                 .collect();
-            value.extend(
-                crate::simulation::batch::simulate_jobs(&batch, &self.options)
-                    .iter()
-                    .map(|r| r.indicated_cm_s2),
-            );
+            let res = crate::simulation::batch::simulate_jobs(&batch, &self.options);
+            for (&k, r) in chunk.iter().zip(&res) {
+                value[k] = r.indicated_cm_s2;
+            }
         }
         // The response rows' observations, in the order of their jobs: each job takes its
         // own (a response row has no run of its own in `slots`) or its value.
@@ -893,6 +907,53 @@ mod tests {
         jobs.push((&rows[0], &damp));
         assert_eq!(distinct_runs(&jobs, 1).0.len(), 8);
         assert_eq!(distinct_runs(&jobs[..1], 1).0.len(), 2);
+    }
+
+    /// Runs of one condition are handed to the engine side by side, in the order of their
+    /// first appearance, whatever the jobs' order: three rows' parameter sides listed
+    /// parameter by parameter (as `data::sensitivities` lists them) come out row by row.
+    #[test]
+    fn runs_of_one_condition_go_to_the_engine_together() {
+        let rows: Vec<Condition> = [10.0, 20.0, 30.0]
+            .iter()
+            .map(|&f| {
+                let mut c = Condition {
+                    kind: RowKind::Absolute,
+                    g: [1.0, 0.0, 0.0],
+                    freq_hz: f,
+                    ..Condition::default()
+                };
+                c.lin_cm_s2[IA] = 300.0;
+                c
+            })
+            .collect();
+        let sides = [
+            Effects::only(CandidateId::ParamDamping, 5000.0),
+            Effects::only(CandidateId::ParamDamping, -5000.0),
+            Effects::only(CandidateId::ParamSpring, 1.0),
+            Effects::only(CandidateId::ParamSpring, -1.0),
+        ];
+        let jobs: Vec<(&Condition, &Effects)> = sides
+            .iter()
+            .flat_map(|e| rows.iter().map(move |r| (r, e)))
+            .collect();
+        let (runs, _) = distinct_runs(&jobs, 1);
+        assert_eq!(runs.len(), 12);
+        let order = by_condition(&runs);
+        let freqs: Vec<f64> = order.iter().map(|&k| runs[k].0.freq_hz).collect();
+        for g in freqs.chunks(4) {
+            assert!(
+                g.iter().all(|&f| f.to_bits() == g[0].to_bits()),
+                "{freqs:?}"
+            );
+        }
+        // Within a condition, the jobs' order (stable).
+        for g in order.chunks(4) {
+            assert!(g.windows(2).all(|w| w[0] < w[1]), "{order:?}");
+        }
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, (0..12).collect::<Vec<_>>());
     }
 
     /// The batched `observe_all` of the closed loop is `observe` row by row, bit for bit:
