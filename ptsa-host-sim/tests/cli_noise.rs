@@ -632,3 +632,30 @@ fn write_instrument_puts_the_identified_pickoff_noise_back() {
     assert!(stderr(&o).contains("--identify"), "{}", stderr(&o));
     assert!(!tmp.path().join("x.toml").exists());
 }
+
+/// `--write-instrument` naming the `--plot` file is refused before any work, nothing written.
+#[test]
+fn write_instrument_over_the_plot_is_refused() {
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("r.csv"), record(1, 64, 640, 0.0, 10.0)).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &[
+            "noise",
+            "--counts",
+            "r.csv",
+            "--identify",
+            "--plot",
+            "k.svg",
+            "--write-instrument",
+            "k.svg",
+        ],
+    );
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains("--write-instrument k.svg: the same file as another output"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(!tmp.path().join("k.svg").exists());
+}
