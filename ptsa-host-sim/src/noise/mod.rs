@@ -20,6 +20,7 @@
 )]
 
 pub mod allan;
+pub mod identify;
 pub mod terms;
 
 use std::fmt::Write as _;

@@ -9,8 +9,9 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Result, bail};
+use anyhow::{Context as _, Result, bail};
 use clap::Args;
+use ptsa_host_sim::noise::identify::{self as ident, Identification, Kind};
 use ptsa_host_sim::noise::{self, Analysis, Record};
 use ptsa_host_sim::output::significant as sig;
 use ptsa_host_sim::output::write_atomic;
@@ -48,6 +49,19 @@ pub struct NoiseArgs {
     /// EDFs, Holm's step-down over the taus at 5 % familywise.
     #[arg(long, requires = "counts")]
     pub compare: bool,
+    /// With --counts: identify what the instrument file's loop lacks: the record's Allan
+    /// variance modelled as the simulated loop's (as --compare, at pickoff noises 0 to 8 uV
+    /// rms, interpolated in noise power) plus a white acceleration noise N (AVAR += N^2/tau;
+    /// cm/s^2/rtHz, ug/rtHz) and a bias random walk K (AVAR += K^2 tau/3; cm/s^2.5, ug/rts),
+    /// selected forward with Holm's thresholds at 5 % familywise; the selected ones with
+    /// their 95 % intervals (docs/noise.md).
+    #[arg(long, requires = "counts")]
+    pub identify: bool,
+    /// With --identify: write the instrument file with the identified pickoff noise
+    /// (noise_uv_rms, uV rms) to FILE, only when the pickoff noise was identified; an
+    /// existing file is replaced only with --force.
+    #[arg(long, value_name = "FILE", requires = "identify")]
+    pub write_instrument: Option<PathBuf>,
     /// With --simulate: the simulated record's length after the settling, s (more than 0).
     #[arg(long, value_name = "S", value_parser = positive_s, requires = "simulate")]
     pub seconds: Option<f64>,
@@ -82,10 +96,13 @@ pub struct NoiseArgs {
     /// "terms_fit_chi2", "terms_fit_dof", "warnings"; with --compare also "comparison"
     /// ("input_cm_s2", "simulated_mean_cm_s2", "familywise_alpha", "test", "differing",
     /// "points": "tau_s", "measured_adev_cm_s2", "measured_ci95", "simulated_adev_cm_s2",
-    /// "simulated_ci95", "z", "p", "differs").
+    /// "simulated_ci95", "z", "p", "differs"); with --identify also "identification"
+    /// ("candidates": "candidate", "statistic", "p", "selected", "values": [{"unit",
+    /// "value", "ci95"}], "open_above"; "selected", "chi2_file", "taus_s",
+    /// "pickoff_grid_uv_rms", "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test").
     #[arg(long)]
     pub json: bool,
-    /// Replace an existing --out or --plot file; run a simulation estimated beyond ten
+    /// Replace an existing --out, --plot or --write-instrument file; run a simulation estimated beyond ten
     /// minutes.
     #[arg(long)]
     pub force: bool,
@@ -111,6 +128,10 @@ pub struct Request {
     plot: Option<(PathBuf, Option<String>)>,
     json: bool,
     force: bool,
+    /// `--identify`: the simulations' options.
+    identify: Option<SimOptions>,
+    /// `--write-instrument`: the file, and what it replaces.
+    write_instrument: Option<(PathBuf, Option<String>)>,
 }
 
 impl NoiseArgs {
@@ -138,6 +159,17 @@ impl NoiseArgs {
         };
         let out = checked("--out", self.out.clone())?;
         let plot = checked("--plot", self.plot.clone())?;
+        let write_instrument = checked("--write-instrument", self.write_instrument.clone())?;
+        for (a, b) in [(&out, &write_instrument), (&plot, &write_instrument)] {
+            if let (Some((o, _)), Some((p, _))) = (a, b)
+                && o == p
+            {
+                bail!(
+                    "--write-instrument {}: the same file as another output; expected its own file",
+                    p.display()
+                );
+            }
+        }
         if let (Some((o, _)), Some((p, _))) = (&out, &plot)
             && o == p
         {
@@ -146,6 +178,16 @@ impl NoiseArgs {
                 p.display()
             );
         }
+        let identify = if self.identify {
+            Some(SimOptions {
+                seed: self.seed,
+                warmup_s: self.warmup_s,
+                config: ctx.config()?,
+                ..SimOptions::default()
+            })
+        } else {
+            None
+        };
         let source = if let Some(path) = &self.counts {
             ctx.require_loop()?;
             let rec = noise::read_record(path, ctx.instr.clock_hz)?;
@@ -201,6 +243,8 @@ impl NoiseArgs {
             plot,
             json: self.json,
             force: self.force,
+            identify,
+            write_instrument,
         })
     }
 }
@@ -250,6 +294,33 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
             ));
         }
     }
+    let identification = match &req.identify {
+        Some(opts) => Some(identify(ctx, req, opts, &record, &a)?),
+        None => None,
+    };
+    if let Some(id) = &identification {
+        let chosen: Vec<&str> = id
+            .candidates
+            .iter()
+            .filter(|c| c.selected)
+            .map(|c| c.kind.key())
+            .collect();
+        if !chosen.is_empty() {
+            warnings.push(format!(
+                "{name}: beyond the instrument file's loop the record needs {} (Holm, 5 % familywise): the file's noise is not the instrument's",
+                chosen.join(", ")
+            ));
+        }
+        if id.get(Kind::Pickoff).is_some_and(|c| c.open_above) {
+            warnings.push(format!(
+                "{name}: the pickoff noise's 95 % interval reaches the largest simulated value ({} uV): it is open above",
+                sig(id.grid_uv.last().copied().unwrap_or(0.0), 4)
+            ));
+        }
+    }
+    if let (Some((path, replaced)), Some(id)) = (&req.write_instrument, &identification) {
+        write_identified(ctx, path, replaced.as_deref(), &name, id)?;
+    }
     if let Some((path, replaced)) = &req.plot {
         let svg = a.svg(&format!("Allan deviation: {name}"))?;
         write_atomic(path, svg.as_bytes())?;
@@ -266,11 +337,17 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         if let (Some(c), Some(map)) = (&comparison, v.as_object_mut()) {
             map.insert("comparison".into(), c.json());
         }
+        if let (Some(id), Some(map)) = (&identification, v.as_object_mut()) {
+            map.insert("identification".into(), identification_json(id));
+        }
         writeln!(out, "{v}")?;
     } else {
         write!(out, "{}", a.text(&name))?;
         if let Some(c) = &comparison {
             write!(out, "{}", c.text())?;
+        }
+        if let Some(id) = &identification {
+            write!(out, "{}", identification_text(id))?;
         }
     }
     Ok(())
@@ -420,4 +497,178 @@ fn simulate_and_compare(
         simulated_mean_cm_s2: s.mean_cm_s2,
         points: noise::compare(&measured.points, &s.points),
     })
+}
+
+/// Identify the candidates beyond the file's loop (`--identify`): the simulations refused
+/// beyond the work limit without `--force`.
+fn identify(
+    ctx: &Ctx,
+    req: &Request,
+    opts: &SimOptions,
+    record: &Record,
+    measured: &Analysis,
+) -> Result<Identification> {
+    let instr = &ctx.instr;
+    let ticks = record.gates[0].ticks;
+    let sims = ident::PICKOFF_GRID_UV.len() as u64 + 1;
+    let est = Work::new(instr, opts)
+        .gate(ticks * record.gates.len() as u64 * sims)
+        .check(req.force, "the identification's simulated records")?;
+    let bar = work::Progress::start("noise --identify", &est);
+    let id = ident::identify(instr, opts, record, measured, &mut |_, _| {});
+    bar.finish();
+    Ok(id)
+}
+
+/// `--write-instrument`: the instrument file with the identified pickoff noise, written
+/// only when it was identified (otherwise a line saying so).
+fn write_identified(
+    ctx: &Ctx,
+    path: &Path,
+    replaced: Option<&str>,
+    record: &str,
+    id: &Identification,
+) -> Result<()> {
+    let Some((u, lo, hi)) = id
+        .get(Kind::Pickoff)
+        .filter(|c| c.selected)
+        .and_then(|c| c.value)
+    else {
+        eprintln!(
+            "the pickoff noise was not identified: --write-instrument {} not written",
+            path.display()
+        );
+        return Ok(());
+    };
+    let value: f64 = format!("{u:.3}").parse().unwrap_or(u);
+    let note = format!(
+        "ptsa noise --counts {record} --identify: noise_uv_rms {} uV rms, 95 % interval [{}, {}], was {}",
+        sig(value, 4),
+        sig(lo, 4),
+        sig(hi, 4),
+        sig(id.file_uv, 4)
+    );
+    let text = ptsa_host_sim::Instrument::rewrite(
+        &ctx.text,
+        &ctx.name,
+        &[("pickoff.noise_uv_rms", value, note)],
+    )
+    .with_context(|| format!("--write-instrument {}", path.display()))?;
+    write_atomic(path, text.as_bytes())?;
+    if let Some(w) = replaced {
+        eprintln!(
+            "warning: --write-instrument {}: replaced {w} (--force)",
+            path.display()
+        );
+    }
+    eprintln!(
+        "wrote {} ({} with the identified noise_uv_rms)",
+        path.display(),
+        ctx.name
+    );
+    Ok(())
+}
+
+fn identification_json(id: &Identification) -> serde_json::Value {
+    let candidates: Vec<serde_json::Value> = id
+        .candidates
+        .iter()
+        .map(|c| {
+            let values: Vec<serde_json::Value> = c
+                .kind
+                .units()
+                .into_iter()
+                .map(|(unit, k)| {
+                    serde_json::json!({
+                        "unit": unit,
+                        "value": c.value.map(|v| v.0 * k),
+                        "ci95": c.value.map(|v| [v.1 * k, v.2 * k]),
+                    })
+                })
+                .collect();
+            serde_json::json!({
+                "candidate": c.kind.key(),
+                "statistic": c.statistic,
+                "p": c.p,
+                "selected": c.selected,
+                "values": values,
+                "open_above": c.open_above,
+            })
+        })
+        .collect();
+    serde_json::json!({
+        "input_cm_s2": id.input_cm_s2,
+        "file_noise_uv_rms": id.file_uv,
+        "pickoff_grid_uv_rms": id.grid_uv,
+        "taus_s": id.taus,
+        "chi2_file": id.chi2_file,
+        "familywise_alpha": ident::ALPHA,
+        "test": "AVAR_measured = AVAR_sim(noise_uv_rms, linear in its square between the grid values) + N^2/tau + K^2 tau/3; weights 2 M^2/edf_m + 2 S^2/edf_s, octave points taken as independent; forward selection with Holm thresholds (0.05/3, 0.05/2, 0.05): each candidate left tested given those selected by its drop of chi2 (N, K: its signed root, one-sided normal; pickoff: profiled, against chi2(1)); intervals widened by the joint fit's Birge ratio above 1",
+        "candidates": candidates,
+        "selected": id.candidates.iter().filter(|c| c.selected).map(|c| c.kind.key()).collect::<Vec<_>>(),
+    })
+}
+
+fn identification_text(id: &Identification) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "identification beyond the file's loop ({} cm/s^2 along IA, its pickoff noise {} uV rms, simulated at {} uV; chi2 of the file's loop alone {:.1} on {} taus); Holm at 5 % familywise:",
+        sig(id.input_cm_s2, 8),
+        sig(id.file_uv, 4),
+        id.grid_uv
+            .iter()
+            .map(|u| sig(*u, 3))
+            .collect::<Vec<_>>()
+            .join(", "),
+        id.chi2_file,
+        id.taus.len()
+    );
+    for c in &id.candidates {
+        let name = match c.kind {
+            Kind::WhiteAcceleration => "white acceleration noise N",
+            Kind::RandomWalk => "bias random walk K",
+            Kind::Pickoff => "pickoff noise noise_uv_rms",
+        };
+        let stat = if c.kind == Kind::Pickoff {
+            format!("delta-chi2 {:.2}", c.statistic)
+        } else {
+            format!("z {:.2}", c.statistic)
+        };
+        match c.value.filter(|_| c.selected) {
+            Some((v, lo, hi)) => {
+                let parts: Vec<String> = c
+                    .kind
+                    .units()
+                    .into_iter()
+                    .map(|(u, k)| {
+                        format!(
+                            "{} [{}, {}]{} {u}",
+                            sig(v * k, 4),
+                            sig(lo * k, 4),
+                            sig(hi * k, 4),
+                            if c.open_above { "+" } else { "" }
+                        )
+                    })
+                    .collect();
+                let _ = writeln!(
+                    s,
+                    "  {name}: identified ({stat}, p {:.2e}): {} (95 %)",
+                    c.p,
+                    parts.join(" = ")
+                );
+            }
+            None => {
+                let _ = writeln!(s, "  {name}: not identified ({stat}, p {:.3})", c.p);
+            }
+        }
+    }
+    if id.candidates.iter().all(|c| !c.selected) {
+        let _ = writeln!(
+            s,
+            "  nothing identified: the record's Allan deviation is the instrument file's loop's within its intervals"
+        );
+    }
+    s
 }
