@@ -676,19 +676,19 @@ fn elf32_sections(b: &[u8]) -> Result<Vec<Section>, String> {
     Ok(out)
 }
 
-/// Build the production image for QEMU and run it: TIM2 at 64 kHz of virtual time, the loop
-/// on QEMU's (synthetic) ADC samples, gates reported through semihosting.
-fn production_under_qemu(
+/// Build the board image `bin` with the `qemu` feature and run it under QEMU with
+/// semihosting; an exit other than 0 is an error naming what it printed.
+fn build_and_run_gates(
     root: &Path,
     fw: &Path,
     fw_target: &Path,
+    bin: &str,
     elf: &Path,
-    overwrite_log: bool,
-) -> Result<String, String> {
+) -> Result<QemuRun, String> {
     cargo_firmware(
         fw,
         fw_target,
-        &["build", "--release", "--bin", "ptsa", "--features", "qemu"],
+        &["build", "--release", "--bin", bin, "--features", "qemu"],
     )?;
     let run = qemu(
         root,
@@ -703,11 +703,25 @@ fn production_under_qemu(
             run.stderr.trim()
         ));
     }
-    let gates: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("gate "))
-        .collect();
+    Ok(run)
+}
+
+/// The gate report lines of an image's output.
+fn gate_lines(stdout: &str) -> Vec<&str> {
+    stdout.lines().filter(|l| l.starts_with("gate ")).collect()
+}
+
+/// Build the production image for QEMU and run it: TIM2 at 64 kHz of virtual time, the loop
+/// on QEMU's (synthetic) ADC samples, gates reported through semihosting.
+fn production_under_qemu(
+    root: &Path,
+    fw: &Path,
+    fw_target: &Path,
+    elf: &Path,
+    overwrite_log: bool,
+) -> Result<String, String> {
+    let run = build_and_run_gates(root, fw, fw_target, "ptsa", elf)?;
+    let gates = gate_lines(&run.stdout);
     if gates.len() != PRODUCTION_GATES {
         return Err(format!(
             "expected {PRODUCTION_GATES} gate reports, got {}: {:?}",
@@ -1108,29 +1122,8 @@ fn triad_under_qemu(t: &Triad<'_>, overwrite_log: bool) -> Result<String, String
             "flash {flash} bytes, over {MAX_TRIAD_FLASH} (sections:{detail})"
         ));
     }
-    cargo_firmware(
-        t.fw,
-        t.fw_target,
-        &["build", "--release", "--bin", "triad", "--features", "qemu"],
-    )?;
-    let run = qemu(
-        t.root,
-        &t.elf_dir.join("triad"),
-        &["-semihosting-config", "enable=on,target=native"],
-    )?;
-    if !run.status_ok {
-        return Err(format!(
-            "exited with {}; stdout: {:?}; stderr: {:?}",
-            run.status,
-            run.stdout.trim(),
-            run.stderr.trim()
-        ));
-    }
-    let gates: Vec<&str> = run
-        .stdout
-        .lines()
-        .filter(|l| l.starts_with("gate "))
-        .collect();
+    let run = build_and_run_gates(t.root, t.fw, t.fw_target, "triad", &t.elf_dir.join("triad"))?;
+    let gates = gate_lines(&run.stdout);
     let expected = host_gate_pulses(PRODUCTION_GATES)?;
     if gates.len() != 3 * PRODUCTION_GATES {
         return Err(format!(

@@ -179,23 +179,25 @@ impl Speed {
 }
 
 /// Build `ptsa` (quietly, once: the runs below use the binary) with the release or the
-/// test profile.
+/// test profile. The test profile's is built as the host tests build it (the whole
+/// workspace's test targets, so the same features), which in `cargo xtask ci`, right after
+/// the host tests, is already done: `-p ptsa-host-sim --bin ptsa` alone would resolve other
+/// features and rebuild every crate (about a minute of CI).
 fn build_ptsa(root: &Path, release: bool) -> Result<(), String> {
-    let profile = if release { "release" } else { "test" };
-    util::run(
-        root,
-        &util::cargo(),
+    let args: &[&str] = if release {
         &[
             "build",
-            "--profile",
-            profile,
+            "--release",
             "-q",
             "-p",
             "ptsa-host-sim",
             "--bin",
             "ptsa",
-        ],
-    )
+        ]
+    } else {
+        &["build", "--profile", "test", "-q", "--workspace", "--tests"]
+    };
+    util::run(root, &util::cargo(), args)
 }
 
 /// The `ptsa` of this workspace, release or test profile (whose directory is `debug`).
