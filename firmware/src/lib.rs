@@ -183,20 +183,7 @@ impl Board {
         // ADC1: ADCCLK = PCLK2 / 4 = 20 MHz, channel 1, 15-cycle sampling, left-aligned.
         dp.ADC_COMMON.ccr().modify(|_, w| w.adcpre().div4());
         dp.ADC1.smpr2().modify(|_, w| w.smp1().cycles15());
-        select_channel(&dp.ADC1, 1);
-        dp.ADC1
-            .cr2()
-            .write(|w| w.adon().enabled().align().left().cont().continuous());
-        dp.ADC1.cr2().write(|w| {
-            w.adon()
-                .enabled()
-                .align()
-                .left()
-                .cont()
-                .continuous()
-                .swstart()
-                .start()
-        });
+        start_adc(&dp.ADC1, 1);
 
         // TIM2: update event every tick; interrupt enabled; counter not started yet.
         let tim = dp.TIM2;
@@ -267,6 +254,24 @@ fn second_gpiod_handle() -> pac::GPIOD {
     // 8/24, 9/25). Nothing else in the firmware uses port D after `Board::new` or
     // `TriadBoard::new` has configured MODER.
     unsafe { pac::GPIOD::steal() }
+}
+
+/// Start the ADC converting its one regular channel `channel` continuously, left-aligned
+/// (the single axis's ADC1 and each of the triad's three).
+fn start_adc(adc: &pac::adc1::RegisterBlock, channel: u8) {
+    select_channel(adc, channel);
+    adc.cr2()
+        .write(|w| w.adon().enabled().align().left().cont().continuous());
+    adc.cr2().write(|w| {
+        w.adon()
+            .enabled()
+            .align()
+            .left()
+            .cont()
+            .continuous()
+            .swstart()
+            .start()
+    });
 }
 
 /// Select the ADC's one regular channel, `channel` (1, 2 or 3: `ADC123_IN1`..`IN3`).

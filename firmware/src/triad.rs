@@ -31,7 +31,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 use critical_section::Mutex;
 use ptsa_core::{Gate, GateFifo, HBridge, Ptsa, State, Tick};
 
-use crate::{GATE_IRQ, Leg, TICK_RELOAD, pac, second_gpiod_handle, select_channel};
+use crate::{GATE_IRQ, Leg, TICK_RELOAD, pac, second_gpiod_handle, start_adc};
 
 /// Axes of the triad.
 pub const AXES: usize = 3;
@@ -132,23 +132,9 @@ impl TriadBoard {
         dp.ADC1.smpr2().modify(|_, w| w.smp1().cycles15());
         dp.ADC2.smpr2().modify(|_, w| w.smp2().cycles15());
         dp.ADC3.smpr2().modify(|_, w| w.smp3().cycles15());
-        select_channel(&dp.ADC1, 1);
-        select_channel(&dp.ADC2, 2);
-        select_channel(&dp.ADC3, 3);
-        for adc in [&*dp.ADC1, &*dp.ADC2, &*dp.ADC3] {
-            adc.cr2()
-                .write(|w| w.adon().enabled().align().left().cont().continuous());
-            adc.cr2().write(|w| {
-                w.adon()
-                    .enabled()
-                    .align()
-                    .left()
-                    .cont()
-                    .continuous()
-                    .swstart()
-                    .start()
-            });
-        }
+        start_adc(&dp.ADC1, 1);
+        start_adc(&dp.ADC2, 2);
+        start_adc(&dp.ADC3, 3);
 
         let tim = dp.TIM2;
         tim.psc().write(|w| w.psc().set(0));
