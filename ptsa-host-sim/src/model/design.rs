@@ -173,16 +173,17 @@ impl Design {
         let [b0, b1, a1, ki] = self.bits();
         format!(
             "const DEFAULT_B0_BITS: i32 = {};\nconst DEFAULT_B1_BITS: i32 = {};\nconst DEFAULT_A1_BITS: i32 = {};\nconst DEFAULT_KI_BITS: i32 = {};\n",
-            underscore(b0),
-            underscore(b1),
-            underscore(a1),
-            underscore(ki)
+            underscore(b0.into()),
+            underscore(b1.into()),
+            underscore(a1.into()),
+            underscore(ki.into())
         )
     }
 }
 
-/// `1234567` → `1_234_567` (Rust literal style).
-fn underscore(x: i32) -> String {
+/// `1234567` → `1_234_567` (Rust literal style), as the generated constants write them.
+#[must_use]
+pub fn underscore(x: i64) -> String {
     let s = x.unsigned_abs().to_string();
     let mut out = String::new();
     for (i, ch) in s.chars().enumerate() {
