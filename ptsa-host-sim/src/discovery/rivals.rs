@@ -79,33 +79,7 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
     }
     let z = f.weighted_target();
     let n = z.len();
-    let weigh = |raw: &[f64]| -> Vec<f64> {
-        f.subset
-            .iter()
-            .enumerate()
-            .map(|(k, &i)| raw[i] * f.weight(k))
-            .collect()
-    };
-    // The forms outside the vocabulary, weighted and unit, that are no candidate's column.
-    let signatures: Vec<Vec<f64>> = data
-        .signatures
-        .iter()
-        .filter(|s| !s.null)
-        .map(|s| weigh(&s.col))
-        .filter(|w| norm(w) > 0.0)
-        .collect();
-    let forms: Vec<(usize, Vec<f64>)> = data
-        .shapes
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| !matches!(s.family, Family::Basis | Family::HistoryProducts))
-        .filter_map(|(k, s)| {
-            let w = weigh(&s.col);
-            let scale = norm(&w);
-            (scale > 0.0 && !signatures.iter().any(|g| abs_cos(g, &w) > CANDIDATE_COS))
-                .then(|| (k, w.iter().map(|x| x / scale).collect()))
-        })
-        .collect();
+    let forms = outside_forms(data, f);
     let keep: Vec<usize> = (0..cols.len())
         .filter(|&c| c < nn || selected[c - nn].plausible)
         .collect();
@@ -203,35 +177,72 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
             }
         }
     }
-    for (s, mut rivals) in selected.iter_mut().zip(found) {
-        // Alone before with a partner, each the least distinguishable first.
-        rivals.sort_by(|x, y| {
-            x.together_with
-                .is_some()
-                .cmp(&y.together_with.is_some())
-                .then(y.p_value.total_cmp(&x.p_value))
-        });
-        // A form once (alone before with a partner); at most [`MAX_RIVALS`] of each kind.
-        let mut seen: Vec<String> = Vec::new();
-        let mut alone = 0;
-        let mut paired = 0;
-        rivals.retain(|v| {
-            let count = if v.together_with.is_some() {
-                &mut paired
-            } else {
-                &mut alone
-            };
-            let keep = !seen.contains(&v.form) && *count < MAX_RIVALS;
-            if keep {
-                *count += 1;
-                seen.push(v.form.clone());
-            }
-            keep
-        });
-        s.rivals = rivals;
+    for (s, rivals) in selected.iter_mut().zip(found) {
+        s.rivals = ordered(rivals);
     }
 }
 
+/// The library's forms outside the vocabulary, on `f`'s rows weighted and unit (with their
+/// index in `data.shapes`), less those that are a candidate's own column here.
+fn outside_forms(data: &Data, f: &Fitted) -> Vec<(usize, Vec<f64>)> {
+    let weigh = |raw: &[f64]| -> Vec<f64> {
+        f.subset
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| raw[i] * f.weight(k))
+            .collect()
+    };
+    // The forms outside the vocabulary, weighted and unit, that are no candidate's column.
+    let signatures: Vec<Vec<f64>> = data
+        .signatures
+        .iter()
+        .filter(|s| !s.null)
+        .map(|s| weigh(&s.col))
+        .filter(|w| norm(w) > 0.0)
+        .collect();
+    data.shapes
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| !matches!(s.family, Family::Basis | Family::HistoryProducts))
+        .filter_map(|(k, s)| {
+            let w = weigh(&s.col);
+            let scale = norm(&w);
+            (scale > 0.0 && !signatures.iter().any(|g| abs_cos(g, &w) > CANDIDATE_COS))
+                .then(|| (k, w.iter().map(|x| x / scale).collect()))
+        })
+        .collect()
+}
+
+/// A term's rivals in the order they are reported: alone before with a partner.
+fn ordered(mut rivals: Vec<Rival>) -> Vec<Rival> {
+    // Alone before with a partner, each the least distinguishable first.
+    rivals.sort_by(|x, y| {
+        x.together_with
+            .is_some()
+            .cmp(&y.together_with.is_some())
+            .then(y.p_value.total_cmp(&x.p_value))
+    });
+    // A form once (alone before with a partner); at most [`MAX_RIVALS`] of each kind.
+    let mut seen: Vec<String> = Vec::new();
+    let mut alone = 0;
+    let mut paired = 0;
+    rivals.retain(|v| {
+        let count = if v.together_with.is_some() {
+            &mut paired
+        } else {
+            &mut alone
+        };
+        let keep = !seen.contains(&v.form) && *count < MAX_RIVALS;
+        if keep {
+            *count += 1;
+            seen.push(v.form.clone());
+        }
+        keep
+    });
+    rivals
+}
+
+/// `a·b`.
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
