@@ -79,9 +79,13 @@ pub struct Rival {
     pub family: &'static str,
     /// `|cos|` of its column with the term's, both off the rest of the model.
     pub cos: f64,
-    /// The p-value of the swap's χ² increase (one degree of freedom, on the model's noise
-    /// scale): above the level, the swap is not significantly worse.
+    /// The p-value of the swap's χ² increase (one degree of freedom per term the form
+    /// replaces, on the model's noise scale): above the level, the swap is not
+    /// significantly worse.
     pub p_value: f64,
+    /// The other selected term (its key) the form replaces together with this one, when
+    /// it stands in the place of the two at once (`null`: in this term's place alone).
+    pub together_with: Option<String>,
 }
 
 /// The refits of an effect's coefficients on disjoint parts of the data, in the `--json`

@@ -183,7 +183,14 @@ pub(crate) fn rival_warnings(selected: &[Selected]) -> Vec<String> {
         let forms: Vec<String> = s
             .rivals
             .iter()
-            .map(|r| format!("{} (p = {})", r.form, super::show::pfmt(r.p_value)))
+            .map(|r| match &r.together_with {
+                None => format!("{} (p = {})", r.form, super::show::pfmt(r.p_value)),
+                Some(o) => format!(
+                    "{} in its place and {o}'s together (p = {})",
+                    r.form,
+                    super::show::pfmt(r.p_value)
+                ),
+            })
             .collect();
         let in_time = s
             .rivals
