@@ -590,7 +590,7 @@ fn write_instrument_puts_the_identified_pickoff_noise_back() {
         seed: 11,
         ..SimOptions::default()
     };
-    let g = simulate_record(&instr, &opts, 0.0, 640, 12_000, &mut |_, _| {});
+    let g = simulate_record(&instr, &opts, 0.0, 640, 12_000);
     std::fs::write(tmp.path().join("u3.csv"), record_csv(&g, &[])).unwrap();
     let args = [
         "noise",

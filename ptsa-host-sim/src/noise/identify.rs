@@ -282,7 +282,7 @@ pub fn identify(
         progress(k, grid_uv.len());
         let mut i = instr.clone();
         i.noise_v_rms = u * 1e-6;
-        let g = simulate_record(&i, opts, input_cm_s2, ticks, gates, &mut |_, _| {});
+        let g = simulate_record(&i, opts, input_cm_s2, ticks, gates);
         let y: Vec<f64> = g
             .iter()
             .map(|g| g.indicated_cm_s2(instr.sf_cm_s2))

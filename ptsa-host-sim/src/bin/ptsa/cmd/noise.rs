@@ -367,7 +367,7 @@ fn simulated(
         .gate(ticks * gates)
         .check(req.force, "this simulated record")?;
     let bar = work::Progress::start("noise --simulate", &est);
-    let g = noise::simulate_record(instr, opts, 0.0, ticks, gates, &mut |_, _| {});
+    let g = noise::simulate_record(instr, opts, 0.0, ticks, gates);
     bar.finish();
     #[allow(clippy::cast_precision_loss)]
     let gate = ticks as f64 / instr.clock_hz;
@@ -487,7 +487,7 @@ fn simulate_and_compare(
         .check(req.force, "the comparison's simulated record")?;
     let input_cm_s2 = measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0);
     let bar = work::Progress::start("noise --compare", &est);
-    let g = noise::simulate_record(instr, opts, input_cm_s2, ticks, gates, &mut |_, _| {});
+    let g = noise::simulate_record(instr, opts, input_cm_s2, ticks, gates);
     bar.finish();
     let lines: Vec<usize> = (0..g.len()).map(|k| k + 1).collect();
     let sim = noise::check_record("the simulated record", g, &lines, instr.clock_hz)?;
