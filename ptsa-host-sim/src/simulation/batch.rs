@@ -244,17 +244,7 @@ impl Engine {
     /// table is built once and shared by its lanes.
     #[must_use]
     pub fn simulate_jobs(&self, jobs: &[Job<'_>], opts: &SimOptions) -> Vec<SimResult> {
-        let noise = noise_sources(jobs.iter().map(|j| j.seed));
-        let mut loops: Vec<ClosedLoop> = jobs
-            .par_iter()
-            .map(|j| {
-                let o = SimOptions {
-                    seed: j.seed,
-                    ..*opts
-                };
-                ClosedLoop::with_noise(j.instr, j.cond, &j.effects, &o, noise[&j.seed].clone())
-            })
-            .collect();
+        let mut loops = loops_of(jobs, opts);
         let outs = self.execute(&mut loops, |i| {
             let j = &jobs[i];
             let o = SimOptions {
@@ -299,18 +289,21 @@ impl Engine {
                 "one acceleration per gate, or none"
             );
         }
-        let noise = noise_sources(jobs.iter().map(|j| j.seed));
-        let mut loops: Vec<ClosedLoop> = jobs
-            .par_iter()
-            .map(|j| {
-                let o = SimOptions {
-                    seed: j.seed,
-                    ..*opts
-                };
-                let cond = fixtures::along_ia(j.accel_cm_s2, j.instr.g_cm_s2);
-                ClosedLoop::with_noise(j.instr, &cond, &Effects::NONE, &o, noise[&j.seed].clone())
+        let conds: Vec<Condition> = jobs
+            .iter()
+            .map(|j| fixtures::along_ia(j.accel_cm_s2, j.instr.g_cm_s2))
+            .collect();
+        let as_jobs: Vec<Job<'_>> = jobs
+            .iter()
+            .zip(&conds)
+            .map(|(j, cond)| Job {
+                instr: j.instr,
+                cond,
+                effects: Effects::NONE,
+                seed: j.seed,
             })
             .collect();
+        let mut loops = loops_of(&as_jobs, opts);
         let inputs: Vec<&[f64]> = jobs.iter().map(|j| j.gate_accels_cm_s2).collect();
         let outs = self.execute_with(&mut loops, &inputs, |i| {
             vec![
@@ -433,6 +426,21 @@ pub fn simulate_differences(
 #[must_use]
 pub fn simulate_jobs(jobs: &[Job<'_>], opts: &SimOptions) -> Vec<SimResult> {
     Engine::default().simulate_jobs(jobs, opts)
+}
+
+/// The loop of each job (its instrument, condition, effects and seed, the rest of `opts`),
+/// each seed's noise table built once and shared.
+fn loops_of(jobs: &[Job<'_>], opts: &SimOptions) -> Vec<ClosedLoop> {
+    let noise = noise_sources(jobs.iter().map(|j| j.seed));
+    jobs.par_iter()
+        .map(|j| {
+            let o = SimOptions {
+                seed: j.seed,
+                ..*opts
+            };
+            ClosedLoop::with_noise(j.instr, j.cond, &j.effects, &o, noise[&j.seed].clone())
+        })
+        .collect()
 }
 
 /// The noise source of each distinct seed, built once (in parallel).
