@@ -1,57 +1,97 @@
 //! What the simulation gets wrong about noise (`ptsa noise --counts FILE --identify`): the
-//! measured Allan variance modelled as the simulated loop's, at the record's gate, length
-//! and mean, plus candidates beyond it, each tested under Holm's step-down at 5 %
-//! familywise.
+//! measured Allan variance modelled as the simulated loop's, with the candidate noises
+//! **inside** the loop, at the record's gate, length and mean; each candidate tested under
+//! Holm's step-down at 5 % familywise.
 //!
 //! The model, at each octave τ the measured record has:
 //!
 //! ```text
-//! AVAR_measured(τ) = AVAR_sim(τ; u) + c_N/τ + c_K·τ/3
+//! AVAR_measured(τ) = AVAR_sim(τ; u, N, K)
 //! ```
 //!
-//! * `AVAR_sim(τ; u)`: the instrument file's loop simulated at rest for as long as the
-//!   record, at the acceleration that gives its mean (as `--compare`), with the pickoff
-//!   noise `noise_uv_rms = u`, at each value of [`PICKOFF_GRID_UV`] and the file's own (one
-//!   seed for all), and **interpolated linearly in `u²`** (noise power) between them, per τ;
-//! * `c_N = N²`: a white acceleration noise (velocity random walk, cm/s²/√Hz);
-//! * `c_K = K²`: a bias (acceleration) random walk (cm/s²·√Hz).
+//! `AVAR_sim(τ; u, N, K)` is the Allan variance of the instrument file's loop simulated at
+//! rest for as long as the record, at the acceleration along IA that gives its mean (as
+//! `--compare`), averaged over [`SEEDS`] records (seeds `seed + s`), with
 //!
-//! Each point is weighted by the variance of the difference of two independent estimates:
-//! `2·M²/ν_m + 2·S²/ν_s` with `M` the model's value (iterated from `S`), `S` the simulated
-//! curve's, `ν` the EDFs of the two analyses (chi-squared EDF, [`super::EDF_METHOD`]). The
-//! octave points are **taken as independent**: they are not (the same gates enter every
-//! τ), and the campaign in docs/noise.md measures what that does to the rates.
+//! * `u`, the pickoff noise `noise_uv_rms` (µV rms), at [`PICKOFF_GRID_UV`] and the file's
+//!   own value;
+//! * `N`, a white acceleration noise (cm/s²/√Hz, two-sided: `N²/τ` alone) and `K`, a bias
+//!   random walk (cm/s²·√Hz: `K²τ/3` alone), **entering the plant's input** along IA, held
+//!   over each gate ([`super::InputNoise`]): the loop counts them, so they dither its count
+//!   pattern as they would in the instrument. Their grid is set by the record: `N²` at
+//!   [`WHITE_FRACTIONS`] of the largest `N²` its curve allows (`min τ·hi²`, `hi` the upper
+//!   end of each τ's 95 % interval), `K²` at [`WALK_FRACTIONS`] of `min 3·hi²/τ`,
 //!
-//! The candidates are selected forward, with Holm's thresholds (as discover selects): at
-//! step `j` each candidate left is tested given those already selected, by the drop of
-//! `χ²` it brings (`Δχ²`; for `N` and `K` its signed root, one-sided, a negative excess
-//! being no evidence; for the pickoff noise against χ² with one degree of freedom, its
-//! value profiled over `u ∈ [0, max grid]`), and the most significant is selected if its
-//! p is at most [`ALPHA`]`/(3 − j)`; the first that is not ends the selection (white
-//! acceleration noise and a raised pickoff noise both lift the curve: tested one by one
-//! against the file's loop alone, both would be selected for either). The selected
-//! candidates are then fitted together
-//! (the pickoff noise by its profile with the selected linear terms refitted at each `u`)
-//! and reported with a 95 % interval: `ĉ ± 1.96·se·b` for `c_N`, `c_K` (the square root of
-//! its ends, the lower clipped at 0), `{u: Δχ²(u) ≤ 3.84·b²}` for the pickoff noise, `b`
-//! the joint fit's Birge ratio `√(χ²/dof)` when above 1.
+//! interpolated multilinearly in `(u², N², K²)` (noise powers) between the grid's nodes, τ
+//! by τ. Nodes are simulated when a step needs them, all of a step's at once on the batch
+//! engine (lanes of their own instrument, seed and input accelerations), the same seeds at
+//! every node (common random numbers: the interpolation is smooth in the noises).
+//!
+//! The points are compared on the log scale: `ln M − ln S` (measured, simulated mean), each
+//! log's bias `−1/ν` taken out, over the variance `2/ν_m + 2/ν_s` (`ν_s` the simulated
+//! records' EDFs summed over the seeds; `ν` from the chi-squared EDF, [`super::EDF_METHOD`]). The octave points are **taken as
+//! independent**: they are not (the same gates enter every τ); the campaign in
+//! docs/noise.md measures what that does to the rates.
+//!
+//! The candidates are selected forward with Holm's thresholds (as discover selects): at
+//! step `j` each candidate left is tested given those already selected by the drop of the
+//! profiled `χ²` it brings (the noises selected free on the grid, the others at the file's
+//! loop: `u` the file's, `N = K = 0`): for `N` and `K`, which cannot be negative, `z = √Δχ²`
+//! against the one-sided normal (half a χ²₁); for the pickoff noise, `Δχ²` against χ²₁. The
+//! most significant is selected if its p is at most [`ALPHA`]`/(3 − j)`; the first that is
+//! not ends the selection. The selected ones are fitted together on a mesh of their values
+//! and each reported with its profile's 95 % interval: the values whose `χ²`, minimised
+//! over the others, is within `3.84·b²` of the minimum, `b` the joint fit's Birge ratio
+//! `√(χ²/dof)` when above 1; an interval reaching the grid's top is open above.
 #![allow(
     clippy::cast_precision_loss,
     reason = "gate counts and grid indices, far below 2^52, as f64"
 )]
 
+use std::collections::HashMap;
+
 use statrs::distribution::{ContinuousCDF as _, Normal};
 
+use super::allan;
 use super::terms::Term;
-use super::{Analysis, Record, simulate_record};
+use super::{Analysis, InputNoise, Record};
 use crate::model::instrument::Instrument;
+use crate::simulation::batch::{Engine, RecordJob};
 use crate::simulation::sim::SimOptions;
 
 /// The pickoff noises the loop is simulated at, µV rms (the file's own value is added).
-pub const PICKOFF_GRID_UV: [f64; 7] = [0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0];
+pub const PICKOFF_GRID_UV: [f64; 6] = [0.0, 0.5, 1.0, 2.0, 4.0, 8.0];
 
-/// Steps of the pickoff noise's profile between 0 and the grid's largest value.
-pub const PROFILE_STEPS: usize = 320;
+/// The white acceleration noise's grid: `N²` as fractions of the record's largest.
+pub const WHITE_FRACTIONS: [f64; 8] = [
+    0.0,
+    1.0 / 256.0,
+    1.0 / 64.0,
+    1.0 / 16.0,
+    0.125,
+    0.25,
+    0.5,
+    1.0,
+];
+
+/// The bias random walk's grid: `K²` as fractions of the record's largest.
+pub const WALK_FRACTIONS: [f64; 6] = [0.0, 1.0 / 64.0, 1.0 / 16.0, 0.25, 0.5, 1.0];
+
+/// Simulated records averaged at each node of the grid (seeds `seed`, `seed + 1`, …).
+pub const SEEDS: u64 = 2;
+
+/// Records simulated at most by one identification (every node of the grid, [`SEEDS`]
+/// each), for the work estimate.
+pub const MAX_RECORDS: u64 = (PICKOFF_GRID_UV.len() as u64 + 1)
+    * WHITE_FRACTIONS.len() as u64
+    * WALK_FRACTIONS.len() as u64
+    * SEEDS;
+
+/// Mesh points per free noise in the profile: one, two or three noises free.
+const MESH: [usize; 3] = [321, 121, 49];
+
+/// Lanes per call of the batch engine (bounds the input accelerations held at once).
+const JOBS_PER_CALL: usize = 16;
 
 /// Familywise level of the candidates' Holm step-down.
 pub const ALPHA: f64 = 0.05;
@@ -62,9 +102,9 @@ const CHI2_1_95: f64 = 3.841_458_820_694_124;
 /// A candidate beyond the simulated loop.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Kind {
-    /// White acceleration noise `N` (AVAR += N²/τ).
+    /// White acceleration noise `N` at the plant's input (alone, AVAR = N²/τ).
     WhiteAcceleration,
-    /// Bias random walk `K` (AVAR += K²τ/3).
+    /// Bias random walk `K` at the plant's input (alone, AVAR = K²τ/3).
     RandomWalk,
     /// The pickoff noise `noise_uv_rms` other than the file's.
     Pickoff,
@@ -107,8 +147,8 @@ pub const KINDS: [Kind; 3] = [Kind::WhiteAcceleration, Kind::RandomWalk, Kind::P
 pub struct Candidate {
     /// Which.
     pub kind: Kind,
-    /// Its test statistic alone against the file's loop: `z` for `N` and `K`, `Δχ²` for the
-    /// pickoff noise.
+    /// Its test statistic at the last step it was tested: `z = √Δχ²` for `N` and `K`, `Δχ²`
+    /// for the pickoff noise.
     pub statistic: f64,
     /// Its p-value.
     pub p: f64,
@@ -117,7 +157,7 @@ pub struct Candidate {
     /// When selected: the value and its 95 % interval, in the first unit of
     /// [`Kind::units`] (`N` in cm/s²/√Hz, `K` in cm/s²·√Hz, the pickoff noise in µV).
     pub value: Option<(f64, f64, f64)>,
-    /// For the pickoff noise: the interval reaches the grid's end (open above).
+    /// The interval reaches the grid's top (open above).
     pub open_above: bool,
 }
 
@@ -128,8 +168,14 @@ pub struct Identification {
     pub input_cm_s2: f64,
     /// The file's pickoff noise, µV.
     pub file_uv: f64,
-    /// The pickoff noises simulated, µV (sorted).
+    /// The pickoff noises of the grid, µV (sorted).
     pub grid_uv: Vec<f64>,
+    /// The white acceleration noises of the grid, cm/s²/√Hz.
+    pub grid_white: Vec<f64>,
+    /// The bias random walks of the grid, cm/s²·√Hz.
+    pub grid_walk: Vec<f64>,
+    /// Records simulated (nodes × [`SEEDS`]).
+    pub simulated_records: usize,
     /// The octave τ used, s.
     pub taus: Vec<f64>,
     /// `χ²` of the file's loop alone, and its degrees of freedom (the τ).
@@ -146,120 +192,271 @@ impl Identification {
     }
 }
 
-/// The simulated curves at the grid's pickoff noises.
-struct Curves {
-    grid_uv: Vec<f64>,
-    /// Per grid value, per τ: (AVAR, EDF).
-    avar: Vec<Vec<(f64, f64)>>,
+/// A node of the grid: indices into the pickoff, white and walk axes.
+type Node = [usize; 3];
+
+/// The grid, its simulated nodes, and the measured points.
+struct Grid<'a> {
+    instr: &'a Instrument,
+    opts: &'a SimOptions,
+    input_cm_s2: f64,
+    gate_ticks: u64,
+    gates: u64,
+    tau0_s: f64,
+    /// The measured record's τ: (m, τ, AVAR, EDF).
+    measured: Vec<(usize, f64, f64, f64)>,
+    /// The axes' values: u (µV), N (cm/s²/√Hz), K (cm/s²·√Hz).
+    axes: [Vec<f64>; 3],
+    /// The file's node (its pickoff noise, no N, no K).
+    base: Node,
+    /// Per node, per measured τ: the simulated mean AVAR and its EDF (all seeds).
+    curves: HashMap<Node, Vec<(f64, f64)>>,
 }
 
-impl Curves {
-    /// The simulated AVAR and EDF at `u` µV, per τ: linear in `u²` between grid values.
-    fn at(&self, u: f64) -> Vec<(f64, f64)> {
-        let g = &self.grid_uv;
-        let k = g
-            .windows(2)
-            .position(|w| u <= w[1])
-            .unwrap_or(g.len().saturating_sub(2));
-        let (a, b) = (g[k], g[(k + 1).min(g.len() - 1)]);
-        let t = if b > a {
-            ((u * u - a * a) / (b * b - a * a)).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
-        self.avar[k]
+impl Grid<'_> {
+    /// Simulate the nodes not yet simulated, all at once.
+    fn ensure(&mut self, nodes: &[Node]) {
+        let mut todo: Vec<Node> = nodes
             .iter()
-            .zip(&self.avar[(k + 1).min(g.len() - 1)])
-            .map(|(&(sa, ea), &(sb, eb))| (sa + t * (sb - sa), ea.min(eb)))
-            .collect()
-    }
-}
-
-/// The weighted least-squares fit of the linear terms `kinds` (N, K) to `measured − sim`:
-/// the coefficients (`c = N²` or `K²`), their standard errors, and `χ²`.
-fn fit_linear(
-    measured: &[(f64, f64, f64)],
-    sim: &[(f64, f64)],
-    kinds: &[Kind],
-) -> (Vec<f64>, Vec<f64>, f64) {
-    let shapes: Vec<Vec<f64>> = kinds
-        .iter()
-        .filter_map(|k| k.term())
-        .map(|t| measured.iter().map(|&(tau, _, _)| t.shape(tau)).collect())
-        .collect();
-    let mut coef = vec![0.0; shapes.len()];
-    let mut se = vec![f64::INFINITY; shapes.len()];
-    let mut chi2 = 0.0;
-    // Weights from the model's value, iterated from the simulated curve's.
-    for _ in 0..4 {
-        let var: Vec<f64> = measured
+            .copied()
+            .filter(|n| !self.curves.contains_key(n))
+            .collect();
+        todo.sort_unstable();
+        todo.dedup();
+        if todo.is_empty() {
+            return;
+        }
+        let instrs: Vec<Instrument> = todo
             .iter()
-            .zip(sim)
-            .enumerate()
-            .map(|(i, (&(_, _, nu_m), &(s, nu_s)))| {
-                let m = (s + shapes.iter().zip(&coef).map(|(x, c)| c * x[i]).sum::<f64>()).max(s);
-                2.0 * m * m / nu_m + 2.0 * s * s / nu_s
+            .map(|n| {
+                let mut i = self.instr.clone();
+                i.noise_v_rms = self.axes[0][n[0]] * 1e-6;
+                i
             })
             .collect();
-        let resid: Vec<f64> = measured.iter().zip(sim).map(|(m, s)| m.1 - s.0).collect();
-        if shapes.is_empty() {
-            chi2 = resid.iter().zip(&var).map(|(r, v)| r * r / v).sum();
-            break;
-        }
-        // Normal equations, at most 2 × 2.
-        let n = shapes.len();
-        let mut a = vec![vec![0.0; n]; n];
-        let mut b = vec![0.0; n];
-        for i in 0..measured.len() {
-            for p in 0..n {
-                b[p] += shapes[p][i] * resid[i] / var[i];
-                for q in 0..n {
-                    a[p][q] += shapes[p][i] * shapes[q][i] / var[i];
+        let lanes: Vec<(usize, u64)> = (0..todo.len())
+            .flat_map(|i| (0..SEEDS).map(move |s| (i, s)))
+            .collect();
+        let mut sums: Vec<Vec<(f64, f64)>> =
+            vec![vec![(0.0, 0.0); self.measured.len()]; todo.len()];
+        for chunk in lanes.chunks(JOBS_PER_CALL) {
+            let accels: Vec<Vec<f64>> = chunk
+                .iter()
+                .map(|&(i, s)| {
+                    let n = todo[i];
+                    InputNoise {
+                        white_cm_s2_rthz: self.axes[1][n[1]],
+                        walk_cm_s2_rthz: self.axes[2][n[2]],
+                    }
+                    .gate_accels(
+                        self.input_cm_s2,
+                        self.tau0_s,
+                        self.gates,
+                        !self.opts.seed.wrapping_add(s),
+                    )
+                })
+                .collect();
+            let jobs: Vec<RecordJob<'_>> = chunk
+                .iter()
+                .zip(&accels)
+                .map(|(&(i, s), a)| RecordJob {
+                    instr: &instrs[i],
+                    seed: self.opts.seed.wrapping_add(s),
+                    accel_cm_s2: self.input_cm_s2,
+                    gate_accels_cm_s2: a,
+                })
+                .collect();
+            let counts =
+                Engine::default().simulate_records(&jobs, self.opts, self.gate_ticks, self.gates);
+            for (&(i, _), c) in chunk.iter().zip(&counts) {
+                let g = super::record_gates(c, self.gate_ticks, self.instr.clock_hz);
+                let y: Vec<f64> = g
+                    .iter()
+                    .map(|g| g.indicated_cm_s2(self.instr.sf_cm_s2))
+                    .collect();
+                let pts = allan::analyse(&y, self.tau0_s);
+                for (k, &(m, ..)) in self.measured.iter().enumerate() {
+                    let (a, e) = pts
+                        .iter()
+                        .find(|q| q.m == m)
+                        .map_or((f64::NAN, 0.0), |q| (q.adev * q.adev, q.edf));
+                    sums[i][k].0 += a / SEEDS as f64;
+                    sums[i][k].1 += e;
                 }
             }
         }
-        let inv = if n == 1 {
-            vec![vec![1.0 / a[0][0]]]
-        } else {
-            let det = a[0][0] * a[1][1] - a[0][1] * a[1][0];
-            vec![
-                vec![a[1][1] / det, -a[0][1] / det],
-                vec![-a[1][0] / det, a[0][0] / det],
-            ]
-        };
-        for p in 0..n {
-            coef[p] = (0..n).map(|q| inv[p][q] * b[q]).sum();
-            se[p] = inv[p][p].sqrt();
+        for (n, c) in todo.into_iter().zip(sums) {
+            self.curves.insert(n, c);
         }
-        chi2 = (0..measured.len())
-            .map(|i| {
-                let r = resid[i] - (0..n).map(|p| coef[p] * shapes[p][i]).sum::<f64>();
-                r * r / var[i]
-            })
-            .sum();
     }
-    (coef, se, chi2)
+
+    /// The nodes a set of free axes needs: every node of their sub-grid, the other axes at
+    /// the base.
+    fn nodes(&self, free: &[usize]) -> Vec<Node> {
+        let mut out = vec![self.base];
+        for &a in free {
+            out = out
+                .iter()
+                .flat_map(|n| {
+                    (0..self.axes[a].len()).map(move |i| {
+                        let mut m = *n;
+                        m[a] = i;
+                        m
+                    })
+                })
+                .collect();
+        }
+        out
+    }
+
+    /// The simulated curve at `values` (u, N, K; the axes not in `free` at the base):
+    /// multilinear in the squares between the nodes.
+    fn at(&self, free: &[usize], values: [f64; 3]) -> Vec<(f64, f64)> {
+        // Per axis: (lower node, upper node, weight of the upper).
+        let cell: Vec<(usize, usize, f64)> = (0..3)
+            .map(|a| {
+                if !free.contains(&a) {
+                    return (self.base[a], self.base[a], 0.0);
+                }
+                let g = &self.axes[a];
+                let v = values[a];
+                let k = g
+                    .windows(2)
+                    .position(|w| v <= w[1])
+                    .unwrap_or(g.len().saturating_sub(2));
+                let (lo, hi) = (g[k], g[(k + 1).min(g.len() - 1)]);
+                let t = if hi > lo {
+                    ((v * v - lo * lo) / (hi * hi - lo * lo)).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                (k, (k + 1).min(g.len() - 1), t)
+            })
+            .collect();
+        let mut out = vec![(0.0, f64::INFINITY); self.measured.len()];
+        for corner in 0..8usize {
+            let mut w = 1.0;
+            let mut node = [0; 3];
+            for a in 0..3 {
+                let up = corner >> a & 1 == 1;
+                let (lo, hi, t) = cell[a];
+                if lo == hi && up {
+                    w = 0.0;
+                }
+                node[a] = if up { hi } else { lo };
+                w *= if up { t } else { 1.0 - t };
+            }
+            if w == 0.0 {
+                continue;
+            }
+            let c = &self.curves[&node];
+            for (o, &(v, e)) in out.iter_mut().zip(c) {
+                o.0 += w * v;
+                o.1 = o.1.min(e);
+            }
+        }
+        out
+    }
+
+    /// `χ²` of the measured points against the curve `sim`, on the log scale: `ln M − ln S`
+    /// with each log's bias `−1/ν` taken out, over its variance `2/ν_m + 2/ν_s` (of a
+    /// variance estimate with ν degrees of freedom, `ln` has a bias of about `−1/ν` and a
+    /// variance of about `2/ν`). The weights do not depend on the model (weights `2S²/ν`
+    /// would pull the fit towards larger noises).
+    fn chi2(&self, sim: &[(f64, f64)]) -> f64 {
+        self.measured
+            .iter()
+            .zip(sim)
+            .map(|(&(_, _, m, nu_m), &(s, nu_s))| {
+                let nu_s = nu_s.max(1.0);
+                let r = (m.ln() + 1.0 / nu_m) - (s.ln() + 1.0 / nu_s);
+                r * r / (2.0 / nu_m + 2.0 / nu_s)
+            })
+            .sum()
+    }
+
+    /// The profile of a set of free axes on a mesh: the best `χ²`, its values, and per free
+    /// axis the mesh's values with the least `χ²` at each (for the intervals).
+    fn profile(&mut self, free: &[usize]) -> Profile {
+        self.ensure(&self.nodes(free));
+        let base = [
+            self.axes[0][self.base[0]],
+            self.axes[1][self.base[1]],
+            self.axes[2][self.base[2]],
+        ];
+        if free.is_empty() {
+            return Profile {
+                chi2: self.chi2(&self.at(free, base)),
+                values: base,
+                marginals: Vec::new(),
+            };
+        }
+        let steps = MESH[free.len() - 1];
+        let mesh: Vec<Vec<f64>> = free
+            .iter()
+            .map(|&a| {
+                let top = self.axes[a].last().copied().unwrap_or(0.0);
+                (0..steps)
+                    .map(|i| top * i as f64 / (steps - 1) as f64)
+                    .collect()
+            })
+            .collect();
+        let mut marginals: Vec<Vec<(f64, f64)>> = mesh
+            .iter()
+            .map(|m| m.iter().map(|&v| (v, f64::INFINITY)).collect())
+            .collect();
+        let mut best = (f64::INFINITY, base);
+        let total = steps.pow(u32::try_from(free.len()).unwrap_or(1));
+        for flat in 0..total {
+            let mut v = base;
+            let mut idx = [0usize; 3];
+            let mut r = flat;
+            for (j, &a) in free.iter().enumerate() {
+                idx[j] = r % steps;
+                r /= steps;
+                v[a] = mesh[j][idx[j]];
+            }
+            let c = self.chi2(&self.at(free, v));
+            if c < best.0 {
+                best = (c, v);
+            }
+            for j in 0..free.len() {
+                let e = &mut marginals[j][idx[j]].1;
+                *e = e.min(c);
+            }
+        }
+        Profile {
+            chi2: best.0,
+            values: best.1,
+            marginals,
+        }
+    }
 }
 
-/// The profile of the pickoff noise: `(u, χ²(u))` over `[0, max grid]` with the linear
-/// terms `kinds` refitted at each `u`.
-fn profile(m: &[(f64, f64, f64)], curves: &Curves, kinds: &[Kind]) -> Vec<(f64, f64)> {
-    let top = curves.grid_uv.last().copied().unwrap_or(0.0);
-    (0..=PROFILE_STEPS)
-        .map(|i| {
-            let u = top * i as f64 / PROFILE_STEPS as f64;
-            (u, fit_linear(m, &curves.at(u), kinds).2)
-        })
-        .collect()
+/// A profile's result.
+struct Profile {
+    chi2: f64,
+    values: [f64; 3],
+    /// Per free axis: (value, least χ² at it).
+    marginals: Vec<Vec<(f64, f64)>>,
+}
+
+/// The axis of a candidate.
+fn axis(kind: Kind) -> usize {
+    match kind {
+        Kind::Pickoff => 0,
+        Kind::WhiteAcceleration => 1,
+        Kind::RandomWalk => 2,
+    }
 }
 
 /// Identify, for the record `record` analysed as `measured`, the candidates beyond the
 /// instrument file's loop (`opts`: seed, settling, configuration of the simulations).
-/// `progress(done, total)` counts the simulations.
+/// `progress(done, total)` counts the selection's steps.
 #[must_use]
 #[allow(
     clippy::too_many_lines,
-    reason = "one procedure: simulate the grid, select forward, fit the selected, in order"
+    reason = "one procedure: the grid, the forward selection, the joint fit, in order"
 )]
 pub fn identify(
     instr: &Instrument,
@@ -275,80 +472,63 @@ pub fn identify(
         grid_uv.push(file_uv);
     }
     grid_uv.sort_by(f64::total_cmp);
-    let ticks = record.gates[0].ticks;
-    let gates = record.gates.len() as u64;
-    let mut avar = Vec::with_capacity(grid_uv.len());
-    for (k, &u) in grid_uv.iter().enumerate() {
-        progress(k, grid_uv.len());
-        let mut i = instr.clone();
-        i.noise_v_rms = u * 1e-6;
-        let g = simulate_record(&i, opts, input_cm_s2, ticks, gates, &mut |_, _| {});
-        let y: Vec<f64> = g
-            .iter()
-            .map(|g| g.indicated_cm_s2(instr.sf_cm_s2))
-            .collect();
-        let s = Analysis::of_series(&y, record.tau0_s, instr.sf_cm_s2, instr.clock_hz);
-        avar.push(
-            measured
-                .points
-                .iter()
-                .map(|p| {
-                    s.points
-                        .iter()
-                        .find(|q| q.m == p.m)
-                        .map_or((f64::NAN, 1.0), |q| (q.adev * q.adev, q.edf))
-                })
-                .collect::<Vec<_>>(),
-        );
-    }
-    progress(grid_uv.len(), grid_uv.len());
-    let curves = Curves { grid_uv, avar };
-    // The τ both curves have, with a positive simulated AVAR at every grid value.
-    let keep: Vec<usize> = (0..measured.points.len())
+    let base_u = grid_uv
+        .iter()
+        .position(|&u| (u - file_uv).abs() < 1e-9)
+        .unwrap_or(0);
+    let pts: Vec<(usize, f64, f64, f64)> = measured
+        .points
+        .iter()
+        .filter(|p| p.adev > 0.0 && p.adev.is_finite())
+        .map(|p| (p.m, p.tau_s, p.adev * p.adev, p.edf))
+        .collect();
+    let n2_max = measured
+        .points
+        .iter()
+        .map(|p| p.ci95_hi * p.ci95_hi * p.tau_s)
+        .fold(f64::INFINITY, f64::min);
+    let k2_max = measured
+        .points
+        .iter()
+        .map(|p| 3.0 * p.ci95_hi * p.ci95_hi / p.tau_s)
+        .fold(f64::INFINITY, f64::min);
+    let scaled =
+        |f: &[f64], top: f64| -> Vec<f64> { f.iter().map(|x| (x * top).max(0.0).sqrt()).collect() };
+    let mut g = Grid {
+        instr,
+        opts,
+        input_cm_s2,
+        gate_ticks: record.gates[0].ticks,
+        gates: record.gates.len() as u64,
+        tau0_s: record.tau0_s,
+        measured: pts,
+        axes: [
+            grid_uv,
+            scaled(&WHITE_FRACTIONS, n2_max),
+            scaled(&WALK_FRACTIONS, k2_max),
+        ],
+        base: [base_u, 0, 0],
+        curves: HashMap::new(),
+    };
+    // The first step's nodes (each noise alone), all at once; the τ kept are those with a
+    // positive simulated AVAR at every one of them.
+    let first: Vec<Node> = (0..3).flat_map(|a| g.nodes(&[a])).collect();
+    g.ensure(&first);
+    let keep: Vec<usize> = (0..g.measured.len())
         .filter(|&i| {
-            curves
-                .avar
-                .iter()
+            g.curves
+                .values()
                 .all(|c| c[i].0.is_finite() && c[i].0 > 0.0)
         })
         .collect();
-    let m: Vec<(f64, f64, f64)> = keep
+    g.measured = keep.iter().map(|&i| g.measured[i]).collect();
+    g.curves = g
+        .curves
         .iter()
-        .map(|&i| {
-            let p = &measured.points[i];
-            (p.tau_s, p.adev * p.adev, p.edf)
-        })
+        .map(|(n, c)| (*n, keep.iter().map(|&i| c[i]).collect()))
         .collect();
-    let curves = Curves {
-        avar: curves
-            .avar
-            .iter()
-            .map(|c| keep.iter().map(|&i| c[i]).collect())
-            .collect(),
-        grid_uv: curves.grid_uv,
-    };
-    let at_file = curves.at(file_uv);
-    let chi2_file = fit_linear(&m, &at_file, &[]).2;
+    let chi2_file = g.profile(&[]).chi2;
     let normal = Normal::standard();
-    // The best fit of a set of candidates: χ², the pickoff noise (the file's unless in the
-    // set), the linear terms' coefficients and standard errors (in the set's order).
-    let best = |set: &[Kind]| -> (f64, f64, Vec<f64>, Vec<f64>) {
-        let linear: Vec<Kind> = set
-            .iter()
-            .copied()
-            .filter(|k| *k != Kind::Pickoff)
-            .collect();
-        let u = if set.contains(&Kind::Pickoff) {
-            profile(&m, &curves, &linear)
-                .into_iter()
-                .min_by(|a, b| a.1.total_cmp(&b.1))
-                .map_or(file_uv, |x| x.0)
-        } else {
-            file_uv
-        };
-        let (c, se, chi2) = fit_linear(&m, &curves.at(u), &linear);
-        (chi2, u, c, se)
-    };
     let mut candidates: Vec<Candidate> = KINDS
         .iter()
         .map(|&kind| Candidate {
@@ -360,83 +540,72 @@ pub fn identify(
             open_above: false,
         })
         .collect();
-    // Forward selection with Holm's thresholds: at step j the most significant of the
-    // candidates left, given those selected, is selected if its p is at most
-    // ALPHA/(3 − j); the first that is not ends the selection.
-    let mut chosen: Vec<Kind> = Vec::new();
+    // Forward selection with Holm's thresholds.
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut base = chi2_file;
     for step in 0..KINDS.len() {
-        let base = best(&chosen).0;
-        let mut tested: Vec<(usize, f64, f64)> = Vec::new();
+        progress(step, KINDS.len());
+        let mut tested: Vec<(usize, f64, f64, f64)> = Vec::new();
         for (i, c) in candidates.iter().enumerate().filter(|(_, c)| !c.selected) {
-            let mut set = chosen.clone();
-            set.push(c.kind);
-            let (chi2, _, coef, _) = best(&set);
+            let mut free = chosen.clone();
+            free.push(axis(c.kind));
+            free.sort_unstable();
+            let chi2 = g.profile(&free).chi2;
             let d = (base - chi2).max(0.0);
             let (stat, p) = if c.kind == Kind::Pickoff {
                 (d, crate::stats::chi2_sf(d, 1.0))
             } else {
-                // One-sided: a negative excess is no evidence.
-                let lin = set.iter().filter(|k| **k != Kind::Pickoff).count();
-                let z = d.sqrt() * coef.get(lin - 1).copied().unwrap_or(0.0).signum();
+                let z = d.sqrt();
                 (z, if z.is_finite() { normal.sf(z) } else { 1.0 })
             };
-            tested.push((i, stat, p));
+            tested.push((i, stat, p, chi2));
         }
-        for &(i, stat, p) in &tested {
+        for &(i, stat, p, _) in &tested {
             candidates[i].statistic = stat;
             candidates[i].p = p;
         }
-        let Some(&(i, _, p)) = tested.iter().min_by(|a, b| a.2.total_cmp(&b.2)) else {
+        let Some(&(i, _, p, chi2)) = tested.iter().min_by(|a, b| a.2.total_cmp(&b.2)) else {
             break;
         };
         if p <= ALPHA / (KINDS.len() - step) as f64 {
             candidates[i].selected = true;
-            chosen.push(candidates[i].kind);
+            chosen.push(axis(candidates[i].kind));
+            chosen.sort_unstable();
+            base = chi2;
         } else {
             break;
         }
     }
-    // The selected ones fitted together: their values and 95 % intervals.
-    let linear: Vec<Kind> = chosen
-        .iter()
-        .copied()
-        .filter(|k| *k != Kind::Pickoff)
-        .collect();
-    let (chi2_best, u_hat, coef, se) = best(&chosen);
-    // The Birge ratio of the joint fit widens the intervals where the model misfits (the
-    // count pattern dithered by the added noise is not the undithered one plus a term).
-    let birge2 = (chi2_best / m.len().saturating_sub(chosen.len()).max(1) as f64).max(1.0);
-    if chosen.contains(&Kind::Pickoff) {
-        let prof = profile(&m, &curves, &linear);
-        let min = prof.iter().map(|x| x.1).fold(f64::INFINITY, f64::min);
-        let inside: Vec<f64> = prof
-            .iter()
-            .filter(|x| x.1 - min <= CHI2_1_95 * birge2)
-            .map(|x| x.0)
-            .collect();
-        let lo = inside.first().copied().unwrap_or(u_hat);
-        let hi = inside.last().copied().unwrap_or(u_hat);
-        let top = curves.grid_uv.last().copied().unwrap_or(0.0);
-        if let Some(c) = candidates.iter_mut().find(|c| c.kind == Kind::Pickoff) {
-            c.value = Some((u_hat, lo, hi));
-            c.open_above = hi >= top;
+    progress(KINDS.len(), KINDS.len());
+    if !chosen.is_empty() {
+        let prof = g.profile(&chosen);
+        let dof = g.measured.len().saturating_sub(chosen.len()).max(1) as f64;
+        let birge2 = (prof.chi2 / dof).max(1.0);
+        for (j, &a) in chosen.iter().enumerate() {
+            let inside: Vec<f64> = prof.marginals[j]
+                .iter()
+                .filter(|x| x.1 - prof.chi2 <= CHI2_1_95 * birge2)
+                .map(|x| x.0)
+                .collect();
+            let v = prof.values[a];
+            let lo = inside.first().copied().unwrap_or(v);
+            let hi = inside.last().copied().unwrap_or(v);
+            let top = g.axes[a].last().copied().unwrap_or(0.0);
+            if let Some(c) = candidates.iter_mut().find(|c| axis(c.kind) == a) {
+                c.value = Some((v, lo, hi));
+                c.open_above = hi >= top;
+            }
         }
     }
-    for (j, kind) in linear.iter().enumerate() {
-        let root = |c: f64| c.max(0.0).sqrt();
-        if let Some(c) = candidates.iter_mut().find(|c| c.kind == *kind) {
-            c.value = Some((
-                root(coef[j]),
-                root(coef[j] - 1.96 * se[j] * birge2.sqrt()),
-                root(coef[j] + 1.96 * se[j] * birge2.sqrt()),
-            ));
-        }
-    }
+    let [grid_uv, grid_white, grid_walk] = g.axes.clone();
     Identification {
         input_cm_s2,
         file_uv,
-        grid_uv: curves.grid_uv.clone(),
-        taus: m.iter().map(|x| x.0).collect(),
+        grid_uv,
+        grid_white,
+        grid_walk,
+        simulated_records: g.curves.len() * usize::try_from(SEEDS).unwrap_or(usize::MAX),
+        taus: g.measured.iter().map(|x| x.1).collect(),
         chi2_file,
         candidates,
     }
@@ -446,36 +615,90 @@ pub fn identify(
 mod tests {
     use super::*;
 
-    /// Interpolation in `u²`: at a grid value the grid's curve; halfway in power between
-    /// two grid values, halfway between their curves.
-    #[test]
-    fn curves_interpolate_in_noise_power() {
-        let c = Curves {
-            grid_uv: vec![0.0, 1.0, 2.0],
-            avar: vec![vec![(1.0, 10.0)], vec![(3.0, 20.0)], vec![(7.0, 30.0)]],
-        };
-        assert!((c.at(1.0)[0].0 - 3.0).abs() < 1e-12);
-        assert!((c.at(0.0)[0].0 - 1.0).abs() < 1e-12);
-        assert!((c.at(0.5f64.sqrt())[0].0 - 2.0).abs() < 1e-12);
-        assert!((c.at(2.5f64.sqrt())[0].0 - 5.0).abs() < 1e-12);
+    /// A grid of hand-made curves (one τ): `AVAR = 1 + u² + 2N² + 3K²` at every node, so
+    /// multilinear interpolation in the squares is exact.
+    fn hand_grid<'a>(instr: &'a Instrument, opts: &'a SimOptions, m: f64) -> Grid<'a> {
+        let axes: [Vec<f64>; 3] = [
+            vec![0.0, 0.5, 1.0, 2.0],
+            vec![0.0, 0.1, 0.3],
+            vec![0.0, 0.01, 0.02],
+        ];
+        let mut curves = HashMap::new();
+        for i in 0..4 {
+            for j in 0..3 {
+                for k in 0..3 {
+                    let v = 1.0
+                        + axes[0][i].powi(2)
+                        + 2.0 * axes[1][j].powi(2)
+                        + 3.0 * axes[2][k].powi(2);
+                    curves.insert([i, j, k], vec![(v, 1000.0)]);
+                }
+            }
+        }
+        Grid {
+            instr,
+            opts,
+            input_cm_s2: 0.0,
+            gate_ticks: 640,
+            gates: 100,
+            tau0_s: 0.01,
+            measured: vec![(1, 0.01, m, 1000.0)],
+            axes,
+            base: [1, 0, 0],
+            curves,
+        }
     }
 
-    /// A white-acceleration excess written exactly into the measured curve comes back
-    /// exactly (c = N²), with nothing left over.
+    /// Interpolation in the squares: exact for a curve linear in them, at nodes and between;
+    /// the axes not free stay at the base (u = 0.5, N = K = 0).
     #[test]
-    fn a_linear_excess_comes_back_exactly() {
-        let taus = [0.01, 0.02, 0.04, 0.08, 0.16, 0.32];
-        let sim: Vec<(f64, f64)> = taus.iter().map(|t| (1e-2 / (t * t), 100.0)).collect();
-        let m: Vec<(f64, f64, f64)> = taus
-            .iter()
-            .zip(&sim)
-            .map(|(&t, s)| (t, s.0 + 0.09 / t + 0.04 * t / 3.0, 200.0))
-            .collect();
-        let (c, se, chi2) = fit_linear(&m, &sim, &[Kind::WhiteAcceleration, Kind::RandomWalk]);
+    fn curves_interpolate_in_noise_power() {
+        let (instr, opts) = (Instrument::kearfott_2401(), SimOptions::default());
+        let g = hand_grid(&instr, &opts, 1.0);
+        let f = |u: f64, n: f64, k: f64| 1.0 + u * u + 2.0 * n * n + 3.0 * k * k;
+        for v in [
+            [0.7, 0.2, 0.015],
+            [2.0, 0.3, 0.02],
+            [0.0, 0.0, 0.0],
+            [1.3, 0.05, 0.001],
+        ] {
+            let got = g.at(&[0, 1, 2], v)[0].0;
+            assert!((got - f(v[0], v[1], v[2])).abs() < 1e-12, "{v:?}: {got}");
+        }
+        let got = g.at(&[1], [1.7, 0.2, 0.015])[0].0;
+        assert!((got - f(0.5, 0.2, 0.0)).abs() < 1e-12, "{got}");
+    }
+
+    /// The profile finds the values that give the measured point (a χ² of 0), and its
+    /// marginal of each free noise is least there.
+    #[test]
+    fn the_profile_finds_the_measured_value() {
+        let (instr, opts) = (Instrument::kearfott_2401(), SimOptions::default());
+        // 1 + 1.5² = 3.25: u = 1.5 with N = K = 0.
+        let mut g = hand_grid(&instr, &opts, 3.25);
+        let p = g.profile(&[0]);
         assert!(
-            (c[0] - 0.09).abs() < 1e-9 && (c[1] - 0.04).abs() < 1e-9,
-            "{c:?}"
+            p.chi2 < 1e-6 && (p.values[0] - 1.5).abs() < 0.01,
+            "{:?} {}",
+            p.values,
+            p.chi2
         );
-        assert!(se.iter().all(|s| *s > 0.0) && chi2 < 1e-12, "{se:?} {chi2}");
+        let best = p.marginals[0]
+            .iter()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .unwrap();
+        assert!((best.0 - 1.5).abs() < 0.01, "{best:?}");
+        // 1 + 0.25 + 2·0.2² = 1.33: N = 0.2 at the base's u.
+        let mut g = hand_grid(&instr, &opts, 1.33);
+        let p = g.profile(&[1]);
+        assert!(
+            p.chi2 < 1e-4 && (p.values[1] - 0.2).abs() < 0.002,
+            "{:?} {}",
+            p.values,
+            p.chi2
+        );
+        // At the base (u = 0.5, N = 0): ln(1.33/1.25)² / (2/1000 + 2/1000) = 0.062035² / 0.004 = 0.9621.
+        let c = g.profile(&[]).chi2;
+        assert!((c - 0.9621).abs() < 1e-3, "{c}");
     }
 }

@@ -100,6 +100,23 @@ pub struct Job<'a> {
     pub seed: u64,
 }
 
+/// One counter record of a batch ([`Engine::simulate_records`]): the loop of `instr` at
+/// rest but for an acceleration along IA, with its own pickoff-noise seed.
+#[derive(Clone, Copy, Debug)]
+pub struct RecordJob<'a> {
+    /// The instrument.
+    pub instr: &'a Instrument,
+    /// Seed of the pickoff noise.
+    pub seed: u64,
+    /// The acceleration along IA during the settling, and during every gate when
+    /// `gate_accels_cm_s2` is empty, cm/s².
+    pub accel_cm_s2: f64,
+    /// The acceleration along IA held over each gate, cm/s², one per gate (the condition
+    /// set before the gate as [`ClosedLoop::set_condition`] sets it); empty: `accel_cm_s2`
+    /// throughout.
+    pub gate_accels_cm_s2: &'a [f64],
+}
+
 /// The batch engine with `lanes` lanes interleaved per core (see the module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Engine {
@@ -227,17 +244,7 @@ impl Engine {
     /// table is built once and shared by its lanes.
     #[must_use]
     pub fn simulate_jobs(&self, jobs: &[Job<'_>], opts: &SimOptions) -> Vec<SimResult> {
-        let noise = noise_sources(jobs.iter().map(|j| j.seed));
-        let mut loops: Vec<ClosedLoop> = jobs
-            .par_iter()
-            .map(|j| {
-                let o = SimOptions {
-                    seed: j.seed,
-                    ..*opts
-                };
-                ClosedLoop::with_noise(j.instr, j.cond, &j.effects, &o, noise[&j.seed].clone())
-            })
-            .collect();
+        let mut loops = loops_of(jobs, opts);
         let outs = self.execute(&mut loops, |i| {
             let j = &jobs[i];
             let o = SimOptions {
@@ -255,6 +262,59 @@ impl Engine {
             .map(|o| match o {
                 Some(Out::Window(r)) => r,
                 _ => unreachable!("a simulated condition closes its window"),
+            })
+            .collect()
+    }
+
+    /// Counter records, one per job: the loop of the job's instrument and seed (the rest of
+    /// `opts`: warm-up, noise, configuration) in `along_ia(accel_cm_s2)`, settled for
+    /// `opts.warmup_s` with `run_fast`, then `gates` gates of `gate_ticks` back to back,
+    /// each a `run_fast(gate_ticks)` after the job's acceleration for that gate is set (when
+    /// it has them); the pulses counted in each gate. Bit for bit the single loop making
+    /// the same calls (`noise::simulate_record` is that loop; the tests compare them).
+    ///
+    /// # Panics
+    /// If a job's `gate_accels_cm_s2` is neither empty nor one per gate.
+    #[must_use]
+    pub fn simulate_records(
+        &self,
+        jobs: &[RecordJob<'_>],
+        opts: &SimOptions,
+        gate_ticks: u64,
+        gates: u64,
+    ) -> Vec<Vec<u32>> {
+        for j in jobs {
+            assert!(
+                j.gate_accels_cm_s2.is_empty() || j.gate_accels_cm_s2.len() as u64 == gates,
+                "one acceleration per gate, or none"
+            );
+        }
+        let conds: Vec<Condition> = jobs
+            .iter()
+            .map(|j| fixtures::along_ia(j.accel_cm_s2, j.instr.g_cm_s2))
+            .collect();
+        let as_jobs: Vec<Job<'_>> = jobs
+            .iter()
+            .zip(&conds)
+            .map(|(j, cond)| Job {
+                instr: j.instr,
+                cond,
+                effects: Effects::NONE,
+                seed: j.seed,
+            })
+            .collect();
+        let mut loops = loops_of(&as_jobs, opts);
+        let inputs: Vec<&[f64]> = jobs.iter().map(|j| j.gate_accels_cm_s2).collect();
+        let outs = self.execute_with(&mut loops, &inputs, |i| {
+            vec![
+                Step::RunFast(opts.warmup_ticks(jobs[i].instr.clock_hz)),
+                Step::Record(gate_ticks, gates),
+            ]
+        });
+        outs.into_iter()
+            .map(|o| match o {
+                Some(Out::Counts(c)) => c,
+                _ => unreachable!("a record closes its last gate"),
             })
             .collect()
     }
@@ -300,10 +360,21 @@ impl Engine {
         loops: &mut [ClosedLoop],
         prog: impl Fn(usize) -> Vec<Step>,
     ) -> Vec<Option<Out>> {
+        self.execute_with(loops, &[], prog)
+    }
+
+    /// [`Engine::execute`] with each lane's accelerations per gate of a
+    /// [`Step::Record`] (`inputs[i]` for lane `i`; none when `inputs` is shorter).
+    fn execute_with(
+        self,
+        loops: &mut [ClosedLoop],
+        inputs: &[&[f64]],
+        prog: impl Fn(usize) -> Vec<Step>,
+    ) -> Vec<Option<Out>> {
         let mut lanes: Vec<Lane<'_>> = loops
             .iter_mut()
             .enumerate()
-            .map(|(i, lp)| Lane::new(lp, prog(i)))
+            .map(|(i, lp)| Lane::new(lp, prog(i), inputs.get(i).copied().unwrap_or(&[])))
             .collect();
         let threads = rayon::current_num_threads().max(1);
         let per = lanes
@@ -357,6 +428,21 @@ pub fn simulate_jobs(jobs: &[Job<'_>], opts: &SimOptions) -> Vec<SimResult> {
     Engine::default().simulate_jobs(jobs, opts)
 }
 
+/// The loop of each job (its instrument, condition, effects and seed, the rest of `opts`),
+/// each seed's noise table built once and shared.
+fn loops_of(jobs: &[Job<'_>], opts: &SimOptions) -> Vec<ClosedLoop> {
+    let noise = noise_sources(jobs.iter().map(|j| j.seed));
+    jobs.par_iter()
+        .map(|j| {
+            let o = SimOptions {
+                seed: j.seed,
+                ..*opts
+            };
+            ClosedLoop::with_noise(j.instr, j.cond, &j.effects, &o, noise[&j.seed].clone())
+        })
+        .collect()
+}
+
 /// The noise source of each distinct seed, built once (in parallel).
 fn noise_sources(seeds: impl Iterator<Item = u64>) -> HashMap<u64, NoiseSource> {
     let mut distinct: Vec<u64> = seeds.collect();
@@ -383,22 +469,39 @@ enum Step {
     OpenGate,
     /// The end of a gate of so many ticks: its [`StaticRun`] is the lane's output.
     CloseGate(u64),
+    /// A counter record: so many gates (the second) of so many ticks (the first) back to
+    /// back, each a [`ClosedLoop::run_fast`] after the lane's acceleration for that gate
+    /// is set (when it has them); the pulses of each gate are the lane's output.
+    Record(u64, u64),
 }
 
 impl Step {
     fn ticks(self) -> u64 {
         match self {
             Step::Run(n) | Step::RunFast(n) => n,
+            Step::Record(ticks, gates) => ticks.saturating_mul(gates),
             _ => 0,
         }
     }
 }
 
 /// What a lane's program produced.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 enum Out {
     Window(SimResult),
     Gate(StaticRun),
+    /// The pulses of each gate of a [`Step::Record`].
+    Counts(Vec<u32>),
+}
+
+/// A [`Step::Record`] in progress.
+struct Recording {
+    ticks: u64,
+    /// Gates still to run, the one running included.
+    left: u64,
+    /// The core's pulse total at the running gate's start.
+    p0: std::num::Wrapping<u32>,
+    counts: Vec<u32>,
 }
 
 /// How a lane's current run ticks.
@@ -414,8 +517,12 @@ enum Mode {
 
 /// One lane: a loop's configuration and state, its program and its run in progress.
 struct Lane<'a> {
-    cfg: &'a LoopConfig,
+    cfg: &'a mut LoopConfig,
     st: &'a mut LoopState,
+    /// The acceleration along IA of each gate of a [`Step::Record`], cm/s² (empty: the
+    /// condition is kept).
+    inputs: &'a [f64],
+    record: Option<Recording>,
     prog: Vec<Step>,
     /// Index of the next step.
     next: usize,
@@ -431,10 +538,12 @@ struct Lane<'a> {
 }
 
 impl<'a> Lane<'a> {
-    fn new(lp: &'a mut ClosedLoop, prog: Vec<Step>) -> Self {
+    fn new(lp: &'a mut ClosedLoop, prog: Vec<Step>, inputs: &'a [f64]) -> Self {
         Self {
-            cfg: &lp.cfg,
+            cfg: &mut lp.cfg,
             st: &mut lp.st,
+            inputs,
+            record: None,
             prog,
             next: 0,
             mode: Mode::Static,
@@ -458,6 +567,9 @@ impl<'a> Lane<'a> {
     /// Take the program's steps until one has ticks to run (started), or the program ends
     /// (the lane is then done).
     fn advance(&mut self) {
+        if self.record.is_some() && self.next_gate() {
+            return;
+        }
         while let Some(&step) = self.prog.get(self.next) {
             self.next += 1;
             match step {
@@ -471,27 +583,85 @@ impl<'a> Lane<'a> {
                     let g = self.gate.take().expect("gate opened");
                     self.out = Some(Out::Gate(g.close(self.cfg, self.st, ticks)));
                 }
-                Step::Run(n) | Step::RunFast(n) => {
-                    self.n = n;
-                    self.left = n;
-                    self.mode = if self.cfg.dynamic {
-                        self.st.sync_phasor(self.cfg);
-                        Mode::Dynamic
-                    } else if matches!(step, Step::Run(_)) {
-                        Mode::Static
-                    } else {
-                        Mode::StaticFast
-                    };
-                    self.run = Some(self.st.run_start());
-                    if n > 0 {
+                Step::Record(ticks, gates) => {
+                    self.record = Some(Recording {
+                        ticks,
+                        left: gates,
+                        p0: self.st.core.total_pulses(),
+                        counts: Vec::with_capacity(usize::try_from(gates).unwrap_or(0)),
+                    });
+                    if self.start_gate() {
                         return;
                     }
-                    // A run of no ticks still starts and finishes, as the single loop's does.
-                    self.finish_run();
+                }
+                Step::Run(n) | Step::RunFast(n) => {
+                    if self.start(n, matches!(step, Step::Run(_))) {
+                        return;
+                    }
                 }
             }
         }
         self.run = None;
+    }
+
+    /// Start a run of `n` ticks (`stats`: [`ClosedLoop::run`], else `run_fast`); false when
+    /// `n` is 0 (the run started and finished, as the single loop's does).
+    fn start(&mut self, n: u64, stats: bool) -> bool {
+        self.n = n;
+        self.left = n;
+        self.mode = if self.cfg.dynamic {
+            self.st.sync_phasor(self.cfg);
+            Mode::Dynamic
+        } else if stats {
+            Mode::Static
+        } else {
+            Mode::StaticFast
+        };
+        self.run = Some(self.st.run_start());
+        if n > 0 {
+            return true;
+        }
+        self.finish_run();
+        false
+    }
+
+    /// The record's gate that ran has ended: its pulses counted; the next gate started
+    /// (true), or, after the last, the counts are the lane's output (false).
+    fn next_gate(&mut self) -> bool {
+        let rec = self.record.as_mut().expect("a record in progress");
+        let p1 = self.st.core.total_pulses();
+        rec.counts.push((p1 - rec.p0).0);
+        rec.p0 = p1;
+        rec.left -= 1;
+        self.start_gate()
+    }
+
+    /// Start the record's next gate, its acceleration set first (true), or end the record
+    /// when no gate is left (false).
+    fn start_gate(&mut self) -> bool {
+        loop {
+            let rec = self.record.as_mut().expect("a record in progress");
+            if rec.left == 0 {
+                let counts = std::mem::take(&mut rec.counts);
+                self.record = None;
+                self.out = Some(Out::Counts(counts));
+                return false;
+            }
+            let (k, ticks) = (rec.counts.len(), rec.ticks);
+            if let Some(&a) = self.inputs.get(k) {
+                let cond = fixtures::along_ia(a, self.cfg.instr.g_cm_s2);
+                self.cfg.set_condition(&cond, &Effects::NONE);
+                // As `ClosedLoop::set_condition`.
+                self.st.phasor_k = u64::MAX;
+            }
+            if self.start(ticks, false) {
+                return true;
+            }
+            // A gate of no ticks: counted at once.
+            let rec = self.record.as_mut().expect("a record in progress");
+            rec.counts.push(0);
+            rec.left -= 1;
+        }
     }
 
     /// The current run has run all its ticks: its end, as the single loop's.
@@ -546,8 +716,8 @@ fn run_group(group: &mut [&mut Lane<'_>], k: usize) {
 /// `m` ticks of lanes all in `mode`, in kernels of `k` lanes and then, for the rest, of
 /// the largest powers of two that fit.
 fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
-    let mut cfg: Vec<&LoopConfig> = lanes.iter().map(|l| l.cfg).collect();
-    let mut st: Vec<&mut LoopState> = lanes.iter_mut().map(|l| &mut *l.st).collect();
+    let (mut cfg, mut st): (Vec<&LoopConfig>, Vec<&mut LoopState>) =
+        lanes.iter_mut().map(|l| (&*l.cfg, &mut *l.st)).unzip();
     if mode == Mode::Dynamic {
         dynamic_blocks(&cfg, &mut st, m, k);
         return;

@@ -50,11 +50,12 @@ pub struct NoiseArgs {
     #[arg(long, requires = "counts")]
     pub compare: bool,
     /// With --counts: identify what the instrument file's loop lacks: the record's Allan
-    /// variance modelled as the simulated loop's (as --compare, at pickoff noises 0 to 8 uV
-    /// rms, interpolated in noise power) plus a white acceleration noise N (AVAR += N^2/tau;
-    /// cm/s^2/rtHz, ug/rtHz) and a bias random walk K (AVAR += K^2 tau/3; cm/s^2.5, ug/rts),
-    /// selected forward with Holm's thresholds at 5 % familywise; the selected ones with
-    /// their 95 % intervals (docs/noise.md).
+    /// variance modelled as the simulated loop's (as --compare) with a pickoff noise
+    /// (noise_uv_rms, 0 to 8 uV rms), a white acceleration noise N (alone AVAR = N^2/tau;
+    /// cm/s^2/rtHz, ug/rtHz) and a bias random walk K (alone AVAR = K^2 tau/3; cm/s^2.5,
+    /// ug/rts) inside the loop (N and K entering the plant's input), on a grid interpolated
+    /// in noise power, averaged over 2 seeds; selected forward with Holm's thresholds at
+    /// 5 % familywise; the selected ones with their 95 % intervals (docs/noise.md).
     #[arg(long, requires = "counts")]
     pub identify: bool,
     /// With --identify: write the instrument file with the identified pickoff noise
@@ -99,7 +100,9 @@ pub struct NoiseArgs {
     /// "simulated_ci95", "z", "p", "differs"); with --identify also "identification"
     /// ("candidates": "candidate", "statistic", "p", "selected", "values": [{"unit",
     /// "value", "ci95"}], "open_above"; "selected", "chi2_file", "taus_s",
-    /// "pickoff_grid_uv_rms", "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test").
+    /// "pickoff_grid_uv_rms", "white_acceleration_grid_cm_s2_rthz",
+    /// "bias_random_walk_grid_cm_s2_rthz", "seeds_per_node", "simulated_records",
+    /// "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test").
     #[arg(long)]
     pub json: bool,
     /// Replace an existing --out, --plot or --write-instrument file; run a simulation estimated beyond ten
@@ -367,7 +370,7 @@ fn simulated(
         .gate(ticks * gates)
         .check(req.force, "this simulated record")?;
     let bar = work::Progress::start("noise --simulate", &est);
-    let g = noise::simulate_record(instr, opts, 0.0, ticks, gates, &mut |_, _| {});
+    let g = noise::simulate_record(instr, opts, 0.0, ticks, gates);
     bar.finish();
     #[allow(clippy::cast_precision_loss)]
     let gate = ticks as f64 / instr.clock_hz;
@@ -487,7 +490,7 @@ fn simulate_and_compare(
         .check(req.force, "the comparison's simulated record")?;
     let input_cm_s2 = measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0);
     let bar = work::Progress::start("noise --compare", &est);
-    let g = noise::simulate_record(instr, opts, input_cm_s2, ticks, gates, &mut |_, _| {});
+    let g = noise::simulate_record(instr, opts, input_cm_s2, ticks, gates);
     bar.finish();
     let lines: Vec<usize> = (0..g.len()).map(|k| k + 1).collect();
     let sim = noise::check_record("the simulated record", g, &lines, instr.clock_hz)?;
@@ -510,7 +513,9 @@ fn identify(
 ) -> Result<Identification> {
     let instr = &ctx.instr;
     let ticks = record.gates[0].ticks;
-    let sims = ident::PICKOFF_GRID_UV.len() as u64 + 1;
+    // At most every node of the grid; a record with nothing beyond the file's loop needs
+    // about a tenth of it.
+    let sims = ident::MAX_RECORDS;
     let est = Work::new(instr, opts)
         .gate(ticks * record.gates.len() as u64 * sims)
         .check(req.force, "the identification's simulated records")?;
@@ -600,10 +605,14 @@ fn identification_json(id: &Identification) -> serde_json::Value {
         "input_cm_s2": id.input_cm_s2,
         "file_noise_uv_rms": id.file_uv,
         "pickoff_grid_uv_rms": id.grid_uv,
+        "white_acceleration_grid_cm_s2_rthz": id.grid_white,
+        "bias_random_walk_grid_cm_s2_rthz": id.grid_walk,
+        "seeds_per_node": ident::SEEDS,
+        "simulated_records": id.simulated_records,
         "taus_s": id.taus,
         "chi2_file": id.chi2_file,
         "familywise_alpha": ident::ALPHA,
-        "test": "AVAR_measured = AVAR_sim(noise_uv_rms, linear in its square between the grid values) + N^2/tau + K^2 tau/3; weights 2 M^2/edf_m + 2 S^2/edf_s, octave points taken as independent; forward selection with Holm thresholds (0.05/3, 0.05/2, 0.05): each candidate left tested given those selected by its drop of chi2 (N, K: its signed root, one-sided normal; pickoff: profiled, against chi2(1)); intervals widened by the joint fit's Birge ratio above 1",
+        "test": "AVAR_measured = AVAR_sim(noise_uv_rms, N, K): the loop simulated with the pickoff noise and with N (white acceleration noise) and K (bias random walk) entering the plant's input, averaged over seeds_per_node records, multilinear in the squares between the grid's nodes; compared as ln AVAR with its bias -1/edf taken out, weights 1/(2/edf_m + 2/(seeds edf_s)), octave points taken as independent; forward selection with Holm thresholds (0.05/3, 0.05/2, 0.05): each candidate left tested given those selected by its drop of the profiled chi2 (N, K: its root, one-sided normal; pickoff: against chi2(1)); 95 % intervals from the joint profile, widened by the joint fit's Birge ratio above 1",
         "candidates": candidates,
         "selected": id.candidates.iter().filter(|c| c.selected).map(|c| c.kind.key()).collect::<Vec<_>>(),
     })
@@ -614,7 +623,7 @@ fn identification_text(id: &Identification) -> String {
     let mut s = String::new();
     let _ = writeln!(
         s,
-        "identification beyond the file's loop ({} cm/s^2 along IA, its pickoff noise {} uV rms, simulated at {} uV; chi2 of the file's loop alone {:.1} on {} taus); Holm at 5 % familywise:",
+        "identification beyond the file's loop ({} cm/s^2 along IA, its pickoff noise {} uV rms; the loop simulated with the noises inside at {} uV, N {} cm/s^2/rtHz, K {} cm/s^2.5, {} records; chi2 of the file's loop alone {:.1} on {} taus); Holm at 5 % familywise:",
         sig(id.input_cm_s2, 8),
         sig(id.file_uv, 4),
         id.grid_uv
@@ -622,6 +631,17 @@ fn identification_text(id: &Identification) -> String {
             .map(|u| sig(*u, 3))
             .collect::<Vec<_>>()
             .join(", "),
+        id.grid_white
+            .iter()
+            .map(|u| sig(*u, 3))
+            .collect::<Vec<_>>()
+            .join(", "),
+        id.grid_walk
+            .iter()
+            .map(|u| sig(*u, 3))
+            .collect::<Vec<_>>()
+            .join(", "),
+        id.simulated_records,
         id.chi2_file,
         id.taus.len()
     );
