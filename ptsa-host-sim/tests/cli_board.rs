@@ -359,10 +359,9 @@ fn pil_params_are_written_for_one_noiseless_run_only() {
     assert!(!n.contains("\nntab 512 "), "{n}");
 }
 
-/// `ptsa static --record`: with a constant input and one gate over the counted time, the
-/// counts of `--json`; a sine's and a step's records and parameters (the phasors, the step's
-/// plant inputs); moving inputs refused without --pil-params or --record, or without
-/// --gate-s, and a gate that does not divide the run.
+/// `ptsa static --record`: with a constant input, gates that add up to the counts of
+/// `--json`; a sine's and a step's records and parameters (the phasors, the step's plant
+/// inputs).
 #[test]
 fn moving_inputs_give_records_and_pil_params() {
     let tmp = tempfile::tempdir().unwrap();
@@ -448,7 +447,22 @@ fn moving_inputs_give_records_and_pil_params() {
         p.contains("\nstep 4480\n") && p.contains("\nstepadd2 1 "),
         "{p}"
     );
+}
 
+/// Moving inputs refused without --pil-params or --record, or without --gate-s; a gate that
+/// does not divide the run; a step after its end. Nothing is written.
+#[test]
+fn moving_inputs_are_refused_outside_a_record() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = [
+        "static",
+        "--accel-cm-s2",
+        "1234.5",
+        "--seconds",
+        "0.1",
+        "--warmup-s",
+        "0.05",
+    ];
     for (args, needle) in [
         (
             vec!["--sine-hz", "50", "--sine-cm-s2", "3000"],
@@ -483,7 +497,7 @@ fn moving_inputs_give_records_and_pil_params() {
             "expected it inside the run",
         ),
     ] {
-        let o = run(&[&base[..], &args].concat());
+        let o = ptsa_in(tmp.path(), &[&base[..], &args].concat());
         assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
         assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
     }

@@ -4,7 +4,7 @@
 //! same run ([`pil_gates`]), which the image's must equal bit for bit.
 //!
 //! The input along IA is constant, a sine (the host's dynamic tick: the phasor exact at
-//! every [`PHASOR_BLOCK`]-th tick of the absolute index, rotated tick by tick in between; the
+//! every `PHASOR_BLOCK`-th (4096th) tick of the absolute index, rotated tick by tick in between; the
 //! host gives the image the exact phasors and the rotation, the image rotates in `f64`) or a
 //! step (the static tick with the plant inputs of the new acceleration from the step's tick
 //! on, as `ClosedLoop::set_condition` does on the host).
