@@ -359,6 +359,17 @@ fn pil_params_are_written_for_one_noiseless_run_only() {
     assert!(!n.contains("\nntab 512 "), "{n}");
 }
 
+/// The run of the moving-input tests: 1234.5 cm/s², 0.1 s after 0.05 s.
+const MOVING_BASE: [&str; 7] = [
+    "static",
+    "--accel-cm-s2",
+    "1234.5",
+    "--seconds",
+    "0.1",
+    "--warmup-s",
+    "0.05",
+];
+
 /// `ptsa static --record`: with a constant input, gates that add up to the counts of
 /// `--json`; a sine's and a step's records and parameters (the phasors, the step's plant
 /// inputs).
@@ -366,15 +377,7 @@ fn pil_params_are_written_for_one_noiseless_run_only() {
 fn moving_inputs_give_records_and_pil_params() {
     let tmp = tempfile::tempdir().unwrap();
     let run = |args: &[&str]| ptsa_in(tmp.path(), args);
-    let base = [
-        "static",
-        "--accel-cm-s2",
-        "1234.5",
-        "--seconds",
-        "0.1",
-        "--warmup-s",
-        "0.05",
-    ];
+    let base = MOVING_BASE;
     let json = run(&[&base[..], &["--json"]].concat());
     assert!(json.status.success(), "{}", stderr(&json));
     let v: serde_json::Value = serde_json::from_str(&stdout(&json)).unwrap();
@@ -454,15 +457,7 @@ fn moving_inputs_give_records_and_pil_params() {
 #[test]
 fn moving_inputs_are_refused_outside_a_record() {
     let tmp = tempfile::tempdir().unwrap();
-    let base = [
-        "static",
-        "--accel-cm-s2",
-        "1234.5",
-        "--seconds",
-        "0.1",
-        "--warmup-s",
-        "0.05",
-    ];
+    let base = MOVING_BASE;
     for (args, needle) in [
         (
             vec!["--sine-hz", "50", "--sine-cm-s2", "3000"],
