@@ -340,13 +340,161 @@ fn pil_params_are_written_for_one_noiseless_run_only() {
         ],
         &[],
     );
-    refused_in_folder(
-        &[("q.toml", board_text().as_bytes())],
-        &base,
-        1,
+    // With the board's noise: the generator's state and its whole table.
+    let noisy = ptsa_in(
+        tmp.path(),
         &[
-            "--pil-params: the processor-in-the-loop image draws no pickoff noise; expected an instrument file with pickoff.noise_uv_rms = 0 (this one gives 0.5 µV rms)",
+            "--instrument",
+            &root().join(BOARD_FILE).to_string_lossy(),
+            "static",
+            "--accel-cm-s2",
+            "1000",
+            "--pil-params",
+            "n.txt",
         ],
-        &[],
     );
+    assert!(noisy.status.success(), "{}", stderr(&noisy));
+    let n = std::fs::read_to_string(tmp.path().join("n.txt")).unwrap();
+    assert!(n.contains("\nnoise ") && n.contains("\nntab 511 "), "{n}");
+    assert!(!n.contains("\nntab 512 "), "{n}");
+}
+
+/// The run of the moving-input tests: 1234.5 cm/s², 0.1 s after 0.05 s.
+const MOVING_BASE: [&str; 7] = [
+    "static",
+    "--accel-cm-s2",
+    "1234.5",
+    "--seconds",
+    "0.1",
+    "--warmup-s",
+    "0.05",
+];
+
+/// `ptsa static --record`: with a constant input, gates that add up to the counts of
+/// `--json`; a sine's and a step's records and parameters (the phasors, the step's plant
+/// inputs).
+#[test]
+fn moving_inputs_give_records_and_pil_params() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| ptsa_in(tmp.path(), args);
+    let base = MOVING_BASE;
+    let json = run(&[&base[..], &["--json"]].concat());
+    assert!(json.status.success(), "{}", stderr(&json));
+    let v: serde_json::Value = serde_json::from_str(&stdout(&json)).unwrap();
+    let one = run(&[&base[..], &["--gate-s", "0.05", "--record", "two.csv"]].concat());
+    assert!(one.status.success(), "{}", stderr(&one));
+    let rec = std::fs::read_to_string(tmp.path().join("two.csv")).unwrap();
+    let gates: Vec<(u64, u64)> = rec
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("time_s"))
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            (f[1].parse().unwrap(), f[2].parse().unwrap())
+        })
+        .collect();
+    assert_eq!(gates.len(), 2, "{rec}");
+    assert!(rec.contains("\n0.05,"), "{rec}");
+    assert_eq!(
+        gates.iter().map(|g| g.0).sum::<u64>(),
+        v["pulses"].as_u64().unwrap(),
+        "{rec} against {v}"
+    );
+    assert_eq!(
+        gates.iter().map(|g| g.1).sum::<u64>(),
+        v["ticks"].as_u64().unwrap()
+    );
+
+    let sine = [
+        "--sine-hz",
+        "50",
+        "--sine-cm-s2",
+        "3000",
+        "--gate-s",
+        "0.005",
+    ];
+    let o = run(&[&base[..], &sine, &["--pil-params", "s.txt"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = std::fs::read_to_string(tmp.path().join("s.txt")).unwrap();
+    for key in [
+        "\nrun 3200 6400 320\n",
+        "\nsine ",
+        "\ngu2 ",
+        "\ngd0 ",
+        "\nstoptorque ",
+        "\nphasor 2 ",
+    ] {
+        assert!(p.contains(key), "`{key}` not in:\n{p}");
+    }
+    assert!(!p.contains("\nphasor 3 "), "{p}");
+    let o = run(&[&base[..], &sine, &["--record", "s.csv"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let rec = std::fs::read_to_string(tmp.path().join("s.csv")).unwrap();
+    assert_eq!(
+        rec.lines().filter(|l| l.ends_with(",320")).count(),
+        20,
+        "{rec}"
+    );
+
+    let step = [
+        "--step-cm-s2",
+        "-2000",
+        "--step-at-s",
+        "0.07",
+        "--gate-s",
+        "0.01",
+    ];
+    let o = run(&[&base[..], &step, &["--pil-params", "t.txt"]].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let p = std::fs::read_to_string(tmp.path().join("t.txt")).unwrap();
+    assert!(
+        p.contains("\nstep 4480\n") && p.contains("\nstepadd2 1 "),
+        "{p}"
+    );
+}
+
+/// Moving inputs refused without --pil-params or --record, or without --gate-s; a gate that
+/// does not divide the run; a step after its end. Nothing is written.
+#[test]
+fn moving_inputs_are_refused_outside_a_record() {
+    let tmp = tempfile::tempdir().unwrap();
+    let base = MOVING_BASE;
+    for (args, needle) in [
+        (
+            vec!["--sine-hz", "50", "--sine-cm-s2", "3000"],
+            "describe a run for --pil-params or --record",
+        ),
+        (
+            vec![
+                "--sine-hz",
+                "50",
+                "--sine-cm-s2",
+                "3000",
+                "--record",
+                "x.csv",
+            ],
+            "need --gate-s",
+        ),
+        (
+            vec!["--gate-s", "0.003", "--record", "x.csv"],
+            "does not divide the settling",
+        ),
+        (
+            vec![
+                "--step-cm-s2",
+                "1",
+                "--step-at-s",
+                "9",
+                "--gate-s",
+                "0.005",
+                "--record",
+                "x.csv",
+            ],
+            "expected it inside the run",
+        ),
+    ] {
+        let o = ptsa_in(tmp.path(), &[&base[..], &args].concat());
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+    }
+    assert!(!tmp.path().join("x.csv").exists());
 }

@@ -10,7 +10,6 @@
 
 use std::fmt::Write as _;
 use std::fs;
-use std::path::Path;
 
 use ptsa_core::trace::{self, GoldenRunner};
 use ptsa_core::{Coef, Config, Polarity, Pole};
@@ -377,7 +376,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
                 continue;
             }
             if overwrite {
-                write_atomic(&path, text)?;
+                util::write_atomic(&path, text)?;
                 eprintln!("wrote {}", path.display());
             } else {
                 stale.push(path.display().to_string());
@@ -417,12 +416,6 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         )
         .into())
     }
-}
-
-fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
-    let tmp = path.with_extension("tmp");
-    fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
-    fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Build the independent C twin (`ptsa-core/c-twin/ptsa_twin.c`, written from ARITHMETIC.md)

@@ -15,6 +15,7 @@ use crate::util::{self, Error};
 /// `cargo xtask pil --help`.
 pub const USAGE: &str = "\
 pil --accel-cm-s2 A --seconds S --warmup-s W [--instrument FILE] [--json] [--compare]
+    [--sine-hz F --sine-cm-s2 B | --step-cm-s2 B --step-at-s T] [--gate-s G] [--log FILE]
 pil --ci
     Processor in the loop on QEMU's netduinoplus2: the firmware's `pil` image runs the
     production tick handler (ADC word -> ptsa-core tick -> H-bridge -> gate bottom half)
@@ -23,18 +24,30 @@ pil --ci
     converter model. The loop settles for W s and counts S s along IA at A cm/s²
     (bias off, as `ptsa static` without --with-bias); prints the firmware's counts, and
     the speed (emulated ticks per host second) on stderr.
-    The instrument file (default data/kearfott-2401-discovery.toml) must give
-    pickoff.noise_uv_rms = 0 (the image draws no noise) and the converter the firmware
-    was built for (firmware/src/constants.rs).
-    --accel-cm-s2 A  acceleration along IA, cm/s²
+    The instrument file (default data/kearfott-2401-discovery.toml) must describe the
+    converter the firmware was built for (firmware/src/constants.rs); its pickoff noise is
+    drawn by the image from the host's seeded table (seed 1, as `ptsa static`'s default).
+    --accel-cm-s2 A  acceleration along IA, cm/s² (the constant part with a sine, the
+                     value before a step)
     --seconds S      the counted time, s (at least one limit cycle)
     --warmup-s W     settling before it, s (0 or more)
+    --sine-hz F      add a sine along IA of F Hz, phase 0 at the loop's reset ...
+    --sine-cm-s2 B   ... and amplitude B cm/s² (needs --gate-s)
+    --step-cm-s2 B   the acceleration becomes B cm/s² ...
+    --step-at-s T    ... T s after the loop's reset, settling included (needs --gate-s)
+    --gate-s G       the gate of the reports, s (dividing S and W; default with a constant
+                     input: their greatest common divisor)
     --instrument F   the instrument file
-    --json           print exactly {\"ticks\": T, \"pulses\": P}
-    --compare        also run `ptsa static` with the same arguments and fail unless its
-                     ticks and pulses are the firmware's, bit for bit
-    --ci             the short case `cargo xtask ci` runs (1234.5 cm/s², 0.1 s after 0.1 s,
-                     the board's file made noiseless, compared with `ptsa static`)
+    --log FILE       write the image's output (its numbered gate reports after the
+                     settling, `ptsa record --from FILE` reads them) to FILE (a new one)
+    --json           print exactly {\"ticks\": T, \"pulses\": P}, the sums of the reports
+    --compare        also run `ptsa static --record` with the same arguments and fail unless
+                     every gate's pulses and ticks are the firmware's, bit for bit (and, with
+                     a constant input, `ptsa static --json`'s ticks and pulses)
+    --ci             the short cases `cargo xtask ci` runs, each compared with the host:
+                     1234.5 cm/s², 0.1 s after 0.1 s, the board's file made noiseless; the
+                     same with its noise; a 50 Hz, 3000 cm/s² sine, gates of 5 ms, 0.1 s
+                     after 0.05 s, noiseless
     Needs qemu-system-arm and the thumbv7em-none-eabihf target; it builds the release
     `ptsa` and the firmware's `pil` image.";
 
@@ -52,6 +65,9 @@ pub struct Pil {
     pub warmup: String,
     /// Instrument file.
     pub instrument: String,
+    /// The moving input's and the gate's flags for `ptsa static` (`--sine-hz F ...`), as
+    /// typed.
+    pub moving: Vec<String>,
     /// Run the release `ptsa` (the command), or the test profile's (CI, which has built it
     /// for the host tests).
     pub release: bool,
@@ -78,6 +94,8 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     let mut warmup = None;
     let mut instrument = DEFAULT_INSTRUMENT.to_string();
     let (mut json, mut compare) = (false, false);
+    let mut moving = Vec::new();
+    let mut log = None;
     let mut it = args.iter();
     while let Some(a) = it.next() {
         let mut value = |what: &str| {
@@ -90,6 +108,20 @@ pub fn run(args: &[String]) -> Result<(), Error> {
             "--seconds" => seconds = Some(number(&value("a time, s")?, a)?),
             "--warmup-s" => warmup = Some(number(&value("a time, s")?, a)?),
             "--instrument" => instrument = value("an instrument file")?,
+            "--sine-hz" | "--sine-cm-s2" | "--step-cm-s2" | "--step-at-s" | "--gate-s" => {
+                let v = number(&value("a number")?, a)?;
+                moving.extend([a.clone(), v]);
+            }
+            "--log" => {
+                let path = PathBuf::from(value("a file")?);
+                if path.exists() {
+                    return Err(Error::Usage(format!(
+                        "--log {}: the file exists; expected a new file (remove it first)",
+                        path.display()
+                    )));
+                }
+                log = Some(path);
+            }
             "--json" => json = true,
             "--compare" => compare = true,
             other => return Err(Error::Usage(format!("unknown option `{other}`"))),
@@ -103,12 +135,17 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         seconds: need(seconds, "--seconds")?,
         warmup: need(warmup, "--warmup-s")?,
         instrument,
+        moving,
         release: true,
     };
     needs::check(&NEEDS, None)?;
     let root = util::root();
     build_ptsa(&root, true)?;
-    let (counts, speed) = run_pil(&root, &req)?;
+    let (counts, speed, output) = run_pil(&root, &req)?;
+    if let Some(path) = &log {
+        util::write_atomic(path, &output)?;
+        eprintln!("pil: the image's output in {}", path.display());
+    }
     eprintln!(
         "pil: {} emulated ticks in {:.2} s of host time: {:.0} emulated ticks per host second; \
          {} guest instructions, {:.0} per tick",
@@ -119,13 +156,17 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         speed.instructions_per_tick()
     );
     if compare {
-        let host = host_static(&root, &req)?;
-        if host != counts {
-            return Err(Error::Failed(format!(
-                "the firmware counted {counts:?}, `ptsa static` {host:?}: not bit for bit"
-            )));
+        let n = compare_gates(&root, &req, &output).map_err(Error::Failed)?;
+        eprintln!("pil: the same {n} gates as `ptsa static --record`, bit for bit");
+        if req.moving.is_empty() {
+            let host = host_static(&root, &req)?;
+            if host != counts {
+                return Err(Error::Failed(format!(
+                    "the firmware counted {counts:?}, `ptsa static` {host:?}: not bit for bit"
+                )));
+            }
+            eprintln!("pil: the same counts as `ptsa static` ({host:?})");
         }
-        eprintln!("pil: the same counts as `ptsa static` ({host:?})");
     }
     if json {
         println!(
@@ -221,6 +262,9 @@ fn ptsa_static(root: &Path, req: &Pil, more: &[&str]) -> Result<String, String> 
         "--warmup-s",
         &req.warmup,
     ];
+    if !more.contains(&"--json") {
+        args.extend(req.moving.iter().map(String::as_str));
+    }
     args.extend_from_slice(more);
     eprintln!("+ ptsa {}", args.join(" "));
     let out = Command::new(&exe)
@@ -255,9 +299,71 @@ pub fn host_static(root: &Path, req: &Pil) -> Result<Counts, String> {
     })
 }
 
-/// Write the parameters, build the image, run it on QEMU: the firmware's counts and the
-/// run's speed.
-pub fn run_pil(root: &Path, req: &Pil) -> Result<(Counts, Speed), String> {
+/// The image's gate reports (`gate seq=.. P=.. T=.. gates=.. tick=..`) against `ptsa static
+/// --record`'s gates of the same run: the same number, each with the same pulses and
+/// ticks, none merged. Returns how many.
+fn compare_gates(root: &Path, req: &Pil, output: &str) -> Result<usize, String> {
+    let dir = firmware_target_dir()?.join("pil");
+    let host = dir.join("host.csv");
+    let host_arg = host.to_str().ok_or("the target directory is not UTF-8")?;
+    ptsa_static(root, req, &["--record", host_arg, "--force"])?;
+    let text = std::fs::read_to_string(&host)
+        .map_err(|e| format!("cannot read {}: {e}", host.display()))?;
+    let want: Vec<(u64, u64)> = text
+        .lines()
+        .filter(|l| !l.starts_with('#') && !l.starts_with("time_s"))
+        .map(|l| {
+            let mut f = l.split(',').skip(1).map(str::parse::<u64>);
+            match (f.next(), f.next()) {
+                (Some(Ok(p)), Some(Ok(t))) => Ok((p, t)),
+                _ => Err(format!("{}: not a gate line: `{l}`", host.display())),
+            }
+        })
+        .collect::<Result<_, _>>()?;
+    let got = image_gates(output)?;
+    if got.iter().any(|g| g.2 != 1) {
+        return Err("the image merged gates (its queue overflowed)".into());
+    }
+    let got: Vec<(u64, u64)> = got.iter().map(|g| (g.0, g.1)).collect();
+    if let Some(i) = (0..want.len().min(got.len())).find(|&i| want[i] != got[i]) {
+        return Err(format!(
+            "gate {} after the settling: the firmware counted P = {}, T = {}; `ptsa static --record` P = {}, T = {}: not bit for bit",
+            i + 1,
+            got[i].0,
+            got[i].1,
+            want[i].0,
+            want[i].1
+        ));
+    }
+    if want.len() != got.len() {
+        return Err(format!(
+            "the firmware reported {} gates, `ptsa static --record` {}",
+            got.len(),
+            want.len()
+        ));
+    }
+    Ok(want.len())
+}
+
+/// The image's gate reports: pulses, ticks and merged gates of each.
+fn image_gates(output: &str) -> Result<Vec<(u64, u64, u64)>, String> {
+    output
+        .lines()
+        .filter(|l| l.starts_with("gate seq="))
+        .map(|l| {
+            let field = |k: &str| -> Result<u64, String> {
+                l.split_whitespace()
+                    .find_map(|w| w.strip_prefix(k)?.strip_prefix('=')?.parse().ok())
+                    .ok_or_else(|| format!("no `{k}` in `{l}`"))
+            };
+            Ok((field("P")?, field("T")?, field("gates")?))
+        })
+        .collect()
+}
+
+/// Write the parameters, build the image, run it on QEMU: the firmware's counts, the run's
+/// speed and the image's output (its gate reports).
+pub fn run_pil(root: &Path, req: &Pil) -> Result<(Counts, Speed, String), String> {
     let dir = firmware_target_dir()?.join("pil");
     std::fs::create_dir_all(&dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
     let params = dir.join("params.txt");
@@ -301,6 +407,7 @@ pub fn run_pil(root: &Path, req: &Pil) -> Result<(Counts, Speed), String> {
             seconds,
             instructions,
         },
+        run.stdout,
     ))
 }
 
@@ -326,10 +433,12 @@ fn parse_pil(stdout: &str) -> Result<(Counts, u64, u64), String> {
     ))
 }
 
-/// CI's processor-in-the-loop case: the board's file without noise, 1234.5 cm/s², 0.1 s of
-/// settling and 0.1 s counted, the firmware's counts against `ptsa static`'s. The noiseless
-/// copy of the board's file is written into the firmware's target directory. Uses the test
-/// profile's `ptsa`, which the host tests have built.
+/// CI's processor-in-the-loop cases, each run on the image and compared with the host gate
+/// by gate (and, for a constant input, with `ptsa static --json`): 1234.5 cm/s², 0.1 s of
+/// settling and 0.1 s counted, on the board's file made noiseless and on the board's file
+/// with its noise (seed 1); a 50 Hz, 3000 cm/s² sine, gates of 5 ms, 0.1 s after 0.05 s,
+/// noiseless. The noiseless copy of the board's file is written into the firmware's target
+/// directory. Uses the test profile's `ptsa`, which the host tests have built.
 pub fn ci() -> Result<String, String> {
     let root = util::root();
     build_ptsa(&root, false)?;
@@ -346,29 +455,64 @@ pub fn ci() -> Result<String, String> {
     let quiet = dir.join("quiet.toml");
     std::fs::write(&quiet, text.replace(noisy, "noise_uv_rms = { value = 0.0,"))
         .map_err(|e| format!("cannot write {}: {e}", quiet.display()))?;
-    let req = Pil {
-        accel: "1234.5".into(),
-        seconds: "0.1".into(),
-        warmup: "0.1".into(),
-        instrument: quiet.to_string_lossy().into_owned(),
+    let quiet = quiet.to_string_lossy().into_owned();
+    let case = |accel: &str, seconds: &str, warmup: &str, instrument: &str, moving: &[&str]| Pil {
+        accel: accel.into(),
+        seconds: seconds.into(),
+        warmup: warmup.into(),
+        instrument: instrument.into(),
+        moving: moving.iter().map(|m| (*m).to_string()).collect(),
         release: false,
     };
-    let (counts, speed) = run_pil(&root, &req)?;
-    let host = host_static(&root, &req)?;
-    if counts != host {
-        return Err(format!(
-            "processor in the loop: the firmware counted {counts:?}, `ptsa static` {host:?}"
+    let cases = [
+        (
+            "1234.5 cm/s², 0.1 s after 0.1 s, noiseless",
+            case("1234.5", "0.1", "0.1", &quiet, &[]),
+        ),
+        (
+            "the same with the board's pickoff noise",
+            case("1234.5", "0.1", "0.1", DEFAULT_INSTRUMENT, &[]),
+        ),
+        (
+            "a 50 Hz, 3000 cm/s² sine, 5 ms gates, 0.1 s after 0.05 s, noiseless",
+            case(
+                "0",
+                "0.1",
+                "0.05",
+                &quiet,
+                &[
+                    "--sine-hz",
+                    "50",
+                    "--sine-cm-s2",
+                    "3000",
+                    "--gate-s",
+                    "0.005",
+                ],
+            ),
+        ),
+    ];
+    let mut lines = Vec::new();
+    for (what, req) in &cases {
+        let (counts, speed, output) = run_pil(&root, req)?;
+        let n = compare_gates(&root, req, &output)
+            .map_err(|e| format!("processor in the loop, {what}: {e}"))?;
+        if req.moving.is_empty() {
+            let host = host_static(&root, req)?;
+            if counts != host {
+                return Err(format!(
+                    "processor in the loop, {what}: the firmware counted {counts:?}, `ptsa static` {host:?}"
+                ));
+            }
+        }
+        lines.push(format!(
+            "processor in the loop (QEMU), {what}: P = {} in T = {}, {n} gate(s) as the host's bit for bit ({:.0} emulated ticks per host second, {:.0} guest instructions per tick)",
+            counts.pulses,
+            counts.ticks,
+            speed.ticks_per_s(),
+            speed.instructions_per_tick()
         ));
     }
-    Ok(format!(
-        "processor in the loop (QEMU): 1234.5 cm/s², 0.1 s after 0.1 s of settling: the \
-         firmware counted P = {} in T = {}, as `ptsa static` does bit for bit ({:.0} emulated \
-         ticks per host second, {:.0} guest instructions per tick)",
-        counts.pulses,
-        counts.ticks,
-        speed.ticks_per_s(),
-        speed.instructions_per_tick()
-    ))
+    Ok(lines.join("\n"))
 }
 
 #[cfg(test)]
@@ -378,7 +522,7 @@ mod tests {
     #[test]
     fn the_image_line_parses() {
         let (c, g, i) = parse_pil(
-            "gate 1 P=3 T=8\npil ticks=6400 pulses=3352 gates=1 gate_ticks=6400 instructions=9\n",
+            "gate seq=1 P=3 T=8 gates=1 tick=8\npil ticks=6400 pulses=3352 gates=1 gate_ticks=6400 instructions=9\n",
         )
         .unwrap();
         assert_eq!(
@@ -389,7 +533,7 @@ mod tests {
             }
         );
         assert_eq!((g, i), (6400, 9));
-        assert!(parse_pil("gate 1 P=3 T=8\n").is_err());
+        assert!(parse_pil("gate seq=1 P=3 T=8 gates=1 tick=8\n").is_err());
         assert!(parse_pil("pil ticks=1 gates=1 gate_ticks=1").is_err());
     }
 

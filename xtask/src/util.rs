@@ -34,6 +34,16 @@ impl From<&str> for Error {
     }
 }
 
+/// Write `text` to `path` whole: into a file beside it, then renamed over it.
+///
+/// # Errors
+/// The file cannot be written or renamed: the path and the error.
+pub fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+}
+
 /// The workspace root (the parent of this crate's directory).
 pub fn root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

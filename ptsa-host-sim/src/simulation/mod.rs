@@ -11,12 +11,15 @@
 //!   are the entry points.
 //! * [`batch`]: many independent closed loops, lanes per core, all cores: a scheduler of the
 //!   kernels over the loops' configurations and states.
+//! * [`pil`]: the parameters of the firmware's processor-in-the-loop image and the host's
+//!   gates of the same run.
 //! * [`work`]: work estimated before it runs and counted while it runs (ticks, stages).
 
 pub mod batch;
 mod config;
 mod kernel;
 mod noise;
+pub mod pil;
 pub mod sim;
 mod state;
 pub mod work;

@@ -10,10 +10,11 @@ use clap::Args;
 use ptsa_host_sim::Instrument;
 use ptsa_host_sim::output::fs::{persist, temp_beside};
 use ptsa_host_sim::output::{Column, Table, count, num, text};
-use ptsa_host_sim::simulation::sim::{SimOptions, StaticRun, run_static_with, static_pil_params};
+use ptsa_host_sim::simulation::pil::{PilInput, PilRun, pil_gates, pil_params};
+use ptsa_host_sim::simulation::sim::{SimOptions, StaticRun, run_static_with};
 
 use super::{Ctx, gate_ticks};
-use crate::flags::values::{accel_item, non_negative_s, positive_s, seed};
+use crate::flags::values::{accel_item, finite, non_negative_s, positive_hz, positive_s, seed};
 use crate::paths;
 use crate::work::{self, Work};
 
@@ -51,11 +52,38 @@ pub struct StaticArgs {
     /// golden-vector style) to FILE (one acceleration only).
     #[arg(long, value_name = "FILE")]
     pub trace: Option<PathBuf>,
-    /// Write, instead of running, this run's discrete-time plant, ADC and loop constants
-    /// (settling and gate in ticks) to FILE for the firmware's processor-in-the-loop image
-    /// (`cargo xtask pil`); one acceleration, an instrument file without pickoff noise.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["trace", "json"])]
+    /// Write, instead of running, this run's discrete-time plant, ADC, noise, input and
+    /// loop constants (settling, counted time and gate in ticks) to FILE for the firmware's
+    /// processor-in-the-loop image (`cargo xtask pil`); one acceleration.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["trace", "json", "record"])]
     pub pil_params: Option<PathBuf>,
+    /// Write, instead of one gate's result, the counter record (`time_s,pulses,ticks`, the
+    /// CSV `ptsa response` reads) of the gates of --gate-s after the settling, time_s from
+    /// the loop's reset: what the processor-in-the-loop image counts in the same run
+    /// (`cargo xtask pil --compare`); one acceleration.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["trace", "json"])]
+    pub record: Option<PathBuf>,
+    /// The gate of --pil-params and --record, s (a whole number of ticks, at least one
+    /// limit cycle, dividing --warmup-s and --seconds); default with a constant input: the
+    /// greatest common divisor of the settling and the counted ticks. Required with --sine-hz
+    /// or --step-cm-s2.
+    #[arg(long, value_name = "S", value_parser = positive_s)]
+    pub gate_s: Option<f64>,
+    /// A sine along IA added to --accel-cm-s2, of this frequency, Hz, its phase 0 at the
+    /// loop's reset (with --pil-params or --record only).
+    #[arg(long, value_name = "HZ", value_parser = positive_hz, requires = "sine_cm_s2")]
+    pub sine_hz: Option<f64>,
+    /// The sine's amplitude along IA, cm/s².
+    #[arg(long, value_name = "CM_S2", value_parser = finite, requires = "sine_hz")]
+    pub sine_cm_s2: Option<f64>,
+    /// A step: the acceleration along IA becomes this, cm/s², at --step-at-s (with
+    /// --pil-params or --record only).
+    #[arg(long, value_name = "CM_S2", value_parser = finite, requires = "step_at_s",
+          conflicts_with = "sine_hz")]
+    pub step_cm_s2: Option<f64>,
+    /// When the step comes, s from the loop's reset (settling included), rounded to a tick.
+    #[arg(long, value_name = "S", value_parser = non_negative_s, requires = "step_cm_s2")]
+    pub step_at_s: Option<f64>,
     /// Run even when the work is estimated to take more than ten minutes.
     #[arg(long)]
     pub force: bool,
@@ -77,7 +105,11 @@ pub struct Request {
 /// parameters of one run for the processor-in-the-loop image.
 enum Runs {
     Pil {
-        accel_cm_s2: f64,
+        run: PilRun,
+        path: PathBuf,
+    },
+    Record {
+        run: PilRun,
         path: PathBuf,
     },
     One {
@@ -101,19 +133,50 @@ impl StaticArgs {
             config: ctx.config()?,
             ..SimOptions::default()
         };
-        let runs = match (&self.accel_cm_s2[..], self.trace, self.pil_params) {
-            ([a], None, Some(path)) => {
-                paths::output_file("--pil-params", &path, self.force)?;
-                Runs::Pil {
-                    accel_cm_s2: *a,
-                    path,
+        let mut instr = ctx.instr.clone();
+        if !self.with_bias {
+            instr.bias_cm_s2 = 0.0;
+        }
+        let ticks = gate_ticks("--seconds", self.seconds, &instr, &opts)?;
+        let moving = self.sine_hz.is_some() || self.step_cm_s2.is_some();
+        let gates = self.pil_params.is_some() || self.record.is_some();
+        if moving && !gates {
+            bail!(
+                "--sine-hz and --step-cm-s2 describe a run for --pil-params or --record; expected one of them"
+            );
+        }
+        if self.gate_s.is_some() && !gates {
+            bail!("--gate-s is the gate of --pil-params or --record; expected one of them");
+        }
+        let runs = match (
+            &self.accel_cm_s2[..],
+            self.trace.clone(),
+            self.pil_params.clone(),
+            self.record.clone(),
+        ) {
+            ([a], None, pil, record) if pil.is_some() || record.is_some() => {
+                let run = self.pil_run(*a, &instr, &opts, ticks)?;
+                match (pil, record) {
+                    (Some(path), _) => {
+                        paths::output_file("--pil-params", &path, self.force)?;
+                        Runs::Pil { run, path }
+                    }
+                    (None, Some(path)) => {
+                        paths::output_file("--record", &path, self.force)?;
+                        Runs::Record { run, path }
+                    }
+                    (None, None) => unreachable!("one of them is given"),
                 }
             }
-            (several, None, Some(_)) => bail!(
+            (several, None, Some(_), _) => bail!(
                 "--pil-params writes the parameters of one run; expected one --accel-cm-s2 value with it, not {}",
                 several.len()
             ),
-            ([a], trace, None) => {
+            (several, None, None, Some(_)) => bail!(
+                "--record writes the gates of one run; expected one --accel-cm-s2 value with it, not {}",
+                several.len()
+            ),
+            ([a], trace, None, None) => {
                 if let Some(t) = &trace {
                     paths::output_file("--trace", t, self.force)?;
                 }
@@ -122,17 +185,12 @@ impl StaticArgs {
                     trace,
                 }
             }
-            (several, Some(_), _) => bail!(
+            (several, Some(_), _, _) => bail!(
                 "--trace writes the ADC samples of one run; expected one --accel-cm-s2 value with it, not {}",
                 several.len()
             ),
-            (several, None, None) => Runs::Batch(several.to_vec()),
+            (several, None, None, None) => Runs::Batch(several.to_vec()),
         };
-        let mut instr = ctx.instr.clone();
-        if !self.with_bias {
-            instr.bias_cm_s2 = 0.0;
-        }
-        let ticks = gate_ticks("--seconds", self.seconds, &instr, &opts)?;
         Ok(Request {
             instr,
             opts,
@@ -144,6 +202,69 @@ impl StaticArgs {
     }
 }
 
+impl StaticArgs {
+    /// The run of --pil-params or --record at `accel_cm_s2`: the input, the settling and
+    /// the counted ticks, the gate (--gate-s, or for a constant input the greatest common
+    /// divisor of the two), checked.
+    fn pil_run(
+        &self,
+        accel_cm_s2: f64,
+        instr: &Instrument,
+        opts: &SimOptions,
+        ticks: u64,
+    ) -> Result<PilRun> {
+        let warmup = opts.warmup_ticks(instr.clock_hz);
+        let input = match (
+            self.sine_hz,
+            self.sine_cm_s2,
+            self.step_cm_s2,
+            self.step_at_s,
+        ) {
+            (Some(freq_hz), Some(amp_cm_s2), None, None) => PilInput::Sine {
+                accel_cm_s2,
+                freq_hz,
+                amp_cm_s2,
+            },
+            (None, None, Some(to_cm_s2), Some(at_s)) => {
+                #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+                let at_tick = (at_s * instr.clock_hz).round() as u64;
+                PilInput::Step {
+                    accel_cm_s2,
+                    to_cm_s2,
+                    at_tick,
+                }
+            }
+            _ => PilInput::Static { accel_cm_s2 },
+        };
+        let gate = match (self.gate_s, input) {
+            (Some(g), _) => gate_ticks("--gate-s", g, instr, opts)?,
+            (None, PilInput::Static { .. }) => gcd(warmup, ticks),
+            (None, _) => {
+                bail!("--sine-hz and --step-cm-s2 need --gate-s, the gate of the reported counts")
+            }
+        };
+        let run = PilRun {
+            input,
+            warmup,
+            ticks,
+            gate,
+        };
+        run.check().map_err(|e| {
+            anyhow::anyhow!(
+                "--warmup-s {}, --seconds {}: {e}",
+                self.warmup_s,
+                self.seconds
+            )
+        })?;
+        Ok(run)
+    }
+}
+
+/// The greatest common divisor (`gcd(0, b) = b`).
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 { a } else { gcd(b, a % b) }
+}
+
 /// Run the gate(s) (refused beyond the work limit without `--force`); a warning for each
 /// saturated one; the result as a line or a table, or JSON.
 ///
@@ -151,18 +272,39 @@ impl StaticArgs {
 /// Refused work; the trace or stdout cannot be written.
 pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
     match &req.runs {
-        Runs::Pil { accel_cm_s2, path } => {
-            let text = static_pil_params(&req.instr, *accel_cm_s2, req.ticks, &req.opts)
+        Runs::Pil { run, path } => {
+            let text = pil_params(&req.instr, run, &req.opts)
                 .map_err(|e| anyhow::anyhow!("--pil-params: {e}"))?;
-            let tmp = temp_beside(path)?;
-            std::fs::write(tmp.path(), text)
-                .with_context(|| format!("writing {}", path.display()))?;
-            persist(tmp, path)?;
-            Ok(())
+            write_atomic(path, &text)
+        }
+        Runs::Record { run, path } => {
+            let est = Work::new(&req.instr, &req.opts)
+                .gate(run.ticks)
+                .check(req.force, "this record")?;
+            let bar = work::Progress::start("static --record", &est);
+            let gates = pil_gates(&req.instr, run, &req.opts)
+                .map_err(|e| anyhow::anyhow!("--record: {e}"))?;
+            bar.finish();
+            let text = ptsa_host_sim::noise::record_csv(
+                &gates,
+                &[format!(
+                    "ptsa static --record: {:?} along IA, bias {} cm/s^2, seed {}, {} settling ticks, gates of {} ticks",
+                    run.input, req.instr.bias_cm_s2, req.opts.seed, run.warmup, run.gate
+                )],
+            );
+            write_atomic(path, &text)
         }
         Runs::One { accel_cm_s2, trace } => one(req, *accel_cm_s2, trace.as_ref(), out),
         Runs::Batch(accels) => batch(req, accels, out),
     }
+}
+
+/// Write `text` to `path`, which appears whole.
+fn write_atomic(path: &std::path::Path, text: &str) -> Result<()> {
+    let tmp = temp_beside(path)?;
+    std::fs::write(tmp.path(), text).with_context(|| format!("writing {}", path.display()))?;
+    persist(tmp, path)?;
+    Ok(())
 }
 
 /// One run on the single loop, its ADC codes streamed into `trace` (a file that appears
