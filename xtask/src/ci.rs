@@ -16,8 +16,9 @@ ci [--no-firmware]
     golden vectors, the C twin (in cargo's target directory, then again in a fresh
     temporary CARGO_TARGET_DIR), host tests and doctests, ptsa-core built for
     thumbv7em-none-eabihf with and without defmt, the firmware checks of `firmware`
-    (QEMU) and one short processor-in-the-loop case of `pil` (QEMU), whose counts must be
-    `ptsa static`'s bit for bit. The host tests include the freshness check of the
+    (QEMU) and the three short processor-in-the-loop cases of `pil --ci` (QEMU: a static
+    input without and with the pickoff noise, a sine), whose gates must be the host's bit
+    for bit. The host tests include the freshness check of the
     firmware's generated constants (`cargo xtask constants`).
     Needs rustfmt, clippy, a C compiler, the thumbv7em-none-eabihf target and (unless
     --no-firmware) qemu-system-arm; it looks for all of them first and, if any is
@@ -127,7 +128,9 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     } else {
         step("firmware on the emulated STM32F405 (QEMU)");
         firmware::ci()?;
-        step("processor in the loop (QEMU): one short case, bit for bit against ptsa static");
+        step(
+            "processor in the loop (QEMU): static, static with noise, sine; gate for gate against the host",
+        );
         eprintln!("{}", pil::ci()?);
     }
 
