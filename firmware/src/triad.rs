@@ -220,6 +220,12 @@ pub fn on_tick_triad<const INJECT: bool, const RECORD: bool>(ctx: &mut Option<Tr
             c.adc3.dr().read().bits(),
         ]
     };
+    // A gate the bottom half has not taken yet (cannot happen: the pended bottom half runs
+    // before the next tick) is queued before this tick's gates, in order: nothing is lost,
+    // and the hand-overs below need not look at the slots.
+    if CLOSED_MASK.load(Ordering::Relaxed) != 0 {
+        queue_left_over();
+    }
     // Each axis's closed gate is handed over right after its tick (fewer values kept
     // across the other axes' ticks: 14 instructions fewer on the worst tick than after all
     // three); the bottom half is pended once.
@@ -244,23 +250,16 @@ pub fn on_tick_triad<const INJECT: bool, const RECORD: bool>(ctx: &mut Option<Tr
         critical_section::with(|cs| RECORDED.borrow(cs).replace(Some(rec)));
     }
     if closed != 0 {
-        CLOSED_MASK.store(
-            CLOSED_MASK.load(Ordering::Relaxed) | closed,
-            Ordering::Relaxed,
-        );
+        CLOSED_MASK.store(closed, Ordering::Relaxed);
         cortex_m::peripheral::NVIC::pend(GATE_IRQ);
     }
 }
 
-/// Put axis `k`'s closed gate in its slot; returns its bit for the mask.
+/// Put axis `k`'s closed gate in its slot (empty: the tick emptied every slot first);
+/// returns its bit for the mask.
 #[allow(clippy::inline_always, reason = "tick path: inside the TIM2 handler")]
 #[inline(always)]
 fn hand_over(k: usize, g: Gate) -> u32 {
-    if CLOSED_MASK.load(Ordering::Relaxed) & (1 << k) != 0 {
-        // Cannot happen (the pended bottom half runs before the next tick); should it,
-        // queue the waiting gate first, in order: nothing is lost.
-        queue_waiting(k);
-    }
     CLOSED_PULSES[k].store(g.pulses, Ordering::Relaxed);
     CLOSED_TICKS[k].store(g.ticks, Ordering::Relaxed);
     1 << k
@@ -279,6 +278,13 @@ fn queue_waiting(k: usize) {
         Ordering::Relaxed,
     );
     critical_section::with(|cs| TRIAD_GATES.borrow_ref_mut(cs)[k].push(g));
+}
+
+/// [`on_gate_triad`] from the tick, off its straight-line path.
+#[cold]
+#[inline(never)]
+fn queue_left_over() {
+    on_gate_triad();
 }
 
 /// The triad's bottom half (body of the [`GATE_IRQ`] handler): queue every waiting gate,
