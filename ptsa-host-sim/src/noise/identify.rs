@@ -96,6 +96,26 @@ const JOBS_PER_CALL: usize = 16;
 /// Familywise level of the candidates' Holm step-down.
 pub const ALPHA: f64 = 0.05;
 
+/// Times the joint fit's weights are re-evaluated at its values at most.
+const REWEIGHTS: usize = 4;
+
+/// Records simulated at a point of the noises for the weights ([`Grid::weights`]).
+const REPLICAS: u64 = 24;
+
+/// Added to the seed for the weights' records (apart from the grid's).
+const REPLICA_SEED: u64 = 0x005E_ED0F_A11A;
+
+/// How much of the replicas' correlation between two τ is kept (the rest shrunk to 0).
+const SHRINK: f64 = 0.5;
+
+/// Mixed into the seed for the grid's input offsets.
+const GRID_SEED: u64 = 0x6121_D5EE_D000;
+
+/// The least variance of a τ's `ln AVAR` (a 1 % deviation): at short τ the count pattern
+/// repeats to a part in a thousand from record to record, closer than the grid's
+/// interpolation between its nodes can follow.
+const MIN_LOG_VARIANCE: f64 = 1e-4;
+
 /// `χ²₁(0.95)`: the profile's 95 % interval.
 const CHI2_1_95: f64 = 3.841_458_820_694_124;
 
@@ -203,18 +223,133 @@ struct Grid<'a> {
     gate_ticks: u64,
     gates: u64,
     tau0_s: f64,
-    /// The measured record's τ: (m, τ, AVAR, EDF).
-    measured: Vec<(usize, f64, f64, f64)>,
+    /// The error the counting leaves in the record's mean, cm/s²: the charge the loop
+    /// holds at either end, up to a pulse each, over the record's span (`pulse/(T·√6)`, the
+    /// difference of two uniform fractions of a pulse).
+    counting_sd_cm_s2: f64,
+    /// The measured record's τ: (m, τ, AVAR).
+    measured: Vec<(usize, f64, f64)>,
     /// The axes' values: u (µV), N (cm/s²/√Hz), K (cm/s²·√Hz).
     axes: [Vec<f64>; 3],
     /// The file's node (its pickoff noise, no N, no K).
     base: Node,
-    /// Per node, per measured τ: the simulated mean AVAR and its EDF (all seeds).
-    curves: HashMap<Node, Vec<(f64, f64)>>,
+    /// Per node, per measured τ: the simulated mean AVAR (all seeds, control variate).
+    curves: HashMap<Node, Vec<f64>>,
+    /// Per point of the noises (their bits): the weights.
+    weights: HashMap<[u64; 3], Weights>,
+}
+
+/// One simulated record: the loop with a pickoff noise of `uv` µV rms and `noise` at its
+/// input around `input_cm_s2`, the pickoff noise drawn from `seed`, the input noise from
+/// `!seed`.
+#[derive(Clone, Copy)]
+struct Lane {
+    uv: f64,
+    noise: InputNoise,
+    input_cm_s2: f64,
+    seed: u64,
+}
+
+/// How the points are weighed: each τ's bias correction of `ln M − ln S` (half the
+/// difference of the logs' variances) and the inverse of their covariance across the τ.
+#[derive(Clone, Debug, PartialEq)]
+struct Weights {
+    /// Per τ: the bias of `ln M − ln S` to take out.
+    bias: Vec<f64>,
+    /// The inverse covariance of `ln M − ln S` over the τ, row-major.
+    inverse: Vec<f64>,
+}
+
+impl Weights {
+    /// Independent points: variances `measured` of `ln M` and `simulated` of `ln S`.
+    #[cfg(test)]
+    fn diagonal(measured: &[f64], simulated: &[f64]) -> Self {
+        let n = measured.len();
+        let mut inverse = vec![0.0; n * n];
+        for k in 0..n {
+            inverse[k * n + k] = 1.0 / (measured[k] + simulated[k]);
+        }
+        Self {
+            bias: measured
+                .iter()
+                .zip(simulated)
+                .map(|(m, s)| (m - s) / 2.0)
+                .collect(),
+            inverse,
+        }
+    }
 }
 
 impl Grid<'_> {
-    /// Simulate the nodes not yet simulated, all at once.
+    /// The records of `lanes`, on the batch engine: per lane, per measured τ, the Allan
+    /// variance of its counts and the same with the control variate (the drawn input's own
+    /// Allan variance out, its expectation in: what is left varies as the loop does, not as
+    /// one draw of the added noises).
+    fn simulate(&self, lanes: &[Lane]) -> Vec<Vec<(f64, f64)>> {
+        let mut out = Vec::with_capacity(lanes.len());
+        for chunk in lanes.chunks(JOBS_PER_CALL) {
+            let instrs: Vec<Instrument> = chunk
+                .iter()
+                .map(|l| {
+                    let mut i = self.instr.clone();
+                    i.noise_v_rms = l.uv * 1e-6;
+                    i
+                })
+                .collect();
+            let accels: Vec<Vec<f64>> = chunk
+                .iter()
+                .map(|l| {
+                    l.noise
+                        .gate_accels(l.input_cm_s2, self.tau0_s, self.gates, !l.seed)
+                })
+                .collect();
+            let jobs: Vec<RecordJob<'_>> = chunk
+                .iter()
+                .zip(&instrs)
+                .zip(&accels)
+                .map(|((l, instr), a)| RecordJob {
+                    instr,
+                    seed: l.seed,
+                    accel_cm_s2: l.input_cm_s2,
+                    gate_accels_cm_s2: a,
+                })
+                .collect();
+            let counts =
+                Engine::default().simulate_records(&jobs, self.opts, self.gate_ticks, self.gates);
+            for ((l, c), input) in chunk.iter().zip(&counts).zip(&accels) {
+                let y: Vec<f64> = super::record_gates(c, self.gate_ticks, self.instr.clock_hz)
+                    .iter()
+                    .map(|g| g.indicated_cm_s2(self.instr.sf_cm_s2))
+                    .collect();
+                let (counted, drawn) = (allan::Sums::new(&y), allan::Sums::new(input));
+                out.push(
+                    self.measured
+                        .iter()
+                        .map(|&(m, ..)| {
+                            let a = counted.avar(m).map_or(f64::NAN, |x| x.0);
+                            let cv = match drawn.avar(m) {
+                                Some((d, _)) if !input.is_empty() => {
+                                    (a - d + l.noise.expected_avar(self.tau0_s, m)).max(a * 1e-6)
+                                }
+                                _ => a,
+                            };
+                            (a, cv)
+                        })
+                        .collect(),
+                );
+            }
+        }
+        out
+    }
+
+    /// Simulate the nodes not yet simulated, all at once: [`SEEDS`] records each (seeds
+    /// `seed + s`, the same at every node), their control-variate Allan variances averaged.
+    /// The count pattern at rest depends on the input (the fraction of a pulse a gate
+    /// leaves over), and the record's true input is known only to its mean's error: each
+    /// seed's input is the measured mean moved by a fixed draw times that error at the
+    /// node (the added noises' [`InputNoise::mean_sd`] and the counting's), so that the
+    /// curve is the pattern's expectation over where the input may be, not its value at
+    /// the measured mean.
     fn ensure(&mut self, nodes: &[Node]) {
         let mut todo: Vec<Node> = nodes
             .iter()
@@ -226,68 +361,123 @@ impl Grid<'_> {
         if todo.is_empty() {
             return;
         }
-        let instrs: Vec<Instrument> = todo
+        let (axes, seed, input) = (&self.axes, self.opts.seed, self.input_cm_s2);
+        let counting_sd = self.counting_sd_cm_s2;
+        let span = self.gates as f64 * self.tau0_s;
+        let offsets = standard_normals(SEEDS, seed ^ GRID_SEED);
+        let lanes: Vec<Lane> = todo
             .iter()
-            .map(|n| {
-                let mut i = self.instr.clone();
-                i.noise_v_rms = self.axes[0][n[0]] * 1e-6;
-                i
+            .flat_map(|n| {
+                let noise = InputNoise {
+                    white_cm_s2_rthz: axes[1][n[1]],
+                    walk_cm_s2_rthz: axes[2][n[2]],
+                };
+                let sd = noise.mean_sd(span).hypot(counting_sd);
+                offsets.iter().zip(0..).map(move |(&z, s)| Lane {
+                    uv: axes[0][n[0]],
+                    noise,
+                    input_cm_s2: input + sd * z,
+                    seed: seed.wrapping_add(s),
+                })
             })
             .collect();
-        let lanes: Vec<(usize, u64)> = (0..todo.len())
-            .flat_map(|i| (0..SEEDS).map(move |s| (i, s)))
+        let records = self.simulate(&lanes);
+        for (n, seeds) in todo
+            .into_iter()
+            .zip(records.chunks(usize::try_from(SEEDS).unwrap_or(1)))
+        {
+            let mean = (0..self.measured.len())
+                .map(|k| seeds.iter().map(|r| r[k].1).sum::<f64>() / SEEDS as f64)
+                .collect();
+            self.curves.insert(n, mean);
+        }
+    }
+
+    /// The weights at the noises `values` (u, N, K): the variance of each τ's `ln AVAR`
+    /// over [`REPLICAS`] records simulated there (seeds apart from the grid's), each around
+    /// the measured mean moved by a draw of that mean's own error (`√(N²/T + K²T/3)` for a
+    /// record of `T` s): the record's `ln M` varies as they do; the simulated mean's
+    /// `ln S`, of [`SEEDS`] records with the control variate, as theirs with it over
+    /// [`SEEDS`]. A parametric bootstrap: the loop's count pattern, dithered by the noises,
+    /// varies far from as a chi-squared EDF says (less at short τ, more in the middle), and
+    /// where the added noises dominate their few degrees of freedom rule.
+    fn weights(&mut self, values: [f64; 3]) -> Weights {
+        let key = values.map(f64::to_bits);
+        if let Some(w) = self.weights.get(&key) {
+            return w.clone();
+        }
+        let noise = InputNoise {
+            white_cm_s2_rthz: values[1],
+            walk_cm_s2_rthz: values[2],
+        };
+        let sd = noise
+            .mean_sd(self.gates as f64 * self.tau0_s)
+            .hypot(self.counting_sd_cm_s2);
+        let lanes: Vec<Lane> = standard_normals(REPLICAS, self.opts.seed ^ REPLICA_SEED)
+            .into_iter()
+            .zip(0..)
+            .map(|(z, r)| Lane {
+                uv: values[0],
+                noise,
+                input_cm_s2: self.input_cm_s2 + sd * z,
+                seed: self.opts.seed.wrapping_add(REPLICA_SEED).wrapping_add(r),
+            })
             .collect();
-        let mut sums: Vec<Vec<(f64, f64)>> =
-            vec![vec![(0.0, 0.0); self.measured.len()]; todo.len()];
-        for chunk in lanes.chunks(JOBS_PER_CALL) {
-            let accels: Vec<Vec<f64>> = chunk
+        let records = self.simulate(&lanes);
+        let n = self.measured.len();
+        let logs = |pick: fn(&(f64, f64)) -> f64| -> Vec<Vec<f64>> {
+            records
                 .iter()
-                .map(|&(i, s)| {
-                    let n = todo[i];
-                    InputNoise {
-                        white_cm_s2_rthz: self.axes[1][n[1]],
-                        walk_cm_s2_rthz: self.axes[2][n[2]],
+                .map(|r| r.iter().map(|x| pick(x).ln()).collect())
+                .collect()
+        };
+        let covariance = |x: &[Vec<f64>]| -> Vec<f64> {
+            let mean: Vec<f64> = (0..n)
+                .map(|k| x.iter().map(|r| r[k]).sum::<f64>() / x.len() as f64)
+                .collect();
+            let mut c = vec![0.0; n * n];
+            for r in x {
+                for a in 0..n {
+                    for b in 0..n {
+                        c[a * n + b] += (r[a] - mean[a]) * (r[b] - mean[b]) / (x.len() - 1) as f64;
                     }
-                    .gate_accels(
-                        self.input_cm_s2,
-                        self.tau0_s,
-                        self.gates,
-                        !self.opts.seed.wrapping_add(s),
-                    )
-                })
-                .collect();
-            let jobs: Vec<RecordJob<'_>> = chunk
-                .iter()
-                .zip(&accels)
-                .map(|(&(i, s), a)| RecordJob {
-                    instr: &instrs[i],
-                    seed: self.opts.seed.wrapping_add(s),
-                    accel_cm_s2: self.input_cm_s2,
-                    gate_accels_cm_s2: a,
-                })
-                .collect();
-            let counts =
-                Engine::default().simulate_records(&jobs, self.opts, self.gate_ticks, self.gates);
-            for (&(i, _), c) in chunk.iter().zip(&counts) {
-                let g = super::record_gates(c, self.gate_ticks, self.instr.clock_hz);
-                let y: Vec<f64> = g
-                    .iter()
-                    .map(|g| g.indicated_cm_s2(self.instr.sf_cm_s2))
-                    .collect();
-                let pts = allan::analyse(&y, self.tau0_s);
-                for (k, &(m, ..)) in self.measured.iter().enumerate() {
-                    let (a, e) = pts
-                        .iter()
-                        .find(|q| q.m == m)
-                        .map_or((f64::NAN, 0.0), |q| (q.adev * q.adev, q.edf));
-                    sums[i][k].0 += a / SEEDS as f64;
-                    sums[i][k].1 += e;
                 }
             }
+            c
+        };
+        let measured = covariance(&logs(|x| x.0));
+        let simulated = covariance(&logs(|x| x.1));
+        let var = |c: &[f64], k: usize| c[k * n + k].max(MIN_LOG_VARIANCE);
+        // The record's covariance: the replicas' correlations shrunk halfway to none (24
+        // records estimate them roughly), on their variances; the simulated mean's
+        // variances over the seeds, its points taken as independent.
+        let mut total = nalgebra::DMatrix::<f64>::zeros(n, n);
+        for a in 0..n {
+            for b in 0..n {
+                let sd = (var(&measured, a) * var(&measured, b)).sqrt();
+                let rho = if a == b {
+                    1.0
+                } else {
+                    SHRINK * measured[a * n + b]
+                        / (measured[a * n + a] * measured[b * n + b])
+                            .sqrt()
+                            .max(f64::MIN_POSITIVE)
+                };
+                total[(a, b)] = rho * sd;
+            }
+            total[(a, a)] += var(&simulated, a) / SEEDS as f64;
         }
-        for (n, c) in todo.into_iter().zip(sums) {
-            self.curves.insert(n, c);
-        }
+        let inverse = total.clone().try_inverse().unwrap_or_else(|| {
+            nalgebra::DMatrix::from_diagonal(&total.diagonal().map(|v| 1.0 / v))
+        });
+        let w = Weights {
+            bias: (0..n)
+                .map(|k| (var(&measured, k) - var(&simulated, k) / SEEDS as f64) / 2.0)
+                .collect(),
+            inverse: (0..n * n).map(|i| inverse[(i / n, i % n)]).collect(),
+        };
+        self.weights.insert(key, w.clone());
+        w
     }
 
     /// The nodes a set of free axes needs: every node of their sub-grid, the other axes at
@@ -311,7 +501,7 @@ impl Grid<'_> {
 
     /// The simulated curve at `values` (u, N, K; the axes not in `free` at the base):
     /// multilinear in the squares between the nodes.
-    fn at(&self, free: &[usize], values: [f64; 3]) -> Vec<(f64, f64)> {
+    fn at(&self, free: &[usize], values: [f64; 3]) -> Vec<f64> {
         // Per axis: (lower node, upper node, weight of the upper).
         let cell: Vec<(usize, usize, f64)> = (0..3)
             .map(|a| {
@@ -333,7 +523,7 @@ impl Grid<'_> {
                 (k, (k + 1).min(g.len() - 1), t)
             })
             .collect();
-        let mut out = vec![(0.0, f64::INFINITY); self.measured.len()];
+        let mut out = vec![0.0; self.measured.len()];
         for corner in 0..8usize {
             let mut w = 1.0;
             let mut node = [0; 3];
@@ -350,34 +540,34 @@ impl Grid<'_> {
                 continue;
             }
             let c = &self.curves[&node];
-            for (o, &(v, e)) in out.iter_mut().zip(c) {
-                o.0 += w * v;
-                o.1 = o.1.min(e);
+            for (o, &v) in out.iter_mut().zip(c) {
+                *o += w * v;
             }
         }
         out
     }
 
-    /// `χ²` of the measured points against the curve `sim`, on the log scale: `ln M − ln S`
-    /// with each log's bias `−1/ν` taken out, over its variance `2/ν_m + 2/ν_s` (of a
-    /// variance estimate with ν degrees of freedom, `ln` has a bias of about `−1/ν` and a
-    /// variance of about `2/ν`). The weights do not depend on the model (weights `2S²/ν`
-    /// would pull the fit towards larger noises).
-    fn chi2(&self, sim: &[(f64, f64)]) -> f64 {
-        self.measured
+    /// `χ²` of the measured points against the curve `sim`, on the log scale: the residuals
+    /// `ln M − ln S` with each log's bias (`−v/2` for a log of variance `v`) taken out,
+    /// `rᵀ C⁻¹ r` with their covariance `C` across the τ ([`Grid::weights`]), the weights
+    /// held fixed while a profile compares values: weights that move with the model would
+    /// pull the fit towards larger noises.
+    fn chi2(&self, sim: &[f64], w: &Weights) -> f64 {
+        let r: Vec<f64> = sim
             .iter()
-            .zip(sim)
-            .map(|(&(_, _, m, nu_m), &(s, nu_s))| {
-                let nu_s = nu_s.max(1.0);
-                let r = (m.ln() + 1.0 / nu_m) - (s.ln() + 1.0 / nu_s);
-                r * r / (2.0 / nu_m + 2.0 / nu_s)
-            })
+            .zip(&self.measured)
+            .zip(&w.bias)
+            .map(|((&s, &(_, _, m)), &b)| m.ln() - s.ln() + b)
+            .collect();
+        let n = r.len();
+        (0..n)
+            .map(|i| r[i] * (0..n).map(|j| w.inverse[i * n + j] * r[j]).sum::<f64>())
             .sum()
     }
 
     /// The profile of a set of free axes on a mesh: the best `χ²`, its values, and per free
     /// axis the mesh's values with the least `χ²` at each (for the intervals).
-    fn profile(&mut self, free: &[usize]) -> Profile {
+    fn profile(&mut self, free: &[usize], w: &Weights) -> Profile {
         self.ensure(&self.nodes(free));
         let base = [
             self.axes[0][self.base[0]],
@@ -386,7 +576,7 @@ impl Grid<'_> {
         ];
         if free.is_empty() {
             return Profile {
-                chi2: self.chi2(&self.at(free, base)),
+                chi2: self.chi2(&self.at(free, base), w),
                 values: base,
                 marginals: Vec::new(),
             };
@@ -416,7 +606,7 @@ impl Grid<'_> {
                 r /= steps;
                 v[a] = mesh[j][idx[j]];
             }
-            let c = self.chi2(&self.at(free, v));
+            let c = self.chi2(&self.at(free, v), w);
             if c < best.0 {
                 best = (c, v);
             }
@@ -431,6 +621,37 @@ impl Grid<'_> {
             marginals,
         }
     }
+}
+
+impl Grid<'_> {
+    /// The fit of the noises `free` from `start`, its weights ([`Grid::weights`])
+    /// re-evaluated at its values until they settle (at most [`REWEIGHTS`] times): the fit
+    /// and the weights it was made with.
+    fn settle(&mut self, free: &[usize], start: [f64; 3]) -> (Profile, Weights) {
+        let mut at = start;
+        let mut w = self.weights(at);
+        let mut prof = self.profile(free, &w);
+        for _ in 0..REWEIGHTS {
+            if prof.values.map(f64::to_bits) == at.map(f64::to_bits) {
+                break;
+            }
+            at = prof.values;
+            w = self.weights(at);
+            prof = self.profile(free, &w);
+        }
+        (prof, w)
+    }
+}
+
+/// `count` standard normal draws from `seed`: where each simulated record's input sits
+/// around the measured mean, in units of its error.
+fn standard_normals(count: u64, seed: u64) -> Vec<f64> {
+    use rand::SeedableRng as _;
+    use rand_distr::Distribution as _;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (0..count)
+        .map(|_| rand_distr::StandardNormal.sample(&mut rng))
+        .collect()
 }
 
 /// A profile's result.
@@ -476,11 +697,11 @@ pub fn identify(
         .iter()
         .position(|&u| (u - file_uv).abs() < 1e-9)
         .unwrap_or(0);
-    let pts: Vec<(usize, f64, f64, f64)> = measured
+    let pts: Vec<(usize, f64, f64)> = measured
         .points
         .iter()
         .filter(|p| p.adev > 0.0 && p.adev.is_finite())
-        .map(|p| (p.m, p.tau_s, p.adev * p.adev, p.edf))
+        .map(|p| (p.m, p.tau_s, p.adev * p.adev))
         .collect();
     let n2_max = measured
         .points
@@ -500,6 +721,8 @@ pub fn identify(
         input_cm_s2,
         gate_ticks: record.gates[0].ticks,
         gates: record.gates.len() as u64,
+        counting_sd_cm_s2: measured.pulse_cm_s
+            / (record.gates.len() as f64 * record.tau0_s * 6f64.sqrt()),
         tau0_s: record.tau0_s,
         measured: pts,
         axes: [
@@ -509,17 +732,14 @@ pub fn identify(
         ],
         base: [base_u, 0, 0],
         curves: HashMap::new(),
+        weights: HashMap::new(),
     };
     // The first step's nodes (each noise alone), all at once; the τ kept are those with a
     // positive simulated AVAR at every one of them.
     let first: Vec<Node> = (0..3).flat_map(|a| g.nodes(&[a])).collect();
     g.ensure(&first);
     let keep: Vec<usize> = (0..g.measured.len())
-        .filter(|&i| {
-            g.curves
-                .values()
-                .all(|c| c[i].0.is_finite() && c[i].0 > 0.0)
-        })
+        .filter(|&i| g.curves.values().all(|c| c[i].is_finite() && c[i] > 0.0))
         .collect();
     g.measured = keep.iter().map(|&i| g.measured[i]).collect();
     g.curves = g
@@ -527,7 +747,13 @@ pub fn identify(
         .iter()
         .map(|(n, c)| (*n, keep.iter().map(|&i| c[i]).collect()))
         .collect();
-    let chi2_file = g.profile(&[]).chi2;
+    let base_values = [
+        g.axes[0][g.base[0]],
+        g.axes[1][g.base[1]],
+        g.axes[2][g.base[2]],
+    ];
+    let w = g.weights(base_values);
+    let chi2_file = g.profile(&[], &w).chi2;
     let normal = Normal::standard();
     let mut candidates: Vec<Candidate> = KINDS
         .iter()
@@ -540,45 +766,49 @@ pub fn identify(
             open_above: false,
         })
         .collect();
-    // Forward selection with Holm's thresholds.
+    // Forward selection with Holm's thresholds; each step's weights are the EDFs of the
+    // model selected so far, at its fitted values, for the model and every extension alike.
     let mut chosen: Vec<usize> = Vec::new();
-    let mut base = chi2_file;
+    let mut current = base_values;
     for step in 0..KINDS.len() {
         progress(step, KINDS.len());
-        let mut tested: Vec<(usize, f64, f64, f64)> = Vec::new();
+        let (prof, w) = g.settle(&chosen, current);
+        current = prof.values;
+        let base = prof.chi2;
+        let mut tested: Vec<(usize, f64, f64, [f64; 3])> = Vec::new();
         for (i, c) in candidates.iter().enumerate().filter(|(_, c)| !c.selected) {
             let mut free = chosen.clone();
             free.push(axis(c.kind));
             free.sort_unstable();
-            let chi2 = g.profile(&free).chi2;
-            let d = (base - chi2).max(0.0);
+            let prof = g.profile(&free, &w);
+            let d = (base - prof.chi2).max(0.0);
             let (stat, p) = if c.kind == Kind::Pickoff {
                 (d, crate::stats::chi2_sf(d, 1.0))
             } else {
                 let z = d.sqrt();
                 (z, if z.is_finite() { normal.sf(z) } else { 1.0 })
             };
-            tested.push((i, stat, p, chi2));
+            tested.push((i, stat, p, prof.values));
         }
         for &(i, stat, p, _) in &tested {
             candidates[i].statistic = stat;
             candidates[i].p = p;
         }
-        let Some(&(i, _, p, chi2)) = tested.iter().min_by(|a, b| a.2.total_cmp(&b.2)) else {
+        let Some(&(i, _, p, values)) = tested.iter().min_by(|a, b| a.2.total_cmp(&b.2)) else {
             break;
         };
         if p <= ALPHA / (KINDS.len() - step) as f64 {
             candidates[i].selected = true;
             chosen.push(axis(candidates[i].kind));
             chosen.sort_unstable();
-            base = chi2;
+            current = values;
         } else {
             break;
         }
     }
     progress(KINDS.len(), KINDS.len());
     if !chosen.is_empty() {
-        let prof = g.profile(&chosen);
+        let (prof, _) = g.settle(&chosen, current);
         let dof = g.measured.len().saturating_sub(chosen.len()).max(1) as f64;
         let birge2 = (prof.chi2 / dof).max(1.0);
         for (j, &a) in chosen.iter().enumerate() {
@@ -631,7 +861,7 @@ mod tests {
                         + axes[0][i].powi(2)
                         + 2.0 * axes[1][j].powi(2)
                         + 3.0 * axes[2][k].powi(2);
-                    curves.insert([i, j, k], vec![(v, 1000.0)]);
+                    curves.insert([i, j, k], vec![v]);
                 }
             }
         }
@@ -641,11 +871,13 @@ mod tests {
             input_cm_s2: 0.0,
             gate_ticks: 640,
             gates: 100,
+            counting_sd_cm_s2: 0.0,
             tau0_s: 0.01,
-            measured: vec![(1, 0.01, m, 1000.0)],
+            measured: vec![(1, 0.01, m)],
             axes,
             base: [1, 0, 0],
             curves,
+            weights: HashMap::new(),
         }
     }
 
@@ -662,23 +894,25 @@ mod tests {
             [0.0, 0.0, 0.0],
             [1.3, 0.05, 0.001],
         ] {
-            let got = g.at(&[0, 1, 2], v)[0].0;
+            let got = g.at(&[0, 1, 2], v)[0];
             assert!((got - f(v[0], v[1], v[2])).abs() < 1e-12, "{v:?}: {got}");
         }
-        let got = g.at(&[1], [1.7, 0.2, 0.015])[0].0;
+        let got = g.at(&[1], [1.7, 0.2, 0.015])[0];
         assert!((got - f(0.5, 0.2, 0.0)).abs() < 1e-12, "{got}");
     }
 
-    /// The profile finds the values that give the measured point (a χ² of 0), and its
-    /// marginal of each free noise is least there.
+    /// The profile finds the values that give the measured point (a χ² of nearly 0: the
+    /// logs' bias corrections, half their variances, differ by 0.001), and its marginal of
+    /// each free noise is least there.
     #[test]
     fn the_profile_finds_the_measured_value() {
         let (instr, opts) = (Instrument::kearfott_2401(), SimOptions::default());
+        let nu = Weights::diagonal(&[0.004], &[0.002]);
         // 1 + 1.5² = 3.25: u = 1.5 with N = K = 0.
         let mut g = hand_grid(&instr, &opts, 3.25);
-        let p = g.profile(&[0]);
+        let p = g.profile(&[0], &nu);
         assert!(
-            p.chi2 < 1e-6 && (p.values[0] - 1.5).abs() < 0.01,
+            p.chi2 < 2e-4 && (p.values[0] - 1.5).abs() < 0.01,
             "{:?} {}",
             p.values,
             p.chi2
@@ -690,15 +924,16 @@ mod tests {
         assert!((best.0 - 1.5).abs() < 0.01, "{best:?}");
         // 1 + 0.25 + 2·0.2² = 1.33: N = 0.2 at the base's u.
         let mut g = hand_grid(&instr, &opts, 1.33);
-        let p = g.profile(&[1]);
+        let p = g.profile(&[1], &nu);
         assert!(
-            p.chi2 < 1e-4 && (p.values[1] - 0.2).abs() < 0.002,
+            p.chi2 < 2e-4 && (p.values[1] - 0.2).abs() < 0.002,
             "{:?} {}",
             p.values,
             p.chi2
         );
-        // At the base (u = 0.5, N = 0): ln(1.33/1.25)² / (2/1000 + 2/1000) = 0.062035² / 0.004 = 0.9621.
-        let c = g.profile(&[]).chi2;
-        assert!((c - 0.9621).abs() < 1e-3, "{c}");
+        // At the base (u = 0.5, N = 0), the logs' variances 0.004 and 0.002:
+        // (ln(1.33/1.25) + 0.002 − 0.001)² / (0.004 + 0.002) = 0.063035² / 0.006 = 0.66224.
+        let c = g.profile(&[], &nu).chi2;
+        assert!((c - 0.66224).abs() < 1e-4, "{c}");
     }
 }

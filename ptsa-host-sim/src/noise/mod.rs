@@ -671,6 +671,28 @@ impl InputNoise {
     }
 }
 
+impl InputNoise {
+    /// The expected Allan variance of the accelerations [`InputNoise::gate_accels`] draws,
+    /// averaged over `m` gates of `tau0_s`, (cm/s²)²: the white part held per gate, `N²/τ`
+    /// (τ = m·τ₀), and the walk stepped per gate with variance `q = K²τ₀`,
+    /// `q·(2m² + 1)/(6m)` (the discrete random walk's, `K²τ/3` for large m).
+    #[must_use]
+    pub fn expected_avar(self, tau0_s: f64, m: usize) -> f64 {
+        let m = m as f64;
+        let tau = m * tau0_s;
+        let q = self.walk_cm_s2_rthz * self.walk_cm_s2_rthz * tau0_s;
+        self.white_cm_s2_rthz * self.white_cm_s2_rthz / tau + q * (2.0 * m * m + 1.0) / (6.0 * m)
+    }
+
+    /// The standard error, cm/s², that this noise gives the mean of a record of `span_s`
+    /// seconds: `√(N²/T + K²T/3)` (the white part's mean; the walk's mean over the record).
+    #[must_use]
+    pub fn mean_sd(self, span_s: f64) -> f64 {
+        let (n, k) = (self.white_cm_s2_rthz, self.walk_cm_s2_rthz);
+        (n * n / span_s + k * k * span_s / 3.0).sqrt()
+    }
+}
+
 /// The gates of a record from the pulses counted in each (`gate_ticks` ticks of
 /// `clock_hz`), `time_s` from 0.
 #[must_use]
