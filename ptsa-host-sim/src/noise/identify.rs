@@ -25,13 +25,24 @@
 //! interpolated multilinearly in `(u², N², K²)` (noise powers) between the grid's nodes, τ
 //! by τ. Nodes are simulated when a step needs them, all of a step's at once on the batch
 //! engine (lanes of their own instrument, seed and input accelerations), the same seeds at
-//! every node (common random numbers: the interpolation is smooth in the noises).
+//! every node (common random numbers: the interpolation is smooth in the noises). Each
+//! record's Allan variance has its drawn input's own Allan variance replaced by that
+//! variance's expectation ([`InputNoise::expected_avar`], a control variate: what is left
+//! varies as the loop does, not as one draw of `N` and `K`), and each seed's input sits
+//! at the measured mean moved by a fixed draw times the mean's own error (the added
+//! noises' [`InputNoise::mean_sd`] and the counting's): the count pattern depends on the
+//! input, which the record gives only to that error.
 //!
-//! The points are compared on the log scale: `ln M − ln S` (measured, simulated mean), each
-//! log's bias `−1/ν` taken out, over the variance `2/ν_m + 2/ν_s` (`ν_s` the simulated
-//! records' EDFs summed over the seeds; `ν` from the chi-squared EDF, [`super::EDF_METHOD`]). The octave points are **taken as
-//! independent**: they are not (the same gates enter every τ); the campaign in
-//! docs/noise.md measures what that does to the rates.
+//! The points are compared on the log scale: the residuals `ln M − ln S` (measured,
+//! simulated mean), each log's bias (half its variance) taken out, `χ² = rᵀ C⁻¹ r` with `C`
+//! their covariance across the τ: a parametric bootstrap, [`REPLICAS`] records simulated
+//! at the noises fitted so far (the correlations between τ shrunk halfway to none), held
+//! fixed while a profile compares values and re-evaluated at the fit until it settles.
+//! Neither the chi-squared EDF of the record's own noise type nor independent octave
+//! points describe a loop's record: its count pattern repeats from record to record far
+//! closer than a random noise's EDF says at short τ, varies more in the middle, and where
+//! the added noises dominate their few degrees of freedom and the overlap of the long τ
+//! rule (measured in docs/noise.md).
 //!
 //! The candidates are selected forward with Holm's thresholds (as discover selects): at
 //! step `j` each candidate left is tested given those already selected by the drop of the
@@ -80,12 +91,15 @@ pub const WALK_FRACTIONS: [f64; 6] = [0.0, 1.0 / 64.0, 1.0 / 16.0, 0.25, 0.5, 1.
 /// Simulated records averaged at each node of the grid (seeds `seed`, `seed + 1`, …).
 pub const SEEDS: u64 = 2;
 
-/// Records simulated at most by one identification (every node of the grid, [`SEEDS`]
-/// each), for the work estimate.
+/// Records simulated at most by one identification, for the work estimate: every node of
+/// the grid, [`SEEDS`] each, and the weights' [`REPLICAS`] at the file's loop and at each
+/// re-evaluation of a fit (one settled fit per step and the joint fit, each at most
+/// [`REWEIGHTS`]` + 1` times).
 pub const MAX_RECORDS: u64 = (PICKOFF_GRID_UV.len() as u64 + 1)
     * WHITE_FRACTIONS.len() as u64
     * WALK_FRACTIONS.len() as u64
-    * SEEDS;
+    * SEEDS
+    + (1 + (KINDS.len() as u64 + 1) * (REWEIGHTS as u64 + 1)) * REPLICAS;
 
 /// Mesh points per free noise in the profile: one, two or three noises free.
 const MESH: [usize; 3] = [321, 121, 49];
@@ -194,7 +208,8 @@ pub struct Identification {
     pub grid_white: Vec<f64>,
     /// The bias random walks of the grid, cm/s²·√Hz.
     pub grid_walk: Vec<f64>,
-    /// Records simulated (nodes × [`SEEDS`]).
+    /// Records simulated (nodes × [`SEEDS`], and [`REPLICAS`] for each point the weights
+    /// were evaluated at).
     pub simulated_records: usize,
     /// The octave τ used, s.
     pub taus: Vec<f64>,
@@ -393,14 +408,15 @@ impl Grid<'_> {
         }
     }
 
-    /// The weights at the noises `values` (u, N, K): the variance of each τ's `ln AVAR`
-    /// over [`REPLICAS`] records simulated there (seeds apart from the grid's), each around
-    /// the measured mean moved by a draw of that mean's own error (`√(N²/T + K²T/3)` for a
-    /// record of `T` s): the record's `ln M` varies as they do; the simulated mean's
-    /// `ln S`, of [`SEEDS`] records with the control variate, as theirs with it over
-    /// [`SEEDS`]. A parametric bootstrap: the loop's count pattern, dithered by the noises,
-    /// varies far from as a chi-squared EDF says (less at short τ, more in the middle), and
-    /// where the added noises dominate their few degrees of freedom rule.
+    /// The weights at the noises `values` (u, N, K), from [`REPLICAS`] records simulated
+    /// there (seeds apart from the grid's), each around the measured mean moved by a draw
+    /// of that mean's own error (as [`Grid::ensure`]): the record's `ln M` varies across the
+    /// τ as theirs do (their covariance, the correlations shrunk by [`SHRINK`]); the
+    /// simulated mean's `ln S`, of [`SEEDS`] records with the control variate, as theirs
+    /// with it over [`SEEDS`] (on the diagonal). A parametric bootstrap: the loop's count
+    /// pattern, dithered by the noises, varies far from as a chi-squared EDF says (less at
+    /// short τ, more in the middle), and where the added noises dominate their few degrees
+    /// of freedom and the overlap of the long τ rule.
     fn weights(&mut self, values: [f64; 3]) -> Weights {
         let key = values.map(f64::to_bits);
         if let Some(w) = self.weights.get(&key) {
@@ -834,7 +850,10 @@ pub fn identify(
         grid_uv,
         grid_white,
         grid_walk,
-        simulated_records: g.curves.len() * usize::try_from(SEEDS).unwrap_or(usize::MAX),
+        simulated_records: usize::try_from(
+            g.curves.len() as u64 * SEEDS + g.weights.len() as u64 * REPLICAS,
+        )
+        .unwrap_or(usize::MAX),
         taus: g.measured.iter().map(|x| x.1).collect(),
         chi2_file,
         candidates,
