@@ -111,16 +111,17 @@ const JOBS_PER_CALL: usize = 16;
 pub const ALPHA: f64 = 0.05;
 
 /// Times the joint fit's weights are re-evaluated at its values at most.
-const REWEIGHTS: usize = 4;
+pub const REWEIGHTS: usize = 4;
 
-/// Records simulated at a point of the noises for the weights ([`Grid::weights`]).
-const REPLICAS: u64 = 24;
+/// Records simulated at a point of the noises for the weights (the covariance of the
+/// points' `ln AVAR`; module docs).
+pub const REPLICAS: u64 = 24;
 
 /// Added to the seed for the weights' records (apart from the grid's).
 const REPLICA_SEED: u64 = 0x005E_ED0F_A11A;
 
 /// How much of the replicas' correlation between two τ is kept (the rest shrunk to 0).
-const SHRINK: f64 = 0.5;
+pub const SHRINK: f64 = 0.5;
 
 /// Mixed into the seed for the grid's input offsets.
 const GRID_SEED: u64 = 0x6121_D5EE_D000;
