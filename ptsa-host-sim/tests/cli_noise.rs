@@ -468,14 +468,15 @@ fn noisy_loop_record_u(
     s
 }
 
-/// `--identify`: a record of the file's own loop (another seed) identifies nothing; one
-/// with a white acceleration noise added identifies it, within 25 % of the value written in, and `--write-instrument` writes nothing without the pickoff noise.
+/// `--identify` on 60 s records: one of the file's own loop (another seed) identifies
+/// nothing, and `--write-instrument` writes nothing; one with a white acceleration noise
+/// added identifies it, within 25 % of the value written in, with a warning.
 #[test]
 fn identify_finds_what_was_added_and_nothing_else() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(
         tmp.path().join("own.csv"),
-        noisy_loop_record(3, 1, 12_000, 0.0, 0.0),
+        noisy_loop_record(3, 1, 6_000, 0.0, 0.0),
     )
     .unwrap();
     let o = ptsa_in(
@@ -503,7 +504,7 @@ fn identify_finds_what_was_added_and_nothing_else() {
     let n = 0.1;
     std::fs::write(
         tmp.path().join("n.csv"),
-        noisy_loop_record(3, 2, 12_000, n, 0.0),
+        noisy_loop_record(3, 2, 6_000, n, 0.0),
     )
     .unwrap();
     let o = ptsa_in(
@@ -645,8 +646,8 @@ fn identify_campaign() {
     );
 }
 
-/// `--write-instrument`: a record of the loop with a pickoff noise of 3 µV (the file says
-/// 0.5) identifies it, and the instrument file written holds a `noise_uv_rms` inside the
+/// `--write-instrument`: a 60 s record of the loop with a pickoff noise of 3 µV (the file
+/// says 0.5) identifies it, and the instrument file written holds a `noise_uv_rms` inside the
 /// interval reported; a second run does not replace that file without `--force` (its bytes
 /// unchanged), and `--write-instrument` asks for `--identify`.
 #[test]
@@ -661,7 +662,7 @@ fn write_instrument_puts_the_identified_pickoff_noise_back() {
         seed: 11,
         ..SimOptions::default()
     };
-    let g = simulate_record(&instr, &opts, 0.0, 640, 12_000);
+    let g = simulate_record(&instr, &opts, 0.0, 640, 6_000);
     std::fs::write(tmp.path().join("u3.csv"), record_csv(&g, &[])).unwrap();
     let args = [
         "noise",
