@@ -541,35 +541,14 @@ struct Campaign {
 /// (drawn uniform in 0.2–2 µV), a white acceleration noise `n` and a bias random walk `k`
 /// added, each through the library's identification.
 fn campaign(first: u64, records: u64, gates: u32, n: f64, k: f64) -> Campaign {
-    campaign_seeded(first, records, gates, n, k, false)
-}
-
-/// [`campaign`]; with `vary_seed`, each pair identified with its own simulation seed (the
-/// record's loop seed) instead of the default one, so that the grid's simulated records
-/// differ from pair to pair.
-fn campaign_seeded(
-    first: u64,
-    records: u64,
-    gates: u32,
-    n: f64,
-    k: f64,
-    vary_seed: bool,
-) -> Campaign {
     use ptsa_host_sim::Instrument;
     use ptsa_host_sim::noise::identify::{Kind, identify};
     use ptsa_host_sim::noise::{Analysis, check_record};
     use ptsa_host_sim::simulation::sim::SimOptions;
     use rand::Rng as _;
     let instr = Instrument::kearfott_2401();
-    let run = |text: &str, seed: u64| {
-        let opts = SimOptions {
-            seed: if vary_seed {
-                seed
-            } else {
-                SimOptions::default().seed
-            },
-            ..SimOptions::default()
-        };
+    let opts = SimOptions::default();
+    let run = |text: &str| {
         let g = ptsa_host_sim::lab::response::parse("c", text).unwrap();
         let lines: Vec<usize> = (0..g.len()).map(|k| k + 3).collect();
         let r = check_record("c", g, &lines, instr.clock_hz).unwrap();
@@ -579,12 +558,12 @@ fn campaign_seeded(
     let mut c = Campaign::default();
     let mut pick = ChaCha8Rng::seed_from_u64(first ^ 0x00C0_FFEE);
     for r in first..first + records {
-        let own = run(&noisy_loop_record(r, 2 * r, gates, 0.0, 0.0), r);
+        let own = run(&noisy_loop_record(r, 2 * r, gates, 0.0, 0.0));
         if own.candidates.iter().any(|c| c.selected) {
             c.false_any += 1;
         }
         let u: f64 = pick.random_range(0.2..2.0);
-        let id = run(&noisy_loop_record_u(r, 2 * r + 1, gates, n, k, Some(u)), r);
+        let id = run(&noisy_loop_record_u(r, 2 * r + 1, gates, n, k, Some(u)));
         for (j, (kind, truth)) in [
             (Kind::WhiteAcceleration, n),
             (Kind::RandomWalk, k),
@@ -633,7 +612,7 @@ fn identify_campaign_small() {
 
 /// The campaign of docs/noise.md (minutes; `PTSA_CAMPAIGN=100,12000 cargo test --release -p
 /// ptsa-host-sim --test cli_noise identify_campaign -- --ignored --nocapture`,
-/// `PTSA_CAMPAIGN=records,gates[,K[,vary]]`).
+/// `PTSA_CAMPAIGN=records,gates[,K]`).
 #[test]
 #[ignore = "a campaign of minutes; its figures are in docs/noise.md"]
 fn identify_campaign() {
@@ -643,10 +622,8 @@ fn identify_campaign() {
     // A third field sets the random walk added (default 0.005; 0: none, so that a `K`
     // selected is a false one).
     let k: f64 = v.get(2).map_or(0.005, |x| x.parse().unwrap());
-    // A fourth field `vary`: each pair identified with its own simulation seed.
-    let vary = v.get(3).is_some_and(|x| *x == "vary");
     let n = 0.1;
-    let c = campaign_seeded(1000, records, gates, n, k, vary);
+    let c = campaign(1000, records, gates, n, k);
     let mean =
         c.white.iter().sum::<f64>() / f64::from(u32::try_from(c.white.len().max(1)).unwrap());
     println!("N identified: mean {mean:.4} over {}", c.white.len());

@@ -25,7 +25,8 @@
 //! interpolated multilinearly in `(u², N², K²)` (noise powers) between the grid's nodes, τ
 //! by τ. Nodes are simulated when a step needs them, all of a step's at once on the batch
 //! engine (lanes of their own instrument, seed and input accelerations), the same seeds at
-//! every node (common random numbers: the interpolation is smooth in the noises). Each
+//! every node (common random numbers: the interpolation is smooth in the noises), drawn
+//! from the seed given mixed with the record's counts ([`record_seed`]). Each
 //! record's Allan variance has its drawn input's own Allan variance replaced by that
 //! variance's expectation ([`InputNoise::expected_avar`], a control variate: what is left
 //! varies as the loop does, not as one draw of `N` and `K`), and each seed's input sits
@@ -660,6 +661,33 @@ impl Grid<'_> {
     }
 }
 
+/// The record's own part of the simulation seed: FNV-1a (64 bits) over every gate's pulses
+/// and ticks, little-endian. [`identify`] draws its simulated records from the seed given
+/// mixed with this, so that the records of two measurements never share their draws: the
+/// grid's curves are the mean of [`SEEDS`] records a node, and with the same records
+/// behind every identification their Monte Carlo error moves every estimate alike instead
+/// of averaging out over a laboratory's records (docs/noise.md's campaign of 40 records:
+/// `N` 6.6 % high on average with one seed for all, 5.6 % with each record's own, its
+/// interval holding the value in 34, then 36, of 40). The same record with the same
+/// `--seed` gives the same result.
+#[must_use]
+pub fn record_seed(record: &Record) -> u64 {
+    const OFFSET: u64 = 0xCBF2_9CE4_8422_2325;
+    const PRIME: u64 = 0x0000_0100_0000_01B3;
+    let mut h = OFFSET;
+    for g in &record.gates {
+        for b in g
+            .pulses
+            .to_le_bytes()
+            .into_iter()
+            .chain(g.ticks.to_le_bytes())
+        {
+            h = (h ^ u64::from(b)).wrapping_mul(PRIME);
+        }
+    }
+    h
+}
+
 /// `count` standard normal draws from `seed`: where each simulated record's input sits
 /// around the measured mean, in units of its error.
 fn standard_normals(count: u64, seed: u64) -> Vec<f64> {
@@ -703,6 +731,11 @@ pub fn identify(
     measured: &Analysis,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Identification {
+    let mixed = SimOptions {
+        seed: opts.seed ^ record_seed(record),
+        ..*opts
+    };
+    let opts = &mixed;
     let input_cm_s2 = measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0);
     let file_uv = instr.noise_v_rms * 1e6;
     let mut grid_uv: Vec<f64> = PICKOFF_GRID_UV.to_vec();

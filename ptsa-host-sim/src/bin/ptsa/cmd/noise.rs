@@ -69,8 +69,9 @@ pub struct NoiseArgs {
     /// With --simulate: the gate, s (at least one limit cycle, 0.001 s at 64 kHz).
     #[arg(long, default_value_t = 0.01, value_name = "S", value_parser = positive_s)]
     pub gate_s: f64,
-    /// With --simulate or --compare: seed of the pickoff noise, a whole number from 0 to
-    /// 2^64 − 1, no unit.
+    /// With --simulate, --compare or --identify: seed of the simulated loop's pickoff
+    /// noise, a whole number from 0 to 2^64 − 1, no unit (with --identify mixed with the
+    /// record's own counts: two records never share their simulated records).
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,
