@@ -51,7 +51,7 @@ pub use bridge::{BridgeError, HBridge};
 pub use config::{Coef, Config, ConfigError, Level, Pole};
 pub use counter::{Count, Gate, GateFifo};
 pub use lanes::{LaneTicks, Lanes};
-pub use ptsa::{Polarity, Ptsa, Saturations, State, Tick};
+pub use ptsa::{Fnv, Polarity, Ptsa, Saturations, State, Tick};
 
 /// The crate's README (the page crates.io shows), compiled and run as a doctest so that its
 /// example keeps working; it exists only under `cargo test --doc`.

@@ -166,7 +166,7 @@ impl State {
         h.bytes(&s.sat_integrator[0].to_le_bytes());
         h.bytes(&s.sat_output[0].to_le_bytes());
         h.bytes(&s.sat_carry[0].to_le_bytes());
-        h.0
+        h.finish()
     }
 }
 
@@ -176,17 +176,36 @@ impl Default for State {
     }
 }
 
-struct Fnv(u64);
+/// FNV-1a, 64 bits: the digest of [`State::digest`], for anything that wants the same
+/// stable, dependency-free hash of bytes (the host's simulation seed of a record).
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv(u64);
 
 impl Fnv {
-    const fn new() -> Self {
+    /// The empty digest (the FNV-1a offset basis).
+    #[must_use]
+    pub const fn new() -> Self {
         Self(0xcbf2_9ce4_8422_2325)
     }
-    fn bytes(&mut self, b: &[u8]) {
+
+    /// Fold `b` in, byte by byte.
+    pub fn bytes(&mut self, b: &[u8]) {
         for &x in b {
             self.0 ^= u64::from(x);
             self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
         }
+    }
+
+    /// The digest of everything folded in so far.
+    #[must_use]
+    pub const fn finish(self) -> u64 {
+        self.0
+    }
+}
+
+impl Default for Fnv {
+    fn default() -> Self {
+        Self::new()
     }
 }
 

@@ -672,20 +672,12 @@ impl Grid<'_> {
 /// `--seed` gives the same result.
 #[must_use]
 pub fn record_seed(record: &Record) -> u64 {
-    const OFFSET: u64 = 0xCBF2_9CE4_8422_2325;
-    const PRIME: u64 = 0x0000_0100_0000_01B3;
-    let mut h = OFFSET;
+    let mut h = ptsa_core::Fnv::new();
     for g in &record.gates {
-        for b in g
-            .pulses
-            .to_le_bytes()
-            .into_iter()
-            .chain(g.ticks.to_le_bytes())
-        {
-            h = (h ^ u64::from(b)).wrapping_mul(PRIME);
-        }
+        h.bytes(&g.pulses.to_le_bytes());
+        h.bytes(&g.ticks.to_le_bytes());
     }
-    h
+    h.finish()
 }
 
 /// `count` standard normal draws from `seed`: where each simulated record's input sits
