@@ -41,7 +41,8 @@ fn json(o: &std::process::Output) -> serde_json::Value {
 
 /// White acceleration noise of σ per gate of τ₀: ADEV(mτ₀) = σ/√m inside the 95 %
 /// intervals (at most two octaves of fourteen outside), the velocity random walk
-/// N = σ·√τ₀ within 3 of its standard errors, the points' keys as documented.
+/// N = σ·√τ₀ within 3 of its standard errors, the points' keys as documented (the modified
+/// deviation inside its own interval).
 #[test]
 fn white_acceleration_noise_comes_back() {
     let tmp = tempfile::tempdir().unwrap();
@@ -65,8 +66,21 @@ fn white_acceleration_noise_comes_back() {
             "ci95_hi",
             "edf",
             "mdev_cm_s2",
+            "mdev_ci95_lo",
+            "mdev_ci95_hi",
+            "mdev_edf",
         ] {
             assert!(p.get(k).is_some(), "{k} missing: {p}");
+        }
+        if let Some(md) = p["mdev_cm_s2"].as_f64() {
+            let (lo, hi) = (
+                p["mdev_ci95_lo"].as_f64().unwrap(),
+                p["mdev_ci95_hi"].as_f64().unwrap(),
+            );
+            assert!(
+                lo < md && md < hi && p["mdev_edf"].as_f64().unwrap() >= 1.0,
+                "{p}"
+            );
         }
         let m = p["m"].as_f64().unwrap();
         let want = sigma / m.sqrt();
@@ -95,7 +109,12 @@ fn white_acceleration_noise_comes_back() {
     );
     assert_eq!(n["values"][1]["unit"], "ug/rtHz");
     assert!((n["values"][1]["value"].as_f64().unwrap() / got - 1019.716).abs() < 0.01);
-    assert!(v["edf_method"].as_str().unwrap().contains("NIST SP 1065"));
+    assert!(
+        v["edf_method"]
+            .as_str()
+            .unwrap()
+            .contains("Greenhall's EDF")
+    );
 }
 
 /// The text table: a header with units and one line per octave.

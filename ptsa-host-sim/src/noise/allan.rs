@@ -24,16 +24,16 @@
 //! `AVAR` estimated with `ν` equivalent degrees of freedom is distributed as
 //! `AVAR·χ²_ν/ν`, so the 95 % interval of the deviation is
 //! `[σ·√(ν/χ²_ν(0.975)), σ·√(ν/χ²_ν(0.025))]` (the quantiles of `statrs`'s χ²
-//! distribution). `ν` comes from the simple approximate formulas for the overlapping
-//! estimator by noise type that Howe, Allan and Barnes gave (1981), as tabulated in NIST
-//! Special Publication 1065 (Riley, *Handbook of Frequency Stability Analysis*, 2008,
-//! section 5.3, "Simple approximate formulas" for the overlapping ADEV), not Greenhall's
-//! general algorithm; see [`edf_simple`]. The noise type at each `τ` is identified by the
-//! lag-1 autocorrelation of the `m`-averaged series (Riley and Greenhall, 2004; see
-//! [`noise_id`]). The modified deviation carries no interval: these formulas are for the
-//! overlapping ADEV only.
+//! distribution). `ν` is Greenhall's (Greenhall and Riley, 2003; [`super::edf`]) for the
+//! overlapping and for the modified estimator, the algorithm Stable32 and allantools offer;
+//! the noise type at each `τ` is identified by the lag-1 autocorrelation of the
+//! `m`-averaged series (Riley and Greenhall, 2004; see [`noise_id`]). The simple
+//! approximate formulas of Howe, Allan and Barnes (1981) for the overlapping estimator,
+//! which NIST Special Publication 1065 tabulates, are [`edf_simple`], kept for comparison.
 
 use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+use super::edf::{self, Estimator};
 
 /// Fewest points of the `m`-averaged series the lag-1 autocorrelation identifies a noise
 /// type from (Riley and Greenhall recommend about 30).
@@ -81,6 +81,11 @@ pub struct Point {
     pub n_pairs: usize,
     /// Modified Allan deviation (`None` where `3m > N`).
     pub mdev: Option<f64>,
+    /// Its 95 % interval and equivalent degrees of freedom (Greenhall's, the same noise
+    /// type).
+    pub mdev_ci95: Option<(f64, f64)>,
+    /// The modified deviation's equivalent degrees of freedom.
+    pub mdev_edf: Option<f64>,
     /// The power-law exponent `α` of the identified noise (`S_y ∝ f^α`: 2 white velocity
     /// ("phase") noise, 1 flicker velocity, 0 white acceleration, −1 flicker acceleration,
     /// −2 random-walk acceleration).
@@ -317,8 +322,10 @@ pub fn analyse(y: &[f64], tau0_s: f64) -> Vec<Point> {
             last = Some(alpha);
         }
         let adev = avar.sqrt();
-        let edf = edf_simple(n, m, alpha);
+        let edf = edf::edf(Estimator::Overlapping, alpha, m, n).unwrap_or(1.0);
         let (lo, hi) = ci95(adev, edf);
+        let mdev = sums.mvar(m).map(f64::sqrt);
+        let mdev_edf = mdev.and(edf::edf(Estimator::Modified, alpha, m, n));
         #[allow(clippy::cast_precision_loss)]
         let tau_s = m as f64 * tau0_s;
         out.push(Point {
@@ -329,7 +336,9 @@ pub fn analyse(y: &[f64], tau0_s: f64) -> Vec<Point> {
             ci95_hi: hi,
             edf,
             n_pairs,
-            mdev: sums.mvar(m).map(f64::sqrt),
+            mdev,
+            mdev_ci95: mdev.zip(mdev_edf).map(|(d, e)| ci95(d, e)),
+            mdev_edf,
             alpha,
             alpha_source,
         });

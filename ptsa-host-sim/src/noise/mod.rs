@@ -21,6 +21,7 @@
 )]
 
 pub mod allan;
+pub mod edf;
 pub mod identify;
 pub mod terms;
 
@@ -176,7 +177,7 @@ pub struct Analysis {
 }
 
 /// The statement of the confidence intervals, for the JSON and the docs.
-pub const EDF_METHOD: &str = "chi-squared intervals with the simple EDF formulas for the overlapping ADEV (Howe, Allan & Barnes 1981, as NIST SP 1065 section 5.3 tabulates them), the noise type at each tau by the lag-1 autocorrelation (Riley & Greenhall 2004); not Greenhall's general EDF algorithm";
+pub const EDF_METHOD: &str = "chi-squared intervals with Greenhall's EDF algorithm (Greenhall & Riley 2003, as Stable32 and allantools compute it) for the overlapping and the modified ADEV, the noise type at each tau by the lag-1 autocorrelation (Riley & Greenhall 2004)";
 
 impl Analysis {
     /// Analyse `record` with the nominal SF `sf_cm_s2` and clock `clock_hz`.
@@ -249,6 +250,9 @@ impl Analysis {
                     "m": p.m,
                     "n_pairs": p.n_pairs,
                     "mdev_cm_s2": p.mdev,
+                    "mdev_ci95_lo": p.mdev_ci95.map(|c| c.0),
+                    "mdev_ci95_hi": p.mdev_ci95.map(|c| c.1),
+                    "mdev_edf": p.mdev_edf,
                     "alpha": p.alpha,
                     "alpha_source": p.alpha_source.name(),
                     "slope_to_next": self.slope(k),
@@ -313,7 +317,7 @@ impl Analysis {
         );
         let _ = writeln!(
             s,
-            "{:>12} {:>9} {:>12} {:>12} {:>12} {:>9} {:>6} {:>12} {:>7}",
+            "{:>12} {:>9} {:>12} {:>12} {:>12} {:>9} {:>6} {:>12} {:>12} {:>12} {:>7}",
             "tau_s",
             "m",
             "adev cm/s^2",
@@ -322,12 +326,14 @@ impl Analysis {
             "edf",
             "alpha",
             "mdev cm/s^2",
+            "mdev lo",
+            "mdev hi",
             "slope"
         );
         for (k, p) in self.points.iter().enumerate() {
             let _ = writeln!(
                 s,
-                "{:>12} {:>9} {:>12.5e} {:>12.5e} {:>12.5e} {:>9.1} {:>5}{} {:>12} {:>7}",
+                "{:>12} {:>9} {:>12.5e} {:>12.5e} {:>12.5e} {:>9.1} {:>5}{} {:>12} {:>12} {:>12} {:>7}",
                 sig(p.tau_s, 6),
                 p.m,
                 p.adev,
@@ -341,6 +347,10 @@ impl Analysis {
                     allan::NoiseIdSource::Assumed => "?",
                 },
                 p.mdev.map_or_else(|| "-".into(), |v| format!("{v:.5e}")),
+                p.mdev_ci95
+                    .map_or_else(|| "-".into(), |v| format!("{:.5e}", v.0)),
+                p.mdev_ci95
+                    .map_or_else(|| "-".into(), |v| format!("{:.5e}", v.1)),
                 self.slope(k)
                     .map_or_else(|| "-".into(), |v| format!("{v:.2}"))
             );
@@ -441,7 +451,17 @@ where
     let mut ys: Vec<f64> = a
         .points
         .iter()
-        .flat_map(|p| [p.ci95_lo, p.ci95_hi, p.adev, p.mdev.unwrap_or(p.adev)])
+        .flat_map(|p| {
+            let (lo, hi) = p.mdev_ci95.unwrap_or((p.adev, p.adev));
+            [
+                p.ci95_lo,
+                p.ci95_hi,
+                p.adev,
+                p.mdev.unwrap_or(p.adev),
+                lo,
+                hi,
+            ]
+        })
         .filter(|v| pos(*v))
         .collect();
     ys.sort_by(f64::total_cmp);
@@ -495,16 +515,27 @@ where
         ann.label("overlapping ADEV, 95 % interval")
             .legend(move |(x, y)| Circle::new((x + 9, y), 4, blue.filled()));
     }
+    // The modified deviation's interval a little to the right of its τ, apart from the
+    // overlapping one's.
+    chart
+        .draw_series(
+            a.points
+                .iter()
+                .filter_map(|p| p.mdev_ci95.map(|c| (p.tau_s * 1.06, c)))
+                .filter(|(_, c)| pos(c.0) && pos(c.1))
+                .map(|(t, c)| PathElement::new(vec![(t, c.0), (t, c.1)], BLACK)),
+        )
+        .map_err(err)?;
     let ann = chart
         .draw_series(
             a.points
                 .iter()
-                .filter_map(|p| p.mdev.filter(|v| pos(*v)).map(|v| (p.tau_s, v)))
+                .filter_map(|p| p.mdev.filter(|v| pos(*v)).map(|v| (p.tau_s * 1.06, v)))
                 .map(|p| TriangleMarker::new(p, 5, BLACK.filled())),
         )
         .map_err(err)?;
     if fonts {
-        ann.label("modified ADEV")
+        ann.label("modified ADEV, 95 % interval")
             .legend(|(x, y)| TriangleMarker::new((x + 9, y), 5, BLACK.filled()));
     }
     // 60 points a line across the τ range.
