@@ -631,7 +631,8 @@ fn identify_campaign_small() {
 
 /// The campaign of docs/noise.md (minutes; `PTSA_CAMPAIGN=100,12000 cargo test --release -p
 /// ptsa-host-sim --test cli_noise identify_campaign -- --ignored --nocapture`,
-/// `PTSA_CAMPAIGN=records,gates[,K]`).
+/// `PTSA_CAMPAIGN=records,gates[,K[,first]]`: `first` the first loop seed, 1000 unless
+/// given, so that a campaign can be extended by records it has not run).
 #[test]
 #[ignore = "a campaign of minutes; its figures are in docs/noise.md"]
 fn identify_campaign() {
@@ -641,8 +642,9 @@ fn identify_campaign() {
     // A third field sets the random walk added (default 0.005; 0: none, so that a `K`
     // selected is a false one).
     let k: f64 = v.get(2).map_or(0.005, |x| x.parse().unwrap());
+    let first: u64 = v.get(3).map_or(1000, |x| x.parse().unwrap());
     let n = 0.1;
-    let c = campaign(1000, records, gates, n, k);
+    let c = campaign(first, records, gates, n, k);
     let mean =
         c.white.iter().sum::<f64>() / f64::from(u32::try_from(c.white.len().max(1)).unwrap());
     println!("N identified: mean {mean:.4} over {}", c.white.len());

@@ -233,7 +233,12 @@ mod tests {
                 let w: Vec<f64> = (0..=gates).map(|_| StandardNormal.sample(rng)).collect();
                 w.windows(2).map(|p| p[1] - p[0]).collect()
             }
+            1 => {
+                let x = flicker(gates + 1, rng);
+                x.windows(2).map(|p| p[1] - p[0]).collect()
+            }
             0 => (0..gates).map(|_| StandardNormal.sample(rng)).collect(),
+            -1 => flicker(gates, rng),
             _ => {
                 let mut walk = 0.0;
                 (0..gates)
@@ -251,19 +256,33 @@ mod tests {
         }
     }
 
+    /// `n` points of flicker (`1/f`) noise: white draws through the fractional sum of order
+    /// 1/2 (Kasdin's filter, `h₀ = 1`, `h_j = h_{j−1}·(j − 1/2)/j`).
+    fn flicker(n: usize, rng: &mut rand_chacha::ChaCha8Rng) -> Vec<f64> {
+        let w: Vec<f64> = (0..n).map(|_| StandardNormal.sample(rng)).collect();
+        let mut h = vec![1.0; n];
+        for j in 1..n {
+            h[j] = h[j - 1] * (j as f64 - 0.5) / j as f64;
+        }
+        (0..n)
+            .map(|k| (0..=k).map(|j| h[j] * w[k - j]).sum())
+            .collect()
+    }
+
     /// Greenhall's EDF against the definition, `ν = 2·E[V]²/Var[V]` of the estimates `V`
-    /// over 4000 series drawn from each noise (white phase, white and random-walk
-    /// acceleration), 256 gates, at m = 1, 4, 16, 64, for the overlapping and the modified
-    /// estimator: within 15 % (the Monte Carlo's own standard error is 2–5 %; an error
-    /// in the algorithm's differences, weights or tables is a factor, not a few per cent).
+    /// over 4000 series drawn from each noise (white and flicker phase, white, flicker and
+    /// random-walk acceleration), 256 gates, at m = 1, 4, 16, 64, for the overlapping and
+    /// the modified estimator: within 15 % (the Monte Carlo's own standard error is 2–5 %;
+    /// an error in the algorithm's differences, weights or tables is a factor, not a few
+    /// per cent), but where the flicker's discrete draw is not the paper's model (below).
     #[test]
     fn greenhall_edf_matches_the_spread_of_drawn_estimates() {
         let gates = 256;
         let draws = 4000;
         let factors = [1usize, 4, 16, 64];
-        for alpha in [2i32, 0, -2] {
+        for alpha in [2i32, 1, 0, -1, -2] {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
-                0x00ED_F000 + u64::from(alpha.unsigned_abs()),
+                0x00ED_F000 + u64::from(alpha.unsigned_abs()) + u64::from(alpha < 0) * 16,
             );
             // Per m: the overlapping and the modified estimates.
             let mut est = vec![(Vec::new(), Vec::new()); factors.len()];
@@ -293,6 +312,14 @@ mod tests {
                     }
                     let want = nu(v);
                     let got = edf(estimator, alpha, m, gates + 1).unwrap();
+                    // Flicker velocity's overlapping ν depends on the bandwidth the phase is
+                    // taken in (the paper's average over a gate against Kasdin's discrete
+                    // filter: 9–18 % apart here), and flicker at m = 1 likewise (12 %).
+                    if (alpha == 1 && estimator == Estimator::Overlapping)
+                        || (alpha == -1 && m == 1)
+                    {
+                        continue;
+                    }
                     assert!(
                         (got / want - 1.0).abs() < 0.15,
                         "α {alpha}, m {m}, {estimator:?}: Greenhall {got:.2}, drawn {want:.2}"
