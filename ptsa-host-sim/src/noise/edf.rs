@@ -360,4 +360,84 @@ mod tests {
             }
         }
     }
+
+    /// Stable32 1.60's 68.3 % bounds for its sample file PHASE.DAT (1001 phase points, white
+    /// frequency noise, α = 0, octave m from 1 to 128), as published with allantools' tests
+    /// (`tests/phasedat/phase_dat_{oadev,mdev}_octave.txt`): minimum, sigma, maximum. The
+    /// bounds depend on the data only through sigma, so the ratios are Stable32's EDF.
+    const STABLE32_OADEV: [(usize, f64, f64, f64); 8] = [
+        (1, 2.8515e-1, 2.9223e-1, 2.9987e-1),
+        (2, 1.9520e-1, 2.0102e-1, 2.0738e-1),
+        (4, 1.3931e-1, 1.4479e-1, 1.5098e-1),
+        (8, 1.0038e-1, 1.0570e-1, 1.1198e-1),
+        (16, 5.7696e-2, 6.1915e-2, 6.7217e-2),
+        (32, 4.3654e-2, 4.8082e-2, 5.4202e-2),
+        (64, 3.1755e-2, 3.6237e-2, 4.3377e-2),
+        (128, 2.3045e-2, 2.7674e-2, 3.7027e-2),
+    ];
+    const STABLE32_MDEV: [(usize, f64, f64, f64); 8] = [
+        (1, 2.8515e-1, 2.9223e-1, 2.9987e-1),
+        (2, 1.5336e-1, 1.5821e-1, 1.6355e-1),
+        (4, 1.0322e-1, 1.0780e-1, 1.1304e-1),
+        (8, 6.9840e-2, 7.4192e-2, 7.9481e-2),
+        (16, 3.8022e-2, 4.1376e-2, 4.5809e-2),
+        (32, 3.0466e-2, 3.4255e-2, 3.9933e-2),
+        (64, 2.3687e-2, 2.7871e-2, 3.5511e-2),
+        (128, 1.4874e-2, 1.8669e-2, 2.8584e-2),
+    ];
+
+    /// Stable32's intervals, as a user reads them: our 68.3 % bounds over sigma against
+    /// Stable32's for PHASE.DAT within a relative 1e-3 (allantools' tolerance for the
+    /// same comparison; Stable32's ν above about 100 come out about 1 % above the paper's
+    /// sum, a change of 2e-4 in the bounds, which 1e-3 allows): the modified deviation at
+    /// every m from 2, the overlapping one at m = 64 and 128 (the paper's tables). The
+    /// overlapping one at m ≤ 32 departs from the paper on purpose (the phase point-sampled,
+    /// module docs): there the paper's own sum (`F = m`), built here from the basic sum, is
+    /// what Stable32 gives, and ours is the exact count for white frequency noise at m = 1,
+    /// `1/ν = (1 + (1 − 1/M)/2)/M`, not Stable32's (0.2 % apart in the bounds).
+    #[test]
+    fn stable32s_intervals_for_its_phase_dat() {
+        use crate::noise::allan::chi2_quantile;
+        let n = 1001usize;
+        let bounds = |nu: f64| {
+            let (p_lo, p_hi) = (0.841_344_746_068_543, 0.158_655_253_931_457);
+            (
+                (nu / chi2_quantile(p_lo, nu)).sqrt(),
+                (nu / chi2_quantile(p_hi, nu)).sqrt(),
+            )
+        };
+        let near = |nu: f64, (lo, sigma, hi): (f64, f64, f64)| {
+            let (a, b) = bounds(nu);
+            (a / (lo / sigma) - 1.0).abs() < 1e-3 && (b / (hi / sigma) - 1.0).abs() < 1e-3
+        };
+        for (m, lo, sigma, hi) in STABLE32_MDEV.into_iter().skip(1) {
+            let nu = edf(Estimator::Modified, 0, m, n).unwrap();
+            assert!(
+                near(nu, (lo, sigma, hi)),
+                "modified, m {m}: ν {nu:.1}, {:?}",
+                bounds(nu)
+            );
+        }
+        for (m, lo, sigma, hi) in STABLE32_OADEV {
+            let mf = m as f64;
+            let big_m = 1.0 + (n as f64 - 1.0 - 2.0 * mf).floor();
+            let nu = edf(Estimator::Overlapping, 0, m, n).unwrap();
+            let paper =
+                sq(sz(0.0, mf, 0)) * big_m / basic_sum(big_m.min(3.0 * mf), big_m, mf, mf, 0);
+            let row = (lo, sigma, hi);
+            if m >= 64 {
+                assert!(near(nu, row), "overlapping, m {m}: ν {nu:.1}");
+            } else {
+                assert!(
+                    near(paper, row),
+                    "overlapping, m {m}: the paper's ν {paper:.1}"
+                );
+            }
+            if m == 1 {
+                let exact = big_m / (1.0 + (1.0 - 1.0 / big_m) / 2.0);
+                assert!((nu / exact - 1.0).abs() < 1e-9, "{nu} against {exact}");
+                assert!(!near(nu, row), "ours is not Stable32's at m = 1");
+            }
+        }
+    }
 }
