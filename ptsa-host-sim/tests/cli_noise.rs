@@ -557,9 +557,16 @@ struct Campaign {
 
 /// Pairs of records of `gates` gates of 0.01 s of the shipped loop (loop seeds from
 /// `first`): one of the file's own noise, one with a pickoff noise the analyser is not told
-/// (drawn uniform in 0.2–2 µV), a white acceleration noise `n` and a bias random walk `k`
-/// added, each through the library's identification.
-fn campaign(first: u64, records: u64, gates: u32, n: f64, k: f64) -> Campaign {
+/// (drawn uniform in `pickoff`, µV rms), a white acceleration noise `n` and a bias random
+/// walk `k` added, each through the library's identification.
+fn campaign(
+    first: u64,
+    records: u64,
+    gates: u32,
+    n: f64,
+    k: f64,
+    pickoff: std::ops::Range<f64>,
+) -> Campaign {
     use ptsa_host_sim::Instrument;
     use ptsa_host_sim::noise::identify::{Kind, identify};
     use ptsa_host_sim::noise::{Analysis, check_record};
@@ -581,7 +588,7 @@ fn campaign(first: u64, records: u64, gates: u32, n: f64, k: f64) -> Campaign {
         if own.candidates.iter().any(|c| c.selected) {
             c.false_any += 1;
         }
-        let u: f64 = pick.random_range(0.2..2.0);
+        let u: f64 = pick.random_range(pickoff.clone());
         let id = run(&noisy_loop_record_u(r, 2 * r + 1, gates, n, k, Some(u)));
         for (j, (kind, truth)) in [
             (Kind::WhiteAcceleration, n),
@@ -622,7 +629,7 @@ fn campaign(first: u64, records: u64, gates: u32, n: f64, k: f64) -> Campaign {
 #[test]
 fn identify_campaign_small() {
     let (n, k) = (0.1, 0.005);
-    let c = campaign(2000, 2, 6000, n, k);
+    let c = campaign(2000, 2, 6000, n, k, 0.2..2.0);
     assert_eq!(c.false_any, 0, "{c:?}");
     assert_eq!(c.selected[0], 2, "{c:?}");
     assert_eq!(c.covered[0], 2, "{c:?}");
@@ -631,8 +638,9 @@ fn identify_campaign_small() {
 
 /// The campaign of docs/noise.md (minutes; `PTSA_CAMPAIGN=100,12000 cargo test --release -p
 /// ptsa-host-sim --test cli_noise identify_campaign -- --ignored --nocapture`,
-/// `PTSA_CAMPAIGN=records,gates[,K[,first]]`: `first` the first loop seed, 1000 unless
-/// given, so that a campaign can be extended by records it has not run).
+/// `PTSA_CAMPAIGN=records,gates[,K[,first[,lo-hi]]]`: `first` the first loop seed, 1000
+/// unless given, so that a campaign can be extended by records it has not run; `lo-hi` the
+/// range of the untold pickoff noise, µV rms, 0.2-2 unless given).
 #[test]
 #[ignore = "a campaign of minutes; its figures are in docs/noise.md"]
 fn identify_campaign() {
@@ -643,13 +651,19 @@ fn identify_campaign() {
     // selected is a false one).
     let k: f64 = v.get(2).map_or(0.005, |x| x.parse().unwrap());
     let first: u64 = v.get(3).map_or(1000, |x| x.parse().unwrap());
+    let (lo, hi) = v.get(4).map_or((0.2, 2.0), |x| {
+        let (lo, hi) = x
+            .split_once('-')
+            .expect("the pickoff range as lo-hi, in uV");
+        (lo.parse().unwrap(), hi.parse().unwrap())
+    });
     let n = 0.1;
-    let c = campaign(first, records, gates, n, k);
+    let c = campaign(first, records, gates, n, k, lo..hi);
     let mean =
         c.white.iter().sum::<f64>() / f64::from(u32::try_from(c.white.len().max(1)).unwrap());
     println!("N identified: mean {mean:.4} over {}", c.white.len());
     println!(
-        "campaign: {records} records of {gates} gates; own noise: {} with anything identified; pickoff 0.2-2 uV untold, N = {n}, K = {k} added: N selected {}, covered {}; K selected {}, covered {}; pickoff selected {}, covered {}",
+        "campaign: {records} records of {gates} gates; own noise: {} with anything identified; pickoff {lo}-{hi} uV untold, N = {n}, K = {k} added: N selected {}, covered {}; K selected {}, covered {}; pickoff selected {}, covered {}",
         c.false_any,
         c.selected[0],
         c.covered[0],
