@@ -56,7 +56,9 @@
 //! reported: a walk too weak to be selected still lifts the longest τ), and each reported
 //! with its profile's 95 % interval: the values whose `χ²`, minimised over the others (the
 //! walk included), is within `3.84·b²` of the minimum, `b` the joint fit's Birge ratio
-//! `√(χ²/dof)` when above 1; an interval reaching the grid's top is open above.
+//! `√(χ²/dof)` when above 1. A selected white noise or walk whose interval reaches its
+//! grid's top gets nodes above it ([`ABOVE_TOP`], at most [`EXTENSIONS`] times) and is
+//! fitted again; an interval that still reaches the top is open above.
 #![allow(
     clippy::cast_precision_loss,
     reason = "gate counts and grid indices, far below 2^52, as f64"
@@ -91,6 +93,14 @@ pub const WHITE_FRACTIONS: [f64; 8] = [
 /// The bias random walk's grid: `K²` as fractions of the record's largest.
 pub const WALK_FRACTIONS: [f64; 6] = [0.0, 1.0 / 64.0, 1.0 / 16.0, 0.25, 0.5, 1.0];
 
+/// The nodes added above a white noise's or a walk's grid when its interval reaches the
+/// top: `N²` (`K²`) at these multiples of the top.
+pub const ABOVE_TOP: [f64; 2] = [2.0, 4.0];
+
+/// Times a grid is extended by [`ABOVE_TOP`] at most (its top then 16 times the record's
+/// largest `N²`, `K²`).
+pub const EXTENSIONS: usize = 2;
+
 /// Simulated records averaged at each node of the grid (seeds `seed`, `seed + 1`, …).
 pub const SEEDS: u64 = 2;
 
@@ -99,10 +109,10 @@ pub const SEEDS: u64 = 2;
 /// re-evaluation of a fit (one settled fit per step and the joint fit, each at most
 /// [`REWEIGHTS`]` + 1` times).
 pub const MAX_RECORDS: u64 = (PICKOFF_GRID_UV.len() as u64 + 1)
-    * WHITE_FRACTIONS.len() as u64
-    * WALK_FRACTIONS.len() as u64
+    * (WHITE_FRACTIONS.len() + EXTENSIONS * ABOVE_TOP.len()) as u64
+    * (WALK_FRACTIONS.len() + EXTENSIONS * ABOVE_TOP.len()) as u64
     * SEEDS
-    + (1 + (KINDS.len() as u64 + 1) * (REWEIGHTS as u64 + 1)) * REPLICAS;
+    + (1 + (KINDS.len() + 1 + EXTENSIONS) as u64 * (REWEIGHTS as u64 + 1)) * REPLICAS;
 
 /// Mesh points per free noise in the profile: one, two or three noises free.
 const MESH: [usize; 3] = [321, 241, 49];
@@ -701,6 +711,23 @@ struct Profile {
     marginals: Vec<Vec<(f64, f64)>>,
 }
 
+/// The profile's 95 % interval of one free noise: the least and the largest of its mesh
+/// values whose least `χ²` is within `3.84·b²` of the minimum `best` (`b2` = `b²`).
+fn interval(marginal: &[(f64, f64)], best: f64, b2: f64) -> Option<(f64, f64)> {
+    let mut inside = marginal
+        .iter()
+        .filter(|x| x.1 - best <= CHI2_1_95 * b2)
+        .map(|x| x.0);
+    let lo = inside.next()?;
+    Some((lo, inside.next_back().unwrap_or(lo)))
+}
+
+/// The squared Birge ratio of a fit of the noises `free`, at least 1.
+fn birge_sq(g: &Grid<'_>, free: &[usize], prof: &Profile) -> f64 {
+    let dof = g.measured.len().saturating_sub(free.len()).max(1) as f64;
+    (prof.chi2 / dof).max(1.0)
+}
+
 /// The axis of a candidate.
 fn axis(kind: Kind) -> usize {
     match kind {
@@ -862,21 +889,39 @@ pub fn identify(
             free.push(axis(Kind::RandomWalk));
             free.sort_unstable();
         }
-        let (prof, _) = g.settle(&free, current);
-        let dof = g.measured.len().saturating_sub(free.len()).max(1) as f64;
-        let birge2 = (prof.chi2 / dof).max(1.0);
+        let (mut prof, _) = g.settle(&free, current);
+        // A selected white noise or walk whose interval reaches its grid's top (set from
+        // the record's upper bounds, the least over τ: one τ low by chance sets it low)
+        // gets nodes above it, and the fit is redone, at most [`EXTENSIONS`] times.
+        for _ in 0..EXTENSIONS {
+            let short: Vec<usize> = free
+                .iter()
+                .enumerate()
+                .filter(|&(j, &a)| {
+                    let top = g.axes[a].last().copied().unwrap_or(0.0);
+                    a != axis(Kind::Pickoff)
+                        && chosen.contains(&a)
+                        && interval(&prof.marginals[j], prof.chi2, birge_sq(&g, &free, &prof))
+                            .is_some_and(|(_, hi)| hi >= top)
+                })
+                .map(|(_, &a)| a)
+                .collect();
+            if short.is_empty() {
+                break;
+            }
+            for &a in &short {
+                let top = g.axes[a].last().copied().unwrap_or(0.0);
+                g.axes[a].extend(ABOVE_TOP.iter().map(|f| top * f.sqrt()));
+            }
+            prof = g.settle(&free, prof.values).0;
+        }
+        let b2 = birge_sq(&g, &free, &prof);
         for (j, &a) in free.iter().enumerate() {
             if !chosen.contains(&a) {
                 continue;
             }
-            let inside: Vec<f64> = prof.marginals[j]
-                .iter()
-                .filter(|x| x.1 - prof.chi2 <= CHI2_1_95 * birge2)
-                .map(|x| x.0)
-                .collect();
             let v = prof.values[a];
-            let lo = inside.first().copied().unwrap_or(v);
-            let hi = inside.last().copied().unwrap_or(v);
+            let (lo, hi) = interval(&prof.marginals[j], prof.chi2, b2).unwrap_or((v, v));
             let top = g.axes[a].last().copied().unwrap_or(0.0);
             if let Some(c) = candidates.iter_mut().find(|c| axis(c.kind) == a) {
                 c.value = Some((v, lo, hi));

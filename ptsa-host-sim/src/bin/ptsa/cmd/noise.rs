@@ -303,24 +303,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         None => None,
     };
     if let Some(id) = &identification {
-        let chosen: Vec<&str> = id
-            .candidates
-            .iter()
-            .filter(|c| c.selected)
-            .map(|c| c.kind.key())
-            .collect();
-        if !chosen.is_empty() {
-            warnings.push(format!(
-                "{name}: beyond the instrument file's loop the record needs {} (Holm, 5 % familywise): the file's noise is not the instrument's",
-                chosen.join(", ")
-            ));
-        }
-        if id.get(Kind::Pickoff).is_some_and(|c| c.open_above) {
-            warnings.push(format!(
-                "{name}: the pickoff noise's 95 % interval reaches the largest simulated value ({} uV): it is open above",
-                sig(id.grid_uv.last().copied().unwrap_or(0.0), 4)
-            ));
-        }
+        warnings.extend(identification_warnings(&name, id));
     }
     if let (Some((path, replaced)), Some(id)) = (&req.write_instrument, &identification) {
         write_identified(ctx, path, replaced.as_deref(), &name, id)?;
@@ -355,6 +338,38 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The identification's warnings: what the record needs beyond the file's loop, and each
+/// selected noise whose interval is open above.
+fn identification_warnings(name: &str, id: &Identification) -> Vec<String> {
+    let mut out = Vec::new();
+    let chosen: Vec<&str> = id
+        .candidates
+        .iter()
+        .filter(|c| c.selected)
+        .map(|c| c.kind.key())
+        .collect();
+    if !chosen.is_empty() {
+        out.push(format!(
+            "{name}: beyond the instrument file's loop the record needs {} (Holm, 5 % familywise): the file's noise is not the instrument's",
+            chosen.join(", ")
+        ));
+    }
+    for c in id.candidates.iter().filter(|c| c.selected && c.open_above) {
+        let top = match c.kind {
+            Kind::Pickoff => id.grid_uv.last(),
+            Kind::WhiteAcceleration => id.grid_white.last(),
+            Kind::RandomWalk => id.grid_walk.last(),
+        };
+        let unit = c.kind.units().first().map_or("", |u| u.0);
+        out.push(format!(
+            "{name}: the {}'s 95 % interval reaches the largest simulated value ({} {unit}): it is open above",
+            c.kind.key().replace('_', " "),
+            sig(top.copied().unwrap_or(0.0), 4)
+        ));
+    }
+    out
 }
 
 /// Simulate the loop at rest (refused beyond the work limit without `--force`), write its
