@@ -81,10 +81,10 @@ pub struct Point {
     pub n_pairs: usize,
     /// Modified Allan deviation (`None` where `3m > N`).
     pub mdev: Option<f64>,
-    /// Its 95 % interval and equivalent degrees of freedom (Greenhall's, the same noise
-    /// type).
+    /// Its 95 % interval (from [`Point::mdev_edf`]).
     pub mdev_ci95: Option<(f64, f64)>,
-    /// The modified deviation's equivalent degrees of freedom.
+    /// The modified deviation's equivalent degrees of freedom (Greenhall's, at the noise
+    /// type identified for the overlapping one).
     pub mdev_edf: Option<f64>,
     /// The power-law exponent `α` of the identified noise (`S_y ∝ f^α`: 2 white velocity
     /// ("phase") noise, 1 flicker velocity, 0 white acceleration, −1 flicker acceleration,

@@ -510,6 +510,11 @@ impl Grid<'_> {
         w
     }
 
+    /// The largest value of an axis of the grid.
+    fn top(&self, a: usize) -> f64 {
+        self.axes[a].last().copied().unwrap_or(0.0)
+    }
+
     /// The nodes a set of free axes needs: every node of their sub-grid, the other axes at
     /// the base.
     fn nodes(&self, free: &[usize]) -> Vec<Node> {
@@ -615,7 +620,7 @@ impl Grid<'_> {
         let mesh: Vec<Vec<f64>> = free
             .iter()
             .map(|&a| {
-                let top = self.axes[a].last().copied().unwrap_or(0.0);
+                let top = self.top(a);
                 (0..steps)
                     .map(|i| top * i as f64 / (steps - 1) as f64)
                     .collect()
@@ -898,7 +903,7 @@ pub fn identify(
                 .iter()
                 .enumerate()
                 .filter(|&(j, &a)| {
-                    let top = g.axes[a].last().copied().unwrap_or(0.0);
+                    let top = g.top(a);
                     a != axis(Kind::Pickoff)
                         && chosen.contains(&a)
                         && interval(&prof.marginals[j], prof.chi2, birge_sq(&g, &free, &prof))
@@ -910,7 +915,7 @@ pub fn identify(
                 break;
             }
             for &a in &short {
-                let top = g.axes[a].last().copied().unwrap_or(0.0);
+                let top = g.top(a);
                 g.axes[a].extend(ABOVE_TOP.iter().map(|f| top * f.sqrt()));
             }
             prof = g.settle(&free, prof.values).0;
@@ -922,7 +927,7 @@ pub fn identify(
             }
             let v = prof.values[a];
             let (lo, hi) = interval(&prof.marginals[j], prof.chi2, b2).unwrap_or((v, v));
-            let top = g.axes[a].last().copied().unwrap_or(0.0);
+            let top = g.top(a);
             if let Some(c) = candidates.iter_mut().find(|c| axis(c.kind) == a) {
                 c.value = Some((v, lo, hi));
                 c.open_above = hi >= top;
