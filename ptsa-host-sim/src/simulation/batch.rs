@@ -77,7 +77,7 @@ use super::state::{LoopState, RunStart};
 
 /// Static lanes side by side per core by default (see the module docs; `benches/batch.rs`
 /// measures 1, 2, 4, 8 and 16).
-pub const LANES: usize = 4;
+pub const LANES: usize = 8;
 
 /// The most lanes interleaved per core an [`Engine`] takes.
 pub const MAX_LANES: usize = 16;
@@ -732,16 +732,14 @@ fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
     }
     let (mut cfg, mut st) = (&mut cfg[..], &mut st[..]);
     while !cfg.is_empty() {
-        let s = chunk(cfg.len(), k);
+        let s = chunk(cfg.len(), k.min(STATIC_KERNEL_LANES));
         let (c_now, c_later) = std::mem::take(&mut cfg).split_at_mut(s);
         let (s_now, s_later) = std::mem::take(&mut st).split_at_mut(s);
         match (mode, s) {
-            (Mode::Static, 16) => static_kernel::<16, true>(c_now, s_now, m),
             (Mode::Static, 8) => static_kernel::<8, true>(c_now, s_now, m),
             (Mode::Static, 4) => static_kernel::<4, true>(c_now, s_now, m),
             (Mode::Static, 2) => static_kernel::<2, true>(c_now, s_now, m),
             (Mode::Static, _) => static_kernel::<1, true>(c_now, s_now, m),
-            (Mode::StaticFast, 16) => static_kernel::<16, false>(c_now, s_now, m),
             (Mode::StaticFast, 8) => static_kernel::<8, false>(c_now, s_now, m),
             (Mode::StaticFast, 4) => static_kernel::<4, false>(c_now, s_now, m),
             (Mode::StaticFast, 2) => static_kernel::<2, false>(c_now, s_now, m),
@@ -751,6 +749,12 @@ fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
         (cfg, st) = (c_later, s_later);
     }
 }
+
+/// The most lanes of one static kernel: more lanes run as several kernels of this many, one
+/// after the other. Measured with AVX-512 (`ptsa bench --batch 16 --lanes 16`, while this
+/// change was made): one kernel of 16 lanes ran at 140-150 Mticks/s, the compiler keeping
+/// its lanes' state in memory, where kernels of 8 run at about 400.
+const STATIC_KERNEL_LANES: usize = 8;
 
 /// Lanes of the next kernel out of `n` lanes left: `k`, or the largest power of two that
 /// fits.
@@ -886,17 +890,40 @@ impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, K
     )]
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _: S) {
-        let mut bias = [0.0; K];
-        for _ in 0..self.m {
-            if self.shared {
-                bias = [self.adc[0].bias(&mut self.rngs[0]); K];
-            } else {
+        // The state in a local for the run, and the choice of the noise draws made once
+        // outside the loop: with the test inside, and the state behind the reference, the
+        // compiler kept the lanes' state in memory and its ticks ran at 0.8 of this rate
+        // (`ptsa bench --batch 16 --lanes 8`, AVX-512).
+        let mut st = *self.st;
+        let (p, m) = (self.p, self.m);
+        if self.shared {
+            let (adc, rng) = (&self.adc[0], &mut self.rngs[0]);
+            static_ticks::<K, STATS>(p, &mut st, m, |bias| *bias = [adc.bias(rng); K]);
+        } else {
+            let (adc, rngs) = (&self.adc, &mut *self.rngs);
+            static_ticks::<K, STATS>(p, &mut st, m, |bias| {
                 for (l, b) in bias.iter_mut().enumerate() {
-                    *b = self.adc[l].bias(&mut self.rngs[l]);
+                    *b = adc[l].bias(&mut rngs[l]);
                 }
-            }
-            let _ = kernel::static_tick::<K, STATS>(self.p, self.st, &bias);
+            });
         }
+        *self.st = st;
+    }
+}
+
+/// `m` ticks of `K` static lanes, each tick's ADC terms from `draw`.
+#[allow(clippy::inline_always, reason = "per-tick path")]
+#[inline(always)]
+fn static_ticks<const K: usize, const STATS: bool>(
+    p: &StaticLanes<'_, K>,
+    st: &mut StaticState<K>,
+    m: u64,
+    mut draw: impl FnMut(&mut [f64; K]),
+) {
+    let mut bias = [0.0; K];
+    for _ in 0..m {
+        draw(&mut bias);
+        let _ = kernel::static_tick::<K, STATS>(p, st, &bias);
     }
 }
 

@@ -102,6 +102,19 @@ impl Adc {
         AdcFormat::sample_masked(mask, y * gain + bias)
     }
 
+    /// [`Adc::quantize_with`] of `L` lanes: [`AdcFormat::sample_lanes`] of
+    /// `y[l]·gain[l] + bias[l]`.
+    #[allow(clippy::inline_always, reason = "per-tick path")]
+    #[inline(always)]
+    pub(super) fn quantize_lanes<const L: usize>(
+        gain: &[f64; L],
+        mask: &[u16; L],
+        y: &[f64; L],
+        bias: &[f64; L],
+    ) -> [i16; L] {
+        AdcFormat::sample_lanes(mask, &std::array::from_fn(|l| y[l] * gain[l] + bias[l]))
+    }
+
     /// The constants as bits (to compare them exactly). The destructuring names every
     /// field, so one added here does not compile until it is part of the key.
     pub(super) fn bits(&self) -> [u64; 5] {

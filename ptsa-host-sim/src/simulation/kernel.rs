@@ -192,10 +192,7 @@ pub(super) fn static_tick<const L: usize, const STATS: bool>(
     s: &mut StaticState<L>,
     bias: &[f64; L],
 ) -> ([i16; L], LaneTicks<L>) {
-    let mut codes = [0i16; L];
-    for l in 0..L {
-        codes[l] = Adc::quantize_with(p.gain[l], p.mask[l], s.x[3][l], bias[l]);
-    }
+    let codes = Adc::quantize_lanes(&p.gain, &p.mask, &s.x[3], bias);
     let t = p.ptsa.tick_lanes(&mut s.core, &codes);
     let mut add = [[0.0; L]; NX];
     for j in 0..NX {
@@ -441,10 +438,7 @@ pub(super) fn dynamic_tick<const L: usize>(
     bias: &[f64; L],
     ti: &[&TickInputs; L],
 ) -> ([i16; L], LaneTicks<L>) {
-    let mut codes = [0i16; L];
-    for l in 0..L {
-        codes[l] = Adc::quantize_with(p.gain[l], p.mask[l], s.x[3][l], bias[l]);
-    }
+    let codes = Adc::quantize_lanes(&p.gain, &p.mask, &s.x[3], bias);
     let t = p.ptsa.tick_lanes(&mut s.core, &codes);
     // The torque of the inputs and of θ's coupling to them (the stops' apart).
     let base = input_torque(p, &s.x[0], ti);
