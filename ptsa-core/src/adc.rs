@@ -168,11 +168,11 @@ impl AdcFormat {
     /// One lane takes `sample_masked`'s own saturating `as u16`. With more, the compiler
     /// turns that cast into one scalar conversion per lane (there is no SIMD instruction
     /// for a saturating float-to-integer conversion), so the lanes take the same floor and
-    /// clamp by float arithmetic instead ([`floor_u16`]), which runs on SIMD lanes: on the
-    /// host's batch engine, 8 lanes with AVX-512 ran at 357 against 316 Mticks/s the other
-    /// way, while the single loop, whose tick waits on this conversion, ran 7 % slower with
-    /// the float form (`ptsa bench --batch 16 --lanes 8`). The tests check the two forms
-    /// against each other for every kind of `f64`.
+    /// clamp by float arithmetic instead (adding 2^52 and correcting the rounding), which
+    /// runs on SIMD lanes: on the host's batch engine, 8 lanes with AVX-512 ran at 357
+    /// against 316 Mticks/s the other way, while the single loop, whose tick waits on this
+    /// conversion, ran 7 % slower with the float form (`ptsa bench --batch 16 --lanes 8`).
+    /// The tests check the two forms against each other for every kind of `f64`.
     #[allow(clippy::inline_always, reason = "per-tick path of the host's lanes")]
     #[inline(always)]
     #[must_use]
