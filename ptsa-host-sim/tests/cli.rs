@@ -409,7 +409,7 @@ fn bench_batch_prints_both_rates() {
         x.parse().unwrap()
     };
     let single = rate("single loop");
-    let batch = rate("batch engine, 4 lanes per core");
+    let batch = rate("batch engine, 8 lanes per core");
     assert!(single > 0.0 && batch > 0.0, "{out}");
     let ratio: f64 = out
         .lines()
@@ -536,7 +536,7 @@ fn bench_batch_dynamic_prints_both_rates() {
     );
     let (single, batch, ratio) = rates(
         &out,
-        "batch engine, 4 lanes per core, on one thread (Engine::simulate_conditions)",
+        "batch engine, 8 lanes per core, on one thread (Engine::simulate_conditions)",
     );
     assert!(single > 0.0 && batch > 0.0, "{out}");
     assert!(
