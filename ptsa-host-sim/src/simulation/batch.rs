@@ -36,24 +36,27 @@
 //!
 //! How a group's lanes share a core is [`Engine::new`]'s `lanes`:
 //!
-//! * static lanes: `lanes = K ≥ 2` ([`LANES`] = 4 by default) run `K` loops side by side
-//!   through the one definition of the static tick, `kernel::static_tick` (the single loop
-//!   runs it with one lane), compiled for the CPU's SIMD instructions at run time (`pulp`:
-//!   AVX2 where present); `lanes = 1` runs one lane after the other, in blocks of 512 ticks,
-//!   with the single loop's polarity-split fast path (`sim::static_block_fast`).
+//! * static lanes: `lanes = K ≥ 2` ([`LANES`] = 8 by default) run `K` loops side by side
+//!   (in kernels of at most 8: 16 lanes are two kernels of 8, one after the other, each for
+//!   the same ticks) through the one definition of the static tick, `kernel::static_tick`
+//!   (the single loop runs it with one lane), compiled for the CPU's SIMD instructions at run
+//!   time (`pulp`: AVX-512 where present, else AVX2); `lanes = 1` runs one lane after the
+//!   other, in blocks of 512 ticks, with the single loop's polarity-split fast path
+//!   (`sim::static_block_fast`).
 //! * dynamic lanes: `K` loops side by side through the one definition of the dynamic tick,
 //!   `kernel::dynamic_tick` (the single loop runs it with one lane), packed once per run,
 //!   in blocks of 128 ticks whose noise draws and, for lanes with the same condition, phasor
 //!   and inputs are made once per block for the whole group.
 //!
 //! Measured with `ptsa bench --batch 16 --runs 7` on one core (three invocations; 2-core AMD
-//! EPYC, AVX2, load 1.0–1.5): static batch / single = 1.26–1.50 with 4 lanes, 1.32–1.48 with
-//! 8, 0.93–1.05 with 1; with `--dynamic` 1.08–1.16, with `--dynamic --shared-condition`
-//! 2.08–2.16 (see docs/host-sim.md). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
-//! (criterion medians, one thread): 16 different oscillating conditions 35.9 ms single,
-//! 29.7 ms with 4 lanes (1.21×); one condition with 16 instruments (identification) 26.2 ms
-//! single, 14.1 ms with 4 lanes (1.85×; it was 23.9 ms, 1.16×, before the dynamic tick ran
-//! on lanes).
+//! EPYC, AVX-512, otherwise idle, 2026-11-28): static batch / single = 1.82–1.86 with 8
+//! lanes, 1.60 with 4, 1.08 with 1; with `--dynamic` 0.97, with `--dynamic
+//! --shared-condition` 2.00–2.09 (see docs/host-sim.md, "Performance", which also gives the
+//! earlier figures on an AVX2 machine). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
+//! (criterion medians, one thread, on the AVX2 machine with 4 lanes, not re-run since):
+//! 16 different oscillating conditions 35.9 ms single, 29.7 ms batch (1.21×); one condition
+//! with 16 instruments (identification) 26.2 ms single, 14.1 ms batch (1.85×; it was
+//! 23.9 ms, 1.16×, before the dynamic tick ran on lanes).
 //! `cargo bench -p ptsa-host-sim --bench batch` measures every setting; `ptsa bench --batch N`
 //! (with `--dynamic`, `--shared-condition`) prints the single and the batch rate.
 
@@ -75,8 +78,9 @@ use super::sim::{
 };
 use super::state::{LoopState, RunStart};
 
-/// Static lanes side by side per core by default (see the module docs; `benches/batch.rs`
-/// measures 1, 2, 4, 8 and 16).
+/// Loops side by side per core by default (see the module docs; `benches/batch.rs`
+/// measures 1, 2, 4, 8 and 16; with AVX-512, static lanes ran 1.60× the single loop with 4
+/// and 1.82–1.86× with 8).
 pub const LANES: usize = 8;
 
 /// The most lanes interleaved per core an [`Engine`] takes.

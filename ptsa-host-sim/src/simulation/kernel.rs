@@ -7,12 +7,13 @@
 //! arrays. A kernel's lanes are `L` loops' configurations (`[&LoopConfig; L]`, packed once
 //! into [`StaticLanes`] or [`DynLanes`]) and states (`[&mut LoopState; L]`, loaded into
 //! [`StaticState`] or [`DynState`] for a run and stored back at its end). The single loop runs
-//! it with one lane (`ClosedLoop::run`'s static path); the batch engine with 4 by default
-//! (`batch`), inside [`dispatch`], so that the compiler may put 4 or 8 lanes in one SIMD
-//! instruction on the CPU it runs on. Every step is a loop over the lanes with the
-//! same operations in the same order for every `L` (no fused multiply-add: Rust never
-//! contracts `a·b + c`), so a lane's result does not depend on `L` or on the CPU: bit for bit
-//! the single loop's.
+//! it with one lane (`ClosedLoop::run`'s static path); the batch engine with 8 by default
+//! (`batch`), inside [`dispatch`], so that the compiler may put 4 (AVX2) or 8 (AVX-512)
+//! lanes in one SIMD instruction on the CPU it runs on. Every step is a loop over the lanes
+//! with the same operations in the same order for every `L` (no fused multiply-add: Rust
+//! never contracts `a·b + c`; the ADC's conversion is the same floor and clamp by another
+//! instruction sequence on several lanes, `ptsa_core::adc::AdcFormat::sample_lanes`), so a
+//! lane's result does not depend on `L` or on the CPU: bit for bit the single loop's.
 
 use ptsa_core::{LaneTicks, Lanes, Ptsa};
 
@@ -22,9 +23,9 @@ use crate::model::condition::{IA, OA, PA};
 use crate::model::plant::{NX, ZohLanes};
 
 /// Run `f` with the SIMD instruction sets of this CPU enabled for everything inlined into
-/// it (runtime detection by `pulp`: AVX2 where present, the baseline SSE2 otherwise). `f`'s
-/// `with_simd` and the functions on the tick path are `#[inline(always)]` so that they are
-/// compiled inside.
+/// it (runtime detection by `pulp`: AVX-512 where present, else AVX2, else the baseline
+/// SSE2). `f`'s `with_simd` and the functions on the tick path are `#[inline(always)]` so
+/// that they are compiled inside.
 #[inline]
 pub(super) fn dispatch<F: pulp::WithSimd>(f: F) -> F::Output {
     pulp::Arch::new().dispatch(f)

@@ -66,8 +66,9 @@ pub struct BenchArgs {
     /// against one Engine::simulate_jobs call.
     #[arg(long, requires = "dynamic")]
     pub shared_condition: bool,
-    /// With --batch: static loops side by side per core in the batch, on SIMD lanes where
-    /// the CPU has them (1, 2, 4, 8 or 16; 1 runs them one after the other, block by block).
+    /// With --batch: loops side by side per core in the batch, on SIMD lanes where the CPU
+    /// has them (1, 2, 4, 8 or 16; 1 runs them one after the other, block by block; static
+    /// loops run in kernels of at most 8 lanes).
     #[arg(long, default_value_t = ptsa_host_sim::simulation::batch::LANES, value_name = "K",
           value_parser = lanes, requires = "batch")]
     pub lanes: usize,
