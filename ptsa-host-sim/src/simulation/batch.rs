@@ -50,8 +50,8 @@
 //!
 //! Measured with `ptsa bench --batch 16 --runs 7` on one core (three invocations; 2-core AMD
 //! EPYC, AVX-512, otherwise idle, 2026-11-28): static batch / single = 1.82–1.86 with 8
-//! lanes, 1.60 with 4, 1.08 with 1; with `--dynamic` 0.97, with `--dynamic
-//! --shared-condition` 2.00–2.09 (see docs/host-sim.md, "Performance", which also gives the
+//! lanes, 1.60 with 4, 1.08 with 1; with `--dynamic` 1.04–1.07, with `--dynamic
+//! --shared-condition` 2.56–2.63 (see docs/host-sim.md, "Performance", which also gives the
 //! earlier figures on an AVX2 machine). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
 //! (criterion medians, one thread, on the AVX2 machine with 4 lanes, not re-run since):
 //! 16 different oscillating conditions 35.9 ms single, 29.7 ms batch (1.21×); one condition
@@ -1139,11 +1139,14 @@ impl<const K: usize> pulp::WithSimd for DynTicks<'_, '_, '_, K> {
         let noise: [&[f64; DYN_BLOCK]; K] = std::array::from_fn(|l| &bias[noise_of[f + l]]);
         let inputs: [&[TickInputs; DYN_BLOCK]; K] =
             std::array::from_fn(|l| &given[inputs_of[f + l]]);
+        // The state in a local for the block, so that it may stay in registers.
+        let mut st = *self.st;
         for t in 0..b {
             let v: [f64; K] = std::array::from_fn(|l| noise[l][t]);
             let ti: [&TickInputs; K] = std::array::from_fn(|l| &inputs[l][t]);
-            let _ = kernel::dynamic_tick::<K>(self.p, self.st, &v, &ti);
+            let _ = kernel::dynamic_tick::<K>(self.p, &mut st, &v, &ti);
         }
+        *self.st = st;
     }
 }
 
