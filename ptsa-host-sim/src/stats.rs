@@ -197,6 +197,25 @@ pub fn t_two_sided(t: f64, k: f64) -> f64 {
     StudentsT::new(0.0, 1.0, k).map_or(f64::NAN, |d| 2.0 * d.sf(t.abs()))
 }
 
+/// The `t` with two-sided `P(|t_k| > t) = p`, by bisection on [`t_two_sided`] (`p` in
+/// `(0, 1)`, `k > 0`).
+#[must_use]
+pub fn t_two_sided_quantile(p: f64, k: f64) -> f64 {
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while t_two_sided(hi, k) > p && hi < 1e12 {
+        hi *= 2.0;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if t_two_sided(mid, k) > p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -234,5 +253,19 @@ mod tests {
         assert!((t_two_sided(2.570_581_835_636_314, 5.0) - 0.05).abs() < 1e-6);
         assert!((chi2_sf(3.841_458_820_694_124, 1.0) - 0.05).abs() < 1e-9);
         assert!((f_sf(5.987_377_607_273_44, 1.0, 6.0) - 0.05).abs() < 1e-6);
+    }
+
+    /// Printed two-sided 5 % points of Student's t (5, 10, 23 and 1000 degrees of freedom).
+    #[test]
+    fn t_quantiles_match_the_tables() {
+        for (k, t) in [
+            (5.0, 2.5706),
+            (10.0, 2.2281),
+            (23.0, 2.0687),
+            (1000.0, 1.9623),
+        ] {
+            let q = t_two_sided_quantile(0.05, k);
+            assert!((q - t).abs() < 1e-4, "{k}: {q} against {t}");
+        }
     }
 }

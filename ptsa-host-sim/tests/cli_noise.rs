@@ -619,7 +619,7 @@ fn campaign(
             "record {r}: u {u:.3}: {:?}",
             id.candidates
                 .iter()
-                .map(|c| (c.kind.key(), c.selected, c.value))
+                .map(|c| (c.kind.key(), c.selected, c.value, c.interval_scale))
                 .collect::<Vec<_>>()
         );
     }

@@ -100,7 +100,7 @@ pub struct NoiseArgs {
     /// "points": "tau_s", "measured_adev_cm_s2", "measured_ci95", "simulated_adev_cm_s2",
     /// "simulated_ci95", "z", "p", "differs"); with --identify also "identification"
     /// ("candidates": "candidate", "statistic", "p", "selected", "values": [{"unit",
-    /// "value", "ci95"}], "open_above"; "selected", "chi2_file", "taus_s",
+    /// "value", "ci95"}], "open_above", "interval_scale"; "selected", "chi2_file", "taus_s",
     /// "pickoff_grid_uv_rms", "white_acceleration_grid_cm_s2_rthz",
     /// "bias_random_walk_grid_cm_s2_rthz", "seeds_per_node", "simulated_records",
     /// "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test").
@@ -614,6 +614,7 @@ fn identification_json(id: &Identification) -> serde_json::Value {
                 "selected": c.selected,
                 "values": values,
                 "open_above": c.open_above,
+                "interval_scale": c.interval_scale,
             })
         })
         .collect();
@@ -628,7 +629,7 @@ fn identification_json(id: &Identification) -> serde_json::Value {
         "taus_s": id.taus,
         "chi2_file": id.chi2_file,
         "familywise_alpha": ident::ALPHA,
-        "test": "AVAR_measured = AVAR_sim(noise_uv_rms, N, K): the loop simulated with the pickoff noise and with N (white acceleration noise) and K (bias random walk) entering the plant's input, averaged over seeds_per_node records, multilinear in the squares between the grid's nodes; the grid's records with their drawn input's own Allan variance replaced by its expectation, their inputs spread over the measured mean's error; compared as ln AVAR with each log's bias (half its variance) taken out, chi2 = r' C^-1 r with C the covariance of ln AVAR across the tau of records simulated at the noises fitted so far (correlations shrunk by half, re-evaluated until the fit settles); forward selection with Holm thresholds (0.05/3, 0.05/2, 0.05): each candidate left tested given those selected by its drop of the profiled chi2 (N, K: its root, one-sided normal; pickoff: against chi2(1)); 95 % intervals from the joint profile, widened by the joint fit's Birge ratio above 1",
+        "test": "AVAR_measured = AVAR_sim(noise_uv_rms, N, K): the loop simulated with the pickoff noise and with N (white acceleration noise) and K (bias random walk) entering the plant's input, averaged over seeds_per_node records, multilinear in the squares between the grid's nodes; the grid's records with their drawn input's own Allan variance replaced by its expectation, their inputs spread over the measured mean's error; compared as ln AVAR with each log's bias (half its variance) taken out, chi2 = r' C^-1 r with C the covariance of ln AVAR across the tau of records simulated at the noises fitted so far (correlations shrunk by half, re-evaluated until the fit settles); forward selection with Holm thresholds (0.05/3, 0.05/2, 0.05): each candidate left tested given those selected by its drop of the profiled chi2 (N, K: its root, one-sided normal; pickoff: against chi2(1)); 95 % intervals from the joint profile: the values whose profiled chi2 is within t^2 s b^2 of its least, t Student's two-sided 95 % point for the check's replicas less one degree of freedom, s (interval_scale, over 3.84 b^2) the sandwich variance of the weighted fit over the variance the profile assumes, with the covariance of records simulated at the fit apart from the weights', b the joint fit's Birge ratio above 1",
         "candidates": candidates,
         "selected": id.candidates.iter().filter(|c| c.selected).map(|c| c.kind.key()).collect::<Vec<_>>(),
     })
@@ -690,9 +691,10 @@ fn identification_text(id: &Identification) -> String {
                     .collect();
                 let _ = writeln!(
                     s,
-                    "  {name}: identified ({stat}, p {:.2e}): {} (95 %)",
+                    "  {name}: identified ({stat}, p {:.2e}): {} (95 %; the profile's threshold x{:.2}, interval_scale)",
                     c.p,
-                    parts.join(" = ")
+                    parts.join(" = "),
+                    c.interval_scale
                 );
             }
             None => {
