@@ -1,63 +1,35 @@
 //! The tick, once, for `L` loops side by side.
 //!
-//! [`Ptsa::tick_lanes`] is the loop's per-tick arithmetic (compensator, ramp, quantizer,
-//! counters; ARITHMETIC.md's "Tick order") written over `L` lanes in structure of arrays,
-//! [`Lanes`]: the common path of a tick is a loop over the lanes with no branch inside it
-//! (range tests as `&`/`|`, the quantizer's latch as selects), so that a compiler can run
-//! several lanes per SIMD instruction. The rare steps (the integrator and junction clamps,
-//! the quantizer's switch, the end of a limit cycle, the end of a gate) run only when some
-//! lane needs them, each behind one test that the compiler is told seldom holds
-//! (`cold_path`), and the ramp compare only while some lane has not switched in its cycle.
-//! With one lane those tests are the scalar loop's own branches and the rare steps stay out
-//! of its straight-line path; with many, one test serves all lanes (lanes started together
-//! are in step, so a cycle or gate end is the same branch for all of them).
+//! [`Ptsa::tick_regs`] is the loop's per-tick arithmetic (compensator, ramp, quantizer,
+//! counters; ARITHMETIC.md's "Tick order") written over the lane operations of a
+//! [`LaneOps`] on a state of `L` lanes, [`Regs`]: the common path of a tick has no branch per
+//! lane (range tests as masks, the quantizer's latch as selects), so that several lanes run
+//! per SIMD instruction. The rare steps (the integrator and junction clamps, the quantizer's
+//! switch, the end of a limit cycle, the end of a gate) run only when some lane needs them,
+//! each behind one test that the compiler is told seldom holds (`cold_path`), and the ramp
+//! compare only while some lane has not switched in its cycle. With one lane those tests
+//! are the scalar loop's own branches and the rare steps stay out of its straight-line
+//! path; with many, one test serves all lanes (lanes started together are in step, so a
+//! cycle or gate end is the same branch for all of them).
 //!
-//! [`Ptsa::tick`], the form the firmware runs, *is* this function with one lane: a [`State`]
-//! is a [`Lanes<1>`] (the firmware's instruction budget and the golden vectors check that
-//! nothing else changed). A host that
+//! [`Lanes`] is the state in the plain lane operations [`Each`] (one array element per
+//! lane), and [`Ptsa::tick_lanes`] the tick on it. [`Ptsa::tick`], the form the firmware
+//! runs, *is* that function with one lane: a [`State`] is a [`Lanes<1>`] (the firmware's
+//! instruction budget and the golden vectors check that nothing else changed). A host that
 //! runs many independent loops (`ptsa-host-sim`'s batch engine) runs them through the same
-//! definition with `L` = 4 or 8.
-
-#![allow(
-    clippy::manual_clamp,
-    reason = "max/min, not clamp: the same values without clamp's `min <= max` panic path"
-)]
-#![allow(
-    clippy::needless_range_loop,
-    reason = "a lane index walks several arrays in step: the structure of arrays"
-)]
-#![allow(
-    clippy::needless_bitwise_bool,
-    clippy::manual_range_contains,
-    reason = "branch-free on purpose: `&` and `|` on lanes vectorise, `&&` would branch"
-)]
+//! definition with its own lane operations: eight lanes in AVX-512 registers, or [`Each`]
+//! with `L` = 4 or 8, vectorised by the compiler.
 
 use core::num::Wrapping;
 
 use crate::counter::Gate;
+use crate::lane_ops::{Each, LaneOps};
 use crate::ptsa::{Polarity, Ptsa, State, Tick};
 use crate::{COEF_FRAC, INTEGRATOR_LIMIT, LEAD_LIMIT, POLE_FRAC, RAMP_AMPLITUDE};
 
-/// The state of `L` loops, structure of arrays: lane `l` of every field is one [`State`]
-/// ([`Lanes::get`], [`Lanes::set`]). Plain data.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
-pub struct Lanes<const L: usize> {
-    pub(crate) e_prev: [i32; L],
-    pub(crate) lead: [i32; L],
-    pub(crate) integ: [i64; L],
-    pub(crate) carry: [i32; L],
-    pub(crate) ticks: [u32; L],
-    pub(crate) pulses: [u32; L],
-    pub(crate) switched: [bool; L],
-    pub(crate) latched: [i32; L],
-    pub(crate) cycle_pulses: [u16; L],
-    pub(crate) gate_open: [u32; L],
-    pub(crate) gate_start: [u32; L],
-    pub(crate) sat_integrator: [u32; L],
-    pub(crate) sat_output: [u32; L],
-    pub(crate) sat_carry: [u32; L],
-}
+/// The state of `L` loops, structure of arrays, in the plain form [`Each`]: lane `l` of every
+/// field is one [`State`] ([`Lanes::get`], [`Lanes::set`]). Plain data.
+pub type Lanes<const L: usize> = Regs<L, Each<L>>;
 
 impl<const L: usize> Lanes<L> {
     /// `L` loops after reset ([`State::INITIAL`] in every lane).
@@ -104,22 +76,22 @@ impl<const L: usize> Lanes<L> {
         reason = "tick path: the firmware's TIM2 handler"
     )]
     pub fn get(&self, l: usize) -> State {
-        let mut one = Lanes::<1>::INITIAL;
-        one.e_prev[0] = self.e_prev[l];
-        one.lead[0] = self.lead[l];
-        one.integ[0] = self.integ[l];
-        one.carry[0] = self.carry[l];
-        one.ticks[0] = self.ticks[l];
-        one.pulses[0] = self.pulses[l];
-        one.switched[0] = self.switched[l];
-        one.latched[0] = self.latched[l];
-        one.cycle_pulses[0] = self.cycle_pulses[l];
-        one.gate_open[0] = self.gate_open[l];
-        one.gate_start[0] = self.gate_start[l];
-        one.sat_integrator[0] = self.sat_integrator[l];
-        one.sat_output[0] = self.sat_output[l];
-        one.sat_carry[0] = self.sat_carry[l];
-        State(one)
+        State(Regs {
+            e_prev: [self.e_prev[l]],
+            lead: [self.lead[l]],
+            integ: [self.integ[l]],
+            carry: [self.carry[l]],
+            ticks: [self.ticks[l]],
+            pulses: [self.pulses[l]],
+            switched: [self.switched[l]],
+            latched: [self.latched[l]],
+            cycle_pulses: [self.cycle_pulses[l]],
+            gate_open: [self.gate_open[l]],
+            gate_start: [self.gate_start[l]],
+            sat_integrator: [self.sat_integrator[l]],
+            sat_output: [self.sat_output[l]],
+            sat_carry: [self.sat_carry[l]],
+        })
     }
 
     /// Make lane `l` the state `s`.
@@ -154,7 +126,83 @@ impl<const L: usize> Lanes<L> {
     #[inline(always)]
     #[allow(clippy::inline_always, reason = "per-tick path of the host's lanes")]
     pub fn total_pulses(&self, l: usize) -> Wrapping<u32> {
-        Wrapping(self.pulses[l])
+        Wrapping(self.pulses[l].cast_unsigned())
+    }
+}
+
+/// The fields of two [`Lanes`] in declaration order, for the trait impls the derive cannot
+/// give a struct generic over [`LaneOps`].
+macro_rules! lanes_fields {
+    ($m:ident) => {
+        $m!(
+            e_prev,
+            lead,
+            integ,
+            carry,
+            ticks,
+            pulses,
+            switched,
+            latched,
+            cycle_pulses,
+            gate_open,
+            gate_start,
+            sat_integrator,
+            sat_output,
+            sat_carry
+        )
+    };
+}
+
+impl<const L: usize> PartialEq for Lanes<L> {
+    fn eq(&self, other: &Self) -> bool {
+        macro_rules! all_eq {
+            ($($f:ident),*) => { true $(&& self.$f == other.$f)* };
+        }
+        lanes_fields!(all_eq)
+    }
+}
+
+impl<const L: usize> Eq for Lanes<L> {}
+
+impl<const L: usize> core::hash::Hash for Lanes<L> {
+    fn hash<H: core::hash::Hasher>(&self, state: &mut H) {
+        macro_rules! hash_all {
+            ($($f:ident),*) => { $(self.$f.hash(state);)* };
+        }
+        lanes_fields!(hash_all);
+    }
+}
+
+impl<const L: usize> core::fmt::Debug for Lanes<L> {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        macro_rules! debug_all {
+            ($($fd:ident),*) => { f.debug_struct("Lanes")$(.field(stringify!($fd), &self.$fd))*.finish() };
+        }
+        lanes_fields!(debug_all)
+    }
+}
+
+#[cfg(feature = "defmt")]
+impl<const L: usize> defmt::Format for Lanes<L> {
+    fn format(&self, f: defmt::Formatter<'_>) {
+        defmt::write!(
+            f,
+            "Lanes {{ e_prev: {}, lead: {}, integ: {}, carry: {}, ticks: {}, pulses: {}, switched: {}, latched: {}, cycle_pulses: {}, gate_open: {}, gate_start: {}, sat_integrator: {}, sat_output: {}, sat_carry: {} }}",
+            self.e_prev,
+            self.lead,
+            self.integ,
+            self.carry,
+            self.ticks,
+            self.pulses,
+            self.switched,
+            self.latched,
+            self.cycle_pulses,
+            self.gate_open,
+            self.gate_start,
+            self.sat_integrator,
+            self.sat_output,
+            self.sat_carry
+        );
     }
 }
 
@@ -207,11 +255,116 @@ impl<const L: usize> LaneTicks<L> {
     }
 }
 
-/// Whether any of `m` is true.
-#[inline(always)]
-#[allow(clippy::inline_always, reason = "tick path")]
-fn any<const L: usize>(m: &[bool; L]) -> bool {
-    m.iter().fold(false, |a, &b| a | b)
+/// The state of `L` loops in the types of a [`LaneOps`] `O`; in the plain form, [`Lanes`].
+/// The counters (`ticks`, `pulses`, the gate's marks, the saturation counts) are their `u32`
+/// bits, the cycle's count of positive ticks its `u16` widened. A host that runs many ticks
+/// in another form loads its lanes once ([`Regs::load`]) and stores them at the end
+/// ([`Regs::store`]).
+#[derive(Clone, Copy)]
+pub struct Regs<const L: usize, O: LaneOps<L>> {
+    pub(crate) e_prev: O::I32,
+    pub(crate) lead: O::I32,
+    pub(crate) integ: O::I64,
+    pub(crate) carry: O::I32,
+    pub(crate) ticks: O::I32,
+    pub(crate) pulses: O::I32,
+    pub(crate) switched: O::Mask,
+    pub(crate) latched: O::I32,
+    pub(crate) cycle_pulses: O::I32,
+    pub(crate) gate_open: O::I32,
+    pub(crate) gate_start: O::I32,
+    pub(crate) sat_integrator: O::I32,
+    pub(crate) sat_output: O::I32,
+    pub(crate) sat_carry: O::I32,
+}
+
+impl<const L: usize, O: LaneOps<L>> Regs<L, O> {
+    /// The lanes of `s` in the types of `o`.
+    #[must_use]
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    pub fn load(o: O, s: &Lanes<L>) -> Self {
+        Self {
+            e_prev: o.load(s.e_prev),
+            lead: o.load(s.lead),
+            integ: o.load64(s.integ),
+            carry: o.load(s.carry),
+            ticks: o.load(s.ticks),
+            pulses: o.load(s.pulses),
+            switched: o.load_mask(s.switched),
+            latched: o.load(s.latched),
+            cycle_pulses: o.load(s.cycle_pulses),
+            gate_open: o.load(s.gate_open),
+            gate_start: o.load(s.gate_start),
+            sat_integrator: o.load(s.sat_integrator),
+            sat_output: o.load(s.sat_output),
+            sat_carry: o.load(s.sat_carry),
+        }
+    }
+
+    /// These lanes as [`Lanes`].
+    #[must_use]
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    pub fn store(&self, o: O) -> Lanes<L> {
+        Regs {
+            e_prev: o.store(self.e_prev),
+            lead: o.store(self.lead),
+            integ: o.store64(self.integ),
+            carry: o.store(self.carry),
+            ticks: o.store(self.ticks),
+            pulses: o.store(self.pulses),
+            switched: o.store_mask(self.switched),
+            latched: o.store(self.latched),
+            cycle_pulses: o.store(self.cycle_pulses),
+            gate_open: o.store(self.gate_open),
+            gate_start: o.store(self.gate_start),
+            sat_integrator: o.store(self.sat_integrator),
+            sat_output: o.store(self.sat_output),
+            sat_carry: o.store(self.sat_carry),
+        }
+    }
+}
+
+/// What one tick decided in each of `L` lanes, in the types of a [`LaneOps`] `O`
+/// ([`Ptsa::tick_regs`]); as [`LaneTicks`], [`RegTicks::lanes`].
+#[derive(Clone, Copy, Debug)]
+pub struct RegTicks<const L: usize, O: LaneOps<L>> {
+    /// Polarity decided for the next interval: set = [`Polarity::Positive`].
+    pub positive: O::Mask,
+    /// Whether the tick closed a limit cycle.
+    pub cycle_end: O::Mask,
+    /// With `cycle_end`: that cycle's positive ticks, `0..=N`.
+    pub cycle_pulses: O::I32,
+    /// Whether the tick closed a gate.
+    pub gate_end: O::Mask,
+    /// With `gate_end`: the gate's pulse count (`u32` bits).
+    pub gate_pulses: O::I32,
+    /// The gate length, ticks.
+    pub gate_ticks: u32,
+}
+
+impl<const L: usize, O: LaneOps<L>> RegTicks<L, O> {
+    /// As [`LaneTicks`].
+    #[must_use]
+    #[inline(always)]
+    #[allow(clippy::inline_always, reason = "tick path")]
+    pub fn lanes(&self, o: O) -> LaneTicks<L> {
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "0..=N"
+        )]
+        let cycle_pulses = o.store(self.cycle_pulses).map(|c| c as u16);
+        LaneTicks {
+            positive: o.store_mask(self.positive),
+            cycle_end: o.store_mask(self.cycle_end),
+            cycle_pulses,
+            gate_end: o.store_mask(self.gate_end),
+            gate_pulses: o.store(self.gate_pulses).map(i32::cast_unsigned),
+            gate_ticks: self.gate_ticks,
+        }
+    }
 }
 
 /// Marks the path that calls it as seldom taken, as `core::hint::cold_path` does from Rust
@@ -221,40 +374,18 @@ fn any<const L: usize>(m: &[bool; L]) -> bool {
 #[cold]
 const fn cold_path() {}
 
-/// The signed integers of the tick's two clamps.
-trait Signed:
-    Copy + PartialOrd + core::ops::Neg<Output = Self> + core::ops::BitXor<Output = Self>
-{
-    /// All ones where negative, else zero.
-    fn sign_mask(self) -> Self;
-    /// `self − rhs`; never overflows here (a limit and a sign mask).
-    fn minus(self, rhs: Self) -> Self;
+/// Whether `a` lies outside `-limit..=limit`.
+#[inline(always)]
+#[allow(clippy::inline_always, reason = "tick path")]
+fn beyond<const L: usize, O: LaneOps<L>>(o: O, a: O::I32, limit: i32) -> O::Mask {
+    o.or_mask(o.gt(a, o.splat(limit)), o.lt(a, o.splat(-limit)))
 }
 
-impl Signed for i32 {
-    #[inline(always)]
-    #[allow(clippy::inline_always, reason = "tick path")]
-    fn sign_mask(self) -> Self {
-        self >> 31
-    }
-    #[inline(always)]
-    #[allow(clippy::inline_always, reason = "tick path")]
-    fn minus(self, rhs: Self) -> Self {
-        self.wrapping_sub(rhs)
-    }
-}
-
-impl Signed for i64 {
-    #[inline(always)]
-    #[allow(clippy::inline_always, reason = "tick path")]
-    fn sign_mask(self) -> Self {
-        self >> 63
-    }
-    #[inline(always)]
-    #[allow(clippy::inline_always, reason = "tick path")]
-    fn minus(self, rhs: Self) -> Self {
-        self.wrapping_sub(rhs)
-    }
+/// Whether `a` lies outside `-limit..=limit`.
+#[inline(always)]
+#[allow(clippy::inline_always, reason = "tick path")]
+fn beyond64<const L: usize, O: LaneOps<L>>(o: O, a: O::I64, limit: i64) -> O::Mask {
+    o.or_mask(o.gt64(a, o.splat64(limit)), o.lt64(a, o.splat64(-limit)))
 }
 
 /// `a` clamped to `-limit..=limit` where `beyond` says that it lies outside, else `a`. Once
@@ -262,23 +393,26 @@ impl Signed for i64 {
 /// `m` the sign mask of `a` (`-limit` = `!limit + 1`).
 #[inline(always)]
 #[allow(clippy::inline_always, reason = "tick path")]
-fn limit<T: Signed>(a: T, beyond: bool, limit: T) -> T {
-    let m = a.sign_mask();
-    let bound = (limit ^ m).minus(m);
-    if beyond { bound } else { a }
+fn limit<const L: usize, O: LaneOps<L>>(o: O, a: O::I32, beyond: O::Mask, limit: i32) -> O::I32 {
+    let m = o.sra::<31>(a);
+    let bound = o.sub(o.xor(o.splat(limit), m), m);
+    o.select(beyond, bound, a)
 }
 
-/// Whether `a` lies outside `-limit..=limit`.
+/// [`limit`] of 64-bit lanes.
 #[inline(always)]
 #[allow(clippy::inline_always, reason = "tick path")]
-fn beyond<T: Signed>(a: T, limit: T) -> bool {
-    (a > limit) | (a < -limit)
+fn limit64<const L: usize, O: LaneOps<L>>(o: O, a: O::I64, beyond: O::Mask, limit: i64) -> O::I64 {
+    let m = o.sra64::<63>(a);
+    let bound = o.sub64(o.xor64(o.splat64(limit), m), m);
+    o.select64(beyond, bound, a)
 }
 
 impl Ptsa {
     /// One 64 kHz clock tick of `L` loops: lane `l` takes the pickoff sample `x[l]` (ADC
     /// LSB) and decides its torquer polarity for the next interval, exactly as
-    /// [`Ptsa::tick`] does for one loop (which is this function with `L = 1`).
+    /// [`Ptsa::tick`] does for one loop (which is this function with `L = 1`):
+    /// [`Ptsa::tick_regs`] with [`Each`].
     ///
     /// ```
     /// use ptsa_core::{Config, Lanes};
@@ -297,33 +431,54 @@ impl Ptsa {
         reason = "tick path: inlined into the firmware's TIM2 handler and the host's lanes"
     )]
     pub fn tick_lanes<const L: usize>(&self, s: &mut Lanes<L>, x: &[i16; L]) -> LaneTicks<L> {
-        let u = self.compensate_lanes(s, x);
-        let (v, positive) = self.quantize_lanes(s, &u);
+        let o = Each::<L>;
+        self.tick_regs(o, s, x.map(i32::from)).lanes(o)
+    }
+
+    /// One 64 kHz clock tick of the lanes of `s` in the types of `o`, each taking its
+    /// pickoff sample from `x` (ADC LSB, `i16` values): the loop's per-tick arithmetic
+    /// (compensator, ramp, quantizer, counters; ARITHMETIC.md's "Tick order"), the one
+    /// definition [`Ptsa::tick`] and [`Ptsa::tick_lanes`] run. The common path has no branch
+    /// per lane (range tests as masks, the quantizer's latch as selects); the rare steps (the
+    /// integrator and junction clamps, the quantizer's switch, the end of a limit cycle, the
+    /// end of a gate) run only when some lane needs them, each behind one test that the
+    /// compiler is told seldom holds, and the ramp compare only while some lane has not
+    /// switched in its cycle. With one lane those tests are the scalar loop's own branches;
+    /// with many, one test serves all lanes (lanes started together are in step, so a
+    /// cycle or gate end is the same branch for all of them).
+    #[inline(always)]
+    #[allow(
+        clippy::inline_always,
+        reason = "tick path: inlined into the firmware's TIM2 handler and the host's lanes"
+    )]
+    pub fn tick_regs<const L: usize, O: LaneOps<L>>(
+        &self,
+        o: O,
+        s: &mut Regs<L, O>,
+        x: O::I32,
+    ) -> RegTicks<L, O> {
+        let u = self.compensate(o, s, x);
+        let (v, positive) = self.quantize(o, s, u);
         // The end of a limit cycle and the end of a gate, each a rare step.
-        let mut cycle_end = [false; L];
-        for l in 0..L {
-            cycle_end[l] = s.ticks[l] & self.mask == 0;
-        }
-        if any(&cycle_end) {
+        #[allow(clippy::cast_possible_wrap, reason = "mask < 4096")]
+        let cycle_end = o.eq(o.and(s.ticks, o.splat(self.mask as i32)), o.splat(0));
+        if o.any(cycle_end) {
             cold_path();
-            self.close_cycles(s, &v, &positive, &cycle_end);
+            self.close_cycles(o, s, v, positive, cycle_end);
         }
-        let mut gate_end = [false; L];
-        let mut gate_pulses = [0u32; L];
         let gate_ticks = self.config.gate_ticks;
-        for l in 0..L {
-            gate_end[l] = s.ticks[l].wrapping_sub(s.gate_open[l]) == gate_ticks;
-        }
-        if any(&gate_end) {
+        let gate_end = o.eq(
+            o.sub(s.ticks, s.gate_open),
+            o.splat(gate_ticks.cast_signed()),
+        );
+        let mut gate_pulses = o.splat(0);
+        if o.any(gate_end) {
             cold_path();
-            for l in 0..L {
-                let g = gate_end[l];
-                gate_pulses[l] = s.pulses[l].wrapping_sub(s.gate_start[l]);
-                s.gate_open[l] = if g { s.ticks[l] } else { s.gate_open[l] };
-                s.gate_start[l] = if g { s.pulses[l] } else { s.gate_start[l] };
-            }
+            gate_pulses = o.sub(s.pulses, s.gate_start);
+            s.gate_open = o.select(gate_end, s.ticks, s.gate_open);
+            s.gate_start = o.select(gate_end, s.pulses, s.gate_start);
         }
-        LaneTicks {
+        RegTicks {
             positive,
             cycle_end,
             cycle_pulses: s.cycle_pulses,
@@ -337,58 +492,47 @@ impl Ptsa {
     /// and clamped; returns the junction's output `u` of each lane.
     #[inline(always)]
     #[allow(clippy::inline_always, reason = "tick path")]
-    fn compensate_lanes<const L: usize>(&self, s: &mut Lanes<L>, x: &[i16; L]) -> [i32; L] {
-        let mut lead = [0i32; L];
-        let mut over = [false; L];
-        for l in 0..L {
-            let e = i32::from(x[l]);
-            // Lead: acc (2^-16 LSB) = b0·e + b1·e' + a1·lead'; lead = round(acc / 2^16).
-            let acc = i64::from(self.b0) * i64::from(e)
-                + i64::from(self.b1) * i64::from(s.e_prev[l])
-                + i64::from(self.a1) * i64::from(s.lead[l]);
-            let wide = (acc + (1 << (POLE_FRAC - 1))) >> POLE_FRAC;
-            // |lead| <= LEAD_LIMIT = 2^30 is proven for every configuration `Ptsa::new`
-            // accepts (ARITHMETIC.md, "Bounds"); the property tests run with this assertion.
-            debug_assert!(
-                wide.abs() <= i64::from(LEAD_LIMIT),
-                "lead bound violated: {wide}"
-            );
-            #[allow(
-                clippy::cast_possible_truncation,
-                reason = "|lead| <= 2^30, asserted above"
-            )]
-            let narrow = wide as i32;
-            lead[l] = narrow;
-            s.lead[l] = narrow;
-            s.e_prev[l] = e;
-            let integ = s.integ[l] + i64::from(self.ki) * i64::from(e);
-            s.integ[l] = integ;
-            over[l] = beyond(integ, INTEGRATOR_LIMIT);
-        }
+    fn compensate<const L: usize, O: LaneOps<L>>(
+        &self,
+        o: O,
+        s: &mut Regs<L, O>,
+        e: O::I32,
+    ) -> O::I32 {
+        // Lead: acc (2^-16 LSB) = b0·e + b1·e' + a1·lead'; lead = round(acc / 2^16).
+        let acc = o.add64(
+            o.add64(o.mul_wide(e, self.b0), o.mul_wide(s.e_prev, self.b1)),
+            o.mul_wide(s.lead, self.a1),
+        );
+        let wide = o.sra64::<POLE_FRAC>(o.add64(acc, o.splat64(1 << (POLE_FRAC - 1))));
+        // |lead| <= LEAD_LIMIT = 2^30 is proven for every configuration `Ptsa::new`
+        // accepts (ARITHMETIC.md, "Bounds"); the property tests run with this assertion.
+        debug_assert!(
+            o.store64(wide)
+                .iter()
+                .all(|w| w.abs() <= i64::from(LEAD_LIMIT)),
+            "lead bound violated"
+        );
+        // |lead| <= 2^30, asserted above: the low 32 bits are the value.
+        let lead = o.low32(wide);
+        s.lead = lead;
+        s.e_prev = e;
+        s.integ = o.add64(s.integ, o.mul_wide(e, self.ki));
         // Integrator clamp (anti-windup), counting a tick in which it acted.
-        if any(&over) {
+        let over = beyond64(o, s.integ, INTEGRATOR_LIMIT);
+        if o.any(over) {
             cold_path();
-            for l in 0..L {
-                s.integ[l] = limit(s.integ[l], over[l], INTEGRATOR_LIMIT);
-                s.sat_integrator[l] = s.sat_integrator[l].wrapping_add(u32::from(over[l]));
-            }
+            s.integ = limit64(o, s.integ, over, INTEGRATOR_LIMIT);
+            s.sat_integrator = o.count(s.sat_integrator, over);
         }
-        let mut u = [0i32; L];
-        for l in 0..L {
-            // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, no i32 overflow.
-            #[allow(clippy::cast_possible_truncation, reason = "|integ >> 16| <= 2^24")]
-            let sum = lead[l] + (s.integ[l] >> COEF_FRAC) as i32;
-            u[l] = sum;
-            over[l] = beyond(sum, RAMP_AMPLITUDE);
-        }
-        if any(&over) {
+        // Summing junction: |lead| <= 2^30 and |integ >> 16| <= 2^24, no i32 overflow.
+        let sum = o.add(lead, o.low32(o.sra64::<COEF_FRAC>(s.integ)));
+        let over = beyond(o, sum, RAMP_AMPLITUDE);
+        if o.any(over) {
             cold_path();
-            for l in 0..L {
-                u[l] = limit(u[l], over[l], RAMP_AMPLITUDE);
-                s.sat_output[l] = s.sat_output[l].wrapping_add(u32::from(over[l]));
-            }
+            s.sat_output = o.count(s.sat_output, over);
+            return limit(o, sum, over, RAMP_AMPLITUDE);
         }
-        u
+        sum
     }
 
     /// Ramp, forced-binary quantizer and counters (steps 5–6): the first interval of the
@@ -401,43 +545,34 @@ impl Ptsa {
         clippy::many_single_char_names,
         reason = "ARITHMETIC.md's notation: u, v, k"
     )]
-    fn quantize_lanes<const L: usize>(
+    fn quantize<const L: usize, O: LaneOps<L>>(
         &self,
-        s: &mut Lanes<L>,
-        u: &[i32; L],
-    ) -> ([i32; L], [bool; L]) {
-        let mut v = [0i32; L];
-        let mut k = [0u16; L];
-        let mut open = [false; L];
-        for l in 0..L {
-            #[allow(clippy::cast_possible_truncation, reason = "mask < 4096")]
-            let kl = (s.ticks[l] & self.mask) as u16;
-            k[l] = kl;
-            v[l] = u[l] + s.carry[l];
-            open[l] = !s.switched[l];
-        }
+        o: O,
+        s: &mut Regs<L, O>,
+        u: O::I32,
+    ) -> (O::I32, O::Mask) {
+        #[allow(clippy::cast_possible_wrap, reason = "mask < 4096")]
+        let k = o.and(s.ticks, o.splat(self.mask as i32));
+        let v = o.add(u, s.carry);
         // Only a lane that has not switched in this cycle compares with the ramp.
-        if any(&open) {
-            let mut switch = [false; L];
-            for l in 0..L {
-                switch[l] = open[l] & (v[l] + self.ramp(k[l]) < 0);
-            }
-            if any(&switch) {
+        let open = o.not_mask(s.switched);
+        if o.any(open) {
+            // r[k] = h·(N − 1 − 2k) (`Ptsa::ramp`).
+            let ramp = o.mul(
+                o.splat(self.h),
+                o.sub(o.splat(i32::from(self.n) - 1), o.add(k, k)),
+            );
+            let switch = o.and_mask(open, o.lt(o.add(v, ramp), o.splat(0)));
+            if o.any(switch) {
                 cold_path();
-                for l in 0..L {
-                    let w = switch[l];
-                    s.latched[l] = if w { v[l] } else { s.latched[l] };
-                    s.cycle_pulses[l] = if w { k[l] } else { s.cycle_pulses[l] };
-                    s.switched[l] |= w;
-                }
+                s.latched = o.select(switch, v, s.latched);
+                s.cycle_pulses = o.select(switch, k, s.cycle_pulses);
+                s.switched = o.or_mask(s.switched, switch);
             }
         }
-        let mut positive = [false; L];
-        for l in 0..L {
-            positive[l] = !s.switched[l];
-            s.ticks[l] = s.ticks[l].wrapping_add(1);
-            s.pulses[l] = s.pulses[l].wrapping_add(u32::from(positive[l]));
-        }
+        let positive = o.not_mask(s.switched);
+        s.ticks = o.add(s.ticks, o.splat(1));
+        s.pulses = o.count(s.pulses, positive);
         (v, positive)
     }
 
@@ -446,30 +581,27 @@ impl Ptsa {
     /// level `v` of its last tick), and with noise shaping the carry from the latched level.
     #[inline(always)]
     #[allow(clippy::inline_always, reason = "tick path")]
-    fn close_cycles<const L: usize>(
+    fn close_cycles<const L: usize, O: LaneOps<L>>(
         &self,
-        s: &mut Lanes<L>,
-        v: &[i32; L],
-        positive: &[bool; L],
-        end: &[bool; L],
+        o: O,
+        s: &mut Regs<L, O>,
+        v: O::I32,
+        positive: O::Mask,
+        end: O::Mask,
     ) {
-        for l in 0..L {
-            let (e, p) = (end[l], positive[l]);
-            if e & p {
-                s.latched[l] = v[l];
-            }
-            let latched = s.latched[l];
-            let n = if p { self.n } else { s.cycle_pulses[l] };
-            if self.config.noise_shaping {
-                // Level whose ideal duty is n/N: y = h·(2n − N).
-                let y = self.h * (2 * i32::from(n) - i32::from(self.n));
-                let c = latched - y;
-                let carry = c.max(-self.h).min(self.h);
-                s.carry[l] = if e { carry } else { s.carry[l] };
-                s.sat_carry[l] = s.sat_carry[l].wrapping_add(u32::from(e & (carry != c)));
-            }
-            s.switched[l] &= !e;
-            s.cycle_pulses[l] = if e { n } else { s.cycle_pulses[l] };
+        s.latched = o.select(o.and_mask(end, positive), v, s.latched);
+        let full = o.splat(i32::from(self.n));
+        let n = o.select(positive, full, s.cycle_pulses);
+        if self.config.noise_shaping {
+            // Level whose ideal duty is n/N: y = h·(2n − N).
+            let y = o.mul(o.splat(self.h), o.sub(o.add(n, n), full));
+            let c = o.sub(s.latched, y);
+            let carry = o.min(o.max(c, o.splat(-self.h)), o.splat(self.h));
+            s.carry = o.select(end, carry, s.carry);
+            let clamped = o.and_not_mask(end, o.eq(carry, c));
+            s.sat_carry = o.count(s.sat_carry, clamped);
         }
+        s.switched = o.and_not_mask(s.switched, end);
+        s.cycle_pulses = o.select(end, n, s.cycle_pulses);
     }
 }

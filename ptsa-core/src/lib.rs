@@ -43,6 +43,7 @@ pub mod adc;
 mod bridge;
 mod config;
 mod counter;
+mod lane_ops;
 mod lanes;
 mod ptsa;
 pub mod trace;
@@ -50,7 +51,8 @@ pub mod trace;
 pub use bridge::{BridgeError, HBridge};
 pub use config::{Coef, Config, ConfigError, Level, Pole};
 pub use counter::{Count, Gate, GateFifo};
-pub use lanes::{LaneTicks, Lanes};
+pub use lane_ops::{Each, LaneOps};
+pub use lanes::{LaneTicks, Lanes, RegTicks, Regs};
 pub use ptsa::{Fnv, Polarity, Ptsa, Saturations, State, Tick};
 
 /// The crate's README (the page crates.io shows), compiled and run as a doctest so that its

@@ -118,23 +118,23 @@ impl State {
     #[must_use]
     pub fn saturations(&self) -> Saturations {
         Saturations {
-            integrator: self.0.sat_integrator[0],
-            output: self.0.sat_output[0],
-            carry: self.0.sat_carry[0],
+            integrator: self.0.sat_integrator[0].cast_unsigned(),
+            output: self.0.sat_output[0].cast_unsigned(),
+            carry: self.0.sat_carry[0].cast_unsigned(),
         }
     }
 
     /// Free-running tick count since reset, modulo 2^32.
     #[must_use]
     pub fn total_ticks(&self) -> Wrapping<u32> {
-        Wrapping(self.0.ticks[0])
+        Wrapping(self.0.ticks[0].cast_unsigned())
     }
 
     /// Free-running pulse count since reset, modulo 2^32. Read it as a difference of two
     /// readings less than 2^32 ticks apart: the wrap is then harmless.
     #[must_use]
     pub fn total_pulses(&self) -> Wrapping<u32> {
-        Wrapping(self.0.pulses[0])
+        Wrapping(self.0.pulses[0].cast_unsigned())
     }
 
     /// Integrator value as a fraction of full scale.
@@ -160,7 +160,13 @@ impl State {
         h.bytes(&s.pulses[0].to_le_bytes());
         h.bytes(&[u8::from(s.switched[0])]);
         h.bytes(&s.latched[0].to_le_bytes());
-        h.bytes(&s.cycle_pulses[0].to_le_bytes());
+        // 0..=N: the count's `u16` (the counters' `i32` lanes hold their `u32` bits).
+        #[allow(
+            clippy::cast_possible_truncation,
+            clippy::cast_sign_loss,
+            reason = "0..=N"
+        )]
+        h.bytes(&(s.cycle_pulses[0] as u16).to_le_bytes());
         h.bytes(&s.gate_open[0].to_le_bytes());
         h.bytes(&s.gate_start[0].to_le_bytes());
         h.bytes(&s.sat_integrator[0].to_le_bytes());
@@ -261,16 +267,16 @@ impl Ptsa {
     #[must_use]
     pub fn phase(&self, s: &State) -> u16 {
         #[allow(clippy::cast_possible_truncation, reason = "mask < 4096")]
-        let k = (s.0.ticks[0] & self.mask) as u16;
+        let k = (s.0.ticks[0].cast_unsigned() & self.mask) as u16;
         k
     }
 
     /// The polarity most recently decided for `s` (`Positive` before the first tick).
     #[must_use]
     pub fn polarity(&self, s: &State) -> Polarity {
-        let last_positive = if s.0.ticks[0] & self.mask == 0 {
+        let last_positive = if s.0.ticks[0].cast_unsigned() & self.mask == 0 {
             // The last interval closed a cycle: positive only if the whole cycle was.
-            s.0.ticks[0] == 0 || s.0.cycle_pulses[0] == self.n
+            s.0.ticks[0] == 0 || s.0.cycle_pulses[0] == i32::from(self.n)
         } else {
             !s.0.switched[0]
         };

@@ -62,6 +62,7 @@
 
 use std::collections::HashMap;
 
+use ptsa_core::{Each, LaneOps};
 use rayon::prelude::*;
 
 use crate::lab::fixtures;
@@ -830,33 +831,62 @@ fn static_blocks<const STATS: bool>(cfg: &[&LoopConfig], st: &mut [&mut LoopStat
 /// [`kernel::static_tick`] with one lane).
 #[inline(never)]
 fn lane_block_stats(cfg: &LoopConfig, st: &mut LoopState, bias: &[f64]) {
-    let lane = StaticLanes::new([cfg]);
-    let mut s = StaticState::load([&*st]);
+    let (o, lane) = (Each::<1>, StaticLanes::new([cfg]));
+    let mut s = StaticState::load(o, [&*st]);
     for &v in bias {
-        let _ = kernel::static_tick::<1, true>(&lane, &mut s, &[v]);
+        let _ = kernel::static_tick::<1, _, true>(o, &lane, &mut s, &[v]);
     }
-    s.store([st]);
+    s.store(o, [st]);
 }
 
 /// `m` ticks of `K` static lanes side by side: [`kernel::static_tick`] with `K` lanes, the
 /// same definition the single loop runs with one, compiled for this CPU's SIMD instructions
 /// ([`kernel::dispatch`]); the lanes share the core's configuration (see [`run_mode`]).
-/// Lanes in step with the same noise generator and the same ADC draw the same additive
-/// terms: they are drawn once (the usual batch: one instrument, one seed).
+/// Eight lanes on a CPU with AVX-512 run the core's tick in its registers (`avx512`: the
+/// 32-bit lanes in one `ymm`, the flags in one mask register), others in arrays that the
+/// compiler vectorises ([`Each`]). Lanes in step with the same noise generator and the same
+/// ADC draw the same additive terms: they are drawn once (the usual batch: one instrument,
+/// one seed).
 #[inline(never)]
 fn static_kernel<const K: usize, const STATS: bool>(
     cfg: &[&LoopConfig],
     st: &mut [&mut LoopState],
     m: u64,
 ) {
+    #[cfg(target_arch = "x86_64")]
+    if K == 8
+        && let Some(o) = super::avx512::Avx512::new()
+    {
+        return static_kernel_with::<8, _, STATS>(o, cfg, st, m, |op| {
+            pulp::Simd::vectorize(o.0, op);
+        });
+    }
+    static_kernel_with::<K, _, STATS>(Each::<K>, cfg, st, m, |op| kernel::dispatch(op));
+}
+
+/// [`static_kernel`] with the lane operations `o`, its ticks run by `run` (which compiles
+/// them for the CPU's SIMD instructions).
+#[allow(
+    clippy::inline_always,
+    reason = "one copy per kind of lanes, with its dispatch"
+)]
+#[inline(always)]
+fn static_kernel_with<const K: usize, O: LaneOps<K>, const STATS: bool>(
+    o: O,
+    cfg: &[&LoopConfig],
+    st: &mut [&mut LoopState],
+    m: u64,
+    run: impl FnOnce(StaticTicks<'_, '_, K, O, STATS>),
+) {
     let cfg: [&LoopConfig; K] = std::array::from_fn(|l| cfg[l]);
     let p = StaticLanes::new(cfg);
-    let mut s = StaticState::<K>::load(std::array::from_fn(|l| &*st[l]));
+    let mut s = StaticState::<K, O>::load(o, std::array::from_fn(|l| &*st[l]));
     let shared =
         (1..K).all(|l| st[l].rng.same_stream(&st[0].rng) && cfg[l].adc.bits() == cfg[0].adc.bits());
     // The generators in locals for the run (a shared one may then stay in a register).
     let mut rngs: [NoiseSource; K] = std::array::from_fn(|l| st[l].rng.clone());
-    kernel::dispatch(StaticTicks::<K, STATS> {
+    run(StaticTicks {
+        o,
         p: &p,
         st: &mut s,
         adc: cfg.map(|c| c.adc),
@@ -871,21 +901,27 @@ fn static_kernel<const K: usize, const STATS: bool>(
         share_streams(st, &[(0..K).collect()]);
     }
     let mut it = st.iter_mut();
-    s.store(std::array::from_fn(|_| &mut **it.next().expect("K lanes")));
+    s.store(
+        o,
+        std::array::from_fn(|_| &mut **it.next().expect("K lanes")),
+    );
 }
 
 /// `m` ticks of [`static_kernel`]'s lanes, as one call compiled for the CPU's SIMD
 /// instructions ([`kernel::dispatch`]).
-struct StaticTicks<'a, 'b, const K: usize, const STATS: bool> {
+struct StaticTicks<'a, 'b, const K: usize, O: LaneOps<K>, const STATS: bool> {
+    o: O,
     p: &'a StaticLanes<'b, K>,
-    st: &'a mut StaticState<K>,
+    st: &'a mut StaticState<K, O>,
     adc: [Adc; K],
     rngs: &'a mut [NoiseSource; K],
     shared: bool,
     m: u64,
 }
 
-impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, K, STATS> {
+impl<const K: usize, O: LaneOps<K>, const STATS: bool> pulp::WithSimd
+    for StaticTicks<'_, '_, K, O, STATS>
+{
     type Output = ();
 
     #[allow(
@@ -899,13 +935,13 @@ impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, K
         // memory (one invocation of `ptsa bench --batch 16 --lanes 8`, AVX-512: 357
         // Mticks/s, 371 with the state in a local).
         let mut st = *self.st;
-        let (p, m) = (self.p, self.m);
+        let (o, p, m) = (self.o, self.p, self.m);
         if self.shared {
             let (adc, rng) = (&self.adc[0], &mut self.rngs[0]);
-            static_ticks::<K, STATS>(p, &mut st, m, |bias| *bias = [adc.bias(rng); K]);
+            static_ticks::<K, O, STATS>(o, p, &mut st, m, |bias| *bias = [adc.bias(rng); K]);
         } else {
             let (adc, rngs) = (&self.adc, &mut *self.rngs);
-            static_ticks::<K, STATS>(p, &mut st, m, |bias| {
+            static_ticks::<K, O, STATS>(o, p, &mut st, m, |bias| {
                 for (l, b) in bias.iter_mut().enumerate() {
                     *b = adc[l].bias(&mut rngs[l]);
                 }
@@ -918,16 +954,17 @@ impl<const K: usize, const STATS: bool> pulp::WithSimd for StaticTicks<'_, '_, K
 /// `m` ticks of `K` static lanes, each tick's ADC terms from `draw`.
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
-fn static_ticks<const K: usize, const STATS: bool>(
+fn static_ticks<const K: usize, O: LaneOps<K>, const STATS: bool>(
+    o: O,
     p: &StaticLanes<'_, K>,
-    st: &mut StaticState<K>,
+    st: &mut StaticState<K, O>,
     m: u64,
     mut draw: impl FnMut(&mut [f64; K]),
 ) {
     let mut bias = [0.0; K];
     for _ in 0..m {
         draw(&mut bias);
-        let _ = kernel::static_tick::<K, STATS>(p, st, &bias);
+        let _ = kernel::static_tick::<K, O, STATS>(o, p, st, &bias);
     }
 }
 
@@ -959,18 +996,25 @@ fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usi
             inputs_of[l] = c;
         }
     }
-    // The kernels' lanes, packed once for the whole run.
+    // The kernels' lanes, packed once for the whole run; eight lanes in AVX-512 registers
+    // where the CPU has them (`avx512`).
+    #[cfg(target_arch = "x86_64")]
+    let avx512 = super::avx512::Avx512::new();
     let mut packs = Vec::new();
     let mut first = 0;
     while first < n {
         let s = chunk(n - first, k);
         let (c, t) = (&cfg[first..first + s], &st[first..first + s]);
         packs.push(match s {
-            16 => DynKernel::K16(Box::new(DynPack::new(c, t, first))),
-            8 => DynKernel::K8(Box::new(DynPack::new(c, t, first))),
-            4 => DynKernel::K4(Box::new(DynPack::new(c, t, first))),
-            2 => DynKernel::K2(Box::new(DynPack::new(c, t, first))),
-            _ => DynKernel::K1(Box::new(DynPack::new(c, t, first))),
+            16 => DynKernel::K16(Box::new(DynPack::new(Each, c, t, first))),
+            #[cfg(target_arch = "x86_64")]
+            8 if let Some(o) = avx512 => {
+                DynKernel::K8Avx512(Box::new(DynPack::new(o, c, t, first)))
+            }
+            8 => DynKernel::K8(Box::new(DynPack::new(Each, c, t, first))),
+            4 => DynKernel::K4(Box::new(DynPack::new(Each, c, t, first))),
+            2 => DynKernel::K2(Box::new(DynPack::new(Each, c, t, first))),
+            _ => DynKernel::K1(Box::new(DynPack::new(Each, c, t, first))),
         });
         first += s;
     }
@@ -1004,6 +1048,8 @@ fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usi
             match pack {
                 DynKernel::K16(p) => p.run(&block),
                 DynKernel::K8(p) => p.run(&block),
+                #[cfg(target_arch = "x86_64")]
+                DynKernel::K8Avx512(p) => p.run_avx512(&block),
                 DynKernel::K4(p) => p.run(&block),
                 DynKernel::K2(p) => p.run(&block),
                 DynKernel::K1(p) => p.run(&block),
@@ -1015,6 +1061,8 @@ fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usi
         match pack {
             DynKernel::K16(p) => p.store(st),
             DynKernel::K8(p) => p.store(st),
+            #[cfg(target_arch = "x86_64")]
+            DynKernel::K8Avx512(p) => p.store(st),
             DynKernel::K4(p) => p.store(st),
             DynKernel::K2(p) => p.store(st),
             DynKernel::K1(p) => p.store(st),
@@ -1064,29 +1112,44 @@ struct Block<'a> {
     b: usize,
 }
 
-/// A kernel of [`dynamic_blocks`] by its lane count.
+/// A kernel of [`dynamic_blocks`] by its lane count (and eight lanes in AVX-512 registers).
 enum DynKernel<'a> {
     K16(Box<DynPack<'a, 16>>),
     K8(Box<DynPack<'a, 8>>),
+    #[cfg(target_arch = "x86_64")]
+    K8Avx512(Box<DynPack<'a, 8, super::avx512::Avx512>>),
     K4(Box<DynPack<'a, 4>>),
     K2(Box<DynPack<'a, 2>>),
     K1(Box<DynPack<'a, 1>>),
 }
 
-/// `K` dynamic lanes packed for [`kernel::dynamic_tick`]: their constants and state, and
-/// the index of the first in the call's lanes.
-struct DynPack<'a, const K: usize> {
+/// `K` dynamic lanes packed for [`kernel::dynamic_tick`] with the lane operations `O`: their
+/// constants and state, and the index of the first in the call's lanes.
+struct DynPack<'a, const K: usize, O: LaneOps<K> = Each<K>> {
+    o: O,
     p: DynLanes<'a, K>,
-    st: DynState<K>,
+    st: DynState<K, O>,
     first: usize,
 }
 
-impl<'a, const K: usize> DynPack<'a, K> {
-    fn new(cfg: &[&'a LoopConfig], st: &[&mut LoopState], first: usize) -> Self {
+impl<'a, const K: usize, O: LaneOps<K>> DynPack<'a, K, O> {
+    fn new(o: O, cfg: &[&'a LoopConfig], st: &[&mut LoopState], first: usize) -> Self {
         Self {
+            o,
             p: DynLanes::new(std::array::from_fn(|l| cfg[l])),
-            st: DynState::load(std::array::from_fn(|l| &*st[l])),
+            st: DynState::load(o, std::array::from_fn(|l| &*st[l])),
             first,
+        }
+    }
+
+    /// One block of ticks, as one call for [`kernel::dispatch`] or another dispatch.
+    fn ticks<'s>(&'s mut self, block: &'s Block<'_>) -> DynTicks<'s, 'a, 's, K, O> {
+        DynTicks {
+            o: self.o,
+            p: &self.p,
+            st: &mut self.st,
+            block,
+            first: self.first,
         }
     }
 
@@ -1094,32 +1157,40 @@ impl<'a, const K: usize> DynPack<'a, K> {
     /// ([`kernel::dispatch`]).
     #[inline(never)]
     fn run(&mut self, block: &Block<'_>) {
-        kernel::dispatch(DynTicks::<K> {
-            p: &self.p,
-            st: &mut self.st,
-            block,
-            first: self.first,
-        });
+        kernel::dispatch(self.ticks(block));
     }
 
     /// The lanes' state back into theirs (`st` is the call's lanes).
     fn store(&self, st: &mut [&mut LoopState]) {
         let mut it = st[self.first..self.first + K].iter_mut();
-        self.st
-            .store(std::array::from_fn(|_| &mut **it.next().expect("K lanes")));
+        self.st.store(
+            self.o,
+            std::array::from_fn(|_| &mut **it.next().expect("K lanes")),
+        );
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl DynPack<'_, 8, super::avx512::Avx512> {
+    /// One block of ticks, compiled with AVX-512 (the lanes exist only where the CPU has it).
+    #[inline(never)]
+    fn run_avx512(&mut self, block: &Block<'_>) {
+        let v4 = self.o.0;
+        pulp::Simd::vectorize(v4, self.ticks(block));
     }
 }
 
 /// A block of a [`DynPack`]'s lanes, as one call compiled for the CPU's SIMD
 /// instructions ([`kernel::dispatch`]).
-struct DynTicks<'a, 'b, 'c, const K: usize> {
+struct DynTicks<'a, 'b, 'c, const K: usize, O: LaneOps<K>> {
+    o: O,
     p: &'a DynLanes<'b, K>,
-    st: &'a mut DynState<K>,
+    st: &'a mut DynState<K, O>,
     block: &'a Block<'c>,
     first: usize,
 }
 
-impl<const K: usize> pulp::WithSimd for DynTicks<'_, '_, '_, K> {
+impl<const K: usize, O: LaneOps<K>> pulp::WithSimd for DynTicks<'_, '_, '_, K, O> {
     type Output = ();
 
     #[allow(
@@ -1144,7 +1215,7 @@ impl<const K: usize> pulp::WithSimd for DynTicks<'_, '_, '_, K> {
         for t in 0..b {
             let v: [f64; K] = std::array::from_fn(|l| noise[l][t]);
             let ti: [&TickInputs; K] = std::array::from_fn(|l| &inputs[l][t]);
-            let _ = kernel::dynamic_tick::<K>(self.p, &mut st, &v, &ti);
+            let _ = kernel::dynamic_tick::<K, O>(self.o, self.p, &mut st, &v, &ti);
         }
         *self.st = st;
     }

@@ -2,20 +2,22 @@
 //! condition, [`dynamic_tick`] for a dynamic one.
 //!
 //! [`static_tick`] is the whole tick (the ADC's code of the demodulated pickoff, the core's
-//! decision through [`ptsa_core::Ptsa::tick_lanes`], the plant's exact step with the applied
+//! decision through [`ptsa_core::Ptsa::tick_regs`], the plant's exact step with the applied
 //! polarity, a tick on a stop, the per-tick statistics) over `L` lanes in structure of
 //! arrays. A kernel's lanes are `L` loops' configurations (`[&LoopConfig; L]`, packed once
 //! into [`StaticLanes`] or [`DynLanes`]) and states (`[&mut LoopState; L]`, loaded into
-//! [`StaticState`] or [`DynState`] for a run and stored back at its end). The single loop runs
-//! it with one lane (`ClosedLoop::run`'s static path); the batch engine with 8 by default
-//! (`batch`), inside [`dispatch`], so that the compiler may put 4 (AVX2) or 8 (AVX-512)
-//! lanes in one SIMD instruction on the CPU it runs on. Every step is a loop over the lanes
+//! [`StaticState`] or [`DynState`] for a run and stored back at its end), the cores' state in
+//! the types of a [`ptsa_core::LaneOps`]: [`ptsa_core::Each`] (arrays) or, for eight lanes
+//! on a CPU with AVX-512, `avx512::Avx512` (registers). The single loop runs it with one
+//! lane (`ClosedLoop::run`'s static path); the batch engine with 8 by default (`batch`),
+//! inside [`dispatch`] (or `pulp`'s AVX-512 dispatch), so that 4 (AVX2) or 8 (AVX-512)
+//! lanes share one SIMD instruction on the CPU it runs on. Every step is a loop over the lanes
 //! with the same operations in the same order for every `L` (no fused multiply-add: Rust
 //! never contracts `a·b + c`; the ADC's conversion is the same floor and clamp by another
 //! instruction sequence on several lanes, `ptsa_core::adc::AdcFormat::sample_lanes`), so a
 //! lane's result does not depend on `L` or on the CPU: bit for bit the single loop's.
 
-use ptsa_core::{LaneTicks, Lanes, Ptsa};
+use ptsa_core::{Each, LaneOps, Lanes, Ptsa, RegTicks, Regs};
 
 use super::config::{Adc, LoopConfig, TickInputs, torque_of_inputs};
 use super::state::LoopState;
@@ -155,12 +157,13 @@ impl<const L: usize> AccLanes<L> {
     }
 }
 
-/// What a static tick changes in `L` lanes: the plant state `x[j][lane]`, the cores, the
-/// applied polarity (all ones where negative) and the statistics.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct StaticState<const L: usize> {
+/// What a static tick changes in `L` lanes: the plant state `x[j][lane]`, the cores (in the
+/// types of the lane operations `O`), the applied polarity (all ones where negative) and the
+/// statistics.
+#[derive(Clone, Copy)]
+pub(super) struct StaticState<const L: usize, O: LaneOps<L> = Each<L>> {
     x: [[f64; L]; NX],
-    core: Lanes<L>,
+    core: Regs<L, O>,
     neg: [u64; L],
     acc: AccLanes<L>,
 }
@@ -188,13 +191,16 @@ fn free(theta: f64, theta_stop: f64) -> bool {
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 #[allow(clippy::needless_range_loop)]
-pub(super) fn static_tick<const L: usize, const STATS: bool>(
+pub(super) fn static_tick<const L: usize, O: LaneOps<L>, const STATS: bool>(
+    o: O,
     p: &StaticLanes<'_, L>,
-    s: &mut StaticState<L>,
+    s: &mut StaticState<L, O>,
     bias: &[f64; L],
-) -> ([i16; L], LaneTicks<L>) {
+) -> ([i16; L], RegTicks<L, O>) {
     let codes = Adc::quantize_lanes(&p.gain, &p.mask, &s.x[3], bias);
-    let t = p.ptsa.tick_lanes(&mut s.core, &codes);
+    let t = p
+        .ptsa
+        .tick_regs(o, &mut s.core, o.load(codes.map(i32::from)));
     let mut add = [[0.0; L]; NX];
     for j in 0..NX {
         for l in 0..L {
@@ -223,18 +229,17 @@ pub(super) fn static_tick<const L: usize, const STATS: bool>(
     s.x = y;
     if STATS {
         let applied = std::array::from_fn(|l| s.neg[l] == 0);
-        s.acc.tick(&applied, &t.positive, &s.x[0], &t.cycle_end);
+        let (positive, cycle_end) = (o.store_mask(t.positive), o.store_mask(t.cycle_end));
+        s.acc.tick(&applied, &positive, &s.x[0], &cycle_end);
     }
-    for l in 0..L {
-        s.neg[l] = neg_mask(!t.positive[l]);
-    }
+    s.neg = o.mask64(o.not_mask(t.positive));
     (codes, t)
 }
 
-impl<const L: usize> StaticState<L> {
-    /// The state of `L` static loops, lane `l` from `st[l]`.
+impl<const L: usize, O: LaneOps<L>> StaticState<L, O> {
+    /// The state of `L` static loops, lane `l` from `st[l]`, the cores in the types of `o`.
     #[allow(clippy::needless_range_loop)]
-    pub(super) fn load(st: [&LoopState; L]) -> Self {
+    pub(super) fn load(o: O, st: [&LoopState; L]) -> Self {
         let mut x = [[0.0; L]; NX];
         for l in 0..L {
             for j in 0..NX {
@@ -243,7 +248,7 @@ impl<const L: usize> StaticState<L> {
         }
         Self {
             x,
-            core: Lanes::new(&st.map(|s| s.core)),
+            core: Regs::load(o, &Lanes::new(&st.map(|s| s.core))),
             neg: st.map(|s| neg_mask(s.u < 0.0)),
             acc: AccLanes::load(st),
         }
@@ -262,12 +267,13 @@ impl<const L: usize> StaticState<L> {
     /// Lane `l` back into `st[l]` (all but the noise generator, which the caller draws
     /// from, and the tick index, which [`LoopState::end_run`] advances).
     #[allow(clippy::needless_range_loop)]
-    pub(super) fn store(&self, st: [&mut LoopState; L]) {
+    pub(super) fn store(&self, o: O, st: [&mut LoopState; L]) {
+        let core = self.core.store(o);
         for (l, s) in st.into_iter().enumerate() {
             for j in 0..NX {
                 s.x[j] = self.x[j][l];
             }
-            s.core = self.core.get(l);
+            s.core = core.get(l);
             s.u = self.u(l);
             self.acc.store(l, s);
         }
@@ -353,12 +359,13 @@ impl<'a, const L: usize> DynLanes<'a, L> {
     }
 }
 
-/// What a dynamic tick changes in `L` lanes: the plant state `x[j][lane]`, the cores, the
-/// applied command (±1), the statistics, the harmonic sums and the absolute tick index.
-#[derive(Clone, Copy, Debug)]
-pub(super) struct DynState<const L: usize> {
+/// What a dynamic tick changes in `L` lanes: the plant state `x[j][lane]`, the cores (in the
+/// types of the lane operations `O`), the applied command (±1), the statistics, the
+/// harmonic sums and the absolute tick index.
+#[derive(Clone, Copy)]
+pub(super) struct DynState<const L: usize, O: LaneOps<L> = Each<L>> {
     x: [[f64; L]; NX],
-    core: Lanes<L>,
+    core: Regs<L, O>,
     u: [f64; L],
     acc: AccLanes<L>,
     harm: [[f64; 2]; L],
@@ -366,10 +373,10 @@ pub(super) struct DynState<const L: usize> {
     k: [u64; L],
 }
 
-impl<const L: usize> DynState<L> {
-    /// The state of `L` dynamic loops, lane `l` from `st[l]`.
+impl<const L: usize, O: LaneOps<L>> DynState<L, O> {
+    /// The state of `L` dynamic loops, lane `l` from `st[l]`, the cores in the types of `o`.
     #[allow(clippy::needless_range_loop)]
-    pub(super) fn load(st: [&LoopState; L]) -> Self {
+    pub(super) fn load(o: O, st: [&LoopState; L]) -> Self {
         let mut x = [[0.0; L]; NX];
         for l in 0..L {
             for j in 0..NX {
@@ -378,7 +385,7 @@ impl<const L: usize> DynState<L> {
         }
         Self {
             x,
-            core: Lanes::new(&st.map(|s| s.core)),
+            core: Regs::load(o, &Lanes::new(&st.map(|s| s.core))),
             u: st.map(|s| s.u),
             acc: AccLanes::load(st),
             harm: st.map(|s| s.totals.harm),
@@ -390,12 +397,13 @@ impl<const L: usize> DynState<L> {
     /// Lane `l` back into `st[l]` (all but the noise generator and the phasor, which the
     /// caller draws from and advances).
     #[allow(clippy::needless_range_loop)]
-    pub(super) fn store(&self, st: [&mut LoopState; L]) {
+    pub(super) fn store(&self, o: O, st: [&mut LoopState; L]) {
+        let core = self.core.store(o);
         for (l, s) in st.into_iter().enumerate() {
             for j in 0..NX {
                 s.x[j] = self.x[j][l];
             }
-            s.core = self.core.get(l);
+            s.core = core.get(l);
             s.u = self.u[l];
             self.acc.store(l, s);
             s.totals.harm = self.harm[l];
@@ -433,14 +441,17 @@ impl<const L: usize> DynState<L> {
 #[allow(clippy::inline_always, reason = "per-tick path")]
 #[inline(always)]
 #[allow(clippy::needless_range_loop)]
-pub(super) fn dynamic_tick<const L: usize>(
+pub(super) fn dynamic_tick<const L: usize, O: LaneOps<L>>(
+    o: O,
     p: &DynLanes<'_, L>,
-    s: &mut DynState<L>,
+    s: &mut DynState<L, O>,
     bias: &[f64; L],
     ti: &[&TickInputs; L],
-) -> ([i16; L], LaneTicks<L>) {
+) -> ([i16; L], RegTicks<L, O>) {
     let codes = Adc::quantize_lanes(&p.gain, &p.mask, &s.x[3], bias);
-    let t = p.ptsa.tick_lanes(&mut s.core, &codes);
+    let t = p
+        .ptsa
+        .tick_regs(o, &mut s.core, o.load(codes.map(i32::from)));
     // The torque of the inputs and of θ's coupling to them (the stops' apart).
     let base = input_torque(p, &s.x[0], ti);
     let mut d = [0.0; L];
@@ -513,10 +524,13 @@ pub(super) fn dynamic_tick<const L: usize>(
     }
     s.x = y;
     let applied = std::array::from_fn(|l| s.u[l] > 0.0);
-    s.acc.tick(&applied, &t.positive, &s.x[0], &t.cycle_end);
+    let (positive, cycle_end) = (o.store_mask(t.positive), o.store_mask(t.cycle_end));
+    s.acc.tick(&applied, &positive, &s.x[0], &cycle_end);
+    // ±1: the sign bit of 1.0 set where the decided polarity is negative.
+    let neg = o.mask64(o.not_mask(t.positive));
     for l in 0..L {
         s.k[l] += 1;
-        s.u[l] = if t.positive[l] { 1.0 } else { -1.0 };
+        s.u[l] = f64::from_bits(1f64.to_bits() | (neg[l] & (1 << 63)));
     }
     (codes, t)
 }

@@ -6,6 +6,8 @@
 //! * `noise`: the pickoff noise source.
 //! * `kernel`: the tick of a static and of a dynamic condition, once, for any number of
 //!   loops side by side (`(&config, &mut state)` lanes).
+//! * `avx512`: eight lanes of the core's tick in AVX-512 registers (a `ptsa_core::LaneOps`),
+//!   which the batch engine's static kernel runs on a CPU that has them.
 //! * [`sim`]: the closed loop [`sim::ClosedLoop`] (one configuration and one state), the
 //!   charge-balance estimator; [`sim::simulate_condition`] and [`sim::simulate_difference`]
 //!   are the entry points.
@@ -15,6 +17,8 @@
 //!   gates of the same run.
 //! * [`work`]: work estimated before it runs and counted while it runs (ticks, stages).
 
+#[cfg(target_arch = "x86_64")]
+mod avx512;
 pub mod batch;
 mod config;
 mod kernel;

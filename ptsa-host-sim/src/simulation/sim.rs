@@ -27,7 +27,7 @@
 //! pendulum and the torquer at the ends of the window). It is exact for the simulated
 //! system; windows of whole oscillation periods remove the oscillating part of `T_ext`.
 
-use ptsa_core::{Config, Polarity};
+use ptsa_core::{Config, Each, Polarity};
 
 pub use super::config::ExtraPhysics;
 use super::config::{Adc, LoopConfig};
@@ -278,11 +278,12 @@ impl ClosedLoop {
         let (cfg, st) = (&self.cfg, &mut self.st);
         let k0 = st.k;
         let lane = StaticLanes::new([cfg]);
-        let mut s = StaticState::load([&*st]);
+        let o = Each::<1>;
+        let mut s = StaticState::load(o, [&*st]);
         for i in 0..n {
             let u = s.u(0);
             let bias = [cfg.adc.bias(&mut st.rng)];
-            let (code, t) = kernel::static_tick::<1, true>(&lane, &mut s, &bias);
+            let (code, t) = kernel::static_tick::<1, _, true>(o, &lane, &mut s, &bias);
             if OBSERVE {
                 obs(&TickView {
                     k: k0 + i,
@@ -293,7 +294,7 @@ impl ClosedLoop {
                 });
             }
         }
-        s.store([st]);
+        s.store(o, [st]);
     }
 
     /// A dynamic run: [`kernel::dynamic_tick`] with one lane, the phasor and the inputs of
@@ -301,14 +302,14 @@ impl ClosedLoop {
     fn run_dynamic<F: FnMut(&TickView), const OBSERVE: bool>(&mut self, n: u64, obs: &mut F) {
         let (cfg, st) = (&self.cfg, &mut self.st);
         st.sync_phasor(cfg);
-        let lane = DynLanes::new([cfg]);
-        let mut s = DynState::load([&*st]);
+        let (o, lane) = (Each::<1>, DynLanes::new([cfg]));
+        let mut s = DynState::load(o, [&*st]);
         let mut sc = st.phasor;
         for _ in 0..n {
             let bias = [cfg.adc.bias(&mut st.rng)];
             let ti = cfg.dynamic_inputs(s.k(0), &mut sc);
             let u = s.u(0);
-            let (code, t) = kernel::dynamic_tick::<1>(&lane, &mut s, &bias, &[&ti]);
+            let (code, t) = kernel::dynamic_tick::<1, _>(o, &lane, &mut s, &bias, &[&ti]);
             if OBSERVE {
                 obs(&TickView {
                     k: s.k(0) - 1,
@@ -319,7 +320,7 @@ impl ClosedLoop {
                 });
             }
         }
-        s.store([&mut *st]);
+        s.store(o, [&mut *st]);
         st.phasor = sc;
         st.phasor_k = st.k;
     }
