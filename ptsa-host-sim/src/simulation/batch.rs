@@ -40,19 +40,23 @@
 //!   (in kernels of at most 8: 16 lanes are two kernels of 8, one after the other, each for
 //!   the same ticks) through the one definition of the static tick, `kernel::static_tick`
 //!   (the single loop runs it with one lane), compiled for the CPU's SIMD instructions at run
-//!   time (`pulp`: AVX-512 where present, else AVX2); `lanes = 1` runs one lane after the
+//!   time (`pulp`: AVX-512 where present, else AVX2); a kernel of 8 on a CPU with AVX-512
+//!   runs the core's tick in its registers (`avx512`), others on arrays
+//!   ([`ptsa_core::Each`]); `lanes = 1` runs one lane after the
 //!   other, in blocks of 512 ticks, with the single loop's polarity-split fast path
 //!   (`sim::static_block_fast`).
 //! * dynamic lanes: `K` loops side by side through the one definition of the dynamic tick,
 //!   `kernel::dynamic_tick` (the single loop runs it with one lane), packed once per run,
 //!   in blocks of 128 ticks whose noise draws and, for lanes with the same condition, phasor
-//!   and inputs are made once per block for the whole group.
+//!   and inputs are made once per block for the whole group; kernels of 8 with AVX-512 as
+//!   the static ones.
 //!
-//! Measured with `ptsa bench --batch 16 --runs 7` on one core (three invocations; 2-core AMD
-//! EPYC, AVX-512, otherwise idle, 2026-11-28): static batch / single = 1.82–1.86 with 8
-//! lanes, 1.60 with 4, 1.08 with 1; with `--dynamic` 1.04–1.07, with `--dynamic
-//! --shared-condition` 2.56–2.63 (see docs/host-sim.md, "Performance", which also gives the
-//! earlier figures on an AVX2 machine). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
+//! Measured with `ptsa bench --batch 16 --runs 7` on one core (2-core AMD EPYC, AVX-512,
+//! 2026-11-28, the core's tick in AVX-512 registers): static batch / single = 2.98–3.05 with
+//! 8 lanes (six invocations), 2.05 with 4, 1.05–1.08 with 1; with `--dynamic` 1.09–1.16,
+//! with `--dynamic --shared-condition` 2.88–2.95 (three each; see docs/host-sim.md,
+//! "Performance", which also gives the figures before, 1.82–1.86 static, and on an AVX2
+//! machine). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
 //! (criterion medians, one thread, on the AVX2 machine with 4 lanes, not re-run since):
 //! 16 different oscillating conditions 35.9 ms single, 29.7 ms batch (1.21×); one condition
 //! with 16 instruments (identification) 26.2 ms single, 14.1 ms batch (1.85×; it was
