@@ -379,6 +379,64 @@ fn bench_refuses_no_work() {
     );
 }
 
+/// `PTSA_SIMD` chooses the batch engine's instructions: at every level this CPU has, eight
+/// static and eight oscillating conditions give the single loop's pulses and results bit
+/// for bit (the bench checks them before it prints a rate), and the bench says where the
+/// core's tick was held; a value that is no level is warned about and ignored.
+#[test]
+fn every_simd_level_gives_the_single_loops_results() {
+    let tmp = tempfile::tempdir().unwrap();
+    let run = |level: &str, dynamic: bool| {
+        let mut args = vec!["bench", "--batch", "8", "--ticks", "1000", "--runs", "1"];
+        if dynamic {
+            args.push("--dynamic");
+        }
+        let o = Command::new(env!("CARGO_BIN_EXE_ptsa"))
+            .current_dir(tmp.path())
+            .env("PTSA_SIMD", level)
+            .args(&args)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "PTSA_SIMD={level}: {}", stderr(&o));
+        (stdout(&o), stderr(&o))
+    };
+    for (level, held) in [
+        ("sse2", "arrays"),
+        ("avx2", "AVX2 registers"),
+        ("avx512", "AVX-512 registers"),
+    ] {
+        for dynamic in [false, true] {
+            let (out, err) = run(level, dynamic);
+            assert!(err.is_empty(), "{level}: {err}");
+            let same = if dynamic {
+                "(same results bit for bit in every run)"
+            } else {
+                "(same pulses in every run)"
+            };
+            assert!(out.contains(same), "{level}: {out}");
+            let batch = out
+                .lines()
+                .find(|l| l.starts_with("bench: batch engine, 8 lanes per core"))
+                .unwrap_or_else(|| panic!("{out}"));
+            if batch.contains(&format!("(SIMD level {level})")) {
+                assert!(
+                    batch.contains(&format!("the core's tick in {held}")),
+                    "{batch}"
+                );
+            } else {
+                // The CPU has less than was asked for: the kernels use what it has.
+                eprintln!("this CPU has no {level}: {batch}");
+            }
+        }
+    }
+    let (out, err) = run("avx1024", false);
+    assert!(
+        err.starts_with("warning: PTSA_SIMD=avx1024: expected avx512, avx2 or sse2"),
+        "{err}"
+    );
+    assert!(out.contains("(same pulses in every run)"), "{out}");
+}
+
 /// `bench --batch N`: both rates and their ratio, from a tiny run (a smoke test of the
 /// command, not a timing); its options refused out of range.
 #[test]

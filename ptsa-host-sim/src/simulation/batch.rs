@@ -81,7 +81,10 @@ use super::sim::{
     self, BIAS_BLOCK, ClosedLoop, GateStart, SimDifference, SimOptions, SimResult, StaticRun,
     WindowStart, static_block_fast,
 };
+use super::simd::{self, SimdLevel};
 use super::state::{LoopState, RunStart};
+#[cfg(target_arch = "x86_64")]
+use super::{avx2::Avx2, avx512::Avx512};
 
 /// Loops side by side per core by default (see the module docs; `benches/batch.rs`
 /// measures 1, 2, 4, 8 and 16; with AVX-512, static lanes ran 1.60× the single loop with 4
@@ -845,10 +848,10 @@ fn lane_block_stats(cfg: &LoopConfig, st: &mut LoopState, bias: &[f64]) {
 
 /// `m` ticks of `K` static lanes side by side: [`kernel::static_tick`] with `K` lanes, the
 /// same definition the single loop runs with one, compiled for this CPU's SIMD instructions
-/// ([`kernel::dispatch`]); the lanes share the core's configuration (see [`run_mode`]).
-/// Eight lanes on a CPU with AVX-512 run the core's tick in its registers (`avx512`: the
-/// 32-bit lanes in one `ymm`, the flags in one mask register), others in arrays that the
-/// compiler vectorises ([`Each`]). Lanes in step with the same noise generator and the same
+/// ([`simd::dispatch`]); the lanes share the core's configuration (see [`run_mode`]).
+/// Eight lanes run the core's tick in the registers of the CPU's SIMD level ([`SimdLevel`]:
+/// `avx512`, the 32-bit lanes in one `ymm` and the flags in one mask register; `avx2`, the
+/// flags as 32-bit masks), others in arrays that the compiler vectorises ([`Each`]). Lanes in step with the same noise generator and the same
 /// ADC draw the same additive terms: they are drawn once (the usual batch: one instrument,
 /// one seed).
 #[inline(never)]
@@ -858,14 +861,26 @@ fn static_kernel<const K: usize, const STATS: bool>(
     m: u64,
 ) {
     #[cfg(target_arch = "x86_64")]
-    if K == 8
-        && let Some(o) = super::avx512::Avx512::new()
-    {
-        return static_kernel_with::<8, _, STATS>(o, cfg, st, m, |op| {
-            pulp::Simd::vectorize(o.0, op);
-        });
+    if K == 8 {
+        match SimdLevel::current() {
+            SimdLevel::Avx512 => {
+                if let Some(o) = Avx512::new() {
+                    return static_kernel_with::<8, _, STATS>(o, cfg, st, m, |op| {
+                        pulp::Simd::vectorize(o.0, op);
+                    });
+                }
+            }
+            SimdLevel::Avx2 => {
+                if let Some(o) = Avx2::new() {
+                    return static_kernel_with::<8, _, STATS>(o, cfg, st, m, |op| {
+                        pulp::Simd::vectorize(o.0, op);
+                    });
+                }
+            }
+            SimdLevel::Sse2 => {}
+        }
     }
-    static_kernel_with::<K, _, STATS>(Each::<K>, cfg, st, m, |op| kernel::dispatch(op));
+    static_kernel_with::<K, _, STATS>(Each::<K>, cfg, st, m, |op| simd::dispatch(op));
 }
 
 /// [`static_kernel`] with the lane operations `o`, its ticks run by `run` (which compiles
@@ -912,7 +927,7 @@ fn static_kernel_with<const K: usize, O: LaneOps<K>, const STATS: bool>(
 }
 
 /// `m` ticks of [`static_kernel`]'s lanes, as one call compiled for the CPU's SIMD
-/// instructions ([`kernel::dispatch`]).
+/// instructions ([`simd::dispatch`]).
 struct StaticTicks<'a, 'b, const K: usize, O: LaneOps<K>, const STATS: bool> {
     o: O,
     p: &'a StaticLanes<'b, K>,
@@ -977,7 +992,7 @@ const DYN_BLOCK: usize = 128;
 
 /// `m` ticks of dynamic lanes, in blocks of [`DYN_BLOCK`] ticks, `k` lanes side by side
 /// through [`kernel::dynamic_tick`] (the single loop runs it with one lane), compiled for
-/// this CPU's SIMD instructions ([`kernel::dispatch`]); the rest of the lanes in the largest
+/// this CPU's SIMD instructions ([`simd::dispatch`]); the rest of the lanes in the largest
 /// powers of two that fit. The kernels' lanes are packed once; before each block, lanes
 /// drawing the same noise draw it once, and lanes in step with the same condition and clock
 /// (parameter identification, Monte Carlo: one condition, many instruments or effects)
@@ -1000,26 +1015,16 @@ fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usi
             inputs_of[l] = c;
         }
     }
-    // The kernels' lanes, packed once for the whole run; eight lanes in AVX-512 registers
-    // where the CPU has them (`avx512`).
-    #[cfg(target_arch = "x86_64")]
-    let avx512 = super::avx512::Avx512::new();
+    // The kernels' lanes, packed once for the whole run.
     let mut packs = Vec::new();
     let mut first = 0;
     while first < n {
         let s = chunk(n - first, k);
-        let (c, t) = (&cfg[first..first + s], &st[first..first + s]);
-        packs.push(match s {
-            16 => DynKernel::K16(Box::new(DynPack::new(Each, c, t, first))),
-            #[cfg(target_arch = "x86_64")]
-            8 if let Some(o) = avx512 => {
-                DynKernel::K8Avx512(Box::new(DynPack::new(o, c, t, first)))
-            }
-            8 => DynKernel::K8(Box::new(DynPack::new(Each, c, t, first))),
-            4 => DynKernel::K4(Box::new(DynPack::new(Each, c, t, first))),
-            2 => DynKernel::K2(Box::new(DynPack::new(Each, c, t, first))),
-            _ => DynKernel::K1(Box::new(DynPack::new(Each, c, t, first))),
-        });
+        packs.push(DynKernel::new(
+            &cfg[first..first + s],
+            &st[first..first + s],
+            first,
+        ));
         first += s;
     }
     let mut bias = vec![[0.0; DYN_BLOCK]; noise.len()];
@@ -1054,6 +1059,8 @@ fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usi
                 DynKernel::K8(p) => p.run(&block),
                 #[cfg(target_arch = "x86_64")]
                 DynKernel::K8Avx512(p) => p.run_avx512(&block),
+                #[cfg(target_arch = "x86_64")]
+                DynKernel::K8Avx2(p) => p.run_avx2(&block),
                 DynKernel::K4(p) => p.run(&block),
                 DynKernel::K2(p) => p.run(&block),
                 DynKernel::K1(p) => p.run(&block),
@@ -1067,6 +1074,8 @@ fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usi
             DynKernel::K8(p) => p.store(st),
             #[cfg(target_arch = "x86_64")]
             DynKernel::K8Avx512(p) => p.store(st),
+            #[cfg(target_arch = "x86_64")]
+            DynKernel::K8Avx2(p) => p.store(st),
             DynKernel::K4(p) => p.store(st),
             DynKernel::K2(p) => p.store(st),
             DynKernel::K1(p) => p.store(st),
@@ -1116,15 +1125,48 @@ struct Block<'a> {
     b: usize,
 }
 
-/// A kernel of [`dynamic_blocks`] by its lane count (and eight lanes in AVX-512 registers).
+/// A kernel of [`dynamic_blocks`] by its lane count (and eight lanes in AVX-512 or AVX2
+/// registers).
 enum DynKernel<'a> {
     K16(Box<DynPack<'a, 16>>),
     K8(Box<DynPack<'a, 8>>),
     #[cfg(target_arch = "x86_64")]
-    K8Avx512(Box<DynPack<'a, 8, super::avx512::Avx512>>),
+    K8Avx512(Box<DynPack<'a, 8, Avx512>>),
+    #[cfg(target_arch = "x86_64")]
+    K8Avx2(Box<DynPack<'a, 8, Avx2>>),
     K4(Box<DynPack<'a, 4>>),
     K2(Box<DynPack<'a, 2>>),
     K1(Box<DynPack<'a, 1>>),
+}
+
+impl<'a> DynKernel<'a> {
+    /// The lanes `cfg`, `st` (1, 2, 4, 8 or 16 of them, the first at `first` in the call's
+    /// lanes) packed: eight in the registers of the CPU's SIMD level ([`SimdLevel`]), the
+    /// others on arrays.
+    fn new(cfg: &[&'a LoopConfig], st: &[&mut LoopState], first: usize) -> Self {
+        #[cfg(target_arch = "x86_64")]
+        let level = SimdLevel::current();
+        let (c, t) = (cfg, st);
+        match cfg.len() {
+            16 => Self::K16(Box::new(DynPack::new(Each, c, t, first))),
+            #[cfg(target_arch = "x86_64")]
+            8 if level == SimdLevel::Avx512
+                && let Some(o) = Avx512::new() =>
+            {
+                Self::K8Avx512(Box::new(DynPack::new(o, c, t, first)))
+            }
+            #[cfg(target_arch = "x86_64")]
+            8 if level == SimdLevel::Avx2
+                && let Some(o) = Avx2::new() =>
+            {
+                Self::K8Avx2(Box::new(DynPack::new(o, c, t, first)))
+            }
+            8 => Self::K8(Box::new(DynPack::new(Each, c, t, first))),
+            4 => Self::K4(Box::new(DynPack::new(Each, c, t, first))),
+            2 => Self::K2(Box::new(DynPack::new(Each, c, t, first))),
+            _ => Self::K1(Box::new(DynPack::new(Each, c, t, first))),
+        }
+    }
 }
 
 /// `K` dynamic lanes packed for [`kernel::dynamic_tick`] with the lane operations `O`: their
@@ -1146,7 +1188,7 @@ impl<'a, const K: usize, O: LaneOps<K>> DynPack<'a, K, O> {
         }
     }
 
-    /// One block of ticks, as one call for [`kernel::dispatch`] or another dispatch.
+    /// One block of ticks, as one call for [`simd::dispatch`] or another dispatch.
     fn ticks<'s>(&'s mut self, block: &'s Block<'_>) -> DynTicks<'s, 'a, 's, K, O> {
         DynTicks {
             o: self.o,
@@ -1158,10 +1200,10 @@ impl<'a, const K: usize, O: LaneOps<K>> DynPack<'a, K, O> {
     }
 
     /// One block of ticks, compiled for this CPU's SIMD instructions
-    /// ([`kernel::dispatch`]).
+    /// ([`simd::dispatch`]).
     #[inline(never)]
     fn run(&mut self, block: &Block<'_>) {
-        kernel::dispatch(self.ticks(block));
+        simd::dispatch(self.ticks(block));
     }
 
     /// The lanes' state back into theirs (`st` is the call's lanes).
@@ -1175,7 +1217,7 @@ impl<'a, const K: usize, O: LaneOps<K>> DynPack<'a, K, O> {
 }
 
 #[cfg(target_arch = "x86_64")]
-impl DynPack<'_, 8, super::avx512::Avx512> {
+impl DynPack<'_, 8, Avx512> {
     /// One block of ticks, compiled with AVX-512 (the lanes exist only where the CPU has it).
     #[inline(never)]
     fn run_avx512(&mut self, block: &Block<'_>) {
@@ -1184,8 +1226,18 @@ impl DynPack<'_, 8, super::avx512::Avx512> {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+impl DynPack<'_, 8, Avx2> {
+    /// One block of ticks, compiled with AVX2 (the lanes exist only where the CPU has it).
+    #[inline(never)]
+    fn run_avx2(&mut self, block: &Block<'_>) {
+        let v3 = self.o.0;
+        pulp::Simd::vectorize(v3, self.ticks(block));
+    }
+}
+
 /// A block of a [`DynPack`]'s lanes, as one call compiled for the CPU's SIMD
-/// instructions ([`kernel::dispatch`]).
+/// instructions ([`simd::dispatch`]).
 struct DynTicks<'a, 'b, 'c, const K: usize, O: LaneOps<K>> {
     o: O,
     p: &'a DynLanes<'b, K>,

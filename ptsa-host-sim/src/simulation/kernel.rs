@@ -7,11 +7,11 @@
 //! arrays. A kernel's lanes are `L` loops' configurations (`[&LoopConfig; L]`, packed once
 //! into [`StaticLanes`] or [`DynLanes`]) and states (`[&mut LoopState; L]`, loaded into
 //! [`StaticState`] or [`DynState`] for a run and stored back at its end), the cores' state in
-//! the types of a [`ptsa_core::LaneOps`]: [`ptsa_core::Each`] (arrays) or, for eight lanes
-//! on a CPU with AVX-512, `avx512::Avx512` (registers). The single loop runs it with one
-//! lane (`ClosedLoop::run`'s static path); the batch engine with 8 by default (`batch`),
-//! inside [`dispatch`] (or `pulp`'s AVX-512 dispatch), so that 4 (AVX2) or 8 (AVX-512)
-//! lanes share one SIMD instruction on the CPU it runs on. Every step is a loop over the lanes
+//! the types of a [`ptsa_core::LaneOps`]: [`ptsa_core::Each`] (arrays) or, for eight lanes,
+//! `avx512::Avx512` or `avx2::Avx2` (registers; `simd` says which the CPU runs). The single
+//! loop runs it with one lane (`ClosedLoop::run`'s static path); the batch engine with 8 by
+//! default (`batch`), compiled for the CPU's SIMD instructions (`simd::dispatch`), so that 4
+//! (AVX2) or 8 (AVX-512) lanes share one SIMD instruction. Every step is a loop over the lanes
 //! with the same operations in the same order for every `L` (no fused multiply-add: Rust
 //! never contracts `a·b + c`; the ADC's conversion is the same floor and clamp by another
 //! instruction sequence on several lanes, `ptsa_core::adc::AdcFormat::sample_lanes`), so a
@@ -23,15 +23,6 @@ use super::config::{Adc, LoopConfig, TickInputs, torque_of_inputs};
 use super::state::LoopState;
 use crate::model::condition::{IA, OA, PA};
 use crate::model::plant::{NX, ZohLanes};
-
-/// Run `f` with the SIMD instruction sets of this CPU enabled for everything inlined into
-/// it (runtime detection by `pulp`: AVX-512 where present, else AVX2, else the baseline
-/// SSE2). `f`'s `with_simd` and the functions on the tick path are `#[inline(always)]` so
-/// that they are compiled inside.
-#[inline]
-pub(super) fn dispatch<F: pulp::WithSimd>(f: F) -> F::Output {
-    pulp::Arch::new().dispatch(f)
-}
 
 /// The constants of a static condition's tick for `L` lanes (one loop configuration per
 /// lane; one core configuration for all of them), packed as structure of arrays.

@@ -14,6 +14,8 @@ mod stdout;
 mod work;
 
 use std::io::Write;
+
+use ptsa_host_sim::simulation::simd::SimdLevel;
 use std::process::ExitCode;
 
 use anyhow::Result;
@@ -27,6 +29,9 @@ use ptsa_host_sim::lab::fixtures::TwoAxisKind;
 fn main() -> ExitCode {
     signals::clean_up_on_signals();
     let cli = flags::parse();
+    if let Err(w) = SimdLevel::from_env() {
+        eprintln!("warning: {w}");
+    }
     let mut out = stdout::Stdout::default();
     let result = run(cli, &mut out);
     let _ = out.flush();

@@ -15,6 +15,7 @@ use ptsa_host_sim::simulation::batch::{Engine, Job};
 use ptsa_host_sim::simulation::sim::{
     self, SimOptions, SimResult, simulate_condition, window_ticks,
 };
+use ptsa_host_sim::simulation::simd::SimdLevel;
 
 use super::{BenchPlan, median_min_max};
 
@@ -350,10 +351,19 @@ pub fn bench_batch(
         "bench: single loop, {single} after the other ({call}): {:.2} Mticks/s",
         r.single_ticks_per_s / 1e6
     )?;
+    // Where the kernels hold the core's tick: registers for kernels of eight, if the CPU
+    // (or `PTSA_SIMD`) allows; arrays otherwise.
+    let level = SimdLevel::current();
+    let held = if lanes >= 8 {
+        level.lanes_of_eight()
+    } else {
+        "arrays"
+    };
     writeln!(
         out,
-        "bench: batch engine, {} per core, on one thread ({batch}): {:.2} Mticks/s",
+        "bench: batch engine, {} per core, on one thread ({batch}), the core's tick in {held} (SIMD level {}): {:.2} Mticks/s",
         count(lanes as u64, "lane"),
+        level.name(),
         r.batch_ticks_per_s_per_core / 1e6
     )?;
     let same = if set == Set::Static {

@@ -68,7 +68,9 @@ pub struct BenchArgs {
     pub shared_condition: bool,
     /// With --batch: loops side by side per core in the batch, on SIMD lanes where the CPU
     /// has them (1, 2, 4, 8 or 16; 1 runs them one after the other, block by block; static
-    /// loops run in kernels of at most 8 lanes).
+    /// loops run in kernels of at most 8 lanes; a kernel of 8 holds the core's tick in
+    /// AVX-512 or AVX2 registers; the environment variable PTSA_SIMD=avx512, avx2 or sse2
+    /// lets the kernels use at most those instructions, to compare the paths).
     #[arg(long, default_value_t = ptsa_host_sim::simulation::batch::LANES, value_name = "K",
           value_parser = lanes, requires = "batch")]
     pub lanes: usize,

@@ -1,0 +1,120 @@
+//! Which SIMD instructions the batch engine's kernels use: the best this CPU has, or fewer
+//! when the environment variable `PTSA_SIMD` asks for them (`avx512`, `avx2`, `sse2`), so
+//! that the paths can be compared on one machine (`PTSA_SIMD=avx2 ptsa bench --batch 16`
+//! runs what a CPU without AVX-512 runs). Every path gives the same results bit for bit;
+//! only the speed differs.
+//!
+//! A kernel of eight lanes runs the core's tick in the registers of the level
+//! (`simulation/avx512.rs`, `simulation/avx2.rs`); other kernels, and every kernel at `sse2`, run it on
+//! arrays (`ptsa_core::Each`) compiled for the level's instructions.
+
+use std::sync::OnceLock;
+
+/// The instruction sets the kernels may use, in increasing order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum SimdLevel {
+    /// x86-64's baseline (SSE2), or no SIMD at all on another architecture.
+    Sse2,
+    /// AVX2 and FMA (`pulp`'s `V3`; FMA is never used: Rust does not contract `a·b + c`).
+    Avx2,
+    /// AVX-512 F, BW, CD, DQ and VL (`pulp`'s `V4`).
+    Avx512,
+}
+
+impl SimdLevel {
+    /// The name `PTSA_SIMD` takes.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Sse2 => "sse2",
+            Self::Avx2 => "avx2",
+            Self::Avx512 => "avx512",
+        }
+    }
+
+    /// The best level this CPU has.
+    #[must_use]
+    pub fn of_cpu() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if pulp::x86::V4::try_new().is_some() {
+                return Self::Avx512;
+            }
+            if pulp::x86::V3::try_new().is_some() {
+                return Self::Avx2;
+            }
+        }
+        Self::Sse2
+    }
+
+    /// The level `PTSA_SIMD` asks for: `Ok(None)` when it is not set, `Err` with what was
+    /// expected when it is set to anything else than a level's name.
+    ///
+    /// # Errors
+    /// When the variable is set but not `avx512`, `avx2` or `sse2`.
+    pub fn from_env() -> Result<Option<Self>, String> {
+        let Some(v) = std::env::var_os("PTSA_SIMD") else {
+            return Ok(None);
+        };
+        let s = v.to_string_lossy();
+        [Self::Avx512, Self::Avx2, Self::Sse2]
+            .into_iter()
+            .find(|l| l.name() == s.trim())
+            .map(Some)
+            .ok_or_else(|| {
+                format!(
+                    "PTSA_SIMD={s}: expected avx512, avx2 or sse2 (the most the batch engine's \
+                     kernels may use); using the CPU's best, {}",
+                    Self::of_cpu().name()
+                )
+            })
+    }
+
+    /// The level the kernels use: the CPU's best, or less if `PTSA_SIMD` asks for less
+    /// (read once; a value that is not a level's name is ignored, and the `ptsa` binary
+    /// warns about it at its start).
+    #[must_use]
+    pub fn current() -> Self {
+        static LEVEL: OnceLock<SimdLevel> = OnceLock::new();
+        *LEVEL.get_or_init(|| {
+            let cpu = Self::of_cpu();
+            match Self::from_env() {
+                Ok(Some(asked)) => asked.min(cpu),
+                Ok(None) | Err(_) => cpu,
+            }
+        })
+    }
+
+    /// What a kernel of eight lanes holds the core's tick in, for a user: "AVX-512
+    /// registers", "AVX2 registers", or "arrays".
+    #[must_use]
+    pub fn lanes_of_eight(self) -> &'static str {
+        match self {
+            Self::Avx512 => "AVX-512 registers",
+            Self::Avx2 => "AVX2 registers",
+            Self::Sse2 => "arrays",
+        }
+    }
+}
+
+/// Run `f` compiled with the instructions of [`SimdLevel::current`] for everything inlined
+/// into it. `f`'s `with_simd` and the functions on the tick path are `#[inline(always)]` so
+/// that they are compiled inside.
+#[inline]
+pub(super) fn dispatch<F: pulp::WithSimd>(f: F) -> F::Output {
+    #[cfg(target_arch = "x86_64")]
+    match SimdLevel::current() {
+        SimdLevel::Avx512 => {
+            if let Some(v4) = pulp::x86::V4::try_new() {
+                return pulp::Simd::vectorize(v4, f);
+            }
+        }
+        SimdLevel::Avx2 => {
+            if let Some(v3) = pulp::x86::V3::try_new() {
+                return pulp::Simd::vectorize(v3, f);
+            }
+        }
+        SimdLevel::Sse2 => {}
+    }
+    pulp::Simd::vectorize(pulp::Scalar::new(), f)
+}
