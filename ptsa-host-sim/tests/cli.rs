@@ -418,11 +418,14 @@ fn every_simd_level_gives_the_single_loops_results() {
                 .lines()
                 .find(|l| l.starts_with("bench: batch engine, 8 lanes per core"))
                 .unwrap_or_else(|| panic!("{out}"));
+            // Without AVX2, static lanes run one after the other (faster than on arrays).
+            let how = if level == "sse2" && !dynamic {
+                "the loops one after the other".to_string()
+            } else {
+                format!("the core's tick in {held}")
+            };
             if batch.contains(&format!("(SIMD level {level})")) {
-                assert!(
-                    batch.contains(&format!("the core's tick in {held}")),
-                    "{batch}"
-                );
+                assert!(batch.contains(&how), "{batch}");
             } else {
                 // The CPU has less than was asked for: the kernels use what it has.
                 eprintln!("this CPU has no {level}: {batch}");

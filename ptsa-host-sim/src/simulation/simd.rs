@@ -5,8 +5,10 @@
 //! only the speed differs.
 //!
 //! A kernel of eight lanes runs the core's tick in the registers of the level
-//! (`simulation/avx512.rs`, `simulation/avx2.rs`); other kernels, and every kernel at `sse2`, run it on
-//! arrays (`ptsa_core::Each`) compiled for the level's instructions.
+//! (`simulation/avx512.rs`, `simulation/avx2.rs`); other kernels, and the dynamic kernels at
+//! `sse2`, run it on arrays (`ptsa_core::Each`) compiled for the level's instructions. At
+//! `sse2` static lanes run one after the other (the single loop's fast path), which is
+//! faster there than any kernel on arrays.
 
 use std::sync::OnceLock;
 

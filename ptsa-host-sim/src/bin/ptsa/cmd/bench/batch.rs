@@ -354,14 +354,16 @@ pub fn bench_batch(
     // Where the kernels hold the core's tick: registers for kernels of eight, if the CPU
     // (or `PTSA_SIMD`) allows; arrays otherwise.
     let level = SimdLevel::current();
-    let held = if lanes >= 8 {
-        level.lanes_of_eight()
+    let how = if set == Set::Static && (lanes == 1 || level == SimdLevel::Sse2) {
+        "the loops one after the other".to_string()
+    } else if lanes >= 8 {
+        format!("the core's tick in {}", level.lanes_of_eight())
     } else {
-        "arrays"
+        "the core's tick in arrays".to_string()
     };
     writeln!(
         out,
-        "bench: batch engine, {} per core, on one thread ({batch}), the core's tick in {held} (SIMD level {}): {:.2} Mticks/s",
+        "bench: batch engine, {} per core, on one thread ({batch}), {how} (SIMD level {}): {:.2} Mticks/s",
         count(lanes as u64, "lane"),
         level.name(),
         r.batch_ticks_per_s_per_core / 1e6
