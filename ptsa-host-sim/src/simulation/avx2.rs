@@ -19,6 +19,8 @@
 use core::arch::x86_64::__m256i;
 
 use ptsa_core::LaneOps;
+
+use super::simd::{Registers, ymm_i32_ops};
 use pulp::x86::V3;
 
 /// Eight lanes in AVX2 registers (see the module docs).
@@ -65,19 +67,21 @@ impl Avx2 {
     }
 }
 
+impl Registers for Avx2 {
+    type Simd = V3;
+
+    fn simd(self) -> V3 {
+        self.0
+    }
+}
+
 impl LaneOps<8> for Avx2 {
     type I32 = __m256i;
     type I64 = [__m256i; 2];
     type Mask = __m256i;
 
-    #[inline(always)]
-    fn load(self, a: [i32; 8]) -> __m256i {
-        pulp::cast(a)
-    }
-    #[inline(always)]
-    fn store(self, v: __m256i) -> [i32; 8] {
-        pulp::cast(v)
-    }
+    ymm_i32_ops!();
+
     #[inline(always)]
     fn load64(self, a: [i64; 8]) -> [__m256i; 2] {
         pulp::cast(a)
@@ -100,45 +104,9 @@ impl LaneOps<8> for Avx2 {
     }
 
     #[inline(always)]
-    fn splat(self, a: i32) -> __m256i {
-        self.0.avx._mm256_set1_epi32(a)
-    }
-    #[inline(always)]
     fn splat64(self, a: i64) -> [__m256i; 2] {
         let v = self.0.avx._mm256_set1_epi64x(a);
         [v, v]
-    }
-    #[inline(always)]
-    fn add(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_add_epi32(a, b)
-    }
-    #[inline(always)]
-    fn sub(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_sub_epi32(a, b)
-    }
-    #[inline(always)]
-    fn mul(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_mullo_epi32(a, b)
-    }
-    #[inline(always)]
-    fn and(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_and_si256(a, b)
-    }
-    #[inline(always)]
-    fn xor(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_xor_si256(a, b)
-    }
-    #[inline(always)]
-    fn sra<const N: i32>(self, a: __m256i) -> __m256i {
-        self.0.avx2._mm256_srai_epi32::<N>(a)
-    }
-    #[inline(always)]
-    fn max(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_max_epi32(a, b)
-    }
-    #[inline(always)]
-    fn min(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_min_epi32(a, b)
     }
     #[inline(always)]
     fn lt(self, a: __m256i, b: __m256i) -> __m256i {

@@ -19,6 +19,8 @@
 use core::arch::x86_64::{__m256i, __m512i};
 
 use ptsa_core::LaneOps;
+
+use super::simd::{Registers, ymm_i32_ops};
 use pulp::x86::V4;
 
 /// Eight lanes in AVX-512 registers (see the module docs).
@@ -32,19 +34,21 @@ impl Avx512 {
     }
 }
 
+impl Registers for Avx512 {
+    type Simd = V4;
+
+    fn simd(self) -> V4 {
+        self.0
+    }
+}
+
 impl LaneOps<8> for Avx512 {
     type I32 = __m256i;
     type I64 = __m512i;
     type Mask = u8;
 
-    #[inline(always)]
-    fn load(self, a: [i32; 8]) -> __m256i {
-        pulp::cast(a)
-    }
-    #[inline(always)]
-    fn store(self, v: __m256i) -> [i32; 8] {
-        pulp::cast(v)
-    }
+    ymm_i32_ops!();
+
     #[inline(always)]
     fn load64(self, a: [i64; 8]) -> __m512i {
         pulp::cast(a)
@@ -69,44 +73,8 @@ impl LaneOps<8> for Avx512 {
     }
 
     #[inline(always)]
-    fn splat(self, a: i32) -> __m256i {
-        self.0.avx._mm256_set1_epi32(a)
-    }
-    #[inline(always)]
     fn splat64(self, a: i64) -> __m512i {
         self.0.avx512f._mm512_set1_epi64(a)
-    }
-    #[inline(always)]
-    fn add(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_add_epi32(a, b)
-    }
-    #[inline(always)]
-    fn sub(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_sub_epi32(a, b)
-    }
-    #[inline(always)]
-    fn mul(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_mullo_epi32(a, b)
-    }
-    #[inline(always)]
-    fn and(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_and_si256(a, b)
-    }
-    #[inline(always)]
-    fn xor(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_xor_si256(a, b)
-    }
-    #[inline(always)]
-    fn sra<const N: i32>(self, a: __m256i) -> __m256i {
-        self.0.avx2._mm256_srai_epi32::<N>(a)
-    }
-    #[inline(always)]
-    fn max(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_max_epi32(a, b)
-    }
-    #[inline(always)]
-    fn min(self, a: __m256i, b: __m256i) -> __m256i {
-        self.0.avx2._mm256_min_epi32(a, b)
     }
     #[inline(always)]
     fn lt(self, a: __m256i, b: __m256i) -> u8 {

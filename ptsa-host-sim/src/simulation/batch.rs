@@ -84,7 +84,7 @@ use super::sim::{
 use super::simd::{self, SimdLevel};
 use super::state::{LoopState, RunStart};
 #[cfg(target_arch = "x86_64")]
-use super::{avx2::Avx2, avx512::Avx512};
+use super::{avx2::Avx2, avx512::Avx512, simd::Registers};
 
 /// Loops side by side per core by default (see the module docs; `benches/batch.rs`
 /// measures 1, 2, 4, 8 and 16; with AVX-512, static lanes ran 1.60× the single loop with 4
@@ -868,22 +868,31 @@ fn static_kernel<const K: usize, const STATS: bool>(
         match SimdLevel::current() {
             SimdLevel::Avx512 => {
                 if let Some(o) = Avx512::new() {
-                    return static_kernel_with::<8, _, STATS>(o, cfg, st, m, |op| {
-                        pulp::Simd::vectorize(o.0, op);
-                    });
+                    return static_kernel_in::<_, STATS>(o, cfg, st, m);
                 }
             }
             SimdLevel::Avx2 => {
                 if let Some(o) = Avx2::new() {
-                    return static_kernel_with::<8, _, STATS>(o, cfg, st, m, |op| {
-                        pulp::Simd::vectorize(o.0, op);
-                    });
+                    return static_kernel_in::<_, STATS>(o, cfg, st, m);
                 }
             }
             SimdLevel::Sse2 => {}
         }
     }
     static_kernel_with::<K, _, STATS>(Each::<K>, cfg, st, m, |op| simd::dispatch(op));
+}
+
+/// [`static_kernel`] with eight lanes in registers `o`, compiled for their instructions.
+#[cfg(target_arch = "x86_64")]
+fn static_kernel_in<O: Registers, const STATS: bool>(
+    o: O,
+    cfg: &[&LoopConfig],
+    st: &mut [&mut LoopState],
+    m: u64,
+) {
+    static_kernel_with::<8, _, STATS>(o, cfg, st, m, |op| {
+        pulp::Simd::vectorize(o.simd(), op);
+    });
 }
 
 /// [`static_kernel`] with the lane operations `o`, its ticks run by `run` (which compiles
@@ -1061,9 +1070,9 @@ fn dynamic_blocks(cfg: &[&LoopConfig], st: &mut [&mut LoopState], m: u64, k: usi
                 DynKernel::K16(p) => p.run(&block),
                 DynKernel::K8(p) => p.run(&block),
                 #[cfg(target_arch = "x86_64")]
-                DynKernel::K8Avx512(p) => p.run_avx512(&block),
+                DynKernel::K8Avx512(p) => p.run_in_registers(&block),
                 #[cfg(target_arch = "x86_64")]
-                DynKernel::K8Avx2(p) => p.run_avx2(&block),
+                DynKernel::K8Avx2(p) => p.run_in_registers(&block),
                 DynKernel::K4(p) => p.run(&block),
                 DynKernel::K2(p) => p.run(&block),
                 DynKernel::K1(p) => p.run(&block),
@@ -1220,22 +1229,13 @@ impl<'a, const K: usize, O: LaneOps<K>> DynPack<'a, K, O> {
 }
 
 #[cfg(target_arch = "x86_64")]
-impl DynPack<'_, 8, Avx512> {
-    /// One block of ticks, compiled with AVX-512 (the lanes exist only where the CPU has it).
+impl<O: Registers> DynPack<'_, 8, O> {
+    /// One block of ticks, compiled for the registers' instructions (the lanes exist only
+    /// where the CPU has them).
     #[inline(never)]
-    fn run_avx512(&mut self, block: &Block<'_>) {
-        let v4 = self.o.0;
-        pulp::Simd::vectorize(v4, self.ticks(block));
-    }
-}
-
-#[cfg(target_arch = "x86_64")]
-impl DynPack<'_, 8, Avx2> {
-    /// One block of ticks, compiled with AVX2 (the lanes exist only where the CPU has it).
-    #[inline(never)]
-    fn run_avx2(&mut self, block: &Block<'_>) {
-        let v3 = self.o.0;
-        pulp::Simd::vectorize(v3, self.ticks(block));
+    fn run_in_registers(&mut self, block: &Block<'_>) {
+        let simd = self.o.simd();
+        pulp::Simd::vectorize(simd, self.ticks(block));
     }
 }
 

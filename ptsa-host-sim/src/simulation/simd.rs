@@ -120,3 +120,68 @@ pub(super) fn dispatch<F: pulp::WithSimd>(f: F) -> F::Output {
     }
     pulp::Simd::vectorize(pulp::Scalar::new(), f)
 }
+
+/// Lane operations held in a CPU's registers, with the `pulp` token that compiles a kernel
+/// for their instructions (`simulation/avx512.rs`, `simulation/avx2.rs`).
+#[cfg(target_arch = "x86_64")]
+pub(super) trait Registers: ptsa_core::LaneOps<8> {
+    /// The instruction set's token.
+    type Simd: pulp::Simd;
+    /// The token, for `pulp::Simd::vectorize`.
+    fn simd(self) -> Self::Simd;
+}
+
+/// The operations on 32-bit lanes that the AVX-512 and the AVX2 lanes share, written once:
+/// eight lanes in one `ymm` register, AVX2's instructions (both tokens have them, as the
+/// field `avx2`; `avx` for the splat). Expanded inside each `impl LaneOps<8>`.
+#[cfg(target_arch = "x86_64")]
+macro_rules! ymm_i32_ops {
+    () => {
+        #[inline(always)]
+        fn load(self, a: [i32; 8]) -> __m256i {
+            pulp::cast(a)
+        }
+        #[inline(always)]
+        fn store(self, v: __m256i) -> [i32; 8] {
+            pulp::cast(v)
+        }
+        #[inline(always)]
+        fn splat(self, a: i32) -> __m256i {
+            self.0.avx._mm256_set1_epi32(a)
+        }
+        #[inline(always)]
+        fn add(self, a: __m256i, b: __m256i) -> __m256i {
+            self.0.avx2._mm256_add_epi32(a, b)
+        }
+        #[inline(always)]
+        fn sub(self, a: __m256i, b: __m256i) -> __m256i {
+            self.0.avx2._mm256_sub_epi32(a, b)
+        }
+        #[inline(always)]
+        fn mul(self, a: __m256i, b: __m256i) -> __m256i {
+            self.0.avx2._mm256_mullo_epi32(a, b)
+        }
+        #[inline(always)]
+        fn and(self, a: __m256i, b: __m256i) -> __m256i {
+            self.0.avx2._mm256_and_si256(a, b)
+        }
+        #[inline(always)]
+        fn xor(self, a: __m256i, b: __m256i) -> __m256i {
+            self.0.avx2._mm256_xor_si256(a, b)
+        }
+        #[inline(always)]
+        fn sra<const N: i32>(self, a: __m256i) -> __m256i {
+            self.0.avx2._mm256_srai_epi32::<N>(a)
+        }
+        #[inline(always)]
+        fn max(self, a: __m256i, b: __m256i) -> __m256i {
+            self.0.avx2._mm256_max_epi32(a, b)
+        }
+        #[inline(always)]
+        fn min(self, a: __m256i, b: __m256i) -> __m256i {
+            self.0.avx2._mm256_min_epi32(a, b)
+        }
+    };
+}
+#[cfg(target_arch = "x86_64")]
+pub(super) use ymm_i32_ops;
