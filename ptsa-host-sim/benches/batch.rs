@@ -117,7 +117,7 @@ fn bench(c: &mut Criterion) {
             black_box(loops[0].state())
         });
     });
-    for k in [1, 4] {
+    for k in [1, 4, 8] {
         let e = Engine::new(k);
         let mut loops: Vec<ClosedLoop> = instrs.iter().map(ident).collect();
         g.bench_function(BenchmarkId::new("K", k), |b| {

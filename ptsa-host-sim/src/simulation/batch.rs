@@ -57,10 +57,12 @@
 //! with `--dynamic --shared-condition` 2.88–2.95 (three each; see docs/host-sim.md,
 //! "Performance", which also gives the figures before, 1.82–1.86 static, and on an AVX2
 //! machine). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
-//! (criterion medians, one thread, on the AVX2 machine with 4 lanes, not re-run since):
-//! 16 different oscillating conditions 35.9 ms single, 29.7 ms batch (1.21×); one condition
-//! with 16 instruments (identification) 26.2 ms single, 14.1 ms batch (1.85×; it was
-//! 23.9 ms, 1.16×, before the dynamic tick ran on lanes).
+//! (criterion medians, one thread, 2026-11-28, AVX-512): 16 different oscillating
+//! conditions 16.6 ms single, 14.9 ms with 8 lanes (1.11×; 4 lanes, on arrays, 19.5 ms; 16
+//! lanes, one kernel on arrays, 17.7 ms); one condition with 16
+//! instruments (identification) 14.6–15.0 ms single, 4.96 ms with 8 lanes (2.9–3.0×; 4
+//! lanes 7.4–7.6 ms). On the AVX2 machine earlier, 4 lanes: 35.9 against 29.7 ms (1.21×)
+//! and 26.2 against 14.1 ms (1.85×; 23.9 ms, 1.16×, before the dynamic tick ran on lanes).
 //! `cargo bench -p ptsa-host-sim --bench batch` measures every setting; `ptsa bench --batch N`
 //! (with `--dynamic`, `--shared-condition`) prints the single and the batch rate.
 
