@@ -563,20 +563,25 @@ impl Grid<'_> {
     /// variance of the weighted fit, `A⁻¹ Jᵀ W Σ W J A⁻¹` with `A = Jᵀ W J`, over the
     /// variance the profile assumes, `A⁻¹`, on the diagonal ([`sandwich_scales`]). `J` is
     /// the slopes of `ln S` in the free noises at the fit (central differences of 5 % of
-    /// the value; a noise at zero, on its grid's edge, is held fixed and gets 1), `Σ`
+    /// the value; a noise at zero, on its grid's edge, is held fixed and gets `None`, the
+    /// profile's threshold unscaled), `Σ`
     /// [`Grid::spread`] at the fit. `W` estimated from [`REPLICAS`] records is noisy, and
     /// a noisy `W` makes `A⁻¹` too small: in `scripts/interval_model.py`'s linear model, 24
     /// records and 12 τ leave the profile's intervals (with the Birge ratio) holding the
     /// value in 84–89 % of trials (docs/noise.md). `s` may be below 1 (a fit that varies
     /// less than its weights say); it is used as it comes.
-    fn interval_scales(&mut self, free: &[usize], prof: &Profile, w: &Weights) -> Vec<f64> {
-        let mut scales = vec![1.0; free.len()];
+    fn interval_scales(&mut self, free: &[usize], prof: &Profile, w: &Weights) -> Vec<Option<f64>> {
         let inner: Vec<(usize, usize)> = free
             .iter()
             .enumerate()
             .filter(|&(_, &a)| prof.values[a] > 0.0)
             .map(|(j, &a)| (j, a))
             .collect();
+        // None for a noise fitted at 0; 1 for one whose sandwich cannot be formed.
+        let mut scales: Vec<Option<f64>> = vec![None; free.len()];
+        for &(j, _) in &inner {
+            scales[j] = Some(1.0);
+        }
         if inner.is_empty() {
             return scales;
         }
@@ -606,7 +611,7 @@ impl Grid<'_> {
         if let Some(s) = sandwich_scales(&slopes, &w.inverse, &sigma) {
             for (&(j, _), s) in inner.iter().zip(s) {
                 if s.is_finite() && s > 0.0 {
-                    scales[j] = s;
+                    scales[j] = Some(s);
                 }
             }
         }
@@ -842,14 +847,7 @@ fn thresholds(g: &mut Grid<'_>, free: &[usize], prof: &Profile, w: &Weights) -> 
         crate::stats::t_two_sided_quantile(1.0 - INTERVAL_LEVEL, (REPLICAS - 1) as f64).powi(2);
     g.interval_scales(free, prof, w)
         .into_iter()
-        .zip(free)
-        .map(|(s, &a)| {
-            if prof.values[a] > 0.0 {
-                t2 * s * b2
-            } else {
-                CHI2_1_95 * b2
-            }
-        })
+        .map(|s| s.map_or(CHI2_1_95 * b2, |s| t2 * s * b2))
         .collect()
 }
 

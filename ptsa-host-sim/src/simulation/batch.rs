@@ -736,10 +736,7 @@ fn run_mode(lanes: &mut [&mut Lane<'_>], mode: Mode, m: u64, k: usize) {
         dynamic_blocks(&cfg, &mut st, m, k);
         return;
     }
-    // Without AVX2 the static kernels on arrays ran slower than one lane after the other
-    // (`PTSA_SIMD=sse2 ptsa bench --batch 16`: 0.70 of the single loop with 8 lanes, against
-    // 1.05-1.08 for `--lanes 1` on the same machine).
-    if k == 1 || SimdLevel::current() == SimdLevel::Sse2 {
+    if k == 1 || !SimdLevel::current().static_kernels() {
         if mode == Mode::Static {
             static_blocks::<true>(&cfg, &mut st, m);
         } else {

@@ -87,6 +87,15 @@ impl SimdLevel {
         })
     }
 
+    /// Whether static lanes run side by side in kernels at this level: not at `sse2`,
+    /// where the kernels on arrays ran slower than one lane after the other
+    /// (`PTSA_SIMD=sse2 ptsa bench --batch 16`: 0.70 of the single loop with 8 lanes,
+    /// against 1.05-1.08 for `--lanes 1` on the same machine).
+    #[must_use]
+    pub fn static_kernels(self) -> bool {
+        self != Self::Sse2
+    }
+
     /// What a kernel of eight lanes holds the core's tick in, for a user: "AVX-512
     /// registers", "AVX2 registers", or "arrays".
     #[must_use]

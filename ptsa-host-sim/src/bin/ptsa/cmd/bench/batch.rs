@@ -354,7 +354,7 @@ pub fn bench_batch(
     // Where the kernels hold the core's tick: registers for kernels of eight, if the CPU
     // (or `PTSA_SIMD`) allows; arrays otherwise.
     let level = SimdLevel::current();
-    let how = if set == Set::Static && (lanes == 1 || level == SimdLevel::Sse2) {
+    let how = if set == Set::Static && (lanes == 1 || !level.static_kernels()) {
         "the loops one after the other".to_string()
     } else if lanes >= 8 {
         format!("the core's tick in {}", level.lanes_of_eight())
