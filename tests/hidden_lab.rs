@@ -15,7 +15,7 @@ use ptsa_tests::hidden::Run;
 use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
 use ptsa_tests::hidden::lab::{self, Lab};
 
-/// Sets of every kind in the CI test: 18 kinds × 20 = 360 sets of 24 rows, analytic.
+/// Sets of every kind in the CI test: 23 kinds × 20 = 460 sets of 24 rows, analytic.
 const CI_SETS: usize = 20;
 
 /// Print the sets that matter and the table (past the harness's capture); the failures.
@@ -40,4 +40,26 @@ fn hidden_lab_campaign() {
     let seed: u64 = env("PTSA_HIDDEN_SEED", 4242);
     let analytic = env_flag("PTSA_HIDDEN_ANALYTIC");
     assert_met("lab", &report(&lab::run(n, seed, analytic), false));
+}
+
+/// Print the pipeline's full report on one set of the lab campaign, to see why it was
+/// scored as it was: `PTSA_HIDDEN_EXPLAIN_KIND` is the kind as the table names it
+/// (`warm-up, interleaved, 10 SE`), `PTSA_HIDDEN_EXPLAIN_SEED` the set's seed as the
+/// campaign's log shows it (`PTSA_HIDDEN_ANALYTIC=1` as in the campaign).
+#[test]
+#[ignore = "a debugging aid: PTSA_HIDDEN_EXPLAIN_KIND=... PTSA_HIDDEN_EXPLAIN_SEED=..."]
+fn explain_one_lab_set() {
+    use ptsa_tests::hidden::campaign::Campaign as _;
+    let name = std::env::var("PTSA_HIDDEN_EXPLAIN_KIND").unwrap_or_else(|_| "null".into());
+    let seed: u64 = env("PTSA_HIDDEN_EXPLAIN_SEED", 1);
+    let kind = lab::LabKind::all()
+        .into_iter()
+        .find(|k| k.name() == name)
+        .unwrap_or_else(|| panic!("no kind `{name}`"));
+    let c = Lab::new(env_flag("PTSA_HIDDEN_ANALYTIC"));
+    let (rows, truth) = c.generate(seed, kind);
+    let (sim, opts) = c.pipeline();
+    let d = ptsa_host_sim::discovery::discover(&rows, sim, opts).expect("the set is analysed");
+    eprintln!("{truth:?}");
+    eprintln!("{}", ptsa_host_sim::discovery::show::text_report(&name, &d));
 }

@@ -1,7 +1,7 @@
 //! Small dense weighted least squares and the tail probabilities the tests use.
 
 use nalgebra::{DMatrix, DVector};
-use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor, StudentsT};
+use statrs::distribution::{ChiSquared, ContinuousCDF, FisherSnedecor, Normal, StudentsT};
 
 /// A least-squares fit of `z ≈ Σ_j β_j u_j` (columns already divided by the row sigmas).
 #[derive(Clone, Debug)]
@@ -195,6 +195,12 @@ pub fn t_two_sided(t: f64, k: f64) -> f64 {
         return if t.is_finite() { 1.0 } else { 0.0 };
     }
     StudentsT::new(0.0, 1.0, k).map_or(f64::NAN, |d| 2.0 * d.sf(t.abs()))
+}
+
+/// The `z` with two-sided `P(|Z| > z) = p` for a standard normal `Z` (`p` in `(0, 1)`).
+#[must_use]
+pub fn normal_two_sided_quantile(p: f64) -> f64 {
+    Normal::new(0.0, 1.0).map_or(f64::NAN, |d| d.inverse_cdf(1.0 - 0.5 * p))
 }
 
 /// The `t` with two-sided `P(|t_k| > t) = p`, by bisection on [`t_two_sided`] (`p` in

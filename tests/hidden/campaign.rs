@@ -236,7 +236,8 @@ fn score<T>(
 ) -> Outcome<T> {
     let mut o = Outcome::blank(seed, truth, !names.is_empty());
     let mut partner = false;
-    for s in &d.selected {
+    // A bias fitted with a warm-up as the level it settles to names nothing.
+    for s in d.selected.iter().filter(|s| !s.companion) {
         let partners: Vec<CandidateId> = s.confounded.iter().map(|&(c, _)| c).collect();
         if names.contains(&s.id) {
             if s.plausible || !needs_plausible {

@@ -155,9 +155,14 @@ pub fn candidate_physics(id: CandidateId, p_g_cm: f64) -> Option<Physics> {
         CandidateId::Hysteresis
         | CandidateId::TemperatureBias
         | CandidateId::TemperatureScaleFactor
+        | CandidateId::WarmUpSpan16
+        | CandidateId::WarmUpSpan12
         | CandidateId::WarmUpSpan8
+        | CandidateId::WarmUpSpan6
         | CandidateId::WarmUpSpan4
+        | CandidateId::WarmUpSpan3
         | CandidateId::WarmUpSpan2
+        | CandidateId::WarmUp
         | CandidateId::ParamDamping
         | CandidateId::ParamSpring
         | CandidateId::ParamInertia

@@ -7,11 +7,11 @@
 //! | the same, interleaved order (0°, 180°, 15°, 195°, …) | the same | `hysteresis` = h |
 //! | bias per °C | `k·ΔT`, ΔT the temperature of the row (a warming ramp, [`temperature_c`]) less the ramp's mean | `temperature.k0_t_cm_s2_per_c` = k |
 //! | scale factor per °C | `k·1e-6·ΔT·a_IA` | `temperature.k1_t_ppm_per_c` = k |
-//! | warm-up, angle or interleaved order | `A·[(1 − e^(−k/4.8)) − its mean over the rows]`, k the row's place in the measurement order (issue 21's turn-on transient), rows a minute apart in `time_s` from power-on | a `warm_up` grid point (τ = 1/8, 1/4 or 1/2 of the run; the truth's 4.8 rows is 0.21 of it): named, no coverage |
+//! | warm-up, angle or interleaved order | `A·[(1 − e^(−k/4.8)) − its mean over the rows]`, k the row's place in the measurement order (issue 21's turn-on transient), rows a minute apart in `time_s` from power-on | a `warm_up` grid point (τ = 1/16 to 1/2 of the run; the truth's 4.8 rows is 0.21 of it) names it; its `time_constant` amplitude at the estimated τ is scored for coverage against −A (the transient's amplitude) |
 //! | cross-axis cubic | `k·a_PA³`, `a_PA` this module's own gravity along PA | nothing (outside the vocabulary): scored on the unexplained flag and whether the strongest proposal is `a_PA^3` |
 //! | tumble harmonic | `A·sin 4φ`, `φ = atan2(a_PA, a_IA)` of this module's own gravity | nothing (outside the vocabulary and the library's third order) |
 //! | fixture error, declared (100 µrad, 1 mrad) or not (1 mrad) | each position set with its own rotation `δ_PA`, `δ_OA`, drawn N(0, σ²) per row, moving the reading by `δ_PA·a_OA − δ_OA·a_PA` (this module's own gravity); declared: `sigma_angle_urad` = σ on every row | nothing: declared, a null (it is noise); not declared, scored like the kinds outside the vocabulary (it should warn) |
-//! | null, null with `temp_c` | nothing | nothing |
+//! | null, null with `temp_c`, null with `time_s` in angle and interleaved order | nothing | nothing |
 //!
 //! * **Measurement**: each row's reading is the instrument's own (the closed loop of the
 //!   shipped file, ptsa-core against the plant) with the effect added as a torque
@@ -20,7 +20,7 @@
 //!   With the quasi-static generator ([`LabGenerator::QuasiStatic`]) the reading is the
 //!   closed loop's noise-free reading of the position, run once, plus `c₀ + c₁·a_IA` (the
 //!   loop indicates a static extra torque exactly, by charge balance). The rows record
-//!   `temp_c` for the temperature kinds and `time_s` for the warm-up kinds; no row records
+//!   `temp_c` for the temperature kinds and `time_s` for the warm-up kinds and the timed nulls; no row records
 //!   `approach` (the
 //!   pipeline derives the approach from the row order, as it must for a lab that did not
 //!   write it down). Nothing here calls the candidate code.
@@ -124,6 +124,9 @@ pub enum Effect {
     Null,
     /// Nothing (angle order, `temp_c` recorded).
     NullTemperature,
+    /// Nothing, in the given order, with `time_s` recorded as for the warm-up kinds (so
+    /// that the warm-up's time constants join the family).
+    NullTimed(Order),
 }
 
 impl Effect {
@@ -155,6 +158,8 @@ impl Effect {
             Effect::Fixture { .. } => "fixture, not declared",
             Effect::Null => "null",
             Effect::NullTemperature => "null, temp_c ramp",
+            Effect::NullTimed(Order::Angle) => "null, time_s, angle order",
+            Effect::NullTimed(Order::Interleaved) => "null, time_s, interleaved",
         }
     }
 
@@ -166,15 +171,21 @@ impl Effect {
             Effect::TemperatureBias => &[CandidateId::TemperatureBias],
             Effect::TemperatureScaleFactor => &[CandidateId::TemperatureScaleFactor],
             Effect::WarmUp(_) => &[
+                CandidateId::WarmUpSpan16,
+                CandidateId::WarmUpSpan12,
                 CandidateId::WarmUpSpan8,
+                CandidateId::WarmUpSpan6,
                 CandidateId::WarmUpSpan4,
+                CandidateId::WarmUpSpan3,
                 CandidateId::WarmUpSpan2,
+                CandidateId::WarmUp,
             ],
             Effect::CrossCubic
             | Effect::Harmonic4
             | Effect::Fixture { .. }
             | Effect::Null
-            | Effect::NullTemperature => &[],
+            | Effect::NullTemperature
+            | Effect::NullTimed(_) => &[],
         }
     }
 
@@ -206,7 +217,7 @@ impl Effect {
     #[must_use]
     pub fn order(self) -> Order {
         match self {
-            Effect::Hysteresis(o) | Effect::WarmUp(o) => o,
+            Effect::Hysteresis(o) | Effect::WarmUp(o) | Effect::NullTimed(o) => o,
             _ => Order::Angle,
         }
     }
@@ -223,9 +234,11 @@ impl Effect {
 
 /// The kinds that hide nothing the pipeline should name: the nulls, and the fixture errors
 /// the rows declare (noise, not an effect); their false selections are asserted.
-const NULLS: [Effect; 4] = [
+const NULLS: [Effect; 6] = [
     Effect::Null,
     Effect::NullTemperature,
+    Effect::NullTimed(Order::Angle),
+    Effect::NullTimed(Order::Interleaved),
     Effect::Fixture {
         urad: 100,
         declared: true,
@@ -267,10 +280,18 @@ impl LabKind {
                 });
             }
         }
-        for effect in NULLS.into_iter().chain([Effect::Fixture {
-            urad: 1000,
-            declared: false,
-        }]) {
+        // The timed nulls last: each kind's seeds follow from its place, and the kinds
+        // before them keep theirs.
+        let timed = |e: &Effect| matches!(e, Effect::NullTimed(_));
+        for effect in NULLS
+            .into_iter()
+            .filter(|e| !timed(e))
+            .chain([Effect::Fixture {
+                urad: 1000,
+                declared: false,
+            }])
+            .chain(NULLS.into_iter().filter(timed))
+        {
             v.push(LabKind {
                 effect,
                 strength_se: 0.0,
@@ -325,7 +346,7 @@ pub fn rows(effect: Effect) -> Vec<Condition> {
             r.sigma_angle_urad = Some(f64::from(urad));
         }
     }
-    if matches!(effect, Effect::WarmUp(_)) {
+    if matches!(effect, Effect::WarmUp(_) | Effect::NullTimed(_)) {
         // A row a minute, the first at power-on.
         for (k, r) in rows.iter_mut().enumerate() {
             #[allow(clippy::cast_precision_loss)]
@@ -375,7 +396,10 @@ pub fn unit_law(effect: Effect, rows: &[Condition], g_cm_s2: f64) -> Vec<(f64, f
             Effect::CrossCubic => (force[k][PA].powi(3), 0.0),
             Effect::Harmonic4 => ((4.0 * force[k][PA].atan2(force[k][IA])).sin(), 0.0),
             // Drawn per row in the generator.
-            Effect::Fixture { .. } | Effect::Null | Effect::NullTemperature => (0.0, 0.0),
+            Effect::Fixture { .. }
+            | Effect::Null
+            | Effect::NullTemperature
+            | Effect::NullTimed(_) => (0.0, 0.0),
         })
         .collect()
 }
@@ -601,10 +625,10 @@ fn hidden(k: &LabKind) -> bool {
     !k.effect.names().is_empty()
 }
 
-/// The hidden kinds pooled in the "all hidden" row and the coverage: the warm-up apart
-/// (its amplitude is the grid's τ's).
+/// The hidden kinds pooled in the "all hidden" row and the coverage (the warm-up's
+/// amplitude at its estimated τ).
 fn pooled(k: &LabKind) -> bool {
-    hidden(k) && !matches!(k.effect, Effect::WarmUp(_))
+    hidden(k)
 }
 
 impl Campaign for Lab {
@@ -680,10 +704,18 @@ impl Campaign for Lab {
     }
 
     fn z(&self, t: &LabTruth, s: &Selected) -> Option<f64> {
-        // A warm-up's amplitude is that of the grid's time constant, not the truth's: no
-        // coverage.
-        (t.kind.effect.names().contains(&s.id) && !matches!(t.kind.effect, Effect::WarmUp(_)))
-            .then(|| (s.coef - t.coef) / s.stderr)
+        if !t.kind.effect.names().contains(&s.id) {
+            return None;
+        }
+        match t.kind.effect {
+            // The amplitude at the estimated τ: the truth's transient is
+            // coef·(1 − e^(−t/τ)) less its mean, so its A of A·e^(−t/τ) is −coef.
+            Effect::WarmUp(_) => s
+                .time_constant
+                .as_ref()
+                .map(|tc| (tc.amplitude_cm_s2 + t.coef) / tc.amplitude_se_cm_s2),
+            _ => Some((s.coef - t.coef) / s.stderr),
+        }
     }
 
     fn pipeline(&self) -> (&dyn Simulator, &Options) {
@@ -770,7 +802,7 @@ impl Campaign for Lab {
         }
         let all = run.lab_stats(pooled);
         v.push((
-            "all hidden, warm-up apart".into(),
+            "all hidden".into(),
             vec![
                 all.sets.to_string(),
                 all.exact.cell(),
@@ -801,7 +833,8 @@ impl Campaign for Lab {
              is below 0.01); partial: the effect's column outside the row-order drift, over its norm; unstable: among the exact\n\
              namings, the truth's coefficient flagged unstable between parts of the data (a true cause withheld); rivaled: among the exact\n\
              namings, the truth named with a rival outside the vocabulary (a true cause hedged).\n\
-             Warm-up: named when a `warm_up` grid point is selected (its τ is the grid's, so no coverage); reported, not asserted.\n\
+             Warm-up: named when a `warm_up` grid point is selected; its coverage is that of the amplitude at the estimated τ\n\
+             (`time_constant`, τ's uncertainty in its SE) against the truth's.\n\
              Outside the vocabulary (k·a_PA³, sin 4φ, a fixture error not declared): confident = a plausible, stable selection without\n\
              the unexplained flag; silent = nothing warns, selection or not; a_PA^3 top: the strongest of `unexplained.proposals` is\n\
              a_PA^3; reported, not asserted. A declared fixture error is a null (its rows state sigma_angle_urad).\n\
@@ -832,6 +865,8 @@ impl Campaign for Lab {
             Effect::Hysteresis(Order::Interleaved),
             Effect::TemperatureBias,
             Effect::TemperatureScaleFactor,
+            Effect::WarmUp(Order::Angle),
+            Effect::WarmUp(Order::Interleaved),
         ] {
             f.extend(detected(
                 &format!("{} named (exactly or as a partner)", e.name()),

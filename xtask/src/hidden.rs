@@ -319,7 +319,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         Ok(())
     } else {
         Err(format!(
-            "the campaign failed ({status}): an asserted rate is not met (NOT MET lines under the table)"
+            "the campaign failed ({status}): an asserted rate is not met (NOT MET lines under the table), or the build above failed"
         )
         .into())
     }

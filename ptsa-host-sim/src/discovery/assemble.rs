@@ -14,7 +14,8 @@ use super::outliers::{Screened, SetAside};
 use super::problem::{Options, Problem, Selected};
 use super::report::{
     EffectReport, Gain, JsonReport, ModelEquation, NoiseReport, NuisanceReport, OutlierReport,
-    RowResult, SearchLimit, StabilityReport, StepReport, Term, Unexplained, names,
+    RowResult, SearchLimit, StabilityReport, StepReport, Term, TimeConstantReport, Unexplained,
+    names,
 };
 use super::search::limit_note;
 use super::sim::Simulator;
@@ -144,7 +145,7 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
                 .collect()
         }),
         confounded_groups: groups,
-        family_size: f.family.len(),
+        family_size: f.family_size(),
         family: f.family.clone(),
         effects: ext.effects,
         options: opts.clone(),
@@ -350,6 +351,8 @@ fn effect_reports(
                     stable: s.stable,
                     stability: StabilityReport::default(),
                     rivals: Vec::new(),
+                    time_constant: None,
+                    companion_of: s.companion.then(|| "warm_up".to_string()),
                 });
                 reports.len() - 1
             });
@@ -372,6 +375,15 @@ fn effect_reports(
             if !r.rivals.iter().any(|o| o.form == v.form) {
                 r.rivals.push(v.clone());
             }
+        }
+        if let Some(t) = &s.time_constant {
+            r.time_constant = Some(TimeConstantReport {
+                tau_s: t.tau_s,
+                interval_95_s: [t.interval_s.0, t.interval_s.1],
+                amplitude_cm_s2: t.amplitude_cm_s2,
+                amplitude_se_cm_s2: t.amplitude_se_cm_s2,
+                grid_key: cand.key.to_string(),
+            });
         }
         r.coefficients.insert(cand.key.to_string(), s.coef);
         r.stderr.insert(cand.key.to_string(), s.stderr);

@@ -17,7 +17,7 @@ pub(crate) fn selected(
     opts: &Options,
     sim: &dyn Simulator,
 ) -> Vec<Selected> {
-    let m = f.family.len();
+    let m = f.family_size();
     let cols = f.unit_columns();
     let nn = f.n_nuisance();
     let z = f.weighted_target();
@@ -35,8 +35,15 @@ pub(crate) fn selected(
             let (ua, sa) = f.candidate_column(data, id).unwrap_or((&[], 1.0));
             let a = residualize(ua, &others);
             let mut confounded = Vec::new();
-            for &o in &f.family {
-                if o == id || f.selected.contains(&o) {
+            // A companion bias is fitted with the warm-up, not named: it has no partners.
+            let companion = f.companion == Some(id);
+            for &o in f.family.iter().filter(|_| !companion) {
+                // Another time constant of a selected warm-up is the same effect, not a
+                // partner (of the warm-up, or of the bias it is measured from).
+                if o == id
+                    || f.selected.contains(&o)
+                    || (o.profiled() && f.selected.iter().any(|s| s.profiled()))
+                {
                     continue;
                 }
                 let Some((ub, sb)) = f.candidate_column(data, o) else {
@@ -82,6 +89,8 @@ pub(crate) fn selected(
                 search_limit: None,
                 stable: None,
                 rivals: Vec::new(),
+                time_constant: None,
+                companion: f.companion == Some(id),
             }
         })
         .collect()
@@ -102,7 +111,7 @@ pub(crate) fn indistinguishable(data: &Data, f: &Fitted, opts: &Options) -> Vec<
     let mut groups: Vec<Vec<CandidateId>> = Vec::new();
     for (i, (a, ua)) in partial.iter().enumerate() {
         for (b, ub) in &partial[i + 1..] {
-            if abs_cos(ua, ub) > opts.confound_cos {
+            if !(a.profiled() && b.profiled()) && abs_cos(ua, ub) > opts.confound_cos {
                 if let Some(g) = groups.iter_mut().find(|g| g.contains(a) || g.contains(b)) {
                     for x in [*a, *b] {
                         if !g.contains(&x) {

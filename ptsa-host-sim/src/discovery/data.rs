@@ -156,6 +156,30 @@ impl Data {
                 .collect(),
         }
     }
+
+    /// The same observations with the signature of [`CandidateId::WarmUp`] at time
+    /// constant `tau_s` (its column is zero until one is given): each observation's
+    /// analytic effect ([`effect_cm_s2`]) of a unit transient `e^(−t/τ)` in its row of
+    /// `rows` (the rows the data were built from, with their history).
+    #[must_use]
+    pub fn with_warm_up(&self, rows: &[Condition], tau_s: f64, g_cm_s2: f64) -> Data {
+        let mut d = self.clone();
+        let e = Effects::only(CandidateId::WarmUp, 1.0).with_warm_up_tau_s(tau_s);
+        for s in d
+            .signatures
+            .iter_mut()
+            .filter(|s| s.id == CandidateId::WarmUp)
+        {
+            s.col = (0..self.n())
+                .map(|k| match self.quantity[k] {
+                    Quantity::Value => effect_cm_s2(&rows[self.rows[k]], &e, g_cm_s2),
+                    _ => 0.0,
+                })
+                .collect();
+            s.null = s.col.iter().all(|&x| x == 0.0);
+        }
+        d
+    }
 }
 
 /// The excitation of a row, for its variance group.

@@ -41,10 +41,7 @@ pub(crate) fn extend(
 ) -> anyhow::Result<Extended> {
     let (rows, data, f, sim) = (p.rows, p.data, p.f, p.sim);
     let n = data.n();
-    let mut effects = Effects::NONE;
-    for s in selected {
-        effects.add(s.id, s.coef);
-    }
+    let effects = Selected::effects(selected);
     let resim: Vec<Observation> = if effects.is_zero() {
         baseline.to_vec()
     } else {

@@ -26,7 +26,7 @@ pub(crate) fn mirror(p: &Problem<'_>, selected: &mut [Selected]) {
         return;
     };
     #[allow(clippy::cast_precision_loss)]
-    let level = alpha / f.family.len().max(1) as f64;
+    let level = alpha / f.family_size().max(1) as f64;
     let dof = data
         .n()
         .saturating_sub(scorer.linear.len() + params.len())

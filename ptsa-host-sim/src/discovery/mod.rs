@@ -68,6 +68,7 @@ pub mod outcome;
 pub mod outliers;
 pub mod pipeline;
 pub mod problem;
+pub mod profile;
 pub mod prune;
 pub mod refine;
 pub mod report;
@@ -419,10 +420,12 @@ pub fn read_result_json(p: &Path, what: &str) -> Result<serde_json::Value> {
 }
 
 /// The effects of a `ptsa discover --json` result (the whole object, or its `effects`
-/// array): each entry's `name` and `coefficients` keys name a candidate of the registry.
+/// array): each entry's `name` and `coefficients` keys name a candidate of the registry;
+/// `warm_up.a_cm_s2` takes its time constant from the entry's `time_constant.tau_s` (s).
 ///
 /// # Errors
-/// Not such an object, or an effect name or coefficient key that is not in the registry.
+/// Not such an object, an effect name or coefficient key that is not in the registry, or
+/// `warm_up.a_cm_s2` without a positive `time_constant.tau_s`.
 pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
     let list = v.get("effects").unwrap_or(v);
     let Some(list) = list.as_array() else {
@@ -459,6 +462,19 @@ pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
                 format!("effects[{k}]: `{name}.{key}`: expected a finite number")
             })?;
             e.add(id, x);
+            if id == CandidateId::WarmUp {
+                let tau = item
+                    .get("time_constant")
+                    .and_then(|t| t.get("tau_s"))
+                    .and_then(serde_json::Value::as_f64)
+                    .filter(|t| t.is_finite() && *t > 0.0)
+                    .with_context(|| {
+                        format!(
+                            "effects[{k}]: `{name}.{key}` needs its time constant: expected \"time_constant\": {{\"tau_s\": τ}} with τ > 0 in s, as `ptsa discover --json` writes it"
+                        )
+                    })?;
+                e = e.with_warm_up_tau_s(tau);
+            }
         }
     }
     Ok(e)
@@ -643,12 +659,13 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 32] = [
+    const LAYERS: [&str; 33] = [
         "observation",
         "sim",
         "library",
         "data",
         "fit",
+        "profile",
         "report",
         "slips",
         "problem",

@@ -34,7 +34,7 @@ pub struct Discovery {
     pub confounded_groups: Vec<Vec<CandidateId>>,
     /// The family (testable candidates).
     pub family: Vec<CandidateId>,
-    /// Number of hypotheses in the family.
+    /// Number of hypotheses in the family (the warm-up's time constants count once).
     pub family_size: usize,
     /// The effects found, as coefficients for the plant.
     pub effects: Effects,

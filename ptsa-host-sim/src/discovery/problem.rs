@@ -5,10 +5,11 @@
 
 use super::data::Data;
 use super::fit::{Fitted, Settings};
+use super::profile::TimeConstant;
 use super::report::{ParameterValue, Rival};
 use super::sim::Simulator;
 use crate::model::condition::Condition;
-use crate::model::effects::{CandidateId, N_CANDIDATES, resolve_candidates};
+use crate::model::effects::{CandidateId, Effects, N_CANDIDATES, resolve_candidates};
 use crate::model::instrument::Instrument;
 
 /// Resolve a `--candidates` list: effect names (`lever_arm` = its three components) or
@@ -133,6 +134,28 @@ pub struct Selected {
     /// Forms outside the vocabulary that these data cannot tell it from (`super::rivals`;
     /// empty: none, or not looked for).
     pub rivals: Vec<Rival>,
+    /// For the warm-up: its time constant estimated over τ and the amplitude there
+    /// ([`super::profile`]).
+    pub time_constant: Option<TimeConstant>,
+    /// The bias fitted with the warm-up as the level its transient settles to, not
+    /// selected on its own test ([`super::fit::Fitted::companion`]): no cause of its own.
+    pub companion: bool,
+}
+
+impl Selected {
+    /// These selections as effects for the plant: their coefficients, and the warm-up's
+    /// estimated time constant ([`Selected::time_constant`]).
+    #[must_use]
+    pub fn effects(selected: &[Selected]) -> Effects {
+        let mut e = Effects::NONE;
+        for s in selected {
+            e.add(s.id, s.coef);
+            if let Some(t) = &s.time_constant {
+                e = e.with_warm_up_tau_s(t.tau_s);
+            }
+        }
+        e
+    }
 }
 
 /// What every stage after the linear selection works on: the rows, their observations,

@@ -20,7 +20,7 @@ use crate::model::effects::Effects;
 pub(crate) fn prune(p: &Problem<'_>, selected: &mut Vec<Selected>, steps: &mut Vec<Step>) -> bool {
     let (rows, data, f, sim, alpha) = p.parts();
     #[allow(clippy::cast_precision_loss)]
-    let level = alpha / f.family.len().max(1) as f64;
+    let level = alpha / f.family_size().max(1) as f64;
     let theta = |sel: &[Selected]| {
         let mut t = Effects::NONE;
         for s in sel.iter().filter(|s| s.id.parameter_key().is_some()) {

@@ -65,6 +65,31 @@ pub struct EffectReport {
     /// two share the part of the data that decides. Not tested as causes of their own;
     /// the effect is named with them.
     pub rivals: Vec<Rival>,
+    /// For `warm_up`: its time constant estimated over τ (the profile of the model's χ²,
+    /// the other terms refitted at each τ) and the amplitude there (absent for other
+    /// effects). The coefficient above is at the grid's τ the selection took.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub time_constant: Option<TimeConstantReport>,
+    /// For a bias fitted with the warm-up as the level its transient settles to, not
+    /// selected on its own test: `"warm_up"` (absent otherwise). No cause of its own.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub companion_of: Option<String>,
+}
+
+/// The warm-up's time constant, in the `--json` shape.
+#[derive(Clone, Debug, Serialize)]
+pub struct TimeConstantReport {
+    /// The estimate of τ, s.
+    pub tau_s: f64,
+    /// Its 95 % profile-likelihood interval, s; `null` on a side the data do not bound
+    /// (the interval reaches τ = 1/64 or 2 times the run's span).
+    pub interval_95_s: [Option<f64>; 2],
+    /// The amplitude `A` of `A·e^(−t/τ)` at the estimate, cm/s².
+    pub amplitude_cm_s2: f64,
+    /// Its standard error with τ's uncertainty in it, cm/s².
+    pub amplitude_se_cm_s2: f64,
+    /// The grid's coefficient the model holds (`a_span4_cm_s2`, ...).
+    pub grid_key: String,
 }
 
 /// A form outside the vocabulary that could stand in a selected term's place, in the

@@ -103,9 +103,10 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
     // selection chose it among the family's m candidates, so the pair fits the noise of
     // these data better than a form that had no such choice.
     #[allow(clippy::cast_precision_loss)]
-    let pair_level = alpha / f.family.len().max(1) as f64;
+    let pair_level = alpha / f.family_size().max(1) as f64;
+    // A companion bias stays in the model; it names no cause a form could stand in for.
     let plausible: Vec<usize> = (0..selected.len())
-        .filter(|&j| selected[j].plausible)
+        .filter(|&j| selected[j].plausible && !selected[j].companion)
         .collect();
     // One term, then every pair of terms, replaced by one form.
     let mut groups: Vec<Vec<usize>> = plausible.iter().map(|&j| vec![j]).collect();

@@ -54,7 +54,7 @@ pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>, steps: &mut Ve
     #[allow(clippy::cast_precision_loss)]
     let dof_0 = data.n().saturating_sub(scorer.linear.len()).max(1) as f64;
     #[allow(clippy::cast_precision_loss)]
-    let level = alpha / (f.family.len() + extra).max(1) as f64;
+    let level = alpha / (f.family_size() + extra).max(1) as f64;
     if !f.stated() || chi2_sf(chi_0, dof_0) >= level {
         return false;
     }
@@ -110,6 +110,8 @@ pub(crate) fn scan(p: &Problem<'_>, selected: &mut Vec<Selected>, steps: &mut Ve
         search_limit: limit,
         stable: None,
         rivals: Vec::new(),
+        time_constant: None,
+        companion: false,
     });
     true
 }

@@ -215,10 +215,22 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
     if d.family.is_empty() {
         let _ = writeln!(s, "family: empty: nothing could be tested in these rows");
     } else {
+        let profiled = d.family.iter().filter(|c| c.profiled()).count();
         let _ = writeln!(
             s,
-            "family: {}: {}",
-            count(d.family_size, "candidate"),
+            "family: {}{}: {}",
+            if d.family_size == 1 {
+                "1 hypothesis".to_string()
+            } else {
+                format!("{} hypotheses", d.family_size)
+            },
+            if profiled > 1 {
+                format!(
+                    " (the warm-up's {profiled} time constants one of them, its p-value corrected for the search over τ)"
+                )
+            } else {
+                String::new()
+            },
             names(&d.family)
         );
     }
@@ -295,6 +307,29 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             },
             marks(sel)
         );
+        if let Some(t) = &sel.time_constant {
+            let _ = writeln!(
+                s,
+                "  time constant τ = {} s (95 %: {} to {} s, the profile of chi2 over τ with the other terms refitted); amplitude there A = {} cm/s² (τ's uncertainty included){}",
+                crate::output::significant(t.tau_s, 3),
+                t.interval_s
+                    .0
+                    .map_or("below the search's 1/64 of the span".to_string(), |v| {
+                        crate::output::significant(v, 3)
+                    }),
+                t.interval_s
+                    .1
+                    .map_or("beyond twice the span".to_string(), |v| {
+                        crate::output::significant(v, 3)
+                    }),
+                estimate(t.amplitude_cm_s2, t.amplitude_se_cm_s2),
+                t.grid_tau_s.map_or(String::new(), |g| format!(
+                    "; the model holds {} at the grid's τ = {} s",
+                    c.key,
+                    crate::output::significant(g, 3)
+                ))
+            );
+        }
     }
     let e = &j.extended;
     let _ = writeln!(
@@ -444,6 +479,11 @@ fn nz(x: f64) -> f64 {
 /// whether its coefficient disagrees between parts of the data.
 fn marks(sel: &super::problem::Selected) -> String {
     let mut m = String::new();
+    if sel.companion {
+        m.push_str(
+            "  (fitted with the warm-up as the level it settles to: not a cause of its own)",
+        );
+    }
     if !sel.rivals.is_empty() {
         let forms: Vec<&str> = sel.rivals.iter().map(|r| r.form.as_str()).collect();
         let _ = write!(

@@ -185,8 +185,9 @@ const SAMPLES_F: f64 = 8.0;
 /// local gravity `g_cm_s2`.
 #[must_use]
 pub fn mean_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> f64 {
+    let warm_up = effects.warm_up_cm_s2(cond.history.t_on_s);
     if cond.is_static() {
-        return effects.indicated_cm_s2(&cond.inputs_at(0.0, g_cm_s2));
+        return effects.indicated_cm_s2(&cond.inputs_at(0.0, g_cm_s2)) + warm_up;
     }
     let period = 1.0 / cond.freq_hz;
     #[allow(clippy::cast_precision_loss)]
@@ -199,6 +200,7 @@ pub fn mean_effect_cm_s2(cond: &Condition, effects: &Effects, g_cm_s2: f64) -> f
         })
         .sum::<f64>()
         / SAMPLES_F
+        + warm_up
 }
 
 /// Mean of `|each term|`-ish magnitude used to tell an exactly cancelling column from a real

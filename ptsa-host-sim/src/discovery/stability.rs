@@ -211,6 +211,17 @@ pub(crate) fn test_splits(
             continue;
         };
         let (u, scale) = unit(&weigh(&sig.col));
+        if s.companion {
+            // In the model as a common column, not refitted per part: no cause of its own.
+            reports[j].not_tested.push(
+                "fitted with the warm-up as the level its transient settles to: not refitted"
+                    .to_string(),
+            );
+            if scale > 0.0 {
+                base.push(u);
+            }
+            continue;
+        }
         if scale > 0.0 {
             terms.push((j, sig.col.iter().zip(sigma).map(|(x, s)| x / s).collect()));
             base.push(u);

@@ -407,6 +407,10 @@ pub fn verdict(d: &Discovery) -> String {
                     super::show::estimate(s.coef, s.stderr),
                     c.unit
                 );
+                if s.companion {
+                    t.push_str(" (the level the warm-up settles to, fitted with it: not a cause of its own)");
+                    return t;
+                }
                 if !s.plausible {
                     t.push_str(" (implausible: beyond its bound, so the cause is unlikely although the structure is real)");
                 }

@@ -115,6 +115,8 @@ pub struct History {
     /// The time since the instrument was switched on over the span of the run (both in
     /// `time_s`), or `None` when the rows do not all give `time_s`.
     pub t_on_span: Option<f64>,
+    /// The time since the instrument was switched on, s (`None` as `t_on_span`).
+    pub t_on_s: Option<f64>,
 }
 
 /// One test condition (one row of a case-frame file). Every oscillation runs at `freq_hz`.
@@ -280,6 +282,7 @@ impl Condition {
         k.push(history.approach_sign.to_bits());
         k.push(history.delta_t_c.to_bits());
         k.push(history.t_on_span.map_or(u64::MAX, f64::to_bits));
+        k.push(history.t_on_s.map_or(u64::MAX, f64::to_bits));
         k
     }
 
@@ -554,6 +557,22 @@ pub fn measurement_order(rows: &[Condition]) -> Vec<usize> {
     order
 }
 
+/// The span of a run the time since power-on is measured against
+/// ([`History::t_on_span`]), s: the last row's `time_s` less the earliest power-on time
+/// (the earliest `power_on_s`, or the first row's time when earlier); `None` unless every
+/// row gives `time_s` and the span is positive.
+#[must_use]
+pub fn warm_up_span_s(rows: &[Condition]) -> Option<f64> {
+    let times: Vec<f64> = rows.iter().map(|r| r.time_s).collect::<Option<_>>()?;
+    let first = times.iter().copied().fold(f64::INFINITY, f64::min);
+    let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let start = rows
+        .iter()
+        .filter_map(|r| r.power_on_s)
+        .fold(first, f64::min);
+    Some(last - start).filter(|&s| s > 0.0)
+}
+
 /// `rows` with their [`History`] set: what each row takes from the rows around it.
 ///
 /// * **Approach sign** of an absolute row: the recorded `approach` (+1 up, −1 down) when
@@ -582,12 +601,7 @@ pub fn with_history(rows: &[Condition], g_cm_s2: f64) -> Vec<Condition> {
     let timed = !rows.is_empty() && rows.iter().all(|r| r.time_s.is_some());
     let times: Vec<f64> = rows.iter().map(|r| r.time_s.unwrap_or(0.0)).collect();
     let first = times.iter().copied().fold(f64::INFINITY, f64::min);
-    let last = times.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let start = rows
-        .iter()
-        .filter_map(|r| r.power_on_s)
-        .fold(first, f64::min);
-    let span = last - start;
+    let span = warm_up_span_s(rows).unwrap_or(0.0);
     let mut power_on = first;
     let mut prev: Option<f64> = None;
     for i in order {
@@ -610,6 +624,7 @@ pub fn with_history(rows: &[Condition], g_cm_s2: f64) -> Vec<Condition> {
             approach_sign,
             delta_t_c: r.temp_c.map_or(0.0, |t| t - t_ref),
             t_on_span: (timed && span > 0.0).then(|| (times[i] - power_on) / span),
+            t_on_s: (timed && span > 0.0).then(|| times[i] - power_on),
         };
     }
     out

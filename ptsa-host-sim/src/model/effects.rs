@@ -223,15 +223,30 @@ candidates! {
     TemperatureScaleFactor = "temperature", "k1_t_ppm_per_c", "temperature.k1_t_ppm_per_c", "ppm/°C",
         "k·1e-6·ΔT·a_IA (a scale-factor change per °C)",
         Signature::Term(|i| 1e-6 * i.delta_t_c * i.a_cm_s2[IA]), Bound::ScaleFactorPerDegree, ("K_1,T", "ppm/°C", |_| 1.0), Outside;
+    WarmUpSpan16 = "warm_up", "a_span16_cm_s2", "warm_up.a_span16_cm_s2", "cm/s²",
+        "A·e^(−t/τ), t the time since power-on, τ = 1/16 of the run's span in time_s (rows with time_s only)",
+        Signature::Term(|i| warm_up(i, 16.0)), Bound::WarmUp, ("A_wu(T/16)", "µg", |g| 1e6 / g), Outside;
+    WarmUpSpan12 = "warm_up", "a_span12_cm_s2", "warm_up.a_span12_cm_s2", "cm/s²",
+        "A·e^(−t/τ), τ = 1/12 of the run's span",
+        Signature::Term(|i| warm_up(i, 12.0)), Bound::WarmUp, ("A_wu(T/12)", "µg", |g| 1e6 / g), Outside;
     WarmUpSpan8 = "warm_up", "a_span8_cm_s2", "warm_up.a_span8_cm_s2", "cm/s²",
-        "A·e^(−t/τ), t the time since power-on, τ = 1/8 of the run's span in time_s (rows with time_s only)",
+        "A·e^(−t/τ), τ = 1/8 of the run's span",
         Signature::Term(|i| warm_up(i, 8.0)), Bound::WarmUp, ("A_wu(T/8)", "µg", |g| 1e6 / g), Outside;
+    WarmUpSpan6 = "warm_up", "a_span6_cm_s2", "warm_up.a_span6_cm_s2", "cm/s²",
+        "A·e^(−t/τ), τ = 1/6 of the run's span",
+        Signature::Term(|i| warm_up(i, 6.0)), Bound::WarmUp, ("A_wu(T/6)", "µg", |g| 1e6 / g), Outside;
     WarmUpSpan4 = "warm_up", "a_span4_cm_s2", "warm_up.a_span4_cm_s2", "cm/s²",
         "A·e^(−t/τ), τ = 1/4 of the run's span",
         Signature::Term(|i| warm_up(i, 4.0)), Bound::WarmUp, ("A_wu(T/4)", "µg", |g| 1e6 / g), Outside;
+    WarmUpSpan3 = "warm_up", "a_span3_cm_s2", "warm_up.a_span3_cm_s2", "cm/s²",
+        "A·e^(−t/τ), τ = 1/3 of the run's span",
+        Signature::Term(|i| warm_up(i, 3.0)), Bound::WarmUp, ("A_wu(T/3)", "µg", |g| 1e6 / g), Outside;
     WarmUpSpan2 = "warm_up", "a_span2_cm_s2", "warm_up.a_span2_cm_s2", "cm/s²",
         "A·e^(−t/τ), τ = 1/2 of the run's span",
         Signature::Term(|i| warm_up(i, 2.0)), Bound::WarmUp, ("A_wu(T/2)", "µg", |g| 1e6 / g), Outside;
+    WarmUp = "warm_up", "a_cm_s2", "warm_up.a_cm_s2", "cm/s²",
+        "A·e^(−t/τ), t the time since power-on, τ estimated from the data (the effects' `time_constant`; rows with time_s only)",
+        Signature::Term(no_term), Bound::WarmUp, ("A_wu", "µg", |g| 1e6 / g), Outside;
     ParamDamping = "damping", "damping_dyn_cm_s", "damping", instrument::DAMPING.unit,
         "the damping C of eq. 4.2 (Table 2.1: 76 400 ± 40 %)",
         Signature::Parameter(&instrument::DAMPING), Bound::Tolerance, ("C", instrument::DAMPING.unit, |_| 1.0), Outside;
@@ -262,6 +277,20 @@ candidates! {
     ParamAdcOffset = "adc_offset", "adc_offset_mv", "adc_offset", instrument::ADC_OFFSET.unit,
         "the offset at the ADC's input (a candidate when the instrument file gives electronics.adc_offset_mv with a tolerance): a constant code offset, as the quadrature a pickoff phase error leaks",
         Signature::Parameter(&instrument::ADC_OFFSET), Bound::Tolerance, ("V_adc", instrument::ADC_OFFSET.unit, |_| 1.0), Outside;
+}
+
+/// The registry's term of [`CandidateId::WarmUp`], whose τ the [`Effects`] carry
+/// ([`Effects::warm_up_cm_s2`], [`Effects::plant_terms`]): none on its own.
+fn no_term(_: &CaseInputs) -> f64 {
+    0.0
+}
+
+/// A term of the inputs at one instant, per unit coefficient, cm/s².
+pub type TermFn = fn(&CaseInputs) -> f64;
+
+/// A term that is 1 at every instant (its coefficient carries the value).
+fn unit_term(_: &CaseInputs) -> f64 {
+    1.0
 }
 
 /// A turn-on transient `e^(−t/τ)` with `τ` = the run's span over `per_span`, for a unit
@@ -327,6 +356,31 @@ impl CandidateId {
     #[must_use]
     pub fn model_equation_term(self) -> bool {
         self.info().model_term != ModelTerm::Outside
+    }
+
+    /// The warm-up's transient `A·e^(−t/τ)`: one of the grid's time constants
+    /// (registered in increasing τ, [`CandidateId::profile_rate`]) or the one estimated
+    /// from the data ([`CandidateId::WarmUp`]). They are one hypothesis of the selection's
+    /// family (its p-value corrected for the search over τ, [`crate::discovery::fit`]),
+    /// and at most one of them is selected.
+    #[must_use]
+    pub fn profiled(self) -> bool {
+        self.info().bound == Bound::WarmUp
+    }
+
+    /// For a point of the warm-up's profile: the run's span over its time constant.
+    #[must_use]
+    pub fn profile_rate(self) -> Option<f64> {
+        match self {
+            CandidateId::WarmUpSpan16 => Some(16.0),
+            CandidateId::WarmUpSpan12 => Some(12.0),
+            CandidateId::WarmUpSpan8 => Some(8.0),
+            CandidateId::WarmUpSpan6 => Some(6.0),
+            CandidateId::WarmUpSpan4 => Some(4.0),
+            CandidateId::WarmUpSpan3 => Some(3.0),
+            CandidateId::WarmUpSpan2 => Some(2.0),
+            _ => None,
+        }
     }
 
     /// Order of simplicity when two candidates fit alike: 0 for a first-order
@@ -410,16 +464,66 @@ const _: () = {
 
 /// Coefficients of the candidate effects, one per [`CandidateId`] (all zero in the
 /// baseline model), each in its candidate's unit.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Effects {
     coef: [f64; N_CANDIDATES],
+    /// The time constant of [`CandidateId::WarmUp`]'s transient, s (0: none given, and
+    /// the term is 0).
+    warm_up_tau_s: f64,
+}
+
+impl Default for Effects {
+    /// [`Effects::NONE`].
+    fn default() -> Self {
+        Self::NONE
+    }
 }
 
 impl Effects {
     /// No effect: the baseline model.
     pub const NONE: Effects = Effects {
         coef: [0.0; N_CANDIDATES],
+        warm_up_tau_s: 0.0,
     };
+
+    /// These effects with the time constant of [`CandidateId::WarmUp`] set to `tau_s`, s.
+    #[must_use]
+    pub fn with_warm_up_tau_s(mut self, tau_s: f64) -> Self {
+        self.warm_up_tau_s = tau_s;
+        self
+    }
+
+    /// The time constant of [`CandidateId::WarmUp`], s (0: none).
+    #[must_use]
+    pub fn warm_up_tau_s(&self) -> f64 {
+        self.warm_up_tau_s
+    }
+
+    /// [`CandidateId::WarmUp`]'s transient for a unit amplitude at `t_on_s` after
+    /// power-on (0 without a time or a time constant).
+    fn warm_up_unit(&self, t_on_s: Option<f64>) -> f64 {
+        match t_on_s {
+            Some(t) if self.warm_up_tau_s > 0.0 => (-t / self.warm_up_tau_s).exp(),
+            _ => 0.0,
+        }
+    }
+
+    /// The additive terms as `(term, coefficient)` for the loop's plant at a row whose time
+    /// since power-on is `t_on_s`: each candidate's own term, and [`CandidateId::WarmUp`]
+    /// at these effects' τ as a constant over the row (its amplitude times `e^(−t/τ)`: a
+    /// row's run is short against τ). Parameters are not terms.
+    #[must_use]
+    pub fn plant_terms(&self, t_on_s: Option<f64>) -> Vec<(TermFn, f64)> {
+        self.nonzero()
+            .filter_map(|(id, c)| match id.info().signature {
+                Signature::Term(_) if id == CandidateId::WarmUp => {
+                    Some((unit_term as TermFn, c * self.warm_up_unit(t_on_s)))
+                }
+                Signature::Term(f) => Some((f, c)),
+                Signature::Parameter(_) => None,
+            })
+            .collect()
+    }
 
     /// Only `id` set to `value`.
     #[must_use]
@@ -515,10 +619,20 @@ impl Effects {
         e
     }
 
-    /// Sum of the effect terms at one instant: extra indicated acceleration along IA, cm/s².
+    /// Sum of the effect terms at one instant: extra indicated acceleration along IA, cm/s²
+    /// (all but [`CandidateId::WarmUp`]'s, [`Effects::warm_up_cm_s2`]).
     #[must_use]
     pub fn indicated_cm_s2(&self, i: &CaseInputs) -> f64 {
         self.nonzero().map(|(id, c)| c * id.term_cm_s2(i)).sum()
+    }
+
+    /// [`CandidateId::WarmUp`]'s extra indicated acceleration at a row `t_on_s` after
+    /// power-on ([`crate::model::condition::History::t_on_s`]), cm/s²: constant over the
+    /// row, so not a term of the instant's inputs ([`Effects::indicated_cm_s2`] leaves it
+    /// out).
+    #[must_use]
+    pub fn warm_up_cm_s2(&self, t_on_s: Option<f64>) -> f64 {
+        self.get(CandidateId::WarmUp) * self.warm_up_unit(t_on_s)
     }
 }
 
@@ -552,9 +666,14 @@ mod tests {
                 "hysteresis",
                 "temperature.k0_t_cm_s2_per_c",
                 "temperature.k1_t_ppm_per_c",
+                "warm_up.a_span16_cm_s2",
+                "warm_up.a_span12_cm_s2",
                 "warm_up.a_span8_cm_s2",
+                "warm_up.a_span6_cm_s2",
                 "warm_up.a_span4_cm_s2",
+                "warm_up.a_span3_cm_s2",
                 "warm_up.a_span2_cm_s2",
+                "warm_up.a_cm_s2",
                 "damping",
                 "spring",
                 "inertia",
@@ -573,7 +692,24 @@ mod tests {
         }
         assert_eq!(CandidateId::of_effect("lever_arm").count(), 3);
         assert_eq!(CandidateId::of_effect("temperature").count(), 2);
-        assert_eq!(CandidateId::of_effect("warm_up").count(), 3);
+        assert_eq!(CandidateId::of_effect("warm_up").count(), 8);
+        assert!(CandidateId::of_effect("warm_up").all(CandidateId::profiled));
+        assert_eq!(CandidateId::ALL.iter().filter(|c| c.profiled()).count(), 8);
+        // Each point's column is e^(−x·rate), in increasing τ (decreasing rate).
+        let mut last = f64::INFINITY;
+        for id in CandidateId::of_effect("warm_up").filter(|&c| c != CandidateId::WarmUp) {
+            let r = id.profile_rate().unwrap();
+            assert!(r < last, "{id:?}");
+            last = r;
+            let i = CaseInputs {
+                t_on_span: Some(0.3),
+                ..CaseInputs::default()
+            };
+            assert!(
+                (id.term_cm_s2(&i) - (-0.3 * r).exp()).abs() < 1e-15,
+                "{id:?}"
+            );
+        }
     }
 
     /// Where each candidate stands in the model equation is part of the method: the
@@ -735,6 +871,20 @@ mod tests {
                     "{id}"
                 );
                 assert!(Effects::only(id, 1.0).indicated_cm_s2(&i) == 0.0, "{id}");
+                continue;
+            }
+            if id == CandidateId::WarmUp {
+                // Its term is the row's, 600 s after power-on with τ = 300 s.
+                let e = Effects::only(id, 1.0).with_warm_up_tau_s(300.0);
+                let one = e.warm_up_cm_s2(Some(600.0));
+                assert!((one - (-2.0f64).exp()).abs() < 1e-15);
+                assert!(e.indicated_cm_s2(&i) == 0.0);
+                // Without a time constant or a time, none.
+                assert!(Effects::only(id, 1.0).warm_up_cm_s2(Some(600.0)) == 0.0);
+                assert!(e.warm_up_cm_s2(None) == 0.0);
+                let t = e.plant_terms(Some(600.0));
+                assert_eq!(t.len(), 1);
+                assert!(((t[0].0)(&i) * t[0].1 - one).abs() < 1e-15);
                 continue;
             }
             let one = Effects::only(id, 1.0).indicated_cm_s2(&i);

@@ -10,7 +10,7 @@ use ptsa_core::adc::AdcFormat;
 
 use super::noise::NoiseSource;
 use crate::model::condition::{CaseInputs, Condition, IA, OA, PA, Prepared};
-use crate::model::effects::{Effects, Signature};
+use crate::model::effects::{Effects, TermFn};
 use crate::model::instrument::Instrument;
 use crate::model::plant::{NX, Plant};
 
@@ -24,9 +24,6 @@ pub trait ExtraPhysics: Send + Sync + std::fmt::Debug {
     /// i (fraction of full current), y (rad)]` at the start of the tick.
     fn torque_dyn_cm(&self, t_s: f64, inputs: &CaseInputs, x: &[f64; NX]) -> f64;
 }
-
-/// An effect term per unit coefficient: extra indicated acceleration, cm/s².
-type TermFn = fn(&CaseInputs) -> f64;
 
 /// The ADC: demodulated pickoff (rad) to a code, with the quadrature leak and noise; the
 /// design's signed 16-bit converter, or the board's (`[board]` of the instrument file) through
@@ -280,12 +277,7 @@ impl LoopConfig {
         // The instrument file's nominal model-equation terms are part of the baseline.
         self.effect_terms = instr
             .with_nominal_terms(effects)
-            .nonzero()
-            .filter_map(|(id, c)| match id.info().signature {
-                Signature::Term(f) => Some((f, c)),
-                Signature::Parameter(_) => None,
-            })
-            .collect();
+            .plant_terms(cond.history.t_on_s);
         self.d0 = self.static_torque(&m);
         self.add = add_vectors(&self.plant, self.d0);
         self.w = prep.omega;

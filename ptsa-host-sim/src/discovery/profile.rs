@@ -1,0 +1,241 @@
+//! The warm-up's time constant, estimated: the profile of the final model's χ² over τ.
+//!
+//! The selection tests the transient `A·e^(−t/τ)` at the grid's time constants (1/16 to
+//! 1/2 of the run's span, [`CandidateId::profiled`]) and keeps the one that fits best. Once
+//! it is selected, τ is estimated here between and beyond those points: with every other
+//! term of the final model held in it (refitted at each τ), χ²(τ) is minimised over τ from
+//! [`RATE_RANGE`], and the 95 % interval is the set of τ whose χ² lies within
+//! χ²₁(0.95) = 3.84 of the least (times the Birge ratio² when the residuals reject the
+//! sigmas), the likelihood-ratio interval of a one-parameter profile. The amplitude at the
+//! estimate is refitted with the derivative of the transient in τ beside it, so that its
+//! standard error holds τ's uncertainty (the Gauss–Newton covariance at the optimum).
+//!
+//! The model itself (its other coefficients, the re-simulation, the stability refits, the
+//! calibration) keeps the grid's time constant: this is what the data say of τ, reported
+//! beside it.
+//!
+//! The column at any rate `r` = span/τ is exact from the grid's column at `r₀` = 2:
+//! `e^(−x·r) = (e^(−x·r₀))^(r/r₀)`, `x` the time since power-on over the span.
+
+use super::data::Data;
+use super::fit::{self, Fitted, Settings};
+use crate::model::condition::{Condition, warm_up_span_s};
+use crate::model::effects::CandidateId;
+use crate::stats::{birge_ratio, lsq, norm};
+
+/// Relative change of τ below which the estimate and the selection made with it have
+/// settled.
+pub const SETTLED: f64 = 1e-3;
+
+/// Rounds of estimate and selection at most.
+pub const ROUNDS: usize = 4;
+
+/// When `f` selects the warm-up: its time constant estimated ([`time_constant`]), and the
+/// selection made again with [`CandidateId::WarmUp`] at that τ beside the grid, until τ
+/// settles (within [`SETTLED`], at most [`ROUNDS`] rounds; a round whose selection loses
+/// the warm-up is not kept): the data with the column at the final τ (`None`: unchanged),
+/// the final fit, and the estimate (its τ the column's when the fit holds
+/// [`CandidateId::WarmUp`]).
+/// Selected at a grid point only, a transient far above the noise would leave the grid's
+/// mismatch (up to 9 % of it at the grid's steps) for other terms to take.
+#[must_use]
+pub fn estimate(
+    rows: &[Condition],
+    data: &Data,
+    f: Fitted,
+    settings: Settings,
+    g_cm_s2: f64,
+) -> (Option<Data>, Fitted, Option<TimeConstant>) {
+    let Some(span) = warm_up_span_s(rows) else {
+        return (None, f, None);
+    };
+    let all: Vec<usize> = (0..data.n()).collect();
+    let (mut cur, mut f, mut column_tau) = (None::<Data>, f, None::<f64>);
+    for _ in 0..ROUNDS {
+        let d = cur.as_ref().unwrap_or(data);
+        let Some(tc) = time_constant(d, &f, span) else {
+            break;
+        };
+        if f.selected.contains(&CandidateId::WarmUp)
+            && column_tau.is_some_and(|t| (tc.tau_s / t - 1.0).abs() <= SETTLED)
+        {
+            break;
+        }
+        let next = data.with_warm_up(rows, tc.tau_s, g_cm_s2);
+        let g = fit::fit(&next, &all, settings);
+        // A selection at the estimate that no longer holds the warm-up (a transient near
+        // the level of the test, whose τ moved to where it is less significant) keeps the
+        // round before.
+        if !g.selected.iter().any(|id| id.profiled()) {
+            break;
+        }
+        f = g;
+        cur = Some(next);
+        column_tau = Some(tc.tau_s);
+    }
+    let d = cur.as_ref().unwrap_or(data);
+    let tc = time_constant(d, &f, span).map(|mut t| {
+        // The model's column is at the τ of the last round: that is the estimate its
+        // coefficients go with.
+        if let Some(c) = column_tau.filter(|_| t.grid == CandidateId::WarmUp) {
+            t.tau_s = c;
+        }
+        t
+    });
+    (cur, f, tc)
+}
+
+/// The rates `r` = span/τ searched: τ from twice the run's span to 1/64 of it (a transient
+/// over within the first row or two of a 24-row run).
+pub const RATE_RANGE: (f64, f64) = (0.5, 64.0);
+
+/// Points of the search's logarithmic grid over [`RATE_RANGE`], before the golden-section
+/// refinement about its best.
+const RATE_POINTS: usize = 97;
+
+/// χ²₁'s 95 % point: the profile interval's threshold.
+const CHI2_1_95: f64 = 3.841_458_820_694_124;
+
+/// The warm-up's time constant and its amplitude there.
+#[derive(Clone, Debug)]
+pub struct TimeConstant {
+    /// The candidate selected: a grid point, or [`CandidateId::WarmUp`] at the estimate.
+    pub grid: CandidateId,
+    /// The grid's time constant when `grid` is a grid point, s.
+    pub grid_tau_s: Option<f64>,
+    /// The estimate of τ, s (or in the span's unit when the span is not known in s).
+    pub tau_s: f64,
+    /// The 95 % profile interval of τ, s; a side `None` when the interval reaches the end
+    /// of [`RATE_RANGE`] on that side (the data do not bound it there).
+    pub interval_s: (Option<f64>, Option<f64>),
+    /// The amplitude `A` of `A·e^(−t/τ)` at the estimate, cm/s².
+    pub amplitude_cm_s2: f64,
+    /// Its standard error with τ's uncertainty in it, cm/s².
+    pub amplitude_se_cm_s2: f64,
+}
+
+/// The profile of the warm-up selected in `f`, if one is; `span_s` the run's span
+/// ([`crate::model::condition::warm_up_span_s`]).
+#[must_use]
+pub fn time_constant(data: &Data, f: &Fitted, span_s: f64) -> Option<TimeConstant> {
+    let j = f.selected.iter().position(|id| id.profiled())?;
+    let grid = f.selected[j];
+    // The profile's longest time constant: its column is far from underflow.
+    let base = data
+        .signatures
+        .iter()
+        .filter_map(|s| Some((s, s.id.profile_rate()?)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    let (base, r0) = base;
+    // x = t/span of each fitted row (None where the transient cancels: difference rows).
+    let x: Vec<Option<f64>> = f
+        .subset
+        .iter()
+        .map(|&i| {
+            let c = base.col[i];
+            (c > 0.0).then(|| -c.ln() / r0)
+        })
+        .collect();
+    let nn = f.n_nuisance();
+    let all = f.unit_columns();
+    if all.len() != nn + f.selected.len() {
+        return None;
+    }
+    let others: Vec<&[f64]> = all
+        .iter()
+        .enumerate()
+        .filter(|&(k, _)| k != nn + j)
+        .map(|(_, c)| *c)
+        .collect();
+    let z = f.weighted_target();
+    let weighted = |g: &dyn Fn(f64) -> f64| -> (Vec<f64>, f64) {
+        let v: Vec<f64> = x
+            .iter()
+            .enumerate()
+            .map(|(k, x)| x.map_or(0.0, g) * f.weight(k))
+            .collect();
+        let s = norm(&v);
+        (v.iter().map(|a| a / s.max(f64::MIN_POSITIVE)).collect(), s)
+    };
+    let chi2 = |r: f64| -> f64 {
+        let (u, _) = weighted(&|x| (-x * r).exp());
+        let mut cols = others.clone();
+        cols.push(&u);
+        lsq(&z, &cols).map_or(f64::INFINITY, |g| g.chi2)
+    };
+    let dof = f.subset.len().saturating_sub(others.len() + 2);
+    let (r, (r_lo, r_hi)) = search(&chi2, dof)?;
+    // The amplitude at r, with the transient's derivative in τ beside it.
+    let (u, su) = weighted(&|x| (-x * r).exp());
+    let (du, _) = weighted(&|x| -x * (-x * r).exp());
+    let mut cols = others.clone();
+    cols.push(&u);
+    cols.push(&du);
+    let fit = lsq(&z, &cols)?;
+    let p = cols.len() - 2;
+    let n = f.subset.len();
+    let birge = birge_ratio(fit.chi2, n.saturating_sub(cols.len()));
+    let classical = fit.cov[(p, p)].max(0.0).sqrt() * birge;
+    let robust = if f.stated() { 0.0 } else { fit.se_hc3[p] };
+    Some(TimeConstant {
+        grid,
+        grid_tau_s: grid.profile_rate().map(|r| span_s / r),
+        tau_s: span_s / r,
+        // A larger rate is a shorter τ.
+        interval_s: (r_hi.map(|r| span_s / r), r_lo.map(|r| span_s / r)),
+        amplitude_cm_s2: fit.beta[p] / su,
+        amplitude_se_cm_s2: classical.max(robust) / su,
+    })
+}
+
+/// The ends of an interval, each `None` where the data do not bound it.
+type Interval = (Option<f64>, Option<f64>);
+
+/// The rate `r` of least `chi2(r)` over [`RATE_RANGE`] (a logarithmic grid, then
+/// golden-section between the best point's neighbours) and the ends of its 95 % profile
+/// interval, `None` at an end of the range; `dof` the residual degrees of freedom of the
+/// model with the transient (for the Birge ratio).
+fn search(chi2: &dyn Fn(f64) -> f64, dof: usize) -> Option<(f64, Interval)> {
+    let (lo, hi) = (RATE_RANGE.0.ln(), RATE_RANGE.1.ln());
+    #[allow(clippy::cast_precision_loss)]
+    let at = |k: usize| lo + (hi - lo) * k as f64 / (RATE_POINTS - 1) as f64;
+    let profile: Vec<(f64, f64)> = (0..RATE_POINTS)
+        .map(|k| (at(k), chi2(at(k).exp())))
+        .collect();
+    let best = (0..RATE_POINTS).min_by(|&a, &b| profile[a].1.total_cmp(&profile[b].1))?;
+    let (mut a, mut b) = (
+        at(best.saturating_sub(1)),
+        at((best + 1).min(RATE_POINTS - 1)),
+    );
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..40 {
+        let (c, d) = (b - g * (b - a), a + g * (b - a));
+        if chi2(c.exp()) < chi2(d.exp()) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let ln_r = 0.5 * (a + b);
+    let c_min = chi2(ln_r.exp()).min(profile[best].1);
+    let scale = birge_ratio(c_min, dof).powi(2);
+    let within = |c: f64| c - c_min <= CHI2_1_95 * scale;
+    // The interval's ends: where the profile crosses the threshold, by bisection between
+    // the estimate and the first grid point outside; None at the range's end.
+    let crossing = |inside: f64, outside: f64| -> f64 {
+        let (mut i, mut o) = (inside, outside);
+        for _ in 0..50 {
+            let m = 0.5 * (i + o);
+            if within(chi2(m.exp())) {
+                i = m;
+            } else {
+                o = m;
+            }
+        }
+        0.5 * (i + o)
+    };
+    let below = profile[..best].iter().rev().find(|p| !within(p.1));
+    let above = profile[best + 1..].iter().find(|p| !within(p.1));
+    let side = |out: Option<&(f64, f64)>| out.map(|&(o, _)| crossing(ln_r, o).exp());
+    Some((ln_r.exp(), (side(below), side(above))))
+}
