@@ -6,7 +6,10 @@
 KIND `shaker`: the two-axis oscillator's plan (`ptsa plan shaker --phases min(360, N/4)`,
 difference rows at 10 Hz) read by the simulator with a vibropendulosity of 2e-6 s²/cm, plus
 0.1 cm/s² of Gaussian noise. KIND `tumble`: a tumble about OA (`ptsa plan tumble
---positions min(360, N)`) with a bias change of 2.0 cm/s², plus 0.05 cm/s² of noise. The
+--positions min(360, N)`) with a bias change of 2.0 cm/s², plus 0.05 cm/s² of noise. KIND
+`warm`: the same tumble with no effect, its rows a minute apart in `time_s` from power-on,
+a turn-on transient 0.5·e^(−t/288 s) cm/s² less its mean over the rows added, plus 0.02
+cm/s² of noise. The
 plan's rows are repeated (labels ` rep k`) until there are N; `sigma_cm_s2` states the noise.
 The values come from `ptsa predict --json` (the closed loop); the noise is seeded
 (`random.seed(1)`), so the file is the same on every machine. With N = 1000 and `shaker` it
@@ -15,6 +18,7 @@ is the 1000-row file of docs/discovery.md, "Speed", byte for byte.
 import argparse
 import csv
 import json
+import math
 import os
 import random
 import subprocess
@@ -24,7 +28,11 @@ import tempfile
 TRUTH = {
     "shaker": ({"effects": [{"name": "vibropendulosity", "coefficients": {"k_ip_s2_cm": 2e-6}}]}, 0.1),
     "tumble": ({"effects": [{"name": "bias", "coefficients": {"k0_cm_s2": 2.0}}]}, 0.05),
+    "warm": ({"effects": []}, 0.02),
 }
+
+# The warm-up of KIND `warm`: amplitude (cm/s²), time constant (s), seconds between rows.
+WARM = (0.5, 288.0, 60.0)
 
 
 def main():
@@ -69,15 +77,21 @@ def main():
             capture_output=True,
         ).stdout
     values = [r["predicted_cm_s2"] for r in json.loads(pred)["rows"]]
+    timed = a.kind == "warm"
+    if timed:
+        amp, tau, step = WARM
+        warm = [amp * math.exp(-step * k / tau) for k in range(len(values))]
+        mean = sum(warm) / len(warm)
+        values = [y + t - mean for y, t in zip(values, warm)]
     random.seed(1)
     m = head.index("measured_cm_s2")
     part = a.out + ".part"
     with open(part, "w", newline="") as f:
         w = csv.writer(f, lineterminator="\n")
-        w.writerow(head + ["sigma_cm_s2"])
-        for r, y in zip(every, values):
+        w.writerow(head + ["sigma_cm_s2"] + (["time_s"] if timed else []))
+        for k, (r, y) in enumerate(zip(every, values)):
             r[m] = repr(y + random.gauss(0, sigma))
-            w.writerow(r + [sigma])
+            w.writerow(r + [sigma] + ([WARM[2] * k] if timed else []))
     os.replace(part, a.out)
     print(f"wrote {a.out} ({a.n} rows)", file=sys.stderr)
 

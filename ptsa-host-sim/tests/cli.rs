@@ -1733,6 +1733,80 @@ fn discover_names_a_hysteresis_from_the_row_order() {
     );
 }
 
+/// A warm-up `0.5·e^(−t/288 s)` less its mean over the run (the run's mean level is the
+/// nominal one) written into a 24-point tumble with `time_s` (a row a minute): `discover
+/// --json` names `warm_up.a_cm_s2` with its `time_constant` (the truth inside the
+/// interval), the bias it settles to (−0.5 times the mean) marked `companion_of`, and
+/// `predict --effects` on that result puts the transient back at that τ, row for row.
+#[test]
+fn discover_estimates_a_warm_up_s_time_constant_and_predict_reads_it() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let transient = |k: usize| 0.5 * (-60.0 * f64::from(u8::try_from(k).unwrap()) / 288.0).exp();
+    let mean = (0..24).map(transient).sum::<f64>() / 24.0;
+    let warm = |k: usize| {
+        #[allow(clippy::cast_precision_loss)]
+        let t = 60.0 * k as f64;
+        (t, transient(k) - mean)
+    };
+    let text = lab_tumble(d, r#"{"effects":[]}"#, |k, c| {
+        let (t, w) = warm(k);
+        c[4] = format!("{}", c[4].parse::<f64>().unwrap() + w);
+        c.push(format!("{t}"));
+    })
+    .replacen(",sigma_cm_s2\n", ",sigma_cm_s2,time_s\n", 1);
+    std::fs::write(d.join("warm.csv"), &text).unwrap();
+    let v = discover_json(d, "warm.csv");
+    let w = effect_named(&v, "warm_up");
+    let a = w["coefficients"]["a_cm_s2"]
+        .as_f64()
+        .unwrap_or_else(|| panic!("{w}"));
+    let tc = &w["time_constant"];
+    let tau = tc["tau_s"].as_f64().unwrap();
+    let (lo, hi) = (
+        tc["interval_95_s"][0].as_f64().unwrap(),
+        tc["interval_95_s"][1].as_f64().unwrap(),
+    );
+    assert!(lo < 288.0 && 288.0 < hi, "{tc}");
+    assert_eq!(tc["amplitude_cm_s2"].as_f64(), Some(a));
+    let bias = effect_named(&v, "bias");
+    assert_eq!(bias["companion_of"], "warm_up", "{bias}");
+    let b = bias["coefficients"]["k0_cm_s2"].as_f64().unwrap();
+    std::fs::write(d.join("found.json"), v.to_string()).unwrap();
+    let predict = |effects: &str| -> Vec<f64> {
+        let (out, _) = succeeds_in(
+            d,
+            &[
+                "predict",
+                "--data",
+                "warm.csv",
+                "--effects",
+                effects,
+                "--json",
+                "--analytic",
+            ],
+        );
+        let p: serde_json::Value = serde_json::from_str(&out).unwrap();
+        p["rows"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|r| r["predicted_cm_s2"].as_f64().unwrap())
+            .collect()
+    };
+    std::fs::write(d.join("none.json"), r#"{"effects":[]}"#).unwrap();
+    let (with, without) = (predict("found.json"), predict("none.json"));
+    for (k, (p, q)) in with.iter().zip(&without).enumerate() {
+        let (t, _) = warm(k);
+        let expected = b + a * (-t / tau).exp();
+        assert!(
+            (p - q - expected).abs() < 1e-9,
+            "row {k}: {} against {expected}",
+            p - q
+        );
+    }
+}
+
 /// A named term whose value changes halfway through the run (a misalignment toward PA of
 /// 3e-4 rad on the first 12 positions of a 24-point tumble, none on the rest) is reported
 /// `"stable": false` with the parts' values, the text marks it and says why, and the

@@ -321,6 +321,62 @@ fn reprofile(
     })
 }
 
+/// The rates `r` = span/τ the warm-up's time constant is searched over: τ from twice the
+/// run's span to 1/64 of it (a transient over within the first row or two of a 24-row run).
+pub const RATE_RANGE: (f64, f64) = (0.5, 64.0);
+
+/// Points of the estimate's logarithmic grid over [`RATE_RANGE`] ([`super::profile`]),
+/// and the golden-section steps of its refinement about its best.
+pub const RATE_POINTS: (usize, usize) = (97, 40);
+
+/// Points of the grid of the selection's own searches over τ (a term's test against the
+/// model without it at its best τ), and their golden-section steps: coarser than the
+/// estimate's, as only the least χ² is wanted (near the least, χ² is flat in ln r, and 16
+/// steps bracket it to 0.05 % of two grid steps).
+const TEST_RATE_POINTS: (usize, usize) = (25, 16);
+
+/// A χ² profile over the rate `r` = span/τ: its least value and where.
+pub(crate) struct RateProfile {
+    /// `ln r` at the least χ².
+    pub ln_r: f64,
+    /// The least χ².
+    pub chi2: f64,
+    /// The grid `(ln r, χ²)` it was found from, in increasing r.
+    pub grid: Vec<(f64, f64)>,
+    /// The grid's best point.
+    pub best: usize,
+}
+
+/// The least `chi2(r)` over [`RATE_RANGE`]: a logarithmic grid of `points`, then `steps` of
+/// golden-section between the best point's neighbours.
+pub(crate) fn rate_profile(
+    chi2: &dyn Fn(f64) -> f64,
+    (points, steps): (usize, usize),
+) -> Option<RateProfile> {
+    let (lo, hi) = (RATE_RANGE.0.ln(), RATE_RANGE.1.ln());
+    #[allow(clippy::cast_precision_loss)]
+    let at = |k: usize| lo + (hi - lo) * k as f64 / (points - 1) as f64;
+    let grid: Vec<(f64, f64)> = (0..points).map(|k| (at(k), chi2(at(k).exp()))).collect();
+    let best = (0..points).min_by(|&a, &b| grid[a].1.total_cmp(&grid[b].1))?;
+    let (mut a, mut b) = (at(best.saturating_sub(1)), at((best + 1).min(points - 1)));
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    for _ in 0..steps {
+        let (c, d) = (b - g * (b - a), a + g * (b - a));
+        if chi2(c.exp()) < chi2(d.exp()) {
+            b = d;
+        } else {
+            a = c;
+        }
+    }
+    let ln_r = 0.5 * (a + b);
+    Some(RateProfile {
+        ln_r,
+        chi2: chi2(ln_r.exp()).min(grid[best].1),
+        grid,
+        best,
+    })
+}
+
 /// The design of a subset with given sigmas.
 struct Design {
     sigma: Vec<f64>,
@@ -644,6 +700,20 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
     profile.sort_unstable();
     // Every testable time constant, the estimated one too: what re-profiling chooses from.
     let members: Vec<usize> = family.iter().copied().filter(|&k| profiled(k)).collect();
+    // The time since power-on over the span of each row, from the grid's longest time
+    // constant's column (`e^(−x·r₀)`, exact): the transient at any τ, for the tests.
+    let on_span: Option<Vec<Option<f64>>> = profile.last().and_then(|&k| {
+        let r0 = data.signatures[k].id.profile_rate()?;
+        Some(
+            subset
+                .iter()
+                .map(|&i| {
+                    let c = data.signatures[k].col[i];
+                    (c > 0.0).then(|| -c.ln() / r0)
+                })
+                .collect(),
+        )
+    });
     // The bias a transient is measured from: a warm-up is tested with the bias in the
     // model, and brought into it with the warm-up when not selected already (its
     // companion: dropped with it, not tested alone while it is in).
@@ -726,6 +796,33 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
             }
         }
         let reference = lsq(&d.z, &big).and_then(|f| Reference::of(&f));
+        // With a warm-up in the model, a term is tested between the models with and without
+        // it each at the transient's best τ (a profile-likelihood test): at the column's τ
+        // the term could take up the transient's mismatch, and without it the transient
+        // could fit better at another τ. `best_tau`: the least χ² over τ of a set of other
+        // terms and the transient; `slack`: how much better the current model fits at its
+        // best τ than at its column's.
+        let best_tau = |others: &[usize]| -> Option<f64> {
+            let x = on_span.as_ref()?;
+            let c = cols_of(&ncols, &cand, others);
+            let chi2 = |r: f64| -> f64 {
+                let raw: Vec<f64> = x
+                    .iter()
+                    .map(|x| x.map_or(0.0, |x| (-x * r).exp()))
+                    .collect();
+                let u = d.col(&raw);
+                let mut with_u: Vec<&Col> = c.iter().collect();
+                with_u.push(&u);
+                d.fit(&with_u).map_or(f64::INFINITY, |g| g.chi2)
+            };
+            rate_profile(&chi2, TEST_RATE_POINTS).map(|p| p.chi2)
+        };
+        let warm = set.iter().copied().find(|&j| profiled(j));
+        let others_of = |s: &[usize], j: usize| -> Vec<usize> {
+            s.iter().copied().filter(|&i| i != j).collect()
+        };
+        let cur_best = warm.and_then(|j| best_tau(&others_of(&set, j)));
+        let slack = cur_best.map_or(0.0, |c| (cur_fit.chi2 - c).max(0.0));
         // Forward.
         let mut trials: Vec<(usize, f64, f64)> = Vec::new();
         let profile_in = set.iter().any(|&j| profiled(j));
@@ -759,6 +856,17 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
             }
             trial.push(c);
             let Some(f) = d.fit(&trial) else { continue };
+            if let (Some(j), Some(w)) = (warm, cur_best)
+                && !profiled(k)
+            {
+                // The trial at the transient's best τ against the model at its own.
+                let mut s = others_of(&set, j);
+                s.push(k);
+                s.sort_unstable();
+                if let Some(b) = best_tau(&s) {
+                    without = w + (f.chi2 - b).max(0.0);
+                }
+            }
             let tcols: Vec<&[f64]> = trial.iter().map(|c| c.unit.as_slice()).collect();
             let p = step_p(
                 &f,
@@ -879,15 +987,21 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
             if !profiled(k)
                 && let Some(&j) = rest.iter().find(|&&j| profiled(j))
             {
+                let alt: Vec<usize> = rest.iter().copied().filter(|&i| i != j).collect();
+                let c = cols_of(&ncols, &cand, &alt);
                 for &o in members.iter().filter(|&&o| o != j) {
-                    let mut alt: Vec<usize> = rest.iter().copied().filter(|&i| i != j).collect();
-                    alt.push(o);
-                    alt.sort_unstable();
-                    let c = cols_of(&ncols, &cand, &alt);
-                    if let Some(g) = d.fit(&c.iter().collect::<Vec<_>>()) {
+                    let mut with_o: Vec<&Col> = c.iter().collect();
+                    with_o.extend(cand[o].as_ref());
+                    if let Some(g) = d.fit(&with_o) {
                         without = without.min(g.chi2);
                     }
                 }
+                // And at every τ between and beyond the grid's; the model with the term at
+                // its best τ too (`slack`), so that the two are compared alike.
+                if let Some(c) = best_tau(&alt) {
+                    without = without.min(c);
+                }
+                without += slack;
             }
             let mut p = step_p(
                 &cur_fit,

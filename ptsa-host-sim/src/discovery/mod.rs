@@ -512,6 +512,38 @@ mod tests {
         }
     }
 
+    /// `warm_up.a_cm_s2` is read with the time constant `discover --json` writes beside it,
+    /// and refused without one, the message naming what is expected.
+    #[test]
+    fn a_warm_up_at_an_estimated_tau_is_read_with_its_time_constant() {
+        let with: serde_json::Value = serde_json::from_str(
+            r#"{"effects": [{"name": "warm_up", "coefficients": {"a_cm_s2": 0.3},
+                 "time_constant": {"tau_s": 288.0}}]}"#,
+        )
+        .unwrap();
+        let e = effects_from_json(&with).unwrap();
+        assert_eq!(e.get(CandidateId::WarmUp).to_bits(), 0.3f64.to_bits());
+        assert_eq!(e.warm_up_tau_s().to_bits(), 288.0f64.to_bits());
+        assert!((e.warm_up_cm_s2(Some(288.0)) - 0.3 / std::f64::consts::E).abs() < 1e-15);
+        let without: serde_json::Value = serde_json::from_str(
+            r#"{"effects": [{"name": "warm_up", "coefficients": {"a_cm_s2": 0.3}}]}"#,
+        )
+        .unwrap();
+        let m = format!("{:#}", effects_from_json(&without).unwrap_err());
+        assert!(
+            m.contains("`warm_up.a_cm_s2` needs its time constant")
+                && m.contains("\"time_constant\": {\"tau_s\""),
+            "{m}"
+        );
+        // A grid point needs none.
+        let grid: serde_json::Value = serde_json::from_str(
+            r#"{"effects": [{"name": "warm_up", "coefficients": {"a_span4_cm_s2": 0.3}}]}"#,
+        )
+        .unwrap();
+        let g = effects_from_json(&grid).unwrap();
+        assert_eq!(g.get(CandidateId::WarmUpSpan4).to_bits(), 0.3f64.to_bits());
+    }
+
     /// The code of a module file: without its unit tests (a test may use any module) and
     /// without comments (a doc link is no dependency).
     fn code(text: &str) -> String {

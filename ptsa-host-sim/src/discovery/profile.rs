@@ -4,7 +4,7 @@
 //! 1/2 of the run's span, [`CandidateId::profiled`]) and keeps the one that fits best. Once
 //! it is selected, τ is estimated here between and beyond those points: with every other
 //! term of the final model held in it (refitted at each τ), χ²(τ) is minimised over τ from
-//! [`RATE_RANGE`], and the 95 % interval is the set of τ whose χ² lies within
+//! [`fit::RATE_RANGE`], and the 95 % interval is the set of τ whose χ² lies within
 //! χ²₁(0.95) = 3.84 of the least (times the Birge ratio² when the residuals reject the
 //! sigmas), the likelihood-ratio interval of a one-parameter profile. The amplitude at the
 //! estimate is refitted with the derivative of the transient in τ beside it, so that its
@@ -79,19 +79,14 @@ pub fn estimate(
         // coefficients go with.
         if let Some(c) = column_tau.filter(|_| t.grid == CandidateId::WarmUp) {
             t.tau_s = c;
+            if let Some((a, _)) = f.candidate(CandidateId::WarmUp) {
+                t.amplitude_cm_s2 = a;
+            }
         }
         t
     });
     (cur, f, tc)
 }
-
-/// The rates `r` = span/τ searched: τ from twice the run's span to 1/64 of it (a transient
-/// over within the first row or two of a 24-row run).
-pub const RATE_RANGE: (f64, f64) = (0.5, 64.0);
-
-/// Points of the search's logarithmic grid over [`RATE_RANGE`], before the golden-section
-/// refinement about its best.
-const RATE_POINTS: usize = 97;
 
 /// χ²₁'s 95 % point: the profile interval's threshold.
 const CHI2_1_95: f64 = 3.841_458_820_694_124;
@@ -106,7 +101,7 @@ pub struct TimeConstant {
     /// The estimate of τ, s (or in the span's unit when the span is not known in s).
     pub tau_s: f64,
     /// The 95 % profile interval of τ, s; a side `None` when the interval reaches the end
-    /// of [`RATE_RANGE`] on that side (the data do not bound it there).
+    /// of [`fit::RATE_RANGE`] on that side (the data do not bound it there).
     pub interval_s: (Option<f64>, Option<f64>),
     /// The amplitude `A` of `A·e^(−t/τ)` at the estimate, cm/s².
     pub amplitude_cm_s2: f64,
@@ -191,35 +186,13 @@ pub fn time_constant(data: &Data, f: &Fitted, span_s: f64) -> Option<TimeConstan
 /// The ends of an interval, each `None` where the data do not bound it.
 type Interval = (Option<f64>, Option<f64>);
 
-/// The rate `r` of least `chi2(r)` over [`RATE_RANGE`] (a logarithmic grid, then
-/// golden-section between the best point's neighbours) and the ends of its 95 % profile
-/// interval, `None` at an end of the range; `dof` the residual degrees of freedom of the
-/// model with the transient (for the Birge ratio).
+/// The rate `r` of least `chi2(r)` ([`fit::rate_profile`]) and the ends of its 95 % profile
+/// interval, `None` at an end of [`fit::RATE_RANGE`]; `dof` the residual degrees of freedom
+/// of the model with the transient (for the Birge ratio).
 fn search(chi2: &dyn Fn(f64) -> f64, dof: usize) -> Option<(f64, Interval)> {
-    let (lo, hi) = (RATE_RANGE.0.ln(), RATE_RANGE.1.ln());
-    #[allow(clippy::cast_precision_loss)]
-    let at = |k: usize| lo + (hi - lo) * k as f64 / (RATE_POINTS - 1) as f64;
-    let profile: Vec<(f64, f64)> = (0..RATE_POINTS)
-        .map(|k| (at(k), chi2(at(k).exp())))
-        .collect();
-    let best = (0..RATE_POINTS).min_by(|&a, &b| profile[a].1.total_cmp(&profile[b].1))?;
-    let (mut a, mut b) = (
-        at(best.saturating_sub(1)),
-        at((best + 1).min(RATE_POINTS - 1)),
-    );
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    for _ in 0..40 {
-        let (c, d) = (b - g * (b - a), a + g * (b - a));
-        if chi2(c.exp()) < chi2(d.exp()) {
-            b = d;
-        } else {
-            a = c;
-        }
-    }
-    let ln_r = 0.5 * (a + b);
-    let c_min = chi2(ln_r.exp()).min(profile[best].1);
-    let scale = birge_ratio(c_min, dof).powi(2);
-    let within = |c: f64| c - c_min <= CHI2_1_95 * scale;
+    let p = fit::rate_profile(chi2, fit::RATE_POINTS)?;
+    let scale = birge_ratio(p.chi2, dof).powi(2);
+    let within = |c: f64| c - p.chi2 <= CHI2_1_95 * scale;
     // The interval's ends: where the profile crosses the threshold, by bisection between
     // the estimate and the first grid point outside; None at the range's end.
     let crossing = |inside: f64, outside: f64| -> f64 {
@@ -234,8 +207,8 @@ fn search(chi2: &dyn Fn(f64) -> f64, dof: usize) -> Option<(f64, Interval)> {
         }
         0.5 * (i + o)
     };
-    let below = profile[..best].iter().rev().find(|p| !within(p.1));
-    let above = profile[best + 1..].iter().find(|p| !within(p.1));
-    let side = |out: Option<&(f64, f64)>| out.map(|&(o, _)| crossing(ln_r, o).exp());
-    Some((ln_r.exp(), (side(below), side(above))))
+    let below = p.grid[..p.best].iter().rev().find(|g| !within(g.1));
+    let above = p.grid[p.best + 1..].iter().find(|g| !within(g.1));
+    let side = |out: Option<&(f64, f64)>| out.map(|&(o, _)| crossing(p.ln_r, o).exp());
+    Some((p.ln_r.exp(), (side(below), side(above))))
 }
