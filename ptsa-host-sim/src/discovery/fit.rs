@@ -26,8 +26,9 @@ always holds a bias shift per block and a linear drift; each step tests the best
 candidate by the largest p-value of the F(1, n-p) test against the residual scale and \
 either the chi-squared(1) test with the stated sigmas or, when the sigmas are estimated, the \
 heteroscedasticity-robust (HC3) t test, at the Holm-Bonferroni level alpha/(m-k) \
-(m = testable candidates, k = already selected), so the familywise error rate over all \
-candidates is at most alpha = 0.05";
+(m = testable candidates, the warm-up's time constants one of them with its p-value \
+corrected for the search over tau; k = already selected), so the familywise error rate over \
+all candidates is at most alpha = 0.05";
 
 /// Settings of the selection.
 #[derive(Clone, Copy, Debug)]
