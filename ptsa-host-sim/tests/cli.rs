@@ -1805,6 +1805,38 @@ fn discover_estimates_a_warm_up_s_time_constant_and_predict_reads_it() {
             p - q
         );
     }
+    // `correct` with that calibration: rows without `time_s` are warned of (the transient
+    // cannot be corrected there), rows with it are not.
+    let untimed: String = text
+        .lines()
+        .map(|l| l.rsplit_once(',').map_or(l, |(a, _)| a))
+        .collect::<Vec<_>>()
+        .join("\n");
+    std::fs::write(d.join("untimed.csv"), untimed + "\n").unwrap();
+    let correct = |data: &str| -> String {
+        let o = ptsa_in(
+            d,
+            &[
+                "correct",
+                "--data",
+                data,
+                "--calibration",
+                "found.json",
+                "--out",
+                "c.csv",
+                "--force",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        stderr(&o)
+    };
+    let warned = "the calibration's warm-up (`warm_up.a_cm_s2`";
+    let e = correct("untimed.csv");
+    assert!(
+        e.contains(warned) && e.contains("24 rows without `time_s`"),
+        "{e}"
+    );
+    assert!(!correct("warm.csv").contains(warned));
 }
 
 /// A named term whose value changes halfway through the run (a misalignment toward PA of

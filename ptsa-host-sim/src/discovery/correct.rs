@@ -155,6 +155,20 @@ impl Calibration {
         self.sim.g_cm_s2()
     }
 
+    /// The calibration's warm-up, if it has one: its name, amplitude (cm/s²) and time
+    /// constant (s; `None` for a grid point, whose τ is a fraction of each file's span).
+    /// It acts on a row only through the row's time since power-on (`time_s`).
+    #[must_use]
+    pub fn warm_up(&self) -> Option<(&'static str, f64, Option<f64>)> {
+        self.effects
+            .nonzero()
+            .find(|(id, _)| id.profiled())
+            .map(|(id, a)| {
+                let tau = (id == CandidateId::WarmUp).then(|| self.effects.warm_up_tau_s());
+                (id.info().name, a, tau)
+            })
+    }
+
     /// The reading the model gives for `row` with `a_IA` = `x` g and effects `e`, cm/s².
     fn reading(&self, row: &Condition, x: f64, e: &Effects) -> f64 {
         let mut r = row.clone();

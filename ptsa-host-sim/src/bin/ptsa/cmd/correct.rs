@@ -360,6 +360,22 @@ fn untested_warnings(
             }
         }
     }
+    // A warm-up acts through the time since power-on, which rows without `time_s` lack.
+    if let Some((name, a, tau)) = cal.warm_up() {
+        let untimed = done
+            .iter()
+            .zip(rows)
+            .filter(|((_, _, c), r)| c.is_some() && r.history.t_on_span.is_none())
+            .count();
+        if untimed > 0 {
+            warnings.push(format!(
+                "{flag}: the calibration's warm-up (`{name}` = {} cm/s²{}) acts through the time since power-on, which {} without `time_s` lack: their readings are corrected as if the instrument had warmed up (give `time_s`, and `power_on_s` where it was switched on, to correct the transient)",
+                ptsa_host_sim::output::significant(a, 4),
+                tau.map_or(String::new(), |t| format!(", τ = {} s", ptsa_host_sim::output::significant(t, 4))),
+                count(untimed as u64, "row")
+            ));
+        }
+    }
     for (n, k) in untested {
         warnings.push(format!(
                 "{flag}: `{n}` was not testable in the calibration's data, and it acts on {} here: {} (calibrate with positions that exercise it)",
