@@ -322,6 +322,24 @@ fn reprofile(
     })
 }
 
+/// The time since power-on over the run's span of each row of `subset`, read back from the
+/// warm-up's longest grid time constant's signature (`e^(−x·r₀)`, exact, and far from
+/// underflow); `None` for a row where the transient cancels (a difference row), and `None`
+/// altogether without the warm-up's grid in the data.
+pub(crate) fn time_on_span(data: &Data, subset: &[usize]) -> Option<Vec<Option<f64>>> {
+    let (s, r0) = data
+        .signatures
+        .iter()
+        .filter_map(|s| Some((s, s.id.profile_rate()?)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    Some(
+        subset
+            .iter()
+            .map(|&i| (s.col[i] > 0.0).then(|| -s.col[i].ln() / r0))
+            .collect(),
+    )
+}
+
 /// The rates `r` = span/τ the warm-up's time constant is searched over: τ from twice the
 /// run's span to 1/64 of it (a transient over within the first row or two of a 24-row run).
 pub const RATE_RANGE: (f64, f64) = (0.5, 64.0);
@@ -701,20 +719,9 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
     profile.sort_unstable();
     // Every testable time constant, the estimated one too: what re-profiling chooses from.
     let members: Vec<usize> = family.iter().copied().filter(|&k| profiled(k)).collect();
-    // The time since power-on over the span of each row, from the grid's longest time
-    // constant's column (`e^(−x·r₀)`, exact): the transient at any τ, for the tests.
-    let on_span: Option<Vec<Option<f64>>> = profile.last().and_then(|&k| {
-        let r0 = data.signatures[k].id.profile_rate()?;
-        Some(
-            subset
-                .iter()
-                .map(|&i| {
-                    let c = data.signatures[k].col[i];
-                    (c > 0.0).then(|| -c.ln() / r0)
-                })
-                .collect(),
-        )
-    });
+    // The time since power-on over the span of each row: the transient at any τ, for the
+    // tests.
+    let on_span = time_on_span(data, subset);
     // The bias a transient is measured from: a warm-up is tested with the bias in the
     // model, and brought into it with the warm-up when not selected already (its
     // companion: dropped with it, not tested alone while it is in).

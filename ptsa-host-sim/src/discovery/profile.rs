@@ -10,12 +10,13 @@
 //! estimate is refitted with the derivative of the transient in τ beside it, so that its
 //! standard error holds τ's uncertainty (the Gauss–Newton covariance at the optimum).
 //!
-//! The model itself (its other coefficients, the re-simulation, the stability refits, the
-//! calibration) keeps the grid's time constant: this is what the data say of τ, reported
-//! beside it.
+//! [`estimate`] then makes the selection again with [`CandidateId::WarmUp`], the transient
+//! at the estimate, beside the grid, until τ settles: the model's other coefficients, the
+//! re-simulation, the stability refits and the calibration go with the estimated τ.
 //!
-//! The column at any rate `r` = span/τ is exact from the grid's column at `r₀` = 2:
-//! `e^(−x·r) = (e^(−x·r₀))^(r/r₀)`, `x` the time since power-on over the span.
+//! The column at any rate `r` = span/τ is exact from the grid's longest time constant's
+//! column (`fit::time_on_span`): `e^(−x·r) = (e^(−x·r₀))^(r/r₀)`, `x` the time since
+//! power-on over the span.
 
 use super::data::Data;
 use super::fit::{self, Fitted, Settings};
@@ -77,7 +78,7 @@ pub fn estimate(
     let tc = time_constant(d, &f, span).map(|mut t| {
         // The model's column is at the τ of the last round: that is the estimate its
         // coefficients go with.
-        if let Some(c) = column_tau.filter(|_| t.grid == CandidateId::WarmUp) {
+        if let Some(c) = column_tau.filter(|_| t.selected == CandidateId::WarmUp) {
             t.tau_s = c;
             if let Some((a, _)) = f.candidate(CandidateId::WarmUp) {
                 t.amplitude_cm_s2 = a;
@@ -95,7 +96,7 @@ const CHI2_1_95: f64 = 3.841_458_820_694_124;
 #[derive(Clone, Debug)]
 pub struct TimeConstant {
     /// The candidate selected: a grid point, or [`CandidateId::WarmUp`] at the estimate.
-    pub grid: CandidateId,
+    pub selected: CandidateId,
     /// The grid's time constant when `grid` is a grid point, s.
     pub grid_tau_s: Option<f64>,
     /// The estimate of τ, s (or in the span's unit when the span is not known in s).
@@ -114,23 +115,9 @@ pub struct TimeConstant {
 #[must_use]
 pub fn time_constant(data: &Data, f: &Fitted, span_s: f64) -> Option<TimeConstant> {
     let j = f.selected.iter().position(|id| id.profiled())?;
-    let grid = f.selected[j];
-    // The profile's longest time constant: its column is far from underflow.
-    let base = data
-        .signatures
-        .iter()
-        .filter_map(|s| Some((s, s.id.profile_rate()?)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    let (base, r0) = base;
+    let selected = f.selected[j];
     // x = t/span of each fitted row (None where the transient cancels: difference rows).
-    let x: Vec<Option<f64>> = f
-        .subset
-        .iter()
-        .map(|&i| {
-            let c = base.col[i];
-            (c > 0.0).then(|| -c.ln() / r0)
-        })
-        .collect();
+    let x = fit::time_on_span(data, &f.subset)?;
     let nn = f.n_nuisance();
     let all = f.unit_columns();
     if all.len() != nn + f.selected.len() {
@@ -173,8 +160,8 @@ pub fn time_constant(data: &Data, f: &Fitted, span_s: f64) -> Option<TimeConstan
     let classical = fit.cov[(p, p)].max(0.0).sqrt() * birge;
     let robust = if f.stated() { 0.0 } else { fit.se_hc3[p] };
     Some(TimeConstant {
-        grid,
-        grid_tau_s: grid.profile_rate().map(|r| span_s / r),
+        selected,
+        grid_tau_s: selected.profile_rate().map(|r| span_s / r),
         tau_s: span_s / r,
         // A larger rate is a shorter τ.
         interval_s: (r_hi.map(|r| span_s / r), r_lo.map(|r| span_s / r)),
