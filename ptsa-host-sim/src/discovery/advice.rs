@@ -1,6 +1,8 @@
 //! Advice that breaks a confounding: for every group of candidates the data cannot tell
 //! apart (and, on absolute data, every model-equation term they cannot test), the few rows
-//! from a library of feasible extra rows that best separate them.
+//! from a library of feasible extra rows that best separate them; and, when a selected
+//! term could be a shape in time or the residual follows one ([`time_order`]), the
+//! positions again in the reverse order.
 //!
 //! The library ([`library`]) holds what a lab can run: tumble positions about OA and PA,
 //! rate-table positions at three rates, the two-axis oscillator's blocks and centrifuge
@@ -16,8 +18,9 @@ use super::data::{Data, signatures};
 use super::fit::Fitted;
 use super::problem::Selected;
 pub use super::report::Advice;
+use super::report::Unexplained;
 use crate::lab::plan::{self, Axis};
-use crate::model::condition::Condition;
+use crate::model::condition::{Condition, RowKind};
 use crate::model::effects::CandidateId;
 use crate::stats::residualize;
 
@@ -237,6 +240,101 @@ pub fn advise(
             }
         })
         .collect()
+}
+
+/// The shapes whose order in time the rows' positions cannot tell from the terms of the
+/// positions: the rivals from the time shapes and the history of the selected terms, and
+/// the unexplained search's top proposal when it is one; with the terms they stand beside.
+fn time_shaped(selected: &[Selected], unexplained: &Unexplained) -> (Vec<String>, Vec<String>) {
+    let in_time = |family: &str| family == "time_shapes" || family.starts_with("history");
+    let mut terms = Vec::new();
+    let mut forms: Vec<String> = Vec::new();
+    for s in selected {
+        let rivals: Vec<&str> = s
+            .rivals
+            .iter()
+            .filter(|r| in_time(r.family))
+            .map(|r| r.form.as_str())
+            .collect();
+        if !rivals.is_empty() {
+            terms.push(s.id.info().name.to_string());
+            forms.extend(rivals.iter().map(|f| (*f).to_string()));
+        }
+    }
+    if unexplained.detected
+        && let Some(p) = unexplained.proposals.first().filter(|p| in_time(p.family))
+    {
+        forms.push(p.form.clone());
+    }
+    // Each form once, in the order first met.
+    let mut seen = Vec::new();
+    forms.retain(|f| {
+        let new = !seen.contains(f);
+        seen.push(f.clone());
+        new
+    });
+    (terms, forms)
+}
+
+/// Advice when a selected term could be a shape in time, or the residual follows one
+/// ([`time_shaped`]): the measured positions again in the reverse order, with the first
+/// repeated at the end. A term of the positions reads the same both ways; a drift, a
+/// warm-up or an effect of the row before does not.
+#[must_use]
+pub fn time_order(
+    rows: &[Condition],
+    selected: &[Selected],
+    unexplained: &Unexplained,
+) -> Option<Advice> {
+    let (terms, forms) = time_shaped(selected, unexplained);
+    if forms.is_empty() {
+        return None;
+    }
+    let mut measured: Vec<&Condition> = rows
+        .iter()
+        .filter(|r| r.kind == RowKind::Absolute && r.is_static() && r.is_measured())
+        .collect();
+    let timed = measured.iter().all(|r| r.time_s.is_some());
+    if timed {
+        measured.sort_by(|a, b| a.time_s.unwrap_or(0.0).total_cmp(&b.time_s.unwrap_or(0.0)));
+    }
+    let first = *measured.first()?;
+    let again = |r: &Condition, how: &str| Condition {
+        label: format!("{} (again, {how})", r.label),
+        kind: RowKind::Absolute,
+        g: r.g,
+        ..Condition::default()
+    };
+    let mut out: Vec<Condition> = measured
+        .iter()
+        .rev()
+        .map(|r| again(r, "reverse order"))
+        .collect();
+    out.push(again(first, "first position repeated at the end"));
+    let what = if terms.is_empty() {
+        "the residual follows a shape in the order the rows were measured".to_string()
+    } else {
+        format!(
+            "{} cannot be told here from {} (a shape in the order the rows were measured)",
+            and_list(&terms),
+            and_list(&forms)
+        )
+    };
+    Some(Advice {
+        separates: terms.into_iter().chain(forms).collect(),
+        add_rows: out.iter().map(crate::model::caseframe::to_object).collect(),
+        note: format!(
+            "{what}: measure the {} positions again in the reverse order, and the first once more at the end ({} rows): a term of the positions reads the same both ways, a drift, a warm-up or an effect of the row before does not{}",
+            measured.len(),
+            out.len(),
+            if timed {
+                ""
+            } else {
+                "; these rows give no time_s, so their order stands in for time: give time_s (and power_on_s) to test a warm-up"
+            }
+        ),
+        rows: out,
+    })
 }
 
 /// Weighted signatures over the fitted rows (each row its own sigma).

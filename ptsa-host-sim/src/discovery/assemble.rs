@@ -13,9 +13,9 @@ use super::outcome::{BodePoint, Discovery};
 use super::outliers::{Screened, SetAside};
 use super::problem::{Options, Problem, Selected};
 use super::report::{
-    EffectReport, Gain, JsonReport, ModelEquation, NoiseReport, NuisanceReport, OutlierReport,
-    RowResult, SearchLimit, StabilityReport, StepReport, Term, TimeConstantReport, Unexplained,
-    names,
+    EffectReport, FitCheck, Gain, JsonReport, ModelEquation, NoiseReport, NuisanceReport,
+    OutlierReport, RowResult, SearchLimit, StabilityReport, StepReport, Term, TimeConstantReport,
+    Unexplained, names,
 };
 use super::search::limit_note;
 use super::sim::Simulator;
@@ -105,9 +105,13 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
     warnings.extend(verdict::unused_approach(rows));
     let effects_json = effect_reports(&selected, &stability, opts, sim);
     warnings.extend(verdict::stability_warnings(&selected, &effects_json));
-    warnings.extend(verdict::rival_warnings(&selected));
+    warnings.extend(verdict::rival_warnings(
+        &selected,
+        data.time_unit == TimeUnit::Seconds,
+    ));
     let mut noise = noise_report(data, f);
     noise.stated_over_scatter = scatter.as_ref().map(|s| s.factor);
+    let fit_check = fit_check(f, &ext, &unexplained);
     let mut d = Discovery {
         simulator: sim.name(),
         json: JsonReport {
@@ -119,6 +123,7 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
             calibration: super::calibration::calibration(&p, &selected),
             advice,
             nuisance: nuisance_report(data, f),
+            fit_check,
             unexplained,
             gain,
             noise,
@@ -285,6 +290,35 @@ fn noise_report(data: &Data, f: &Fitted) -> NoiseReport {
         sigma_cm_s2,
         caveat,
         stated_over_scatter: None,
+    }
+}
+
+/// Whether the final model fits: with stated sigmas, its χ²; with the noise estimated, the
+/// replicated rows' lack of fit; else it cannot be told.
+fn fit_check(f: &Fitted, ext: &Extended, u: &Unexplained) -> FitCheck {
+    let (test, p_value, statistic) = if f.noise == NoiseSource::Stated {
+        (
+            "chi2_stated",
+            Some(ext.fit.p_value),
+            format!(
+                "χ² {:.2} for {} dof with the stated sigmas",
+                ext.fit.chi2, ext.fit.dof
+            ),
+        )
+    } else if let Some(t) = u.tests.iter().find(|t| t.name == "lack_of_fit") {
+        (
+            "lack_of_fit",
+            Some(t.p_value),
+            "the replicated rows' means against their pure error".to_string(),
+        )
+    } else {
+        ("none", None, String::new())
+    };
+    FitCheck {
+        fits: p_value.map(|p| p >= 0.05),
+        test,
+        p_value,
+        statistic,
     }
 }
 

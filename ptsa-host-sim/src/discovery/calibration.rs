@@ -1,7 +1,9 @@
 //! The instrument's own model equation (`calibration` in the `--json` object): every term of
 //! the IEEE Std 1293 model equation of a pendulous accelerometer as the instrument's
 //! absolute value (the instrument file's nominal value plus the change the data measure),
-//! with its 1 σ, its k = 2 expanded uncertainty and the correlation matrix.
+//! with its 1 σ, its k = 2 expanded uncertainty and the correlation matrix. This is the one
+//! calibration ptsa hands over: the text report, the sheet, `--write-instrument` and `ptsa
+//! correct` all render or apply these values (`calibration.changes`).
 //!
 //! The equation and its signs (the convention):
 //!
@@ -10,45 +12,55 @@
 //!         + K_ip·a_i·a_p + K_io·a_i·a_o + K_po·a_p·a_o + K_pp·a_p² + K_oo·a_o²
 //! ```
 //!
-//! `E` the output (net pulses per second of the loop's clock), `a_i`, `a_p`, `a_o` the
-//! specific force along IA, PA, OA in g; `δ_o` the tilt of IA toward PA (a rotation about
-//! OA), `δ_p` the tilt of IA toward OA (about PA), entering with a minus sign.
+//! `E` the output (net pulses per second of the loop's clock; a loop-less instrument's
+//! reading in its unit), `a_i`, `a_p`, `a_o` the specific force along IA, PA, OA in g; `δ_o`
+//! the tilt of IA toward PA (a rotation about OA), `δ_p` the tilt of IA toward OA (about
+//! PA), entering with a minus sign. Every term is **input-referred**: `K_0` is the input
+//! that reads as zero, not the reading's offset (that is `reading_offset`).
 //!
 //! How the discovery's coefficients become these values. A reading in cm/s² is the counts
-//! read through the nominal scale factor, `SF_nom·(2P/T − 1) = E·SF_nom/f_clk`; discovery
-//! fits `reading = baseline + Σ c_j·column_j` where the baseline holds `a_i` and the file's
-//! bias (and the loop's own bias), `scale_factor` adds `c·1e-6·a_i`,
-//! `misalignment.delta_p_rad` adds `c·a_p`, `misalignment.delta_o_rad` adds `c·a_o`,
-//! `nonlinearity` `c·a_i²` (all in cm/s²). Written as the equation above, the reading is
-//! `(1 + ε)·g·(E/K_1)` with `ε = 1e-6·c_scale_factor`: every other term is the reading's
-//! coefficient divided by `1 + ε`. So `K_0 = (A_b + c_bias)/(1 + ε)` (the file's bias
-//! `A_b` is read through the measured scale factor too), `δ_o = (δ_o,nom + c_delta_p)/(1 + ε)`,
-//! `δ_p = (δ_p,nom − c_delta_o)/(1 + ε)` (the candidate `misalignment.delta_o_rad` is
-//! `−δ_p`'s change), `K_2 = (K_2,nom + c_nonlinearity)/(1 + ε)`, and
-//! `K_1 = K_1,nom·(1 + ε)`. The uncertainties follow by first-order propagation through the
-//! full covariance of the fitted coefficients (`ε`'s included).
+//! read through the nominal scale factor, `SF_nom·(2P/T − 1) = E·SF_nom/f_clk`; the model
+//! is additive in the reading: `reading = a_i + Σ c_j·column_j` where the instrument file's
+//! terms (`bias_cm_s2`, `[model_equation]`) are the reading's own coefficients
+//! (**output-referred**) and discovery fits changes of them (`scale_factor` adds
+//! `c·1e-6·a_i`, `misalignment.delta_p_rad` `c·a_p`, `misalignment.delta_o_rad` `c·a_o`,
+//! `nonlinearity` `c·a_i²`, all in cm/s²). With `ε = 1e-6·(k1_ppm + c_scale_factor)` the
+//! reading is `(1 + ε)·g·(E/K_1)`: every other term is the reading's coefficient divided by
+//! `1 + ε`. So `K_0 = (A_b + c_bias)/(1 + ε)` (`A_b` the file's bias with the loop's own),
+//! `δ_o = (δ_o,file + c_delta_p)/(1 + ε)`, `δ_p = (δ_p,file − c_delta_o)/(1 + ε)` (the
+//! candidate `misalignment.delta_o_rad` is `−δ_p`'s change), `K_2 = (K_2,file +
+//! c_nonlinearity)/(1 + ε)`, and `K_1 = K_1,base·(1 + ε)`. The uncertainties follow by
+//! first-order propagation through the full covariance of the fitted coefficients.
 //!
 //! Which coefficients are fitted: the nuisance terms, then the core terms (`K_0`, `K_1`,
 //! `δ_o`, `δ_p`, `K_2`: what every accelerometer calibration reports) that the data test,
-//! named by the selection or not, then every selected term, each where its column is
-//! separable from those already fitted. So a tumble, which cannot tell `K_2` from `K_pp`
-//! (about OA) or `K_oo` (about PA) and the bias, gives the second-order term to `K_2`, as the
-//! standard's tumble analysis does, whichever of them the selection named (the other is
-//! listed `not_separable`, with a note). A higher-order term the selection did not name is
-//! listed at its nominal value, with what the data say of it when fitted beside the others
-//! (`if_fitted`). The values of the selected terms can therefore differ from discovery's
-//! `model_equation` (a fit with more terms), within their uncertainties when the extra terms
-//! are not significant.
+//! named by the selection or not, then every selected term that is not doubtful, each
+//! where its column is separable from those already fitted. A selected term outside the
+//! core that is rivaled (a form outside the vocabulary fits in its place) or implausible
+//! (beyond the file's bound) is doubtful: it is left out, so that it cannot move the core
+//! terms, and listed in `doubtful` with its value and the core terms' values if it were
+//! real. A tumble, which cannot tell `K_2` from `K_pp` (about OA) or `K_oo` (about PA) and
+//! the bias, gives the second-order term to `K_2`, as the standard's tumble analysis does,
+//! whichever of them the selection named (the other is listed `not_separable`, with a
+//! note). A higher-order term the selection did not name is listed at its nominal value,
+//! with what the data say of it when fitted beside the others (`if_fitted`). The values of
+//! the selected terms can therefore differ from discovery's `effects` and `model_equation`
+//! (the selection's fit), within their uncertainties when the extra terms are not
+//! significant.
 //!
 //! Where it fails: the coverage of the k = 2 intervals was measured on tumbles written from
 //! the equation (`cargo xtask hidden --calibration`, `tests/hidden/calibration.rs`); a term
 //! the model equation does not hold (a hysteresis, a temperature or time dependence) that the
 //! selection does not name biases the terms whose columns it shares.
 
-use std::fmt::Write as _;
+pub mod show;
+
+pub use show::{equation_with_values, table, text_block};
 
 use super::problem::{Problem, Selected};
-use super::report::{Calibration, CalibrationTerm};
+use super::report::{
+    Calibration, CalibrationChanges, CalibrationTerm, CoreValue, DoubtfulTerm, ReadingOffset,
+};
 use crate::model::effects::CandidateId;
 use crate::model::instrument::Instrument;
 use crate::stats::{birge_ratio, lsq, norm};
@@ -142,14 +154,55 @@ pub const TERMS: [TermDef; 11] = {
     ]
 };
 
-/// The model equation, symbols only.
+/// The model equation, symbols only, for an instrument whose output `E` is in pulse/s.
 pub const EQUATION: &str = "E/K_1 = K_0 + a_i + K_2·a_i² + K_3·a_i³ + δ_o·a_p − δ_p·a_o + K_ip·a_i·a_p + K_io·a_i·a_o + K_po·a_p·a_o + K_pp·a_p² + K_oo·a_o² (E the output in pulse/s, a_i, a_p, a_o the specific force along IA, PA, OA in g)";
 
 /// The unit of `K_1`.
 pub const SCALE_UNIT: &str = "(pulse/s)/g";
 
-/// The instrument file's nominal value of `term`: `K_1` in [`SCALE_UNIT`], every other term
-/// in its cgs unit ([`TermDef::unit_cgs`]).
+/// The unit of the output `E` of `instr`: pulse/s for the PTSA loop, else the reading's
+/// unit (cm/s² for a reading given in cm/s², g or m/s² without a scale factor).
+#[must_use]
+pub fn output_unit(instr: &Instrument) -> String {
+    if instr.has_loop {
+        "pulse/s".to_string()
+    } else {
+        instr
+            .reading_scale
+            .as_ref()
+            .map_or_else(|| "cm/s²".to_string(), |r| r.unit.name().to_string())
+    }
+}
+
+/// [`EQUATION`] with the output unit of `instr`.
+#[must_use]
+pub fn equation(instr: &Instrument) -> String {
+    EQUATION.replace(
+        "E the output in pulse/s",
+        &format!("E the output in {}", output_unit(instr)),
+    )
+}
+
+/// `1e-6·k1_ppm` of the instrument file: its nominal scale-factor error.
+fn file_eps(instr: &Instrument) -> f64 {
+    1e-6 * instr.nominal_model_term(CandidateId::ScaleFactor)
+}
+
+/// The instrument file's nominal value of `term`, input-referred: `K_1` in [`SCALE_UNIT`],
+/// every other term in its cgs unit ([`TermDef::unit_cgs`]), the reading's coefficient
+/// ([`reading_nominal`]) divided by `1 + 1e-6·k1_ppm`.
+#[must_use]
+pub fn nominal(instr: &Instrument, term: Coefficient) -> f64 {
+    let n = reading_nominal(instr, term);
+    if term == Coefficient::K1 {
+        n
+    } else {
+        n / (1.0 + file_eps(instr))
+    }
+}
+
+/// The instrument file's nominal value of `term` as the reading's own coefficient
+/// (output-referred; `K_1` in [`SCALE_UNIT`] as in [`nominal`]).
 ///
 /// This is the one place the nominal model-equation terms are looked up: the bias
 /// (`bias_cm_s2` of `[electronics]`, or of `[instrument]` for a file without a loop, plus the
@@ -160,7 +213,7 @@ pub const SCALE_UNIT: &str = "(pulse/s)/g";
 /// ([`crate::model::instrument::Instrument::nominal_model_term`], 0 where absent; `δ_p`
 /// under its own sign).
 #[must_use]
-pub fn nominal(instr: &Instrument, term: Coefficient) -> f64 {
+pub fn reading_nominal(instr: &Instrument, term: Coefficient) -> f64 {
     // TERMS is in the enum's order (`terms_are_in_the_enums_order`).
     let def = &TERMS[term as usize];
     // The file's `[model_equation]` term, in the candidate's unit and sign.
@@ -194,10 +247,7 @@ pub fn scale_unit(instr: &Instrument) -> String {
     if instr.has_loop {
         SCALE_UNIT.to_string()
     } else {
-        instr.reading_scale.as_ref().map_or_else(
-            || "(cm/s²)/g".to_string(),
-            |r| format!("{}/g", r.unit.name()),
-        )
+        format!("{}/g", output_unit(instr))
     }
 }
 
@@ -214,6 +264,31 @@ fn scale_words(instr: &Instrument) -> String {
         "K_1 in {SCALE_UNIT}: the net pulse rate (pulses up minus down per second of the {} Hz clock) per g of input; nominal f_clk·g/SF·(1 + k1_ppm·1e-6) = {} × {} / {} (the file's clock_hz, local_gravity_cm_s2, scale_factor_cm_s2, and model_equation.k1_ppm when given); the instrument's full scale in cm/s² is f_clk·g/K_1",
         instr.clock_hz, instr.clock_hz, instr.g_cm_s2, instr.sf_cm_s2
     )
+}
+
+/// Standard gravity, cm/s² (9.806 65 m/s², the shipped `mems` and `navigation` classes'
+/// `local_gravity_cm_s2`).
+pub const STANDARD_GRAVITY_CM_S2: f64 = 980.665;
+
+/// Where the local gravity `g` of `instr` came from, in words: the file's key, and for
+/// standard gravity the request to put the site's.
+#[must_use]
+pub fn gravity_source(instr: &Instrument) -> String {
+    let key = if instr.has_loop {
+        "electronics.local_gravity_cm_s2"
+    } else {
+        "instrument.local_gravity_cm_s2"
+    };
+    if instr.gravity_from_command_line {
+        return "--local-gravity, in place of the instrument file's".to_string();
+    }
+    if (instr.g_cm_s2 - STANDARD_GRAVITY_CM_S2).abs() < 1e-9 {
+        format!(
+            "standard gravity, the instrument file's {key}: put your site's (--local-gravity, or {key} in the file); every value in g, and K_1, moves by the ratio of the two"
+        )
+    } else {
+        format!("the instrument file's {key}")
+    }
 }
 
 /// The factor from a term's cgs unit to its IEEE unit for local gravity `g` (cm/s²), and
@@ -342,34 +417,59 @@ struct Absolute {
     grad_cgs: Vec<f64>,
 }
 
-/// The absolute value of `def` from the fit (its candidate among `fit.ids`), the file's
-/// nominal `n` (as [`nominal`] gives it) and local gravity `g`.
-fn absolute(def: &TermDef, fit: &CalFit, n: f64, g: f64) -> Option<Absolute> {
+impl Absolute {
+    /// Its 1 σ under the fit's covariance, in the IEEE unit.
+    fn sigma(&self, fit: &CalFit) -> f64 {
+        quad(&self.grad, &fit.cov, &self.grad).max(0.0).sqrt()
+    }
+}
+
+/// The instrument file's terms that every absolute value starts from.
+#[derive(Clone, Copy)]
+struct Nominals<'a> {
+    instr: &'a Instrument,
+    /// Local gravity, cm/s².
+    g: f64,
+}
+
+impl Nominals<'_> {
+    /// `1e-6·k1_ppm` of the file.
+    fn eps(self) -> f64 {
+        file_eps(self.instr)
+    }
+}
+
+/// The absolute value of `def` from the fit (its candidate among `fit.ids`) and the file's
+/// nominal terms `n`: `K_1 = K_1,base·(1 + ε)`, every other term the reading's coefficient
+/// over `1 + ε`, with `ε` the file's `k1_ppm` and the fitted change together.
+fn absolute(def: &TermDef, fit: &CalFit, n: Nominals<'_>) -> Option<Absolute> {
     let m = fit.ids.len();
     let at = |id: CandidateId| fit.ids.iter().position(|&x| x == id);
     let j = at(def.candidate)?;
     let s = at(CandidateId::ScaleFactor);
-    let eps = s.map_or(0.0, |s| 1e-6 * fit.coef[s]);
+    let eps = n.eps() + s.map_or(0.0, |s| 1e-6 * fit.coef[s]);
     let r = 1.0 / (1.0 + eps);
+    let read = reading_nominal(n.instr, def.coefficient);
     let mut grad = vec![0.0; m];
     let mut grad_cgs = vec![0.0; m];
     if def.coefficient == Coefficient::K1 {
-        // K_1 = n·(1 + ε) (its full scale in cm/s², f_clk·g/K_1, is made by the caller).
-        let value = n * (1.0 + eps);
-        grad[j] = n * 1e-6;
+        // K_1 = K_1,base·(1 + ε) (its full scale in cm/s², f_clk·g/K_1, is made by the
+        // caller).
+        let base = read / (1.0 + n.eps());
+        grad[j] = base * 1e-6;
         return Some(Absolute {
-            value,
+            value: base * (1.0 + eps),
             value_cgs: f64::NAN,
             grad,
             grad_cgs,
         });
     }
-    let (k, _) = ieee(def, g);
+    let (k, _) = ieee(def, n.g);
     let c = fit.coef[j];
-    let cgs = (n + def.sign * c) * r;
+    let cgs = (read + def.sign * c) * r;
     grad_cgs[j] = def.sign * r;
     if let Some(s) = s {
-        grad_cgs[s] = -(n + def.sign * c) * r * r * 1e-6;
+        grad_cgs[s] = -(read + def.sign * c) * r * r * 1e-6;
     }
     grad = grad_cgs.iter().map(|x| x * k).collect();
     Some(Absolute {
@@ -406,20 +506,47 @@ fn marks(s: &Selected) -> Vec<&'static str> {
     m
 }
 
-/// The instrument's own model equation from the problem and the final selection; `None`
-/// without an instrument file (the simulator has none).
+/// Whether `id` is one of the core terms (`K_0`, `K_1`, `δ_o`, `δ_p`, `K_2`).
+fn is_core(id: CandidateId) -> bool {
+    TERMS.iter().any(|d| d.core && d.candidate == id)
+}
+
+/// Why a selected term is doubtful for the calibration (empty: it is not): outside the
+/// core terms, rivaled or implausible. A core term is always fitted, whatever its marks.
 #[must_use]
-pub(crate) fn calibration(p: &Problem<'_>, selected: &[Selected]) -> Option<Calibration> {
-    let instr = p.sim.instrument()?;
-    let g = p.sim.g_cm_s2();
-    let f = p.f;
-    let sel: Vec<CandidateId> = selected.iter().map(|s| s.id).collect();
-    let tested = |id: CandidateId| f.family.contains(&id);
-    // The fit: first the core terms the data test (in the equation's order), then every
-    // selected term, each where its column is separable from what is already fitted. A
-    // tumble cannot tell `K_2` from `K_pp` (about OA) or `K_oo` (about PA) and the bias:
-    // the core term takes it, as in the standard's tumble analysis, whichever the selection
-    // named.
+pub fn doubtful_why(s: &Selected) -> Vec<&'static str> {
+    if is_core(s.id) {
+        return Vec::new();
+    }
+    let mut why = Vec::new();
+    if !s.rivals.is_empty() {
+        why.push("rivaled");
+    }
+    if !s.plausible {
+        why.push("implausible");
+    }
+    why
+}
+
+/// The calibration's own fit: the core terms the data test and the selected terms that
+/// are not doubtful, each where its column is separable from those before it.
+struct Fitting {
+    /// The candidates fitted.
+    ids: Vec<CandidateId>,
+    /// Their fit.
+    fit: CalFit,
+    /// Model-equation terms whose columns the fitted ones span, with those.
+    not_separable: Vec<(CandidateId, Vec<CandidateId>)>,
+    /// Selected terms outside the model equation that could not be fitted beside the others.
+    left_out: Vec<CandidateId>,
+}
+
+/// Fit the nuisance terms, the core terms the data test (in the equation's order), then
+/// `trusted`, each where its column is separable from what is already fitted. A tumble
+/// cannot tell `K_2` from `K_pp` (about OA) or `K_oo` (about PA) and the bias: the core
+/// term takes it, as in the standard's tumble analysis, whichever the selection named.
+fn fit_calibration(p: &Problem<'_>, trusted: &[CandidateId]) -> Option<Fitting> {
+    let tested = |id: CandidateId| p.f.family.contains(&id);
     let mut ids: Vec<CandidateId> = Vec::new();
     let mut fit = fit_terms(p, &ids)?;
     let mut not_separable: Vec<(CandidateId, Vec<CandidateId>)> = Vec::new();
@@ -428,7 +555,7 @@ pub(crate) fn calibration(p: &Problem<'_>, selected: &[Selected]) -> Option<Cali
         .iter()
         .filter(|d| d.core && tested(d.candidate))
         .map(|d| d.candidate);
-    for id in core.chain(sel.iter().copied()) {
+    for id in core.chain(trusted.iter().copied()) {
         if ids.contains(&id) || not_separable.iter().any(|(o, _)| *o == id) {
             continue;
         }
@@ -443,10 +570,35 @@ pub(crate) fn calibration(p: &Problem<'_>, selected: &[Selected]) -> Option<Cali
             left_out.push(id);
         }
     }
+    Some(Fitting {
+        ids,
+        fit,
+        not_separable,
+        left_out,
+    })
+}
+
+/// The instrument's own model equation from the problem and the final selection; `None`
+/// without an instrument file (the simulator has none).
+#[must_use]
+pub(crate) fn calibration(p: &Problem<'_>, selected: &[Selected]) -> Option<Calibration> {
+    let instr = p.sim.instrument()?;
+    let g = p.sim.g_cm_s2();
+    let sel: Vec<CandidateId> = selected.iter().map(|s| s.id).collect();
+    let trusted: Vec<CandidateId> = selected
+        .iter()
+        .filter(|s| doubtful_why(s).is_empty())
+        .map(|s| s.id)
+        .collect();
+    let Fitting {
+        ids,
+        fit,
+        not_separable,
+        left_out,
+    } = fit_calibration(p, &trusted)?;
     let ctx = TermCtx {
         p,
-        instr,
-        g,
+        n: Nominals { instr, g },
         selected,
         fit: &fit,
         ids: &ids,
@@ -467,11 +619,23 @@ pub(crate) fn calibration(p: &Problem<'_>, selected: &[Selected]) -> Option<Cali
                 .collect()
         })
         .collect();
-    let (noise, mut notes) = notes(f, &sel, fit.dof);
+    let doubtful: Vec<DoubtfulTerm> = selected
+        .iter()
+        .filter(|s| !doubtful_why(s).is_empty())
+        .map(|s| doubtful_term(&ctx, s))
+        .collect();
+    let trusted_sel: Vec<CandidateId> = sel
+        .iter()
+        .copied()
+        .filter(|id| trusted.contains(id))
+        .collect();
+    let (noise, mut notes) = notes(p.f, &trusted_sel, fit.dof);
     notes.extend(left_out_notes(p, &ids, &left_out, &not_separable, &sel));
     Some(Calibration {
-        equation: EQUATION.to_string(),
+        equation: equation(instr),
         scale_factor: scale_words(instr),
+        reading_offset: reading_offset(&ctx, &terms[Coefficient::K0 as usize]),
+        changes: changes(&fit, selected),
         terms,
         correlation,
         dof: fit.dof,
@@ -483,7 +647,122 @@ pub(crate) fn calibration(p: &Problem<'_>, selected: &[Selected]) -> Option<Cali
             .filter(|r| r.kind == crate::model::condition::RowKind::Absolute && r.is_static())
             .map(|r| r.g)
             .collect(),
+        local_gravity_cm_s2: g,
+        gravity_source: gravity_source(instr),
+        doubtful,
     })
+}
+
+/// The fit as changes from the instrument file (`calibration.changes`), with the
+/// warm-up's time constant from the selection when the fit holds it.
+fn changes(fit: &CalFit, selected: &[Selected]) -> CalibrationChanges {
+    let warm_up_tau_s = fit
+        .ids
+        .contains(&CandidateId::WarmUp)
+        .then(|| {
+            selected
+                .iter()
+                .find_map(|s| s.time_constant.as_ref().map(|t| t.tau_s))
+        })
+        .flatten();
+    CalibrationChanges {
+        candidates: fit
+            .ids
+            .iter()
+            .map(|id| id.info().name.to_string())
+            .collect(),
+        values: fit.coef.clone(),
+        sigmas: (0..fit.ids.len())
+            .map(|j| fit.cov[j][j].max(0.0).sqrt())
+            .collect(),
+        units: fit
+            .ids
+            .iter()
+            .map(|id| id.info().unit.to_string())
+            .collect(),
+        covariance: fit.cov.clone(),
+        warm_up_tau_s,
+    }
+}
+
+/// `K_0` as the reading's offset: the reading's coefficient of the bias, `K_0·(1 + ε)`.
+fn reading_offset(ctx: &TermCtx<'_, '_>, k0: &CalibrationTerm) -> ReadingOffset {
+    let n = ctx.n;
+    let (k, _) = ieee(&TERMS[Coefficient::K0 as usize], n.g);
+    let read = reading_nominal(n.instr, Coefficient::K0);
+    let j = ctx.fit.ids.iter().position(|&x| x == CandidateId::Bias);
+    let (value_cgs, sigma_cgs) = match j {
+        Some(j) => (
+            read + ctx.fit.coef[j],
+            Some(ctx.fit.cov[j][j].max(0.0).sqrt()),
+        ),
+        None => (read, None),
+    };
+    let value = value_cgs * k;
+    let sigma = sigma_cgs.map(|s| s * k);
+    ReadingOffset {
+        value,
+        sigma,
+        value_cgs,
+        sigma_cgs,
+        differs: (value - k0.value).abs() > k0.sigma.unwrap_or(0.0),
+    }
+}
+
+/// A doubtful selected term: its value if it were real, fitted beside the calibration's
+/// terms, and the core terms' values in that fit.
+fn doubtful_term(ctx: &TermCtx<'_, '_>, s: &Selected) -> DoubtfulTerm {
+    let def = TERMS.iter().find(|d| d.candidate == s.id);
+    let mut trial = ctx.ids.to_vec();
+    trial.push(s.id);
+    let with = fit_terms(ctx.p, &trial);
+    let unit = def.map_or_else(
+        || s.id.info().unit.to_string(),
+        |d| ieee(d, ctx.n.g).1.to_string(),
+    );
+    let mut out = DoubtfulTerm {
+        candidate: s.id.info().name.to_string(),
+        symbol: def.map(|d| d.symbol.to_string()),
+        why: doubtful_why(s),
+        if_real: None,
+        unit,
+        core_with_it: Vec::new(),
+        not_separable_from: Vec::new(),
+    };
+    let Some(t) = with else {
+        out.not_separable_from = spanned_by(ctx.p, ctx.ids, s.id)
+            .iter()
+            .map(|o| o.info().name.to_string())
+            .collect();
+        return out;
+    };
+    let j = t.ids.len() - 1;
+    out.if_real = def.map_or(Some([t.coef[j], t.cov[j][j].max(0.0).sqrt()]), |d| {
+        absolute(d, &t, ctx.n).map(|a| [a.value, a.sigma(&t)])
+    });
+    out.core_with_it = TERMS
+        .iter()
+        .filter(|d| d.core && d.candidate != s.id)
+        .filter_map(|d| {
+            let a = absolute(d, &t, ctx.n)?;
+            Some(CoreValue {
+                symbol: d.symbol.to_string(),
+                value: a.value,
+                sigma: a.sigma(&t),
+                unit: term_unit(d, ctx.n),
+            })
+        })
+        .collect();
+    out
+}
+
+/// The unit `term`'s value is given in: [`scale_unit`] for `K_1`, the IEEE unit otherwise.
+fn term_unit(def: &TermDef, n: Nominals<'_>) -> String {
+    if def.coefficient == Coefficient::K1 {
+        scale_unit(n.instr)
+    } else {
+        ieee(def, n.g).1.to_string()
+    }
 }
 
 /// The noise's source and the notes of a calibration: terms of the fit outside the model
@@ -554,47 +833,24 @@ fn left_out_notes(
 /// What [`term_of`] needs.
 struct TermCtx<'a, 'p> {
     p: &'a Problem<'p>,
-    instr: &'a Instrument,
-    g: f64,
+    n: Nominals<'a>,
     selected: &'a [Selected],
     fit: &'a CalFit,
     ids: &'a [CandidateId],
     not_separable: &'a [(CandidateId, Vec<CandidateId>)],
 }
 
-/// One term of the calibration and its gradient over the fit's coefficients (`None` when
-/// not measured).
-fn term_of(ctx: &TermCtx<'_, '_>, def: &TermDef) -> (CalibrationTerm, Option<Vec<f64>>) {
-    let TermCtx {
-        p,
-        instr,
-        g,
-        selected,
-        fit,
-        ids,
-        not_separable,
-    } = *ctx;
-    let tested = |id: CandidateId| p.f.family.contains(&id);
-    let sf_full = |k1: f64| {
-        if instr.has_loop {
-            instr.clock_hz * g / k1
-        } else {
-            f64::NAN
-        }
-    };
+/// A term at its nominal value, with the marks of its selection.
+fn nominal_term(ctx: &TermCtx<'_, '_>, def: &TermDef) -> CalibrationTerm {
+    let (instr, g) = (ctx.n.instr, ctx.n.g);
     let id = def.candidate;
     let n = nominal(instr, def.coefficient);
-    let (k, ieee_unit) = ieee(def, g);
     let is_k1 = def.coefficient == Coefficient::K1;
-    let unit = if is_k1 {
-        scale_unit(instr)
-    } else {
-        ieee_unit.to_string()
-    };
+    let (k, _) = ieee(def, g);
+    let unit = term_unit(def, ctx.n);
     let nominal_value = if is_k1 { n } else { n * k };
-    let nominal_cgs = if is_k1 { sf_full(n) } else { n };
-    let s = selected.iter().find(|s| s.id == id);
-    let mut term = CalibrationTerm {
+    let s = ctx.selected.iter().find(|s| s.id == id);
+    CalibrationTerm {
         symbol: def.symbol.to_string(),
         candidate: id.info().name.to_string(),
         value: nominal_value,
@@ -605,7 +861,7 @@ fn term_of(ctx: &TermCtx<'_, '_>, def: &TermDef) -> (CalibrationTerm, Option<Vec
         change: 0.0,
         change_sigma: None,
         change_unit: if is_k1 { "ppm".into() } else { unit },
-        value_cgs: nominal_cgs,
+        value_cgs: if is_k1 { full_scale(instr, g, n) } else { n },
         sigma_cgs: None,
         unit_cgs: def.unit_cgs.to_string(),
         measured: false,
@@ -618,183 +874,75 @@ fn term_of(ctx: &TermCtx<'_, '_>, def: &TermDef) -> (CalibrationTerm, Option<Vec
                 .collect()
         }),
         if_fitted: None,
-    };
-    let mut grad = None;
-    if let Some(a) = absolute(def, fit, n, g) {
-        let var = quad(&a.grad, &fit.cov, &a.grad).max(0.0);
-        let sigma = var.sqrt();
+    }
+}
+
+/// The full scale in cm/s² of a loop whose `K_1` is `k1` (`f_clk·g/K_1`); NaN without a loop.
+fn full_scale(instr: &Instrument, g: f64, k1: f64) -> f64 {
+    if instr.has_loop {
+        instr.clock_hz * g / k1
+    } else {
+        f64::NAN
+    }
+}
+
+/// One term of the calibration and its gradient over the fit's coefficients (`None` when
+/// not measured).
+fn term_of(ctx: &TermCtx<'_, '_>, def: &TermDef) -> (CalibrationTerm, Option<Vec<f64>>) {
+    let mut term = nominal_term(ctx, def);
+    let id = def.candidate;
+    let is_k1 = def.coefficient == Coefficient::K1;
+    let (instr, g) = (ctx.n.instr, ctx.n.g);
+    let sel = ctx.selected.iter().find(|s| s.id == id);
+    let selected = sel.is_some();
+    if let Some(a) = absolute(def, ctx.fit, ctx.n) {
+        let sigma = a.sigma(ctx.fit);
         term.value = a.value;
         term.sigma = Some(sigma);
         term.expanded_k2 = Some(2.0 * sigma);
         term.measured = true;
-        term.status = if s.is_some() { "selected" } else { "fitted" };
+        term.status = if selected { "selected" } else { "fitted" };
+        let n = term.nominal;
         if is_k1 {
             term.change = (a.value / n - 1.0) * 1e6;
             term.change_sigma = Some(sigma / n * 1e6);
-            term.value_cgs = sf_full(a.value);
+            term.value_cgs = full_scale(instr, g, a.value);
             term.sigma_cgs = Some(term.value_cgs * sigma / a.value);
         } else {
-            term.change = a.value - nominal_value;
+            term.change = a.value - n;
             term.change_sigma = Some(sigma);
             term.value_cgs = a.value_cgs;
-            term.sigma_cgs = Some(quad(&a.grad_cgs, &fit.cov, &a.grad_cgs).max(0.0).sqrt());
+            term.sigma_cgs = Some(quad(&a.grad_cgs, &ctx.fit.cov, &a.grad_cgs).max(0.0).sqrt());
         }
-        grad = Some(a.grad);
-    } else if let Some((_, with)) = not_separable.iter().find(|(o, _)| *o == id) {
+        return (term, Some(a.grad));
+    }
+    if sel.is_some_and(|s| !doubtful_why(s).is_empty()) {
+        // Selected, but left out of the calibration: nominal, with what it would be.
+        let mut trial = ctx.ids.to_vec();
+        trial.push(id);
+        term.status = "doubtful";
+        term.if_fitted = fit_terms(ctx.p, &trial)
+            .and_then(|t| absolute(def, &t, ctx.n).map(|a| [a.value, a.sigma(&t)]));
+    } else if let Some((_, with)) = ctx.not_separable.iter().find(|(o, _)| *o == id) {
         term.status = "not_separable";
         term.confounded_with = with.iter().map(|o| o.info().name.to_string()).collect();
-    } else if tested(id) {
-        let mut trial = ids.to_vec();
+    } else if ctx.p.f.family.contains(&id) {
+        let mut trial = ctx.ids.to_vec();
         trial.push(id);
-        if let Some(t) = fit_terms(p, &trial).and_then(|t| {
-            let a = absolute(def, &t, n, g)?;
-            Some([a.value, quad(&a.grad, &t.cov, &a.grad).max(0.0).sqrt()])
-        }) {
+        if let Some(t) = fit_terms(ctx.p, &trial)
+            .and_then(|t| absolute(def, &t, ctx.n).map(|a| [a.value, a.sigma(&t)]))
+        {
             term.status = "not_significant";
             term.if_fitted = Some(t);
         } else {
             term.status = "not_separable";
-            term.confounded_with = spanned_by(p, ids, id)
+            term.confounded_with = spanned_by(ctx.p, ctx.ids, id)
                 .iter()
                 .map(|o| o.info().name.to_string())
                 .collect();
         }
     }
-    (term, grad)
-}
-
-/// `x` to the digits its uncertainty `u` warrants (two significant digits of `u`), or to
-/// six significant digits without one.
-fn digits(x: f64, u: Option<f64>) -> String {
-    match u {
-        Some(u) if u > 0.0 && u.is_finite() && x.is_finite() => {
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            let d = (1.0 - u.log10().floor()).clamp(0.0, 12.0) as usize;
-            let t = format!("{x:.d$}");
-            if t.starts_with('-') && t[1..].chars().all(|c| c == '0' || c == '.') {
-                t[1..].to_string()
-            } else {
-                t
-            }
-        }
-        _ => crate::output::significant(x, 6),
-    }
-}
-
-/// The model equation written out with the instrument's values: `K_1`, `K_0` and every
-/// other term that is measured or has a non-zero nominal value.
-#[must_use]
-pub fn equation_with_values(c: &Calibration) -> String {
-    let find = |s: &str| c.terms.iter().find(|t| t.symbol == s);
-    let v = |t: &CalibrationTerm| format!("{} {}", digits(t.value, t.sigma), t.unit);
-    let mut s = String::new();
-    if let Some(k1) = find("K_1") {
-        let _ = write!(s, "E/({}) = ", v(k1));
-    }
-    if let Some(k0) = find("K_0") {
-        s.push_str(&v(k0));
-        s.push_str(" + a_i");
-    }
-    let factor = |symbol: &str| match symbol {
-        "K_2" => "a_i²",
-        "K_3" => "a_i³",
-        "δ_o" => "a_p",
-        "δ_p" => "a_o",
-        "K_ip" => "a_i·a_p",
-        "K_io" => "a_i·a_o",
-        "K_po" => "a_p·a_o",
-        "K_pp" => "a_p²",
-        _ => "a_o²",
-    };
-    for t in &c.terms {
-        if matches!(t.symbol.as_str(), "K_0" | "K_1") || !(t.measured || t.value != 0.0) {
-            continue;
-        }
-        let value = v(t);
-        let value = if t.value < 0.0 {
-            format!("({})", value.replacen('-', "−", 1))
-        } else {
-            value
-        };
-        let sign = if t.symbol == "δ_p" { '−' } else { '+' };
-        let _ = write!(s, " {sign} {value}·{}", factor(&t.symbol));
-    }
-    s
-}
-
-/// The calibration table: symbol, value, 1 σ, k = 2, unit, nominal, change (with its unit),
-/// status and marks.
-#[must_use]
-pub fn table(stem: &str, c: &Calibration) -> crate::output::Table {
-    use crate::output::{Cell, text};
-    let mut t = crate::output::Table::new(
-        stem,
-        "the instrument's own model equation (IEEE Std 1293)",
-        &[
-            "symbol",
-            "value",
-            "1σ",
-            "k=2",
-            "unit",
-            "nominal",
-            "change",
-            "change unit",
-            "status",
-        ],
-    );
-    for term in &c.terms {
-        let shown = |x: f64, u: Option<f64>| Cell::Text(digits(x, u));
-        let u = term.sigma;
-        let mut status = term.status.replace('_', " ");
-        if !term.marks.is_empty() {
-            status = format!("{status} ({})", term.marks.join(", "));
-        }
-        t.rows.push(vec![
-            text(term.symbol.clone()),
-            if term.measured {
-                shown(term.value, u)
-            } else {
-                text(format!("{} (nominal)", digits(term.value, None)))
-            },
-            u.map_or(Cell::Missing, |u| text(crate::output::significant(u, 2))),
-            term.expanded_k2
-                .map_or(Cell::Missing, |u| text(crate::output::significant(u, 2))),
-            text(term.unit.clone()),
-            shown(term.nominal, u.or(Some(term.nominal.abs() * 1e-6))),
-            if term.measured {
-                shown(term.change, term.change_sigma)
-            } else {
-                Cell::Missing
-            },
-            text(term.change_unit.clone()),
-            text(status),
-        ]);
-    }
-    t
-}
-
-/// The text block of `ptsa discover`'s report: the equation with its values, then the table.
-#[must_use]
-pub fn text_block(c: &Calibration) -> String {
-    let mut s = String::from(
-        "calibration: the instrument's own model equation (IEEE Std 1293; absolute values, 1 σ and k = 2):\n",
-    );
-    let _ = writeln!(s, "  {}", equation_with_values(c));
-    let _ = writeln!(
-        s,
-        "  (a_i, a_p, a_o in g; E in pulse/s; the terms not written are nominal 0; {} noise, {} dof)",
-        c.noise, c.dof
-    );
-    let t = table("calibration", c).to_text();
-    for line in t.lines().skip(1) {
-        s.push_str("  ");
-        s.push_str(line);
-        s.push('\n');
-    }
-    for n in &c.notes {
-        let _ = writeln!(s, "  note: {n}");
-    }
-    s
+    (term, None)
 }
 
 #[cfg(test)]

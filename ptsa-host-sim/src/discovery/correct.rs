@@ -8,7 +8,7 @@
 //! slope (`docs/discovery.md`, `ptsa correct`). Also where every reading given as counts
 //! becomes a value before it is fitted or corrected ([`counts_in`]).
 
-use anyhow::{Result, bail};
+use anyhow::{Context as _, Result, bail};
 
 use super::calibration::{Coefficient, TERMS};
 use super::sim::{AnalyticSimulator, Simulator};
@@ -47,7 +47,7 @@ pub struct Calibration {
     /// The candidates the calibration's data could not test (`not_testable`): the
     /// calibration holds nothing of them, whatever the instrument has.
     untested: Vec<CandidateId>,
-    /// The model-equation terms the calibration does not apply (not selected), each with
+    /// The model-equation terms the calibration does not apply (not measured), each with
     /// the uncertainty it enters with.
     unapplied: Vec<Unapplied>,
     /// What the caller should hear about the calibration (each a warning's text).
@@ -73,19 +73,27 @@ impl Calibration {
     }
 
     /// A `ptsa discover --json` result `v` made with the instrument file `instr`: its
-    /// effects (`effects`, read by the caller through `discovery::effects_from_json`), their
-    /// standard errors (`effects[].stderr`) and their correlation (`model_equation`'s
-    /// `terms` and `correlation`; without it the terms are taken as uncorrelated, with a
-    /// note).
+    /// calibration (`calibration.changes`: the fitted changes with their covariance, the
+    /// values the sheet and `--write-instrument` give). A result without them (made before
+    /// ptsa had them) is read through its selected `effects`, their standard errors and the
+    /// `model_equation` correlation, with a note.
     ///
     /// # Errors
-    /// The effects change a parameter of the instrument file's loop (the analytic model
-    /// equation has no term for it), or a standard error is not a number of 0 or more.
-    pub fn from_discover_json(
-        v: &serde_json::Value,
-        instr: &Instrument,
-        effects: Effects,
-    ) -> Result<Self> {
+    /// The calibration changes a parameter of the instrument file's loop (the analytic
+    /// model equation has no term for it), a candidate is unknown, or a number is not
+    /// finite (a standard error below 0).
+    pub fn from_discover_json(v: &serde_json::Value, instr: &Instrument) -> Result<Self> {
+        let Applied {
+            effects,
+            terms,
+            cov,
+            mut notes,
+            statuses,
+        } = if let Some(a) = changes(v)? {
+            a
+        } else {
+            selected_effects(v)?
+        };
         let params: Vec<&str> = effects
             .nonzero()
             .filter(|(id, _)| id.parameter_key().is_some())
@@ -101,41 +109,12 @@ impl Calibration {
                     .join(", ")
             );
         }
-        let (terms, mut notes) = standard_errors(v, &effects)?;
-        let n = terms.len();
-        let mut cov: Vec<Vec<f64>> = (0..n)
-            .map(|i| {
-                (0..n)
-                    .map(|j| if i == j { terms[i].1 * terms[i].1 } else { 0.0 })
-                    .collect()
-            })
-            .collect();
-        match correlation(v) {
-            Some((names, rho)) => {
-                let at = |id: CandidateId| names.iter().position(|n| *n == id.info().name);
-                for i in 0..n {
-                    for j in 0..n {
-                        if i == j {
-                            continue;
-                        }
-                        if let (Some(a), Some(b)) = (at(terms[i].0), at(terms[j].0)) {
-                            let r = rho[a][b].unwrap_or(0.0);
-                            cov[i][j] = r * terms[i].1 * terms[j].1;
-                        }
-                    }
-                }
-            }
-            None if n > 1 => notes.push(
-                "the calibration gives no `model_equation` correlation: its terms are taken as uncorrelated, which may misstate the corrected values' sigmas".to_string(),
-            ),
-            None => {}
-        }
         notes.extend(partner_notes(v));
         let untested = untested(v);
-        let unapplied = unapplied(v, instr, &mut notes);
-        if effects.is_zero() {
+        let unapplied = unapplied(v, instr, statuses, &mut notes);
+        if effects.is_zero() && terms.is_empty() {
             notes.push(
-                "the calibration selected no term: the instrument file's model is applied as it is, with no uncertainty of its own".to_string(),
+                "the calibration measured no term: the instrument file's model is applied as it is, with no uncertainty of its own".to_string(),
             );
         }
         Ok(Self {
@@ -177,8 +156,8 @@ impl Calibration {
     }
 }
 
-/// A model-equation term the calibration does not apply: its status in the calibration is
-/// not `selected` (docs/discovery.md, `ptsa correct`).
+/// A model-equation term the calibration does not apply: not measured by it (its status
+/// is not `selected` or `fitted`; docs/discovery.md, `ptsa correct`).
 #[derive(Clone, Debug)]
 struct Unapplied {
     /// Which term.
@@ -228,7 +207,12 @@ fn column(t: Coefficient, [i, p, o]: [f64; 3]) -> f64 {
 /// The terms of `calibration.terms` the result does not apply, each with its uncertainty
 /// and, from `calibration.design_g`, the part of its column the selected terms took up; a
 /// note when the result has no `calibration` object or no design.
-fn unapplied(v: &serde_json::Value, instr: &Instrument, notes: &mut Vec<String>) -> Vec<Unapplied> {
+fn unapplied(
+    v: &serde_json::Value,
+    instr: &Instrument,
+    applied: &[&str],
+    notes: &mut Vec<String>,
+) -> Vec<Unapplied> {
     let Some(terms) = v
         .get("calibration")
         .and_then(|c| c.get("terms"))
@@ -244,7 +228,7 @@ fn unapplied(v: &serde_json::Value, instr: &Instrument, notes: &mut Vec<String>)
     };
     let selected: Vec<Coefficient> = terms
         .iter()
-        .filter(|t| status(t) == Some("selected"))
+        .filter(|t| status(t).is_some_and(|st| applied.contains(&st)))
         .filter_map(|t| def_of(t).map(|d| d.coefficient))
         .collect();
     let design: Vec<[f64; 3]> = v
@@ -273,15 +257,18 @@ fn unapplied(v: &serde_json::Value, instr: &Instrument, notes: &mut Vec<String>)
         let (Some(def), Some(st)) = (def_of(t), status(t)) else {
             continue;
         };
+        if applied.contains(&st) {
+            continue;
+        }
+        let nominal = num(t, "nominal").unwrap_or(0.0);
         let measured = match st {
-            "selected" => continue,
             "fitted" => num(t, "change")
                 .zip(num(t, "change_sigma"))
                 .map(|(c, s)| c.hypot(s)),
             _ => t
                 .get("if_fitted")
                 .and_then(serde_json::Value::as_array)
-                .and_then(|a| Some(a.first()?.as_f64()?.hypot(a.get(1)?.as_f64()?))),
+                .and_then(|a| Some((a.first()?.as_f64()? - nominal).hypot(a.get(1)?.as_f64()?))),
         };
         let from_bound = measured.is_none();
         let sigma_ieee = measured.unwrap_or_else(|| {
@@ -299,6 +286,190 @@ fn unapplied(v: &serde_json::Value, instr: &Instrument, notes: &mut Vec<String>)
         });
     }
     out
+}
+
+/// What a result's calibration applies.
+struct Applied {
+    /// The effects put into the instrument file's model.
+    effects: Effects,
+    /// Each one's 1 σ, in the effects' units.
+    terms: Vec<Term>,
+    /// Their covariance.
+    cov: Vec<Vec<f64>>,
+    /// What the caller should hear about it.
+    notes: Vec<String>,
+    /// The statuses of `calibration.terms` whose terms it applies: the calibration's every
+    /// measured term, or an older result's selected ones.
+    statuses: &'static [&'static str],
+}
+
+/// The calibration's changes (`calibration.changes`) as effects, each candidate with its
+/// 1 σ, and their covariance; `None` for a result without them.
+///
+/// # Errors
+/// An unknown candidate, lists of different lengths, or a number that is not finite.
+fn changes(v: &serde_json::Value) -> Result<Option<Applied>> {
+    let Some(c) = v.get("calibration").and_then(|c| c.get("changes")) else {
+        return Ok(None);
+    };
+    let at = "calibration.changes";
+    let list = |k: &str| {
+        c.get(k)
+            .and_then(serde_json::Value::as_array)
+            .ok_or_else(|| anyhow::anyhow!("{at}: expected the array \"{k}\""))
+    };
+    let number = |x: &serde_json::Value, what: String| {
+        x.as_f64()
+            .filter(|x| x.is_finite())
+            .ok_or_else(|| anyhow::anyhow!("{at}.{what}: expected a finite number, found {x}"))
+    };
+    let (names, values, sigmas) = (list("candidates")?, list("values")?, list("sigmas")?);
+    let rows = list("covariance")?;
+    let n = names.len();
+    if values.len() != n || sigmas.len() != n || rows.len() != n {
+        bail!(
+            "{at}: {n} candidates but {} values, {} sigmas and {} covariance rows; expected one of each per candidate",
+            values.len(),
+            sigmas.len(),
+            rows.len()
+        );
+    }
+    let mut e = Effects::NONE;
+    let mut terms = Vec::with_capacity(n);
+    for (j, name) in names.iter().enumerate() {
+        let id = name
+            .as_str()
+            .and_then(CandidateId::from_name)
+            .ok_or_else(|| anyhow::anyhow!("{at}.candidates[{j}]: {name} is not a candidate"))?;
+        e.add(id, number(&values[j], format!("values[{j}]"))?);
+        let se = number(&sigmas[j], format!("sigmas[{j}]"))?;
+        if se < 0.0 {
+            bail!("{at}.sigmas[{j}]: {se}; expected a standard error of 0 or more");
+        }
+        terms.push((id, se));
+    }
+    let mut cov = vec![vec![0.0; n]; n];
+    for (i, row) in rows.iter().enumerate() {
+        let row = row.as_array().filter(|r| r.len() == n).ok_or_else(|| {
+            anyhow::anyhow!("{at}.covariance[{i}]: expected an array of {n} numbers")
+        })?;
+        for (j, x) in row.iter().enumerate() {
+            cov[i][j] = number(x, format!("covariance[{i}][{j}]"))?;
+        }
+    }
+    if let Some(tau) = c.get("warm_up_tau_s").and_then(serde_json::Value::as_f64) {
+        e = e.with_warm_up_tau_s(tau);
+    }
+    Ok(Some(Applied {
+        effects: e,
+        terms,
+        cov,
+        notes: Vec::new(),
+        statuses: &["selected", "fitted"],
+    }))
+}
+
+/// The effects of a `ptsa discover --json` result (the whole object, or its `effects`
+/// array): each entry's `name` and `coefficients` keys name a candidate of the registry;
+/// `warm_up.a_cm_s2` takes its time constant from the entry's `time_constant.tau_s` (s).
+///
+/// # Errors
+/// Not such an object, an effect name or coefficient key that is not in the registry, or
+/// `warm_up.a_cm_s2` without a positive `time_constant.tau_s`.
+pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
+    let list = v.get("effects").unwrap_or(v);
+    let Some(list) = list.as_array() else {
+        anyhow::bail!(
+            "expected the JSON of `ptsa discover --json` (an object with \"effects\") or its \"effects\" array"
+        );
+    };
+    let mut e = Effects::NONE;
+    for (k, item) in list.iter().enumerate() {
+        let name = item
+            .get("name")
+            .and_then(serde_json::Value::as_str)
+            .with_context(|| format!("effects[{k}]: expected a \"name\""))?;
+        let coefs = item
+            .get("coefficients")
+            .and_then(serde_json::Value::as_object)
+            .with_context(|| format!("effects[{k}] ({name}): expected \"coefficients\""))?;
+        for (key, val) in coefs {
+            let id = crate::model::effects::REGISTRY
+                .iter()
+                .find(|c| c.effect == name && c.key == key)
+                .map(|c| c.id)
+                .with_context(|| {
+                    format!(
+                        "effects[{k}]: `{name}.{key}` is not a candidate; expected one of: {}",
+                        crate::model::effects::REGISTRY
+                            .iter()
+                            .map(|c| format!("{}.{}", c.effect, c.key))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })?;
+            let x = val.as_f64().filter(|x| x.is_finite()).with_context(|| {
+                format!("effects[{k}]: `{name}.{key}`: expected a finite number")
+            })?;
+            e.add(id, x);
+            if id == CandidateId::WarmUp {
+                let tau = item
+                    .get("time_constant")
+                    .and_then(|t| t.get("tau_s"))
+                    .and_then(serde_json::Value::as_f64)
+                    .filter(|t| t.is_finite() && *t > 0.0)
+                    .with_context(|| {
+                        format!(
+                            "effects[{k}]: `{name}.{key}` needs its time constant: expected \"time_constant\": {{\"tau_s\": τ}} with τ > 0 in s, as `ptsa discover --json` writes it"
+                        )
+                    })?;
+                e = e.with_warm_up_tau_s(tau);
+            }
+        }
+    }
+    Ok(e)
+}
+
+/// An older result without `calibration.changes`: its selected effects with their
+/// standard errors (`effects[].stderr`) and correlation (`model_equation`), and a note.
+///
+/// # Errors
+/// As [`effects_from_json`], or a standard error that is not a number of 0 or more.
+fn selected_effects(v: &serde_json::Value) -> Result<Applied> {
+    let effects = effects_from_json(v)?;
+    let (terms, mut notes) = standard_errors(v, &effects)?;
+    notes.insert(0, "the result has no `calibration.changes` (made before ptsa had them): its selected effects are applied, which are not the calibration its sheet gives; run discover again for one calibration".to_string());
+    let n = terms.len();
+    let mut cov: Vec<Vec<f64>> = (0..n)
+        .map(|i| {
+            (0..n)
+                .map(|j| if i == j { terms[i].1 * terms[i].1 } else { 0.0 })
+                .collect()
+        })
+        .collect();
+    match correlation(v) {
+        Some((names, rho)) => {
+            let at = |id: CandidateId| names.iter().position(|n| *n == id.info().name);
+            for i in 0..n {
+                for j in 0..n {
+                    if let (true, Some(a), Some(b)) = (i != j, at(terms[i].0), at(terms[j].0)) {
+                        cov[i][j] = rho[a][b].unwrap_or(0.0) * terms[i].1 * terms[j].1;
+                    }
+                }
+            }
+        }
+        None if n > 1 => notes.push(
+            "the calibration gives no `model_equation` correlation: its terms are taken as uncorrelated, which may misstate the corrected values' sigmas".to_string(),
+        ),
+        None => {}
+    }
+    Ok(Applied {
+        effects,
+        terms,
+        cov,
+        notes,
+        statuses: &["selected"],
+    })
 }
 
 /// A calibration term's `status`.
@@ -474,16 +645,24 @@ pub fn at_its_bound(cal: &Calibration, name: &str) -> bool {
 }
 
 /// The terms the calibration could not test that act on `row` at its corrected input
-/// (`c.a_ia_g` along IA): their error is in neither the row's value nor its sigma.
+/// (`c.a_ia_g` along IA): their error is in neither the row's value nor its sigma. A term
+/// acts when, at its plausibility bound, it would move the reading by more than a tenth of
+/// the row's noise (a level table's `a_IA·a_OA` of a few µg² does not).
 #[must_use]
 pub fn untested_terms(cal: &Calibration, row: &Condition, c: &Corrected) -> Vec<CandidateId> {
     let mut r = row.clone();
     r.g[IA] = c.a_ia_g;
-    let inputs = r.inputs_at(0.0, cal.g_cm_s2());
+    let g = cal.g_cm_s2();
+    let inputs = r.inputs_at(0.0, g);
+    let floor = 0.1 * c.sigma_noise_cm_s2.max(1e-9 * g);
+    let instr = cal.sim.instrument();
     cal.untested
         .iter()
         .copied()
-        .filter(|id| id.term_cm_s2(&inputs) != 0.0)
+        .filter(|id| {
+            let bound = instr.map_or(1.0, |i| id.info().bound.limit(i));
+            (id.term_cm_s2(&inputs) * bound).abs() > floor
+        })
         .collect()
 }
 
@@ -634,7 +813,7 @@ mod tests {
                 {"name": "nonlinearity", "coefficients": {"k2_s2_cm": 2e-8}, "stderr": {"k2_s2_cm": 0.0}},
             ],
         });
-        let cal = Calibration::from_discover_json(&v, &instr, effects).unwrap();
+        let cal = Calibration::from_discover_json(&v, &instr).unwrap();
         let g = cal.g_cm_s2();
         for (a_g, g_pa) in [(0.7, 0.3), (-1.0, 0.0), (0.0, 1.0), (2.5, -0.2)] {
             let mut r = row(g_pa, 0.0);
@@ -660,7 +839,7 @@ mod tests {
             "terms": [{"name": "bias"}, {"name": "scale_factor"}, {"name": "misalignment.delta_p_rad"}, {"name": "nonlinearity"}],
             "correlation": [[1.0, 1.0, 0.0, 0.0], [1.0, 1.0, 0.0, 0.0], [0.0, 0.0, null, null], [0.0, 0.0, null, null]],
         });
-        let cal2 = Calibration::from_discover_json(&v2, &instr, effects).unwrap();
+        let cal2 = Calibration::from_discover_json(&v2, &instr).unwrap();
         let mut r = row(0.0, 0.0);
         r.g[IA] = 1.0;
         let y = cal2.sim.absolute_cm_s2(&r, &effects);
@@ -688,15 +867,63 @@ mod tests {
         r.measured_cm_s2 = None;
         assert_eq!(correct_row(&cal, &r, None), Ok(None));
         // A loop parameter cannot be applied.
-        let e = Effects::NONE.with(CandidateId::ParamTorquerSf, 0.01);
-        let m = Calibration::from_discover_json(
-            &serde_json::json!({}),
-            &Instrument::kearfott_2401(),
-            e,
-        )
-        .err()
-        .unwrap()
-        .to_string();
+        let v = serde_json::json!({"calibration": {"changes": {
+            "candidates": ["torquer_sf"], "values": [0.01], "sigmas": [0.001],
+            "units": ["mA/g"], "covariance": [[1e-6]], "warm_up_tau_s": null}}});
+        let m = Calibration::from_discover_json(&v, &Instrument::kearfott_2401())
+            .err()
+            .unwrap()
+            .to_string();
         assert!(m.contains("`torquer_sf`"), "{m}");
+    }
+
+    /// The calibration's changes are what is applied, with their covariance; the selected
+    /// effects of the same result are not.
+    #[test]
+    fn the_calibrations_changes_are_applied() {
+        let instr = Instrument::kearfott_2401();
+        let v = serde_json::json!({
+            "effects": [{"name": "bias", "coefficients": {"k0_cm_s2": 9.0}, "stderr": {"k0_cm_s2": 1.0}}],
+            "calibration": {"changes": {
+                "candidates": ["bias", "scale_factor"], "values": [0.5, -150.0],
+                "sigmas": [0.002, 3.0], "units": ["cm/s²", "ppm"],
+                "covariance": [[4e-6, 0.006], [0.006, 9.0]], "warm_up_tau_s": null}},
+        });
+        let cal = Calibration::from_discover_json(&v, &instr).unwrap();
+        let truth = Effects::NONE
+            .with(CandidateId::Bias, 0.5)
+            .with(CandidateId::ScaleFactor, -150.0);
+        let g = cal.g_cm_s2();
+        let mut r = row(0.0, 0.0);
+        r.g[IA] = 1.0;
+        let y = cal.sim.absolute_cm_s2(&r, &truth);
+        let c = correct_row(&cal, &row(0.0, y), None).unwrap().unwrap();
+        assert!((c.a_ia_cm_s2 - g).abs() < 1e-9, "{c:?}");
+        // Correlation +1 (0.006 = 0.002 × 3): the parts add.
+        let slope = 1.0 - 150e-6;
+        let want = (0.002 + 3e-6 * g) / slope;
+        assert!(
+            (c.sigma_calibration_cm_s2 / want - 1.0).abs() < 1e-6,
+            "{c:?}"
+        );
+        assert!(cal.notes.iter().all(|n| !n.contains("calibration.changes")));
+        // Malformed: a length that does not match, a name that is no candidate.
+        let mut bad = v.clone();
+        bad["calibration"]["changes"]["values"] = serde_json::json!([0.5]);
+        let m = Calibration::from_discover_json(&bad, &instr)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(m.contains("2 candidates but 1 values"), "{m}");
+        let mut bad = v.clone();
+        bad["calibration"]["changes"]["candidates"][0] = serde_json::json!("bais");
+        let m = Calibration::from_discover_json(&bad, &instr)
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            m.contains("calibration.changes.candidates[0]: \"bais\" is not a candidate"),
+            "{m}"
+        );
     }
 }

@@ -22,7 +22,7 @@
 //!   variables, integer powers (`^1` to `^6`), numbers and parentheses, variable names in
 //!   any case (`a_pa^3`, `a_pa*w_oa`, `(a_ia - a_pa)^2`); a sum's terms must share a unit.
 
-use crate::model::condition::{CaseInputs, Condition, IA, RowKind};
+use crate::model::condition::{CaseInputs, Condition, IA, OA, PA, RowKind};
 
 /// Samples per oscillation period for the time averages (exact for products of three
 /// sinusoids of the row's frequency: harmonics up to the third).
@@ -307,16 +307,21 @@ pub enum Family {
     Products,
     /// Products of two or three variables with a history variable among them.
     HistoryProducts,
+    /// Harmonics of a tumble's angle beyond the third (IEEE Std 1293's Fourier analysis of
+    /// a multipoint tumble): `sin kφ`, `cos kφ` of the angle in each plane the rows turn
+    /// in, for k = 4 up to what the plane's distinct angles resolve.
+    Harmonics,
 }
 
 impl Family {
     /// Every family, in test order.
-    pub const ALL: [Family; 5] = [
+    pub const ALL: [Family; 6] = [
         Family::Basis,
         Family::History,
         Family::Time,
         Family::Products,
         Family::HistoryProducts,
+        Family::Harmonics,
     ];
 
     /// The test's name in the JSON (`generic_basis` keeps its earlier meaning).
@@ -328,18 +333,20 @@ impl Family {
             Family::Time => "time_shapes",
             Family::Products => "products",
             Family::HistoryProducts => "history_products",
+            Family::Harmonics => "tumble_harmonics",
         }
     }
 
     /// Its share of the level, relative to the lack of fit's 1 (weighted Bonferroni over
     /// the tests run: a test of weight w among tests of total weight W is held at
-    /// `α·w/W`): the generic basis 1, the history, time shapes and third-order products ½,
-    /// the products with the row before (a large family of speculative forms) ¼.
+    /// `α·w/W`): the generic basis 1, the history, time shapes, third-order products and a
+    /// tumble's harmonics ½, the products with the row before (a large family of
+    /// speculative forms) ¼.
     #[must_use]
     pub fn weight(self) -> f64 {
         match self {
             Family::Basis => 1.0,
-            Family::History | Family::Time | Family::Products => 0.5,
+            Family::History | Family::Time | Family::Products | Family::Harmonics => 0.5,
             Family::HistoryProducts => 0.25,
         }
     }
@@ -654,8 +661,86 @@ pub fn shapes(
             );
         }
     }
+    for h in harmonics(rows, which, value) {
+        push(&mut out, h);
+    }
     // Families in test order, each keeping its own order.
     out.sort_by_key(|s| Family::ALL.iter().position(|f| *f == s.family));
+    out
+}
+
+/// The lowest harmonic of a tumble's angle [`harmonics`] gives: the third and below are the
+/// model equation's (`K_0`, `K_1`, the misalignments, the second-order terms) and the
+/// third-order products'.
+pub const FIRST_HARMONIC: usize = 4;
+
+/// The planes of the case a tumble turns gravity in: the two axes (the angle φ from the
+/// first toward the second) and the axis of the turn, with its name.
+const PLANES: [(usize, usize, usize, &str); 3] = [
+    (IA, PA, OA, "IA-PA"),
+    (IA, OA, PA, "IA-OA"),
+    (PA, OA, IA, "PA-OA"),
+];
+
+/// A row's angle in the plane `(a, b, about)`, rad in [0, 2π): an absolute row at rest whose
+/// gravity lies in the plane (1 g in it, none along `about`).
+fn plane_angle(r: &Condition, (a, b, about): (usize, usize, usize)) -> Option<f64> {
+    let at_rest = r.kind == RowKind::Absolute
+        && r.is_static()
+        && r.w_rad_s.iter().all(|&w| w == 0.0)
+        && r.radius_cm == 0.0;
+    let in_plane = r.g[about].abs() < 1e-3 && (r.g[a].hypot(r.g[b]) - 1.0).abs() < 1e-2;
+    (at_rest && in_plane).then(|| r.g[b].atan2(r.g[a]).rem_euclid(std::f64::consts::TAU))
+}
+
+/// The number of distinct angles among `phis` (to a microradian, 0 and 2π the same).
+fn distinct_angles(phis: &[f64]) -> usize {
+    let mut v = phis.to_vec();
+    v.sort_by(f64::total_cmp);
+    v.dedup_by(|x, y| (*x - *y).abs() < 1e-6);
+    if v.len() > 1 && v[0] + std::f64::consts::TAU - v[v.len() - 1] < 1e-6 {
+        v.pop();
+    }
+    v.len()
+}
+
+/// The tumble-harmonic shapes over the observations of rows `which` (`value[k]`: a value
+/// in cm/s²): for each plane with rows in it, `sin kφ` and `cos kφ` on those rows (0
+/// elsewhere), k from [`FIRST_HARMONIC`] to `⌊(n − 1)/2⌋` for its n distinct angles (what
+/// n positions resolve without aliasing).
+fn harmonics(rows: &[Condition], which: &[usize], value: &[bool]) -> Vec<Shape> {
+    let mut out = Vec::new();
+    for (a, b, about, plane) in PLANES {
+        let phis: Vec<Option<f64>> = which
+            .iter()
+            .zip(value)
+            .map(|(&i, &v)| {
+                if v {
+                    plane_angle(&rows[i], (a, b, about))
+                } else {
+                    None
+                }
+            })
+            .collect();
+        let present: Vec<f64> = phis.iter().flatten().copied().collect();
+        let kmax = distinct_angles(&present).saturating_sub(1) / 2;
+        for k in FIRST_HARMONIC..=kmax {
+            #[allow(clippy::cast_precision_loss)]
+            let kf = k as f64;
+            for (name, f) in [("sin", f64::sin as fn(f64) -> f64), ("cos", f64::cos)] {
+                let form = format!("{name}({k}φ) in the {plane} plane");
+                out.push(Shape {
+                    family: Family::Harmonics,
+                    name: form.clone(),
+                    form,
+                    unit: "cm/s²".to_string(),
+                    #[allow(clippy::cast_possible_truncation)]
+                    complexity: (0, 1, k as u32),
+                    col: phis.iter().map(|p| p.map_or(0.0, |p| f(kf * p))).collect(),
+                });
+            }
+        }
+    }
     out
 }
 

@@ -83,6 +83,7 @@ pub mod stability;
 pub mod unexplained;
 pub mod verdict;
 
+pub use correct::effects_from_json;
 pub use fit::TEST_STATEMENT;
 pub use outcome::Discovery;
 pub use pipeline::{discover, discover_with};
@@ -160,39 +161,77 @@ fn read_rows(path: &Path, sim: &dyn Simulator) -> Result<crate::model::caseframe
 }
 
 /// `--write-instrument`: the corrected instrument file `text` written to `w` (with a
-/// warning for each flagged term it holds), or, when nothing was selected, a line saying
-/// it was not written.
+/// warning for each flagged term it holds, and a line for each term of the calibration it
+/// cannot hold), or, when nothing was measured, a line saying it was not written.
 fn write_instrument_file(w: &InstrumentOut, text: Option<&str>, d: &Discovery) -> Result<()> {
-    match text {
-        Some(t) => {
-            crate::output::write_atomic(&w.path, t.as_bytes())?;
-            eprintln!(
-                "wrote {} ({} with the fitted parameters and model-equation terms)",
-                w.path.display(),
-                w.source_name
-            );
-            for s in d
-                .selected
-                .iter()
-                .filter(|s| s.id.model_equation_term() || s.parameter.is_some())
-                .filter(|s| !s.plausible || s.stable == Some(false))
-            {
-                eprintln!(
-                    "warning: --write-instrument {}: {} is written though discover flags it ({}); see its comment in the file",
-                    w.path.display(),
-                    s.id,
-                    if s.plausible {
-                        "not stable between parts of the data"
-                    } else {
-                        "implausible for the instrument's bounds"
-                    }
-                );
-            }
-        }
-        None => eprintln!(
-            "no parameter of the instrument file and no term of the model equation was selected: {} not written",
+    let Some(t) = text else {
+        eprintln!(
+            "no parameter of the instrument file and no term of the model equation was measured: {} not written",
             w.path.display()
-        ),
+        );
+        return Ok(());
+    };
+    crate::output::write_atomic(&w.path, t.as_bytes())?;
+    eprintln!(
+        "wrote {} ({} with the calibration's model-equation terms and the fitted parameters)",
+        w.path.display(),
+        w.source_name
+    );
+    let Some(cal) = d.json.calibration.as_ref() else {
+        return Ok(());
+    };
+    for term in cal.terms.iter().filter(|t| t.measured) {
+        let flags: Vec<&str> = term
+            .marks
+            .iter()
+            .copied()
+            .filter(|m| matches!(*m, "implausible" | "unstable"))
+            .collect();
+        if !flags.is_empty() {
+            eprintln!(
+                "warning: --write-instrument {}: {} ({}) is written though discover flags it ({}); see its comment in the file",
+                w.path.display(),
+                term.symbol,
+                term.candidate,
+                flags.join(", ")
+            );
+        }
+    }
+    for s in d.selected.iter().filter(|s| s.parameter.is_some()) {
+        if !s.plausible || s.stable == Some(false) {
+            eprintln!(
+                "warning: --write-instrument {}: {} is written though discover flags it ({}); see its comment in the file",
+                w.path.display(),
+                s.id,
+                if s.plausible {
+                    "not stable between parts of the data"
+                } else {
+                    "outside the instrument file's tolerance"
+                }
+            );
+        }
+    }
+    let beside: Vec<&str> = cal
+        .changes
+        .candidates
+        .iter()
+        .filter_map(|n| CandidateId::from_name(n))
+        .filter(|id| !id.model_equation_term() && id.parameter_key().is_none())
+        .map(|id| id.info().name)
+        .collect();
+    if !beside.is_empty() {
+        eprintln!(
+            "note: --write-instrument {}: not written, as an instrument file has no key for them: {} (`ptsa correct --calibration` with the --json result applies them)",
+            w.path.display(),
+            beside.join(", ")
+        );
+    }
+    for dt in &cal.doubtful {
+        eprintln!(
+            "note: --write-instrument {}: not written: {}",
+            w.path.display(),
+            calibration::show::doubtful_sentence(dt)
+        );
     }
     Ok(())
 }
@@ -288,11 +327,13 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
     Ok(())
 }
 
-/// The instrument file of `w` with the selected parameters' fitted values and the selected
-/// model-equation terms as its new nominal values (the nominal plus the change: the bias
-/// into its key, the others into `[model_equation]`, the scale factor as `k1_ppm` against
-/// the file's unchanged nominal scale factor), each with a note of its value ± 1 σ and
-/// where it came from; `None` when nothing was selected that the file holds.
+/// The instrument file of `w` with the calibration's values as its new nominal values:
+/// each model-equation term the calibration measured (`calibration.changes`, the file's
+/// value plus the fitted change in the reading's convention: the bias into its key, the
+/// others into `[model_equation]`, the scale factor as `k1_ppm` against the file's
+/// unchanged nominal scale factor), and the selected parameters' fitted values, each with
+/// a note of its value ± 1 σ and where it came from; `None` when there is nothing to write.
+/// Discover run again with the written file finds no change of those terms.
 fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<Option<String>> {
     let changes: Vec<(&str, f64, String)> = d
         .selected
@@ -310,21 +351,13 @@ fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<
         .collect();
     let instr = crate::Instrument::parse(&w.source, &w.source_name)
         .with_context(|| format!("--write-instrument {}", w.path.display()))?;
-    let terms: Vec<(CandidateId, f64, String)> = d
-        .selected
-        .iter()
-        .filter(|s| s.id.model_equation_term())
-        .map(|s| {
-            let nominal = instr.nominal_model_term(s.id);
-            let d = decimals(s.stderr);
-            let value: f64 = format!("{:.d$}", nominal + s.coef)
-                .parse()
-                .unwrap_or(nominal + s.coef);
-            (s.id, value, term_note(data, s, nominal, value))
-        })
-        .collect();
+    let mut terms: Vec<(CandidateId, f64, String)> = d
+        .json
+        .calibration
+        .as_ref()
+        .map(|cal| model_terms(cal, &instr, data))
+        .unwrap_or_default();
     // In the file's order: the bias, then `[model_equation]`'s keys.
-    let mut terms = terms;
     terms.sort_by_key(|(id, _, _)| {
         crate::model::instrument::MODEL_EQUATION
             .iter()
@@ -346,33 +379,80 @@ fn corrected_instrument(w: &InstrumentOut, data: &str, d: &Discovery) -> Result<
     Ok(Some(t))
 }
 
+/// The model-equation terms of the calibration `cal` as the instrument file's values: the
+/// file's (`instr`) plus the fitted change, in the candidate's unit and sign, written to a
+/// hundredth of its 1 σ, each with its note.
+fn model_terms(
+    cal: &report::Calibration,
+    instr: &crate::Instrument,
+    data: &str,
+) -> Vec<(CandidateId, f64, String)> {
+    let c = &cal.changes;
+    c.candidates
+        .iter()
+        .enumerate()
+        .filter_map(|(j, name)| {
+            let id = CandidateId::from_name(name).filter(|id| id.model_equation_term())?;
+            let nominal = instr.nominal_model_term(id);
+            let (change, sigma) = (c.values[j], c.sigmas[j]);
+            let d = decimals(sigma);
+            let value: f64 = format!("{:.d$}", nominal + change)
+                .parse()
+                .unwrap_or(nominal + change);
+            let term = cal.terms.iter().find(|t| t.candidate == *name);
+            Some((
+                id,
+                value,
+                term_note(data, id, term, (nominal, change, sigma), value),
+            ))
+        })
+        .collect()
+}
+
 /// The comment above a model-equation term `--write-instrument` writes: the value in the
-/// file's key, unit and IEEE sign, ± 1 σ, the nominal it changed and the data it came from,
-/// and what discover said of it (implausible, not stable, indistinguishable).
-fn term_note(data: &str, s: &Selected, nominal: f64, value: f64) -> String {
+/// file's key, unit and IEEE sign, ± 1 σ, the calibration's term it is (its symbol and
+/// input-referred value, its status and marks), the nominal it changed and the data it
+/// came from.
+fn term_note(
+    data: &str,
+    id: CandidateId,
+    term: Option<&report::CalibrationTerm>,
+    (nominal, change, sigma): (f64, f64, f64),
+    value: f64,
+) -> String {
     let (key, unit, sign) = crate::model::instrument::MODEL_EQUATION
         .iter()
-        .find(|m| m.id == s.id)
+        .find(|m| m.id == id)
         .map_or(("bias_cm_s2", "cm/s²", 1.0), |m| (m.key, m.unit, m.sign));
-    let d = decimals(s.stderr);
+    let d = decimals(sigma);
     // `+ 0.0`: a nominal 0 under the sign −1 is written 0, not −0.
     let mut note = format!(
-        "ptsa discover --data {data}: {key} = {:.d$} ± {:.d$} {unit} (1 σ): the nominal {} plus the fitted change {:.d$}",
+        "ptsa discover --data {data}: {key} = {:.d$} ± {:.d$} {unit} (1 σ, the reading's coefficient): the nominal {} plus the fitted change {:.d$}",
         sign * value + 0.0,
-        s.stderr,
+        sigma,
         sign * nominal + 0.0,
-        sign * s.coef + 0.0
+        sign * change + 0.0
     );
-    if !s.plausible {
-        let _ = write!(note, "; IMPLAUSIBLE for this instrument's bounds");
-    }
-    if s.stable == Some(false) {
+    if let Some(t) = term {
         let _ = write!(
             note,
-            "; NOT STABLE between parts of the data (see discover's warning)"
+            "; the calibration's {} = {} {} (input-referred), {}",
+            t.symbol,
+            calibration::show::digits(t.value, t.sigma),
+            t.unit,
+            t.status.replace('_', " ")
         );
+        if !t.marks.is_empty() {
+            let _ = write!(note, " ({})", t.marks.join(", "));
+        }
+        if !t.confounded_with.is_empty() {
+            let _ = write!(
+                note,
+                "; indistinguishable in these data from {}",
+                t.confounded_with.join(", ")
+            );
+        }
     }
-    confounded_note(&mut note, s);
     note
 }
 
@@ -417,67 +497,6 @@ pub fn read_result_json(p: &Path, what: &str) -> Result<serde_json::Value> {
             e.column()
         )
     })
-}
-
-/// The effects of a `ptsa discover --json` result (the whole object, or its `effects`
-/// array): each entry's `name` and `coefficients` keys name a candidate of the registry;
-/// `warm_up.a_cm_s2` takes its time constant from the entry's `time_constant.tau_s` (s).
-///
-/// # Errors
-/// Not such an object, an effect name or coefficient key that is not in the registry, or
-/// `warm_up.a_cm_s2` without a positive `time_constant.tau_s`.
-pub fn effects_from_json(v: &serde_json::Value) -> Result<Effects> {
-    let list = v.get("effects").unwrap_or(v);
-    let Some(list) = list.as_array() else {
-        anyhow::bail!(
-            "expected the JSON of `ptsa discover --json` (an object with \"effects\") or its \"effects\" array"
-        );
-    };
-    let mut e = Effects::NONE;
-    for (k, item) in list.iter().enumerate() {
-        let name = item
-            .get("name")
-            .and_then(serde_json::Value::as_str)
-            .with_context(|| format!("effects[{k}]: expected a \"name\""))?;
-        let coefs = item
-            .get("coefficients")
-            .and_then(serde_json::Value::as_object)
-            .with_context(|| format!("effects[{k}] ({name}): expected \"coefficients\""))?;
-        for (key, val) in coefs {
-            let id = crate::model::effects::REGISTRY
-                .iter()
-                .find(|c| c.effect == name && c.key == key)
-                .map(|c| c.id)
-                .with_context(|| {
-                    format!(
-                        "effects[{k}]: `{name}.{key}` is not a candidate; expected one of: {}",
-                        crate::model::effects::REGISTRY
-                            .iter()
-                            .map(|c| format!("{}.{}", c.effect, c.key))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    )
-                })?;
-            let x = val.as_f64().filter(|x| x.is_finite()).with_context(|| {
-                format!("effects[{k}]: `{name}.{key}`: expected a finite number")
-            })?;
-            e.add(id, x);
-            if id == CandidateId::WarmUp {
-                let tau = item
-                    .get("time_constant")
-                    .and_then(|t| t.get("tau_s"))
-                    .and_then(serde_json::Value::as_f64)
-                    .filter(|t| t.is_finite() && *t > 0.0)
-                    .with_context(|| {
-                        format!(
-                            "effects[{k}]: `{name}.{key}` needs its time constant: expected \"time_constant\": {{\"tau_s\": τ}} with τ > 0 in s, as `ptsa discover --json` writes it"
-                        )
-                    })?;
-                e = e.with_warm_up_tau_s(tau);
-            }
-        }
-    }
-    Ok(e)
 }
 
 /// What the instrument should read in each row (`ptsa predict`): the simulator's prediction
@@ -720,8 +739,8 @@ mod tests {
         "cost",
         "outcome",
         "show",
-        "sheet",
         "verdict",
+        "sheet",
         "assemble",
         "pipeline",
         "mod",

@@ -123,10 +123,11 @@ pub fn discover_with(
     rivals::find(data, &f, &mut selected, opts.alpha);
     // 5. What is left, and the gain out of sample.
     set_stage("cross-validation");
-    let unexplained = unexplained::test(&p, &selected);
+    let unexplained = unexplained::test(&p);
     let gain = crossval::out_of_sample(&p, &selected, &baseline, &extended.fit);
     let groups = confounding::indistinguishable(data, &f, opts);
-    let advice = advice::advise(data, rows, &f, &selected, &groups, sim.g_cm_s2());
+    let mut advice = advice::advise(data, rows, &f, &selected, &groups, sim.g_cm_s2());
+    advice.extend(advice::time_order(rows, &selected, &unexplained));
     let scatter = slips::sigma_check(data, &f, opts.default_sigma_cm_s2, sim.g_cm_s2());
     // 6. The result, its warnings and its verdict.
     Ok(assemble::discovery(Found {

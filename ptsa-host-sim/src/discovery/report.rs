@@ -100,7 +100,7 @@ pub struct Rival {
     /// `exp(-t/360 s)`, `sign_delta_a_IA`).
     pub form: String,
     /// The library family it comes from (`products`, `time_shapes`, `history`,
-    /// `history_products`).
+    /// `tumble_harmonics`).
     pub family: &'static str,
     /// `|cos|` of its column with the term's, both off the rest of the model.
     pub cos: f64,
@@ -319,7 +319,10 @@ pub struct Term {
     pub sigma: f64,
 }
 
-/// The fitted model as an IEEE Std 1293 model equation, in the `--json` shape.
+/// The selection's terms as an IEEE Std 1293 model equation, in the `--json` shape: each
+/// selected term's change from the instrument file as the selection's fit gives it, in the
+/// reading's convention (the reading's own coefficient, not divided by the scale factor).
+/// Not the calibration: the instrument's values are `calibration`'s.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct ModelEquation {
     /// The selected terms in the standard's units.
@@ -415,6 +418,96 @@ pub struct Calibration {
     /// a term the calibration did not apply its partners took up (docs/discovery.md,
     /// `ptsa correct`).
     pub design_g: Vec<[f64; 3]>,
+    /// The local gravity every value in g (µg, µg/g², ...) is taken in, cm/s²: what
+    /// `g_ia` = 1 means.
+    pub local_gravity_cm_s2: f64,
+    /// Where [`Calibration::local_gravity_cm_s2`] came from, in words (the instrument file's
+    /// key, `--local-gravity`, or standard gravity of a shipped class).
+    pub gravity_source: String,
+    /// `K_0` output-referred: the reading's offset at zero input (the instrument file's
+    /// `bias_cm_s2`, a data sheet's "zero-g offset"), `K_0·K_1/K_1,nominal` where
+    /// `K_1,nominal` is the file's nominal scale factor before `k1_ppm`. `K_0` of `terms`
+    /// is input-referred (the input that reads as zero).
+    pub reading_offset: ReadingOffset,
+    /// The calibration's fit as changes from the instrument file, in the reading's
+    /// convention: what `--write-instrument` adds to the file's values and what `ptsa
+    /// correct` applies. Every term of `terms` that is measured is derived from these.
+    pub changes: CalibrationChanges,
+    /// Selected terms the calibration leaves out (rivaled or implausible, outside the core
+    /// terms `K_0`, `K_1`, `δ_o`, `δ_p`, `K_2`), each with what it would change if it were
+    /// real (docs/discovery.md, "A doubtful term").
+    pub doubtful: Vec<DoubtfulTerm>,
+}
+
+/// `K_0` as the reading's offset (`calibration.reading_offset`).
+#[derive(Clone, Debug, Serialize)]
+pub struct ReadingOffset {
+    /// The offset, µg of the local gravity (output-referred).
+    pub value: f64,
+    /// Its 1 σ, µg (`null` when `K_0` is not measured).
+    pub sigma: Option<f64>,
+    /// The same in cm/s² of reading.
+    pub value_cgs: f64,
+    /// Its 1 σ, cm/s².
+    pub sigma_cgs: Option<f64>,
+    /// Whether it differs from the input-referred `K_0` by more than `K_0`'s 1 σ (then
+    /// the two must not be confused: the text and the sheet give both).
+    pub differs: bool,
+}
+
+/// The calibration's fitted changes (`calibration.changes`).
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct CalibrationChanges {
+    /// The candidates fitted (the model equation's terms and any fitted beside them), in
+    /// the fit's order.
+    pub candidates: Vec<String>,
+    /// Each one's change from the instrument file's nominal value, in `units`: the change
+    /// of the reading's own coefficient (a scale factor in ppm of the nominal, a bias in
+    /// cm/s² of reading).
+    pub values: Vec<f64>,
+    /// Each one's 1 σ, in `units`.
+    pub sigmas: Vec<f64>,
+    /// Each one's unit (the candidate's).
+    pub units: Vec<String>,
+    /// Their covariance, in `units`.
+    pub covariance: Vec<Vec<f64>>,
+    /// The warm-up's time constant, s, when `warm_up.a_cm_s2` is among the candidates.
+    pub warm_up_tau_s: Option<f64>,
+}
+
+/// A selected term the calibration leaves out (`calibration.doubtful`).
+#[derive(Clone, Debug, Serialize)]
+pub struct DoubtfulTerm {
+    /// The candidate (`cross_axis_oo`, `hysteresis`, ...).
+    pub candidate: String,
+    /// Its IEEE Std 1293 symbol, `null` for a term outside the model equation.
+    pub symbol: Option<String>,
+    /// Why it is left out: `rivaled` (a form outside the vocabulary fits in its place
+    /// not significantly worse), `implausible` (beyond the instrument file's bound).
+    pub why: Vec<&'static str>,
+    /// `[value, sigma]` in `unit` if it were real, fitted beside the calibration's terms
+    /// (absolute for a model-equation term); `null` when it cannot be fitted beside them.
+    pub if_real: Option<[f64; 2]>,
+    /// The unit of `if_real` (the standard's for a model-equation term, else the
+    /// candidate's).
+    pub unit: String,
+    /// The calibration's core terms as they would be with it in the fit.
+    pub core_with_it: Vec<CoreValue>,
+    /// The fitted terms its column cannot be told from, when `if_real` is `null`.
+    pub not_separable_from: Vec<String>,
+}
+
+/// A core term's value in another fit (`calibration.doubtful[].core_with_it`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CoreValue {
+    /// `K_0`, `K_1`, `δ_o`, `δ_p` or `K_2`.
+    pub symbol: String,
+    /// The value, in `unit`.
+    pub value: f64,
+    /// Its 1 σ.
+    pub sigma: f64,
+    /// As the term's in `calibration.terms`.
+    pub unit: String,
 }
 
 /// The `--json` object.
@@ -442,6 +535,8 @@ pub struct JsonReport {
     pub nuisance: NuisanceReport,
     /// Structure that no candidate explains.
     pub unexplained: Unexplained,
+    /// Whether the final model fits these data at all, whatever the library search finds.
+    pub fit_check: FitCheck,
     /// The gain out of sample.
     pub gain: Gain,
     /// The noise.
@@ -509,8 +604,8 @@ pub struct Unexplained {
     /// Structure found at the level `alpha` (familywise over the tests).
     pub detected: bool,
     /// Its p-value (weighted Bonferroni over the tests run: the lack of fit and the generic
-    /// basis weigh 1, the history, time shapes and products ½ each, the products with the row
-    /// before ¼).
+    /// basis weigh 1, the history, time shapes, products and a tumble's harmonics ½ each,
+    /// the products with the row before ¼).
     pub p_value: f64,
     /// `residual follows <input or product>`, or the lack of fit, or `none`.
     pub hint: String,
@@ -565,19 +660,35 @@ pub struct Proposal {
     /// Its familywise p-value: the element's p-value times its family's size, over the
     /// family's share of the level (≤ the level `alpha` for every proposal).
     pub p_value: f64,
-    /// Its family: `generic_basis`, `history`, `time_shapes`, `products` or
-    /// `history_products`.
+    /// Its family: `generic_basis`, `history`, `time_shapes`, `products`,
+    /// `history_products` or `tumble_harmonics`.
     pub family: &'static str,
     /// Other forms of the library these data cannot tell from it (partial columns parallel
     /// to |cos| > 0.999); the form given is the simplest.
     pub indistinguishable_from: Vec<String>,
 }
 
+/// Whether the final model fits the data (`fit_check`): the extended model's χ² with the
+/// stated sigmas, or, with the noise estimated, the replicated rows' lack of fit.
+#[derive(Clone, Debug, Serialize)]
+pub struct FitCheck {
+    /// `true`: it fits (p ≥ 0.05); `false`: it does not; `null`: these data cannot tell
+    /// (the noise estimated from the residuals, no replicated rows).
+    pub fits: Option<bool>,
+    /// `chi2_stated` (the extended model's χ² with the stated sigmas), `lack_of_fit` (the
+    /// replicated rows' means against their pure error) or `none`.
+    pub test: &'static str,
+    /// Its p-value (`null` with `none`).
+    pub p_value: Option<f64>,
+    /// The statistic in words (`χ² 82.02 for 23 dof`), empty with `none`.
+    pub statistic: String,
+}
+
 /// One test.
 #[derive(Clone, Debug, Serialize)]
 pub struct UnexplainedTest {
-    /// `lack_of_fit`, `generic_basis`, `history`, `time_shapes`, `products` or
-    /// `history_products`.
+    /// `lack_of_fit`, `generic_basis`, `history`, `time_shapes`, `products`,
+    /// `history_products` or `tumble_harmonics`.
     pub name: &'static str,
     /// Its p-value (for a family of the library: Bonferroni over its elements).
     pub p_value: f64,

@@ -68,7 +68,7 @@ const ONE_ROW_SHARE: f64 = 0.5;
 /// distinguishable first).
 pub const MAX_RIVALS: usize = 3;
 
-/// Find each plausible selected term's rivals (sets `Selected::rivals`), on the final fit
+/// Find each selected term's rivals (sets `Selected::rivals`), on the final fit
 /// `f` of `data` at level `alpha`. Does nothing when the fit's columns do not line up with
 /// `selected` (a parameter found through the closed loop only).
 pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f64) {
@@ -80,9 +80,9 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
     let z = f.weighted_target();
     let n = z.len();
     let forms = outside_forms(data, f);
-    let keep: Vec<usize> = (0..cols.len())
-        .filter(|&c| c < nn || selected[c - nn].plausible)
-        .collect();
+    // The whole model: a term beyond its bound stays in it (a bound flags, it does not
+    // remove).
+    let keep: Vec<usize> = (0..cols.len()).collect();
     let dof = n.saturating_sub(keep.len());
     if dof == 0 || forms.is_empty() {
         return;
@@ -105,13 +105,13 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
     #[allow(clippy::cast_precision_loss)]
     let pair_level = alpha / f.family_size().max(1) as f64;
     // A companion bias stays in the model; it names no cause a form could stand in for.
-    let plausible: Vec<usize> = (0..selected.len())
-        .filter(|&j| selected[j].plausible && !selected[j].companion)
+    let named: Vec<usize> = (0..selected.len())
+        .filter(|&j| !selected[j].companion)
         .collect();
     // One term, then every pair of terms, replaced by one form.
-    let mut groups: Vec<Vec<usize>> = plausible.iter().map(|&j| vec![j]).collect();
-    for (a, &j) in plausible.iter().enumerate() {
-        for &k in &plausible[a + 1..] {
+    let mut groups: Vec<Vec<usize>> = named.iter().map(|&j| vec![j]).collect();
+    for (a, &j) in named.iter().enumerate() {
+        for &k in &named[a + 1..] {
             groups.push(vec![j, k]);
         }
     }

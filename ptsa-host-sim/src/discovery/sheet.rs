@@ -325,8 +325,12 @@ pub fn markdown(
         "## Calibration\n\nAbsolute values (the instrument file's nominal value plus the change these data measure), 1 σ and the expanded uncertainty with k = 2; noise {}, {} residual degrees of freedom. A term marked nominal is not measured by these data.\n",
         c.noise, c.dof
     );
+    if let Some(m) = super::verdict::misfit_sentence(&d.json.fit_check, d.json.unexplained.detected)
+    {
+        let _ = writeln!(s, "**{m}**\n");
+    }
     s.push_str(&calibration::table("calibration", c).to_markdown());
-    for n in &c.notes {
+    for n in calibration::show::statements(c) {
         let _ = writeln!(s, "\nNote: {n}");
     }
     let measured: Vec<usize> = (0..c.terms.len())
@@ -413,9 +417,13 @@ pub fn csv(out: &SheetOut, p: &Provenance<'_>, d: &Discovery, c: &Calibration) -
         let _ = writeln!(s, "# {k}: {v}");
     }
     let _ = writeln!(s, "# model equation: {}", c.equation);
+    for n in calibration::show::statements(c) {
+        let _ = writeln!(s, "# note: {n}");
+    }
     let mut w = csv::Writer::from_writer(Vec::new());
     w.write_record([
         "symbol",
+        "candidate",
         "value",
         "sigma",
         "expanded_k2",
@@ -435,6 +443,7 @@ pub fn csv(out: &SheetOut, p: &Provenance<'_>, d: &Discovery, c: &Calibration) -
     for t in &c.terms {
         w.write_record([
             t.symbol.clone(),
+            t.candidate.clone(),
             format!("{}", t.value),
             o(t.sigma),
             o(t.expanded_k2),

@@ -262,6 +262,12 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             "selected: none (no candidate is significant at familywise 5%)"
         );
     }
+    if !d.selected.is_empty() && j.calibration.is_some() {
+        let _ = writeln!(
+            s,
+            "selected terms, each as its change from the instrument file in the selection's fit (the reading's convention); the instrument's values are the calibration's, below:"
+        );
+    }
     for sel in &d.selected {
         let c = sel.id.info();
         let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| o.info().name).collect();
@@ -284,9 +290,15 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             );
             continue;
         }
+        // The model equation's symbol beside the candidate's key: one name per term, as
+        // the calibration's table gives both.
+        let symbol = super::calibration::TERMS
+            .iter()
+            .find(|t| t.candidate == sel.id)
+            .map_or(String::new(), |t| format!(" ({})", t.symbol));
         let _ = writeln!(
             s,
-            "selected: {} {} = {} {}{}{}{}",
+            "selected: {} {}{symbol} = {} {}{}{}{}",
             c.effect,
             c.key,
             estimate(sel.coef, sel.stderr),
@@ -300,7 +312,7 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
                 String::new()
             } else {
                 format!(
-                    "  IMPLAUSIBLE (bound ±{} {}): the data's structure is real, but this cause is unlikely",
+                    "  BEYOND THE CLASS'S BOUND (±{} {}): the part is out of its class, or the bound is not this part's",
                     crate::output::significant(d.options.limits[sel.id.index()], 4),
                     c.unit
                 )
@@ -345,7 +357,10 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             "the rest is NOT consistent with the noise"
         }
     );
-    if !j.model_equation.terms.is_empty() {
+    // The selection's terms as a model equation, only where there is no calibration: with
+    // one, the calibration below is the instrument's model equation, and a second set of
+    // values in another convention would only be confused with it.
+    if !j.model_equation.terms.is_empty() && j.calibration.is_none() {
         let _ = writeln!(
             s,
             "model equation (IEEE Std 1293 units, 1 σ): {}",

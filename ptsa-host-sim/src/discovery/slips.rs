@@ -125,6 +125,9 @@ pub struct UnitSlip {
     pub slip: Factor,
     /// The least-squares ratio measured/simulated.
     pub ratio: f64,
+    /// The offset fitted beside the ratio, in the values' unit, when the values are the
+    /// multiple only once an offset is taken out (a bias beyond the file's), else `None`.
+    pub offset: Option<f64>,
     /// The values it rests on.
     pub rows: usize,
 }
@@ -142,10 +145,14 @@ impl UnitSlip {
     /// What the values look like and what was probably meant.
     fn what(&self) -> String {
         format!(
-            "the measured values are {} the simulated ones (measured/simulated = {} by least squares over the {} values in cm/s²): were they {}?",
+            "the measured values are {} the simulated ones (measured/simulated = {} by least squares over the {} values in cm/s²{}): were they {}?",
             relation(self.slip.factor),
             crate::output::significant(self.ratio, 5),
             self.rows,
+            self.offset.map_or(String::new(), |c| format!(
+                ", with an offset of {} in the values' own unit",
+                crate::output::significant(c, 3)
+            )),
             self.slip.meant,
         )
     }
@@ -174,7 +181,10 @@ impl UnitSlip {
 }
 
 /// Whether the values in cm/s² of `data` are a known slip's multiple of the baseline
-/// (module docs); `g` is the instrument file's gravity.
+/// (module docs); `g` is the instrument file's gravity. The multiple is taken through the
+/// origin, and, where that is not close, with an offset: an instrument whose bias is
+/// beyond what its file expects (a consumer part's 0.1 g) is still a slip's multiple of
+/// its simulation once the offset is taken out, whatever the class's bounds.
 #[must_use]
 pub fn unit_slip(data: &Data, g: f64) -> Option<UnitSlip> {
     let v: Vec<usize> = (0..data.n())
@@ -183,26 +193,47 @@ pub fn unit_slip(data: &Data, g: f64) -> Option<UnitSlip> {
     if v.len() < UNIT_MIN_ROWS {
         return None;
     }
-    let (mut yb, mut bb) = (0.0, 0.0);
-    for &i in &v {
-        yb += data.y[i] * data.base[i];
-        bb += data.base[i] * data.base[i];
+    let y: Vec<f64> = v.iter().map(|&i| data.y[i]).collect();
+    let b: Vec<f64> = v.iter().map(|&i| data.base[i]).collect();
+    let slip = |ratio: f64, offset: Option<f64>| {
+        nearest(ratio, g, UNIT_WINDOW).map(|slip| UnitSlip {
+            slip,
+            ratio,
+            offset,
+            rows: v.len(),
+        })
+    };
+    if let Some(k) = multiple(&y, &b, false) {
+        return slip(k.0, None);
     }
-    if bb <= 0.0 {
+    multiple(&y, &b, true).and_then(|(k, c)| slip(k, Some(c)))
+}
+
+/// The least-squares `k` (and, `with_offset`, the offset `c`) of `y ≈ k·b (+ c)`, when the
+/// rest is at most [`PROPORTIONAL`] of `‖y‖`; with an offset only where `b` varies (its
+/// spread about its mean at least a tenth of its size), so that the slope means something.
+fn multiple(y: &[f64], b: &[f64], with_offset: bool) -> Option<(f64, f64)> {
+    #[allow(clippy::cast_precision_loss)]
+    let n = y.len() as f64;
+    let (ym, bm) = if with_offset {
+        (y.iter().sum::<f64>() / n, b.iter().sum::<f64>() / n)
+    } else {
+        (0.0, 0.0)
+    };
+    let (mut yb, mut bb) = (0.0, 0.0);
+    for (yi, bi) in y.iter().zip(b) {
+        yb += (yi - ym) * (bi - bm);
+        bb += (bi - bm) * (bi - bm);
+    }
+    let b_size = b.iter().map(|x| x * x).sum::<f64>();
+    if bb <= 0.0 || (with_offset && bb < 0.01 * b_size) {
         return None;
     }
     let k = yb / bb;
-    let y: Vec<f64> = v.iter().map(|&i| data.y[i]).collect();
-    let rest: Vec<f64> = v.iter().map(|&i| data.y[i] - k * data.base[i]).collect();
-    let (off, size) = (norm(&rest), norm(&y));
-    if !off.is_finite() || off > PROPORTIONAL * size {
-        return None;
-    }
-    nearest(k, g, UNIT_WINDOW).map(|slip| UnitSlip {
-        slip,
-        ratio: k,
-        rows: v.len(),
-    })
+    let c = ym - k * bm;
+    let rest: Vec<f64> = y.iter().zip(b).map(|(yi, bi)| yi - k * bi - c).collect();
+    let (off, size) = (norm(&rest), norm(y));
+    (off.is_finite() && off <= PROPORTIONAL * size).then_some((k, c))
 }
 
 /// Smallest `|baseline|` of a row whose own ratio measured/baseline [`row_slips`] reads,

@@ -24,7 +24,7 @@ use super::data::{Data, replicate_sets};
 use super::fit::{Fitted, step_p};
 use super::library::{Family, RowInputs};
 use super::observation::Quantity;
-use super::problem::{Problem, Selected};
+use super::problem::Problem;
 use super::report::{MAX_PROPOSALS, Proposal, TermReport, Unexplained, UnexplainedTest};
 use crate::stats::{birge_ratio, f_sf, lsq, norm};
 
@@ -94,23 +94,19 @@ pub(crate) fn partial(v: &[f64], q: &[Vec<f64>]) -> Vec<f64> {
 
 /// Run the tests on the problem's full-data model, and the user's terms (`--term`).
 #[must_use]
-pub(crate) fn test(p: &Problem<'_>, selected: &[Selected]) -> Unexplained {
-    let mut u = search(p.data, p.f, selected, p.opts.alpha);
+pub(crate) fn test(p: &Problem<'_>) -> Unexplained {
+    let mut u = search(p.data, p.f, p.opts.alpha);
     if !p.opts.terms.is_empty() {
-        u.terms = user_terms(p, selected);
+        u.terms = user_terms(p);
     }
     u
 }
 
-/// The model without its implausible terms: the unit columns kept.
-fn kept<'a>(f: &'a Fitted, selected: &[Selected]) -> Vec<&'a [f64]> {
-    let cols = f.unit_columns();
-    let nn = f.n_nuisance();
-    cols.iter()
-        .enumerate()
-        .filter(|&(j, _)| j < nn || selected.get(j - nn).is_none_or(|s| s.plausible))
-        .map(|(_, c)| *c)
-        .collect()
+/// The final model's unit columns, every selected term's among them: a term beyond its
+/// plausibility bound stays in the model these tests read (a bound flags, it does not
+/// remove; docs/discovery.md).
+fn kept(f: &Fitted) -> Vec<&[f64]> {
+    f.unit_columns()
 }
 
 /// One column added to the model `keep` (fit `base` of the weighted target `z`) and tested
@@ -167,9 +163,9 @@ fn coefficient_se(f: &Fitted, g: &crate::stats::LsqFit, j: usize, dof: usize) ->
 
 /// The user's terms, each added to the model (nuisance terms and plausible selected terms)
 /// and tested like a selection step, Bonferroni over the terms.
-fn user_terms(p: &Problem<'_>, selected: &[Selected]) -> Vec<TermReport> {
+fn user_terms(p: &Problem<'_>) -> Vec<TermReport> {
     let (data, f, alpha) = (p.data, p.f, p.opts.alpha);
-    let keep = kept(f, selected);
+    let keep = kept(f);
     let z = f.weighted_target();
     let base = lsq(&z, &keep);
     let inputs = RowInputs::of(p.rows, p.sim.g_cm_s2());
@@ -204,8 +200,8 @@ fn user_terms(p: &Problem<'_>, selected: &[Selected]) -> Vec<TermReport> {
 
 /// The search of the residuals: lack of fit and the library's families.
 #[allow(clippy::too_many_lines)] // the tests in turn, on one fit
-fn search(data: &Data, f: &Fitted, selected: &[Selected], alpha: f64) -> Unexplained {
-    let keep = kept(f, selected);
+fn search(data: &Data, f: &Fitted, alpha: f64) -> Unexplained {
+    let keep = kept(f);
     let z = f.weighted_target();
     let Some(base) = lsq(&z, &keep) else {
         return none();
@@ -343,6 +339,18 @@ fn search(data: &Data, f: &Fitted, selected: &[Selected], alpha: f64) -> Unexpla
                         s.form, best.p
                     ),
                     format!("residual follows {} (with the row before)", s.form),
+                ),
+                Family::Harmonics => (
+                    format!(
+                        "{tried} harmonics of the tumble's angle from the {}th to what its positions resolve (IEEE Std 1293's Fourier analysis); the strongest is {} (p = {:.2e} before the Bonferroni factor)",
+                        super::library::FIRST_HARMONIC,
+                        s.form,
+                        best.p
+                    ),
+                    format!(
+                        "residual follows {} (a harmonic of the tumble's angle)",
+                        s.form
+                    ),
                 ),
             };
             tests.push((

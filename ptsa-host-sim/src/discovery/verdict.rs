@@ -9,7 +9,7 @@ use super::fit::{Fitted, NoiseSource};
 use super::outcome::Discovery;
 use super::outliers;
 use super::problem::Selected;
-use super::report::{EffectReport, OutlierReport, ParameterValue, SplitTest, names};
+use super::report::{EffectReport, FitCheck, OutlierReport, ParameterValue, SplitTest, names};
 use super::search::limit_note;
 use super::sim::Simulator;
 use super::slips;
@@ -166,7 +166,7 @@ pub(crate) fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<St
             )
         } else {
             format!(
-                "{name} = {} {unit} is beyond its plausibility bound: the data's structure is real, but this cause is unlikely",
+                "{name} = {} {unit} is beyond the instrument class's bound: either the part is out of its class, or the bound is not this part's (the instrument file's [plausibility]); the term stays in the model every later test reads",
                 super::show::estimate(s.coef, s.stderr)
             )
         });
@@ -176,7 +176,7 @@ pub(crate) fn warnings(data: &Data, f: &Fitted, selected: &[Selected]) -> Vec<St
 
 /// One warning per selected term that these data cannot tell from a form outside the
 /// vocabulary, with what would tell them apart.
-pub(crate) fn rival_warnings(selected: &[Selected]) -> Vec<String> {
+pub(crate) fn rival_warnings(selected: &[Selected], timed: bool) -> Vec<String> {
     let mut w = Vec::new();
     for s in selected.iter().filter(|s| !s.rivals.is_empty()) {
         let c = s.id.info();
@@ -202,10 +202,10 @@ pub(crate) fn rival_warnings(selected: &[Selected]) -> Vec<String> {
             super::show::estimate(s.coef, s.stderr),
             c.unit,
             forms.join(", "),
-            if in_time {
-                "the positions in another order, interleaved or reversed, and after a warm-up"
-            } else {
-                "a tumble about another axis, or the same positions at another g level"
+            match (in_time, timed) {
+                (true, true) => "the positions in another order, interleaved or reversed, and after a warm-up: the advice lists the rows",
+                (true, false) => "the positions in another order, interleaved or reversed, and after a warm-up: the advice lists the rows; these rows give no time_s, so their order stands in for time, and a warm-up or drift in them looks like this",
+                _ => "a tumble about another axis, or the same positions at another g level",
             }
         ));
     }
@@ -360,6 +360,25 @@ fn selected_sentences(
     }
 }
 
+/// "The model does not fit these data …" when the fit check fails (`found`: the library
+/// search named a form; else the sentence says it named none).
+#[must_use]
+pub fn misfit_sentence(c: &FitCheck, found: bool) -> Option<String> {
+    if c.fits != Some(false) {
+        return None;
+    }
+    Some(format!(
+        "The model does not fit these data ({}, p = {:.2e}): its values hold only as far as what is left is noise, and something outside it is in the data{}.",
+        c.statistic,
+        c.p_value.unwrap_or(f64::NAN),
+        if found {
+            ""
+        } else {
+            "; the library search names no form for it, so look at the residuals (their plot and table) before using the calibration"
+        }
+    ))
+}
+
 /// The conclusion in one paragraph: what was named (and how plausible), what stays
 /// unexplained, and the cross-validated gain.
 #[must_use]
@@ -412,7 +431,7 @@ pub fn verdict(d: &Discovery) -> String {
                     return t;
                 }
                 if !s.plausible {
-                    t.push_str(" (implausible: beyond its bound, so the cause is unlikely although the structure is real)");
+                    t.push_str(" (beyond the class's bound: the part is out of its class, or the bound is not this part's)");
                 }
                 if !s.confounded.is_empty() {
                     let o: Vec<&str> = s.confounded.iter().map(|(o, _)| o.info().name).collect();
@@ -430,6 +449,10 @@ pub fn verdict(d: &Discovery) -> String {
             })
             .collect();
         selected_sentences(&mut v, &d.selected, named, &j.effects);
+    }
+    if let Some(s) = misfit_sentence(&j.fit_check, j.unexplained.detected) {
+        v.push(' ');
+        v.push_str(&s);
     }
     if j.unexplained.detected {
         let _ = write!(

@@ -1063,6 +1063,8 @@ pub struct Instrument {
     pub clock_hz: f64,
     /// Local gravity, cm/s².
     pub g_cm_s2: f64,
+    /// Whether the command line set the local gravity (`--local-gravity`), not the file.
+    pub gravity_from_command_line: bool,
     /// Stop contact stiffness, dyn·cm/rad.
     pub stop_stiffness_dyn_cm_rad: f64,
     /// Stop contact damping, dyn·cm·s.
@@ -1776,6 +1778,7 @@ impl Instrument {
             adc_full_scale_v: 0.0,
             clock_hz: 0.0,
             g_cm_s2: 0.0,
+            gravity_from_command_line: false,
             stop_stiffness_dyn_cm_rad: 0.0,
             stop_damping_dyn_cm_s: 0.0,
             tolerances: Vec::new(),
@@ -1881,6 +1884,48 @@ impl Instrument {
                     message: format!("{key}: the rewritten file does not give {v} back"),
                 });
             }
+        }
+        Ok(out)
+    }
+
+    /// The text of an instrument file with its local gravity (`electronics.` or
+    /// `instrument.local_gravity_cm_s2`) set to `g_cm_s2`, a comment `note` above it; the
+    /// rest of the text as it was. Every value of the file that is per g is then per g of
+    /// this gravity, as if the file had said it.
+    ///
+    /// # Errors
+    /// The file is not a valid instrument file, `g_cm_s2` is not a gravity it accepts, or
+    /// it has no local gravity to set (a loop-less file that gives none).
+    pub fn rewrite_gravity(
+        src: &str,
+        file: &str,
+        g_cm_s2: f64,
+        note: &str,
+    ) -> Result<String, InstrumentError> {
+        let src = src.strip_prefix('\u{feff}').unwrap_or(src);
+        let instr = Self::parse(src, file)?;
+        let cx = Ctx { file, src };
+        let span = if instr.has_loop {
+            let f: FileT = toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
+            f.electronics.local_gravity_cm_s2.span()
+        } else {
+            let f: LooplessT =
+                toml::from_str(src).map_err(|e| cx.err(0, user_message(e.message())))?;
+            f.instrument
+                .local_gravity_cm_s2
+                .map(|g| g.span())
+                .ok_or_else(|| cx.err(0, "instrument.local_gravity_cm_s2: missing; expected the local gravity to replace".to_string()))?
+        };
+        let line_start = src[..span.start].rfind('\n').map_or(0, |i| i + 1);
+        let mut out = src.to_string();
+        out.replace_range(span, &format!("{g_cm_s2:?}"));
+        out.insert_str(line_start, &format!("# {}\n", note.replace('\n', " ")));
+        let back = Self::parse(&out, file)?;
+        if (back.g_cm_s2 - g_cm_s2).abs() > 1e-12 * g_cm_s2.abs() {
+            return Err(cx.err(
+                0,
+                format!("local_gravity_cm_s2: the rewritten file does not give {g_cm_s2} back"),
+            ));
         }
         Ok(out)
     }

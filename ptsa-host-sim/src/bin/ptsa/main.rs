@@ -51,7 +51,10 @@ fn main() -> ExitCode {
 /// without one): its request first (every check before any work), then the work.
 fn run(cli: Cli, out: &mut dyn Write) -> Result<()> {
     paths::inputs(cli.inputs());
-    let ctx = Ctx::load(cli.instrument.as_deref())?;
+    let mut ctx = Ctx::load(cli.instrument.as_deref())?;
+    if let Some(g) = cli.local_gravity() {
+        ctx.set_local_gravity(g)?;
+    }
     let instrument_given = cli.instrument.is_some();
     match cli.cmd.unwrap_or(Cmd::Report(cli.report)) {
         Cmd::Report(a) => report::run(&ctx, &a.request(&ctx)?, out),

@@ -17,7 +17,7 @@ use ptsa_host_sim::model::counts;
 use ptsa_host_sim::output::{count, write_atomic};
 
 use super::Ctx;
-use crate::flags::values::positive_cm_s2;
+use crate::flags::values::{local_gravity_cm_s2, positive_cm_s2};
 use crate::paths;
 
 /// Arguments of `ptsa correct`.
@@ -44,6 +44,11 @@ pub struct CorrectArgs {
     /// 0); added in quadrature to the counting error of a row given as counts.
     #[arg(long, value_name = "CM_S2", value_parser = positive_cm_s2)]
     pub sigma: Option<f64>,
+    /// The local gravity at the test stand, cm/s² (970 to 990): replaces the instrument
+    /// file's local_gravity_cm_s2 for this run (what g_ia = 1 means, and every value in
+    /// g). The shipped mems and navigation classes give standard gravity, 980.665.
+    #[arg(long, value_name = "CM_S2", value_parser = local_gravity_cm_s2)]
+    pub local_gravity: Option<f64>,
     /// Write the CSV here instead of standard output (never an input; an existing file only
     /// with --force; the file appears whole or not at all).
     #[arg(long, value_name = "FILE")]
@@ -169,8 +174,9 @@ impl CorrectArgs {
             .count();
         if noiseless > 0 && self.sigma.is_none() {
             warnings.push(format!(
-                "{name}: {} state no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their sigmas hold the calibration's uncertainty only",
-                count(noiseless as u64, "row with a reading")
+                "{name}: {} with a reading {} no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their sigmas hold the calibration's uncertainty only (give --sigma CM_S2, or sigma_cm_s2 on the rows)",
+                count(noiseless as u64, "row"),
+                if noiseless == 1 { "states" } else { "state" }
             ));
         }
         if rows
@@ -271,8 +277,9 @@ impl CorrectArgs {
         }
         if noiseless > 0 && self.sigma.is_none() {
             warnings.push(format!(
-                "{name}: {} state no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their covariance holds the calibration's uncertainty only",
-                count(noiseless as u64, "row with readings")
+                "{name}: {} with readings {} no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their covariance holds the calibration's uncertainty only (give --sigma CM_S2, or sigma_cm_s2 on the rows)",
+                count(noiseless as u64, "row"),
+                if noiseless == 1 { "states" } else { "state" }
             ));
         }
         Ok(TriadRequest {
@@ -319,9 +326,7 @@ impl CorrectArgs {
                         self.data.display()
                     );
                 };
-                let effects = discovery::effects_from_json(&v)
-                    .with_context(|| format!("--calibration {}", p.display()))?;
-                let cal = lib::Calibration::from_discover_json(&v, &ctx.instr, effects)
+                let cal = lib::Calibration::from_discover_json(&v, &ctx.instr)
                     .with_context(|| format!("--calibration {}", p.display()))?;
                 (
                     cal,

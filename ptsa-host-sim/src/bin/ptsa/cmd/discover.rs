@@ -17,7 +17,9 @@ use ptsa_host_sim::simulation::sim::SimOptions;
 use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
 
 use super::{Ctx, simulator};
-use crate::flags::values::{candidate, candidates_help, positive_cm_s2, seed, term};
+use crate::flags::values::{
+    candidate, candidates_help, local_gravity_cm_s2, positive_cm_s2, seed, term,
+};
 use crate::{paths, work};
 
 /// Arguments of `ptsa discover`.
@@ -49,6 +51,11 @@ pub struct DiscoverArgs {
     /// a_pa^3).
     #[arg(long = "term", value_name = "TEXT", value_parser = term)]
     pub terms: Vec<Term>,
+    /// The local gravity at the test stand, cm/s² (970 to 990): replaces the instrument
+    /// file's local_gravity_cm_s2 for this run (what g_ia = 1 means, and every value in
+    /// g). The shipped mems and navigation classes give standard gravity, 980.665.
+    #[arg(long, value_name = "CM_S2", value_parser = local_gravity_cm_s2)]
+    pub local_gravity: Option<f64>,
     /// Print exactly one JSON object on stdout (the text report goes to stderr). Without
     /// --data, the object maps each report table's file name to its result.
     #[arg(long)]

@@ -120,6 +120,29 @@ impl Ctx {
         })
     }
 
+    /// The instrument file as if it gave `g_cm_s2` for its local gravity
+    /// (`--local-gravity`): its text rewritten (so that `--write-instrument` and the sheet
+    /// carry the gravity used) and read again, the loop checked again.
+    ///
+    /// # Errors
+    /// The rewritten file is refused.
+    pub fn set_local_gravity(&mut self, g_cm_s2: f64) -> Result<()> {
+        let note = format!("--local-gravity {g_cm_s2}: the site's gravity, cm/s²");
+        let text = Instrument::rewrite_gravity(&self.text, &self.name, g_cm_s2, &note)
+            .with_context(|| format!("--local-gravity {g_cm_s2}"))?;
+        let mut instr = Instrument::parse(&text, &self.name)?;
+        instr.gravity_from_command_line = true;
+        self.checked = if instr.has_loop {
+            check_loop(&instr)
+        } else {
+            Err("the file describes an instrument without a PTSA loop".to_string())
+        };
+        self.instr = instr;
+        self.text = text;
+        self.name = format!("{} with --local-gravity {g_cm_s2}", self.name);
+        Ok(())
+    }
+
     /// The compensator of a loop the simulator can run. Every subcommand but `design` and
     /// `response` (which simulate nothing) asks for it first, so that such a file is
     /// refused before anything else.

@@ -63,6 +63,15 @@ pub struct Cli {
 impl Cli {
     /// The files the command line names as inputs, by their flags: no output may replace
     /// them.
+    /// `--local-gravity` of the subcommands that take it (`discover`, `correct`), cm/s².
+    pub fn local_gravity(&self) -> Option<f64> {
+        match &self.cmd {
+            Some(Cmd::Discover(a)) => a.local_gravity,
+            Some(Cmd::Correct(a)) => a.local_gravity,
+            _ => None,
+        }
+    }
+
     pub fn inputs(&self) -> Vec<(&'static str, Option<&Path>)> {
         let mut v = vec![("--instrument", self.instrument.as_deref())];
         match &self.cmd {

@@ -214,6 +214,20 @@ pub fn positive_cm_s2(s: &str) -> Result<f64, String> {
     }
 }
 
+/// A local gravity, cm/s², within 970 to 990 (anywhere on or near the Earth's surface:
+/// 978.0 at the equator to 983.2 at the poles, less with height).
+pub fn local_gravity_cm_s2(s: &str) -> Result<f64, String> {
+    let x = finite(s)?;
+    if (970.0..=990.0).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected a local gravity in cm/s² from 970 to 990 (standard gravity is 980.665; 9.8 would be m/s²), not {}",
+            num(x)
+        ))
+    }
+}
+
 /// An anisoinertia, g·cm², |value| below 100.
 pub fn anisoinertia_g_cm2(s: &str) -> Result<f64, String> {
     let x = finite(s)?;
