@@ -933,3 +933,46 @@ fn a_triad_row_without_three_readings_is_written_empty() {
     );
     assert!(stdout(&o).contains("\nr1x,,,,"), "{}", stdout(&o));
 }
+
+/// A triad measured at 980.4 cm/s² and calibrated with `--local-gravity 979.4`: its three
+/// scale factors take up one change of +1021 ppm alike, which the |g| check cannot see;
+/// a warning names the gravity that explains it. With the right gravity, no warning.
+#[test]
+fn a_gravity_the_data_disagree_with_is_named() {
+    let tmp = tempfile::tempdir().unwrap();
+    let truth = TriadTruth {
+        b: BIAS,
+        gamma: GAMMA,
+        ..TriadTruth::default()
+    };
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    let noise = rand_distr::Normal::new(0.0, 0.02).unwrap();
+    let rows: Vec<([f64; 3], [f64; 3])> = design24()
+        .into_iter()
+        .map(|n| {
+            let u = truth.readings(n.map(|x| x * G));
+            (n, u.map(|x| x + noise.sample(&mut rng)))
+        })
+        .collect();
+    std::fs::write(
+        tmp.path().join("t.csv"),
+        triad_gen::triad_csv(&rows, Some(0.02), "a triad read at 980.4 cm/s²"),
+    )
+    .unwrap();
+    let warned = |args: &[&str]| -> Vec<String> {
+        let v = json(tmp.path(), args);
+        v["triad"]["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|w| w.as_str().unwrap().to_string())
+            .filter(|w| w.contains("share one change"))
+            .collect()
+    };
+    let base = ["discover", "--data", "t.csv", "--json"];
+    assert!(warned(&base).is_empty());
+    let w = warned(&[&base[..], &["--local-gravity", "979.4"]].concat());
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].contains("the local gravity is 980.4"), "{}", w[0]);
+    assert!(w[0].contains("not the 979.4 cm/s² used"), "{}", w[0]);
+}

@@ -907,7 +907,35 @@ fn warnings(t: &Triad) -> Vec<String> {
         );
         w.push(s);
     }
+    w.extend(gravity_warning(t));
     w
+}
+
+/// A local gravity the data disagree with: the three scale factors share one change,
+/// significant (beyond 3 σ) and alike across the axes (their spread about it consistent
+/// with their σ, p ≥ 0.01). A calibration from gravity alone cannot tell a common
+/// scale-factor error from a wrong gravity; the warning names the gravity that would
+/// explain it.
+fn gravity_warning(t: &Triad) -> Option<String> {
+    let k = t.scale.map(|e| e.value);
+    let w = t
+        .scale
+        .map(|e| 1.0 / (e.sigma * e.sigma).max(f64::MIN_POSITIVE));
+    let sw: f64 = w.iter().sum();
+    let mean = k.iter().zip(&w).map(|(k, w)| k * w).sum::<f64>() / sw;
+    let sigma = sw.sqrt().recip();
+    let spread: f64 = k.iter().zip(&w).map(|(k, w)| (k - mean).powi(2) * w).sum();
+    let alike = stats::chi2_sf(spread, 2.0) >= FLAG_P;
+    if !(alike && mean.abs() > 3.0 * sigma && sigma.is_finite()) {
+        return None;
+    }
+    Some(format!(
+        "the three axes' scale factors share one change of {:.0} ± {:.0} ppm, alike across the axes: if their nominal scale factors are right, the local gravity is {:.3} cm/s², not the {} cm/s² used (a calibration from gravity alone cannot tell the two apart); check the site's gravity (local_gravity_cm_s2, or --local-gravity)",
+        mean * 1e6,
+        sigma * 1e6,
+        t.g_cm_s2 * (1.0 + mean),
+        t.g_cm_s2
+    ))
 }
 
 #[cfg(test)]
