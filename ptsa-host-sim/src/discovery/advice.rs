@@ -277,7 +277,7 @@ fn time_shaped(selected: &[Selected], unexplained: &Unexplained) -> (Vec<String>
 }
 
 /// Advice when a selected term could be a shape in time, or the residual follows one
-/// ([`time_shaped`]): the measured positions again in the reverse order, with the first
+/// (`time_shaped`): the measured positions again in the reverse order, with the first
 /// repeated at the end. A term of the positions reads the same both ways; a drift, a
 /// warm-up or an effect of the row before does not.
 #[must_use]

@@ -669,7 +669,7 @@ pub fn shapes(
     out
 }
 
-/// The lowest harmonic of a tumble's angle [`harmonics`] gives: the third and below are the
+/// The lowest harmonic of a tumble's angle `harmonics` gives: the third and below are the
 /// model equation's (`K_0`, `K_1`, the misalignments, the second-order terms) and the
 /// third-order products'.
 pub const FIRST_HARMONIC: usize = 4;
