@@ -147,6 +147,9 @@ fn the_plot_is_written_and_never_replaced_without_force() {
         &["noise", "--counts", "r.csv", "--plot", "p.svg"],
     );
     assert!(o.status.success(), "{}", stderr(&o));
+    // The PNG beside it.
+    let png = std::fs::read(tmp.path().join("p.png")).unwrap();
+    assert!(png.starts_with(b"\x89PNG"), "{:?}", &png[..8]);
     let svg = std::fs::read_to_string(tmp.path().join("p.svg")).unwrap();
     assert!(
         svg.starts_with("<svg") || svg.starts_with("<?xml"),
@@ -179,13 +182,30 @@ fn the_plot_is_written_and_never_replaced_without_force() {
         std::fs::read(tmp.path().join("p.svg")).unwrap(),
         b"lab notes"
     );
+    // An input is never replaced, whatever its name: a record called r.svg.
+    std::fs::write(tmp.path().join("r.svg"), &rec).unwrap();
+    let o = ptsa_in(
+        tmp.path(),
+        &["noise", "--counts", "r.svg", "--plot", "r.svg", "--force"],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("never replaces an input"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(
+        std::fs::read_to_string(tmp.path().join("r.svg")).unwrap(),
+        rec
+    );
+    // A plot file that is neither PNG nor SVG is refused before any work.
     let o = ptsa_in(
         tmp.path(),
         &["noise", "--counts", "r.csv", "--plot", "r.csv", "--force"],
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("never replaces an input"),
+        stderr(&o).contains("expected a file name ending in .png or .svg"),
         "{}",
         stderr(&o)
     );
@@ -352,7 +372,10 @@ fn bad_options_are_refused() {
             "x.csv",
         ],
         1,
-        &["--plot x.csv", "the same file as --out"],
+        &[
+            "--plot x.csv",
+            "expected a file name ending in .png or .svg",
+        ],
         &[],
     );
     // A long simulation is refused beyond the work limit without --force.

@@ -1,6 +1,7 @@
-//! The overlapping Allan deviation and the modified Allan deviation of a series of
-//! contiguous gate averages, at octave-spaced averaging times, with 95 % confidence
-//! intervals from equivalent degrees of freedom.
+//! The overlapping Allan deviation, the modified Allan deviation and the overlapping
+//! Hadamard deviation of a series of contiguous gate averages (or evenly spaced samples), at
+//! the averaging times asked for (octave, decade, all, or listed), with confidence intervals
+//! at 95 % and at the level asked for, from equivalent degrees of freedom.
 //!
 //! # The quantities
 //! The series is `y_k`, the mean acceleration over gate `k` (cm/s²), gates of length `τ₀`
@@ -16,7 +17,13 @@
 //! the overlapping estimator (every start `i`, stride 1) and the modified one (the inner
 //! sum averages the boundaries over `m` before differencing). Both are computed in `O(N)`
 //! per `τ` from prefix sums: the inner sum of MVAR is the third difference
-//! `C_{j+3m} − 3·C_{j+2m} + 3·C_{j+m} − C_j` of `C_k = Σ_{i<k} S_i`. The mean of `y` and
+//! `C_{j+3m} − 3·C_{j+2m} + 3·C_{j+m} − C_j` of `C_k = Σ_{i<k} S_i`. The overlapping
+//! Hadamard variance, the second difference of the `m`-averages (blind to a linear drift of
+//! `y`), is the third difference of `S`:
+//!
+//! ```text
+//! HVAR(τ)  = 1/(6·(N − 3m)) · Σ_{i=0}^{N−3m−1} ((S_{i+3m} − 3·S_{i+2m} + 3·S_{i+m} − S_i)/m)²
+//! ``` The mean of `y` and
 //! the mean of `S` are taken out first (neither changes a second or third difference) to
 //! keep the sums small.
 //!
@@ -38,6 +45,11 @@ use super::edf::{self, Estimator};
 /// Fewest points of the `m`-averaged series the lag-1 autocorrelation identifies a noise
 /// type from (Riley and Greenhall recommend about 30).
 pub const NOISE_ID_MIN_POINTS: usize = 30;
+
+/// Most averages the noise identification reads (the first ones): beyond 2^20 the lag-1
+/// autocorrelation's own scatter (about `1/√k`, 0.001) is far below the 0.25 steps it is
+/// judged by, and a 10⁷-sample record would otherwise be differenced whole at every τ.
+pub const NOISE_ID_MAX_POINTS: usize = 1 << 20;
 
 /// How a point's noise type was decided.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -92,6 +104,81 @@ pub struct Point {
     pub alpha: i32,
     /// How `alpha` was decided.
     pub alpha_source: NoiseIdSource,
+    /// The interval of `adev` at [`Settings::confidence`].
+    pub ci: (f64, f64),
+    /// The interval of `mdev` at [`Settings::confidence`].
+    pub mdev_ci: Option<(f64, f64)>,
+    /// The overlapping Hadamard deviation (`None` where `3m ≥ N` or not asked for).
+    pub hdev: Option<f64>,
+    /// Its equivalent degrees of freedom (Greenhall's `d = 3`, at the noise type
+    /// identified with up to three differences, `alpha_h`).
+    pub hdev_edf: Option<f64>,
+    /// Its interval at [`Settings::confidence`].
+    pub hdev_ci: Option<(f64, f64)>,
+    /// The noise type the Hadamard deviation's EDF takes (`α` down to −4: the lag-1
+    /// autocorrelation after up to three differences).
+    pub alpha_h: i32,
+}
+
+/// Which averaging times to analyse (`ptsa noise --taus`).
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub enum Taus {
+    /// `1, 2, 4, 8, …` times `τ₀` (the default).
+    #[default]
+    Octave,
+    /// `1, 2, 4, 10, 20, 40, 100, …` times `τ₀` (Stable32's and allantools' decade).
+    Decade,
+    /// Every factor `1, 2, 3, …` (the all-tau analysis; `O(N²)` in all).
+    All,
+    /// The factors given, each `τ/τ₀`.
+    Factors(Vec<usize>),
+}
+
+impl Taus {
+    /// The factors for `M` gates, each with at least one overlapping pair (`2m ≤ M`),
+    /// ascending, each once.
+    #[must_use]
+    pub fn factors(&self, gates: usize) -> Vec<usize> {
+        let max = gates / 2;
+        let mut v: Vec<usize> = match self {
+            Self::Octave => return octave_factors(gates),
+            Self::Decade => {
+                let mut v = Vec::new();
+                let mut p = 1usize;
+                while p <= max {
+                    v.extend([p, 2 * p, 4 * p].into_iter().filter(|&m| m <= max));
+                    p = p.saturating_mul(10);
+                }
+                v
+            }
+            Self::All => (1..=max).collect(),
+            Self::Factors(f) => f.iter().copied().filter(|&m| m >= 1 && m <= max).collect(),
+        };
+        v.sort_unstable();
+        v.dedup();
+        v
+    }
+}
+
+/// What [`analyse_with`] computes at each factor beyond the overlapping deviation.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Settings {
+    /// The averaging times.
+    pub taus: Taus,
+    /// The confidence level of the intervals besides 95 % (0 to 1, exclusive).
+    pub confidence: f64,
+    /// Compute the Hadamard deviation.
+    pub hadamard: bool,
+}
+
+impl Default for Settings {
+    fn default() -> Self {
+        Self {
+            taus: Taus::Octave,
+            confidence: 0.95,
+            hadamard: false,
+        }
+    }
 }
 
 /// The averaging factors `1, 2, 4, …` up to `M/2` for `M` gates (at least one overlapping
@@ -164,6 +251,57 @@ impl Sums {
         Some((sum / (2.0 * tf * mf * mf), terms))
     }
 
+    /// The overlapping Allan variance with its number of terms and, when `hadamard`, the
+    /// overlapping Hadamard variance at factor `m`, from one pass over the running sums
+    /// (each as [`Sums::avar`] and [`Sums::hvar`] give it).
+    #[must_use]
+    pub fn avar_hvar(&self, m: usize, hadamard: bool) -> (Option<(f64, usize)>, Option<f64>) {
+        let n = self.n();
+        if !hadamard || m == 0 || 3 * m >= n {
+            return (self.avar(m), if hadamard { self.hvar(m) } else { None });
+        }
+        let s = &self.s;
+        let (a_terms, h_terms) = (n - 2 * m, n - 3 * m);
+        let (mut a, mut h) = (0.0, 0.0);
+        for i in 0..h_terms {
+            let (s0, s1, s2, s3) = (s[i], s[i + m], s[i + 2 * m], s[i + 3 * m]);
+            let d2 = s2 - 2.0 * s1 + s0;
+            let d3 = s3 - 3.0 * s2 + 3.0 * s1 - s0;
+            a += d2 * d2;
+            h += d3 * d3;
+        }
+        for i in h_terms..a_terms {
+            let d2 = s[i + 2 * m] - 2.0 * s[i + m] + s[i];
+            a += d2 * d2;
+        }
+        #[allow(clippy::cast_precision_loss)]
+        let (mf, af, hf) = (m as f64, a_terms as f64, h_terms as f64);
+        (
+            Some((a / (2.0 * af * mf * mf), a_terms)),
+            Some(h / (6.0 * hf * mf * mf)),
+        )
+    }
+
+    /// The overlapping Hadamard variance at factor `m`, `O(N)`; `None` when `3m ≥ N`.
+    #[must_use]
+    pub fn hvar(&self, m: usize) -> Option<f64> {
+        let n = self.n();
+        if m == 0 || 3 * m >= n {
+            return None;
+        }
+        let s = &self.s;
+        let terms = n - 3 * m;
+        let sum: f64 = (0..terms)
+            .map(|i| {
+                let d = s[i + 3 * m] - 3.0 * s[i + 2 * m] + 3.0 * s[i + m] - s[i];
+                d * d
+            })
+            .sum();
+        #[allow(clippy::cast_precision_loss)]
+        let (mf, tf) = (m as f64, terms as f64);
+        Some(sum / (6.0 * tf * mf * mf))
+    }
+
     /// The modified Allan variance at factor `m`, `O(N)`; `None` when `3m > N`.
     #[must_use]
     pub fn mvar(&self, m: usize) -> Option<f64> {
@@ -204,7 +342,46 @@ fn lag1(z: &[f64]) -> f64 {
 /// differences. `None` with fewer than [`NOISE_ID_MIN_POINTS`] averages.
 #[must_use]
 pub fn noise_id(y: &[f64], m: usize) -> Option<i32> {
-    let k = y.len() / m.max(1);
+    noise_id_up_to(y, m, 2)
+}
+
+/// [`noise_id`] for the Allan variances (differencing at most twice, `α` from −2 to 2) and
+/// for the Hadamard variance (three times, down to −4), from one pass over the averages.
+#[must_use]
+pub fn noise_ids(y: &[f64], m: usize) -> Option<(i32, i32)> {
+    let k = (y.len() / m.max(1)).min(NOISE_ID_MAX_POINTS);
+    if k < NOISE_ID_MIN_POINTS {
+        return None;
+    }
+    #[allow(clippy::cast_precision_loss)]
+    let mut z: Vec<f64> = y
+        .chunks_exact(m)
+        .take(k)
+        .map(|c| c.iter().sum::<f64>() / m as f64)
+        .collect();
+    let mut allan = None;
+    let mut d = 0;
+    loop {
+        let r1 = lag1(&z);
+        let delta = r1 / (1.0 + r1);
+        #[allow(clippy::cast_possible_truncation)]
+        let alpha = (-2.0 * (delta + f64::from(d))).round() as i32;
+        if allan.is_none() && (delta < 0.25 || d >= 2) {
+            allan = Some(alpha.clamp(-2, 2));
+        }
+        if delta < 0.25 || d >= 3 {
+            return Some((allan.unwrap_or(-2), alpha.clamp(-4, 2)));
+        }
+        z = z.windows(2).map(|w| w[1] - w[0]).collect();
+        d += 1;
+    }
+}
+
+/// [`noise_id`] differencing at most `dmax` times: 2 for the Allan variances (`α` from −2
+/// to 2), 3 for the Hadamard variance (down to −4).
+#[must_use]
+pub fn noise_id_up_to(y: &[f64], m: usize, dmax: i32) -> Option<i32> {
+    let k = (y.len() / m.max(1)).min(NOISE_ID_MAX_POINTS);
     if k < NOISE_ID_MIN_POINTS {
         return None;
     }
@@ -218,10 +395,10 @@ pub fn noise_id(y: &[f64], m: usize) -> Option<i32> {
     loop {
         let r1 = lag1(&z);
         let delta = r1 / (1.0 + r1);
-        if delta < 0.25 || d >= 2 {
+        if delta < 0.25 || d >= dmax {
             let p = -2.0 * (delta + f64::from(d));
             #[allow(clippy::cast_possible_truncation)]
-            return Some((p.round() as i32).clamp(-2, 2));
+            return Some((p.round() as i32).clamp(-2 * dmax + 2, 2));
         }
         z = z.windows(2).map(|w| w[1] - w[0]).collect();
         d += 1;
@@ -295,8 +472,16 @@ pub fn chi2_quantile(p: f64, k: f64) -> f64 {
 /// freedom.
 #[must_use]
 pub fn ci95(dev: f64, edf: f64) -> (f64, f64) {
-    let lo = dev * (edf / chi2_quantile(0.975, edf)).sqrt();
-    let hi = dev * (edf / chi2_quantile(0.025, edf)).sqrt();
+    interval(dev, edf, 0.95)
+}
+
+/// The two-sided interval at `confidence` (0 to 1) of a deviation `dev` estimated with
+/// `edf` degrees of freedom: `[σ·√(ν/χ²_ν(1 − a/2)), σ·√(ν/χ²_ν(a/2))]`, `a = 1 − confidence`.
+#[must_use]
+pub fn interval(dev: f64, edf: f64, confidence: f64) -> (f64, f64) {
+    let a = 1.0 - confidence;
+    let lo = dev * (edf / chi2_quantile(1.0 - a / 2.0, edf)).sqrt();
+    let hi = dev * (edf / chi2_quantile(a / 2.0, edf)).sqrt();
     (lo, hi)
 }
 
@@ -305,45 +490,124 @@ pub fn ci95(dev: f64, edf: f64) -> (f64, f64) {
 /// its noise type, equivalent degrees of freedom and 95 % interval.
 #[must_use]
 pub fn analyse(y: &[f64], tau0_s: f64) -> Vec<Point> {
+    analyse_with(y, tau0_s, &Settings::default())
+}
+
+/// [`analyse`] at the factors of `settings.taus`, with intervals at its confidence too and,
+/// when asked, the Hadamard deviation.
+#[must_use]
+pub fn analyse_with(y: &[f64], tau0_s: f64, settings: &Settings) -> Vec<Point> {
+    use rayon::prelude::*;
     let sums = Sums::new(y);
     let n = sums.n();
+    let factors: Vec<usize> = settings
+        .taus
+        .factors(y.len())
+        .into_iter()
+        .filter(|&m| 2 * m < n)
+        .collect();
+    // Each factor's estimates and noise types on their own, in parallel; then, in order,
+    // the types a factor inherits and the intervals.
+    let raw: Vec<Raw> = factors
+        .par_iter()
+        .map(|&m| {
+            let (avar, hvar) = sums.avar_hvar(m, settings.hadamard);
+            Raw {
+                m,
+                avar: avar.map_or((f64::NAN, 0), |a| a),
+                mdev: sums.mvar(m).map(f64::sqrt),
+                hdev: hvar.map(f64::sqrt),
+                ids: if settings.hadamard {
+                    noise_ids(y, m)
+                } else {
+                    noise_id(y, m).map(|a| (a, a))
+                },
+            }
+        })
+        .collect();
     let mut last: Option<i32> = None;
-    let mut out = Vec::new();
-    for m in octave_factors(y.len()) {
-        let Some((avar, n_pairs)) = sums.avar(m) else {
-            break;
-        };
-        let (alpha, alpha_source) = match (noise_id(y, m), last) {
-            (Some(a), _) => (a, NoiseIdSource::Acf),
-            (None, Some(a)) => (a, NoiseIdSource::Inherited),
-            (None, None) => (0, NoiseIdSource::Assumed),
-        };
-        if alpha_source == NoiseIdSource::Acf {
-            last = Some(alpha);
-        }
-        let adev = avar.sqrt();
-        let edf = edf::edf(Estimator::Overlapping, alpha, m, n).unwrap_or(1.0);
-        let (lo, hi) = ci95(adev, edf);
-        let mdev = sums.mvar(m).map(f64::sqrt);
-        let mdev_edf = mdev.and(edf::edf(Estimator::Modified, alpha, m, n));
-        #[allow(clippy::cast_precision_loss)]
-        let tau_s = m as f64 * tau0_s;
-        out.push(Point {
-            m,
-            tau_s,
-            adev,
-            ci95_lo: lo,
-            ci95_hi: hi,
-            edf,
-            n_pairs,
-            mdev,
-            mdev_ci95: mdev.zip(mdev_edf).map(|(d, e)| ci95(d, e)),
-            mdev_edf,
-            alpha,
-            alpha_source,
-        });
+    let mut last_h: Option<i32> = None;
+    raw.into_iter()
+        .map(|r| {
+            let (alpha, alpha_source) = identified(r.ids.map(|i| i.0), &mut last);
+            let alpha_h = if settings.hadamard {
+                identified(r.ids.map(|i| i.1), &mut last_h).0
+            } else {
+                alpha
+            };
+            point(
+                &r,
+                (alpha, alpha_source, alpha_h),
+                n,
+                tau0_s,
+                settings.confidence,
+            )
+        })
+        .collect()
+}
+
+/// One factor's estimates before its noise type is settled.
+struct Raw {
+    m: usize,
+    /// The overlapping Allan variance and its terms.
+    avar: (f64, usize),
+    mdev: Option<f64>,
+    hdev: Option<f64>,
+    /// The noise types identified here (Allan, Hadamard), if there are averages enough.
+    ids: Option<(i32, i32)>,
+}
+
+/// The point of `r` with its noise types, from `n` phase points, the intervals at 95 % and
+/// at `confidence`.
+fn point(
+    r: &Raw,
+    (alpha, alpha_source, alpha_h): (i32, NoiseIdSource, i32),
+    n: usize,
+    tau0_s: f64,
+    confidence: f64,
+) -> Point {
+    let m = r.m;
+    let adev = r.avar.0.sqrt();
+    let edf = edf::edf(Estimator::Overlapping, alpha, m, n).unwrap_or(1.0);
+    let (lo, hi) = ci95(adev, edf);
+    let mdev_edf = r.mdev.and(edf::edf(Estimator::Modified, alpha, m, n));
+    let hdev_edf = r.hdev.and(edf::edf(Estimator::Hadamard, alpha_h, m, n));
+    let conf = |d: Option<f64>, e: Option<f64>| d.zip(e).map(|(d, e)| interval(d, e, confidence));
+    #[allow(clippy::cast_precision_loss)]
+    let tau_s = m as f64 * tau0_s;
+    Point {
+        m,
+        tau_s,
+        adev,
+        ci95_lo: lo,
+        ci95_hi: hi,
+        edf,
+        n_pairs: r.avar.1,
+        mdev: r.mdev,
+        mdev_ci95: r.mdev.zip(mdev_edf).map(|(d, e)| ci95(d, e)),
+        mdev_edf,
+        alpha,
+        alpha_source,
+        ci: interval(adev, edf, confidence),
+        mdev_ci: conf(r.mdev, mdev_edf),
+        hdev: r.hdev,
+        hdev_edf,
+        hdev_ci: conf(r.hdev, hdev_edf),
+        alpha_h,
     }
-    out
+}
+
+/// The noise type at a factor from its identification `id` (`None`: too few averages),
+/// else the last one identified (`last`, updated), else white acceleration assumed.
+fn identified(id: Option<i32>, last: &mut Option<i32>) -> (i32, NoiseIdSource) {
+    match (id, *last) {
+        (Some(a), _) => {
+            *last = Some(a);
+            (a, NoiseIdSource::Acf)
+        }
+        (None, Some(a)) => (a, NoiseIdSource::Inherited),
+        (None, None) => (0, NoiseIdSource::Assumed),
+    }
 }
 
 #[cfg(test)]

@@ -1,7 +1,9 @@
 //! Greenhall's equivalent degrees of freedom of the overlapping and the modified Allan
-//! variance for power-law noise (C. A. Greenhall and W. J. Riley, "Uncertainty of
-//! stability variances based on finite differences", Proc. 35th PTTI Meeting, 2003): the
-//! algorithm Stable32 and allantools offer for their confidence intervals.
+//! variance and of the overlapping Hadamard variance for power-law noise (C. A. Greenhall
+//! and W. J. Riley, "Uncertainty of stability variances based on finite differences",
+//! Proc. 35th PTTI Meeting, 2003): the algorithm Stable32 and allantools offer for their
+//! confidence intervals. The Hadamard variance is the paper's `d = 3` (the third
+//! difference of the phase), the Allan variances its `d = 2`.
 //!
 //! An estimator of the Allan variance (`d = 2`, the second difference) at factor `m` from
 //! `N` phase points (here: the gates' boundaries, the velocity at each) is the mean of `M`
@@ -41,16 +43,26 @@
 /// Most terms of the basic sum before the asymptotic forms are used (the paper's `J_max`).
 pub const J_MAX: f64 = 100.0;
 
-/// The order of the difference: the Allan variance.
-const D: usize = 2;
-
-/// Which estimator of the Allan variance.
+/// Which estimator of which variance.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Estimator {
     /// The overlapping Allan variance (stride 1, no phase averaging).
     Overlapping,
     /// The modified Allan variance (the phase averaged over `m` before differencing).
     Modified,
+    /// The overlapping Hadamard variance (the third difference, stride 1).
+    Hadamard,
+}
+
+impl Estimator {
+    /// The order `d` of the phase's difference: 2 for the Allan variances, 3 for the
+    /// Hadamard variance.
+    fn d(self) -> usize {
+        match self {
+            Self::Overlapping | Self::Modified => 2,
+            Self::Hadamard => 3,
+        }
+    }
 }
 
 /// `s_w(t)` for the noise of `S_y ∝ f^α` (Greenhall and Riley's eq. (7)), `α` from −4 to 2.
@@ -77,21 +89,29 @@ fn sx(t: f64, f: f64, alpha: i32) -> f64 {
     f * f * (2.0 * sw(t, alpha) - sw(t - 1.0 / f, alpha) - sw(t + 1.0 / f, alpha))
 }
 
+/// The weights `(−1)^k·C(2d, d + k)`, `k = −d..=d`, of the `2d`-th central difference.
+fn weights(d: usize) -> &'static [f64] {
+    match d {
+        2 => &[1.0, -4.0, 6.0, -4.0, 1.0],
+        _ => &[-1.0, 6.0, -15.0, 20.0, -15.0, 6.0, -1.0],
+    }
+}
+
 /// `s_z(t)`: the `2d`-th central difference of `s_x` at unit steps,
 /// `Σ_{k=−d}^{d} (−1)^k·C(2d, d + k)·s_x(t + k)`.
-fn sz(t: f64, f: f64, alpha: i32) -> f64 {
-    // C(4, 2 + k) for k = −2..=2, signs alternating from k = 0.
-    const W: [f64; 2 * D + 1] = [1.0, -4.0, 6.0, -4.0, 1.0];
-    W.iter()
-        .zip(-2i32..)
+fn sz(t: f64, f: f64, alpha: i32, d: usize) -> f64 {
+    let first = -i32::try_from(d).unwrap_or(3);
+    weights(d)
+        .iter()
+        .zip(first..)
         .map(|(w, k)| w * sx(t + f64::from(k), f, alpha))
         .sum()
 }
 
 /// The paper's basic sum: `s_z(0)² + (1 − J/M)·s_z(J/S)² + 2·Σ_{j=1}^{J−1} (1 − j/M)·s_z(j/S)²`.
-fn basic_sum(j_terms: f64, m_terms: f64, s: f64, f: f64, alpha: i32) -> f64 {
-    let z0 = sz(0.0, f, alpha);
-    let zj = sz(j_terms / s, f, alpha);
+fn basic_sum(j_terms: f64, m_terms: f64, s: f64, f: f64, alpha: i32, d: usize) -> f64 {
+    let z0 = sz(0.0, f, alpha, d);
+    let zj = sz(j_terms / s, f, alpha, d);
     let mut sum = z0 * z0 + (1.0 - j_terms / m_terms) * zj * zj;
     // White phase with F = S: s_x is zero beyond one sample, so only the lags that are
     // whole multiples of S can give a term (up to 2d of them, where J may be 10⁵).
@@ -102,7 +122,7 @@ fn basic_sum(j_terms: f64, m_terms: f64, s: f64, f: f64, alpha: i32) -> f64 {
     };
     let mut j = step;
     while j < j_terms {
-        let z = sz(j / s, f, alpha);
+        let z = sz(j / s, f, alpha, d);
         sum += 2.0 * (1.0 - j / m_terms) * z * z;
         j += step;
     }
@@ -120,35 +140,49 @@ fn table1(alpha: i32) -> (f64, f64) {
     }
 }
 
-/// Table 2 of the paper (unmodified variances, `d = 2`): `(a₀, a₁)` by `α`.
-fn table2(alpha: i32) -> (f64, f64) {
-    match alpha {
-        2 => (35.0 / 18.0, 1.0),
-        1 => (790.0, 410.0),
-        0 => (2.0 / 3.0, 1.0 / 3.0),
-        -1 => (0.852, 0.375),
-        _ => (1.079, 0.368),
+/// Table 2 of the paper (unmodified variances): `(a₀, a₁)` by `α`, for `d` 2 or 3.
+fn table2(alpha: i32, d: usize) -> (f64, f64) {
+    match (d, alpha) {
+        (2, 2) => (35.0 / 18.0, 1.0),
+        (2, 1) => (790.0, 410.0),
+        (2, 0) => (2.0 / 3.0, 1.0 / 3.0),
+        (2, -1) => (0.852, 0.375),
+        (2, _) => (1.079, 0.368),
+        (_, 2) => (231.0 / 100.0, 1.5),
+        (_, 1) => (9950.0, 6520.0),
+        (_, 0) => (7.0 / 9.0, 0.5),
+        (_, -1) => (0.997, 0.617),
+        (_, -2) => (1.033, 0.607),
+        (_, -3) => (1.053, 0.553),
+        _ => (1.302, 0.535),
     }
 }
 
-/// Table 3 of the paper (unmodified, `α = 1`, `d = 2`): `(b₀, b₁)`.
-const TABLE3: (f64, f64) = (15.23, 12.0);
+/// Table 3 of the paper (unmodified, `α = 1`): `(b₀, b₁)` for `d` 2 or 3.
+fn table3(d: usize) -> (f64, f64) {
+    if d == 2 { (15.23, 12.0) } else { (47.8, 40.0) }
+}
 
-/// Greenhall's equivalent degrees of freedom of the Allan variance estimated by
-/// `estimator` at factor `m` from `n` phase points (gates + 1), for the noise type `alpha`
-/// (`S_y ∝ f^α`, −2 to 2; clamped there). `None` where the estimator has no term
-/// (`n` too short for `m`).
+/// Greenhall's equivalent degrees of freedom of the variance estimated by `estimator` at
+/// factor `m` from `n` phase points (gates + 1), for the noise type `alpha` (`S_y ∝ f^α`,
+/// −2 to 2 for the Allan variances, −4 to 2 for the Hadamard one; clamped there). `None`
+/// where the estimator has no term (`n` too short for `m`).
 #[must_use]
 #[allow(
     clippy::cast_precision_loss,
     reason = "gate counts and factors far below 2^52"
 )]
 pub fn edf(estimator: Estimator, alpha: i32, m: usize, n: usize) -> Option<f64> {
-    let alpha = alpha.clamp(-2, 2);
-    let (mf, nf, d) = (m as f64, n as f64, D as f64);
+    let dn = estimator.d();
+    let alpha = if dn == 3 {
+        alpha.clamp(-4, 2)
+    } else {
+        alpha.clamp(-2, 2)
+    };
+    let (mf, nf, d) = (m as f64, n as f64, dn as f64);
     let (f, s) = match estimator {
         Estimator::Modified => (1.0, mf),
-        Estimator::Overlapping => (mf, mf),
+        Estimator::Overlapping | Estimator::Hadamard => (mf, mf),
     };
     let l = mf / f + mf * d;
     if m == 0 || nf < l {
@@ -163,46 +197,45 @@ pub fn edf(estimator: Estimator, alpha: i32, m: usize, n: usize) -> Option<f64> 
         (Estimator::Modified, _) if m == 1 => return edf(Estimator::Overlapping, alpha, m, n),
         (Estimator::Modified, _) => {
             if j <= J_MAX {
-                basic_sum(j, big_m, s, 1.0, alpha) / (sq(sz(0.0, 1.0, alpha)) * big_m)
+                basic_sum(j, big_m, s, 1.0, alpha, dn) / (sq(sz(0.0, 1.0, alpha, dn)) * big_m)
             } else if r > d + 1.0 {
                 let (a0, a1) = table1(alpha);
                 (a0 - a1 / r) / r
             } else {
                 let m1 = J_MAX / r;
-                basic_sum(J_MAX, J_MAX, m1, 1.0, alpha) / (sq(sz(0.0, 1.0, alpha)) * J_MAX)
+                basic_sum(J_MAX, J_MAX, m1, 1.0, alpha, dn) / (sq(sz(0.0, 1.0, alpha, dn)) * J_MAX)
             }
         }
-        (Estimator::Overlapping, a) if a <= 0 => {
+        (_, a) if a <= 0 => {
+            let inf = f64::INFINITY;
             if j <= J_MAX {
-                let f = f64::INFINITY;
-                basic_sum(j, big_m, s, f, a) / (sq(sz(0.0, f, a)) * big_m)
+                basic_sum(j, big_m, s, inf, a, dn) / (sq(sz(0.0, inf, a, dn)) * big_m)
             } else if r > d + 1.0 {
-                let (a0, a1) = table2(a);
+                let (a0, a1) = table2(a, dn);
                 (a0 - a1 / r) / r
             } else {
                 let m1 = J_MAX / r;
-                basic_sum(J_MAX, J_MAX, m1, f64::INFINITY, a)
-                    / (sq(sz(0.0, f64::INFINITY, a)) * J_MAX)
+                basic_sum(J_MAX, J_MAX, m1, inf, a, dn) / (sq(sz(0.0, inf, a, dn)) * J_MAX)
             }
         }
-        (Estimator::Overlapping, 1) => {
-            let (b0, b1) = TABLE3;
+        (_, 1) => {
+            let (b0, b1) = table3(dn);
             if j <= J_MAX {
-                basic_sum(j, big_m, s, mf, 1) / (sq(sz(0.0, mf, 1)) * big_m)
+                basic_sum(j, big_m, s, mf, 1, dn) / (sq(sz(0.0, mf, 1, dn)) * big_m)
             } else if r > d + 1.0 {
-                let (a0, a1) = table2(1);
+                let (a0, a1) = table2(1, dn);
                 (a0 - a1 / r) / (sq(b0 + b1 * mf.ln()) * r)
             } else {
                 let m1 = J_MAX / r;
-                basic_sum(J_MAX, J_MAX, m1, m1, 1) / (sq(b0 + b1 * mf.ln()) * J_MAX)
+                basic_sum(J_MAX, J_MAX, m1, m1, 1, dn) / (sq(b0 + b1 * mf.ln()) * J_MAX)
             }
         }
-        (Estimator::Overlapping, _) => {
+        _ => {
             if r.ceil() > d {
-                let (a0, a1) = table2(2);
+                let (a0, a1) = table2(2, dn);
                 (a0 - a1 / r) / big_m
             } else {
-                basic_sum(j, big_m, s, mf, 2) / (sq(sz(0.0, mf, 2)) * big_m)
+                basic_sum(j, big_m, s, mf, 2, dn) / (sq(sz(0.0, mf, 2, dn)) * big_m)
             }
         }
     };
@@ -284,8 +317,8 @@ mod tests {
             let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(
                 0x00ED_F000 + u64::from(alpha.unsigned_abs()) + u64::from(alpha < 0) * 16,
             );
-            // Per m: the overlapping and the modified estimates.
-            let mut est = vec![(Vec::new(), Vec::new()); factors.len()];
+            // Per m: the overlapping, the modified and the Hadamard estimates.
+            let mut est = vec![(Vec::new(), Vec::new(), Vec::new()); factors.len()];
             for _ in 0..draws {
                 let y = draw(alpha, gates, &mut rng);
                 let sums = Sums::new(&y);
@@ -293,6 +326,9 @@ mod tests {
                     est[k].0.push(sums.avar(m).unwrap().0);
                     if let Some(v) = sums.mvar(m) {
                         est[k].1.push(v);
+                    }
+                    if let Some(v) = sums.hvar(m) {
+                        est[k].2.push(v);
                     }
                 }
             }
@@ -306,6 +342,7 @@ mod tests {
                 for (estimator, v) in [
                     (Estimator::Overlapping, &est[k].0),
                     (Estimator::Modified, &est[k].1),
+                    (Estimator::Hadamard, &est[k].2),
                 ] {
                     if v.is_empty() {
                         continue;
@@ -315,9 +352,7 @@ mod tests {
                     // Flicker velocity's overlapping ν depends on the bandwidth the phase is
                     // taken in (the paper's average over a gate against Kasdin's discrete
                     // filter: 9–18 % apart here), and flicker at m = 1 likewise (12 %).
-                    if (alpha == 1 && estimator == Estimator::Overlapping)
-                        || (alpha == -1 && m == 1)
-                    {
+                    if (alpha == 1 && estimator != Estimator::Modified) || (alpha == -1 && m == 1) {
                         continue;
                     }
                     assert!(
@@ -331,26 +366,34 @@ mod tests {
 
     /// The tables' asymptotic forms against the basic sum they stand for, summed in full,
     /// where the algorithm uses them (`J > J_MAX`, `r > d + 1`): 10 001 phase points at m = 64
-    /// and 128, every noise type, both estimators: within 3 % (the paper's fits). A wrong
-    /// digit in a table is more.
+    /// and 128, every noise type, the three estimators (the Hadamard variance's `d = 3`
+    /// column, α down to −4): within 3 % (the paper's fits). A wrong digit in a table is more.
     #[test]
     fn the_tables_stand_for_the_basic_sum() {
         let n = 10_001usize;
         for m in [64usize, 128] {
             let mf = m as f64;
-            for alpha in -2..=2 {
-                for estimator in [Estimator::Overlapping, Estimator::Modified] {
+            for estimator in [
+                Estimator::Overlapping,
+                Estimator::Modified,
+                Estimator::Hadamard,
+            ] {
+                let d = estimator.d();
+                let df = d as f64;
+                let lowest = if d == 3 { -4 } else { -2 };
+                for alpha in lowest..=2 {
                     let (f, l) = match estimator {
                         Estimator::Modified => (1.0, 3.0 * mf),
                         // The unmodified variance's filter at m itself: the paper's F = ∞
                         // limit is what its tables (α ≤ 0) are the asymptotics of.
-                        Estimator::Overlapping if alpha <= 0 => (f64::INFINITY, 1.0 + 2.0 * mf),
-                        Estimator::Overlapping => (mf, 1.0 + 2.0 * mf),
+                        _ if alpha <= 0 => (f64::INFINITY, 1.0 + df * mf),
+                        _ => (mf, 1.0 + df * mf),
                     };
                     let big_m = 1.0 + (n as f64 - l).floor();
-                    let j = big_m.min(3.0 * mf);
-                    assert!(j > J_MAX && big_m / mf > 3.0);
-                    let want = sq(sz(0.0, f, alpha)) * big_m / basic_sum(j, big_m, mf, f, alpha);
+                    let j = big_m.min((df + 1.0) * mf);
+                    assert!(j > J_MAX && big_m / mf > df + 1.0);
+                    let want =
+                        sq(sz(0.0, f, alpha, d)) * big_m / basic_sum(j, big_m, mf, f, alpha, d);
                     let got = edf(estimator, alpha, m, n).unwrap();
                     assert!(
                         (got / want - 1.0).abs() < 0.03,
@@ -426,7 +469,7 @@ mod tests {
             let big_m = 1.0 + (n as f64 - 1.0 - 2.0 * mf).floor();
             let nu = edf(Estimator::Overlapping, 0, m, n).unwrap();
             let paper =
-                sq(sz(0.0, mf, 0)) * big_m / basic_sum(big_m.min(3.0 * mf), big_m, mf, mf, 0);
+                sq(sz(0.0, mf, 0, 2)) * big_m / basic_sum(big_m.min(3.0 * mf), big_m, mf, mf, 0, 2);
             let row = (lo, sigma, hi);
             if m >= 64 {
                 assert!(near(nu, row), "overlapping, m {m}: ν {nu:.1}");

@@ -939,7 +939,7 @@ pub fn identify(
         input_cm_s2,
         gate_ticks: record.gates[0].ticks,
         gates: record.gates.len() as u64,
-        counting_sd_cm_s2: measured.pulse_cm_s
+        counting_sd_cm_s2: measured.pulse_cm_s.unwrap_or(0.0)
             / (record.gates.len() as f64 * record.tau0_s * 6f64.sqrt()),
         tau0_s: record.tau0_s,
         measured: pts,

@@ -23,6 +23,7 @@
 pub mod allan;
 pub mod edf;
 pub mod identify;
+pub mod readings;
 pub mod terms;
 
 use std::fmt::Write as _;
@@ -153,16 +154,20 @@ pub fn check_record(
 /// Everything `ptsa noise` reports about a record.
 #[derive(Clone, Debug)]
 pub struct Analysis {
-    /// Gates analysed.
+    /// Gates (a counter record) or samples (a record of readings) analysed.
     pub gates: usize,
-    /// The gate, s.
+    /// The gate, or the sample interval, s.
     pub tau0_s: f64,
     /// Mean indicated acceleration, cm/s².
     pub mean_cm_s2: f64,
-    /// The nominal SF the counts were read with, cm/s².
-    pub sf_cm_s2: f64,
-    /// One data pulse as a velocity step, `2·SF/f_clock`, cm/s.
-    pub pulse_cm_s: f64,
+    /// For a counter record: the nominal SF the counts were read with, cm/s².
+    pub sf_cm_s2: Option<f64>,
+    /// For a counter record: one data pulse as a velocity step, `2·SF/f_clock`, cm/s.
+    pub pulse_cm_s: Option<f64>,
+    /// For a record of readings: the unit they were given in (`LSB`, `mA`, `cm/s²`, …).
+    pub reading_unit: Option<&'static str>,
+    /// The averaging times, the second confidence level and the Hadamard deviation asked for.
+    pub settings: allan::Settings,
     /// Lag-1 autocorrelation of the gates' indicated accelerations (−0.5 for pure count
     /// quantization: adjacent gates share the charge stored at their common boundary).
     pub lag1: f64,
@@ -177,29 +182,69 @@ pub struct Analysis {
 }
 
 /// The statement of the confidence intervals, for the JSON and the docs.
-pub const EDF_METHOD: &str = "chi-squared intervals with Greenhall's EDF algorithm (Greenhall & Riley 2003, as Stable32 and allantools compute it) for the overlapping and the modified ADEV, the noise type at each tau by the lag-1 autocorrelation (Riley & Greenhall 2004)";
+pub const EDF_METHOD: &str = "chi-squared intervals with Greenhall's EDF algorithm (Greenhall & Riley 2003, as Stable32 and allantools compute it) for the overlapping and the modified ADEV and the overlapping HDEV, the noise type at each tau by the lag-1 autocorrelation (Riley & Greenhall 2004)";
+
+/// How the noise type at each τ is identified, for the JSON and the text.
+pub const NOISE_ID_METHOD: &str = "the lag-1 autocorrelation of the m-averaged series, differenced until delta < 0.25 (Riley & Greenhall 2004, Stable32's method with 30 or more averages); with fewer, the type of the longest shorter tau";
 
 impl Analysis {
     /// Analyse `record` with the nominal SF `sf_cm_s2` and clock `clock_hz`.
     #[must_use]
     pub fn of(record: &Record, sf_cm_s2: f64, clock_hz: f64) -> Self {
+        Self::of_with(record, sf_cm_s2, clock_hz, &allan::Settings::default())
+    }
+
+    /// [`Analysis::of`] at the averaging times and second confidence of `settings`.
+    #[must_use]
+    pub fn of_with(
+        record: &Record,
+        sf_cm_s2: f64,
+        clock_hz: f64,
+        settings: &allan::Settings,
+    ) -> Self {
         let y: Vec<f64> = record
             .gates
             .iter()
             .map(|g| g.indicated_cm_s2(sf_cm_s2))
             .collect();
-        Self::of_series(&y, record.tau0_s, sf_cm_s2, clock_hz)
+        let mut a = Self::series(&y, record.tau0_s, settings, &terms::TERMS);
+        a.sf_cm_s2 = Some(sf_cm_s2);
+        a.pulse_cm_s = Some(2.0 * sf_cm_s2 / clock_hz);
+        a
     }
 
     /// Analyse the gates' indicated accelerations `y` (cm/s²), gates of `tau0_s`.
     #[must_use]
     pub fn of_series(y: &[f64], tau0_s: f64, sf_cm_s2: f64, clock_hz: f64) -> Self {
-        let points = allan::analyse(y, tau0_s);
-        let (terms, fit_chi2, fit_dof) = terms::fit(
+        let mut a = Self::series(y, tau0_s, &allan::Settings::default(), &terms::TERMS);
+        a.sf_cm_s2 = Some(sf_cm_s2);
+        a.pulse_cm_s = Some(2.0 * sf_cm_s2 / clock_hz);
+        a
+    }
+
+    /// Analyse a record of readings at the averaging times of `settings`, with the
+    /// Hadamard deviation, and IEEE Std 952's terms with the rate ramp among them.
+    #[must_use]
+    pub fn of_readings(r: &readings::Readings, settings: &allan::Settings) -> Self {
+        let settings = allan::Settings {
+            hadamard: true,
+            ..settings.clone()
+        };
+        let mut a = Self::series(&r.y, r.tau0_s, &settings, &terms::WITH_RATE_RAMP);
+        a.reading_unit = Some(r.unit.name());
+        a
+    }
+
+    /// The analysis of the series `y` (cm/s²) of interval `tau0_s`: the points of
+    /// `settings`, the `terms` fitted to them.
+    fn series(y: &[f64], tau0_s: f64, settings: &allan::Settings, terms: &[Term]) -> Self {
+        let points = allan::analyse_with(y, tau0_s, settings);
+        let (terms, fit_chi2, fit_dof) = terms::fit_terms(
             &points
                 .iter()
                 .map(|p| (p.tau_s, p.adev * p.adev, p.edf))
                 .collect::<Vec<_>>(),
+            terms,
         );
         #[allow(clippy::cast_precision_loss)]
         let mean_cm_s2 = y.iter().sum::<f64>() / y.len().max(1) as f64;
@@ -212,8 +257,10 @@ impl Analysis {
             gates: y.len(),
             tau0_s,
             mean_cm_s2,
-            sf_cm_s2,
-            pulse_cm_s: 2.0 * sf_cm_s2 / clock_hz,
+            sf_cm_s2: None,
+            pulse_cm_s: None,
+            reading_unit: None,
+            settings: settings.clone(),
             lag1: if den > 0.0 { num / den } else { 0.0 },
             points,
             terms,
@@ -256,6 +303,15 @@ impl Analysis {
                     "alpha": p.alpha,
                     "alpha_source": p.alpha_source.name(),
                     "slope_to_next": self.slope(k),
+                    "ci_lo": p.ci.0,
+                    "ci_hi": p.ci.1,
+                    "mdev_ci_lo": p.mdev_ci.map(|c| c.0),
+                    "mdev_ci_hi": p.mdev_ci.map(|c| c.1),
+                    "hdev_cm_s2": p.hdev,
+                    "hdev_ci_lo": p.hdev_ci.map(|c| c.0),
+                    "hdev_ci_hi": p.hdev_ci.map(|c| c.1),
+                    "hdev_edf": p.hdev_edf,
+                    "hdev_alpha": p.hdev.map(|_| p.alpha_h),
                 })
             })
             .collect();
@@ -291,8 +347,12 @@ impl Analysis {
             "mean_cm_s2": self.mean_cm_s2,
             "sf_cm_s2": self.sf_cm_s2,
             "pulse_cm_s": self.pulse_cm_s,
+            "reading_unit": self.reading_unit,
+            "confidence": self.settings.confidence,
+            "taus": taus_name(&self.settings.taus),
             "lag1_autocorrelation": self.lag1,
             "edf_method": EDF_METHOD,
+            "noise_id_method": NOISE_ID_METHOD,
             "points": points,
             "terms": serde_json::Value::Object(terms),
             "terms_fit_chi2": self.fit_chi2,
@@ -305,72 +365,125 @@ impl Analysis {
     #[must_use]
     pub fn text(&self, record: &str) -> String {
         let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "noise: {record}: {} gates of {} s ({} s), mean {} cm/s^2; one pulse = {} cm/s; lag-1 autocorrelation of the gates {:.3}",
-            self.gates,
-            sig(self.tau0_s, 8),
-            sig(self.tau0_s * self.gates as f64, 8),
-            sig(self.mean_cm_s2, 8),
-            sig(self.pulse_cm_s, 4),
-            self.lag1
-        );
-        let _ = writeln!(
-            s,
-            "{:>12} {:>9} {:>12} {:>12} {:>12} {:>9} {:>6} {:>12} {:>12} {:>12} {:>7}",
-            "tau_s",
-            "m",
-            "adev cm/s^2",
-            "ci95_lo",
-            "ci95_hi",
-            "edf",
-            "alpha",
-            "mdev cm/s^2",
-            "mdev lo",
-            "mdev hi",
-            "slope"
-        );
-        for (k, p) in self.points.iter().enumerate() {
+        let span = sig(self.tau0_s * self.gates as f64, 8);
+        if let Some(pulse) = self.pulse_cm_s {
             let _ = writeln!(
                 s,
-                "{:>12} {:>9} {:>12.5e} {:>12.5e} {:>12.5e} {:>9.1} {:>5}{} {:>12} {:>12} {:>12} {:>7}",
+                "noise: {record}: {} gates of {} s ({span} s), mean {} cm/s^2; one pulse = {} cm/s; lag-1 autocorrelation of the gates {:.3}",
+                self.gates,
+                sig(self.tau0_s, 8),
+                sig(self.mean_cm_s2, 8),
+                sig(pulse, 4),
+                self.lag1
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                "noise: {record}: {} samples every {} s ({span} s), read in {}, mean {} cm/s^2; lag-1 autocorrelation of the samples {:.3}",
+                self.gates,
+                sig(self.tau0_s, 8),
+                self.reading_unit.unwrap_or("cm/s²"),
+                sig(self.mean_cm_s2, 8),
+                self.lag1
+            );
+        }
+        s.push_str(&self.table_text());
+        let level = sig(self.settings.confidence * 100.0, 4);
+        let _ = writeln!(
+            s,
+            "alpha: the noise type (2 white velocity/quantization, 0 white acceleration, -1 flicker, -2 random walk; to -4 for the Hadamard deviation's EDF) by {NOISE_ID_METHOD}; * inherited from a shorter tau, ? assumed. Intervals at 95 %{}: {EDF_METHOD}.",
+            if (self.settings.confidence - 0.95).abs() < 1e-12 {
+                String::new()
+            } else {
+                format!(" and {level} % (lo and hi, and the mdev and hdev intervals, at {level} %)")
+            }
+        );
+        self.terms_text(&mut s);
+        s
+    }
+
+    /// The table of points: τ, m, ADEV with its intervals, EDF, α, MDEV with its interval,
+    /// HDEV with its interval where computed, the slope to the next τ.
+    fn table_text(&self) -> String {
+        let other = (self.settings.confidence - 0.95).abs() >= 1e-12;
+        let hadamard = self.points.iter().any(|p| p.hdev.is_some());
+        let e = |v: Option<f64>| v.map_or_else(|| "-".to_string(), |v| format!("{v:.5e}"));
+        let mut head = vec!["tau_s", "m", "adev cm/s^2", "ci95_lo", "ci95_hi"];
+        if other {
+            head.extend(["lo", "hi"]);
+        }
+        head.extend(["edf", "alpha", "mdev cm/s^2", "mdev lo", "mdev hi"]);
+        if hadamard {
+            head.extend(["hdev cm/s^2", "hdev lo", "hdev hi"]);
+        }
+        head.push("slope");
+        let mut rows = vec![head.iter().map(|h| (*h).to_string()).collect::<Vec<_>>()];
+        for (k, p) in self.points.iter().enumerate() {
+            let mut r = vec![
                 sig(p.tau_s, 6),
-                p.m,
-                p.adev,
-                p.ci95_lo,
-                p.ci95_hi,
-                p.edf,
+                p.m.to_string(),
+                e(Some(p.adev)),
+                e(Some(p.ci95_lo)),
+                e(Some(p.ci95_hi)),
+            ];
+            let (lo, hi) = if other {
+                p.mdev_ci.unzip()
+            } else {
+                p.mdev_ci95.unzip()
+            };
+            if other {
+                r.extend([e(Some(p.ci.0)), e(Some(p.ci.1))]);
+            }
+            r.push(format!("{:.1}", p.edf));
+            r.push(format!(
+                "{}{}",
                 p.alpha,
                 match p.alpha_source {
                     allan::NoiseIdSource::Acf => " ",
                     allan::NoiseIdSource::Inherited => "*",
                     allan::NoiseIdSource::Assumed => "?",
-                },
-                p.mdev.map_or_else(|| "-".into(), |v| format!("{v:.5e}")),
-                p.mdev_ci95
-                    .map_or_else(|| "-".into(), |v| format!("{:.5e}", v.0)),
-                p.mdev_ci95
-                    .map_or_else(|| "-".into(), |v| format!("{:.5e}", v.1)),
+                }
+            ));
+            r.extend([e(p.mdev), e(lo), e(hi)]);
+            if hadamard {
+                let (lo, hi) = p.hdev_ci.unzip();
+                r.extend([e(p.hdev), e(lo), e(hi)]);
+            }
+            r.push(
                 self.slope(k)
-                    .map_or_else(|| "-".into(), |v| format!("{v:.2}"))
+                    .map_or_else(|| "-".into(), |v| format!("{v:.2}")),
             );
+            rows.push(r);
         }
+        let widths: Vec<usize> = (0..rows[0].len())
+            .map(|c| rows.iter().map(|r| r[c].chars().count()).max().unwrap_or(0))
+            .collect();
+        let mut s = String::new();
+        for r in rows {
+            let cells: Vec<String> = r
+                .iter()
+                .zip(&widths)
+                .map(|(c, w)| format!("{c:>w$}"))
+                .collect();
+            let _ = writeln!(s, "{}", cells.join(" "));
+        }
+        s
+    }
+
+    /// The fitted terms, one line each.
+    fn terms_text(&self, s: &mut String) {
+        let formula = if self.terms.iter().any(|f| f.term == Term::RateRamp) {
+            "AVAR = 3Q^2/tau^2 + N^2/tau + 0.4413 B^2 + K^2 tau/3 + R^2 tau^2/2"
+        } else {
+            "AVAR = 3Q^2/tau^2 + N^2/tau + 0.4413 B^2 + K^2 tau/3"
+        };
         let _ = writeln!(
             s,
-            "alpha: the noise type (2 white velocity/quantization, 0 white acceleration, -1 flicker, -2 random walk) by the lag-1 autocorrelation; * inherited from a shorter tau, ? assumed. 95 % intervals: {EDF_METHOD}."
-        );
-        let _ = writeln!(
-            s,
-            "terms (AVAR = 3Q^2/tau^2 + N^2/tau + 0.4413 B^2 + K^2 tau/3, weighted fit; chi2 {:.1} on {} dof; 1-sigma):",
+            "terms ({formula}, weighted fit; chi2 {:.1} on {} dof; 1-sigma):",
             self.fit_chi2, self.fit_dof
         );
         for f in &self.terms {
-            let name = match f.term {
-                Term::Quantization => "quantization",
-                Term::VelocityRandomWalk => "velocity random walk",
-                Term::BiasInstability => "bias instability",
-                Term::AccelerationRandomWalk => "acceleration random walk",
-            };
+            let name = f.term.key().replace('_', " ");
             match f.value {
                 None => {
                     let _ = writeln!(
@@ -397,7 +510,6 @@ impl Analysis {
                 }
             }
         }
-        s
     }
 
     /// The log–log plot as SVG text: ADEV with its 95 % bars, MDEV, each fitted term's line
@@ -414,6 +526,30 @@ impl Analysis {
         )?;
         Ok(s)
     }
+
+    /// The same plot as a PNG file at `path` (960 × 640), written whole or not at all.
+    ///
+    /// # Errors
+    /// Drawing or writing fails.
+    pub fn write_png(&self, path: &Path, title: &str) -> Result<()> {
+        let tmp = crate::output::fs::temp_beside(path)?;
+        draw(
+            &BitMapBackend::new(tmp.path(), (960, 640)).into_drawing_area(),
+            self,
+            title,
+        )?;
+        crate::output::fs::persist(tmp, path)
+    }
+}
+
+/// The averaging times' name in the JSON: `octave`, `decade`, `all` or `listed`.
+fn taus_name(t: &allan::Taus) -> &'static str {
+    match t {
+        allan::Taus::Octave => "octave",
+        allan::Taus::Decade => "decade",
+        allan::Taus::All => "all",
+        allan::Taus::Factors(_) => "listed",
+    }
 }
 
 fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
@@ -421,11 +557,12 @@ fn err<E: std::fmt::Debug>(e: E) -> anyhow::Error {
 }
 
 /// Colours of the terms' lines, in [`terms::TERMS`]' order.
-const TERM_COLORS: [RGBColor; 4] = [
+const TERM_COLORS: [RGBColor; 5] = [
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
     RGBColor(255, 127, 14),
     RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
 ];
 
 #[allow(

@@ -2,7 +2,7 @@
 //! weighted least-squares fit, each in cgs and in IEEE/navigation units.
 //!
 //! ```text
-//! AVAR(τ) = 3·Q²/τ²  +  N²/τ  +  (2·ln 2/π)·B²  +  K²·τ/3
+//! AVAR(τ) = 3·Q²/τ²  +  N²/τ  +  (2·ln 2/π)·B²  +  K²·τ/3  (+  R²·τ²/2)
 //! ```
 //!
 //! * `Q`, quantization (ADEV slope −1): white noise on the velocity (for a pulse-rebalance
@@ -12,7 +12,9 @@
 //!   square root of the two-sided density, as IEEE Std 952 annex C writes it; the
 //!   one-sided density is `√2·N`);
 //! * `B`, bias instability (slope 0 at the flat bottom; `0.664·B` there), cm/s²;
-//! * `K`, acceleration random walk (slope +1/2), cm/s²·√Hz (cm/s^2.5).
+//! * `K`, acceleration random walk (slope +1/2), cm/s²·√Hz (cm/s^2.5);
+//! * `R`, rate ramp (slope +1): a steady drift of the acceleration, cm/s³. A counter
+//!   record's analysis fits the first four; a record of readings all five.
 //!
 //! The fit: the four squared coefficients are the unknowns of a linear least squares on the
 //! octave points' Allan variances, each weighted by its variance `2·AVAR²/ν` (ν its
@@ -40,14 +42,25 @@ pub enum Term {
     BiasInstability,
     /// `K`, slope +1/2.
     AccelerationRandomWalk,
+    /// `R`, slope +1.
+    RateRamp,
 }
 
-/// The terms in the order of the fit's columns.
+/// The terms a counter record's analysis fits, in the order of the fit's columns.
 pub const TERMS: [Term; 4] = [
     Term::Quantization,
     Term::VelocityRandomWalk,
     Term::BiasInstability,
     Term::AccelerationRandomWalk,
+];
+
+/// The terms a record of readings' analysis fits: [`TERMS`] and the rate ramp.
+pub const WITH_RATE_RAMP: [Term; 5] = [
+    Term::Quantization,
+    Term::VelocityRandomWalk,
+    Term::BiasInstability,
+    Term::AccelerationRandomWalk,
+    Term::RateRamp,
 ];
 
 impl Term {
@@ -59,6 +72,7 @@ impl Term {
             Self::VelocityRandomWalk => "velocity_random_walk",
             Self::BiasInstability => "bias_instability",
             Self::AccelerationRandomWalk => "acceleration_random_walk",
+            Self::RateRamp => "rate_ramp",
         }
     }
 
@@ -70,6 +84,7 @@ impl Term {
             Self::VelocityRandomWalk => "N",
             Self::BiasInstability => "B",
             Self::AccelerationRandomWalk => "K",
+            Self::RateRamp => "R",
         }
     }
 
@@ -81,6 +96,7 @@ impl Term {
             Self::VelocityRandomWalk => -0.5,
             Self::BiasInstability => 0.0,
             Self::AccelerationRandomWalk => 0.5,
+            Self::RateRamp => 1.0,
         }
     }
 
@@ -92,6 +108,7 @@ impl Term {
             Self::VelocityRandomWalk => 1.0 / tau_s,
             Self::BiasInstability => 2.0 * std::f64::consts::LN_2 / std::f64::consts::PI,
             Self::AccelerationRandomWalk => tau_s / 3.0,
+            Self::RateRamp => tau_s * tau_s / 2.0,
         }
     }
 
@@ -116,6 +133,12 @@ impl Term {
                 ("ug/rts", ug),
                 ("(m/s)/h^1.5", 0.01 * 3600f64.powf(1.5)),
             ],
+            // cm/s³; µg/s; (m/s)/h²: 0.01 m/s per s² × 3600² s² per h².
+            Self::RateRamp => vec![
+                ("cm/s^3", 1.0),
+                ("ug/s", ug),
+                ("(m/s)/h^2", 0.01 * 3600.0 * 3600.0),
+            ],
         }
     }
 }
@@ -129,12 +152,18 @@ pub struct Fitted {
     pub value: Option<(f64, f64)>,
 }
 
-/// The terms fitted to points `(τ s, AVAR, edf)`; also the fit's `χ²` and degrees of
-/// freedom. Every term is unresolved with fewer than two points.
+/// The terms of [`TERMS`] fitted to points `(τ s, AVAR, edf)`; also the fit's `χ²` and
+/// degrees of freedom. Every term is unresolved with fewer than two points.
 #[must_use]
 pub fn fit(points: &[(f64, f64, f64)]) -> (Vec<Fitted>, f64, usize) {
+    fit_terms(points, &TERMS)
+}
+
+/// [`fit`] over the terms `terms` (every subset of them tried).
+#[must_use]
+pub fn fit_terms(points: &[(f64, f64, f64)], terms: &[Term]) -> (Vec<Fitted>, f64, usize) {
     let none = || {
-        TERMS
+        terms
             .iter()
             .map(|&term| Fitted { term, value: None })
             .collect::<Vec<_>>()
@@ -150,7 +179,7 @@ pub fn fit(points: &[(f64, f64, f64)]) -> (Vec<Fitted>, f64, usize) {
     // z = AVAR/σ(AVAR), σ(AVAR) = AVAR·√(2/ν).
     let sig: Vec<f64> = pts.iter().map(|p| p.1 * (2.0 / p.2).sqrt()).collect();
     let z: Vec<f64> = pts.iter().zip(&sig).map(|(p, s)| p.1 / s).collect();
-    let cols: Vec<Vec<f64>> = TERMS
+    let cols: Vec<Vec<f64>> = terms
         .iter()
         .map(|t| {
             pts.iter()
@@ -160,8 +189,8 @@ pub fn fit(points: &[(f64, f64, f64)]) -> (Vec<Fitted>, f64, usize) {
         })
         .collect();
     let mut best: Option<(f64, u32, stats::LsqFit)> = None;
-    for mask in 1u32..16 {
-        let chosen: Vec<&[f64]> = (0..4)
+    for mask in 1u32..(1 << terms.len()) {
+        let chosen: Vec<&[f64]> = (0..terms.len())
             .filter(|k| mask >> k & 1 == 1)
             .map(|k| cols[k].as_slice())
             .collect();

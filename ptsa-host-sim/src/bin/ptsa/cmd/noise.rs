@@ -1,6 +1,8 @@
-//! `ptsa noise`: the overlapping and modified Allan deviations of a static counter record
-//! (`--counts`) or of the simulated loop at rest (`--simulate`), with their 95 % intervals,
-//! the noise terms read from them, a table or JSON, and a log–log plot (`ptsa_host_sim::noise`).
+//! `ptsa noise`: the overlapping and modified Allan deviations and the overlapping Hadamard
+//! deviation of a static counter record (`--counts`), of a record of any instrument's
+//! readings (`--readings`) or of the simulated loop at rest (`--simulate`), with their
+//! intervals, the noise terms read from them, a table or JSON, and a log–log plot
+//! (`ptsa_host_sim::noise`).
 #![allow(
     clippy::cast_precision_loss,
     reason = "gate counts, far below 2^52, as f64"
@@ -11,7 +13,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
+use ptsa_host_sim::model::instrument::ReadingUnit;
+use ptsa_host_sim::noise::allan::{Settings, Taus};
 use ptsa_host_sim::noise::identify::{self as ident, Identification, Kind};
+use ptsa_host_sim::noise::readings::{self, Readings};
 use ptsa_host_sim::noise::{self, Analysis, Record};
 use ptsa_host_sim::output::significant as sig;
 use ptsa_host_sim::output::write_atomic;
@@ -35,10 +40,38 @@ pub struct NoiseArgs {
     #[arg(
         long,
         value_name = "FILE",
-        conflicts_with = "simulate",
-        required_unless_present = "simulate"
+        conflicts_with_all = ["simulate", "readings"],
+        required_unless_present_any = ["simulate", "readings"]
     )]
     pub counts: Option<PathBuf>,
+    /// Static record of any instrument's readings: CSV with the columns time_s (s) and
+    /// reading (others ignored), one sample per row, evenly spaced (each spacing within
+    /// --spacing-tol of the median; a gap or a duplicate time is refused with its line), at
+    /// least 8 rows. The reading in --unit. Analysed as a counter record is, with the
+    /// Hadamard deviation and the rate ramp besides.
+    #[arg(long, value_name = "FILE", conflicts_with = "simulate")]
+    pub readings: Option<PathBuf>,
+    /// With --readings: the readings' unit, one of V, mA, LSB, g, m/s2, cm/s2 (V, mA and LSB
+    /// through the instrument file's instrument.scale_factor_per_g; g of its local
+    /// gravity). Default: the file's instrument.reading_unit, cm/s² without one.
+    #[arg(long, value_name = "UNIT", value_parser = reading_unit, requires = "readings")]
+    pub unit: Option<ReadingUnit>,
+    /// With --readings: the largest departure of a spacing from the record's median
+    /// spacing, as a fraction of it (0 to 0.5; default 0.01).
+    #[arg(long, value_name = "FRACTION", value_parser = spacing_tol, requires = "readings",
+          default_value_t = readings::SPACING_TOL)]
+    pub spacing_tol: f64,
+    /// The averaging times: octave (1, 2, 4, 8, ... times the gate or sample interval, the
+    /// default), decade (1, 2, 4, 10, 20, 40, 100, ...), all (every whole multiple; O(N²),
+    /// refused beyond the work limit without --force), or a list of times in s (T1,T2,...),
+    /// each a whole number of gates or samples. --compare and --identify take octave.
+    #[arg(long, value_name = "SPEC", value_parser = taus_arg, default_value = "octave")]
+    pub taus: TausArg,
+    /// The confidence level of the intervals given beside the 95 % ones (JSON ci_lo, ci_hi,
+    /// mdev_ci_lo, mdev_ci_hi, hdev_ci_lo, hdev_ci_hi), more than 0 and less than 1; e.g.
+    /// 0.683 for Stable32's 1-sigma bounds. Default 0.95.
+    #[arg(long, value_name = "P", value_parser = confidence, default_value_t = 0.95)]
+    pub confidence: f64,
     /// Simulate the instrument file's closed loop at rest (no acceleration along IA; its
     /// bias and pickoff noise noise_uv_rms included) for --seconds, and analyse that record.
     #[arg(long, requires = "seconds")]
@@ -84,16 +117,21 @@ pub struct NoiseArgs {
     /// an existing file is replaced only with --force.
     #[arg(long, value_name = "FILE", requires = "simulate")]
     pub out: Option<PathBuf>,
-    /// Write the log–log plot (SVG: ADEV with its 95 % bars, MDEV, the fitted terms) to
-    /// FILE; an existing file is replaced only with --force.
+    /// Write the log–log plot (ADEV with its 95 % bars, MDEV, HDEV where computed, the
+    /// fitted terms) as STEM.png and STEM.svg, STEM the file given without its .png or .svg;
+    /// an existing file is replaced only with --force.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
-    /// Print exactly one JSON object: "record", "gates", "gate_s", "span_s", "mean_cm_s2",
-    /// "sf_cm_s2", "pulse_cm_s" (one pulse as a velocity step, cm/s),
-    /// "lag1_autocorrelation", "edf_method", "points" (one per octave tau: "tau_s",
-    /// "adev_cm_s2", "ci95_lo", "ci95_hi" (cm/s², 95 %), "edf", "m", "n_pairs",
-    /// "mdev_cm_s2", "alpha", "alpha_source", "slope_to_next"), "terms" (quantization,
-    /// velocity_random_walk, bias_instability, acceleration_random_walk: "symbol",
+    /// Print exactly one JSON object: "record", "gates" (gates or samples), "gate_s" (the
+    /// gate or sample interval), "span_s", "mean_cm_s2", "sf_cm_s2" and "pulse_cm_s" (one
+    /// pulse as a velocity step, cm/s; null for readings), "reading_unit" (null for
+    /// counts), "confidence", "taus", "lag1_autocorrelation", "edf_method",
+    /// "noise_id_method", "points" (one per tau: "tau_s", "adev_cm_s2", "ci95_lo",
+    /// "ci95_hi" (cm/s², 95 %), "ci_lo", "ci_hi" (at --confidence), "edf", "m", "n_pairs",
+    /// "mdev_cm_s2", "mdev_ci95_lo", "mdev_ci95_hi", "mdev_ci_lo", "mdev_ci_hi", "mdev_edf",
+    /// "hdev_cm_s2", "hdev_ci_lo", "hdev_ci_hi", "hdev_edf", "hdev_alpha", "alpha",
+    /// "alpha_source", "slope_to_next"), "terms" (quantization, velocity_random_walk,
+    /// bias_instability, acceleration_random_walk, and rate_ramp for readings: "symbol",
     /// "adev_slope", "resolved", "values": [{"unit", "value", "sigma"}]),
     /// "terms_fit_chi2", "terms_fit_dof", "warnings"; with --compare also "comparison"
     /// ("input_cm_s2", "simulated_mean_cm_s2", "familywise_alpha", "test", "differing",
@@ -112,11 +150,169 @@ pub struct NoiseArgs {
     pub force: bool,
 }
 
+/// A file and what it replaces when `--force` replaces it.
+type Checked = Option<(PathBuf, Option<String>)>;
+
+/// `--plot FILE`'s two files, PNG then SVG: FILE as given and its sibling of the other
+/// format, each checked by `checked` (the given one first).
+///
+/// # Errors
+/// FILE does not end in .png or .svg (or has no extension); a file refused by `checked`.
+fn plot_files(
+    p: &Path,
+    checked: &dyn Fn(&str, Option<PathBuf>) -> Result<Checked>,
+) -> Result<(Checked, Checked)> {
+    let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+    if !matches!(ext, "" | "png" | "svg") {
+        bail!(
+            "--plot {}: expected a file name ending in .png or .svg (the plot is written in both formats), or a stem without an extension",
+            p.display()
+        );
+    }
+    let stem = p.with_extension("");
+    let (png, svg) = (stem.with_extension("png"), stem.with_extension("svg"));
+    Ok(if ext == "svg" {
+        let s = checked("--plot", Some(svg))?;
+        (checked("--plot", Some(png))?, s)
+    } else {
+        let g = checked("--plot", Some(png))?;
+        (g, checked("--plot", Some(svg))?)
+    })
+}
+
+/// `--taus` as given: a name, or times in s (made factors once the interval is known).
+#[derive(Clone, Debug, PartialEq)]
+pub enum TausArg {
+    /// `octave`, `decade` or `all`.
+    Named(Taus),
+    /// Times in s.
+    Seconds(Vec<f64>),
+}
+
+/// `--taus`: `octave`, `decade`, `all` or a list of times in s, each more than 0.
+fn taus_arg(s: &str) -> Result<TausArg, String> {
+    match s.trim() {
+        "octave" => Ok(TausArg::Named(Taus::Octave)),
+        "decade" => Ok(TausArg::Named(Taus::Decade)),
+        "all" => Ok(TausArg::Named(Taus::All)),
+        list => list
+            .split(',')
+            .map(|t| {
+                t.trim()
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|v| v.is_finite() && *v > 0.0)
+                    .ok_or_else(|| format!("`{}`: expected octave, decade, all, or averaging times in s (more than 0), comma separated", t.trim()))
+            })
+            .collect::<Result<Vec<f64>, String>>()
+            .map(TausArg::Seconds),
+    }
+}
+
+/// `--confidence`: a level strictly between 0 and 1.
+fn confidence(s: &str) -> Result<f64, String> {
+    let x = crate::flags::values::finite(s)?;
+    if x > 0.0 && x < 1.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected a confidence level more than 0 and less than 1 (0.95 for 95 %), not {s}"
+        ))
+    }
+}
+
+/// `--spacing-tol`: a fraction from 0 to 0.5.
+fn spacing_tol(s: &str) -> Result<f64, String> {
+    let x = crate::flags::values::finite(s)?;
+    if (0.0..=0.5).contains(&x) {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected a fraction of the spacing from 0 to 0.5 (0.01 for 1 %), not {s}"
+        ))
+    }
+}
+
+/// `--unit`: a reading unit.
+fn reading_unit(s: &str) -> Result<ReadingUnit, String> {
+    ReadingUnit::parse(s).ok_or_else(|| format!("expected one of {}", ReadingUnit::names()))
+}
+
+impl TausArg {
+    /// The factors for a record of interval `tau0_s` and `n` gates or samples.
+    ///
+    /// # Errors
+    /// A time that is not a whole number of intervals, or beyond half the record.
+    fn taus(&self, tau0_s: f64, n: usize) -> Result<Taus> {
+        let TausArg::Seconds(ts) = self else {
+            let TausArg::Named(t) = self else {
+                unreachable!()
+            };
+            return Ok(t.clone());
+        };
+        let mut m = Vec::with_capacity(ts.len());
+        for &t in ts {
+            let k = t / tau0_s;
+            if (k - k.round()).abs() > 1e-6 * k.max(1.0) || k.round() < 1.0 {
+                bail!(
+                    "--taus {}: not a whole number of the record's {} s intervals; expected multiples of it",
+                    sig(t, 8),
+                    sig(tau0_s, 8)
+                );
+            }
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let k = k.round() as usize;
+            if 2 * k > n {
+                bail!(
+                    "--taus {}: beyond half the record ({} s); expected averaging times with at least one pair of averages",
+                    sig(t, 8),
+                    sig(tau0_s * n as f64 / 2.0, 8)
+                );
+            }
+            m.push(k);
+        }
+        Ok(Taus::Factors(m))
+    }
+}
+
+/// Nanoseconds of the all-tau analysis per sample and averaging time (the deviations and
+/// the noise type, each a pass over the record; measured on the development machine,
+/// rounded up).
+const ALL_TAU_NS: f64 = 12.0;
+
+/// Refuse the all-tau analysis of `n` samples beyond the work limit unless `force`;
+/// announce it when long.
+///
+/// # Errors
+/// Beyond the limit without `--force`.
+fn all_taus_check(n: usize, force: bool) -> Result<()> {
+    #[allow(clippy::cast_precision_loss)]
+    let s = ALL_TAU_NS * 1e-9 * n as f64 * n as f64 / 2.0;
+    let limit = work::limit_s();
+    if s > limit && !force {
+        bail!(
+            "--taus all: {} averaging times over {n} samples would take roughly {} on this machine; expected at most about {} (--taus octave or decade, or --force to run it anyway)",
+            n / 2,
+            ptsa_host_sim::simulation::work::human(s),
+            ptsa_host_sim::simulation::work::human(limit)
+        );
+    }
+    if s > work::ANNOUNCE_S {
+        eprintln!(
+            "--taus all: about {} of work estimated",
+            ptsa_host_sim::simulation::work::human(s)
+        );
+    }
+    Ok(())
+}
+
 /// What to analyse.
 enum Source {
     /// A record read and checked, by its name; with the options of the comparison's
     /// simulation (`--compare`).
     Counts(String, Record, Option<SimOptions>),
+    /// A record of readings read and checked, by its name.
+    Readings(String, Readings),
     /// The loop to simulate: options, gate ticks, gates.
     Simulate {
         opts: SimOptions,
@@ -128,20 +324,33 @@ enum Source {
 /// A noise analysis to run.
 pub struct Request {
     source: Source,
-    out: Option<(PathBuf, Option<String>)>,
-    plot: Option<(PathBuf, Option<String>)>,
+    /// The averaging times (resolved) and the second confidence level.
+    settings: Settings,
+    out: Checked,
+    /// The plot's PNG and SVG files, each with what it replaces.
+    plot: Option<(Checked, Checked)>,
     json: bool,
     force: bool,
     /// `--identify`: the simulations' options.
     identify: Option<SimOptions>,
     /// `--write-instrument`: the file, and what it replaces.
-    write_instrument: Option<(PathBuf, Option<String>)>,
+    write_instrument: Checked,
+}
+
+/// The outputs checked: `--out`, `--plot`'s two files, `--write-instrument`.
+struct Outputs {
+    out: Checked,
+    plot: Option<(Checked, Checked)>,
+    write_instrument: Checked,
 }
 
 impl NoiseArgs {
     /// The files the command reads, by their flags: no output may replace them.
-    pub fn inputs(&self) -> [(&'static str, Option<&Path>); 1] {
-        [("--counts", self.counts.as_deref())]
+    pub fn inputs(&self) -> [(&'static str, Option<&Path>); 2] {
+        [
+            ("--counts", self.counts.as_deref()),
+            ("--readings", self.readings.as_deref()),
+        ]
     }
 
     /// The request: the outputs checked (never an input, an existing file only with
@@ -151,6 +360,83 @@ impl NoiseArgs {
     /// An output refused; the record cannot be read, is not a counter record or its gates
     /// are not back to back; the gate does not fit the loop; too many gates.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
+        self.check_flags()?;
+        let outputs = self.outputs()?;
+        let identify = if self.identify {
+            Some(self.sim_options(ctx)?)
+        } else {
+            None
+        };
+        let source = self.source(ctx)?;
+        let (tau0_s, n) = match &source {
+            Source::Counts(_, r, _) => (r.tau0_s, r.gates.len()),
+            Source::Readings(_, r) => (r.tau0_s, r.y.len()),
+            #[allow(clippy::cast_precision_loss, clippy::cast_possible_truncation)]
+            Source::Simulate { ticks, gates, .. } => {
+                (*ticks as f64 / ctx.instr.clock_hz, *gates as usize)
+            }
+        };
+        let settings = Settings {
+            taus: self.taus.taus(tau0_s, n)?,
+            confidence: self.confidence,
+            hadamard: true,
+        };
+        if settings.taus == Taus::All {
+            all_taus_check(n, self.force)?;
+        }
+        Ok(Request {
+            source,
+            settings,
+            out: outputs.out,
+            plot: outputs.plot,
+            json: self.json,
+            force: self.force,
+            identify,
+            write_instrument: outputs.write_instrument,
+        })
+    }
+
+    /// The flags that need a source clap cannot check (it drops an option's `requires`
+    /// when the option it requires conflicts with one given, --counts with --simulate),
+    /// and `--taus` with `--compare` or `--identify`.
+    fn check_flags(&self) -> Result<()> {
+        for (given, flag, needs, present) in [
+            (
+                self.unit.is_some(),
+                "--unit",
+                "--readings",
+                self.readings.is_some(),
+            ),
+            (self.compare, "--compare", "--counts", self.counts.is_some()),
+            (
+                self.identify,
+                "--identify",
+                "--counts",
+                self.counts.is_some(),
+            ),
+        ] {
+            if given && !present {
+                bail!(
+                    "{flag} applies to {needs} FILE only; expected it with {needs}, or not at all"
+                );
+            }
+        }
+        if (self.compare || self.identify) && self.taus != TausArg::Named(Taus::Octave) {
+            bail!(
+                "--taus: {} compares the record with simulated ones at octave averaging times; expected --taus octave (the default) with it",
+                if self.identify {
+                    "--identify"
+                } else {
+                    "--compare"
+                }
+            );
+        }
+        Ok(())
+    }
+
+    /// The outputs, each checked (never an input, an existing file only with `--force`)
+    /// and none the same file as another.
+    fn outputs(&self) -> Result<Outputs> {
         let checked = |flag: &str, p: Option<PathBuf>| -> Result<_> {
             Ok(match p {
                 Some(p) => {
@@ -162,94 +448,101 @@ impl NoiseArgs {
             })
         };
         let out = checked("--out", self.out.clone())?;
-        let plot = checked("--plot", self.plot.clone())?;
+        // The plot as STEM.png and STEM.svg, the file as given checked first.
+        let plot = match self.plot.clone() {
+            Some(p) => Some(plot_files(&p, &checked)?),
+            None => None,
+        };
         let write_instrument = checked("--write-instrument", self.write_instrument.clone())?;
-        for (a, b) in [(&out, &write_instrument), (&plot, &write_instrument)] {
-            if let (Some((o, _)), Some((p, _))) = (a, b)
-                && o == p
-            {
+        let plots: Vec<&(PathBuf, Option<String>)> = plot
+            .iter()
+            .flat_map(|(a, b)| [a.as_ref(), b.as_ref()])
+            .flatten()
+            .collect();
+        for p in plots.iter().map(|p| &p.0).chain(out.iter().map(|o| &o.0)) {
+            if write_instrument.as_ref().is_some_and(|w| w.0 == *p) {
                 bail!(
                     "--write-instrument {}: the same file as another output; expected its own file",
                     p.display()
                 );
             }
         }
-        if let (Some((o, _)), Some((p, _))) = (&out, &plot)
-            && o == p
+        if let Some((o, _)) = &out
+            && plots.iter().any(|p| p.0 == *o)
         {
             bail!(
                 "--plot {}: the same file as --out; expected two files (the record and its plot)",
-                p.display()
+                o.display()
             );
         }
-        let identify = if self.identify {
-            Some(SimOptions {
-                seed: self.seed,
-                warmup_s: self.warmup_s,
-                config: ctx.config()?,
-                ..SimOptions::default()
-            })
-        } else {
-            None
-        };
-        let source = if let Some(path) = &self.counts {
+        Ok(Outputs {
+            out,
+            plot,
+            write_instrument,
+        })
+    }
+
+    /// The simulations' options: seed, settling, the loop's configuration.
+    fn sim_options(&self, ctx: &Ctx) -> Result<SimOptions> {
+        Ok(SimOptions {
+            seed: self.seed,
+            warmup_s: self.warmup_s,
+            config: ctx.config()?,
+            ..SimOptions::default()
+        })
+    }
+
+    /// What to analyse: the readings or the counter record read and checked, or the
+    /// simulation's gate and length.
+    fn source(&self, ctx: &Ctx) -> Result<Source> {
+        if let Some(path) = &self.readings {
+            let unit = self.unit.unwrap_or_else(|| {
+                ctx.instr
+                    .reading_scale
+                    .as_ref()
+                    .map_or(ReadingUnit::CmPerS2, |r| r.unit)
+            });
+            let r = readings::read(path, unit, &ctx.instr, self.spacing_tol)?;
+            return Ok(Source::Readings(path.display().to_string(), r));
+        }
+        if let Some(path) = &self.counts {
             ctx.require_loop()?;
             let rec = noise::read_record(path, ctx.instr.clock_hz)?;
             let compare = if self.compare {
-                Some(SimOptions {
-                    seed: self.seed,
-                    warmup_s: self.warmup_s,
-                    config: ctx.config()?,
-                    ..SimOptions::default()
-                })
+                Some(self.sim_options(ctx)?)
             } else {
                 None
             };
-            Source::Counts(path.display().to_string(), rec, compare)
-        } else {
-            let opts = SimOptions {
-                seed: self.seed,
-                warmup_s: self.warmup_s,
-                config: ctx.config()?,
-                ..SimOptions::default()
-            };
-            let ticks = gate_ticks("--gate-s", self.gate_s, &ctx.instr, &opts)?;
-            let seconds = self.seconds.unwrap_or(0.0);
-            #[allow(clippy::cast_precision_loss)]
-            let gate = ticks as f64 / ctx.instr.clock_hz;
-            let n = (seconds / gate).floor();
-            if n < noise::MIN_GATES as f64 {
-                bail!(
-                    "--seconds {}: {} gates of {} s; expected at least {} gates (--seconds at least {} s)",
-                    sig(seconds, 8),
-                    n,
-                    sig(gate, 8),
-                    noise::MIN_GATES,
-                    sig(gate * noise::MIN_GATES as f64, 8)
-                );
-            }
-            if n > MAX_SIMULATED_GATES {
-                bail!(
-                    "--seconds {}: {} gates of {} s; expected at most {} gates (a longer --gate-s, or fewer --seconds)",
-                    sig(seconds, 8),
-                    sig(n, 6),
-                    sig(gate, 8),
-                    sig(MAX_SIMULATED_GATES, 3)
-                );
-            }
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            let gates = n as u64;
-            Source::Simulate { opts, ticks, gates }
-        };
-        Ok(Request {
-            source,
-            out,
-            plot,
-            json: self.json,
-            force: self.force,
-            identify,
-            write_instrument,
-        })
+            return Ok(Source::Counts(path.display().to_string(), rec, compare));
+        }
+        let opts = self.sim_options(ctx)?;
+        let ticks = gate_ticks("--gate-s", self.gate_s, &ctx.instr, &opts)?;
+        let seconds = self.seconds.unwrap_or(0.0);
+        #[allow(clippy::cast_precision_loss)]
+        let gate = ticks as f64 / ctx.instr.clock_hz;
+        let n = (seconds / gate).floor();
+        if n < noise::MIN_GATES as f64 {
+            bail!(
+                "--seconds {}: {} gates of {} s; expected at least {} gates (--seconds at least {} s)",
+                sig(seconds, 8),
+                n,
+                sig(gate, 8),
+                noise::MIN_GATES,
+                sig(gate * noise::MIN_GATES as f64, 8)
+            );
+        }
+        if n > MAX_SIMULATED_GATES {
+            bail!(
+                "--seconds {}: {} gates of {} s; expected at most {} gates (a longer --gate-s, or fewer --seconds)",
+                sig(seconds, 8),
+                sig(n, 6),
+                sig(gate, 8),
+                sig(MAX_SIMULATED_GATES, 3)
+            );
+        }
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let gates = n as u64;
+        Ok(Source::Simulate { opts, ticks, gates })
     }
 }
 
@@ -265,28 +558,23 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     let (name, record) = match &req.source {
         Source::Counts(name, rec, opts) => {
             compare_opts = *opts;
-            (name.clone(), rec.clone())
+            (name.clone(), Some(rec.clone()))
         }
-        Source::Simulate { opts, ticks, gates } => simulated(ctx, req, opts, *ticks, *gates)?,
+        Source::Readings(name, _) => (name.clone(), None),
+        Source::Simulate { opts, ticks, gates } => {
+            let (n, r) = simulated(ctx, req, opts, *ticks, *gates)?;
+            (n, Some(r))
+        }
     };
-    let a = Analysis::of(&record, instr.sf_cm_s2, instr.clock_hz);
-    if a.points.len() < 4 {
-        warnings.push(format!(
-            "{name}: {} gates give {} octaves of tau: too few to read the noise terms from the slopes",
-            a.gates,
-            a.points.len()
-        ));
-    }
-    if a.fit_dof > 0 && ptsa_host_sim::stats::chi2_sf(a.fit_chi2, a.fit_dof as f64) < 1e-3 {
-        warnings.push(format!(
-            "{name}: the Allan variance is not a sum of the four power laws (the terms' fit has chi2 {} on {} dof): the terms are the fit's compromise, not readings; a loop's count pattern (its limit cycle's tones) gives stretches of slope -1/2 and sudden drops that no noise term makes (docs/noise.md)",
-            sig(a.fit_chi2, 4),
-            a.fit_dof
-        ));
-    }
-    let comparison = match &compare_opts {
-        Some(opts) => Some(simulate_and_compare(ctx, req, opts, &record, &a)?),
-        None => None,
+    let a = match (&req.source, &record) {
+        (Source::Readings(_, r), _) => Analysis::of_readings(r, &req.settings),
+        (_, Some(rec)) => Analysis::of_with(rec, instr.sf_cm_s2, instr.clock_hz, &req.settings),
+        (_, None) => unreachable!("a counter record or a simulated one"),
+    };
+    warnings.extend(analysis_warnings(&name, &a));
+    let comparison = match (&compare_opts, &record) {
+        (Some(opts), Some(record)) => Some(simulate_and_compare(ctx, req, opts, record, &a)?),
+        _ => None,
     };
     if let Some(c) = &comparison {
         let n = c.points.iter().filter(|p| p.differs).count();
@@ -298,9 +586,9 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
             ));
         }
     }
-    let identification = match &req.identify {
-        Some(opts) => Some(identify(ctx, req, opts, &record, &a)?),
-        None => None,
+    let identification = match (&req.identify, &record) {
+        (Some(opts), Some(record)) => Some(identify(ctx, req, opts, record, &a)?),
+        _ => None,
     };
     if let Some(id) = &identification {
         warnings.extend(identification_warnings(&name, id));
@@ -308,13 +596,16 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     if let (Some((path, replaced)), Some(id)) = (&req.write_instrument, &identification) {
         write_identified(ctx, path, replaced.as_deref(), &name, id)?;
     }
-    if let Some((path, replaced)) = &req.plot {
-        let svg = a.svg(&format!("Allan deviation: {name}"))?;
-        write_atomic(path, svg.as_bytes())?;
-        if let Some(w) = replaced {
-            eprintln!("warning: --plot {}: replaced {w} (--force)", path.display());
+    if let Some((Some((png, png_was)), Some((svg, svg_was)))) = &req.plot {
+        let title = format!("Allan deviation: {name}");
+        a.write_png(png, &title)?;
+        write_atomic(svg, a.svg(&title)?.as_bytes())?;
+        for (p, w) in [(png, png_was), (svg, svg_was)] {
+            if let Some(w) = w {
+                eprintln!("warning: --plot {}: replaced {w} (--force)", p.display());
+            }
         }
-        eprintln!("wrote the plot {}", path.display());
+        eprintln!("wrote the plot {} and {}", png.display(), svg.display());
     }
     for w in &warnings {
         eprintln!("warning: {w}");
@@ -338,6 +629,38 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// The analysis's own warnings: too few averaging times for the terms, a curve the terms
+/// do not describe.
+fn analysis_warnings(name: &str, a: &Analysis) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let what = if a.pulse_cm_s.is_some() {
+        "gates"
+    } else {
+        "samples"
+    };
+    if a.points.len() < 4 {
+        warnings.push(format!(
+            "{name}: {} {what} give {} averaging times: too few to read the noise terms from the slopes",
+            a.gates,
+            a.points.len()
+        ));
+    }
+    if a.fit_dof > 0 && ptsa_host_sim::stats::chi2_sf(a.fit_chi2, a.fit_dof as f64) < 1e-3 {
+        warnings.push(format!(
+            "{name}: the Allan variance is not a sum of the {} power laws (the terms' fit has chi2 {} on {} dof): the terms are the fit's compromise, not readings{}",
+            a.terms.len(),
+            sig(a.fit_chi2, 4),
+            a.fit_dof,
+            if a.pulse_cm_s.is_some() {
+                "; a loop's count pattern (its limit cycle's tones) gives stretches of slope -1/2 and sudden drops that no noise term makes (docs/noise.md)"
+            } else {
+                "; look at the plot for a step, a periodic disturbance or a drift that is not a ramp"
+            }
+        ));
+    }
+    warnings
 }
 
 /// The identification's warnings: what the record needs beyond the file's loop, and each

@@ -198,24 +198,27 @@ pub enum Cmd {
     /// a_ia_cm_s2, a_ia_g, sigma_a_ia_cm_s2, sigma_noise_cm_s2, sigma_calibration_cm_s2:
     /// cm/s², a_ia_g in g), or one JSON object with --json.
     Correct(CorrectArgs),
-    /// Noise of a static counter record, or of the simulated loop at rest: the overlapping
-    /// and modified Allan deviations (cm/s²) at octave averaging times with 95 % intervals,
-    /// and the noise terms read from their slopes.
+    /// Noise of a static record, of any instrument or of the simulated loop at rest: the
+    /// overlapping and modified Allan deviations and the overlapping Hadamard deviation
+    /// (cm/s²) at the averaging times asked for, with intervals, and the noise terms read
+    /// from their slopes.
     ///
-    /// --counts FILE reads a record `time_s,pulses,ticks` (as for `ptsa response`) of gates
-    /// back to back; each gate indicates SF·(2P/T − 1) cm/s² with the instrument file's
-    /// nominal SF. --simulate --seconds N runs the instrument file's closed loop at rest
-    /// (its bias and pickoff noise included) and analyses its record the same way
-    /// (--out FILE keeps the record).
+    /// --readings FILE reads any instrument's record `time_s,reading` (one sample per row,
+    /// evenly spaced; the reading in --unit). --counts FILE reads a PTSA counter record
+    /// `time_s,pulses,ticks` (as for `ptsa response`) of gates back to back; each gate
+    /// indicates SF·(2P/T − 1) cm/s² with the instrument file's nominal SF. --simulate
+    /// --seconds N runs the instrument file's closed loop at rest (its bias and pickoff noise
+    /// included) and analyses its record the same way (--out FILE keeps the record).
     ///
-    /// The intervals are chi-squared intervals with the simple equivalent-degrees-of-freedom
-    /// formulas for the overlapping ADEV (NIST SP 1065, section 5.3), the noise type at each
-    /// tau identified by the lag-1 autocorrelation; the modified deviation has none. The terms
-    /// (IEEE Std 952: quantization Q, slope −1; velocity random walk N, −1/2; bias instability
-    /// B, 0; acceleration random walk K, +1/2) come from a weighted fit of the variance curve,
-    /// in cgs and in µg, µg/√Hz, (m/s)/√h, (m/s)/h^1.5, with 1-sigma uncertainties
-    /// (docs/noise.md). Prints a table, or one JSON object with --json; --plot FILE writes
-    /// the log–log plot (SVG).
+    /// The intervals are chi-squared intervals with Greenhall's equivalent degrees of
+    /// freedom (as Stable32 and allantools compute them) for every deviation, at 95 % and at
+    /// --confidence; the noise type at each tau is identified by the lag-1 autocorrelation
+    /// (Riley and Greenhall). The terms (IEEE Std 952: quantization Q, slope −1; velocity
+    /// random walk N, −1/2; bias instability B, 0; acceleration random walk K, +1/2; for
+    /// readings also the rate ramp R, +1) come from a weighted fit of the variance curve, in
+    /// cgs and in µg, µg/√Hz, (m/s)/√h, (m/s)/h^1.5, (m/s)/h², with 1-sigma uncertainties
+    /// (docs/noise.md). Prints a table, or one JSON object with --json; --plot FILE writes the
+    /// log–log plot as PNG and SVG.
     #[command(allow_negative_numbers = true)]
     Noise(NoiseArgs),
     /// Instrument files: `instrument new --class CLASS --out FILE` writes a commented
@@ -402,7 +405,12 @@ mod tests {
     /// that is not a number (a path, a list of names, a text).
     fn unit_of(value_name: &str) -> Option<&'static [&'static str]> {
         Some(match value_name {
-            "FILE" | "FILE.json" | "FILE|-" | "DIR" | "LIST" | "TEXT" | "oa|pa" => return None,
+            "FILE" | "FILE.json" | "FILE|-" | "DIR" | "LIST" | "TEXT" | "oa|pa" | "UNIT" => {
+                return None;
+            }
+            "SPEC" => &["in s"],
+            "FRACTION" => &["fraction"],
+            "P" => &["confidence level"],
             "S" => &[", s"],
             "HZ" => &["Hz"],
             "CM_S2" => &["cm/s²"],
