@@ -27,6 +27,7 @@ pub mod output;
 pub mod report;
 pub mod simulation;
 pub mod stats;
+pub mod stream;
 pub mod triad;
 
 pub use model::condition::{CaseInputs, Condition};

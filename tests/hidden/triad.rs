@@ -54,16 +54,21 @@ pub enum TriadKind {
     Hand24,
     /// 24 + the 12 edges + one face, placed by hand.
     Hand37,
+    /// The same 37 directions turned through by hand in one raw stream (a rest, turns and
+    /// holds; [`super::triad_gen::stream_csv`]), cut and calibrated by
+    /// `ptsa_host_sim::triad::stream`.
+    Stream37,
 }
 
 impl TriadKind {
     /// Every kind, in table order.
-    pub const ALL: [TriadKind; 5] = [
+    pub const ALL: [TriadKind; 6] = [
         TriadKind::Exact8,
         TriadKind::Exact12,
         TriadKind::Exact24,
         TriadKind::Hand24,
         TriadKind::Hand37,
+        TriadKind::Stream37,
     ];
 
     /// Its name in the table.
@@ -75,6 +80,7 @@ impl TriadKind {
             TriadKind::Exact24 => "24 fixture",
             TriadKind::Hand24 => "24 by hand",
             TriadKind::Hand37 => "37 by hand",
+            TriadKind::Stream37 => "37 stream",
         }
     }
 
@@ -91,7 +97,7 @@ impl TriadKind {
             }
             TriadKind::Exact12 => edges(),
             TriadKind::Exact24 | TriadKind::Hand24 => cube_turns([1.0, 2.0, 3.0]),
-            TriadKind::Hand37 => {
+            TriadKind::Hand37 | TriadKind::Stream37 => {
                 let mut v = cube_turns([1.0, 2.0, 3.0]);
                 v.extend(edges());
                 v.push([0.0, 0.0, 1.0]);
@@ -103,7 +109,10 @@ impl TriadKind {
     /// Placed by hand (analysed with approximate orientations).
     #[must_use]
     pub fn by_hand(self) -> bool {
-        matches!(self, TriadKind::Hand24 | TriadKind::Hand37)
+        matches!(
+            self,
+            TriadKind::Hand24 | TriadKind::Hand37 | TriadKind::Stream37
+        )
     }
 }
 
@@ -128,17 +137,7 @@ pub struct TriadSet {
 #[must_use]
 pub fn generate_triad(seed: u64, design: &[[f64; 3]], by_hand: bool) -> TriadSet {
     let mut rng = super::rng(seed);
-    let mut t = TriadTruth::default();
-    for j in 0..3 {
-        t.b[j] = rng.range(-50.0, 50.0);
-        t.k[j] = rng.range(-0.02, 0.02);
-        t.q[j] = rng.range(-2000.0, 2000.0) * 1e-6 / G;
-        for k in 0..3 {
-            if j != k {
-                t.gamma[j][k] = rng.range(-0.01, 0.01);
-            }
-        }
-    }
+    let t = draw_truth(&mut rng);
     let sigma = rng.range(0.05, 0.5);
     let stated = rng.uniform() < 0.5;
     let positions = design
@@ -175,6 +174,78 @@ pub fn generate_triad(seed: u64, design: &[[f64; 3]], by_hand: bool) -> TriadSet
         truth: if by_hand { in_triad_frame(&t) } else { t },
         sigma,
     }
+}
+
+/// A raw stream of seed `seed` through `design`'s directions, each placed by hand: its
+/// text, the truth in the triad's frame and each hold's true span (s).
+#[must_use]
+pub fn generate_stream(seed: u64, design: &[[f64; 3]]) -> (String, TriadTruth, Vec<(f64, f64)>) {
+    let mut rng = super::rng(seed);
+    let t = draw_truth(&mut rng);
+    let spec = super::triad_gen::StreamSpec {
+        sigma_cm_s2: rng.range(0.3, 3.0),
+        ..super::triad_gen::StreamSpec::default()
+    };
+    let dirs: Vec<[f64; 3]> = design
+        .iter()
+        .map(|&n| super::triad_gen::hand_placed(n, &mut rng))
+        .collect();
+    let (text, spans) = super::triad_gen::stream_csv(&t, &dirs, &spec, &mut rng);
+    (text, in_triad_frame(&t), spans)
+}
+
+/// Cut the stream `text` and calibrate it; refused (with why) when the positions found are
+/// not the holds `spans`, one each, inside it.
+///
+/// # Errors
+/// The stream refused; a position missed, split or outside its hold.
+pub fn fit_stream(text: &str, spans: &[(f64, f64)]) -> Result<Triad, String> {
+    use ptsa_host_sim::triad::stream as ts;
+    let instr = ptsa_host_sim::Instrument::shipped("mems")?;
+    let s = ts::parse("stream", text, &instr).map_err(|e| format!("{e:#}"))?;
+    let cut = ts::cut(&s, &ptsa_host_sim::stream::segment::Detector::default(), G)
+        .map_err(|e| format!("{e:#}"))?;
+    if cut.kept.len() != spans.len() {
+        return Err(format!(
+            "{} positions found, {} held",
+            cut.kept.len(),
+            spans.len()
+        ));
+    }
+    let dt = cut.segmentation.dt_s;
+    for (iv, sp) in cut.kept.iter().zip(spans) {
+        if iv.t0_s < sp.0 - 0.5 * dt || iv.t1_s > sp.1 + 0.5 * dt {
+            return Err(format!(
+                "a position found at {}–{} s outside its hold {}–{} s",
+                iv.t0_s, iv.t1_s, sp.0, sp.1
+            ));
+        }
+    }
+    let opts = fit::Options {
+        orientation: Orientation::Approximate,
+        default_sigma_cm_s2: None,
+        g_cm_s2: G,
+    };
+    ts::calibrate(&s, &cut, &opts)
+        .map(|(t, _)| t)
+        .map_err(|e| format!("{e:#}"))
+}
+
+/// A triad's coefficients drawn from a consumer MEMS triad's class: bias in ±50 cm/s²,
+/// scale change in ±2 %, `K_2` in ±2000 µg/g², every misalignment in ±10 mrad.
+fn draw_truth(rng: &mut super::Rng) -> TriadTruth {
+    let mut t = TriadTruth::default();
+    for j in 0..3 {
+        t.b[j] = rng.range(-50.0, 50.0);
+        t.k[j] = rng.range(-0.02, 0.02);
+        t.q[j] = rng.range(-2000.0, 2000.0) * 1e-6 / G;
+        for k in 0..3 {
+            if j != k {
+                t.gamma[j][k] = rng.range(-0.01, 0.01);
+            }
+        }
+    }
+    t
 }
 
 /// The coverage of one set: per group (bias, scale factor, misalignment, `K_2`), the
@@ -254,6 +325,12 @@ pub fn run(sets: usize, seed: u64) -> TriadRun {
                 .into_par_iter()
                 .map(|s| {
                     let seed = set_seed(seed, ki, s);
+                    if kind == TriadKind::Stream37 {
+                        let (text, truth, spans) = generate_stream(seed, &design);
+                        let t = Instant::now();
+                        let r = fit_stream(&text, &spans).map(|f| (f, truth));
+                        return (seed, r, t.elapsed().as_secs_f64());
+                    }
                     let set = generate_triad(seed, &design, kind.by_hand());
                     let opts = fit::Options {
                         orientation: if kind.by_hand() {
@@ -395,7 +472,7 @@ mod tests {
 
     #[test]
     fn designs_have_their_sizes_and_unit_directions() {
-        for (kind, n) in TriadKind::ALL.iter().zip([8, 12, 24, 24, 37]) {
+        for (kind, n) in TriadKind::ALL.iter().zip([8, 12, 24, 24, 37, 37]) {
             let d = kind.design();
             assert_eq!(d.len(), n, "{kind:?}");
             assert!(d.iter().all(|v| (dot(*v, *v) - 1.0).abs() < 1e-12));

@@ -231,3 +231,148 @@ pub fn triad_csv(rows: &[([f64; 3], [f64; 3])], sigma: Option<f64>, comment: &st
     }
     s
 }
+
+/// A raw stream's timing and noise (a block turned by hand between positions, `imu_tk`'s
+/// protocol).
+#[derive(Clone, Copy, Debug)]
+pub struct StreamSpec {
+    /// Samples per second.
+    pub rate_hz: f64,
+    /// The rest at the first position before the first turn, s.
+    pub rest_s: f64,
+    /// Each later position held for a time uniform in this range, s.
+    pub hold_s: (f64, f64),
+    /// Each turn's length, s.
+    pub move_s: f64,
+    /// The hand's push during a turn: an acceleration `A·sin(2πτ)` along a random
+    /// direction, τ the turn's elapsed fraction, A uniform up to this, cm/s².
+    pub push_cm_s2: f64,
+    /// White noise per sample and axis, cm/s².
+    pub sigma_cm_s2: f64,
+}
+
+impl Default for StreamSpec {
+    fn default() -> Self {
+        StreamSpec {
+            rate_hz: 100.0,
+            rest_s: 15.0,
+            hold_s: (2.0, 4.0),
+            move_s: 1.5,
+            push_cm_s2: 60.0,
+            sigma_cm_s2: 1.0,
+        }
+    }
+}
+
+/// A unit vector across `a` (for a turn between opposite directions).
+fn across(a: [f64; 3]) -> [f64; 3] {
+    let k = (0..3)
+        .min_by(|&i, &j| a[i].abs().total_cmp(&a[j].abs()))
+        .unwrap_or(0);
+    let mut e = [0.0; 3];
+    e[k] = 1.0;
+    let d = dot(e, a);
+    let v = [0, 1, 2].map(|i| e[i] - d * a[i]);
+    let n = dot(v, v).sqrt();
+    v.map(|x| x / n)
+}
+
+/// The stream being written: its samples so far.
+struct StreamWriter<'a> {
+    truth: &'a TriadTruth,
+    spec: &'a StreamSpec,
+    samples: u64,
+    text: String,
+}
+
+impl StreamWriter<'_> {
+    /// One sample of the specific force `f` (cm/s²): its time, s.
+    fn sample(&mut self, f: [f64; 3], rng: &mut impl rand::Rng) -> f64 {
+        #[allow(clippy::cast_precision_loss)]
+        let time = self.samples as f64 / self.spec.rate_hz;
+        let u = self.truth.readings(f);
+        let e = [normal(rng), normal(rng), normal(rng)].map(|x| x * self.spec.sigma_cm_s2);
+        let _ = writeln!(
+            self.text,
+            "{time},{},{},{}",
+            u[0] + e[0],
+            u[1] + e[1],
+            u[2] + e[2]
+        );
+        self.samples += 1;
+        time
+    }
+
+    /// The direction `n` held for `secs`: the hold's first and last times, s.
+    fn hold(&mut self, n: [f64; 3], secs: f64, rng: &mut impl rand::Rng) -> (f64, f64) {
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let m = (secs * self.spec.rate_hz).round() as usize;
+        let f = n.map(|x| x * G);
+        let first = self.sample(f, rng);
+        let mut last = first;
+        for _ in 1..m {
+            last = self.sample(f, rng);
+        }
+        (first, last)
+    }
+
+    /// The turn from `a` to `b` about the axis across both, the hand's push on top.
+    fn turn(&mut self, a: [f64; 3], b: [f64; 3], rng: &mut impl rand::Rng) {
+        let c = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let sn = dot(c, c).sqrt();
+        let angle = sn.atan2(dot(a, b));
+        let axis = if sn > 1e-9 {
+            c.map(|x| x / sn)
+        } else {
+            across(a)
+        };
+        let z: f64 = rng.random_range(-1.0..1.0);
+        let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+        let r = (1.0 - z * z).sqrt();
+        let amp: f64 = rng.random_range(0.0..self.spec.push_cm_s2);
+        let push = [r * phi.cos(), r * phi.sin(), z].map(|x| x * amp);
+        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+        let m = (self.spec.move_s * self.spec.rate_hz).round() as usize;
+        for i in 0..m {
+            #[allow(clippy::cast_precision_loss)]
+            let tau = (i as f64 + 0.5) / m as f64;
+            let share = 0.5 * (1.0 - (std::f64::consts::PI * tau).cos());
+            let n = mul(&rotation(axis, share * angle), a);
+            let p = (std::f64::consts::TAU * tau).sin();
+            let f = [0, 1, 2].map(|j| n[j] * G + push[j] * p);
+            self.sample(f, rng);
+        }
+    }
+}
+
+/// A stream (`time_s` and the three readings, cm/s²) of the triad `t` turned through the
+/// gravity directions `dirs` (unit vectors, the triad's frame): `dirs[0]` held for the
+/// rest, each next one reached by a turn about the axis across both (the angle's share
+/// `(1 − cos πτ)/2` at the turn's fraction τ) with the hand's push on top, then held.
+/// Also each hold's true span, s (the rest first).
+pub fn stream_csv(
+    t: &TriadTruth,
+    dirs: &[[f64; 3]],
+    spec: &StreamSpec,
+    rng: &mut impl rand::Rng,
+) -> (String, Vec<(f64, f64)>) {
+    let mut w = StreamWriter {
+        truth: t,
+        spec,
+        samples: 0,
+        text: String::from(
+            "# a triad turned by hand: the generator's stream\ntime_s,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2\n",
+        ),
+    };
+    let mut spans = vec![w.hold(dirs[0], spec.rest_s, rng)];
+    for pair in dirs.windows(2) {
+        w.turn(pair[0], pair[1], rng);
+        let secs = rng.random_range(spec.hold_s.0..spec.hold_s.1);
+        spans.push(w.hold(pair[1], secs, rng));
+    }
+    (w.text, spans)
+}

@@ -4,7 +4,8 @@
 //! servo accelerometer's current, a PTSA loop's readings in cm/s².
 //!
 //! The reader is built for long records (10⁷ rows): the rows are parsed in parallel, in
-//! blocks of whole lines, and every refusal names the file, the line and the column. The
+//! blocks of whole lines (`stream::columns`), and every refusal names the file, the line
+//! and the column. The
 //! record is refused, not repaired, when its samples are not evenly spaced: a duplicate or
 //! out-of-order time, a gap, or a spacing beyond the tolerance of the record's own median
 //! spacing. The reading's unit is the instrument file's (`instrument.reading_unit`), or
@@ -14,9 +15,9 @@
 use std::path::Path;
 
 use anyhow::{Context as _, Result, bail};
-use rayon::prelude::*;
 
 use crate::model::instrument::{Instrument, ReadingUnit};
+use crate::stream::columns;
 
 /// Fewest samples analysed: three octaves.
 pub const MIN_SAMPLES: usize = super::MIN_GATES;
@@ -35,13 +36,6 @@ pub struct Readings {
     pub unit: ReadingUnit,
     /// The first sample's time, s.
     pub t0_s: f64,
-}
-
-/// The rows' times and readings (in the file's unit), in order.
-#[derive(Default)]
-struct Columns {
-    t: Vec<f64>,
-    r: Vec<f64>,
 }
 
 /// Read the record at `path` ([`parse`]).
@@ -72,24 +66,34 @@ pub fn parse(
     let factor = instr
         .reading_to_cm_s2(1.0, unit)
         .map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
-    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
-    let (header_line, columns, body, body_line) = header(name, text)?;
-    let blocks = rows(name, body, body_line, columns)?;
-    let n: usize = blocks.iter().map(|b| b.t.len()).sum();
+    let h = columns::header(name, text, "`time_s,reading` (one sample per row)")?;
+    let (Some(ti), Some(ri)) = (h.find("time_s"), h.find("reading")) else {
+        bail!(
+            "{name}:{}:1: the header `{}` has no {}; expected the columns time_s (s) and reading (one sample per row; `ptsa noise --counts` reads a counter record `time_s,pulses,ticks`)",
+            h.line,
+            h.text(),
+            match (h.find("time_s"), h.find("reading")) {
+                (None, None) => "time_s and no reading",
+                (None, _) => "time_s",
+                _ => "reading",
+            }
+        );
+    };
+    let mut c = columns::columns(name, &h, &[ti, ri], &["the time_s, s", "the reading"])?;
+    let n = c[0].len();
     if n < MIN_SAMPLES {
         bail!(
-            "{name}: {n} rows after the header (line {header_line}); expected at least {MIN_SAMPLES} samples (three octaves of averaging times)"
+            "{name}: {n} rows after the header (line {}); expected at least {MIN_SAMPLES} samples (three octaves of averaging times)",
+            h.line
         );
     }
-    // The readings in cm/s², each block's memory given back as it is read.
-    let mut t = Vec::with_capacity(n);
-    let mut y = Vec::with_capacity(n);
-    for b in blocks {
-        t.extend_from_slice(&b.t);
-        y.extend(b.r.iter().map(|v| v * factor));
+    let mut y = c.pop().unwrap_or_default();
+    let t = c.pop().unwrap_or_default();
+    for v in &mut y {
+        *v *= factor;
     }
     let tau0_s = check_spacing(&t, tol)
-        .map_err(|e| e.message(name, &|k| line_of(body, body_line, k)))
+        .map_err(|e| e.message(name, &|k| h.line_of(k)))
         .map_err(anyhow::Error::msg)?;
     let t0_s = t[0];
     Ok(Readings {
@@ -98,171 +102,6 @@ pub fn parse(
         unit,
         t0_s,
     })
-}
-
-/// The header: its line, the indices of `time_s` and `reading`, the text after it and the
-/// line the text starts on.
-fn header<'a>(name: &str, text: &'a str) -> Result<(usize, (usize, usize), &'a str, usize)> {
-    let mut rest = text;
-    let mut line = 0;
-    loop {
-        line += 1;
-        let (l, next) = rest.split_once('\n').unwrap_or((rest, ""));
-        let t = l.trim();
-        if t.is_empty() || t.starts_with('#') {
-            if next.is_empty() {
-                bail!(
-                    "{name}: no header; expected a first line `time_s,reading` (one sample per row)"
-                );
-            }
-            rest = next;
-            continue;
-        }
-        let cells: Vec<&str> = t.split(',').map(str::trim).collect();
-        let at = |c: &str| cells.iter().position(|x| *x == c);
-        return match (at("time_s"), at("reading")) {
-            (Some(i), Some(j)) => Ok((line, (i, j), next, line + 1)),
-            (ti, _) => bail!(
-                "{name}:{line}:1: the header `{t}` has no {}; expected the columns time_s (s) and reading (one sample per row; `ptsa noise --counts` reads a counter record `time_s,pulses,ticks`)",
-                match (ti, at("reading")) {
-                    (None, None) => "time_s and no reading",
-                    (None, _) => "time_s",
-                    _ => "reading",
-                }
-            ),
-        };
-    }
-}
-
-/// The line of the `k`-th data row of `body` (starting on line `first_line`; blank and `#`
-/// lines are not rows): the slow path, for a message.
-fn line_of(body: &str, first_line: usize, k: usize) -> usize {
-    let mut seen = 0;
-    for (j, l) in body.lines().enumerate() {
-        let t = l.trim();
-        if t.is_empty() || t.starts_with('#') {
-            continue;
-        }
-        if seen == k {
-            return first_line + j;
-        }
-        seen += 1;
-    }
-    first_line
-}
-
-/// Every row of `body` (starting on line `first_line`), parsed in parallel in blocks of
-/// whole lines, block by block; blank and `#` lines skipped.
-fn rows(
-    name: &str,
-    body: &str,
-    first_line: usize,
-    (ti, ri): (usize, usize),
-) -> Result<Vec<Columns>> {
-    let blocks = blocks(body, 1 << 20);
-    // Each block's first line number: the newlines before it.
-    let mut starts = Vec::with_capacity(blocks.len());
-    let mut line = first_line;
-    for b in &blocks {
-        starts.push(line);
-        line += memchr::memchr_iter(b'\n', b.as_bytes()).count();
-    }
-    blocks
-        .par_iter()
-        .zip(starts.par_iter())
-        .map(|(b, &start)| parse_block(name, b, start, ti, ri))
-        .collect()
-}
-
-/// `text` cut into blocks of about `size` bytes, each ending at a line's end.
-fn blocks(text: &str, size: usize) -> Vec<&str> {
-    let mut out = Vec::new();
-    let mut rest = text;
-    while !rest.is_empty() {
-        if rest.len() <= size {
-            out.push(rest);
-            break;
-        }
-        let cut =
-            memchr::memchr(b'\n', &rest.as_bytes()[size..]).map_or(rest.len(), |k| size + k + 1);
-        out.push(&rest[..cut]);
-        rest = &rest[cut..];
-    }
-    out
-}
-
-/// A cell as a finite number: trimmed only when it needs it.
-fn number(cell: &str) -> Option<f64> {
-    let b = cell.as_bytes();
-    let cell = if b.first().is_some_and(u8::is_ascii_whitespace)
-        || b.last().is_some_and(u8::is_ascii_whitespace)
-    {
-        cell.trim()
-    } else {
-        cell
-    };
-    cell.parse::<f64>().ok().filter(|v| v.is_finite())
-}
-
-/// The rows of one block starting on line `start`.
-fn parse_block(name: &str, block: &str, start: usize, ti: usize, ri: usize) -> Result<Columns> {
-    let want = ti.max(ri) + 1;
-    let mut out = Columns {
-        t: Vec::with_capacity(block.len() / 16),
-        r: Vec::with_capacity(block.len() / 16),
-    };
-    let bytes = block.as_bytes();
-    let mut pos = 0;
-    let mut line = start;
-    while pos < bytes.len() {
-        let end = memchr::memchr(b'\n', &bytes[pos..]).map_or(bytes.len(), |k| pos + k);
-        let l = block[pos..end]
-            .strip_suffix('\r')
-            .unwrap_or(&block[pos..end]);
-        pos = end + 1;
-        let here = line;
-        line += 1;
-        let first = l.as_bytes().iter().position(|b| !b.is_ascii_whitespace());
-        if first.is_none_or(|k| l.as_bytes()[k] == b'#') {
-            continue;
-        }
-        let (mut time, mut reading) = (None, None);
-        let (mut j, mut from) = (0, 0);
-        loop {
-            let to = memchr::memchr(b',', &l.as_bytes()[from..]).map_or(l.len(), |k| from + k);
-            if j == ti || j == ri {
-                let cell = &l[from..to];
-                let Some(v) = number(cell) else {
-                    let what = if j == ti { "time_s, s" } else { "reading" };
-                    let col = l[..from].chars().count() + 1;
-                    bail!(
-                        "{name}:{here}:{col}: `{}` is not a finite number; expected the {what}",
-                        cell.trim()
-                    );
-                };
-                if j == ti {
-                    time = Some(v);
-                } else {
-                    reading = Some(v);
-                }
-            }
-            j += 1;
-            if to >= l.len() || j >= want {
-                break;
-            }
-            from = to + 1;
-        }
-        match (time, reading) {
-            (Some(a), Some(b)) => {
-                out.t.push(a);
-                out.r.push(b);
-            }
-            _ => bail!(
-                "{name}:{here}: {j} cells; expected at least {want} (the header's time_s and reading)"
-            ),
-        }
-    }
-    Ok(out)
 }
 
 /// Why the samples are not evenly spaced, at data row `k` (its line found for the message

@@ -21,6 +21,7 @@ pub mod fit;
 pub mod frame;
 pub mod report;
 pub mod sheet;
+pub mod stream;
 
 use std::fmt::Write as _;
 

@@ -18,7 +18,7 @@ use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
 
 use super::{Ctx, simulator};
 use crate::flags::values::{
-    candidate, candidates_help, local_gravity_cm_s2, positive_cm_s2, seed, term,
+    candidate, candidates_help, local_gravity_cm_s2, positive_cm_s2, positive_s, seed, term,
 };
 use crate::{paths, work};
 
@@ -29,7 +29,9 @@ pub struct DiscoverArgs {
     /// Case-frame CSV file of measured conditions (docs/case-frame.md). Without it, the
     /// report's Tables 6.1, 6.2 and 6.3 are analysed. A triad file (columns g_x, g_y, g_z,
     /// measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2) is one calibration of three
-    /// accelerometers on one block instead (docs/discovery.md, "A triad").
+    /// accelerometers on one block instead (docs/discovery.md, "A triad"); with time_s and
+    /// no g_x, g_y, g_z it is a raw stream of samples, cut into positions and calibrated
+    /// from gravity alone ("A raw stream").
     #[arg(long, value_name = "FILE")]
     pub data: Option<PathBuf>,
     /// 1-sigma uncertainty of the rows without `sigma_cm_s2`, cm/s² (more than 0). Without
@@ -123,6 +125,72 @@ pub struct DiscoverArgs {
     /// exact).
     #[arg(long, value_enum, value_name = "HOW", requires = "data")]
     pub orientation: Option<super::triad::OrientationArg>,
+    /// With a raw stream (time_s and the three axes' samples, no g_x, g_y, g_z): how long
+    /// the record starts at rest, s (default 10); the static limit is measured on it.
+    #[arg(long, value_name = "S", value_parser = positive_s, requires = "data")]
+    pub rest_s: Option<f64>,
+    /// With a raw stream: the moving window whose variance says whether the instrument is
+    /// still, s (default 1; at least 5 samples).
+    #[arg(long, value_name = "S", value_parser = positive_s, requires = "data")]
+    pub static_window_s: Option<f64>,
+    /// With a raw stream: a window is still while its variance, summed over the axes, is at
+    /// most FACTOR times the rest's median window variance; a factor, no unit, more than 1
+    /// (default 4).
+    #[arg(long, value_name = "FACTOR", value_parser = above_one, requires = "data")]
+    pub static_threshold: Option<f64>,
+    /// With a raw stream: the shortest still interval taken as a position, s (default 1).
+    #[arg(long, value_name = "S", value_parser = positive_s, requires = "data")]
+    pub static_min_s: Option<f64>,
+    /// With a raw stream: write the positions found to FILE as a triad file (each
+    /// interval's time, lines and samples in its comments) for a person to inspect, edit
+    /// and calibrate again with --orientation approximate; an existing file is replaced
+    /// only with --force.
+    #[arg(long, value_name = "FILE", requires = "data")]
+    pub positions_out: Option<PathBuf>,
+}
+
+/// `--static-threshold`: a factor more than 1.
+fn above_one(s: &str) -> Result<f64, String> {
+    let x = crate::flags::values::finite(s)?;
+    if x > 1.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "expected a factor more than 1 (times the rest's variance), not {s}"
+        ))
+    }
+}
+
+impl DiscoverArgs {
+    /// The raw stream's detector as the flags set it, and whether any of its flags (or
+    /// `--positions-out`) was given.
+    pub fn detector(
+        &self,
+    ) -> (
+        ptsa_host_sim::stream::segment::Detector,
+        Option<&'static str>,
+    ) {
+        let d = ptsa_host_sim::stream::segment::Detector::default();
+        let given = [
+            ("--rest-s", self.rest_s.is_some()),
+            ("--static-window-s", self.static_window_s.is_some()),
+            ("--static-threshold", self.static_threshold.is_some()),
+            ("--static-min-s", self.static_min_s.is_some()),
+            ("--positions-out", self.positions_out.is_some()),
+        ]
+        .into_iter()
+        .find(|(_, on)| *on)
+        .map(|(f, _)| f);
+        (
+            ptsa_host_sim::stream::segment::Detector {
+                rest_s: self.rest_s.unwrap_or(d.rest_s),
+                window_s: self.static_window_s.unwrap_or(d.window_s),
+                threshold: self.static_threshold.unwrap_or(d.threshold),
+                min_static_s: self.static_min_s.unwrap_or(d.min_static_s),
+            },
+            given,
+        )
+    }
 }
 
 /// A discovery to run, or the report's files to regenerate.
@@ -168,7 +236,8 @@ impl DiscoverArgs {
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         // A triad file needs no loop: dispatched before the loop's check.
         if let Some(d) = &self.data
-            && ptsa_host_sim::triad::frame::is_triad_file(d)
+            && (ptsa_host_sim::triad::frame::is_triad_file(d)
+                || ptsa_host_sim::triad::stream::is_stream_file(d))
         {
             return Ok(Request::Triad(Box::new(super::triad::request(
                 &self, d, ctx,
@@ -188,6 +257,14 @@ impl DiscoverArgs {
                 .collect();
             paths::folder_with("--convert-report-data", &dir, &names)?;
             return Ok(Request::Convert(dir));
+        }
+        if let (_, Some(flag)) = self.detector() {
+            anyhow::bail!(
+                "{flag} applies to a raw stream (time_s and the three axes' samples: measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 or reading_x, reading_y, reading_z), but {} is a single-axis case-frame file; expected {flag} only with a stream",
+                self.data
+                    .as_deref()
+                    .map_or(String::new(), |d| d.display().to_string())
+            );
         }
         if self.orientation.is_some() {
             anyhow::bail!(

@@ -8,6 +8,7 @@ use std::path::PathBuf;
 
 use anyhow::{Result, bail};
 use clap::ValueEnum;
+use ptsa_host_sim::triad::stream as tstream;
 use ptsa_host_sim::triad::{self, apply::TriadCalibration, fit, frame, report::TriadJson, sheet};
 
 use super::Ctx;
@@ -44,6 +45,10 @@ pub struct Request {
     /// The data file's bytes as read (hashed on the sheet and the calibration file).
     data_bytes: Vec<u8>,
     positions: Vec<frame::Position>,
+    /// A raw stream: read, and cut into its positions.
+    stream: Option<(tstream::TriadStream, tstream::Cut)>,
+    /// `--positions-out FILE`, and what it replaces.
+    positions_out: Option<(PathBuf, Option<String>)>,
     options: fit::Options,
     json: bool,
     /// `STEM-triad.csv`'s folder, or `None` (`--no-plots`).
@@ -82,8 +87,39 @@ pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Re
     }
     let data_bytes =
         std::fs::read(data).map_err(|e| anyhow::anyhow!("cannot read {}: {e}", data.display()))?;
-    let mut positions = frame::parse_bytes(&data.display().to_string(), &data_bytes)?;
-    frame::with_counts(&mut positions, ctx.instr.sf_cm_s2);
+    let name = data.display().to_string();
+    let (detector, stream_flag) = a.detector();
+    let (positions, stream) = if tstream::is_stream(&data_bytes) {
+        if a.orientation == Some(OrientationArg::Exact) {
+            bail!(
+                "--orientation exact: {} is a raw stream, whose positions' orientations are not known but estimated from gravity; expected no --orientation (or approximate) with a stream",
+                data.display()
+            );
+        }
+        let text = String::from_utf8(data_bytes.clone())
+            .map_err(|e| anyhow::anyhow!("{name}: not UTF-8 text ({e})"))?;
+        let s = tstream::parse(&name, &text, &ctx.instr)?;
+        let cut = tstream::cut(&s, &detector, ctx.instr.g_cm_s2)?;
+        (Vec::new(), Some((s, cut)))
+    } else {
+        if let Some(flag) = stream_flag {
+            bail!(
+                "{flag} applies to a raw stream (time_s and the three axes' samples, no g_x, g_y, g_z), but {} is a triad file of positions; expected {flag} only with a stream",
+                data.display()
+            );
+        }
+        let mut positions = frame::parse_bytes(&name, &data_bytes)?;
+        frame::with_counts(&mut positions, ctx.instr.sf_cm_s2);
+        (positions, None)
+    };
+    let positions_out = match &a.positions_out {
+        Some(p) => {
+            let replaced = paths::output_file("--positions-out", p, a.force)?
+                .then(|| paths::what_is_replaced(p));
+            Some((p.clone(), replaced))
+        }
+        None => None,
+    };
     let mut replaced = Vec::new();
     if let Some(p) = &a.write_instrument
         && paths::output_file("--write-instrument", p, a.force)?
@@ -114,6 +150,8 @@ pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Re
         data: data.to_path_buf(),
         data_bytes,
         positions,
+        stream,
+        positions_out,
         options: fit::Options {
             orientation: a.orientation.unwrap_or(OrientationArg::Exact).into(),
             default_sigma_cm_s2: a.sigma,
@@ -144,15 +182,40 @@ fn table_name(data: &std::path::Path) -> String {
 /// The fit is refused; a write fails.
 pub fn run(ctx: &Ctx, r: &Request, out: &mut dyn Write) -> Result<()> {
     let name = r.data.display().to_string();
-    let t = fit::fit(&name, &r.positions, &r.options)?;
-    let text = triad::text(&t, &name);
+    let (t, stream_text) = match &r.stream {
+        Some((s, cut)) => {
+            let (t, positions) = tstream::calibrate(s, cut, &r.options)?;
+            if let Some((p, replaced)) = &r.positions_out {
+                let csv = tstream::positions_csv(s, cut, &positions);
+                ptsa_host_sim::output::fs::write_atomic(p, csv.as_bytes())?;
+                if let Some(w) = replaced {
+                    eprintln!(
+                        "warning: --positions-out {}: replaced {w} (--force)",
+                        p.display()
+                    );
+                }
+                eprintln!(
+                    "wrote {} ({} positions: `ptsa discover --data {} --orientation approximate` calibrates them again)",
+                    p.display(),
+                    positions.len(),
+                    p.display()
+                );
+            }
+            (t, tstream::text(s, cut))
+        }
+        None => (fit::fit(&name, &r.positions, &r.options)?, String::new()),
+    };
+    let text = format!("{stream_text}{}", triad::text(&t, &name));
     if r.json {
         eprint!("{text}");
-        let j = serde_json::json!({
+        let mut j = serde_json::json!({
             "data": name,
             "instrument": ctx.name,
             "triad": TriadJson::of(&t),
         });
+        if let Some((s, cut)) = &r.stream {
+            j["stream"] = tstream::json(s, cut);
+        }
         writeln!(out, "{j}")?;
     } else {
         write!(out, "{text}")?;

@@ -410,6 +410,7 @@ mod tests {
             }
             "SPEC" => &["in s"],
             "FRACTION" => &["fraction"],
+            "FACTOR" => &["a factor, no unit"],
             "P" => &["confidence level"],
             "S" => &[", s"],
             "HZ" => &["Hz"],
