@@ -7,6 +7,7 @@
 //!   record's starting rest, as `imu_tk` cuts a hand-turned record).
 //! * this module: a stream read whole, its times checked.
 
+pub mod axis;
 pub mod columns;
 pub mod segment;
 

@@ -10,7 +10,8 @@
 
 use crate::output::significant as sig;
 
-/// The detector's settings (`--rest-s`, `--static-window-s`, `--static-threshold`, `--static-min-s`).
+/// The detector's settings (`--rest-s`, `--static-window-s`, `--static-threshold`,
+/// `--static-min-s`, `--static-trim-s`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Detector {
     /// How long the record starts at rest, s.
@@ -21,6 +22,10 @@ pub struct Detector {
     pub threshold: f64,
     /// The shortest interval kept, s.
     pub min_static_s: f64,
+    /// What each interval loses at each end before it is kept, s: the start and the end of
+    /// a turn are too gentle for the window's variance to see, and a precise instrument
+    /// (a loop's counts over seconds) sees them in its mean.
+    pub trim_s: f64,
 }
 
 impl Default for Detector {
@@ -30,6 +35,7 @@ impl Default for Detector {
             window_s: 1.0,
             threshold: 4.0,
             min_static_s: 1.0,
+            trim_s: 0.0,
         }
     }
 }
@@ -249,6 +255,7 @@ pub fn segment(t: &[f64], channels: &[Vec<f64>], d: &Detector) -> Result<Segment
             sig(d.threshold, 6)
         ));
     }
+    let trim = samples(d.trim_s);
     let (mut intervals, mut short) = (Vec::new(), Vec::new());
     let mut k = 0;
     let mut still = 0usize;
@@ -262,7 +269,12 @@ pub fn segment(t: &[f64], channels: &[Vec<f64>], d: &Detector) -> Result<Segment
             k += 1;
         }
         still += k - first;
-        let run = interval(t, channels, first, k - 1);
+        let (a, b) = (first + trim, (k - 1).saturating_sub(trim));
+        if a > b {
+            short.push(interval(t, channels, first, k - 1));
+            continue;
+        }
+        let run = interval(t, channels, a, b);
         if run.held_s(dt_s) >= d.min_static_s {
             intervals.push(run);
         } else {

@@ -264,13 +264,14 @@ pub fn positions_csv(s: &TriadStream, cut: &Cut, positions: &[Position]) -> Stri
     let d = &seg.detector;
     let mut comments = vec![
         format!(
-            "positions cut from the stream {} by `ptsa discover` (its static intervals: --rest-s {}, --static-window-s {} ({} samples), --static-threshold {}, --static-min-s {}; readings in {})",
+            "positions cut from the stream {} by `ptsa discover` (its static intervals: --rest-s {}, --static-window-s {} ({} samples), --static-threshold {}, --static-min-s {}, --static-trim-s {}; readings in {})",
             st.name,
             sig(d.rest_s, 6),
             sig(d.window_s, 6),
             seg.window,
             sig(d.threshold, 6),
             sig(d.min_static_s, 6),
+            sig(d.trim_s, 6),
             s.unit.name()
         ),
         "g_x, g_y, g_z: each position's direction as the stream's calibration corrects its readings (not a fixture's: fit with --orientation approximate); measured_*: the interval's mean, cm/s²".to_string(),

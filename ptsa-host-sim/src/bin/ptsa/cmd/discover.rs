@@ -18,7 +18,8 @@ use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
 
 use super::{Ctx, simulator};
 use crate::flags::values::{
-    candidate, candidates_help, local_gravity_cm_s2, positive_cm_s2, positive_s, seed, term,
+    candidate, candidates_help, local_gravity_cm_s2, non_negative_s, positive_cm_s2, positive_s,
+    seed, term,
 };
 use crate::{paths, work};
 
@@ -141,12 +142,33 @@ pub struct DiscoverArgs {
     /// With a raw stream: the shortest still interval taken as a position, s (default 1).
     #[arg(long, value_name = "S", value_parser = positive_s, requires = "data")]
     pub static_min_s: Option<f64>,
+    /// With a raw stream: what each still interval loses at each end before its mean is
+    /// taken, s (0 or more; default 0, and 1 for a record of gates, whose summed counts
+    /// see what the window does not): the gentle start and end of a turn.
+    #[arg(long, value_name = "S", value_parser = non_negative_s, requires = "data")]
+    pub static_trim_s: Option<f64>,
     /// With a raw stream: write the positions found to FILE as a triad file (each
     /// interval's time, lines and samples in its comments) for a person to inspect, edit
     /// and calibrate again with --orientation approximate; an existing file is replaced
     /// only with --force.
     #[arg(long, value_name = "FILE", requires = "data")]
     pub positions_out: Option<PathBuf>,
+    /// With one axis's raw stream (time_s and measured_cm_s2, reading, or a gate's
+    /// pulses,ticks; no g_ia): the plan of the positions held, in their order (a case-frame
+    /// file such as `ptsa plan tumble` writes, its measured cells empty). The stream's
+    /// still intervals fill its rows; the filled plan goes to --positions-out, or to
+    /// STEM-positions.csv in --out, and is analysed.
+    #[arg(long, value_name = "FILE", requires = "data")]
+    pub plan: Option<PathBuf>,
+}
+
+/// One axis's stream cut into its positions: the filled plan's file, its text, the summary
+/// of the cut, and what the file replaces.
+pub struct Filled {
+    path: PathBuf,
+    text: String,
+    summary: String,
+    replaced: Option<String>,
 }
 
 /// `--static-threshold`: a factor more than 1.
@@ -176,6 +198,7 @@ impl DiscoverArgs {
             ("--static-window-s", self.static_window_s.is_some()),
             ("--static-threshold", self.static_threshold.is_some()),
             ("--static-min-s", self.static_min_s.is_some()),
+            ("--static-trim-s", self.static_trim_s.is_some()),
             ("--positions-out", self.positions_out.is_some()),
         ]
         .into_iter()
@@ -187,6 +210,7 @@ impl DiscoverArgs {
                 window_s: self.static_window_s.unwrap_or(d.window_s),
                 threshold: self.static_threshold.unwrap_or(d.threshold),
                 min_static_s: self.static_min_s.unwrap_or(d.min_static_s),
+                trim_s: self.static_trim_s.unwrap_or(d.trim_s),
             },
             given,
         )
@@ -206,6 +230,9 @@ pub enum Request {
 /// An analysis of `data` (or of the report's tables), its output files checked.
 pub struct Analysis {
     data: Option<PathBuf>,
+    /// One axis's stream cut into its plan's positions: written before the analysis,
+    /// which reads it as `data`.
+    filled: Option<Filled>,
     options: Options,
     sim: Box<dyn Simulator>,
     json: bool,
@@ -217,14 +244,80 @@ pub struct Analysis {
     sheet: Option<PathBuf>,
     /// The single files `--force` will replace: the flag, the file, its time of change
     /// (to see whether the run wrote it) and what it holds.
-    replaced: Vec<(&'static str, PathBuf, Option<SystemTime>, String)>,
+    replaced: Vec<Replaced>,
     force: bool,
 }
 
+/// A file `--force` will replace: the flag, the file, its time of change (to see whether
+/// the run wrote it) and what it holds.
+type Replaced = (&'static str, PathBuf, Option<SystemTime>, String);
+
 impl DiscoverArgs {
     /// The files the command reads, by their flags: no output may replace them.
-    pub fn inputs(&self) -> [(&'static str, Option<&Path>); 1] {
-        [("--data", self.data.as_deref())]
+    pub fn inputs(&self) -> [(&'static str, Option<&Path>); 2] {
+        [
+            ("--data", self.data.as_deref()),
+            ("--plan", self.plan.as_deref()),
+        ]
+    }
+
+    /// One axis's stream (`--data` with `--plan`): read, cut, its plan filled, the file it
+    /// goes to checked (`--positions-out`, else STEM-positions.csv in `--out`).
+    ///
+    /// # Errors
+    /// No `--plan`; the stream, the plan or the output refused; the intervals do not fill
+    /// the plan.
+    fn axis_stream(&self, data: &Path, ctx: &Ctx) -> Result<Filled> {
+        use ptsa_host_sim::stream::axis;
+        let Some(plan) = &self.plan else {
+            anyhow::bail!(
+                "{}: one axis's raw stream (time_s and its readings, no g_ia); expected --plan FILE, the plan of the positions held in their order (`ptsa plan tumble`), whose rows the stream's still intervals fill",
+                data.display()
+            );
+        };
+        if self.orientation.is_some() {
+            anyhow::bail!(
+                "--orientation applies to a triad file; {} is one axis's stream",
+                data.display()
+            );
+        }
+        let name = data.display().to_string();
+        let text = std::fs::read_to_string(data)
+            .map_err(|e| anyhow::anyhow!("cannot read {name}: {e}"))?;
+        let s = axis::parse(&name, &text, &ctx.instr)?;
+        let mut detector = self.detector().0;
+        if s.source == axis::Source::Counts && self.static_trim_s.is_none() {
+            detector.trim_s = axis::COUNTS_TRIM_S;
+        }
+        let seg = axis::cut(&s, &detector)?;
+        let plan_rows = ptsa_host_sim::model::caseframe::read(plan)?;
+        let plan_name = plan.display().to_string();
+        let (rows, open) = axis::fill(&s, &seg, &plan_rows, &plan_name, ctx.instr.g_cm_s2)?;
+        let path = self.positions_out.clone().unwrap_or_else(|| {
+            let stem = data
+                .file_stem()
+                .map_or_else(|| "stream".into(), |s| s.to_string_lossy().into_owned());
+            self.out.join(format!("{stem}-positions.csv"))
+        });
+        let replaced = if self.positions_out.is_some() {
+            paths::output_file("--positions-out", &path, self.force)?
+                .then(|| paths::what_is_replaced(&path))
+        } else {
+            paths::folder_with(
+                "--out",
+                &self.out,
+                &[path
+                    .file_name()
+                    .map_or_else(String::new, |f| f.to_string_lossy().into_owned())],
+            )?;
+            None
+        };
+        Ok(Filled {
+            text: axis::filled_csv(&s, &seg, (&rows, &open), &plan_name),
+            summary: axis::text(&s, &seg),
+            path,
+            replaced,
+        })
     }
 
     /// The request: the candidates resolved (each once, in the registry's order), the
@@ -243,6 +336,24 @@ impl DiscoverArgs {
                 &self, d, ctx,
             )?)));
         }
+        let filled = match &self.data {
+            Some(d) if ptsa_host_sim::stream::axis::is_stream_file(d) => {
+                Some(self.axis_stream(d, ctx)?)
+            }
+            _ => None,
+        };
+        if filled.is_none()
+            && let Some(p) = &self.plan
+        {
+            anyhow::bail!(
+                "--plan {} applies to one axis's raw stream (time_s and its readings, no g_ia); expected --data STREAM with it",
+                p.display()
+            );
+        }
+        let data = filled
+            .as_ref()
+            .map(|f| f.path.clone())
+            .or(self.data.clone());
         if self.data.is_none() && self.convert_report_data.is_none() && !ctx.instr.has_loop {
             anyhow::bail!(
                 "discover without --data analyses R-890's Tables 6.1–6.3, measured on the Kearfott 2401 in its PTSA loop, and {} describes another instrument without a loop; expected --data FILE with this instrument's measurements",
@@ -258,27 +369,63 @@ impl DiscoverArgs {
             paths::folder_with("--convert-report-data", &dir, &names)?;
             return Ok(Request::Convert(dir));
         }
-        if let (_, Some(flag)) = self.detector() {
+        self.single_axis_flags(filled.is_some())?;
+        let candidates = self.candidates(ctx)?;
+        let replaced = self.outputs(data.as_deref())?;
+        let options = Options {
+            default_sigma_cm_s2: self.sigma,
+            candidates,
+            seed: self.seed,
+            keep_outliers: self.keep_outliers,
+            units_as_given: self.units_as_given,
+            terms: self.terms,
+            ..Options::for_instrument(&ctx.instr)
+        };
+        Ok(Request::Analyse(Box::new(Analysis {
+            sim: simulator(&ctx.instr, config, self.analytic, self.seed),
+            plots: (!self.no_plots).then_some(self.out),
+            data,
+            filled,
+            options,
+            json: self.json,
+            advice_out: self.advice_out,
+            write_instrument: self.write_instrument,
+            sheet: self.sheet,
+            replaced,
+            force: self.force,
+        })))
+    }
+
+    /// The flags a single-axis case-frame file refuses: the stream's (unless it is one
+    /// axis's stream) and `--orientation`.
+    fn single_axis_flags(&self, stream: bool) -> Result<()> {
+        let data = self
+            .data
+            .as_deref()
+            .map_or(String::new(), |d| d.display().to_string());
+        if let (_, Some(flag)) = self.detector()
+            && !stream
+        {
             anyhow::bail!(
-                "{flag} applies to a raw stream (time_s and the three axes' samples: measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 or reading_x, reading_y, reading_z), but {} is a single-axis case-frame file; expected {flag} only with a stream",
-                self.data
-                    .as_deref()
-                    .map_or(String::new(), |d| d.display().to_string())
+                "{flag} applies to a raw stream (time_s and the three axes' samples: measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2 or reading_x, reading_y, reading_z), but {data} is a single-axis case-frame file; expected {flag} only with a stream"
             );
         }
         if self.orientation.is_some() {
             anyhow::bail!(
-                "--orientation applies to a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...), but {} is a single-axis case-frame file; expected --orientation only with a triad file",
-                self.data
-                    .as_deref()
-                    .map_or(String::new(), |d| d.display().to_string())
+                "--orientation applies to a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...), but {data} is a single-axis case-frame file; expected --orientation only with a triad file"
             );
         }
-        let candidates = self.candidates(ctx)?;
+        Ok(())
+    }
+
+    /// The outputs checked: the table and plots' folder for `data`'s stem (or the report's
+    /// tables'), `--advice-out`, `--write-instrument`, `--sheet`; the files `--force` will
+    /// replace.
+    fn outputs(&self, data: Option<&Path>) -> Result<Vec<Replaced>> {
         if !self.no_plots {
             // The files written: `<stem>-discover.*` of the data file, or, without one,
             // those of each of the report's tables (`report::discovery`).
-            let stems = match &self.data {
+            let stems = match data {
                 Some(p) => vec![discovery::output_stem(Some(p))],
                 None => r890::case_files()?
                     .iter()
@@ -312,27 +459,7 @@ impl DiscoverArgs {
                 replaced.push(("--sheet", dir.clone(), before, "an earlier sheet".into()));
             }
         }
-        let options = Options {
-            default_sigma_cm_s2: self.sigma,
-            candidates,
-            seed: self.seed,
-            keep_outliers: self.keep_outliers,
-            units_as_given: self.units_as_given,
-            terms: self.terms,
-            ..Options::for_instrument(&ctx.instr)
-        };
-        Ok(Request::Analyse(Box::new(Analysis {
-            sim: simulator(&ctx.instr, config, self.analytic, self.seed),
-            plots: (!self.no_plots).then_some(self.out),
-            data: self.data,
-            options,
-            json: self.json,
-            advice_out: self.advice_out,
-            write_instrument: self.write_instrument,
-            sheet: self.sheet,
-            replaced,
-            force: self.force,
-        })))
+        Ok(replaced)
     }
 
     /// The candidates: `--candidates` (each once, in the registry's order), else the
@@ -374,6 +501,24 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         Request::Analyse(a) => a,
         Request::Triad(t) => return super::triad::run(ctx, t, out),
     };
+    if let Some(f) = &a.filled {
+        ptsa_host_sim::output::fs::write_atomic(&f.path, f.text.as_bytes())?;
+        if a.json {
+            eprint!("{}", f.summary);
+        } else {
+            write!(out, "{}", f.summary)?;
+        }
+        if let Some(w) = &f.replaced {
+            eprintln!(
+                "warning: --positions-out {}: replaced {w} (--force)",
+                f.path.display()
+            );
+        }
+        eprintln!(
+            "wrote {} (the plan filled from the stream; analysed below)",
+            f.path.display()
+        );
+    }
     let est = estimate(a)?;
     // The search of the loop's parameters, whose length is known only once they are
     // selected, is held to the limit too.
