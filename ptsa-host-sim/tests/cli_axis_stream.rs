@@ -14,7 +14,7 @@ use rand::SeedableRng as _;
 use rand_distr::Distribution as _;
 
 mod common;
-use common::{assert_clean_of, ptsa_in, stderr, stdout};
+use common::{assert_clean_of, json_in, ptsa_in, stderr, stdout};
 
 /// A CSV line's cells (a quoted cell may hold commas).
 fn cells(line: &str) -> Vec<String> {
@@ -89,12 +89,6 @@ fn angles(
     (out, spans)
 }
 
-fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
-    let o = ptsa_in(dir, args);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    serde_json::from_str(&stdout(&o)).unwrap()
-}
-
 /// The MEMS tumble's truth: `K_0` (g), the scale over nominal, the noise per sample
 /// (cm/s²).
 const MEMS: (f64, f64, f64) = (0.05, 1.01, 2.0);
@@ -151,7 +145,7 @@ fn mems_tumble(dir: &Path, name: &str, skip: Option<usize>) -> (Vec<PlanRow>, Ve
 fn a_tumble_logged_in_lsb_fills_its_plan_and_is_calibrated() {
     let tmp = tempfile::tempdir().unwrap();
     let (rows, _) = mems_tumble(tmp.path(), "s.csv", None);
-    let v = json(
+    let v = json_in(
         tmp.path(),
         &[
             "--instrument",

@@ -7,9 +7,8 @@
 mod common;
 
 use std::fmt::Write as _;
-use std::path::Path;
 
-use common::{assert_clean_of, ptsa_in, stderr, stdout};
+use common::{assert_clean_of, json_in, ptsa_in, stderr, stdout};
 
 /// NIST's 1000-point test record: `n_{i+1} = 16807·n_i mod 2147483647` from 1234567890,
 /// each divided by 2147483647 (frequency data, τ₀ = 1 s).
@@ -34,12 +33,6 @@ fn record(y: &[f64], dt: f64) -> String {
     s
 }
 
-fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
-    let o = ptsa_in(dir, args);
-    assert!(o.status.success(), "{}", stderr(&o));
-    serde_json::from_str(&stdout(&o)).unwrap()
-}
-
 fn near(got: f64, want: f64, rel: f64) -> bool {
     (got / want - 1.0).abs() < rel
 }
@@ -50,7 +43,7 @@ fn near(got: f64, want: f64, rel: f64) -> bool {
 fn the_nist_1000_point_record_gives_the_published_deviations() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("nbs14.csv"), record(&nbs14(), 1.0)).unwrap();
-    let v = json(
+    let v = json_in(
         tmp.path(),
         &[
             "noise",
@@ -96,7 +89,7 @@ fn the_nist_1000_point_record_gives_the_published_deviations() {
 fn confidence_decade_taus_and_the_plot() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("r.csv"), record(&nbs14(), 0.5)).unwrap();
-    let v = json(
+    let v = json_in(
         tmp.path(),
         &[
             "noise",
@@ -159,7 +152,7 @@ fn a_mems_record_in_lsb_through_its_instrument_file() {
     );
     assert!(out.contains("hdev cm/s^2"), "{out}");
     let mean: f64 = lsb.iter().sum::<f64>() / 1000.0 / 16384.0 * 980.665;
-    let v = json(
+    let v = json_in(
         tmp.path(),
         &[
             "--instrument",

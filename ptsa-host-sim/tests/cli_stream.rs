@@ -4,12 +4,11 @@
 //! the readings in the instrument's unit, and every refusal with its message.
 
 use std::fmt::Write as _;
-use std::path::Path;
 
 use rand::SeedableRng as _;
 
 mod common;
-use common::{assert_clean_of, ptsa_in, stderr, stdout};
+use common::{assert_clean_of, json_in, numbers, ptsa_in, stderr, stdout};
 
 /// The triad generator written from the equations (shared with the triad campaign and
 /// the benchmark; it uses nothing of `ptsa_host_sim`).
@@ -42,27 +41,13 @@ fn stream(seed: u64, spec: &StreamSpec) -> (String, Vec<(f64, f64)>) {
     stream_csv(&truth(), &dirs, spec, &mut rng)
 }
 
-fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
-    let o = ptsa_in(dir, args);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    serde_json::from_str(&stdout(&o)).unwrap()
-}
-
-fn arr(v: &serde_json::Value) -> Vec<f64> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect()
-}
-
 /// Every coefficient within 4 σ of the truth in the triad's frame.
 fn holds_the_truth(t: &serde_json::Value) {
     let want = in_triad_frame(&truth());
-    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (b, bs) = (numbers(&t["bias_cm_s2"]), numbers(&t["bias_sigma_cm_s2"]));
     let (k, ks) = (
-        arr(&t["scale_factor_ppm"]),
-        arr(&t["scale_factor_sigma_ppm"]),
+        numbers(&t["scale_factor_ppm"]),
+        numbers(&t["scale_factor_sigma_ppm"]),
     );
     for a in 0..3 {
         assert!(
@@ -95,7 +80,7 @@ fn a_stream_is_cut_calibrated_and_its_positions_written() {
     let tmp = tempfile::tempdir().unwrap();
     let (text, spans) = stream(5, &StreamSpec::default());
     std::fs::write(tmp.path().join("s.csv"), &text).unwrap();
-    let j = json(
+    let j = json_in(
         tmp.path(),
         &[
             "discover",
@@ -131,7 +116,7 @@ fn a_stream_is_cut_calibrated_and_its_positions_written() {
         pos.contains("\n# s1: 0–14.") && pos.contains("\n# s37: "),
         "{pos}"
     );
-    let again = json(
+    let again = json_in(
         tmp.path(),
         &[
             "discover",
@@ -143,7 +128,7 @@ fn a_stream_is_cut_calibrated_and_its_positions_written() {
         ],
     );
     for key in ["bias_cm_s2", "scale_factor_ppm"] {
-        let (a, b) = (arr(&j["triad"][key]), arr(&again["triad"][key]));
+        let (a, b) = (numbers(&j["triad"][key]), numbers(&again["triad"][key]));
         for (x, y) in a.iter().zip(&b) {
             assert!(
                 (x - y).abs() <= 1e-9 * x.abs().max(1.0),
@@ -188,7 +173,7 @@ fn a_stream_in_lsb_is_read_through_the_instrument_file() {
         );
     }
     std::fs::write(tmp.path().join("lsb.csv"), &lsb).unwrap();
-    let j = json(
+    let j = json_in(
         tmp.path(),
         &[
             "--instrument",

@@ -9,7 +9,7 @@ use rand::SeedableRng as _;
 use rand_distr::Distribution as _;
 
 mod common;
-use common::{ptsa_in, refused_in_folder, stderr, stdout};
+use common::{json_in, numbers, ptsa_in, refused_in_folder, stderr, stdout};
 
 /// The triad generator written from the equations (shared with the triad campaign and
 /// the benchmark; it uses nothing of `ptsa_host_sim`).
@@ -73,26 +73,12 @@ fn triad_csv(tilt_rad: f64, seed: u64) -> String {
     s
 }
 
-fn json(dir: &Path, args: &[&str]) -> serde_json::Value {
-    let o = ptsa_in(dir, args);
-    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    serde_json::from_str(&stdout(&o)).unwrap()
-}
-
-fn arr(v: &serde_json::Value) -> Vec<f64> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect()
-}
-
 #[test]
 fn a_triad_file_is_calibrated_and_its_json_holds_the_truth() {
     let tmp = tempfile::tempdir().unwrap();
     let text = triad_csv(0.0, 1);
     std::fs::write(tmp.path().join("t.csv"), &text).unwrap();
-    let j = json(tmp.path(), &["discover", "--data", "t.csv", "--json"]);
+    let j = json_in(tmp.path(), &["discover", "--data", "t.csv", "--json"]);
     // The input is untouched; the per-position table is written.
     assert_eq!(
         std::fs::read_to_string(tmp.path().join("t.csv")).unwrap(),
@@ -102,10 +88,10 @@ fn a_triad_file_is_calibrated_and_its_json_holds_the_truth() {
     assert_eq!(table.lines().count(), 25);
     let t = &j["triad"];
     assert_eq!(t["orientation"], "exact");
-    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (b, bs) = (numbers(&t["bias_cm_s2"]), numbers(&t["bias_sigma_cm_s2"]));
     let (k, ks) = (
-        arr(&t["scale_factor_ppm"]),
-        arr(&t["scale_factor_sigma_ppm"]),
+        numbers(&t["scale_factor_ppm"]),
+        numbers(&t["scale_factor_sigma_ppm"]),
     );
     for a in 0..3 {
         assert!((b[a] - BIAS[a]).abs() < 4.0 * bs[a], "bias {b:?} ± {bs:?}");
@@ -148,7 +134,7 @@ fn a_hand_placed_triad_is_flagged_exact_and_fits_approximate() {
     assert!(stdout(&o).contains("NOT consistent"));
     // Approximate: the misalignments above the diagonal are the convention's zeros, the
     // rest recovered, the g check consistent, the tilts estimated.
-    let j = json(
+    let j = json_in(
         tmp.path(),
         &[
             "discover",
@@ -418,15 +404,15 @@ fn plan_filled_in_and_calibrated() {
         );
     }
     std::fs::write(tmp.path().join("p.csv"), filled).unwrap();
-    let j = json(
+    let j = json_in(
         tmp.path(),
         &["discover", "--data", "p.csv", "--json", "--no-plots"],
     );
     let t = &j["triad"];
-    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (b, bs) = (numbers(&t["bias_cm_s2"]), numbers(&t["bias_sigma_cm_s2"]));
     let (k, ks) = (
-        arr(&t["scale_factor_ppm"]),
-        arr(&t["scale_factor_sigma_ppm"]),
+        numbers(&t["scale_factor_ppm"]),
+        numbers(&t["scale_factor_sigma_ppm"]),
     );
     for a in 0..3 {
         assert!((b[a] - BIAS[a]).abs() < 4.0 * bs[a], "bias {b:?} ± {bs:?}");
@@ -524,7 +510,7 @@ fn a_counted_triad_is_calibrated_within_its_intervals() {
         );
     }
     std::fs::write(tmp.path().join("p.csv"), &filled).unwrap();
-    let j = json(
+    let j = json_in(
         tmp.path(),
         &["discover", "--data", "p.csv", "--json", "--no-plots"],
     );
@@ -533,10 +519,10 @@ fn a_counted_triad_is_calibrated_within_its_intervals() {
         filled
     );
     let t = &j["triad"];
-    let (b, bs) = (arr(&t["bias_cm_s2"]), arr(&t["bias_sigma_cm_s2"]));
+    let (b, bs) = (numbers(&t["bias_cm_s2"]), numbers(&t["bias_sigma_cm_s2"]));
     let (k, ks) = (
-        arr(&t["scale_factor_ppm"]),
-        arr(&t["scale_factor_sigma_ppm"]),
+        numbers(&t["scale_factor_ppm"]),
+        numbers(&t["scale_factor_sigma_ppm"]),
     );
     for a in 0..3 {
         assert!((b[a] - BIAS[a]).abs() < 4.0 * bs[a], "bias {b:?} ± {bs:?}");
@@ -757,7 +743,7 @@ fn applied_to_a_record(dir: &Path) {
     std::fs::write(dir.join("rec.csv"), &rec).unwrap();
     let mut results = Vec::new();
     for c in ["cal.toml", "cal.json"] {
-        let j = json(
+        let j = json_in(
             dir,
             &["correct", "--data", "rec.csv", "--calibration", c, "--json"],
         );
@@ -765,7 +751,7 @@ fn applied_to_a_record(dir: &Path) {
         let rows = j["rows"].as_array().unwrap();
         assert_eq!(rows.len(), 12);
         for (r, f) in rows.iter().zip(&forces) {
-            let got = arr(&r["f_cm_s2"]);
+            let got = numbers(&r["f_cm_s2"]);
             let cov =
                 nalgebra::Matrix3::from_fn(|a, b| r["covariance_cm2_s4"][a][b].as_f64().unwrap());
             let d = nalgebra::Vector3::new(got[0] - f[0], got[1] - f[1], got[2] - f[2]);
@@ -783,7 +769,7 @@ fn applied_to_a_record(dir: &Path) {
         .iter()
         .zip(results[1].as_array().unwrap())
     {
-        let (fa, fb) = (arr(&a["f_cm_s2"]), arr(&b["f_cm_s2"]));
+        let (fa, fb) = (numbers(&a["f_cm_s2"]), numbers(&b["f_cm_s2"]));
         for k in 0..3 {
             assert!((fa[k] - fb[k]).abs() < 1e-9, "{fa:?} {fb:?}");
         }
@@ -960,7 +946,7 @@ fn a_gravity_the_data_disagree_with_is_named() {
     )
     .unwrap();
     let warned = |args: &[&str]| -> Vec<String> {
-        let v = json(tmp.path(), args);
+        let v = json_in(tmp.path(), args);
         v["triad"]["warnings"]
             .as_array()
             .unwrap()

@@ -342,7 +342,7 @@ fn lag1(z: &[f64]) -> f64 {
 /// differences. `None` with fewer than [`NOISE_ID_MIN_POINTS`] averages.
 #[must_use]
 pub fn noise_id(y: &[f64], m: usize) -> Option<i32> {
-    noise_id_up_to(y, m, 2)
+    noise_ids(y, m).map(|(allan, _)| allan)
 }
 
 /// [`noise_id`] for the Allan variances (differencing at most twice, `α` from −2 to 2) and
@@ -371,34 +371,6 @@ pub fn noise_ids(y: &[f64], m: usize) -> Option<(i32, i32)> {
         }
         if delta < 0.25 || d >= 3 {
             return Some((allan.unwrap_or(-2), alpha.clamp(-4, 2)));
-        }
-        z = z.windows(2).map(|w| w[1] - w[0]).collect();
-        d += 1;
-    }
-}
-
-/// [`noise_id`] differencing at most `dmax` times: 2 for the Allan variances (`α` from −2
-/// to 2), 3 for the Hadamard variance (down to −4).
-#[must_use]
-pub fn noise_id_up_to(y: &[f64], m: usize, dmax: i32) -> Option<i32> {
-    let k = (y.len() / m.max(1)).min(NOISE_ID_MAX_POINTS);
-    if k < NOISE_ID_MIN_POINTS {
-        return None;
-    }
-    #[allow(clippy::cast_precision_loss)]
-    let mut z: Vec<f64> = y
-        .chunks_exact(m)
-        .take(k)
-        .map(|c| c.iter().sum::<f64>() / m as f64)
-        .collect();
-    let mut d = 0;
-    loop {
-        let r1 = lag1(&z);
-        let delta = r1 / (1.0 + r1);
-        if delta < 0.25 || d >= dmax {
-            let p = -2.0 * (delta + f64::from(d));
-            #[allow(clippy::cast_possible_truncation)]
-            return Some((p.round() as i32).clamp(-2 * dmax + 2, 2));
         }
         z = z.windows(2).map(|w| w[1] - w[0]).collect();
         d += 1;

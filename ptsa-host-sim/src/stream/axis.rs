@@ -194,12 +194,9 @@ pub fn fill(
             |(k, m, e)| {
                 let iv = &seg.intervals[k];
                 format!(
-                    "interval {} ({}–{} s, lines {}–{}) reads {} cm/s² where row `{}` expects about {} (its g_ia, with the first interval's offset): a position {} before it",
+                    "interval {} ({}) reads {} cm/s² where row `{}` expects about {} (its g_ia, with the first interval's offset): a position {} before it",
                     k + 1,
-                    sig(iv.t0_s, 8),
-                    sig(iv.t1_s, 8),
-                    st.lines[iv.first],
-                    st.lines[iv.last],
+                    st.place(iv),
                     sig(m, 6),
                     plan[open[k]].label,
                     sig(e, 6),
@@ -247,16 +244,10 @@ pub fn filled_csv(
     plan_name: &str,
 ) -> String {
     let st = &s.stream;
-    let d = &seg.detector;
     let mut comments = vec![format!(
-        "the plan {plan_name} filled from the stream {} by `ptsa discover` (its still intervals: --rest-s {}, --static-window-s {} ({} samples), --static-threshold {}, --static-min-s {}, --static-trim-s {}); {}",
+        "the plan {plan_name} filled from the stream {} by `ptsa discover` (its still intervals: {}); {}",
         st.name,
-        sig(d.rest_s, 6),
-        sig(d.window_s, 6),
-        seg.window,
-        sig(d.threshold, 6),
-        sig(d.min_static_s, 6),
-        sig(d.trim_s, 6),
+        seg.settings(),
         match s.source {
             Source::Reading(u) => format!(
                 "measured_cm_s2: each interval's mean reading (given in {})",
@@ -267,12 +258,9 @@ pub fn filled_csv(
     )];
     for (&i, iv) in open.iter().zip(&seg.intervals) {
         comments.push(format!(
-            "{}: {}–{} s, lines {}–{}, {} samples",
+            "{}: {}, {} samples",
             rows[i].label,
-            sig(iv.t0_s, 8),
-            sig(iv.t1_s, 8),
-            st.lines[iv.first],
-            st.lines[iv.last],
+            st.place(iv),
             iv.samples()
         ));
     }
@@ -315,11 +303,8 @@ pub fn text(s: &AxisStream, seg: &Segmentation) -> String {
     for iv in seg.short.iter().filter(|iv| iv.samples() >= seg.window) {
         let _ = writeln!(
             out,
-            "  not a position: {}–{} s (lines {}–{}): held {} s, less than --static-min-s {} s",
-            sig(iv.t0_s, 8),
-            sig(iv.t1_s, 8),
-            st.lines[iv.first],
-            st.lines[iv.last],
+            "  not a position: {}: held {} s, less than --static-min-s {} s",
+            st.place(iv),
             sig(iv.held_s(seg.dt_s), 3),
             sig(d.min_static_s, 6)
         );

@@ -29,6 +29,21 @@ pub struct Stream {
     pub gaps: Vec<(usize, f64)>,
 }
 
+impl Stream {
+    /// Where the interval `iv` is: `12.5–15.02 s, lines 1252–1504`.
+    #[must_use]
+    pub fn place(&self, iv: &segment::Interval) -> String {
+        use crate::output::significant as sig;
+        format!(
+            "{}–{} s, lines {}–{}",
+            sig(iv.t0_s, 8),
+            sig(iv.t1_s, 8),
+            self.lines[iv.first],
+            self.lines[iv.last]
+        )
+    }
+}
+
 /// Fewest samples a stream may have.
 pub const MIN_SAMPLES: usize = 16;
 

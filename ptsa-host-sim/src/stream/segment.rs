@@ -97,6 +97,24 @@ pub struct Segmentation {
     pub static_fraction: f64,
 }
 
+impl Segmentation {
+    /// The settings as the flags that set them, for a file's comments: `--rest-s 10,
+    /// --static-window-s 1 (100 samples), …`.
+    #[must_use]
+    pub fn settings(&self) -> String {
+        let d = &self.detector;
+        format!(
+            "--rest-s {}, --static-window-s {} ({} samples), --static-threshold {}, --static-min-s {}, --static-trim-s {}",
+            sig(d.rest_s, 6),
+            sig(d.window_s, 6),
+            self.window,
+            sig(d.threshold, 6),
+            sig(d.min_static_s, 6),
+            sig(d.trim_s, 6)
+        )
+    }
+}
+
 /// The median of `v` (not empty).
 fn median(mut v: Vec<f64>) -> f64 {
     let mid = v.len() / 2;

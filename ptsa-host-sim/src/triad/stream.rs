@@ -260,40 +260,27 @@ pub fn calibrate(
 #[must_use]
 pub fn positions_csv(s: &TriadStream, cut: &Cut, positions: &[Position]) -> String {
     let st = &s.stream;
-    let seg = &cut.segmentation;
-    let d = &seg.detector;
     let mut comments = vec![
         format!(
-            "positions cut from the stream {} by `ptsa discover` (its static intervals: --rest-s {}, --static-window-s {} ({} samples), --static-threshold {}, --static-min-s {}, --static-trim-s {}; readings in {})",
+            "positions cut from the stream {} by `ptsa discover` (its static intervals: {}; readings in {})",
             st.name,
-            sig(d.rest_s, 6),
-            sig(d.window_s, 6),
-            seg.window,
-            sig(d.threshold, 6),
-            sig(d.min_static_s, 6),
-            sig(d.trim_s, 6),
+            cut.segmentation.settings(),
             s.unit.name()
         ),
         "g_x, g_y, g_z: each position's direction as the stream's calibration corrects its readings (not a fixture's: fit with --orientation approximate); measured_*: the interval's mean, cm/s²".to_string(),
     ];
     for (p, iv) in positions.iter().zip(&cut.kept) {
         comments.push(format!(
-            "{}: {}–{} s, lines {}–{}, {} samples",
+            "{}: {}, {} samples",
             p.label,
-            sig(iv.t0_s, 8),
-            sig(iv.t1_s, 8),
-            st.lines[iv.first],
-            st.lines[iv.last],
+            st.place(iv),
             iv.samples()
         ));
     }
     for r in &cut.rejected {
         comments.push(format!(
-            "not a position: {}–{} s (lines {}–{}): {}",
-            sig(r.interval.t0_s, 8),
-            sig(r.interval.t1_s, 8),
-            st.lines[r.interval.first],
-            st.lines[r.interval.last],
+            "not a position: {}: {}",
+            st.place(&r.interval),
             r.reason
         ));
     }
@@ -336,11 +323,8 @@ pub fn text(s: &TriadStream, cut: &Cut) -> String {
     for r in &cut.rejected {
         let _ = writeln!(
             out,
-            "  not a position: {}–{} s (lines {}–{}): {}",
-            sig(r.interval.t0_s, 8),
-            sig(r.interval.t1_s, 8),
-            st.lines[r.interval.first],
-            st.lines[r.interval.last],
+            "  not a position: {}: {}",
+            st.place(&r.interval),
             r.reason
         );
     }
