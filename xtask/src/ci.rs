@@ -21,7 +21,7 @@ ci [--no-firmware]
     input without and with the pickoff noise, a sine), whose gates must be the host's bit
     for bit. The host tests include the freshness check of the
     firmware's generated constants (`cargo xtask constants`).
-    Needs rustfmt, clippy, a C compiler, the thumbv7em-none-eabihf target and (unless
+    Needs rustfmt, clippy, a C compiler, python3, the thumbv7em-none-eabihf target and (unless
     --no-firmware) qemu-system-arm; it looks for all of them first and, if any is
     missing, says how to install each and stops (it installs nothing; `.ci/run` does, on
     a throwaway CI machine). The dry-run publish needs crates.io over the network.
@@ -39,22 +39,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         [a] => return Err(Error::Usage(format!("unknown option `{a}`"))),
         _ => return Err(Error::Usage("expected at most --no-firmware".into())),
     };
-    // Everything the steps below need, looked for before the first one runs.
-    let mut wanted = vec![Need::Rustfmt, Need::Clippy, Need::CCompiler, Need::Thumb];
-    if !skip_firmware {
-        for need in firmware::NEEDS {
-            if !wanted.contains(&need) {
-                wanted.push(need);
-            }
-        }
-    }
-    needs::check(
-        &wanted,
-        Some((
-            Need::Qemu,
-            "`cargo xtask ci --no-firmware` skips the firmware checks, and QEMU with them",
-        )),
-    )?;
+    check_needs(skip_firmware)?;
     let root = util::root();
     let cargo = util::cargo();
     let t0 = Instant::now();
@@ -144,6 +129,32 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     }
 
     eprintln!("\nci passed in {:.0} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// Everything the steps of `ci` need, looked for before the first one runs.
+fn check_needs(skip_firmware: bool) -> Result<(), Error> {
+    let mut wanted = vec![
+        Need::Rustfmt,
+        Need::Clippy,
+        Need::CCompiler,
+        Need::Thumb,
+        Need::Python,
+    ];
+    if !skip_firmware {
+        for need in firmware::NEEDS {
+            if !wanted.contains(&need) {
+                wanted.push(need);
+            }
+        }
+    }
+    needs::check(
+        &wanted,
+        Some((
+            Need::Qemu,
+            "`cargo xtask ci --no-firmware` skips the firmware checks, and QEMU with them",
+        )),
+    )?;
     Ok(())
 }
 

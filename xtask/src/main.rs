@@ -23,7 +23,7 @@
 //!   calibration's, with `--stability` the stability stage's false alarms.
 //!
 //! Before its first step, each command looks for everything it needs from the machine
-//! (`needs`: QEMU, the thumbv7em target, rustfmt, clippy, a C compiler) and, if anything is
+//! (`needs`: QEMU, the thumbv7em target, rustfmt, clippy, a C compiler, python3) and, if anything is
 //! missing, names each missing thing with the command that installs it and exits 1. xtask
 //! never installs anything itself; only `.ci/run`, on a throwaway CI machine, does.
 //!
@@ -70,7 +70,7 @@ fn usage() -> String {
     }
     s.push_str(
         "before any work, each command looks for what it needs (QEMU, the thumbv7em target,\n\
-         rustfmt, clippy, a C compiler) and, if any is missing, says how to install it and\n\
+         rustfmt, clippy, a C compiler, python3) and, if any is missing, says how to install it and\n\
          stops; xtask installs nothing (only .ci/run does, on a throwaway CI machine)\n\n\
          exit status: 0 passed, 1 a check failed or something needed is missing, 2 unknown\n\
          command or option\n",

@@ -27,6 +27,8 @@ pub enum Need {
     CCompiler,
     /// QEMU's Arm system emulator, `qemu-system-arm` (a Debian package).
     Qemu,
+    /// Python 3, which remakes the README's example files in a host test.
+    Python,
 }
 
 /// The parts of the machine the checks look at.
@@ -76,6 +78,11 @@ impl Machine {
                 "QEMU's Arm emulator, which runs the firmware",
                 "--version",
             ),
+            Need::Python => self.program_problem(
+                "python3",
+                "Python 3, which remakes the README's example files (scripts/examples.py)",
+                "--version",
+            ),
         }?;
         Some((problem, self.remedy(need)))
     }
@@ -112,6 +119,9 @@ impl Machine {
             Need::Qemu => "install Debian's package qemu-system-arm (7.2 is the version \
                            tested): `sudo apt-get install qemu-system-arm`"
                 .into(),
+            Need::Python => {
+                "install Debian's package python3: `sudo apt-get install python3`".into()
+            }
         }
     }
 

@@ -1,0 +1,257 @@
+//! The README as a user meets it: every command of its `sh` blocks run as written, every
+//! output it shows checked against what the command printed, its shipped example files
+//! remade by the script that made them, and its length kept to a quick start's.
+//!
+//! The blocks run in `sh` from a fresh folder that holds `data` (a link to the repository's)
+//! as the repository's root would, so `scratch/` and `report/` land in that folder. The
+//! one stand-in: `cargo ptsa ARGS` runs this build's `ptsa` with ARGS, which is what the
+//! workspace's alias (`.cargo/config.toml`) runs. `cargo xtask CMD` lines are checked to be
+//! commands `cargo xtask ci` itself runs (this test is one of its steps), never skipped in
+//! silence: any other `cargo xtask` line fails the test.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// The `cargo xtask` commands the README may show, each run by `cargo xtask ci` in full:
+/// `ci` is that run; `firmware` (no options) is its firmware step (`firmware::ci` is
+/// `firmware::run` without options, xtask/src/firmware.rs).
+const RUN_BY_CI: [&str; 2] = ["ci", "firmware"];
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn readme() -> String {
+    std::fs::read_to_string(root().join("README.md")).unwrap()
+}
+
+/// One fenced block: its info string (`sh`, `text`, ...), its first line number, its text.
+struct Block {
+    lang: String,
+    line: usize,
+    text: String,
+}
+
+fn blocks(md: &str) -> Vec<Block> {
+    let mut out = Vec::new();
+    let mut open: Option<Block> = None;
+    for (i, l) in md.lines().enumerate() {
+        match (&mut open, l.strip_prefix("```")) {
+            (None, Some(lang)) => {
+                open = Some(Block {
+                    lang: lang.trim().to_string(),
+                    line: i + 1,
+                    text: String::new(),
+                });
+            }
+            (Some(_), Some("")) => out.push(open.take().unwrap()),
+            (Some(b), _) => {
+                b.text.push_str(l);
+                b.text.push('\n');
+            }
+            (None, None) => {}
+        }
+    }
+    assert!(open.is_none(), "README.md: a fenced block is not closed");
+    out
+}
+
+/// `expected` (one line of a `text` block, `…` for what it leaves out) appears in `output`:
+/// its pieces between the ellipses, in order, on one line.
+fn shown_in(expected: &str, output: &str) -> bool {
+    let pieces: Vec<&str> = expected
+        .split('…')
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+        .collect();
+    output.lines().any(|line| {
+        let mut at = 0;
+        pieces.iter().all(|p| match line[at..].find(p) {
+            Some(k) => {
+                at += k + p.len();
+                true
+            }
+            None => false,
+        })
+    })
+}
+
+/// Runs one `sh` block in `dir`: the combined stdout and stderr; panics if it fails.
+fn run_block(dir: &Path, block: &Block, xtask_log: &Path) -> String {
+    let script = format!(
+        "set -e\n\
+         cargo() {{\n\
+           case \"$1\" in\n\
+             ptsa) shift; \"$PTSA\" \"$@\" ;;\n\
+             xtask) shift; echo \"$*\" >> \"$XTASK_LOG\" ;;\n\
+             *) echo \"README runs cargo $*: not a command this test knows\" >&2; return 2 ;;\n\
+           esac\n\
+         }}\n{}",
+        block.text
+    );
+    let out = Command::new("sh")
+        .arg("-c")
+        .arg(&script)
+        .current_dir(dir)
+        .env("PTSA", env!("CARGO_BIN_EXE_ptsa"))
+        .env("XTASK_LOG", xtask_log)
+        .output()
+        .expect("sh runs");
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        out.status.success(),
+        "README.md line {}: the block failed ({}):\n{}\n{text}",
+        block.line,
+        out.status,
+        block.text
+    );
+    text
+}
+
+#[test]
+fn every_sh_block_runs_as_written_and_prints_what_the_readme_shows() {
+    let md = readme();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    std::os::unix::fs::symlink(root().join("data"), dir.join("data")).unwrap();
+    let xtask_log = dir.join("xtask.log");
+    let mut last_output: Option<(usize, String)> = None;
+    let mut ran = 0;
+    for b in blocks(&md) {
+        match b.lang.as_str() {
+            "sh" => {
+                last_output = Some((b.line, run_block(dir, &b, &xtask_log)));
+                ran += 1;
+            }
+            "text" => {
+                let (at, output) = last_output.as_ref().unwrap_or_else(|| {
+                    panic!("README.md line {}: output before any command", b.line)
+                });
+                for (k, l) in b.text.lines().enumerate() {
+                    assert!(
+                        l.trim().is_empty() || shown_in(l, output),
+                        "README.md line {}: not in the output of the block at line {at}:\n{l}\n\
+                         --- the output ---\n{output}",
+                        b.line + 1 + k
+                    );
+                }
+            }
+            _ => {}
+        }
+    }
+    assert!(ran >= 6, "only {ran} sh blocks run");
+    let xtask = std::fs::read_to_string(&xtask_log).unwrap_or_default();
+    for cmd in xtask.lines() {
+        assert!(
+            RUN_BY_CI.contains(&cmd.trim()),
+            "README.md shows `cargo xtask {cmd}`, which `cargo xtask ci` does not run: run it \
+             here or leave it out"
+        );
+    }
+    assert!(dir.join("scratch/sn3/sn3.md").is_file());
+    assert!(dir.join("scratch/allan.png").is_file());
+    assert!(dir.join("report").is_dir(), "the main job wrote no report/");
+}
+
+/// The prose outside code blocks and tables, one paragraph per item.
+fn paragraphs(md: &str) -> Vec<String> {
+    let mut out = vec![String::new()];
+    let mut fenced = false;
+    for l in md.lines() {
+        if l.starts_with("```") {
+            fenced = !fenced;
+            out.push(String::new());
+        } else if fenced || l.starts_with('#') || l.starts_with('|') || l.trim().is_empty() {
+            out.push(String::new());
+        } else {
+            let p = out.last_mut().unwrap();
+            p.push(' ');
+            p.push_str(l.trim());
+        }
+    }
+    out.retain(|p| !p.trim().is_empty());
+    out
+}
+
+#[test]
+fn the_readme_is_a_quick_start() {
+    let md = readme();
+    let words = md.split_whitespace().count();
+    assert!(words <= 1500, "README.md has {words} words (at most 1500)");
+    let first = md.lines().position(|l| l == "```sh").expect("a command") + 2;
+    assert!(
+        first <= 40,
+        "the first command is on line {first} (at most 40)"
+    );
+    for p in paragraphs(&md) {
+        // A sentence ends at '.', '?' or '!' before a space; a dot inside a name or a
+        // number (`sn3.json`, `0.2`) has no space after it.
+        for s in p.split_inclusive(&['.', '?', '!'][..]) {
+            let n = s.split_whitespace().count();
+            assert!(n <= 40, "a sentence of {n} words (at most 40):{s}");
+        }
+    }
+}
+
+#[test]
+fn the_shipped_plans_are_what_ptsa_plan_writes() {
+    let tmp = tempfile::tempdir().unwrap();
+    for (file, n) in [("tumble-plan.csv", "24"), ("check-plan.csv", "8")] {
+        let o = common::ptsa_in(
+            tmp.path(),
+            &[
+                "plan",
+                "tumble",
+                "--positions",
+                n,
+                "--counts",
+                "--out",
+                file,
+            ],
+        );
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let made = std::fs::read_to_string(tmp.path().join(file)).unwrap();
+        let shipped = std::fs::read_to_string(root().join("data/examples").join(file)).unwrap();
+        assert_eq!(
+            made, shipped,
+            "data/examples/{file} differs from `ptsa plan`'s"
+        );
+    }
+}
+
+#[test]
+fn the_shipped_examples_are_what_the_script_makes() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("examples");
+    let run = Command::new("python3")
+        .arg(root().join("scripts/examples.py"))
+        .arg(&out)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!("cannot run python3 ({e}): install Python 3 (Debian: apt-get install python3)")
+        });
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let mut made = 0;
+    for e in std::fs::read_dir(&out).unwrap() {
+        let name = e.unwrap().file_name();
+        let fresh = std::fs::read(out.join(&name)).unwrap();
+        let shipped = std::fs::read(root().join("data/examples").join(&name))
+            .unwrap_or_else(|_| panic!("{name:?} is made but not shipped in data/examples/"));
+        assert!(
+            fresh == shipped,
+            "data/examples/{name:?} differs from scripts/examples.py's"
+        );
+        made += 1;
+    }
+    assert_eq!(made, 4);
+}
