@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Fill the pulses and ticks of a `ptsa plan ... --counts` design for a synthetic instrument.
+"""Fill the pulses and ticks of a `ptsa plan ... --count-columns` design for a synthetic instrument.
 
 A stand-in for the lab: each position's counts over a gate, written from IEEE Std 1293's
 model equation of a pendulous accelerometer with the truth given on the command line,
@@ -31,7 +31,7 @@ import sys
 
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("plan", help="a design written by `ptsa plan ... --counts`")
+    ap.add_argument("plan", help="a design written by `ptsa plan ... --count-columns`")
     ap.add_argument("out", help="the filled design (not replaced if it exists)")
     ap.add_argument("--k0-ug", type=float, default=19500.0, help="bias K_0, µg")
     ap.add_argument("--k1-ppm", type=float, default=-150.0,
@@ -63,7 +63,7 @@ def main() -> int:
     rows = list(csv.DictReader(l for l in lines if not l.startswith("#")))
     if not rows or "pulses" not in rows[0] or "ticks" not in rows[0]:
         print(f"fill_counts.py: {a.plan} has no pulses and ticks columns; expected a design "
-              "written by `ptsa plan ... --counts`", file=sys.stderr)
+              "written by `ptsa plan ... --count-columns`", file=sys.stderr)
         return 1
     buf = io.StringIO()
     buf.write("\n".join(comments) + "\n" if comments else "")

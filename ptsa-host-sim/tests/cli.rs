@@ -369,7 +369,7 @@ fn bench_refuses_no_work() {
         1,
         &[
             "the benchmark would run about 8.59e12 clock ticks",
-            "pass --force",
+            "pass --no-limit",
         ],
     );
     refused(
@@ -680,7 +680,7 @@ fn bench_dynamic_refuses_meaningless_combinations() {
         1,
         &[
             "the benchmark would run about 6.40e10 clock ticks",
-            "pass --force",
+            "pass --no-limit",
         ],
     );
 }
@@ -1006,16 +1006,16 @@ fn waveform_refuses_huge_traces_fast() {
         &["waveform", "--cycles", "100000000", "--out", "{dir}/out"],
         1,
         &[
-            "--cycles 100000000: the trace has one row per clock tick (6400000000 rows); expected at most 10000 cycles without --force",
+            "--cycles 100000000: the trace has one row per clock tick (6400000000 rows); expected at most 10000 cycles without --no-limit",
         ],
     );
-    // With --force, a count whose ticks overflow 64 bits (it panicked).
+    // With --no-limit, a count whose ticks overflow 64 bits (it panicked).
     refused(
         &[
             "waveform",
             "--cycles",
             "18446744073709551615",
-            "--force",
+            "--no-limit",
             "--out",
             "{dir}/out",
         ],
@@ -1050,7 +1050,7 @@ fn long_work_is_refused_quickly() {
         1,
         &[
             "this gate would run about 6.40e13 clock ticks",
-            "pass --force",
+            "pass --no-limit",
         ],
     );
     refused(
@@ -1408,7 +1408,7 @@ fn plan_and_predict() {
             "12",
             "--axis",
             "pa",
-            "--out",
+            "--output",
         ])
         .arg(&plan)
         .output()
@@ -1590,7 +1590,7 @@ fn rate_table_axes_are_the_ones_its_help_lists() {
         "{axis}"
     );
     refused(
-        &["plan", "rate-table", "--axis", "ia", "--out", "p.csv"],
+        &["plan", "rate-table", "--axis", "ia", "--output", "p.csv"],
         2,
         &[
             "'--axis <oa|pa>'",
@@ -1642,7 +1642,7 @@ fn lab_tumble(d: &Path, effects: &str, edit: impl Fn(usize, &mut Vec<String>)) -
             "tumble",
             "--positions",
             "24",
-            "--out",
+            "--output",
             "plan.csv",
             "--force",
         ],
@@ -1822,7 +1822,7 @@ fn discover_estimates_a_warm_up_s_time_constant_and_predict_reads_it() {
                 data,
                 "--calibration",
                 "found.json",
-                "--out",
+                "--output",
                 "c.csv",
                 "--force",
             ],
@@ -2341,4 +2341,81 @@ fn effect_named(v: &serde_json::Value, name: &str) -> serde_json::Value {
         .find(|e| e["name"] == name)
         .unwrap_or_else(|| panic!("{v}"))
         .clone()
+}
+
+/// One meaning per option: `--out` is a folder, `-o/--output` a file, `--no-limit` lifts
+/// the work limit and `--force` replaces files. The old spellings still run for one
+/// release, each with a warning naming the new one.
+#[test]
+fn old_spellings_run_and_name_the_new_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    let o = ptsa_in(
+        d,
+        &[
+            "plan",
+            "tumble",
+            "--positions",
+            "8",
+            "--counts",
+            "--out",
+            "a.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    for w in [
+        "warning: --counts is spelled --count-columns now",
+        "warning: --out is spelled --output now (--out names a folder in every command)",
+    ] {
+        assert!(err.contains(w), "{w}: {err}");
+    }
+    let old = std::fs::read_to_string(d.join("a.csv")).unwrap();
+    let o = ptsa_in(
+        d,
+        &[
+            "plan",
+            "tumble",
+            "--positions",
+            "8",
+            "--count-columns",
+            "-o",
+            "b.csv",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(d.join("b.csv")).unwrap(), old);
+
+    // --force beyond the limit still runs, and says that it is --no-limit's task now.
+    let run = |extra: &str| {
+        Command::new(env!("CARGO_BIN_EXE_ptsa"))
+            .current_dir(d)
+            .env("PTSA_LIMIT_S", "0.001")
+            .args(["noise", "--simulate", "--seconds", "2", extra])
+            .output()
+            .unwrap()
+    };
+    let forced = run("--force");
+    assert!(forced.status.success(), "{}", stderr(&forced));
+    assert!(stderr(&forced).contains("that is --no-limit's task now"));
+    let lifted = run("--no-limit");
+    assert!(lifted.status.success(), "{}", stderr(&lifted));
+    assert!(!stderr(&lifted).contains("--force"), "{}", stderr(&lifted));
+
+    // --no-limit only where work is estimated.
+    for sub in [
+        &["design"][..],
+        &["instrument", "new"],
+        &["plan", "tumble"],
+        &["correct"],
+    ] {
+        let mut a = sub.to_vec();
+        a.push("--help");
+        let o = ptsa_in(d, &a);
+        assert!(
+            !stdout(&o).contains("--no-limit"),
+            "{sub:?} offers --no-limit"
+        );
+    }
 }

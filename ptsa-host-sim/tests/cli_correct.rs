@@ -278,7 +278,7 @@ fn out_files_are_written_whole_and_never_replace_without_force() {
             "record.csv",
             "--calibration",
             "cal.json",
-            "--out",
+            "--output",
             "c.csv",
         ],
     );
@@ -295,13 +295,13 @@ fn out_files_are_written_whole_and_never_replace_without_force() {
             "record.csv",
             "--calibration",
             "cal.json",
-            "--out",
+            "--output",
             "c.csv",
         ],
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("--out c.csv: the file exists and is not replaced without --force"),
+        stderr(&o).contains("--output c.csv: the file exists and is not replaced without --force"),
         "{}",
         stderr(&o)
     );
@@ -314,7 +314,7 @@ fn out_files_are_written_whole_and_never_replace_without_force() {
             "record.csv",
             "--calibration",
             "cal.json",
-            "--out",
+            "--output",
             "record.csv",
             "--force",
         ][..],
@@ -324,7 +324,7 @@ fn out_files_are_written_whole_and_never_replace_without_force() {
             "record.csv",
             "--calibration",
             "cal.json",
-            "--out",
+            "--output",
             "cal.json",
             "--force",
         ][..],
@@ -346,12 +346,12 @@ fn out_files_are_written_whole_and_never_replace_without_force() {
             "record.csv",
             "--calibration",
             "cal.json",
-            "--out",
+            "--output",
             "c.csv",
             "--force",
         ],
     );
-    assert!(err.contains("warning: --out c.csv: replaced"), "{err}");
+    assert!(err.contains("warning: --output c.csv: replaced"), "{err}");
 }
 
 /// The warnings: a row without a reading (written with empty cells), rows without any
@@ -541,7 +541,7 @@ fn refusals_name_the_file_and_what_was_expected() {
         &[("d.csv", ok)],
         &["correct", "--data", "d.csv", "--force"],
         2,
-        &["--out"],
+        &["--output"],
         &[],
     );
     refused_in_folder(

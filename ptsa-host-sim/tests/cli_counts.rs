@@ -109,8 +109,8 @@ fn a_counted_tumble_is_calibrated() {
             "tumble",
             "--positions",
             "24",
-            "--counts",
-            "--out",
+            "--count-columns",
+            "--output",
             "plan.csv",
         ],
     );
@@ -193,7 +193,7 @@ fn plans_with_count_columns() {
             "50",
             "--g-levels",
             "2",
-            "--counts",
+            "--count-columns",
         ],
     );
     let header = out.lines().find(|l| !l.starts_with('#')).unwrap();
@@ -204,9 +204,9 @@ fn plans_with_count_columns() {
     for kind in ["rate-table", "shaker"] {
         refused_in_folder(
             &[],
-            &["plan", kind, "--counts"],
+            &["plan", kind, "--count-columns"],
             2,
-            &["unexpected argument '--counts'"],
+            &["unexpected argument '--count-columns'"],
             &[],
         );
     }
@@ -219,7 +219,13 @@ fn a_counts_plan_never_replaces_a_file_without_force() {
     let data = b"label,kind,g_ia,pulses,ticks\nup,absolute,1,2009123,3840000\n";
     let m = refused_in_folder(
         &[("day.csv", data)],
-        &["plan", "tumble", "--counts", "--out", "{dir}/day.csv"],
+        &[
+            "plan",
+            "tumble",
+            "--count-columns",
+            "--output",
+            "{dir}/day.csv",
+        ],
         1,
         &["day.csv: the file exists and is not replaced without --force"],
         &[],
@@ -229,11 +235,18 @@ fn a_counts_plan_never_replaces_a_file_without_force() {
     std::fs::write(tmp.path().join("day.csv"), data).unwrap();
     let o = ptsa_in(
         tmp.path(),
-        &["plan", "tumble", "--counts", "--out", "day.csv", "--force"],
+        &[
+            "plan",
+            "tumble",
+            "--count-columns",
+            "--output",
+            "day.csv",
+            "--force",
+        ],
     );
     assert!(o.status.success());
     assert!(
-        stderr(&o).contains("warning: --out day.csv: replaced a case-frame file of 1 row, 1 of them measured (--force)"),
+        stderr(&o).contains("warning: --output day.csv: replaced a case-frame file of 1 row, 1 of them measured (--force)"),
         "{}",
         stderr(&o)
     );
@@ -289,7 +302,7 @@ fn an_unfilled_counts_plan_has_nothing_to_fit() {
     let tmp = tempfile::tempdir().unwrap();
     let (plan, _) = succeeds(
         tmp.path(),
-        &["plan", "tumble", "--positions", "4", "--counts"],
+        &["plan", "tumble", "--positions", "4", "--count-columns"],
     );
     refused_in_folder(
         &[("plan.csv", plan.as_bytes())],
@@ -340,7 +353,10 @@ fn the_counting_error_is_the_simulated_loops() {
 fn the_counting_error_adds_to_a_stated_sigma() {
     let tmp = tempfile::tempdir().unwrap();
     let d = tmp.path();
-    let (plan, _) = succeeds(d, &["plan", "tumble", "--positions", "8", "--counts"]);
+    let (plan, _) = succeeds(
+        d,
+        &["plan", "tumble", "--positions", "8", "--count-columns"],
+    );
     let (filled, _) = fill(&plan, 3);
     // Every row states 0.01 cm/s², in a column added at the end.
     let text: String = filled

@@ -143,11 +143,11 @@ fn no_output_is_an_input() {
             "i.toml",
             "plan",
             "tumble",
-            "--out",
+            "--output",
             "i.toml",
             "--force",
         ],
-        &["--out i.toml: this is the file given to --instrument"],
+        &["--output i.toml: this is the file given to --instrument"],
         &kept,
     );
     // `discover --out` whose plot would be another input (an instrument file that happens
@@ -195,9 +195,16 @@ fn plan_does_not_overwrite_measurements_unless_forced() {
     let d = tmp.path();
     refused_keeping(
         d,
-        &["plan", "tumble", "--positions", "8", "--out", "filled.csv"],
         &[
-            "--out filled.csv: the file exists and is not replaced without --force",
+            "plan",
+            "tumble",
+            "--positions",
+            "8",
+            "--output",
+            "filled.csv",
+        ],
+        &[
+            "--output filled.csv: the file exists and is not replaced without --force",
             "expected a new file name, or --force to replace it",
         ],
         &[("filled.csv", MEASURED)],
@@ -209,20 +216,20 @@ fn plan_does_not_overwrite_measurements_unless_forced() {
             "tumble",
             "--positions",
             "8",
-            "--out",
+            "--output",
             "filled.csv",
             "--force",
         ],
     );
     assert!(
         err.contains(
-            "warning: --out filled.csv: replaced a case-frame file of 48 rows, 48 of them measured (--force)"
+            "warning: --output filled.csv: replaced a case-frame file of 48 rows, 48 of them measured (--force)"
         ),
         "{err}"
     );
     // A file that is no case frame is described by its size.
     std::fs::write(d.join("notes.txt"), "one\ntwo\nthree").unwrap();
-    let err = succeeds(d, &["plan", "tumble", "--out", "notes.txt", "--force"]);
+    let err = succeeds(d, &["plan", "tumble", "--output", "notes.txt", "--force"]);
     assert!(
         err.contains("replaced a file of 3 lines that is not a case-frame file"),
         "{err}"
@@ -379,7 +386,7 @@ fn stale_temporaries_of_dead_runs_are_swept() {
     // This test's own process is alive.
     let alive = format!(".ptsa-staging-{}-abc", std::process::id());
     std::fs::create_dir(d.join(&alive)).unwrap();
-    succeeds(d, &["plan", "tumble", "--out", "plan.csv"]);
+    succeeds(d, &["plan", "tumble", "--output", "plan.csv"]);
     assert_eq!(
         names(d),
         [".ptsa-notes".to_string(), alive, "plan.csv".to_string()]

@@ -77,7 +77,7 @@ fn tumble_data(dir: &Path, instr: &str, name: &str, truth: Truth, g: f64, seed: 
                 "24",
                 "--axis",
                 axis,
-                "--out",
+                "--output",
                 &f,
             ],
         );
@@ -366,9 +366,9 @@ fn commands_that_need_the_loop_refuse_a_loop_less_file() {
             "response",
             "--counts",
             "c.csv",
-            "--freq-hz",
+            "--sine-hz",
             "10",
-            "--amplitude-cm-s2",
+            "--sine-cm-s2",
             "100",
         ],
     ] {
@@ -503,7 +503,10 @@ fn instrument_new_writes_a_template_and_keeps_an_existing_file() {
         ),
     ] {
         let f = format!("{class}.toml");
-        let o = ptsa_in(dir, &["instrument", "new", "--class", class, "--out", &f]);
+        let o = ptsa_in(
+            dir,
+            &["instrument", "new", "--class", class, "--output", &f],
+        );
         assert!(o.status.success(), "{}", stderr(&o));
         assert!(stderr(&o).starts_with(&format!("wrote {f}: the {class} template")));
         assert_eq!(std::fs::read_to_string(dir.join(&f)).unwrap(), text);
@@ -516,12 +519,19 @@ fn instrument_new_writes_a_template_and_keeps_an_existing_file() {
     std::fs::write(dir.join("mine.toml"), b"my own notes").unwrap();
     let o = ptsa_in(
         dir,
-        &["instrument", "new", "--class", "mems", "--out", "mine.toml"],
+        &[
+            "instrument",
+            "new",
+            "--class",
+            "mems",
+            "--output",
+            "mine.toml",
+        ],
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(
         stderr(&o).contains(
-            "error: --out mine.toml: the file exists and is not replaced without --force"
+            "error: --output mine.toml: the file exists and is not replaced without --force"
         ),
         "{}",
         stderr(&o)
@@ -537,20 +547,20 @@ fn instrument_new_writes_a_template_and_keeps_an_existing_file() {
             "new",
             "--class",
             "mems",
-            "--out",
+            "--output",
             "mine.toml",
             "--force",
         ],
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("warning: --out mine.toml: replaced a file of"),
+        stderr(&o).contains("warning: --output mine.toml: replaced a file of"),
         "{}",
         stderr(&o)
     );
     let o = ptsa_in(
         dir,
-        &["instrument", "new", "--class", "adxl", "--out", "x.toml"],
+        &["instrument", "new", "--class", "adxl", "--output", "x.toml"],
     );
     assert_eq!(o.status.code(), Some(2));
     assert!(!dir.join("x.toml").exists());

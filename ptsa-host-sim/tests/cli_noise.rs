@@ -225,7 +225,7 @@ fn a_simulated_record_analyses_the_same_from_its_file() {
         "--simulate",
         "--seconds",
         "3",
-        "--out",
+        "--output",
         "sim.csv",
         "--json",
     ];
@@ -252,7 +252,7 @@ fn a_simulated_record_analyses_the_same_from_its_file() {
     let o = ptsa_in(tmp.path(), &args);
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("--out sim.csv: the file exists"),
+        stderr(&o).contains("--output sim.csv: the file exists"),
         "{}",
         stderr(&o)
     );
@@ -366,7 +366,7 @@ fn bad_options_are_refused() {
             "--simulate",
             "--seconds",
             "1",
-            "--out",
+            "--output",
             "x.csv",
             "--plot",
             "x.csv",
@@ -389,7 +389,7 @@ fn bad_options_are_refused() {
             .unwrap()
     };
     assert_eq!(o.status.code(), Some(1));
-    assert!(stderr(&o).contains("--force"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--no-limit"), "{}", stderr(&o));
     assert!(o.stdout.is_empty());
 }
 
@@ -408,7 +408,7 @@ fn compare_tells_the_files_noise_from_anothers() {
             "60",
             "--seed",
             "3",
-            "--out",
+            "--output",
             "r.csv",
         ],
     );

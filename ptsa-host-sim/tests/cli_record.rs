@@ -80,7 +80,9 @@ fn the_qemu_images_own_log_becomes_a_record() {
     let tmp = tempfile::tempdir().unwrap();
     let o = ptsa_in(
         tmp.path(),
-        &["record", "--from", QEMU_LOG, "--out", "rec.csv", "--json"],
+        &[
+            "record", "--from", QEMU_LOG, "--output", "rec.csv", "--json",
+        ],
     );
     let err = stderr(&o);
     assert!(o.status.success(), "{err}");
@@ -154,7 +156,7 @@ fn a_gap_is_refused_unless_allowed() {
     }
     let err = refused_in_folder(
         &[("run.log", log.as_bytes())],
-        &["record", "--from", "run.log", "--out", "rec.csv"],
+        &["record", "--from", "run.log", "--output", "rec.csv"],
         1,
         &[
             "run.log: 1 gap(s) in the gate numbers, 2 gate(s) lost",
@@ -172,7 +174,7 @@ fn a_gap_is_refused_unless_allowed() {
             "record",
             "--from",
             "run.log",
-            "--out",
+            "--output",
             "rec.csv",
             "--allow-gaps",
             "--json",
@@ -336,18 +338,19 @@ fn existing_files_and_the_log_are_safe() {
     std::fs::write(tmp.path().join("day.csv"), old).unwrap();
     let o = ptsa_in(
         tmp.path(),
-        &["record", "--from", "a.log", "--out", "day.csv"],
+        &["record", "--from", "a.log", "--output", "day.csv"],
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(
-        stderr(&o).contains("--out day.csv: the file exists and is not replaced without --force"),
+        stderr(&o)
+            .contains("--output day.csv: the file exists and is not replaced without --force"),
         "{}",
         stderr(&o)
     );
     assert_eq!(std::fs::read(tmp.path().join("day.csv")).unwrap(), old);
     let o = ptsa_in(
         tmp.path(),
-        &["record", "--from", "a.log", "--out", "a.log", "--force"],
+        &["record", "--from", "a.log", "--output", "a.log", "--force"],
     );
     assert_eq!(o.status.code(), Some(1));
     assert!(
@@ -361,11 +364,13 @@ fn existing_files_and_the_log_are_safe() {
     );
     let o = ptsa_in(
         tmp.path(),
-        &["record", "--from", "a.log", "--out", "day.csv", "--force"],
+        &[
+            "record", "--from", "a.log", "--output", "day.csv", "--force",
+        ],
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("warning: --out day.csv: replaced"),
+        stderr(&o).contains("warning: --output day.csv: replaced"),
         "{}",
         stderr(&o)
     );
@@ -378,7 +383,9 @@ fn existing_files_and_the_log_are_safe() {
         &[("a.log", log.as_bytes())],
         &["record", "--from", "a.log", "--json"],
         1,
-        &["--json: the record and the JSON would both go to standard output; expected --out FILE"],
+        &[
+            "--json: the record and the JSON would both go to standard output; expected --output FILE",
+        ],
         &[],
     );
     refused_in_folder(
@@ -528,7 +535,7 @@ fn the_other_refusals_name_what_was_expected() {
         &[("a.log", one.as_bytes())],
         &["record", "--from", "a.log", "--force"],
         1,
-        &["--force: nothing to replace without --out; expected --out FILE"],
+        &["--force: nothing to replace without --output; expected --output FILE"],
         &[],
     );
     refused_in_folder(
@@ -620,7 +627,7 @@ fn a_simulated_gate_stream_goes_through_record_and_response() {
     std::fs::write(tmp.path().join("board.log"), &log).unwrap();
     let o = ptsa_in(
         tmp.path(),
-        &["record", "--from", "board.log", "--out", "rec.csv"],
+        &["record", "--from", "board.log", "--output", "rec.csv"],
     );
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("warning:"), "{}", stderr(&o));
@@ -633,9 +640,9 @@ fn a_simulated_gate_stream_goes_through_record_and_response() {
             "response",
             "--counts",
             "rec.csv",
-            "--freq-hz",
+            "--sine-hz",
             "20",
-            "--amplitude-cm-s2",
+            "--sine-cm-s2",
             "2000",
             "--json",
         ],

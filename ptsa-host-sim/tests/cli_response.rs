@@ -85,9 +85,9 @@ fn a_known_response_comes_back_within_its_uncertainty() {
         "response",
         "--counts",
         "shaker.csv",
-        "--freq-hz",
+        "--sine-hz",
         "20",
-        "--amplitude-cm-s2",
+        "--sine-cm-s2",
         "2000",
         "--input-phase-deg",
         "40",
@@ -187,9 +187,9 @@ fn a_leading_response_has_a_positive_phase() {
             "response",
             "--counts",
             "lead.csv",
-            "--freq-hz",
+            "--sine-hz",
             "5",
-            "--amplitude-cm-s2",
+            "--sine-cm-s2",
             "1500",
             // Typed as a negative number in exponent form (see `ptsa`'s main.rs).
             "--input-phase-deg",
@@ -227,9 +227,9 @@ fn response_refuses_bad_records_and_options() {
             "response",
             "--counts",
             file,
-            "--freq-hz",
+            "--sine-hz",
             "20",
-            "--amplitude-cm-s2",
+            "--sine-cm-s2",
             "2000",
         ]
     }
@@ -334,7 +334,7 @@ fn response_refuses_bad_records_and_options() {
     ] {
         let mut a = run("good.csv");
         a[4] = f;
-        refused_with(&[("good.csv", &good)], &a, 2, &["'--freq-hz <HZ>'", needle]);
+        refused_with(&[("good.csv", &good)], &a, 2, &["'--sine-hz <HZ>'", needle]);
     }
     for f in ["100", "150"] {
         let mut a = run("good.csv");
@@ -344,7 +344,7 @@ fn response_refuses_bad_records_and_options() {
             &a,
             1,
             &[&format!(
-                "--freq-hz {f}: expected a frequency below 100 Hz, the Nyquist frequency of good.csv (40 gates in 0.195 s, 200 gates/s)"
+                "--sine-hz {f}: expected a frequency below 100 Hz, the Nyquist frequency of good.csv (40 gates in 0.195 s, 200 gates/s)"
             )],
         );
     }
@@ -363,7 +363,7 @@ fn response_refuses_bad_records_and_options() {
             &[("good.csv", &good)],
             &a,
             2,
-            &["'--amplitude-cm-s2 <CM_S2>'", needle],
+            &["'--sine-cm-s2 <CM_S2>'", needle],
         );
     }
     // A label that cannot be one case-frame cell; an --out that is a file.
@@ -385,7 +385,7 @@ fn response_refuses_bad_records_and_options() {
     );
     refused_with(
         &[],
-        &["response", "--freq-hz", "20", "--amplitude-cm-s2", "1"],
+        &["response", "--sine-hz", "20", "--sine-cm-s2", "1"],
         2,
         &["--counts <FILE>"],
     );
@@ -495,9 +495,9 @@ fn a_record_of_the_simulated_loop_gives_its_frequency_response() {
             "response",
             "--counts",
             "sim.csv",
-            "--freq-hz",
+            "--sine-hz",
             "20",
-            "--amplitude-cm-s2",
+            "--sine-cm-s2",
             "2000",
             "--json",
         ],
@@ -599,15 +599,15 @@ fn the_expected_scatter_is_that_of_the_simulated_loop() {
     assert!(pulses(352) > 5.0 * pulses(320), "{by_gate:?}");
 }
 
-/// `ptsa response --counts rec.csv --freq-hz F --amplitude-cm-s2 A` and `extra`.
+/// `ptsa response --counts rec.csv --sine-hz F --sine-cm-s2 A` and `extra`.
 fn run_args<'a>(file: &'a str, f: &'a str, amp: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     let mut a = vec![
         "response",
         "--counts",
         file,
-        "--freq-hz",
+        "--sine-hz",
         f,
-        "--amplitude-cm-s2",
+        "--sine-cm-s2",
         amp,
     ];
     a.extend_from_slice(extra);
@@ -653,8 +653,8 @@ fn a_fit_beyond_physical_sense_is_refused_unless_forced() {
         1,
         &[
             "error: rec.csv: gain ",
-            "at --freq-hz 21: the uncertainty is larger than the gain, so the record shows no sine at 21 Hz; the record's sine is near 20.0 Hz (residual RMS ",
-            "): --freq-hz 20.0; --force writes the row anyway",
+            "at --sine-hz 21: the uncertainty is larger than the gain, so the record shows no sine at 21 Hz; the record's sine is near 20.0 Hz (residual RMS ",
+            "): --sine-hz 20.0; --force writes the row anyway",
         ],
     );
     assert_eq!(err.lines().count(), 1, "{err}");
@@ -675,15 +675,15 @@ fn a_fit_beyond_physical_sense_is_refused_unless_forced() {
         1,
         &[
             "error: rec.csv: gain 12",
-            "at --freq-hz 20 is above 2, more than a loop the simulator accepts can give (the instrument file's loop predicts 1.196, ",
-            "; if 2 was in g, --amplitude-cm-s2 1960.8; --force writes the row anyway",
+            "at --sine-hz 20 is above 2, more than a loop the simulator accepts can give (the instrument file's loop predicts 1.196, ",
+            "; if 2 was in g, --sine-cm-s2 1960.8; --force writes the row anyway",
         ],
     );
     assert_eq!(err.lines().count(), 1, "{err}");
     let (v, _, _) = accepted(&rec, &run_args("rec.csv", "20", "2", &["--force"]));
     let w = warnings(&v);
     assert!(
-        w.len() == 1 && w[0].contains("if 2 was in g, --amplitude-cm-s2 1960.8"),
+        w.len() == 1 && w[0].contains("if 2 was in g, --sine-cm-s2 1960.8"),
         "{w:?}"
     );
     assert!(v["measured_gain"].as_f64().unwrap() > 1000.0, "{v}");
@@ -718,7 +718,7 @@ fn a_fit_far_from_the_loop_or_from_a_sine_warns() {
         &[
             "rec.csv: gain 0.122",
             "at 20 Hz is far from the loop: the instrument file's loop predicts 1.196, 1.083 to 1.376 over its tolerance box",
-            "if 20000 was in mm/s², --amplitude-cm-s2 2000",
+            "if 20000 was in mm/s², --sine-cm-s2 2000",
         ],
     );
     one(

@@ -43,7 +43,7 @@ fn tumble(dir: &Path, positions: usize, sigma: f64, seed: u64) -> Vec<Condition>
     let n = positions.to_string();
     succeeds(
         dir,
-        &["plan", "tumble", "--positions", &n, "--out", "plan.csv"],
+        &["plan", "tumble", "--positions", &n, "--output", "plan.csv"],
     );
     std::fs::write(dir.join("truth.json"), TRUTH).unwrap();
     let (out, _) = succeeds(

@@ -353,7 +353,7 @@ fn plan_filled_in_and_calibrated() {
     let tmp = tempfile::tempdir().unwrap();
     let o = ptsa_in(
         tmp.path(),
-        &["plan", "triad", "--positions", "24", "--out", "p.csv"],
+        &["plan", "triad", "--positions", "24", "--output", "p.csv"],
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert!(
@@ -455,8 +455,8 @@ fn a_counted_triad_is_calibrated_within_its_intervals() {
             "triad",
             "--positions",
             "24",
-            "--counts",
-            "--out",
+            "--count-columns",
+            "--output",
             "p.csv",
         ],
     );
@@ -618,14 +618,20 @@ fn triad_count_refusals() {
     );
 }
 
-/// `plan triad --help` gives `--counts` with its units.
+/// `plan triad --help` gives `--count-columns` with its units.
 #[test]
 fn plan_triad_counts_help_gives_units() {
     let tmp = tempfile::tempdir().unwrap();
     let o = ptsa_in(tmp.path(), &["plan", "triad", "--help"]);
     assert_eq!(o.status.code(), Some(0));
     let h = stdout(&o);
-    for w in ["--counts", "pulses_x", "clock ticks", "cm/s²", "nominal SF"] {
+    for w in [
+        "--count-columns",
+        "pulses_x",
+        "clock ticks",
+        "cm/s²",
+        "nominal SF",
+    ] {
         assert!(h.contains(w), "`{w}` not in: {h}");
     }
 }

@@ -45,7 +45,7 @@ fn discover_and_predict_refuse_work_beyond_the_limit_before_running() {
             "on this machine, and up to",
             "if a parameter of the loop is selected",
             "expected at most about 10 min",
-            "pass --force",
+            "pass --no-limit",
         ],
         &[],
     );
@@ -56,7 +56,7 @@ fn discover_and_predict_refuse_work_beyond_the_limit_before_running() {
         &[
             "predict would run about 6.40e10 clock ticks",
             "expected at most about 10 min",
-            "pass --force",
+            "pass --no-limit",
         ],
         &[],
     );
@@ -92,7 +92,7 @@ fn discover_holds_the_search_of_the_parameters_to_the_limit() {
         "error: response.csv: the closed-loop search of the loop's parameters would run about",
         "more (",
         "clock ticks) after",
-        "so far; expected at most about 8 s in all (pass --force to run it anyway)",
+        "so far; expected at most about 8 s in all (pass --no-limit to run it anyway)",
     ] {
         assert!(err.contains(needle), "`{needle}` not in: {err}");
     }

@@ -210,8 +210,8 @@ fn the_shipped_plans_are_what_ptsa_plan_writes() {
                 "tumble",
                 "--positions",
                 n,
-                "--counts",
-                "--out",
+                "--count-columns",
+                "--output",
                 file,
             ],
         );

@@ -41,16 +41,18 @@ mod golden;
 mod hidden;
 mod needs;
 mod pil;
+mod report_data;
 mod util;
 
 /// The commands: name and usage (first line the synopsis, then what it does).
-const COMMANDS: [(&str, &str); 6] = [
+const COMMANDS: [(&str, &str); 7] = [
     ("ci", ci::USAGE),
     ("golden", golden::USAGE),
     ("constants", constants::USAGE),
     ("firmware", firmware::USAGE),
     ("pil", pil::USAGE),
     ("hidden", hidden::USAGE),
+    ("report-data", report_data::USAGE),
 ];
 
 /// Top-level usage: every command with its options.
@@ -130,6 +132,7 @@ fn main() -> ExitCode {
         "firmware" => firmware::run(rest),
         "pil" => pil::run(rest),
         "hidden" => hidden::run(rest),
+        "report-data" => report_data::run(rest),
         other => Err(Error::Usage(format!("unknown command `{other}`"))),
     };
     match result {

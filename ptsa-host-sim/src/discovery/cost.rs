@@ -128,7 +128,7 @@ impl Cost {
 /// progress's stage named, when a search can run.
 ///
 /// # Errors
-/// The search would take more than the limit (without `--force`).
+/// The search would take more than the limit (without `--no-limit`).
 pub(crate) fn ahead_of_search(
     rows: &[Condition],
     sim: &dyn Simulator,

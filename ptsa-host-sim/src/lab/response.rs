@@ -778,7 +778,7 @@ pub struct CheckContext<'a> {
 }
 
 /// The hint for a gain `ratio` times the one expected (`band`: the expected range): the
-/// unit `--amplitude-cm-s2` was probably typed in, as `if A was in UNIT, --amplitude-cm-s2
+/// unit `--sine-cm-s2` was probably typed in, as `if A was in UNIT, --sine-cm-s2
 /// X`, when reading it so puts the gain inside `band` (the nearest to `nominal` if several
 /// do).
 fn unit_hint(amp: f64, gain: f64, nominal: f64, band: [f64; 2], g_cm_s2: f64) -> Option<String> {
@@ -797,7 +797,7 @@ fn unit_hint(amp: f64, gain: f64, nominal: f64, band: [f64; 2], g_cm_s2: f64) ->
     })
     .map(|(unit, f)| {
         format!(
-            "if {} was in {unit}, --amplitude-cm-s2 {}",
+            "if {} was in {unit}, --sine-cm-s2 {}",
             significant(amp, 12),
             significant(amp * f, 8)
         )
@@ -830,7 +830,7 @@ pub fn check(cx: &CheckContext<'_>, fit: &ResponseFit) -> FitCheck {
         #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
         let d = (-b.resolution_hz.log10().floor()).clamp(0.0, 9.0) as usize;
         format!(
-            "the record's sine is near {:.d$} Hz (residual RMS {} cm/s² there against {} at {} Hz): --freq-hz {:.d$}",
+            "the record's sine is near {:.d$} Hz (residual RMS {} cm/s² there against {} at {} Hz): --sine-hz {:.d$}",
             b.freq_hz,
             sig(b.rms_cm_s2, 3),
             sig(fit.rms_cm_s2, 3),
@@ -851,7 +851,7 @@ pub fn check(cx: &CheckContext<'_>, fit: &ResponseFit) -> FitCheck {
         unit_hint(fit.amplitude_cm_s2, fit.gain, nominal, band, instr.g_cm_s2).unwrap_or_else(
             || {
                 format!(
-                    "--amplitude-cm-s2 {} would give the loop's gain {}; check --amplitude-cm-s2 (cm/s²) and the instrument file's sf_cm_s2",
+                    "--sine-cm-s2 {} would give the loop's gain {}; check --sine-cm-s2 (cm/s²) and the instrument file's sf_cm_s2",
                     sig(fit.amplitude_cm_s2 * fit.gain / nominal, 4),
                     sig(nominal, 4)
                 )
@@ -874,18 +874,18 @@ pub fn check(cx: &CheckContext<'_>, fit: &ResponseFit) -> FitCheck {
     let limit = prediction.map_or(MAX_GAIN, |p| MAX_GAIN.max(p.gain_range[1] * MODEL_MARGIN.0));
     let refusal = if fit.gain > limit {
         Some(format!(
-            "{name}: {gain_pm} at --freq-hz {} is above {}, more than a loop the simulator accepts can give ({predicted_text}); {}",
+            "{name}: {gain_pm} at --sine-hz {} is above {}, more than a loop the simulator accepts can give ({predicted_text}); {}",
             sig(f, 8),
             sig(limit, 4),
             freq_hint.clone().unwrap_or_else(amp_hint)
         ))
     } else if fit.sigma_gain > fit.gain {
         Some(format!(
-            "{name}: {gain_pm} at --freq-hz {}: the uncertainty is larger than the gain, so the record shows no sine at {} Hz; {}",
+            "{name}: {gain_pm} at --sine-hz {}: the uncertainty is larger than the gain, so the record shows no sine at {} Hz; {}",
             sig(f, 8),
             sig(f, 8),
             freq_hint.clone().unwrap_or_else(|| {
-                "check --freq-hz and that the input reached the instrument (no other frequency fits better)".to_string()
+                "check --sine-hz and that the input reached the instrument (no other frequency fits better)".to_string()
             })
         ))
     } else {
@@ -1084,11 +1084,11 @@ mod tests {
         let band = [0.8, 1.9];
         assert_eq!(
             unit_hint(2.0, 1.2 * 980.4, 1.2, band, 980.4).as_deref(),
-            Some("if 2 was in g, --amplitude-cm-s2 1960.8")
+            Some("if 2 was in g, --sine-cm-s2 1960.8")
         );
         assert_eq!(
             unit_hint(20_000.0, 0.12, 1.2, band, 980.4).as_deref(),
-            Some("if 20000 was in mm/s², --amplitude-cm-s2 2000")
+            Some("if 20000 was in mm/s², --sine-cm-s2 2000")
         );
         assert_eq!(unit_hint(2000.0, 5.0, 1.2, band, 980.4), None);
         assert!(

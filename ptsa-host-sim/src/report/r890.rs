@@ -295,7 +295,7 @@ pub struct CaseFile {
 /// A transcription is malformed.
 pub fn case_files() -> Result<Vec<CaseFile>> {
     let note = "Generated from the transcription by ptsa-host-sim::r890 \
-                (regenerate: `cargo ptsa discover --convert-report-data data`); do not edit.";
+                (regenerate: `cargo xtask report-data`); do not edit.";
     Ok(vec![
         CaseFile {
             name: "r890-table-6.1.case.csv",
@@ -358,7 +358,7 @@ mod tests {
         for f in case_files().unwrap() {
             let shipped = std::fs::read_to_string(dir.join(f.name)).unwrap_or_else(|e| {
                 panic!(
-                    "data/{}: {e}; regenerate with `cargo ptsa discover --convert-report-data data`",
+                    "data/{}: {e}; regenerate with `cargo xtask report-data`",
                     f.name
                 )
             });

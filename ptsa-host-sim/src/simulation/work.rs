@@ -237,7 +237,7 @@ pub fn ahead(what: &str, more: Ticks) -> anyhow::Result<()> {
         let need = more.seconds();
         if spent + need > limit.seconds {
             anyhow::bail!(
-                "{what} would run about {} more ({:.2e} clock ticks) after {} so far; expected at most about {} in all (pass --force to run it anyway)",
+                "{what} would run about {} more ({:.2e} clock ticks) after {} so far; expected at most about {} in all (pass --no-limit to run it anyway)",
                 human(need),
                 more.total(),
                 human(spent),

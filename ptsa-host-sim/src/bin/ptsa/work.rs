@@ -1,4 +1,4 @@
-//! Work that is estimated before it runs (refused beyond a limit without `--force`, and
+//! Work that is estimated before it runs (refused beyond a limit without `--no-limit`, and
 //! announced when it is long), and shown while it runs: a progress bar on stderr when it is
 //! a terminal; otherwise (a log, a pipe) a plain line every [`PROGRESS_S`] seconds once the
 //! work has run that long, so that a short run stays quiet.
@@ -8,6 +8,7 @@
 //! and the batch engine have run so far.
 
 use std::io::IsTerminal as _;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::mpsc::{RecvTimeoutError, Sender, channel};
 use std::sync::{Arc, Mutex, OnceLock};
 use std::thread::JoinHandle;
@@ -19,7 +20,7 @@ use ptsa_host_sim::Instrument;
 use ptsa_host_sim::simulation::sim::SimOptions;
 use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
 
-/// Estimated seconds beyond which a run needs `--force` (the environment variable
+/// Estimated seconds beyond which a run needs `--no-limit` (the environment variable
 /// `PTSA_LIMIT_S` sets another).
 pub const LIMIT_S: f64 = 600.0;
 /// Estimated seconds beyond which the estimate is printed before the work starts.
@@ -30,7 +31,7 @@ pub const PROGRESS_S: f64 = 10.0;
 /// Seconds of the linear margins of one corner of the tolerance box (`ptsa monte-carlo`),
 /// on one core, on the slow side.
 pub const MARGINS_S_PER_CORNER: f64 = 2e-4;
-/// Most limit cycles the waveform trace takes without `--force`.
+/// Most limit cycles the waveform trace takes without `--no-limit`.
 pub const MAX_TRACE_CYCLES: u64 = 10_000;
 
 /// A positive number of seconds from the environment variable `var`, else `default` (with
@@ -50,7 +51,22 @@ fn seconds_from_env(var: &str, default: f64) -> f64 {
     }
 }
 
-/// The limit of the estimated work without `--force`, s (read once).
+/// `--no-limit` was given: run whatever the estimate.
+static NO_LIMIT: AtomicBool = AtomicBool::new(false);
+
+/// Set from the command line's `--no-limit`, once, before any work.
+pub fn set_no_limit(on: bool) {
+    NO_LIMIT.store(on, Ordering::Relaxed);
+}
+
+/// Whether a subcommand's `force` (its `--force`, which replaces files) or `--no-limit` lets
+/// work beyond the limit run. `--force` lifted the limit before `--no-limit` existed and
+/// still does for this release; [`check`] warns when it is what let the work run.
+pub fn lifted(force: bool) -> bool {
+    force || NO_LIMIT.load(Ordering::Relaxed)
+}
+
+/// The limit of the estimated work without `--no-limit`, s (read once).
 pub fn limit_s() -> f64 {
     static LIMIT: OnceLock<f64> = OnceLock::new();
     *LIMIT.get_or_init(|| seconds_from_env("PTSA_LIMIT_S", LIMIT_S))
@@ -106,13 +122,14 @@ impl<'a> Work<'a> {
         self
     }
 
-    /// Refuse the work beyond the limit unless `force`, announce it when long; the estimate.
+    /// Refuse the work beyond the limit unless lifted ([`lifted`]), announce it when long;
+    /// the estimate.
     pub fn check(self, force: bool, what: &str) -> Result<Estimate> {
         check(self.est, force, what, None, "shorten the times asked for")
     }
 }
 
-/// Refuse `est` beyond the limit ([`limit_s`]) unless `force`, with a one-line reason
+/// Refuse `est` beyond the limit ([`limit_s`]) unless lifted ([`lifted`]), with a one-line reason
 /// naming `what` and `remedy`; print it on stderr when it is beyond [`ANNOUNCE_S`] (with
 /// `more`, a clause on work that may follow). Returns `est`.
 pub fn check(
@@ -125,12 +142,18 @@ pub fn check(
     let s = est.seconds();
     let limit = limit_s();
     let more = more.map(|m| format!(", {m}")).unwrap_or_default();
-    if s > limit && !force {
+    let no_limit = NO_LIMIT.load(Ordering::Relaxed);
+    if s > limit && !no_limit && !force {
         bail!(
-            "{what} would run about {:.2e} clock ticks, roughly {} on this machine{more}; expected at most about {} ({remedy}, or pass --force to run it anyway)",
+            "{what} would run about {:.2e} clock ticks, roughly {} on this machine{more}; expected at most about {} ({remedy}, or pass --no-limit to run it anyway)",
             est.ticks.total(),
             human(s),
             human(limit)
+        );
+    }
+    if s > limit && !no_limit {
+        eprintln!(
+            "warning: --force let work beyond the limit run; that is --no-limit's task now (--force only replaces files), and --force will stop lifting the limit in the next release"
         );
     }
     if s > ANNOUNCE_S {
@@ -140,7 +163,7 @@ pub fn check(
             est.ticks.total(),
             ptsa_host_sim::simulation::work::cores(),
             if s > limit {
-                "; run because of --force"
+                "; run because of --no-limit"
             } else {
                 ""
             }

@@ -51,9 +51,9 @@ pub struct CorrectArgs {
     pub local_gravity: Option<f64>,
     /// Write the CSV here instead of standard output (never an input; an existing file only
     /// with --force; the file appears whole or not at all).
-    #[arg(long, value_name = "FILE")]
+    #[arg(short = 'o', long = "output", alias = "out", value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Replace an existing --out file.
+    /// Replace an existing --output file.
     #[arg(long, requires = "out")]
     pub force: bool,
     /// Print exactly one JSON object instead of the CSV: {"data", "calibration",
@@ -96,7 +96,7 @@ pub struct AxisRequest {
     g_cm_s2: f64,
     rows: Vec<(Condition, usize, Option<lib::Corrected>)>,
     warnings: Vec<String>,
-    /// The --out file, with what it held when --force replaces it.
+    /// The --output file, with what it held when --force replaces it.
     out: Option<(PathBuf, Option<String>)>,
     json: bool,
 }
@@ -116,7 +116,7 @@ impl CorrectArgs {
     /// # Errors
     /// Neither --calibration nor --instrument; a file that cannot be read or is not what it
     /// should be; a row that is not absolute and static, or whose reading no specific force
-    /// gives; no row with a reading; --out an input, or existing without --force.
+    /// gives; no row with a reading; --output an input, or existing without --force.
     pub fn request(self, ctx: &Ctx, instrument_given: bool) -> Result<Request> {
         if ptsa_host_sim::triad::frame::is_triad_file(&self.data) {
             return self.triad_request(ctx).map(Request::Triad);
@@ -200,12 +200,12 @@ impl CorrectArgs {
         }))
     }
 
-    /// The --out file checked, with what it holds when --force replaces it.
+    /// The --output file checked, with what it holds when --force replaces it.
     fn out_checked(&self) -> Result<Option<(PathBuf, Option<String>)>> {
         Ok(match &self.out {
             Some(p) => {
-                let replaced =
-                    paths::output_file("--out", p, self.force)?.then(|| paths::what_is_replaced(p));
+                let replaced = paths::output_file("--output", p, self.force)?
+                    .then(|| paths::what_is_replaced(p));
                 Some((p.clone(), replaced))
             }
             None => None,
@@ -217,7 +217,7 @@ impl CorrectArgs {
     ///
     /// # Errors
     /// No --calibration, or one that is not a triad's; the record cannot be read; no row
-    /// has three readings; --out refused.
+    /// has three readings; --output refused.
     fn triad_request(&self, ctx: &Ctx) -> Result<TriadRequest> {
         use ptsa_host_sim::triad::{apply::TriadCalibration, frame};
         let Some(p) = &self.calibration else {
@@ -474,7 +474,7 @@ fn json(req: &AxisRequest) -> serde_json::Value {
 }
 
 /// Write the corrected rows: the warnings on stderr, the CSV (or JSON) on `out` or into
-/// the --out file.
+/// the --output file.
 ///
 /// # Errors
 /// The file or stdout cannot be written.
@@ -513,7 +513,7 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
                 count(corrected as u64, "row")
             );
             if let Some(w) = replaced {
-                eprintln!("warning: --out {}: replaced {w} (--force)", p.display());
+                eprintln!("warning: --output {}: replaced {w} (--force)", p.display());
             }
         }
         None => write!(out, "{text}")?,

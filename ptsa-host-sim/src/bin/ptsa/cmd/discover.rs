@@ -113,15 +113,16 @@ pub struct DiscoverArgs {
     /// warning. Without it such data are refused (exit 1) as a unit or sign slip.
     #[arg(long)]
     pub units_as_given: bool,
-    /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and exit.
-    #[arg(long, value_name = "DIR")]
+    /// Regenerate the report's case-frame files (`r890-table-6.*.case.csv`) into DIR and
+    /// exit: a maintainer's task, `cargo xtask report-data`.
+    #[arg(long, value_name = "DIR", hide = true)]
     pub convert_report_data: Option<PathBuf>,
     /// Replace an existing --advice-out or --write-instrument file (never an input of the
-    /// run) or an earlier --sheet folder, and run even when the work is estimated to take more than ten minutes (before
-    /// it starts, or, when a parameter of the loop is selected, before the closed-loop
-    /// search of the other parameters).
+    /// run) or an earlier --sheet folder (the work limit is --no-limit's).
     #[arg(long)]
     pub force: bool,
+    #[command(flatten)]
+    pub limit: crate::flags::LimitArg,
     /// With a triad file: what its positions' nominal orientations are worth (default
     /// exact).
     #[arg(long, value_enum, value_name = "HOW", requires = "data")]
@@ -485,7 +486,7 @@ impl DiscoverArgs {
     }
 }
 
-/// Run the request: the analysis (refused beyond the work limit without `--force`), its
+/// Run the request: the analysis (refused beyond the work limit without `--no-limit`), its
 /// report on `out` and its files; a warning for each file `--force` replaced.
 ///
 /// # Errors
@@ -522,7 +523,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     let est = estimate(a)?;
     // The search of the loop's parameters, whose length is known only once they are
     // selected, is held to the limit too.
-    ptsa_host_sim::simulation::work::set_limit((!a.force).then(work::limit_s));
+    ptsa_host_sim::simulation::work::set_limit((!work::lifted(a.force)).then(work::limit_s));
     let p = work::Progress::start("discover", &est);
     let r = match &a.data {
         Some(data) => {
@@ -576,7 +577,7 @@ fn report_tables(a: &Analysis, out: &mut dyn Write) -> Result<()> {
 }
 
 /// The work of `ptsa discover` before it runs (`discovery::cost`), refused beyond the limit
-/// without `--force` and announced when long, with what the search of the loop's
+/// without `--no-limit` and announced when long, with what the search of the loop's
 /// parameters may add when one is selected.
 fn estimate(a: &Analysis) -> Result<Estimate> {
     let (sim, candidates) = (&*a.sim, &a.options.candidates);

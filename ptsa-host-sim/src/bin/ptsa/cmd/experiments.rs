@@ -114,7 +114,7 @@ pub struct WaveformArgs {
           value_parser = finite)]
     pub accel_cm_s2: f64,
     /// Limit cycles to trace (1 to 10 000; the CSV has one row per clock tick; more
-    /// with --force).
+    /// with --no-limit).
     #[arg(long, default_value_t = waveform::DEFAULT_CYCLES, value_name = "N",
           value_parser = cycles)]
     pub cycles: u64,
@@ -284,7 +284,7 @@ impl TwoAxisArgs {
 
 impl WaveformArgs {
     /// The request: the trace's length (refused beyond what 64 bits count, and beyond
-    /// [`work::MAX_TRACE_CYCLES`] without `--force`), the folder; a warning when the
+    /// [`work::MAX_TRACE_CYCLES`] without `--no-limit`), the folder; a warning when the
     /// acceleration is beyond the loop's full scale.
     ///
     /// # Errors
@@ -299,9 +299,9 @@ impl WaveformArgs {
                 u64::MAX / per_cycle
             );
         };
-        if cycles > work::MAX_TRACE_CYCLES && !self.run.force {
+        if cycles > work::MAX_TRACE_CYCLES && !work::lifted(self.run.force) {
             bail!(
-                "--cycles {cycles}: the trace has one row per clock tick ({ticks} rows); expected at most {} cycles without --force",
+                "--cycles {cycles}: the trace has one row per clock tick ({ticks} rows); expected at most {} cycles without --no-limit",
                 work::MAX_TRACE_CYCLES
             );
         }
@@ -350,7 +350,7 @@ impl MonteCarloArgs {
     }
 }
 
-/// Run the experiment (refused beyond the work limit without `--force`), its tables and
+/// Run the experiment (refused beyond the work limit without `--no-limit`), its tables and
 /// notes on `out`, its files into its folder.
 ///
 /// # Errors

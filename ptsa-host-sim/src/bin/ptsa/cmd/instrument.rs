@@ -1,4 +1,4 @@
-//! `ptsa instrument new --class CLASS --out FILE`: a commented instrument file to start from,
+//! `ptsa instrument new --class CLASS --output FILE`: a commented instrument file to start from,
 //! one of the shipped ones (`--instrument NAME` takes the same names).
 
 use std::io::Write;
@@ -34,7 +34,7 @@ pub enum InstrumentAction {
               value_parser = clap::builder::PossibleValuesParser::new(["kearfott-2401", "navigation", "mems"]))]
         class: String,
         /// The file to write (not replaced without --force).
-        #[arg(long, value_name = "FILE")]
+        #[arg(short = 'o', long = "output", alias = "out", value_name = "FILE")]
         out: PathBuf,
         /// Replace an existing file.
         #[arg(long)]
@@ -54,10 +54,10 @@ impl InstrumentArgs {
     /// The request: the output file checked (an existing one only with `--force`).
     ///
     /// # Errors
-    /// `--out` is refused.
+    /// `--output` is refused.
     pub fn request(self) -> Result<Request> {
         let InstrumentAction::New { class, out, force } = self.action;
-        let replaced = paths::output_file("--out", &out, force)?.then(|| replaced_text(&out));
+        let replaced = paths::output_file("--output", &out, force)?.then(|| replaced_text(&out));
         Ok(Request {
             class,
             out,
@@ -93,7 +93,7 @@ pub fn run(req: &Request, _out: &mut dyn Write) -> Result<()> {
     write_atomic(&req.out, text.as_bytes())?;
     if let Some(w) = &req.replaced {
         eprintln!(
-            "warning: --out {}: replaced {w} (--force)",
+            "warning: --output {}: replaced {w} (--force)",
             req.out.display()
         );
     }

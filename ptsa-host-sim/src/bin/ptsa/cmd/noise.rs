@@ -63,7 +63,7 @@ pub struct NoiseArgs {
     pub spacing_tol: f64,
     /// The averaging times: octave (1, 2, 4, 8, ... times the gate or sample interval, the
     /// default), decade (1, 2, 4, 10, 20, 40, 100, ...), all (every whole multiple; O(N²),
-    /// refused beyond the work limit without --force), or a list of times in s (T1,T2,...),
+    /// refused beyond the work limit without --no-limit), or a list of times in s (T1,T2,...),
     /// each a whole number of gates or samples. --compare and --identify take octave.
     #[arg(long, value_name = "SPEC", value_parser = taus_arg, default_value = "octave")]
     pub taus: TausArg,
@@ -115,7 +115,13 @@ pub struct NoiseArgs {
     pub warmup_s: f64,
     /// With --simulate: write the simulated counter record (time_s,pulses,ticks) to FILE;
     /// an existing file is replaced only with --force.
-    #[arg(long, value_name = "FILE", requires = "simulate")]
+    #[arg(
+        short = 'o',
+        long = "output",
+        alias = "out",
+        value_name = "FILE",
+        requires = "simulate"
+    )]
     pub out: Option<PathBuf>,
     /// Write the log–log plot (ADEV with its 95 % bars, MDEV, HDEV where computed, the
     /// fitted terms) as STEM.png and STEM.svg, STEM the file given without its .png or .svg;
@@ -144,10 +150,12 @@ pub struct NoiseArgs {
     /// "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test").
     #[arg(long)]
     pub json: bool,
-    /// Replace an existing --out, --plot or --write-instrument file; run a simulation estimated beyond ten
-    /// minutes.
+    /// Replace an existing --output, --plot or --write-instrument file (the work limit is
+    /// --no-limit's).
     #[arg(long)]
     pub force: bool,
+    #[command(flatten)]
+    pub limit: crate::flags::LimitArg,
 }
 
 /// A file and what it replaces when `--force` replaces it.
@@ -280,18 +288,18 @@ impl TausArg {
 /// rounded up).
 const ALL_TAU_NS: f64 = 12.0;
 
-/// Refuse the all-tau analysis of `n` samples beyond the work limit unless `force`;
-/// announce it when long.
+/// Refuse the all-tau analysis of `n` samples beyond the work limit unless lifted
+/// ([`work::lifted`]); announce it when long.
 ///
 /// # Errors
-/// Beyond the limit without `--force`.
+/// Beyond the limit without `--no-limit`.
 fn all_taus_check(n: usize, force: bool) -> Result<()> {
     #[allow(clippy::cast_precision_loss)]
     let s = ALL_TAU_NS * 1e-9 * n as f64 * n as f64 / 2.0;
     let limit = work::limit_s();
-    if s > limit && !force {
+    if s > limit && !work::lifted(force) {
         bail!(
-            "--taus all: {} averaging times over {n} samples would take roughly {} on this machine; expected at most about {} (--taus octave or decade, or --force to run it anyway)",
+            "--taus all: {} averaging times over {n} samples would take roughly {} on this machine; expected at most about {} (--taus octave or decade, or --no-limit to run it anyway)",
             n / 2,
             ptsa_host_sim::simulation::work::human(s),
             ptsa_host_sim::simulation::work::human(limit)
@@ -337,7 +345,7 @@ pub struct Request {
     write_instrument: Checked,
 }
 
-/// The outputs checked: `--out`, `--plot`'s two files, `--write-instrument`.
+/// The outputs checked: `--output`, `--plot`'s two files, `--write-instrument`.
 struct Outputs {
     out: Checked,
     plot: Option<(Checked, Checked)>,
@@ -447,7 +455,7 @@ impl NoiseArgs {
                 None => None,
             })
         };
-        let out = checked("--out", self.out.clone())?;
+        let out = checked("--output", self.out.clone())?;
         // The plot as STEM.png and STEM.svg, the file as given checked first.
         let plot = match self.plot.clone() {
             Some(p) => Some(plot_files(&p, &checked)?),
@@ -471,7 +479,7 @@ impl NoiseArgs {
             && plots.iter().any(|p| p.0 == *o)
         {
             bail!(
-                "--plot {}: the same file as --out; expected two files (the record and its plot)",
+                "--plot {}: the same file as --output; expected two files (the record and its plot)",
                 o.display()
             );
         }
@@ -546,7 +554,7 @@ impl NoiseArgs {
     }
 }
 
-/// Simulate (refused beyond the work limit without `--force`) or take the record; analyse
+/// Simulate (refused beyond the work limit without `--no-limit`) or take the record; analyse
 /// it; write the record and the plot; print the table or the JSON.
 ///
 /// # Errors
@@ -695,8 +703,8 @@ fn identification_warnings(name: &str, id: &Identification) -> Vec<String> {
     out
 }
 
-/// Simulate the loop at rest (refused beyond the work limit without `--force`), write its
-/// record to `--out` if given; the record's name and the record.
+/// Simulate the loop at rest (refused beyond the work limit without `--no-limit`), write its
+/// record to `--output` if given; the record's name and the record.
 fn simulated(
     ctx: &Ctx,
     req: &Request,
@@ -730,7 +738,10 @@ fn simulated(
     if let Some((path, replaced)) = &req.out {
         write_atomic(path, noise::record_csv(&g, &comments).as_bytes())?;
         if let Some(w) = replaced {
-            eprintln!("warning: --out {}: replaced {w} (--force)", path.display());
+            eprintln!(
+                "warning: --output {}: replaced {w} (--force)",
+                path.display()
+            );
         }
         eprintln!("wrote the record {}", path.display());
     }
@@ -842,7 +853,7 @@ fn simulate_and_compare(
 }
 
 /// Identify the candidates beyond the file's loop (`--identify`): the simulations refused
-/// beyond the work limit without `--force`.
+/// beyond the work limit without `--no-limit`.
 fn identify(
     ctx: &Ctx,
     req: &Request,

@@ -103,7 +103,7 @@ pub enum PlanKind {
     },
     /// A triad's calibration: N static positions of a block carrying three accelerometers
     /// (docs/discovery.md, "A triad"): the block's nominal gravity g_x, g_y, g_z (g) and
-    /// the three measured columns (cm/s²) to fill in, or with --counts each axis's counts.
+    /// the three measured columns (cm/s²) to fill in, or with --count-columns each axis's counts.
     Triad {
         /// Positions: 6 (the faces), 8 (the faces and two corners), 12 (the edges), 24
         /// (every position tilted: for a block placed by hand) or 37 (24, the edges and a
@@ -115,7 +115,7 @@ pub enum PlanKind {
         /// axis's counts over its gate: P pulses of positive torque in T clock ticks, whole
         /// numbers) in place of the measured columns; discover converts them to
         /// SF·(2P/T − 1) cm/s² with the instrument file's nominal SF (docs/case-frame.md).
-        #[arg(long)]
+        #[arg(long = "count-columns", alias = "counts")]
         counts: bool,
         #[command(flatten)]
         out: PlanOut,
@@ -129,7 +129,7 @@ pub struct CountArg {
     /// of positive torque in T clock ticks, whole numbers) in place of measured_cm_s2;
     /// discover and predict convert them to SF·(2P/T − 1) cm/s² with the instrument file's
     /// nominal SF (docs/case-frame.md).
-    #[arg(long)]
+    #[arg(long = "count-columns", alias = "counts")]
     pub counts: bool,
 }
 
@@ -138,9 +138,9 @@ pub struct CountArg {
 pub struct PlanOut {
     /// Write the case-frame file here (default: standard output). An existing file is not
     /// replaced without --force: it may hold the lab's measurements.
-    #[arg(long, value_name = "FILE")]
+    #[arg(short = 'o', long = "output", alias = "out", value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Replace an existing --out file (a warning says how many measured rows it held).
+    /// Replace an existing --output file (a warning says how many measured rows it held).
     #[arg(long, requires = "out")]
     pub force: bool,
 }
@@ -153,7 +153,7 @@ pub struct Request {
     dest: Dest,
     /// Columns written empty for the lab to fill in.
     also: &'static [&'static str],
-    /// `pulses` and `ticks` in place of `measured_cm_s2` (`--counts`).
+    /// `pulses` and `ticks` in place of `measured_cm_s2` (`--count-columns`).
     counts: bool,
     /// The file's text when it is not case-frame rows (a triad plan).
     text: Option<String>,
@@ -173,7 +173,7 @@ impl PlanArgs {
     /// replaces one, what it holds, for the warning).
     ///
     /// # Errors
-    /// The loop cannot be simulated; `--out` is an input, cannot be written, or exists
+    /// The loop cannot be simulated; `--output` is an input, cannot be written, or exists
     /// without `--force`.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         if let PlanKind::Triad {
@@ -279,13 +279,13 @@ impl PlanArgs {
     }
 }
 
-/// Standard output, or the `--out` file checked (and, when `--force` replaces one, what it
+/// Standard output, or the `--output` file checked (and, when `--force` replaces one, what it
 /// holds).
 fn dest(out: PlanOut) -> Result<Dest> {
     Ok(match out.out {
         None => Dest::Stdout,
         Some(path) => {
-            let replaced = paths::output_file("--out", &path, out.force)?
+            let replaced = paths::output_file("--output", &path, out.force)?
                 .then(|| paths::what_is_replaced(&path));
             Dest::File { path, replaced }
         }
@@ -327,7 +327,10 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
             let rows = text.lines().filter(|l| !l.starts_with('#')).count() - 1;
             eprintln!("wrote {} ({})", path.display(), count(rows as u64, "row"));
             if let Some(w) = replaced {
-                eprintln!("warning: --out {}: replaced {w} (--force)", path.display());
+                eprintln!(
+                    "warning: --output {}: replaced {w} (--force)",
+                    path.display()
+                );
             }
         }
         Dest::Stdout => write!(out, "{text}")?,

@@ -44,9 +44,11 @@ pub struct PredictArgs {
     /// instrument file without a PTSA loop).
     #[arg(long)]
     pub analytic: bool,
-    /// Run even when the work is estimated to take more than ten minutes.
-    #[arg(long)]
+    /// The old spelling of --no-limit, accepted until the next release.
+    #[arg(long, hide = true)]
     pub force: bool,
+    #[command(flatten)]
+    pub limit: crate::flags::LimitArg,
 }
 
 /// A prediction to make: the rows read, the effects loaded, the simulator chosen.
@@ -98,7 +100,7 @@ impl PredictArgs {
     }
 }
 
-/// Predict every row (refused beyond the work limit without `--force`); the table or the
+/// Predict every row (refused beyond the work limit without `--no-limit`); the table or the
 /// JSON on `out`.
 ///
 /// # Errors

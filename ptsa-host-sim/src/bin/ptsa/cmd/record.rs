@@ -24,9 +24,9 @@ pub struct RecordArgs {
     pub from: PathBuf,
     /// Write the record to this file (not replaced without --force); without it the record
     /// goes to standard output.
-    #[arg(long, value_name = "FILE")]
+    #[arg(short = 'o', long = "output", alias = "out", value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Replace an existing --out file.
+    /// Replace an existing --output file.
     #[arg(long)]
     pub force: bool,
     /// Write the record even when reports are missing from the log (gaps in the gates'
@@ -39,7 +39,7 @@ pub struct RecordArgs {
     #[arg(long, value_name = "N")]
     pub axis: Option<u64>,
     /// Print one JSON object on standard output instead of the summary on stderr (needs
-    /// --out): {"from", "out", "axis", "lines", "skipped_lines", "reports" (the record's
+    /// --output): {"from", "out", "axis", "lines", "skipped_lines", "reports" (the record's
     /// rows), "gates" (the gates they hold, merged ones counted each),
     /// "first_seq", "last_seq", "gaps" (a list of {"after_line", "before_line",
     /// "first_missing", "last_missing", "missing_gates", "missing_ticks"}), "lost_gates",
@@ -70,23 +70,23 @@ impl RecordArgs {
         [("--from", from)]
     }
 
-    /// The request: `--out` checked (an existing file only with `--force`; never the log),
-    /// `--json` only with `--out`, the log read.
+    /// The request: `--output` checked (an existing file only with `--force`; never the log),
+    /// `--json` only with `--output`, the log read.
     ///
     /// # Errors
-    /// `--json` without `--out`; `--out` is refused; the log cannot be read.
+    /// `--json` without `--output`; `--output` is refused; the log cannot be read.
     pub fn request(self) -> Result<Request> {
         if self.json && self.out.is_none() {
             bail!(
-                "--json: the record and the JSON would both go to standard output; expected --out FILE for the record"
+                "--json: the record and the JSON would both go to standard output; expected --output FILE for the record"
             );
         }
         if self.force && self.out.is_none() {
-            bail!("--force: nothing to replace without --out; expected --out FILE");
+            bail!("--force: nothing to replace without --output; expected --output FILE");
         }
         let replaced = match &self.out {
             Some(p) => {
-                paths::output_file("--out", p, self.force)?.then(|| paths::what_is_replaced(p))
+                paths::output_file("--output", p, self.force)?.then(|| paths::what_is_replaced(p))
             }
             None => None,
         };
@@ -171,7 +171,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         None => out.write_all(text.as_bytes())?,
     }
     if let (Some(p), Some(w)) = (&req.out, &req.replaced) {
-        warnings.push(format!("--out {}: replaced {w} (--force)", p.display()));
+        warnings.push(format!("--output {}: replaced {w} (--force)", p.display()));
     }
     let span_s = span_s(&stream, clock_hz);
     if req.json {

@@ -49,7 +49,7 @@ impl ReportArgs {
     }
 }
 
-/// Run the programme (refused beyond the work limit without `--force`), the steps shown
+/// Run the programme (refused beyond the work limit without `--no-limit`), the steps shown
 /// as it goes; the report's summary on `out`.
 ///
 /// # Errors
@@ -64,7 +64,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         "shorten the times asked for",
     )?;
     // Its discovery section holds its search of the loop's parameters to the limit.
-    ptsa_host_sim::simulation::work::set_limit((!req.force).then(work::limit_s));
+    ptsa_host_sim::simulation::work::set_limit((!work::lifted(req.force)).then(work::limit_s));
     let bar = work::Progress::start("the report programme", &est);
     let info = report::RunInfo {
         instrument: ctx.name.clone(),

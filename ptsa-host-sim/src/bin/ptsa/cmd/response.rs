@@ -28,10 +28,11 @@ pub struct ResponseArgs {
     pub counts: PathBuf,
     /// Frequency of the input sine, Hz (more than 0, below the Nyquist frequency of the
     /// record: half its gate rate).
-    #[arg(long, value_name = "HZ", value_parser = positive_hz)]
+    #[arg(long = "sine-hz", alias = "freq-hz", value_name = "HZ", value_parser = positive_hz)]
     pub freq_hz: f64,
     /// Amplitude of the input sine along IA, cm/s² (more than 0).
-    #[arg(long, value_name = "CM_S2", value_parser = input_amplitude_cm_s2)]
+    #[arg(long = "sine-cm-s2", alias = "amplitude-cm-s2", value_name = "CM_S2",
+          value_parser = input_amplitude_cm_s2)]
     pub amplitude_cm_s2: f64,
     /// Phase of the input sine at time_s = 0, degrees: the input is
     /// A·sin(2πF·time_s + phase).
@@ -50,7 +51,7 @@ pub struct ResponseArgs {
     pub json: bool,
     /// Write the row even when the fit makes no physical sense: a gain above 2 (no loop the
     /// simulator accepts gets there) or an uncertainty larger than the gain (no sine at
-    /// --freq-hz); refused without it, naming the likely slip (an amplitude in g, another
+    /// --sine-hz); refused without it, naming the likely slip (an amplitude in g, another
     /// frequency).
     #[arg(long)]
     pub force: bool,
@@ -88,7 +89,7 @@ impl ResponseArgs {
     }
 
     /// The request: the plot's folder checked (its files never an input), the record read
-    /// and checked, `--freq-hz` below the record's Nyquist frequency, the label resolved.
+    /// and checked, `--sine-hz` below the record's Nyquist frequency, the label resolved.
     ///
     /// # Errors
     /// `--out` is refused; the record cannot be read or is not a counter record; the
@@ -112,7 +113,7 @@ impl ResponseArgs {
         let span_s = gates[n - 1].time_s - gates[0].time_s;
         if self.freq_hz >= rate_hz / 2.0 {
             bail!(
-                "--freq-hz {}: expected a frequency below {} Hz, the Nyquist frequency of {name} ({n} gates in {} s, {} gates/s): gates that far apart cannot show a sine of {} Hz",
+                "--sine-hz {}: expected a frequency below {} Hz, the Nyquist frequency of {name} ({n} gates in {} s, {} gates/s): gates that far apart cannot show a sine of {} Hz",
                 num(self.freq_hz),
                 sig(rate_hz / 2.0, 8),
                 sig(span_s, 8),
@@ -165,10 +166,10 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         instr.sf_cm_s2,
         instr.clock_hz,
     )
-    .with_context(|| format!("{name} at --freq-hz {}", num(req.freq_hz)))?;
+    .with_context(|| format!("{name} at --sine-hz {}", num(req.freq_hz)))?;
     if !(fit.gain > 0.0 && fit.gain.is_finite()) {
         bail!(
-            "{name}: no component at --freq-hz {} in the record (gain {}); expected the response to a sine at that frequency",
+            "{name}: no component at --sine-hz {} in the record (gain {}); expected the response to a sine at that frequency",
             num(req.freq_hz),
             sig(fit.gain, 4)
         );
@@ -266,7 +267,7 @@ fn record_warnings(ctx: &Ctx, req: &Request, gate_s: f64) -> Vec<String> {
     }
     if req.amplitude_cm_s2.abs() > instr.sf_cm_s2 {
         warnings.push(format!(
-            "--amplitude-cm-s2 = {} cm/s^2 is beyond the loop's full scale of ±{} cm/s^2: the loop saturates and the results are not measurements of the input",
+            "--sine-cm-s2 = {} cm/s^2 is beyond the loop's full scale of ±{} cm/s^2: the loop saturates and the results are not measurements of the input",
             num(req.amplitude_cm_s2),
             num(instr.sf_cm_s2)
         ));

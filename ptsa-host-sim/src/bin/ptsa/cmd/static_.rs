@@ -84,9 +84,12 @@ pub struct StaticArgs {
     /// When the step comes, s from the loop's reset (settling included), rounded to a tick.
     #[arg(long, value_name = "S", value_parser = non_negative_s, requires = "step_cm_s2")]
     pub step_at_s: Option<f64>,
-    /// Run even when the work is estimated to take more than ten minutes.
+    /// Replace an existing --record, --trace or --pil-params file (the work limit is
+    /// --no-limit's).
     #[arg(long)]
     pub force: bool,
+    #[command(flatten)]
+    pub limit: crate::flags::LimitArg,
 }
 
 /// Static runs to make.
@@ -265,7 +268,7 @@ fn gcd(a: u64, b: u64) -> u64 {
     if b == 0 { a } else { gcd(b, a % b) }
 }
 
-/// Run the gate(s) (refused beyond the work limit without `--force`); a warning for each
+/// Run the gate(s) (refused beyond the work limit without `--no-limit`); a warning for each
 /// saturated one; the result as a line or a table, or JSON.
 ///
 /// # Errors

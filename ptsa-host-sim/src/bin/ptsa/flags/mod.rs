@@ -147,10 +147,10 @@ pub enum Cmd {
     /// The record is a CSV `time_s,pulses,ticks`, one line per short gate (the gate's start
     /// in s, the data pulses P and the clock ticks T counted in it, as a counter or the
     /// firmware's gate reports give them). Each gate indicates SF·(2P/T − 1) cm/s² with the
-    /// instrument file's SF; a sine at --freq-hz is fitted to these values (corrected for the
+    /// instrument file's SF; a sine at --sine-hz is fitted to these values (corrected for the
     /// averaging over each gate, whose length is T over the file's clock_hz).
     ///
-    /// Gain: the output's amplitude over --amplitude-cm-s2, dimensionless (cm/s² indicated
+    /// Gain: the output's amplitude over --sine-cm-s2, dimensionless (cm/s² indicated
     /// per cm/s² of input; 1 = the loop follows the input). Phase: the output's phase minus
     /// the input's, in degrees from −180 to 180; an output that lags the input has a
     /// negative phase. The input is taken as A·sin(2πF·t + --input-phase-deg) on the
@@ -243,9 +243,11 @@ pub struct RunArgs {
     #[arg(long, default_value_t = SimOptions::default().min_window_s, value_name = "S",
           value_parser = positive_s)]
     pub window_s: f64,
-    /// Run even when the work is estimated to take more than ten minutes.
-    #[arg(long)]
+    /// The old spelling of --no-limit, accepted until the next release.
+    #[arg(long, hide = true)]
     pub force: bool,
+    #[command(flatten)]
+    pub limit: LimitArg,
 }
 
 impl RunArgs {
@@ -274,9 +276,11 @@ pub struct SettleArgs {
     #[arg(long, default_value_t = SimOptions::default().warmup_s, value_name = "S",
           value_parser = non_negative_s)]
     pub warmup_s: f64,
-    /// Run even when the work is estimated to take more than ten minutes.
-    #[arg(long)]
+    /// The old spelling of --no-limit, accepted until the next release.
+    #[arg(long, hide = true)]
     pub force: bool,
+    #[command(flatten)]
+    pub limit: LimitArg,
 }
 
 impl SettleArgs {
@@ -289,6 +293,18 @@ impl SettleArgs {
             ..SimOptions::default()
         }
     }
+}
+
+/// Work beyond the limit, for a command that estimates its work before it runs. Read in
+/// [`parse`], which hands it to `work::set_no_limit`.
+#[derive(Args, Debug, Clone, Copy)]
+pub struct LimitArg {
+    /// Run work estimated beyond about ten minutes on this machine (the environment
+    /// variable PTSA_LIMIT_S, in s, sets another limit); without it such work is refused
+    /// before it starts, with its estimate.
+    #[arg(long)]
+    #[allow(dead_code, reason = "read from the matches in `parse`")]
+    pub no_limit: bool,
 }
 
 /// Where files go.
@@ -310,12 +326,17 @@ pub fn parse() -> Cli {
         .try_get_matches_from_mut(join_negative_numbers(&Cli::command(), std::env::args_os()))
         .unwrap_or_else(|e| e.exit());
     let cli = Cli::from_arg_matches(&matches).unwrap_or_else(|e| e.format(&mut cmd).exit());
+    for w in old_spellings(&cmd, &matches, &std::env::args_os().collect::<Vec<_>>()) {
+        eprintln!("warning: {w}");
+    }
+    crate::work::set_no_limit(flag_of_subcommand(&matches, "no_limit"));
     if let Some(sub) = matches.subcommand_name() {
         for (id, flag) in [
             ("seed", "--seed"),
             ("warmup_s", "--warmup-s"),
             ("window_s", "--window-s"),
             ("force", "--force"),
+            ("no_limit", "--no-limit"),
             ("out", "--out"),
         ] {
             if matches.value_source(id) == Some(ValueSource::CommandLine) {
@@ -330,6 +351,61 @@ pub fn parse() -> Cli {
         }
     }
     cli
+}
+
+/// The on/off flag `id` of the subcommand that runs (the deepest one matched; the report
+/// programme's own without one); off when that command has no such flag.
+fn flag_of_subcommand(matches: &clap::ArgMatches, id: &str) -> bool {
+    let mut m = matches;
+    while let Some((_, sub)) = m.subcommand() {
+        m = sub;
+    }
+    m.try_get_one::<bool>(id)
+        .ok()
+        .flatten()
+        .copied()
+        .unwrap_or(false)
+}
+
+/// One line for each old spelling of an option (a hidden alias, kept for one release) that
+/// `args` use in the subcommand `matches` ran, naming the spelling that replaces it.
+fn old_spellings(
+    cmd: &clap::Command,
+    matches: &clap::ArgMatches,
+    args: &[OsString],
+) -> Vec<String> {
+    let (mut c, mut m) = (cmd, matches);
+    while let Some((name, sub)) = m.subcommand() {
+        match c.find_subcommand(name) {
+            Some(next) => (c, m) = (next, sub),
+            None => break,
+        }
+    }
+    let mut out = Vec::new();
+    for a in c.get_arguments() {
+        let (Some(long), Some(all)) = (a.get_long(), a.get_all_aliases()) else {
+            continue;
+        };
+        let visible = a.get_visible_aliases().unwrap_or_default();
+        for old in all.into_iter().filter(|x| !visible.contains(x)) {
+            let flag = format!("--{old}");
+            let used = args
+                .iter()
+                .filter_map(|x| x.to_str())
+                .any(|x| x == flag || x.strip_prefix(&flag).is_some_and(|r| r.starts_with('=')));
+            if used {
+                let why = if old == "out" {
+                    " (--out names a folder in every command)"
+                } else {
+                    ""
+                };
+                out.push(format!(
+                    "{flag} is spelled --{long} now{why}; the old spelling is accepted until the next release"
+                ));
+            }
+        }
+    }
+    out
 }
 
 /// The arguments with the negative numbers clap would take for short flags made readable

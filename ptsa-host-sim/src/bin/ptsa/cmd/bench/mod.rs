@@ -79,9 +79,11 @@ pub struct BenchArgs {
     #[arg(long, default_value_t = SimOptions::default().seed, value_name = "N",
           value_parser = seed)]
     pub seed: u64,
-    /// Run even when the work is estimated to take more than ten minutes.
-    #[arg(long)]
+    /// The old spelling of --no-limit, accepted until the next release.
+    #[arg(long, hide = true)]
     pub force: bool,
+    #[command(flatten)]
+    pub limit: crate::flags::LimitArg,
 }
 
 /// A benchmark to run.
@@ -128,7 +130,7 @@ impl BenchArgs {
     }
 }
 
-/// Run the benchmark (refused beyond the work limit without `--force`); its table on
+/// Run the benchmark (refused beyond the work limit without `--no-limit`); its table on
 /// `out`.
 ///
 /// # Errors
