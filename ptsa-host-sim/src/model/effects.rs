@@ -892,3 +892,63 @@ mod tests {
         }
     }
 }
+
+/// `docs/reference/candidates.md`, written from [`REGISTRY`]: the page a reader looks up a
+/// candidate in, checked by a test so that it cannot drift from the code.
+#[cfg(test)]
+mod reference {
+    use super::*;
+    use std::fmt::Write as _;
+
+    fn page() -> String {
+        let mut out = format!(
+            "# Reference: discovery's candidates\n\n\
+             The {N_CANDIDATES} candidates of `ptsa discover`, in the registry's order (the order of \
+             every listing). Generated from `model/effects.rs` by the test \
+             `model::effects::reference::the_candidates_page_is_current` \
+             (`PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference` writes it \
+             again). `name` is what `--candidates` takes and the JSON's `confounded_with` \
+             lists; `effect` and `key` are the JSON's effect name and coefficient key (cgs, the \
+             unit in the key); the IEEE Std 1293 symbol and unit are the calibration's.\n\n\
+             | name | effect | key | unit | IEEE symbol | IEEE unit | term | in the model equation |\n\
+             |---|---|---|---|---|---|---|---|\n"
+        );
+        for c in REGISTRY {
+            let (symbol, ieee_unit, _) = c.ieee;
+            let place = match c.model_term {
+                ModelTerm::FirstOrder => "first order",
+                ModelTerm::HigherOrder => "higher order",
+                ModelTerm::Outside => match c.signature {
+                    Signature::Parameter(_) => "a loop parameter (closed loop)",
+                    Signature::Term(_) => "outside (rates, time, history)",
+                },
+            };
+            let _ = writeln!(
+                out,
+                "| `{}` | `{}` | `{}` | {} | {symbol} | {ieee_unit} | {} | {place} |",
+                c.name,
+                c.effect,
+                c.key,
+                c.unit,
+                c.formula.replace('|', "\\|")
+            );
+        }
+        out
+    }
+
+    #[test]
+    fn the_candidates_page_is_current() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../docs/reference/candidates.md");
+        let want = page();
+        if std::env::var_os("PTSA_WRITE_REFERENCE").is_some() {
+            std::fs::write(&path, &want).unwrap();
+        }
+        let have = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            have == want,
+            "docs/reference/candidates.md is not what the registry holds: \
+             PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference"
+        );
+    }
+}

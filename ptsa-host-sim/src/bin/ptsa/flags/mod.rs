@@ -7,6 +7,8 @@
 // column names and symbols (time_s, A_b, θ_my) would show up in the help verbatim.
 #![allow(clippy::doc_markdown, reason = "clap help text, not rustdoc")]
 
+#[cfg(test)]
+mod reference;
 pub mod values;
 
 use std::ffi::OsString;
