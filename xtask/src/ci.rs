@@ -86,8 +86,11 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     c_twin_in_fresh_target_dir()?;
 
     step("host tests (optimised test profile, overflow checks on)");
-    util::run(&root, &cargo, &["test", "--workspace", "--all-targets"])?;
-    util::run(&root, &cargo, &["test", "--workspace", "--doc"])?;
+    // A test that cannot run on this machine (a SIMD level the CPU lacks) writes a line
+    // here; the summary at the end lists it with the tests that are ignored by design.
+    let skipped = util::target_dir()?.join("ci-skipped.txt");
+    let _ = std::fs::remove_file(&skipped);
+    host_tests(&root, &cargo, &skipped)?;
 
     // With defmt it is built again by the firmware (its dependency has the feature on),
     // so only without the firmware checks is that build a step of its own.
@@ -129,7 +132,92 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     }
 
     eprintln!("\nci passed in {:.0} s", t0.elapsed().as_secs_f64());
+    eprintln!("{}", not_run(&root, &cargo, &skipped, skip_firmware));
     Ok(())
+}
+
+/// The workspace's tests and doctests, with `PTSA_SKIPPED` naming `skipped`.
+fn host_tests(
+    root: &std::path::Path,
+    cargo: &str,
+    skipped: &std::path::Path,
+) -> Result<(), String> {
+    for args in [
+        &["test", "--workspace", "--all-targets"][..],
+        &["test", "--workspace", "--doc"],
+    ] {
+        eprintln!(
+            "+ PTSA_SKIPPED={} {cargo} {}",
+            skipped.display(),
+            args.join(" ")
+        );
+        let status = Command::new(cargo)
+            .args(args)
+            .env("PTSA_SKIPPED", skipped)
+            .current_dir(root)
+            .status()
+            .map_err(|e| format!("cannot start `{cargo}`: {e}"))?;
+        if !status.success() {
+            return Err(format!("`{cargo} {}` failed ({status})", args.join(" ")));
+        }
+    }
+    Ok(())
+}
+
+/// What this run did not run, and why: the tests that could not run on this machine, the
+/// tests ignored by design (the campaigns, run by `cargo xtask hidden` and
+/// `cargo test -- --ignored NAME`), the firmware when skipped.
+fn not_run(
+    root: &std::path::Path,
+    cargo: &str,
+    skipped: &std::path::Path,
+    no_firmware: bool,
+) -> String {
+    let mut lines: Vec<String> = std::fs::read_to_string(skipped)
+        .unwrap_or_default()
+        .lines()
+        .map(|l| format!("  skipped, {l}"))
+        .collect();
+    lines.sort();
+    lines.dedup();
+    let listed = Command::new(cargo)
+        .args([
+            "test",
+            "-q",
+            "--workspace",
+            "--all-targets",
+            "--",
+            "--list",
+            "--ignored",
+        ])
+        .current_dir(root)
+        .stderr(std::process::Stdio::null())
+        .output();
+    let mut ignored: Vec<String> = match listed {
+        Ok(o) => String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .filter_map(|l| l.strip_suffix(": test"))
+            .map(str::to_string)
+            .collect(),
+        Err(e) => vec![format!("(cannot list them: {e})")],
+    };
+    ignored.sort();
+    ignored.dedup();
+    if !ignored.is_empty() {
+        lines.push(format!(
+            "  ignored by design ({}; the campaigns run in CI as smaller subsets; the full runs are `cargo xtask hidden ...`, the others `cargo test --release -- --ignored NAME`): {}",
+            ignored.len(),
+            ignored.join(", ")
+        ));
+    }
+    if no_firmware {
+        lines.push("  the firmware checks and processor in the loop (--no-firmware)".into());
+    }
+    if lines.is_empty() {
+        "not run: nothing".into()
+    } else {
+        format!("not run in this run:\n{}", lines.join("\n"))
+    }
 }
 
 /// Everything the steps of `ci` need, looked for before the first one runs.

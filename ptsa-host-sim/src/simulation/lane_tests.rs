@@ -9,10 +9,23 @@ use ptsa_core::{Config, Each, LaneOps, Lanes, Regs, State};
 use super::avx2::Avx2;
 use super::avx512::Avx512;
 
-/// `o`, or `None` with a note when this CPU cannot run it.
+/// `o`, or `None` with a note when this CPU cannot run it: on stderr and, when the
+/// environment variable `PTSA_SKIPPED` names a file (`cargo xtask ci` sets it), a line
+/// there too, which the run's summary lists as not run.
 fn or_skip<O>(o: Option<O>, what: &str) -> Option<O> {
     if o.is_none() {
-        eprintln!("skipped: this CPU has no {what}");
+        let line = format!("the {what} lane tests: this CPU has no {what}");
+        eprintln!("skipped: {line}");
+        if let Some(path) = std::env::var_os("PTSA_SKIPPED") {
+            use std::io::Write as _;
+            let file = std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(path);
+            if let Ok(mut f) = file {
+                let _ = writeln!(f, "{line}");
+            }
+        }
     }
     o
 }
