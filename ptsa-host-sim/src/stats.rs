@@ -203,23 +203,11 @@ pub fn normal_two_sided_quantile(p: f64) -> f64 {
     Normal::new(0.0, 1.0).map_or(f64::NAN, |d| d.inverse_cdf(1.0 - 0.5 * p))
 }
 
-/// The `t` with two-sided `P(|t_k| > t) = p`, by bisection on [`t_two_sided`] (`p` in
-/// `(0, 1)`, `k > 0`).
+/// The `t` with two-sided `P(|t_k| > t) = p` (`p` in `(0, 1)`, `k > 0`): statrs' inverse
+/// of Student's t distribution.
 #[must_use]
 pub fn t_two_sided_quantile(p: f64, k: f64) -> f64 {
-    let (mut lo, mut hi) = (0.0, 1.0);
-    while t_two_sided(hi, k) > p && hi < 1e12 {
-        hi *= 2.0;
-    }
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if t_two_sided(mid, k) > p {
-            lo = mid;
-        } else {
-            hi = mid;
-        }
-    }
-    0.5 * (lo + hi)
+    StudentsT::new(0.0, 1.0, k).map_or(f64::NAN, |d| d.inverse_cdf(1.0 - 0.5 * p))
 }
 
 #[cfg(test)]
