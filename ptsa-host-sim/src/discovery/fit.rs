@@ -638,240 +638,412 @@ fn variance_beside(pairs: &(impl Iterator<Item = (f64, f64)> + Clone)) -> f64 {
 
 /// Fit the model to `subset`: nuisance terms, noise, stepwise selection over `family`.
 #[must_use]
-#[allow(clippy::too_many_lines)]
 pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
-    let n = subset.len();
-    let (nuisance, nraw, t0) = nuisance_columns(data, subset);
-    let stated = subset.iter().all(|&i| data.stated[i].is_some());
-    // Noise under the nuisance-only model, refined after the selection.
-    let mut noise = estimate_sigma(data, subset, None);
-    let make = |sigma: Vec<f64>| {
-        let z = subset
-            .iter()
-            .zip(&sigma)
-            .map(|(&i, s)| data.resid(i) / s)
-            .collect();
-        Design { sigma, z }
-    };
-    let mut d = make(noise.0.clone());
-    if !stated {
-        // Two reweighting passes under the nuisance-only model.
-        for _ in 0..2 {
-            let ncols: Vec<Col> = nraw.iter().map(|r| d.col(r)).collect();
-            let refs: Vec<&Col> = ncols.iter().collect();
-            if let Some(f) = d.fit(&refs) {
-                let e: Vec<f64> = f.resid.iter().zip(&d.sigma).map(|(z, s)| z * s).collect();
-                noise = estimate_sigma(data, subset, Some((&e, &f.leverage)));
-                d = make(noise.0.clone());
-            }
+    let mut s = Selection::new(data, subset, settings);
+    for _ in 0..s.max_rounds() {
+        if !s.next_round() {
+            break;
         }
     }
-    let min_partial = (1.0 - settings.confound_cos * settings.confound_cos)
-        .max(0.0)
-        .sqrt();
-    let build = |d: &Design| -> (Vec<Col>, Vec<Option<Col>>) {
-        let ncols: Vec<Col> = nraw.iter().map(|r| d.col(r)).collect();
-        let cand: Vec<Option<Col>> = data
+    s.finish()
+}
+
+/// The sigmas' design of `subset`: each row's residual over its sigma.
+fn design(data: &Data, subset: &[usize], sigma: Vec<f64>) -> Design {
+    let z = subset
+        .iter()
+        .zip(&sigma)
+        .map(|(&i, s)| data.resid(i) / s)
+        .collect();
+    Design { sigma, z }
+}
+
+/// The noise estimate: the sigmas, where they came from, and each variance group's.
+type Noise = (Vec<f64>, NoiseSource, Vec<(usize, f64)>);
+
+/// [`fit`]'s stepwise selection as its state and named steps: set up ([`Selection::new`]),
+/// one round at a time ([`Selection::next_round`]: a re-profiled time constant, else a
+/// term added, else a term dropped), then the model ([`Selection::finish`]).
+struct Selection<'a> {
+    data: &'a Data,
+    subset: &'a [usize],
+    settings: Settings,
+    /// The nuisance terms, their raw columns and the drift's origin.
+    nuisance: Vec<Nuisance>,
+    nraw: Vec<Vec<f64>>,
+    t0: f64,
+    /// Every row states its sigma.
+    stated: bool,
+    /// The least part of a column outside the span it is tested beside.
+    min_partial: f64,
+    noise: Noise,
+    d: Design,
+    /// The weighted nuisance columns and each candidate's (`None`: no signature here).
+    ncols: Vec<Col>,
+    cand: Vec<Option<Col>>,
+    /// The testable candidates (indices into the signatures), ties to the first-order
+    /// terms; the untestable ones, without a signature or inside the nuisance span.
+    family: Vec<usize>,
+    untestable: Vec<CandidateId>,
+    untestable_nuisance: Vec<CandidateId>,
+    /// The family's size as hypotheses ([`family_size`]).
+    m: usize,
+    /// The warm-up grid's testable members in increasing τ, and every testable time
+    /// constant (the estimated one too).
+    profile: Vec<usize>,
+    members: Vec<usize>,
+    /// The time since power-on over the span of each row.
+    on_span: Option<Vec<Option<f64>>>,
+    /// The bias a transient is measured from, and the bias when it came in with one.
+    bias: Option<usize>,
+    companion: Option<usize>,
+    set: Vec<usize>,
+    steps: Vec<Step>,
+    visited: std::collections::BTreeSet<Vec<usize>>,
+}
+
+/// What a round knows of the current model before it tries a step.
+struct Round {
+    cur: Vec<Col>,
+    fit: LsqFit,
+    /// The larger model's noise the step tests are scaled by.
+    reference: Option<Reference>,
+    /// The selected time constant, the least χ² over τ of the current model, and how much
+    /// better that is than the model at its column's τ.
+    warm: Option<usize>,
+    best: Option<f64>,
+    slack: f64,
+    /// The bias (its index) and the current model's fit with it, when a warm-up's trial
+    /// brings it.
+    with_bias: Option<(usize, LsqFit)>,
+}
+
+impl<'a> Selection<'a> {
+    /// The nuisance-only model, its noise (reweighted twice when estimated), the columns
+    /// and the family.
+    fn new(data: &'a Data, subset: &'a [usize], settings: Settings) -> Self {
+        let (nuisance, nraw, t0) = nuisance_columns(data, subset);
+        let noise = estimate_sigma(data, subset, None);
+        let d = design(data, subset, noise.0.clone());
+        let mut s = Selection {
+            data,
+            subset,
+            settings,
+            nuisance,
+            nraw,
+            t0,
+            stated: subset.iter().all(|&i| data.stated[i].is_some()),
+            min_partial: (1.0 - settings.confound_cos * settings.confound_cos)
+                .max(0.0)
+                .sqrt(),
+            noise,
+            d,
+            ncols: Vec::new(),
+            cand: Vec::new(),
+            family: Vec::new(),
+            untestable: Vec::new(),
+            untestable_nuisance: Vec::new(),
+            m: 0,
+            profile: Vec::new(),
+            members: Vec::new(),
+            on_span: time_on_span(data, subset),
+            bias: None,
+            companion: None,
+            set: Vec::new(),
+            steps: Vec::new(),
+            visited: std::collections::BTreeSet::from([Vec::new()]),
+        };
+        if !s.stated {
+            // Two reweighting passes under the nuisance-only model.
+            for _ in 0..2 {
+                let ncols: Vec<Col> = s.nraw.iter().map(|r| s.d.col(r)).collect();
+                if let Some(f) = s.d.fit(&ncols.iter().collect::<Vec<_>>()) {
+                    s.renoise(&f);
+                }
+            }
+        }
+        (s.ncols, s.cand) = s.columns();
+        s.classify();
+        s
+    }
+
+    /// The noise estimated again from the residuals of `f`, and the design with it.
+    fn renoise(&mut self, f: &LsqFit) {
+        let e: Vec<f64> = f
+            .resid
+            .iter()
+            .zip(&self.d.sigma)
+            .map(|(z, s)| z * s)
+            .collect();
+        self.noise = estimate_sigma(self.data, self.subset, Some((&e, &f.leverage)));
+        self.d = design(self.data, self.subset, self.noise.0.clone());
+    }
+
+    /// The weighted nuisance columns and candidate columns of the current design.
+    fn columns(&self) -> (Vec<Col>, Vec<Option<Col>>) {
+        let ncols: Vec<Col> = self.nraw.iter().map(|r| self.d.col(r)).collect();
+        let cand: Vec<Option<Col>> = self
+            .data
             .signatures
             .iter()
             .map(|s| {
-                let raw: Vec<f64> = subset.iter().map(|&i| s.col[i]).collect();
-                (!s.null).then(|| d.col(&raw)).filter(|c| c.scale > 0.0)
+                let raw: Vec<f64> = self.subset.iter().map(|&i| s.col[i]).collect();
+                (!s.null)
+                    .then(|| self.d.col(&raw))
+                    .filter(|c| c.scale > 0.0)
             })
             .collect();
         (ncols, cand)
-    };
-    let (mut ncols, mut cand) = build(&d);
-    // Testability: a signature, and a part outside the nuisance span.
-    let mut family = Vec::new();
-    let mut untestable = Vec::new();
-    let mut untestable_nuisance = Vec::new();
-    {
-        let basis: Vec<&[f64]> = ncols.iter().map(|c| c.unit.as_slice()).collect();
+    }
+
+    /// Testability (a signature, and a part outside the nuisance span), the family in its
+    /// order, its size, the warm-up's members and the bias.
+    fn classify(&mut self) {
+        let data = self.data;
+        let basis: Vec<&[f64]> = self.ncols.iter().map(|c| c.unit.as_slice()).collect();
         for (k, s) in data.signatures.iter().enumerate() {
-            match &cand[k] {
+            match &self.cand[k] {
                 // The warm-up at an estimated τ has a column only once one is estimated
                 // (`Data::with_warm_up`); before, it is no candidate at all.
                 None if s.id == CandidateId::WarmUp => {}
-                None => untestable.push(s.id),
-                Some(c) if norm(&residualize(&c.unit, &basis)) < min_partial => {
-                    untestable_nuisance.push(s.id);
+                None => self.untestable.push(s.id),
+                Some(c) if norm(&residualize(&c.unit, &basis)) < self.min_partial => {
+                    self.untestable_nuisance.push(s.id);
                 }
-                Some(_) => family.push(k),
+                Some(_) => self.family.push(k),
             }
         }
-    }
-    // Exact ties go to the first-order terms, then to registry order.
-    family.sort_by_key(|&k| (!data.signatures[k].id.first_order(), k));
-    if !settings.select {
-        family.clear();
-    }
-    let ids: Vec<CandidateId> = family.iter().map(|&k| data.signatures[k].id).collect();
-    let m = family_size(&ids);
-    let profiled = |k: usize| data.signatures[k].id.profiled();
-    // The grid's testable members in increasing τ (registry order), for the length of the
-    // profile's curve (the warm-up at an estimated τ lies on it) and the re-profiling.
-    let mut profile: Vec<usize> = family
-        .iter()
-        .copied()
-        .filter(|&k| data.signatures[k].id.profile_rate().is_some())
-        .collect();
-    profile.sort_unstable();
-    // Every testable time constant, the estimated one too: what re-profiling chooses from.
-    let members: Vec<usize> = family.iter().copied().filter(|&k| profiled(k)).collect();
-    // The time since power-on over the span of each row: the transient at any τ, for the
-    // tests.
-    let on_span = time_on_span(data, subset);
-    // The bias a transient is measured from: a warm-up is tested with the bias in the
-    // model, and brought into it with the warm-up when not selected already (its
-    // companion: dropped with it, not tested alone while it is in).
-    let bias = family
-        .iter()
-        .copied()
-        .find(|&k| data.signatures[k].id == CandidateId::Bias);
-    let mut companion: Option<usize> = None;
-    let mut set: Vec<usize> = Vec::new();
-    let mut steps = Vec::new();
-    let mut visited = std::collections::BTreeSet::new();
-    visited.insert(Vec::<usize>::new());
-    let cols_of = |ncols: &[Col], cand: &[Option<Col>], set: &[usize]| -> Vec<Col> {
-        let mut v: Vec<Col> = ncols.to_vec();
-        v.extend(set.iter().filter_map(|&k| cand[k].clone()));
-        v
-    };
-    for _ in 0..(4 * m + 4 + 2 * profile.len()) {
-        let cur = cols_of(&ncols, &cand, &set);
-        let cur_refs: Vec<&Col> = cur.iter().collect();
-        let Some(cur_fit) = d.fit(&cur_refs) else {
-            break;
-        };
-        // The profile's time constant, re-profiled given the other selected terms: a
-        // transient first entered at the τ that fitted what an earlier selection left may
-        // fit better at another once that selection is in (and the earlier one may then
-        // go, backward).
-        if let Some((next, step)) = reprofile(&set, &members, &cur_fit, |s: &[usize]| {
-            let c = cols_of(&ncols, &cand, s);
-            d.fit(&c.iter().collect::<Vec<_>>()).map(|f| f.chi2)
-        }) && visited.insert(next.clone())
-        {
-            set = next;
-            steps.push(Step {
-                added: true,
-                id: data.signatures[step.0].id,
-                delta_chi2: step.2,
-                p_value: chi2_sf(step.2, 1.0),
-                threshold: 1.0,
-                replaces: Some(data.signatures[step.1].id),
-                note: Some(
-                    "the warm-up's time constant re-profiled with the other selected terms in the model: not a test (the time constants are one hypothesis, already selected); the one that fits best is the estimate, and p is that of its gain in chi2"
-                        .to_string(),
-                ),
-            });
-            continue;
+        // Exact ties go to the first-order terms, then to registry order.
+        self.family
+            .sort_by_key(|&k| (!data.signatures[k].id.first_order(), k));
+        if !self.settings.select {
+            self.family.clear();
         }
-        // The reference: the current model plus the remaining candidates that add an
-        // independent column, those nearest the current residual first, while it keeps
-        // [`MIN_REFERENCE_DOF`] residual degrees of freedom (without a cap a small design
-        // runs out of them and the test falls back to the trial's own residuals, which hold
-        // every other real effect).
-        let basis: Vec<&[f64]> = cur.iter().map(|c| c.unit.as_slice()).collect();
-        let mut big: Vec<&[f64]> = basis.clone();
-        let mut rest: Vec<(f64, usize)> = family
+        let ids: Vec<CandidateId> = self.family.iter().map(|&k| data.signatures[k].id).collect();
+        self.m = family_size(&ids);
+        // The grid's testable members in increasing τ (registry order), for the length of
+        // the profile's curve (the warm-up at an estimated τ lies on it) and the
+        // re-profiling.
+        self.profile = self
+            .family
             .iter()
-            .filter(|k| !set.contains(k))
+            .copied()
+            .filter(|&k| data.signatures[k].id.profile_rate().is_some())
+            .collect();
+        self.profile.sort_unstable();
+        self.members = self
+            .family
+            .iter()
+            .copied()
+            .filter(|&k| self.profiled(k))
+            .collect();
+        // A warm-up is tested with the bias in the model, and brought into it with the
+        // warm-up when not selected already (its companion: dropped with it, not tested
+        // alone while it is in).
+        self.bias = self
+            .family
+            .iter()
+            .copied()
+            .find(|&k| data.signatures[k].id == CandidateId::Bias);
+    }
+
+    /// At most this many rounds.
+    fn max_rounds(&self) -> usize {
+        4 * self.m + 4 + 2 * self.profile.len()
+    }
+
+    fn profiled(&self, k: usize) -> bool {
+        self.data.signatures[k].id.profiled()
+    }
+
+    /// The nuisance columns and those of the candidates `set`.
+    fn cols_of(&self, set: &[usize]) -> Vec<Col> {
+        let mut v: Vec<Col> = self.ncols.clone();
+        v.extend(set.iter().filter_map(|&k| self.cand[k].clone()));
+        v
+    }
+
+    /// The fit of the nuisance terms and the candidates `set`.
+    fn fit_of(&self, set: &[usize]) -> Option<LsqFit> {
+        let c = self.cols_of(set);
+        self.d.fit(&c.iter().collect::<Vec<_>>())
+    }
+
+    /// One round: `false` when the selection has settled.
+    fn next_round(&mut self) -> bool {
+        let cur = self.cols_of(&self.set);
+        let Some(fit) = self.d.fit(&cur.iter().collect::<Vec<_>>()) else {
+            return false;
+        };
+        if self.reprofiled(&fit) {
+            return true;
+        }
+        let round = self.round(cur, fit);
+        if self.added(&round) {
+            return true;
+        }
+        !self.set.is_empty() && self.dropped(&round)
+    }
+
+    /// The profile's time constant, re-profiled given the other selected terms: a
+    /// transient first entered at the τ that fitted what an earlier selection left may fit
+    /// better at another once that selection is in (and the earlier one may then go,
+    /// backward). Whether it moved.
+    fn reprofiled(&mut self, cur: &LsqFit) -> bool {
+        let Some((next, step)) = reprofile(&self.set, &self.members, cur, |s: &[usize]| {
+            self.fit_of(s).map(|f| f.chi2)
+        }) else {
+            return false;
+        };
+        if !self.visited.insert(next.clone()) {
+            return false;
+        }
+        self.set = next;
+        self.steps.push(Step {
+            added: true,
+            id: self.data.signatures[step.0].id,
+            delta_chi2: step.2,
+            p_value: chi2_sf(step.2, 1.0),
+            threshold: 1.0,
+            replaces: Some(self.data.signatures[step.1].id),
+            note: Some(
+                "the warm-up's time constant re-profiled with the other selected terms in the model: not a test (the time constants are one hypothesis, already selected); the one that fits best is the estimate, and p is that of its gain in chi2"
+                    .to_string(),
+            ),
+        });
+        true
+    }
+
+    /// The round's reference, the warm-up's best τ and the bias's fit.
+    fn round(&self, cur: Vec<Col>, fit: LsqFit) -> Round {
+        let reference = self.reference(&cur, &fit);
+        let warm = self.set.iter().copied().find(|&j| self.profiled(j));
+        let best = warm.and_then(|j| self.best_tau(&others_of(&self.set, j)));
+        let slack = best.map_or(0.0, |c| (fit.chi2 - c).max(0.0));
+        // The warm-up's trials hold the bias (its companion) when the model does not.
+        let with_bias = self
+            .bias
+            .filter(|b| !self.set.contains(b) && !self.profile.is_empty())
+            .and_then(|b| {
+                let c = self.cand[b].as_ref()?;
+                let mut t: Vec<&Col> = cur.iter().collect();
+                t.push(c);
+                self.d.fit(&t).map(|f| (b, f))
+            });
+        Round {
+            cur,
+            fit,
+            reference,
+            warm,
+            best,
+            slack,
+            with_bias,
+        }
+    }
+
+    /// The reference: the current model plus the remaining candidates that add an
+    /// independent column, those nearest the current residual first, while it keeps
+    /// [`MIN_REFERENCE_DOF`] residual degrees of freedom (without a cap a small design runs
+    /// out of them and the test falls back to the trial's own residuals, which hold every
+    /// other real effect).
+    fn reference(&self, cur: &[Col], fit: &LsqFit) -> Option<Reference> {
+        let n = self.subset.len();
+        let mut big: Vec<&[f64]> = cur.iter().map(|c| c.unit.as_slice()).collect();
+        let mut rest: Vec<(f64, usize)> = self
+            .family
+            .iter()
+            .filter(|k| !self.set.contains(k))
             .filter_map(|&k| {
-                let c = cand[k].as_ref()?;
-                let d: f64 = c.unit.iter().zip(&cur_fit.resid).map(|(a, b)| a * b).sum();
+                let c = self.cand[k].as_ref()?;
+                let d: f64 = c.unit.iter().zip(&fit.resid).map(|(a, b)| a * b).sum();
                 Some((d.abs(), k))
             })
             .collect();
         rest.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
         // One time constant of the profile at most (the nearest): its members are one
         // hypothesis, and each further τ would take a degree of freedom from the reference.
-        let mut profile_held = set.iter().any(|&j| profiled(j));
+        let mut profile_held = self.set.iter().any(|&j| self.profiled(j));
         for &(_, k) in &rest {
             if big.len() + MIN_REFERENCE_DOF >= n {
                 break;
             }
-            if profiled(k) && profile_held {
+            if self.profiled(k) && profile_held {
                 continue;
             }
-            if let Some(c) = &cand[k]
-                && norm(&residualize(&c.unit, &big)) >= min_partial
+            if let Some(c) = &self.cand[k]
+                && norm(&residualize(&c.unit, &big)) >= self.min_partial
             {
                 big.push(&c.unit);
-                profile_held |= profiled(k);
+                profile_held |= self.profiled(k);
             }
         }
-        let reference = lsq(&d.z, &big).and_then(|f| Reference::of(&f));
-        // With a warm-up in the model, a term is tested between the models with and without
-        // it each at the transient's best τ (a profile-likelihood test): at the column's τ
-        // the term could take up the transient's mismatch, and without it the transient
-        // could fit better at another τ. `best_tau`: the least χ² over τ of a set of other
-        // terms and the transient; `slack`: how much better the current model fits at its
-        // best τ than at its column's.
-        let best_tau = |others: &[usize]| -> Option<f64> {
-            let x = on_span.as_ref()?;
-            let c = cols_of(&ncols, &cand, others);
-            let chi2 = |r: f64| -> f64 {
-                let raw: Vec<f64> = x
-                    .iter()
-                    .map(|x| x.map_or(0.0, |x| (-x * r).exp()))
-                    .collect();
-                let u = d.col(&raw);
-                let mut with_u: Vec<&Col> = c.iter().collect();
-                with_u.push(&u);
-                d.fit(&with_u).map_or(f64::INFINITY, |g| g.chi2)
-            };
-            rate_profile(&chi2, TEST_RATE_POINTS).map(|p| p.chi2)
+        lsq(&self.d.z, &big).and_then(|f| Reference::of(&f))
+    }
+
+    /// With a warm-up in the model, a term is tested between the models with and without
+    /// it each at the transient's best τ (a profile-likelihood test): at the column's τ the
+    /// term could take up the transient's mismatch, and without it the transient could fit
+    /// better at another τ. The least χ² over τ of the terms `others` and the transient.
+    fn best_tau(&self, others: &[usize]) -> Option<f64> {
+        let x = self.on_span.as_ref()?;
+        let c = self.cols_of(others);
+        let chi2 = |r: f64| -> f64 {
+            let raw: Vec<f64> = x
+                .iter()
+                .map(|x| x.map_or(0.0, |x| (-x * r).exp()))
+                .collect();
+            let u = self.d.col(&raw);
+            let mut with_u: Vec<&Col> = c.iter().collect();
+            with_u.push(&u);
+            self.d.fit(&with_u).map_or(f64::INFINITY, |g| g.chi2)
         };
-        let warm = set.iter().copied().find(|&j| profiled(j));
-        let others_of = |s: &[usize], j: usize| -> Vec<usize> {
-            s.iter().copied().filter(|&i| i != j).collect()
-        };
-        let cur_best = warm.and_then(|j| best_tau(&others_of(&set, j)));
-        let slack = cur_best.map_or(0.0, |c| (cur_fit.chi2 - c).max(0.0));
-        // Forward.
+        rate_profile(&chi2, TEST_RATE_POINTS).map(|p| p.chi2)
+    }
+
+    /// Forward: each candidate outside the model with its p-value and its drop in χ²; the
+    /// profile's members are one hypothesis, the best of them tested with its p-value
+    /// corrected for the search over τ.
+    fn trials(&self, r: &Round) -> Vec<(usize, f64, f64)> {
+        let n = self.subset.len();
+        let basis: Vec<&[f64]> = r.cur.iter().map(|c| c.unit.as_slice()).collect();
+        let cur_refs: Vec<&Col> = r.cur.iter().collect();
+        let profile_in = self.set.iter().any(|&j| self.profiled(j));
+        let with_bias = r
+            .with_bias
+            .as_ref()
+            .and_then(|(b, f)| Some((self.cand[*b].as_ref()?, f)));
         let mut trials: Vec<(usize, f64, f64)> = Vec::new();
-        let profile_in = set.iter().any(|&j| profiled(j));
-        // The warm-up's trials hold the bias (its companion) when the model does not.
-        let with_bias: Option<(&Col, LsqFit)> = bias
-            .filter(|b| !set.contains(b) && !profile.is_empty())
-            .and_then(|b| cand[b].as_ref())
-            .and_then(|c| {
-                let mut t = cur_refs.clone();
-                t.push(c);
-                d.fit(&t).map(|f| (c, f))
-            });
-        for &k in &family {
-            if set.contains(&k) || cur.len() + 2 > n || (profile_in && profiled(k)) {
+        for &k in &self.family {
+            if self.set.contains(&k) || r.cur.len() + 2 > n || (profile_in && self.profiled(k)) {
                 continue;
             }
-            let Some(c) = &cand[k] else { continue };
-            if norm(&residualize(&c.unit, &basis)) < min_partial {
+            let Some(c) = &self.cand[k] else { continue };
+            if norm(&residualize(&c.unit, &basis)) < self.min_partial {
                 continue;
             }
             let mut trial = cur_refs.clone();
-            let mut without = cur_fit.chi2;
-            if profiled(k)
-                && let Some((b, fb)) = &with_bias
+            let mut without = r.fit.chi2;
+            if self.profiled(k)
+                && let Some((b, fb)) = with_bias
             {
-                if cur.len() + 3 > n {
+                if r.cur.len() + 3 > n {
                     continue;
                 }
                 trial.push(b);
                 without = fb.chi2;
             }
             trial.push(c);
-            let Some(f) = d.fit(&trial) else { continue };
-            if let (Some(j), Some(w)) = (warm, cur_best)
-                && !profiled(k)
+            let Some(f) = self.d.fit(&trial) else {
+                continue;
+            };
+            if let (Some(j), Some(w)) = (r.warm, r.best)
+                && !self.profiled(k)
             {
                 // The trial at the transient's best τ against the model at its own.
-                let mut s = others_of(&set, j);
+                let mut s = others_of(&self.set, j);
                 s.push(k);
                 s.sort_unstable();
-                if let Some(b) = best_tau(&s) {
+                if let Some(b) = self.best_tau(&s) {
                     without = w + (f.chi2 - b).max(0.0);
                 }
             }
@@ -881,242 +1053,278 @@ pub fn fit(data: &Data, subset: &[usize], settings: Settings) -> Fitted {
                 &tcols,
                 trial.len() - 1,
                 without,
-                stated,
-                reference.as_ref(),
+                self.stated,
+                r.reference.as_ref(),
             );
-            trials.push((k, p, cur_fit.chi2 - f.chi2));
+            trials.push((k, p, r.fit.chi2 - f.chi2));
         }
-        // The profile's members are one hypothesis: the best of them is tested with its
-        // p-value corrected for the search over τ.
-        if trials.iter().any(|t| profiled(t.0)) {
+        if trials.iter().any(|t| self.profiled(t.0)) {
             let mut held = basis.clone();
-            if let Some((b, _)) = &with_bias {
+            if let Some((b, _)) = with_bias {
                 held.push(&b.unit);
             }
-            let length = profile_length(&profile, &cand, &held);
-            for t in trials.iter_mut().filter(|t| profiled(t.0)) {
+            let length = profile_length(&self.profile, &self.cand, &held);
+            for t in trials.iter_mut().filter(|t| self.profiled(t.0)) {
                 t.1 = profile_p(t.1, length);
             }
         }
-        // Hypotheses rejected so far (a companion bias was not tested).
-        let held = set.len() - usize::from(companion.is_some());
-        #[allow(clippy::cast_precision_loss)]
-        let thr_add = settings.alpha / (m - held).max(1) as f64;
+        trials
+    }
+
+    /// The trial with the least p-value; among the candidates these data cannot tell from
+    /// it (partial columns parallel to within 0.1 %), the simplest: a model-equation term
+    /// before another additive term, an additive term before a parameter of the loop (whose
+    /// closed-loop sensitivity carries a little noise that would otherwise decide).
+    fn best_trial(&self, trials: &[(usize, f64, f64)], cur: &[Col]) -> Option<(usize, f64, f64)> {
         let mut best: Option<(usize, f64, f64)> = None;
-        for &t in &trials {
+        for &t in trials {
             if best.is_none_or(|(_, bp, _)| t.1 < bp * (1.0 - 1e-9)) {
                 best = Some(t);
             }
         }
-        // Among the candidates these data cannot tell from the best one (partial columns
-        // parallel to within 0.1 %), the simplest: a model-equation term before another
-        // additive term, an additive term before a parameter of the loop (whose
-        // closed-loop sensitivity carries a little noise that would otherwise decide).
-        if let Some((kb, ..)) = best
-            && let Some(cb) = &cand[kb]
-        {
-            let ub = residualize(&cb.unit, &basis);
-            let rank = |k: usize| (data.signatures[k].id.rank(), k);
-            for &t in &trials {
-                let Some(c) = &cand[t.0] else { continue };
-                if rank(t.0) < rank(best.map_or(kb, |b| b.0))
-                    && abs_cos(&residualize(&c.unit, &basis), &ub) > EQUIVALENT_COS
-                {
-                    best = Some(t);
-                }
-            }
-        }
-        if let Some((k, p, delta)) = best
-            && p <= thr_add
-        {
-            let mut next = set.clone();
-            next.push(k);
-            let brings = bias.filter(|b| profiled(k) && with_bias.is_some() && !set.contains(b));
-            next.extend(brings);
-            next.sort_unstable();
-            if visited.insert(next.clone()) {
-                set = next;
-                if let Some(b) = brings {
-                    companion = Some(b);
-                    steps.push(Step {
-                        added: true,
-                        id: data.signatures[b].id,
-                        delta_chi2: 0.0,
-                        p_value: p,
-                        threshold: thr_add,
-                        replaces: None,
-                        note: Some(format!(
-                            "brought with {}: the level a transient settles to, which it is measured from; not tested alone, and dropped with it",
-                            data.signatures[k].id.info().name
-                        )),
-                    });
-                }
-                steps.push(Step {
-                    added: true,
-                    id: data.signatures[k].id,
-                    delta_chi2: delta,
-                    p_value: p,
-                    threshold: thr_add,
-                    replaces: None,
-                    note: None,
-                });
-                if !stated {
-                    // Re-estimate the noise with the new model.
-                    let cols = cols_of(&ncols, &cand, &set);
-                    let refs: Vec<&Col> = cols.iter().collect();
-                    if let Some(f) = d.fit(&refs) {
-                        let e: Vec<f64> =
-                            f.resid.iter().zip(&d.sigma).map(|(z, s)| z * s).collect();
-                        noise = estimate_sigma(data, subset, Some((&e, &f.leverage)));
-                        d = make(noise.0.clone());
-                        (ncols, cand) = build(&d);
-                    }
-                }
-                continue;
-            }
-        }
-        // Backward: drop the weakest term if it no longer passes its level.
-        if set.is_empty() {
-            break;
-        }
-        let mut worst: Option<(usize, f64, f64)> = None;
-        let nn = ncols.len();
-        for (pos, &k) in set.iter().enumerate() {
-            if Some(k) == companion {
-                continue;
-            }
-            let rest: Vec<usize> = set.iter().copied().filter(|&j| j != k).collect();
-            let rc = cols_of(&ncols, &cand, &rest);
-            let rr: Vec<&Col> = rc.iter().collect();
-            let Some(fr) = d.fit(&rr) else { continue };
-            // Without a term, the warm-up's τ may fit better at another time constant:
-            // the term is tested against the best of them (a profile-likelihood test).
-            let mut without = fr.chi2;
-            if !profiled(k)
-                && let Some(&j) = rest.iter().find(|&&j| profiled(j))
+        let (kb, ..) = best?;
+        let Some(cb) = &self.cand[kb] else {
+            return best;
+        };
+        let basis: Vec<&[f64]> = cur.iter().map(|c| c.unit.as_slice()).collect();
+        let ub = residualize(&cb.unit, &basis);
+        let rank = |k: usize| (self.data.signatures[k].id.rank(), k);
+        for &t in trials {
+            let Some(c) = &self.cand[t.0] else { continue };
+            if rank(t.0) < rank(best.map_or(kb, |b| b.0))
+                && abs_cos(&residualize(&c.unit, &basis), &ub) > EQUIVALENT_COS
             {
-                let alt: Vec<usize> = rest.iter().copied().filter(|&i| i != j).collect();
-                let c = cols_of(&ncols, &cand, &alt);
-                for &o in members.iter().filter(|&&o| o != j) {
-                    let mut with_o: Vec<&Col> = c.iter().collect();
-                    with_o.extend(cand[o].as_ref());
-                    if let Some(g) = d.fit(&with_o) {
-                        without = without.min(g.chi2);
-                    }
-                }
-                // And at every τ between and beyond the grid's; the model with the term at
-                // its best τ too (`slack`), so that the two are compared alike.
-                if let Some(c) = best_tau(&alt) {
-                    without = without.min(c);
-                }
-                without += slack;
+                best = Some(t);
             }
+        }
+        best
+    }
+
+    /// Hypotheses rejected so far (a companion bias was not tested).
+    fn held(&self) -> usize {
+        self.set.len() - usize::from(self.companion.is_some())
+    }
+
+    /// Forward: the best trial added if it passes its Holm level (with the bias it brings,
+    /// for a warm-up), and the noise estimated again. Whether one was.
+    fn added(&mut self, r: &Round) -> bool {
+        #[allow(clippy::cast_precision_loss)]
+        let thr_add = self.settings.alpha / (self.m - self.held()).max(1) as f64;
+        let trials = self.trials(r);
+        let Some((k, p, delta)) = self.best_trial(&trials, &r.cur).filter(|t| t.1 <= thr_add)
+        else {
+            return false;
+        };
+        let mut next = self.set.clone();
+        next.push(k);
+        let brings = self
+            .bias
+            .filter(|b| self.profiled(k) && r.with_bias.is_some() && !self.set.contains(b));
+        next.extend(brings);
+        next.sort_unstable();
+        if !self.visited.insert(next.clone()) {
+            return false;
+        }
+        self.set = next;
+        let id = self.data.signatures[k].id;
+        if let Some(b) = brings {
+            self.companion = Some(b);
+            self.steps.push(Step {
+                added: true,
+                id: self.data.signatures[b].id,
+                delta_chi2: 0.0,
+                p_value: p,
+                threshold: thr_add,
+                replaces: None,
+                note: Some(format!(
+                    "brought with {}: the level a transient settles to, which it is measured from; not tested alone, and dropped with it",
+                    id.info().name
+                )),
+            });
+        }
+        self.steps.push(Step {
+            added: true,
+            id,
+            delta_chi2: delta,
+            p_value: p,
+            threshold: thr_add,
+            replaces: None,
+            note: None,
+        });
+        if !self.stated
+            && let Some(f) = self.fit_of(&self.set)
+        {
+            // Re-estimate the noise with the new model.
+            self.renoise(&f);
+            (self.ncols, self.cand) = self.columns();
+        }
+        true
+    }
+
+    /// Backward: the weakest term of the model with its p-value and its rise in χ² when
+    /// dropped.
+    fn weakest(&self, r: &Round) -> Option<(usize, f64, f64)> {
+        let basis: Vec<&[f64]> = r.cur.iter().map(|c| c.unit.as_slice()).collect();
+        let nn = self.ncols.len();
+        let mut worst: Option<(usize, f64, f64)> = None;
+        for (pos, &k) in self.set.iter().enumerate() {
+            if Some(k) == self.companion {
+                continue;
+            }
+            let rest = others_of(&self.set, k);
+            let rc = self.cols_of(&rest);
+            let Some(fr) = self.d.fit(&rc.iter().collect::<Vec<_>>()) else {
+                continue;
+            };
+            let without = self.without_term(k, &rest, fr.chi2, r.slack);
             let mut p = step_p(
-                &cur_fit,
+                &r.fit,
                 &basis,
                 nn + pos,
                 without,
-                stated,
-                reference.as_ref(),
+                self.stated,
+                r.reference.as_ref(),
             );
-            if profiled(k) {
+            if self.profiled(k) {
                 let without: Vec<&[f64]> = rc.iter().map(|c| c.unit.as_slice()).collect();
-                p = profile_p(p, profile_length(&profile, &cand, &without));
+                p = profile_p(p, profile_length(&self.profile, &self.cand, &without));
             }
             if worst.is_none_or(|(_, wp, _)| p > wp * (1.0 + 1e-9)) {
-                worst = Some((k, p, without - cur_fit.chi2));
+                worst = Some((k, p, without - r.fit.chi2));
             }
         }
+        worst
+    }
+
+    /// The χ² of the model without term `k` (`rest` the others, `chi2` their fit's). With a
+    /// warm-up in the model, its τ may fit better at another time constant without the
+    /// term: the term is tested against the best of them and of every τ between and beyond
+    /// the grid's (a profile-likelihood test), the model with the term at its best τ too
+    /// (`slack`), so that the two are compared alike.
+    fn without_term(&self, k: usize, rest: &[usize], chi2: f64, slack: f64) -> f64 {
+        let mut without = chi2;
+        if self.profiled(k) {
+            return without;
+        }
+        let Some(&j) = rest.iter().find(|&&j| self.profiled(j)) else {
+            return without;
+        };
+        let alt = others_of(rest, j);
+        let c = self.cols_of(&alt);
+        for &o in self.members.iter().filter(|&&o| o != j) {
+            let mut with_o: Vec<&Col> = c.iter().collect();
+            with_o.extend(self.cand[o].as_ref());
+            if let Some(g) = self.d.fit(&with_o) {
+                without = without.min(g.chi2);
+            }
+        }
+        if let Some(c) = self.best_tau(&alt) {
+            without = without.min(c);
+        }
+        without + slack
+    }
+
+    /// Backward: the weakest term dropped if it no longer passes its level (with the bias
+    /// a warm-up brought). Whether one was.
+    fn dropped(&mut self, r: &Round) -> bool {
         #[allow(clippy::cast_precision_loss)]
-        let thr_keep = settings.alpha / (m + 1 - held).max(1) as f64;
-        if let Some((k, p, delta)) = worst
-            && p > thr_keep
-        {
-            let goes = companion.filter(|_| profiled(k));
-            let next: Vec<usize> = set
-                .iter()
-                .copied()
-                .filter(|&j| j != k && Some(j) != goes)
-                .collect();
-            if visited.insert(next.clone()) {
-                set = next;
-                if let Some(b) = goes {
-                    companion = None;
-                    steps.push(Step {
-                        added: false,
-                        id: data.signatures[b].id,
-                        delta_chi2: 0.0,
-                        p_value: p,
-                        threshold: thr_keep,
-                        replaces: None,
-                        note: Some(format!(
-                            "dropped with {}, which brought it",
-                            data.signatures[k].id.info().name
-                        )),
-                    });
-                }
-                steps.push(Step {
-                    added: false,
-                    id: data.signatures[k].id,
-                    delta_chi2: delta,
-                    p_value: p,
-                    threshold: thr_keep,
-                    replaces: None,
-                    note: None,
-                });
-                continue;
-            }
+        let thr_keep = self.settings.alpha / (self.m + 1 - self.held()).max(1) as f64;
+        let Some((k, p, delta)) = self.weakest(r).filter(|w| w.1 > thr_keep) else {
+            return false;
+        };
+        let goes = self.companion.filter(|_| self.profiled(k));
+        let next: Vec<usize> = self
+            .set
+            .iter()
+            .copied()
+            .filter(|&j| j != k && Some(j) != goes)
+            .collect();
+        if !self.visited.insert(next.clone()) {
+            return false;
         }
-        break;
+        self.set = next;
+        let id = self.data.signatures[k].id;
+        if let Some(b) = goes {
+            self.companion = None;
+            self.steps.push(Step {
+                added: false,
+                id: self.data.signatures[b].id,
+                delta_chi2: 0.0,
+                p_value: p,
+                threshold: thr_keep,
+                replaces: None,
+                note: Some(format!("dropped with {}, which brought it", id.info().name)),
+            });
+        }
+        self.steps.push(Step {
+            added: false,
+            id,
+            delta_chi2: delta,
+            p_value: p,
+            threshold: thr_keep,
+            replaces: None,
+            note: None,
+        });
+        true
     }
-    let cols = cols_of(&ncols, &cand, &set);
-    let refs: Vec<&Col> = cols.iter().collect();
-    let fit = d.fit(&refs).unwrap_or_else(|| {
-        // Rank-deficient nuisance (cannot happen with the guards above): no model.
-        lsq(&d.z, &[]).unwrap_or_else(|| unreachable!("an empty fit always succeeds"))
-    });
-    let dof = n.saturating_sub(fit.beta.len());
-    let birge = birge_ratio(fit.chi2, dof);
-    let (coef, se): (Vec<f64>, Vec<f64>) = cols
-        .iter()
-        .enumerate()
-        .map(|(j, c)| {
-            let b = fit.beta.get(j).copied().unwrap_or(0.0) / c.scale;
-            let classical = fit.cov.get((j, j)).copied().unwrap_or(0.0).sqrt() * birge;
-            let robust = if stated {
-                0.0
-            } else {
-                fit.se_hc3.get(j).copied().unwrap_or(0.0)
-            };
-            (b, classical.max(robust) / c.scale)
-        })
-        .unzip();
-    let selected = set.iter().map(|&k| data.signatures[k].id).collect();
-    let fitted_cols = if fit.beta.len() == cols.len() {
-        cols
-    } else {
-        Vec::new()
-    };
-    Fitted {
-        subset: subset.to_vec(),
-        nuisance,
-        t0,
-        family: family.iter().map(|&k| data.signatures[k].id).collect(),
-        untestable,
-        untestable_nuisance,
-        selected,
-        steps,
-        companion: companion.map(|k| data.signatures[k].id),
-        sigma: d.sigma.clone(),
-        noise: noise.1,
-        group_sigma: noise.2,
-        coef,
-        se,
-        settings,
-        fit,
-        cols: fitted_cols,
-        cand_cols: cand,
+
+    /// The selected model fitted, with its coefficients and standard errors.
+    fn finish(self) -> Fitted {
+        let n = self.subset.len();
+        let cols = self.cols_of(&self.set);
+        let refs: Vec<&Col> = cols.iter().collect();
+        let fit = self.d.fit(&refs).unwrap_or_else(|| {
+            // Rank-deficient nuisance (cannot happen with the guards above): no model.
+            lsq(&self.d.z, &[]).unwrap_or_else(|| unreachable!("an empty fit always succeeds"))
+        });
+        let dof = n.saturating_sub(fit.beta.len());
+        let birge = birge_ratio(fit.chi2, dof);
+        let (coef, se): (Vec<f64>, Vec<f64>) = cols
+            .iter()
+            .enumerate()
+            .map(|(j, c)| {
+                let b = fit.beta.get(j).copied().unwrap_or(0.0) / c.scale;
+                let classical = fit.cov.get((j, j)).copied().unwrap_or(0.0).sqrt() * birge;
+                let robust = if self.stated {
+                    0.0
+                } else {
+                    fit.se_hc3.get(j).copied().unwrap_or(0.0)
+                };
+                (b, classical.max(robust) / c.scale)
+            })
+            .unzip();
+        let id = |k: &usize| self.data.signatures[*k].id;
+        let fitted_cols = if fit.beta.len() == cols.len() {
+            cols
+        } else {
+            Vec::new()
+        };
+        Fitted {
+            subset: self.subset.to_vec(),
+            nuisance: self.nuisance,
+            t0: self.t0,
+            family: self.family.iter().map(id).collect(),
+            untestable: self.untestable,
+            untestable_nuisance: self.untestable_nuisance,
+            selected: self.set.iter().map(id).collect(),
+            steps: self.steps,
+            companion: self.companion.as_ref().map(id),
+            sigma: self.d.sigma.clone(),
+            noise: self.noise.1,
+            group_sigma: self.noise.2,
+            coef,
+            se,
+            settings: self.settings,
+            fit,
+            cols: fitted_cols,
+            cand_cols: self.cand,
+        }
     }
+}
+
+/// `s` without `j`.
+fn others_of(s: &[usize], j: usize) -> Vec<usize> {
+    s.iter().copied().filter(|&i| i != j).collect()
 }
 
 impl Fitted {
