@@ -59,21 +59,45 @@ fn count(n: usize, thing: &str) -> String {
     }
 }
 
-/// Human-readable report of one analysis.
+/// Human-readable report of one analysis: its sections in order, each a function below.
 #[must_use]
-#[allow(clippy::too_many_lines)]
 pub fn text_report(source: &str, d: &Discovery) -> String {
     let mut s = String::new();
-    let j = &d.json;
     let _ = writeln!(
         s,
         "discover: {source} ({}, {} simulator)",
-        count(j.rows, "fitted row"),
+        count(d.json.rows, "fitted row"),
         d.simulator
     );
+    let sections: [fn(&mut String, &Discovery); 11] = [
+        warnings,
+        rows,
+        baseline_noise_nuisance,
+        not_tested,
+        gross_errors,
+        selection,
+        selected,
+        extended,
+        calibration_and_advice,
+        unexplained,
+        gain_and_verdict,
+    ];
+    for section in sections {
+        section(&mut s, d);
+    }
+    s
+}
+
+/// The run's warnings.
+fn warnings(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     for w in &j.warnings {
         let _ = writeln!(s, "warning: {w}");
     }
+}
+
+/// The row table: measured, baseline and extended, with the residuals.
+fn rows(s: &mut String, d: &Discovery) {
     let _ = writeln!(
         s,
         "\n{:<48} {:>9} {:>7} {:>9} {:>9} {:>9} {:>9}",
@@ -102,6 +126,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             }
         );
     }
+}
+
+/// The baseline's fit, the noise and the nuisance terms.
+fn baseline_noise_nuisance(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     let _ = writeln!(
         s,
         "\nbaseline: {}, chi2 {:.2} for {} dof (p = {})",
@@ -152,6 +181,10 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             parts.join(", ")
         }
     );
+}
+
+/// The candidates these rows cannot test, and those that cannot be told apart.
+fn not_tested(s: &mut String, d: &Discovery) {
     let unseen: Vec<CandidateId> = d
         .untestable
         .iter()
@@ -187,6 +220,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             names(g)
         );
     }
+}
+
+/// The suspected gross errors.
+fn gross_errors(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     if j.outliers.is_empty() {
         let _ = writeln!(
             s,
@@ -211,6 +249,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             );
         }
     }
+}
+
+/// The test, the family and the steps of the selection.
+fn selection(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     let _ = writeln!(s, "test: {TEST_STATEMENT}");
     if d.family.is_empty() {
         let _ = writeln!(s, "family: empty: nothing could be tested in these rows");
@@ -268,6 +311,10 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             "selected terms, each as its change from the instrument file in the selection's fit (the reading's convention); the instrument's values are the calibration's, below:"
         );
     }
+}
+
+/// Each selected term with its value, rivals and marks.
+fn selected(s: &mut String, d: &Discovery) {
     for sel in &d.selected {
         let c = sel.id.info();
         let conf: Vec<&str> = sel.confounded.iter().map(|&(o, _)| o.info().name).collect();
@@ -343,6 +390,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             );
         }
     }
+}
+
+/// The extended model's fit and, without a calibration, its model equation.
+fn extended(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     let e = &j.extended;
     let _ = writeln!(
         s,
@@ -390,6 +442,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             );
         }
     }
+}
+
+/// The calibration and the advice.
+fn calibration_and_advice(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     if let Some(c) = j
         .calibration
         .as_ref()
@@ -403,6 +460,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             let _ = writeln!(s, "  add: {}", r.label);
         }
     }
+}
+
+/// The search for structure the model does not explain.
+fn unexplained(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     let u = &j.unexplained;
     if u.tests.is_empty() {
         let _ = writeln!(
@@ -469,6 +531,11 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
             ),
         };
     }
+}
+
+/// The out-of-sample gain and the verdict.
+fn gain_and_verdict(s: &mut String, d: &Discovery) {
+    let j = &d.json;
     let g = &j.gain;
     let _ = writeln!(
         s,
@@ -482,7 +549,6 @@ pub fn text_report(source: &str, d: &Discovery) -> String {
         g.ci95_rms_cm_s2[1]
     );
     let _ = writeln!(s, "verdict: {}", j.verdict);
-    s
 }
 
 /// `x`, with values that print as ±0.000 made +0 (no "-0.000" in the table).
