@@ -8,31 +8,9 @@ mod common;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use common::{assert_clean_of, ptsa_in, refused_in_folder, stderr, stdout};
+use common::{Normal, assert_clean_of, ptsa_in, refused_in_folder, stderr, stdout};
 use ptsa_host_sim::Condition;
 use ptsa_host_sim::model::caseframe;
-
-/// A seeded normal draw (splitmix64, Box–Muller): the tests' own noise, independent of the
-/// simulator's.
-struct Normal(u64);
-
-impl Normal {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^= z >> 31;
-        #[allow(clippy::cast_precision_loss)]
-        let u = ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
-        u
-    }
-
-    fn draw(&mut self) -> f64 {
-        let (u, v) = (self.uniform(), self.uniform());
-        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
-    }
-}
 
 /// The true instrument: its IEEE 1293 terms (cgs; `delta_p` under the IEEE sign, the
 /// equation's `− δ_p·a_o`).

@@ -1,8 +1,7 @@
 //! `cargo xtask constants`: write the firmware's generated constants
 //! (`firmware/src/constants.rs`) from an instrument file, or check that they are fresh.
 
-use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 
 use crate::util::{self, Error};
 
@@ -42,7 +41,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         }
     }
     let root = util::root();
-    let generated = generate(&root, &instrument)?;
+    let generated = generate(&instrument)?;
     let path = root.join(CONSTANTS_RS);
     if check {
         let on_disk = std::fs::read_to_string(&path)
@@ -61,31 +60,13 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     Ok(())
 }
 
-/// What `ptsa design --firmware-constants --instrument FILE` prints, run in `root` (so that
-/// a relative `FILE` is named as given in the file's header).
-fn generate(root: &Path, instrument: &str) -> Result<String, String> {
-    let cargo = util::cargo();
-    let args = [
-        "run",
-        "--release",
-        "-q",
-        "-p",
-        "ptsa-host-sim",
-        "--bin",
-        "ptsa",
-        "--",
-        "--instrument",
-        instrument,
-        "design",
-        "--firmware-constants",
-    ];
-    eprintln!("+ {cargo} {}", args.join(" "));
-    let out = Command::new(&cargo)
-        .args(args)
-        .current_dir(root)
+/// What `ptsa design --firmware-constants --instrument FILE` prints, run in the repository
+/// root (so that a relative `FILE` is named as given in the file's header).
+fn generate(instrument: &str) -> Result<String, String> {
+    let out = util::ptsa_release(&["--instrument", instrument, "design", "--firmware-constants"])
         .stderr(Stdio::inherit())
         .output()
-        .map_err(|e| format!("cannot run `{cargo}`: {e}"))?;
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
     if !out.status.success() {
         return Err(format!(
             "`ptsa design --firmware-constants --instrument {instrument}` failed ({})",

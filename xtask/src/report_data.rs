@@ -2,8 +2,6 @@
 //! (`data/r890-table-6.*.case.csv`), a maintainer's task after the transcriptions or the
 //! format change.
 
-use std::process::Command;
-
 use crate::util::{self, Error};
 
 /// `cargo xtask report-data --help`.
@@ -18,26 +16,9 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     if let Some(a) = args.first() {
         return Err(Error::Usage(format!("unknown option `{a}`")));
     }
-    let cargo = util::cargo();
-    let args = [
-        "run",
-        "--release",
-        "-q",
-        "-p",
-        "ptsa-host-sim",
-        "--bin",
-        "ptsa",
-        "--",
-        "discover",
-        "--convert-report-data",
-        "data",
-    ];
-    eprintln!("+ {cargo} {}", args.join(" "));
-    let status = Command::new(&cargo)
-        .args(args)
-        .current_dir(util::root())
+    let status = util::ptsa_release(&["discover", "--convert-report-data", "data"])
         .status()
-        .map_err(|e| format!("cannot run `{cargo}`: {e}"))?;
+        .map_err(|e| format!("cannot run cargo: {e}"))?;
     if !status.success() {
         return Err(format!("`ptsa discover --convert-report-data data` failed ({status})").into());
     }

@@ -170,6 +170,27 @@ pub fn run(dir: &Path, program: &str, args: &[&str]) -> Result<(), String> {
     }
 }
 
+/// `cargo run --release -q -p ptsa-host-sim --bin ptsa -- ARGS` in the repository root,
+/// announced on stderr: the release `ptsa`, built when it is not yet.
+pub fn ptsa_release(args: &[&str]) -> Command {
+    let cargo = cargo();
+    let mut all = vec![
+        "run",
+        "--release",
+        "-q",
+        "-p",
+        "ptsa-host-sim",
+        "--bin",
+        "ptsa",
+        "--",
+    ];
+    all.extend_from_slice(args);
+    eprintln!("+ {cargo} {}", all.join(" "));
+    let mut c = Command::new(cargo);
+    c.args(all).current_dir(root());
+    c
+}
+
 /// `cargo` as the caller invoked it (respects `$CARGO`).
 pub fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string())

@@ -99,3 +99,25 @@ pub fn refused_in_folder(
     assert_eq!(names(tmp.path()), before, "ptsa {args:?} wrote something");
     err
 }
+
+/// A seeded normal draw (splitmix64, Box–Muller): the tests' own noise, independent of the
+/// simulator's.
+pub struct Normal(pub u64);
+
+impl Normal {
+    pub fn uniform(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        #[allow(clippy::cast_precision_loss)]
+        let u = ((z >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+        u
+    }
+
+    pub fn draw(&mut self) -> f64 {
+        let (u, v) = (self.uniform(), self.uniform());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    }
+}
