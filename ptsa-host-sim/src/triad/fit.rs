@@ -379,15 +379,33 @@ fn t975(dof: usize) -> f64 {
     StudentsT::new(0.0, 1.0, dof.max(1) as f64).map_or(1.96, |d| d.inverse_cdf(0.975))
 }
 
-/// Fit the triad's calibration to `positions` read from the file `name`.
+/// Fit the triad's calibration to `positions` read from the file `name`: the readings
+/// checked and weighed, the unknowns laid out (`K_2` only where the design separates it),
+/// Gauss–Newton, then the estimates, their covariance and the |g| check.
 ///
 /// # Errors
 /// No row measured; readings without a sigma beside rows with one (without `--sigma`);
 /// fewer readings than unknowns; positions that do not determine the calibration (all in
 /// one plane, too few, ...); a fit that does not converge. Each error names `name`.
-#[allow(clippy::too_many_lines)] // the fit in its order: readings, design, iterations, figures
 pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> {
-    let g = opts.g_cm_s2;
+    let source = sigma_source(name, positions, opts)?;
+    let mut pb = Problem::new(positions, opts, source);
+    let k2_note = pb.settle_layout(name)?;
+    let (x, iterations) = pb.gauss_newton(name)?;
+    let lin = pb.linearised(name, &x)?;
+    let mut t = pb.triad(positions, opts, &x, &lin, k2_note, iterations);
+    let resid_cov = pb.residual_covariances(positions.len(), &lin);
+    t.g_check = g_check(&t, &resid_cov);
+    t.warnings = warnings(&t);
+    Ok(t)
+}
+
+/// Where the readings' sigmas come from, after the checks every reading must pass.
+///
+/// # Errors
+/// An axis given as counts not yet converted; some measured rows with a sigma and some
+/// without.
+fn sigma_source(name: &str, positions: &[Position], opts: &Options) -> Result<SigmaSource> {
     if let Some((p, j)) = positions
         .iter()
         .find_map(|p| p.unconverted().map(|j| (p, j)))
@@ -413,11 +431,17 @@ pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> 
             "{name}:{p}: a measured row without `sigma_cm_s2` while {stated} other rows give one; expected it on every measured row or on none (or --sigma CM_S2 for the rows without it)"
         );
     }
-    let source = if stated > 0 {
+    Ok(if stated > 0 {
         SigmaSource::Stated
     } else {
         SigmaSource::Estimated
-    };
+    })
+}
+
+/// Every reading of `positions` with its sigma, and with approximate orientations each
+/// measured position's two angle priors (indices into `positions`).
+fn observations(positions: &[Position], opts: &Options, source: SigmaSource) -> Vec<Obs> {
+    let g = opts.g_cm_s2;
     let approx = opts.orientation == Orientation::Approximate;
     let mut obs = Vec::new();
     for (i, p) in positions.iter().enumerate() {
@@ -458,74 +482,121 @@ pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> 
             }
         }
     }
-    let readings = obs.iter().filter(|o| o.axis < 3).count();
-    // Only the measured positions have parameters (their angles); the others are kept
-    // as rows of the result.
-    let used: Vec<usize> = (0..positions.len())
-        .filter(|&i| positions[i].is_measured())
-        .collect();
-    let pos: Vec<Position> = used.iter().map(|&i| positions[i].clone()).collect();
-    let remap: Vec<usize> = {
-        let mut v = vec![usize::MAX; positions.len()];
+    obs
+}
+
+/// The fit's problem: the measured positions, their observations and the unknowns.
+struct Problem {
+    /// The measured positions' indices in the file's, and those positions.
+    used: Vec<usize>,
+    pos: Vec<Position>,
+    bases: Vec<(Vector3<f64>, Vector3<f64>)>,
+    /// The observations, their positions indices into `pos`.
+    obs: Vec<Obs>,
+    layout: Layout,
+    g: f64,
+    source: SigmaSource,
+    /// The readings among the observations.
+    readings: usize,
+}
+
+/// The fit linearised at its solution: the weighted residuals, the Jacobian's columns at
+/// unit norm and their scales, and the least-squares step there (its covariance).
+struct Linear {
+    r: Vec<f64>,
+    sc: Vec<Vec<f64>>,
+    s: Vec<f64>,
+    fit: stats::LsqFit,
+}
+
+impl Problem {
+    /// Only the measured positions have parameters (their angles); the others are kept as
+    /// rows of the result.
+    fn new(positions: &[Position], opts: &Options, source: SigmaSource) -> Self {
+        let mut obs = observations(positions, opts, source);
+        let readings = obs.iter().filter(|o| o.axis < 3).count();
+        let used: Vec<usize> = (0..positions.len())
+            .filter(|&i| positions[i].is_measured())
+            .collect();
+        let pos: Vec<Position> = used.iter().map(|&i| positions[i].clone()).collect();
+        let mut remap = vec![usize::MAX; positions.len()];
         for (k, &i) in used.iter().enumerate() {
-            v[i] = k;
+            remap[i] = k;
         }
-        v
-    };
-    for o in &mut obs {
-        o.pos = remap[o.pos];
-    }
-    let bases: Vec<_> = pos.iter().map(|p| perp_basis(p.g_unit)).collect();
-    let mut layout = Layout {
-        mis: misalignments(opts.orientation),
-        k2: true,
-        angles: approx,
-        n: pos.len(),
-    };
-    let mut k2_note = None;
-    let unknowns = |l: &Layout| l.len();
-    if obs.len()
-        <= unknowns(&Layout {
-            k2: false,
-            ..layout.clone()
-        })
-    {
-        bail!(
-            "{name}: {} positions give {readings} readings for {} unknowns ({}); expected more readings than unknowns: more positions{}",
-            pos.len(),
-            unknowns(&Layout {
-                k2: false,
-                ..layout.clone()
-            }),
-            if approx {
-                "bias, scale factor and 3 misalignments, and 2 angles per position"
-            } else {
-                "bias and scale factor per axis and 6 misalignments"
+        for o in &mut obs {
+            o.pos = remap[o.pos];
+        }
+        Problem {
+            bases: pos.iter().map(|p| perp_basis(p.g_unit)).collect(),
+            layout: Layout {
+                mis: misalignments(opts.orientation),
+                k2: true,
+                angles: opts.orientation == Orientation::Approximate,
+                n: pos.len(),
             },
-            if approx {
-                ", or a precision fixture and --orientation exact"
-            } else {
-                ""
-            }
-        );
+            used,
+            pos,
+            obs,
+            g: opts.g_cm_s2,
+            source,
+            readings,
+        }
     }
-    // The design: does it separate K_2, and the rest?
-    let x0 = vec![0.0; layout.len()];
-    let (_, cols) = evaluate(&x0, &layout, &pos, &bases, &obs, g);
-    if obs.len() <= layout.len() || conditioning(&cols) < CONDITION_MIN {
-        layout.k2 = false;
-        k2_note = Some(if obs.len() <= layout.len() + 3 {
+
+    fn evaluate(&self, x: &[f64]) -> (Vec<f64>, Vec<Vec<f64>>) {
+        evaluate(x, &self.layout, &self.pos, &self.bases, &self.obs, self.g)
+    }
+
+    fn cost(&self, x: &[f64]) -> f64 {
+        self.evaluate(x).0.iter().map(|v| v * v).sum()
+    }
+
+    /// Readings enough for the unknowns, and a design that separates them: `K_2` left out
+    /// where it does not (the note says why).
+    ///
+    /// # Errors
+    /// Fewer readings than unknowns without `K_2`; a design that does not determine the
+    /// calibration without it.
+    fn settle_layout(&mut self, name: &str) -> Result<Option<String>> {
+        let approx = self.layout.angles;
+        let without_k2 = Layout {
+            k2: false,
+            ..self.layout.clone()
+        };
+        if self.obs.len() <= without_k2.len() {
+            bail!(
+                "{name}: {} positions give {} readings for {} unknowns ({}); expected more readings than unknowns: more positions{}",
+                self.pos.len(),
+                self.readings,
+                without_k2.len(),
+                if approx {
+                    "bias, scale factor and 3 misalignments, and 2 angles per position"
+                } else {
+                    "bias and scale factor per axis and 6 misalignments"
+                },
+                if approx {
+                    ", or a precision fixture and --orientation exact"
+                } else {
+                    ""
+                }
+            );
+        }
+        let (_, cols) = self.evaluate(&vec![0.0; self.layout.len()]);
+        if self.obs.len() > self.layout.len() && conditioning(&cols) >= CONDITION_MIN {
+            return Ok(None);
+        }
+        self.layout.k2 = false;
+        let note = if self.obs.len() <= self.layout.len() + 3 {
             "K_2 not fitted: the readings are too few for it too".to_string()
         } else {
             "K_2 not fitted: these positions do not separate it from the bias (each axis needs readings at two or more different |a|, e.g. 0 and 1 g)".to_string()
-        });
-        let x0 = vec![0.0; layout.len()];
-        let (_, cols) = evaluate(&x0, &layout, &pos, &bases, &obs, g);
+        };
+        let (_, cols) = self.evaluate(&vec![0.0; self.layout.len()]);
         if conditioning(&cols) < CONDITION_MIN {
             bail!(
                 "{name}: the {} positions do not determine the triad's calibration{}; expected positions whose gravity points in three independent directions, each axis seeing both signs (e.g. the six faces and more){}",
-                pos.len(),
-                planar_hint(&pos),
+                self.pos.len(),
+                planar_hint(&self.pos),
                 if approx {
                     ", and with --orientation approximate enough tilted positions for the angles (e.g. 24)"
                 } else {
@@ -533,197 +604,240 @@ pub fn fit(name: &str, positions: &[Position], opts: &Options) -> Result<Triad> 
                 }
             );
         }
+        Ok(Some(note))
     }
-    // Gauss–Newton with step halving.
-    let mut x = vec![0.0; layout.len()];
-    let cost = |x: &[f64]| -> f64 {
-        let (r, _) = evaluate(x, &layout, &pos, &bases, &obs, g);
-        r.iter().map(|v| v * v).sum()
-    };
-    let mut c = cost(&x);
-    let mut iterations = 0;
-    let mut converged = false;
-    while iterations < 50 {
-        iterations += 1;
-        let (r, cols) = evaluate(&x, &layout, &pos, &bases, &obs, g);
-        let (sc, s) = scaled(&cols);
-        let refs: Vec<&[f64]> = sc.iter().map(Vec::as_slice).collect();
-        let Some(step) = stats::lsq(&r, &refs) else {
-            bail!(
-                "{name}: the triad's fit lost its rank at iteration {iterations}; expected positions that determine the calibration{}",
-                planar_hint(&pos)
-            );
-        };
-        let delta: Vec<f64> = step.beta.iter().zip(&s).map(|(b, s)| b / s).collect();
-        let mut t = 1.0;
-        let mut accepted = false;
-        for _ in 0..30 {
-            let trial: Vec<f64> = x.iter().zip(&delta).map(|(a, d)| a + t * d).collect();
-            let ct = cost(&trial);
-            if ct <= c * (1.0 + 1e-12) {
-                x = trial;
-                let done = (c - ct).abs() <= 1e-10 * c.max(1e-30);
-                c = ct;
-                accepted = true;
-                converged = done;
-                break;
+
+    /// Gauss–Newton with step halving from the nominal: the solution and the iterations.
+    ///
+    /// # Errors
+    /// The fit lost its rank, or did not converge in 50 iterations.
+    fn gauss_newton(&self, name: &str) -> Result<(Vec<f64>, usize)> {
+        let mut x = vec![0.0; self.layout.len()];
+        let mut c = self.cost(&x);
+        let mut iterations = 0;
+        while iterations < 50 {
+            iterations += 1;
+            let (r, cols) = self.evaluate(&x);
+            let (sc, s) = scaled(&cols);
+            let refs: Vec<&[f64]> = sc.iter().map(Vec::as_slice).collect();
+            let Some(step) = stats::lsq(&r, &refs) else {
+                bail!(
+                    "{name}: the triad's fit lost its rank at iteration {iterations}; expected positions that determine the calibration{}",
+                    planar_hint(&self.pos)
+                );
+            };
+            let delta: Vec<f64> = step.beta.iter().zip(&s).map(|(b, s)| b / s).collect();
+            let mut t = 1.0;
+            let mut accepted = false;
+            for _ in 0..30 {
+                let trial: Vec<f64> = x.iter().zip(&delta).map(|(a, d)| a + t * d).collect();
+                let ct = self.cost(&trial);
+                if ct <= c * (1.0 + 1e-12) {
+                    x = trial;
+                    let done = (c - ct).abs() <= 1e-10 * c.max(1e-30);
+                    c = ct;
+                    accepted = true;
+                    if done {
+                        return Ok((x, iterations));
+                    }
+                    break;
+                }
+                t /= 2.0;
             }
-            t /= 2.0;
+            if !accepted {
+                return Ok((x, iterations));
+            }
         }
-        if !accepted || converged {
-            converged = true;
-            break;
-        }
-    }
-    if !converged {
         bail!(
             "{name}: the triad's fit did not converge in 50 Gauss–Newton iterations; expected positions near their nominal orientations (within a few degrees)"
+        )
+    }
+
+    /// The fit linearised at `x`.
+    ///
+    /// # Errors
+    /// The fit lost its rank.
+    fn linearised(&self, name: &str, x: &[f64]) -> Result<Linear> {
+        let (r, cols) = self.evaluate(x);
+        let (sc, s) = scaled(&cols);
+        let refs: Vec<&[f64]> = sc.iter().map(Vec::as_slice).collect();
+        let Some(fit) = stats::lsq(&r, &refs) else {
+            bail!(
+                "{name}: the triad's fit lost its rank; expected positions that determine the calibration{}",
+                planar_hint(&self.pos)
+            );
+        };
+        Ok(Linear { r, sc, s, fit })
+    }
+
+    /// χ², its p-value (stated sigmas), the covariance's scale (the Birge ratio squared
+    /// when stated sigmas understate the scatter, else the residuals' variance) and the
+    /// 95 % coverage factor.
+    fn figures(&self, lin: &Linear) -> (f64, usize, f64, f64, f64) {
+        let chi2: f64 = lin.r.iter().map(|v| v * v).sum();
+        let dof = self.obs.len() - self.layout.len();
+        #[allow(clippy::cast_precision_loss)]
+        let nu = dof as f64;
+        let (p_value, scale2, factor) = match self.source {
+            SigmaSource::Stated => {
+                let b = stats::birge_ratio(chi2, dof);
+                let p = stats::chi2_sf(chi2, nu);
+                (p, b * b, if b > 1.0 { t975(dof) } else { 1.96 })
+            }
+            SigmaSource::Estimated => (f64::NAN, chi2 / nu, t975(dof)),
+        };
+        (chi2, dof, p_value, scale2, factor)
+    }
+
+    /// The covariance of parameters `a` and `b`, scaled.
+    fn cov(lin: &Linear, scale2: f64, a: usize, b: usize) -> f64 {
+        lin.fit.cov[(a, b)] / (lin.s[a] * lin.s[b]) * scale2
+    }
+
+    /// The parameters' names, in the layout's order.
+    fn names(&self) -> Vec<String> {
+        let mut names: Vec<String> = AXES.iter().map(|a| format!("b_{a}")).collect();
+        names.extend(AXES.iter().map(|a| format!("k_{a}")));
+        names.extend(
+            self.layout
+                .mis
+                .iter()
+                .map(|&(j, k)| format!("Γ_{}{}", AXES[j], AXES[k])),
         );
-    }
-    let (r, cols) = evaluate(&x, &layout, &pos, &bases, &obs, g);
-    let (sc, s) = scaled(&cols);
-    let refs: Vec<&[f64]> = sc.iter().map(Vec::as_slice).collect();
-    let Some(lin) = stats::lsq(&r, &refs) else {
-        bail!(
-            "{name}: the triad's fit lost its rank; expected positions that determine the calibration{}",
-            planar_hint(&pos)
-        );
-    };
-    let chi2: f64 = r.iter().map(|v| v * v).sum();
-    let dof = obs.len() - layout.len();
-    #[allow(clippy::cast_precision_loss)]
-    let nu = dof as f64;
-    let (p_value, scale2, factor) = match source {
-        SigmaSource::Stated => {
-            let b = stats::birge_ratio(chi2, dof);
-            let p = stats::chi2_sf(chi2, nu);
-            (p, b * b, if b > 1.0 { t975(dof) } else { 1.96 })
+        if self.layout.k2 {
+            names.extend(AXES.iter().map(|a| format!("K2_{a}")));
         }
-        SigmaSource::Estimated => (f64::NAN, chi2 / nu, t975(dof)),
-    };
-    let cov = |a: usize, b: usize| lin.cov[(a, b)] / (s[a] * s[b]) * scale2;
-    let est = |k: usize| Estimate {
-        value: x[k],
-        sigma: cov(k, k).sqrt(),
-    };
-    let bias = [est(0), est(1), est(2)];
-    let scale = [est(3), est(4), est(5)];
-    let mut misalignment = [[None; 3]; 3];
-    for (m, &(j, k)) in layout.mis.iter().enumerate() {
-        misalignment[j][k] = Some(est(Layout::MIS0 + m));
+        names
     }
-    let k2 = layout.k2.then(|| {
-        [
-            est(layout.k20()),
-            est(layout.k20() + 1),
-            est(layout.k20() + 2),
-        ]
-    });
-    let mut names: Vec<String> = AXES.iter().map(|a| format!("b_{a}")).collect();
-    names.extend(AXES.iter().map(|a| format!("k_{a}")));
-    names.extend(
-        layout
-            .mis
-            .iter()
-            .map(|&(j, k)| format!("Γ_{}{}", AXES[j], AXES[k])),
-    );
-    if layout.k2 {
-        names.extend(AXES.iter().map(|a| format!("K2_{a}")));
-    }
-    let nc = layout.calib();
-    let correlation: Vec<Vec<f64>> = (0..nc)
-        .map(|a| {
-            (0..nc)
-                .map(|b| cov(a, b) / (cov(a, a) * cov(b, b)).sqrt())
-                .collect()
-        })
-        .collect();
-    let mut angles = vec![None; positions.len()];
-    let mut residuals = vec![[None; 3]; positions.len()];
-    let preds: Vec<[f64; 3]> = (0..pos.len())
-        .map(|i| predict(&x, &layout, pos[i].g_unit, &bases[i], i, g).0)
-        .collect();
-    for (k, &i) in used.iter().enumerate() {
-        if approx {
-            angles[i] = Some([est(layout.angle0(k)), est(layout.angle0(k) + 1)]);
+
+    /// The result at `x`: estimates with their sigmas, correlation, angles, residuals.
+    fn triad(
+        &self,
+        positions: &[Position],
+        opts: &Options,
+        x: &[f64],
+        lin: &Linear,
+        k2_note: Option<String>,
+        iterations: usize,
+    ) -> Triad {
+        let (chi2, dof, p_value, scale2, factor) = self.figures(lin);
+        let cov = |a: usize, b: usize| Self::cov(lin, scale2, a, b);
+        let est = |k: usize| Estimate {
+            value: x[k],
+            sigma: cov(k, k).sqrt(),
+        };
+        let l = &self.layout;
+        let mut misalignment = [[None; 3]; 3];
+        for (m, &(j, k)) in l.mis.iter().enumerate() {
+            misalignment[j][k] = Some(est(Layout::MIS0 + m));
         }
-        for j in 0..3 {
-            residuals[i][j] = positions[i].measured[j].map(|m| m - preds[k][j]);
-        }
-    }
-    let sigma_cm_s2 = match source {
-        SigmaSource::Estimated => scale2.sqrt(),
-        SigmaSource::Stated => {
-            let v: Vec<f64> = obs.iter().filter(|o| o.axis < 3).map(|o| o.sigma).collect();
-            #[allow(clippy::cast_precision_loss)]
-            let ms = v.iter().map(|s| s * s).sum::<f64>() / v.len().max(1) as f64;
-            ms.sqrt()
-        }
-    };
-    let mut t = Triad {
-        orientation: opts.orientation,
-        g_cm_s2: g,
-        positions: positions.to_vec(),
-        bias,
-        scale,
-        misalignment,
-        k2,
-        k2_note,
-        angles,
-        residuals,
-        names,
-        correlation,
-        chi2,
-        dof,
-        readings,
-        parameters: layout.len(),
-        p_value,
-        sigma_source: source,
-        sigma_cm_s2,
-        sigma_scale: scale2.sqrt(),
-        coverage_factor: factor,
-        g_check: GCheck::default(),
-        iterations,
-        warnings: Vec::new(),
-    };
-    // The covariance of each position's three residuals, cm/s²: D·(I − H)·D over its
-    // readings (H the fit's hat matrix, D their sigmas; with estimated sigmas scaled by the
-    // estimate), so that the |g| check is weighed against what the noise leaves after the
-    // fit has taken its share.
-    let scale_noise = match source {
-        SigmaSource::Stated => 1.0,
-        SigmaSource::Estimated => scale2,
-    };
-    let rows_of = |o: usize| -> Vec<f64> { sc.iter().map(|c| c[o]).collect() };
-    let mut resid_cov: Vec<Option<Matrix3<f64>>> = vec![None; positions.len()];
-    for (k, &i) in used.iter().enumerate() {
-        let idx: Vec<(usize, usize)> = obs
-            .iter()
-            .enumerate()
-            .filter(|(_, o)| o.pos == k && o.axis < 3)
-            .map(|(oi, o)| (oi, o.axis))
+        let nc = l.calib();
+        let correlation: Vec<Vec<f64>> = (0..nc)
+            .map(|a| {
+                (0..nc)
+                    .map(|b| cov(a, b) / (cov(a, a) * cov(b, b)).sqrt())
+                    .collect()
+            })
             .collect();
-        if idx.len() < 3 {
-            continue;
-        }
-        let a: Vec<nalgebra::DVector<f64>> = idx
-            .iter()
-            .map(|&(oi, _)| nalgebra::DVector::from_vec(rows_of(oi)))
-            .collect();
-        let ca: Vec<nalgebra::DVector<f64>> = a.iter().map(|r| &lin.cov * r).collect();
-        let mut v = Matrix3::zeros();
-        for (x, &(ox, jx)) in idx.iter().enumerate() {
-            for (y, &(oy, jy)) in idx.iter().enumerate() {
-                let h = a[x].dot(&ca[y]);
-                let delta = if x == y { 1.0 } else { 0.0 };
-                v[(jx, jy)] = obs[ox].sigma * (delta - h) * obs[oy].sigma * scale_noise;
+        let mut angles = vec![None; positions.len()];
+        let mut residuals = vec![[None; 3]; positions.len()];
+        for (k, &i) in self.used.iter().enumerate() {
+            if l.angles {
+                angles[i] = Some([est(l.angle0(k)), est(l.angle0(k) + 1)]);
+            }
+            let pred = predict(x, l, self.pos[k].g_unit, &self.bases[k], k, self.g).0;
+            for j in 0..3 {
+                residuals[i][j] = positions[i].measured[j].map(|m| m - pred[j]);
             }
         }
-        resid_cov[i] = Some(v);
+        Triad {
+            orientation: opts.orientation,
+            g_cm_s2: self.g,
+            positions: positions.to_vec(),
+            bias: [est(0), est(1), est(2)],
+            scale: [est(3), est(4), est(5)],
+            misalignment,
+            k2: l
+                .k2
+                .then(|| [est(l.k20()), est(l.k20() + 1), est(l.k20() + 2)]),
+            k2_note,
+            angles,
+            residuals,
+            names: self.names(),
+            correlation,
+            chi2,
+            dof,
+            readings: self.readings,
+            parameters: l.len(),
+            p_value,
+            sigma_source: self.source,
+            sigma_cm_s2: self.sigma_cm_s2(scale2),
+            sigma_scale: scale2.sqrt(),
+            coverage_factor: factor,
+            g_check: GCheck::default(),
+            iterations,
+            warnings: Vec::new(),
+        }
     }
-    t.g_check = g_check(&t, &resid_cov);
-    t.warnings = warnings(&t);
-    Ok(t)
+
+    /// The σ of a reading: estimated, or the stated ones' RMS.
+    fn sigma_cm_s2(&self, scale2: f64) -> f64 {
+        match self.source {
+            SigmaSource::Estimated => scale2.sqrt(),
+            SigmaSource::Stated => {
+                let v: Vec<f64> = self
+                    .obs
+                    .iter()
+                    .filter(|o| o.axis < 3)
+                    .map(|o| o.sigma)
+                    .collect();
+                #[allow(clippy::cast_precision_loss)]
+                let ms = v.iter().map(|s| s * s).sum::<f64>() / v.len().max(1) as f64;
+                ms.sqrt()
+            }
+        }
+    }
+
+    /// The covariance of each position's three residuals, cm/s²: D·(I − H)·D over its
+    /// readings (H the fit's hat matrix, D their sigmas; with estimated sigmas scaled by
+    /// the estimate), so that the |g| check is weighed against what the noise leaves after
+    /// the fit has taken its share. Indexed by the file's positions (`n` of them).
+    fn residual_covariances(&self, n: usize, lin: &Linear) -> Vec<Option<Matrix3<f64>>> {
+        let scale_noise = match self.source {
+            SigmaSource::Stated => 1.0,
+            SigmaSource::Estimated => self.figures(lin).3,
+        };
+        let rows_of = |o: usize| -> Vec<f64> { lin.sc.iter().map(|c| c[o]).collect() };
+        let mut resid_cov: Vec<Option<Matrix3<f64>>> = vec![None; n];
+        for (k, &i) in self.used.iter().enumerate() {
+            let idx: Vec<(usize, usize)> = self
+                .obs
+                .iter()
+                .enumerate()
+                .filter(|(_, o)| o.pos == k && o.axis < 3)
+                .map(|(oi, o)| (oi, o.axis))
+                .collect();
+            if idx.len() < 3 {
+                continue;
+            }
+            let a: Vec<nalgebra::DVector<f64>> = idx
+                .iter()
+                .map(|&(oi, _)| nalgebra::DVector::from_vec(rows_of(oi)))
+                .collect();
+            let ca: Vec<nalgebra::DVector<f64>> = a.iter().map(|r| &lin.fit.cov * r).collect();
+            let mut v = Matrix3::zeros();
+            for (x, &(ox, jx)) in idx.iter().enumerate() {
+                for (y, &(oy, jy)) in idx.iter().enumerate() {
+                    let h = a[x].dot(&ca[y]);
+                    let delta = if x == y { 1.0 } else { 0.0 };
+                    v[(jx, jy)] =
+                        self.obs[ox].sigma * (delta - h) * self.obs[oy].sigma * scale_noise;
+                }
+            }
+            resid_cov[i] = Some(v);
+        }
+        resid_cov
+    }
 }
 
 /// ` (all positions' gravity lies in one plane: …)` when it does, else empty.
