@@ -114,9 +114,18 @@ pub fn design(n: usize) -> Option<Vec<[f64; 3]>> {
 #[allow(clippy::too_many_lines)] // one report, section by section
 #[allow(clippy::needless_range_loop)] // j indexes the axes' names and several arrays
 pub fn text(t: &Triad, data: &str) -> String {
-    let g = t.g_cm_s2;
-    let k = t.coverage_factor;
     let mut s = String::new();
+    model(&mut s, t, data);
+    axes(&mut s, t);
+    misalignments(&mut s, t);
+    checks(&mut s, t);
+    correction(&mut s, t);
+    s
+}
+
+/// What was calibrated, and the model.
+fn model(s: &mut String, t: &Triad, data: &str) {
+    let g = t.g_cm_s2;
     let _ = writeln!(
         s,
         "triad calibration of {data}: {} positions ({} measured), {} readings, orientations {}; local gravity {g} cm/s²",
@@ -135,6 +144,11 @@ pub fn text(t: &Triad, data: &str) -> String {
         }
     );
     let _ = writeln!(s);
+}
+
+/// Each axis's bias, scale factor and `K_2`.
+fn axes(s: &mut String, t: &Triad) {
+    let g = t.g_cm_s2;
     let _ = writeln!(
         s,
         "axis  bias cm/s²            bias µg              scale factor ppm      K_2 µg/g²"
@@ -155,6 +169,10 @@ pub fn text(t: &Triad, data: &str) -> String {
         );
     }
     let _ = writeln!(s);
+}
+
+/// The misalignments Γ.
+fn misalignments(s: &mut String, t: &Triad) {
     let _ = writeln!(
         s,
         "misalignment Γ, µrad (row: the axis; column: the {} axis it leans toward; ± 1 σ)",
@@ -164,7 +182,7 @@ pub fn text(t: &Triad, data: &str) -> String {
             "triad frame's"
         }
     );
-    for j in 0..3 {
+    for (j, axis) in AXES.iter().enumerate() {
         let cells: Vec<String> = (0..3)
             .map(|c| match t.misalignment[j][c] {
                 Some(e) => format!("{:+.1} ± {:.1}", e.value * 1e6, e.sigma * 1e6),
@@ -174,11 +192,17 @@ pub fn text(t: &Triad, data: &str) -> String {
             .collect();
         let _ = writeln!(
             s,
-            "  {}: {:>20} {:>20} {:>20}",
-            AXES[j], cells[0], cells[1], cells[2]
+            "  {axis}: {:>20} {:>20} {:>20}",
+            cells[0], cells[1], cells[2]
         );
     }
     let _ = writeln!(s);
+}
+
+/// The |g| check, the fit's χ² or σ, the coverage factor and the positions' rotation.
+fn checks(s: &mut String, t: &Triad) {
+    let g = t.g_cm_s2;
+    let k = t.coverage_factor;
     let gc = &t.g_check;
     if gc.positions.is_empty() {
         let _ = writeln!(s, "|g| check: no position has all three axes measured");
@@ -241,6 +265,10 @@ pub fn text(t: &Triad, data: &str) -> String {
         );
     }
     let _ = writeln!(s);
+}
+
+/// The correction `f = M·(u − b)` to apply.
+fn correction(s: &mut String, t: &Triad) {
     let m = fit::matrix_m(t);
     let _ = writeln!(
         s,
@@ -274,7 +302,6 @@ pub fn text(t: &Triad, data: &str) -> String {
             k2[0].value, k2[1].value, k2[2].value
         );
     }
-    s
 }
 
 /// The per-position table as CSV: label, line, the three residuals, `|f̂| − g` and, with
