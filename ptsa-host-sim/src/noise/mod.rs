@@ -580,32 +580,7 @@ where
     let fonts = font_ready();
     root.fill(&WHITE).map_err(err)?;
     let pos = |v: f64| v > 0.0 && v.is_finite();
-    let taus: Vec<f64> = a.points.iter().map(|p| p.tau_s).collect();
-    let (t0, t1) = (
-        taus.first().copied().unwrap_or(1.0),
-        taus.last().copied().unwrap_or(1.0),
-    );
-    let mut ys: Vec<f64> = a
-        .points
-        .iter()
-        .flat_map(|p| {
-            let (lo, hi) = p.mdev_ci95.unwrap_or((p.adev, p.adev));
-            [
-                p.ci95_lo,
-                p.ci95_hi,
-                p.adev,
-                p.mdev.unwrap_or(p.adev),
-                lo,
-                hi,
-            ]
-        })
-        .filter(|v| pos(*v))
-        .collect();
-    ys.sort_by(f64::total_cmp);
-    let (y0, y1) = match (ys.first(), ys.last()) {
-        (Some(&lo), Some(&hi)) => (lo / 2.0, hi * 3.0),
-        _ => (1e-6, 1.0),
-    };
+    let ((t0, t1), (y0, y1)) = plot_ranges(a);
     let xr = (t0 / 1.5)..(t1 * 1.5);
     let mut b = ChartBuilder::on(root);
     b.margin(14).margin_right(30);
@@ -675,6 +650,66 @@ where
         ann.label("modified ADEV, 95 % interval")
             .legend(|(x, y)| TriangleMarker::new((x + 9, y), 5, BLACK.filled()));
     }
+    term_lines(&mut chart, a, fonts, (t0, t1), (y0, y1))?;
+    if fonts {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 13))
+            .draw()
+            .map_err(err)?;
+    }
+    root.present().map_err(err)?;
+    Ok(())
+}
+
+/// The plot's τ range (the first and last τ) and its deviation range (every positive
+/// deviation and interval end, with room above and below).
+fn plot_ranges(a: &Analysis) -> ((f64, f64), (f64, f64)) {
+    let pos = |v: f64| v > 0.0 && v.is_finite();
+    let taus: Vec<f64> = a.points.iter().map(|p| p.tau_s).collect();
+    let t = (
+        taus.first().copied().unwrap_or(1.0),
+        taus.last().copied().unwrap_or(1.0),
+    );
+    let mut ys: Vec<f64> = a
+        .points
+        .iter()
+        .flat_map(|p| {
+            let (lo, hi) = p.mdev_ci95.unwrap_or((p.adev, p.adev));
+            [
+                p.ci95_lo,
+                p.ci95_hi,
+                p.adev,
+                p.mdev.unwrap_or(p.adev),
+                lo,
+                hi,
+            ]
+        })
+        .filter(|v| pos(*v))
+        .collect();
+    ys.sort_by(f64::total_cmp);
+    let y = match (ys.first(), ys.last()) {
+        (Some(&lo), Some(&hi)) => (lo / 2.0, hi * 3.0),
+        _ => (1e-6, 1.0),
+    };
+    (t, y)
+}
+
+/// The fitted noise terms' lines and their sum, each with its legend entry when the fonts
+/// are there.
+fn term_lines<DB: DrawingBackend>(
+    chart: &mut ChartContext<'_, DB, Cartesian2d<LogCoord<f64>, LogCoord<f64>>>,
+    a: &Analysis,
+    fonts: bool,
+    (t0, t1): (f64, f64),
+    (y0, y1): (f64, f64),
+) -> Result<()>
+where
+    DB::ErrorType: 'static,
+{
     // 60 points a line across the τ range.
     let grid: Vec<f64> = (0..=60)
         .map(|i| t0 / 1.5 * ((t1 * 2.25 / t0).powf(f64::from(i) / 60.0)))
@@ -716,17 +751,6 @@ where
                 .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 18, y)], BLACK));
         }
     }
-    if fonts {
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 13))
-            .draw()
-            .map_err(err)?;
-    }
-    root.present().map_err(err)?;
     Ok(())
 }
 
