@@ -255,3 +255,49 @@ fn the_shipped_examples_are_what_the_script_makes() {
     }
     assert_eq!(made, 4);
 }
+
+/// Every relative link of the user docs (README.md, ARCHITECTURE.md, data/README.md and
+/// docs/, the notes and the generated reference included) names a file that exists.
+#[test]
+fn every_relative_link_in_the_docs_resolves() {
+    fn markdown(dir: &Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                markdown(&p, out);
+            } else if p.extension().is_some_and(|x| x == "md") {
+                out.push(p);
+            }
+        }
+    }
+    let root = root();
+    let mut files = vec![
+        root.join("README.md"),
+        root.join("ARCHITECTURE.md"),
+        root.join("data/README.md"),
+    ];
+    markdown(&root.join("docs"), &mut files);
+    let mut checked = 0;
+    let mut broken = Vec::new();
+    for f in &files {
+        let text = std::fs::read_to_string(f).unwrap();
+        for (k, _) in text.match_indices("](") {
+            let rest = &text[k + 2..];
+            let Some(end) = rest.find(')') else { continue };
+            let target = rest[..end].split('#').next().unwrap_or("");
+            if target.is_empty() || target.contains("://") || target.contains(' ') {
+                continue;
+            }
+            checked += 1;
+            if !f.parent().unwrap().join(target).exists() {
+                broken.push(format!("{}: {target}", f.display()));
+            }
+        }
+    }
+    assert!(
+        broken.is_empty(),
+        "links to nothing:\n{}",
+        broken.join("\n")
+    );
+    assert!(checked > 30, "only {checked} links checked");
+}
