@@ -532,13 +532,7 @@ impl Analysis {
     /// # Errors
     /// Drawing or writing fails.
     pub fn write_png(&self, path: &Path, title: &str) -> Result<()> {
-        let tmp = crate::output::fs::temp_beside(path)?;
-        draw(
-            &BitMapBackend::new(tmp.path(), (960, 640)).into_drawing_area(),
-            self,
-            title,
-        )?;
-        crate::output::fs::persist(tmp, path)
+        crate::output::plot::write_png(path, (960, 640), |area| draw(&area, self, title))
     }
 }
 

@@ -292,6 +292,11 @@ fn mode_for(path: &Path) -> std::fs::Permissions {
 /// should get.
 fn temp_file_for(path: &Path, suffix: &str) -> Result<Temp> {
     let dir = parent_of(path);
+    // The folder is made, and the file created and registered, under the list's lock: a
+    // signal's clean-up ([`abandon`]) holds it from the moment it starts, so nothing can
+    // make a folder again (a staging folder it has just removed, seen once in CI) nor leave
+    // a file behind after it.
+    let mut live = lock(&LIVE);
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     sweep_stale(dir);
     let prefix = prefix("");
@@ -299,9 +304,6 @@ fn temp_file_for(path: &Path, suffix: &str) -> Result<Temp> {
     b.prefix(&prefix).suffix(suffix);
     #[cfg(unix)]
     b.permissions(mode_for(path));
-    // Registered under the same lock as it is created, so that a signal between the two
-    // cannot leave it behind.
-    let mut live = lock(&LIVE);
     let f = b
         .tempfile_in(dir)
         .with_context(|| format!("cannot write in {}", dir.display()))?;

@@ -499,9 +499,7 @@ pub fn write_figure(dir: &Path, fig: &Figure) -> Result<Vec<PathBuf>> {
     let png = dir.join(format!("{}.png", fig.stem));
     let svg = dir.join(format!("{}.svg", fig.stem));
     let wh = size(fig.panels.len());
-    let tmp = temp_beside(&png)?;
-    draw_figure(&BitMapBackend::new(tmp.path(), wh).into_drawing_area(), fig)?;
-    persist(tmp, &png)?;
+    write_png(&png, wh, |area| draw_figure(&area, fig))?;
     let mut s = String::new();
     draw_figure(
         &SVGBackend::with_string(&mut s, wh).into_drawing_area(),
@@ -509,6 +507,32 @@ pub fn write_figure(dir: &Path, fig: &Figure) -> Result<Vec<PathBuf>> {
     )?;
     write_atomic(&svg, s.as_bytes())?;
     Ok(vec![png, svg])
+}
+
+/// A PNG of `w × h` pixels at `path`, drawn by `draw` and written whole or not at all.
+/// The pixels are drawn into memory and encoded into the open temporary file (the same
+/// encoder and settings as plotters' own), never reopened by its name: after a signal's
+/// clean-up has removed the temporary, nothing makes it again.
+///
+/// # Errors
+/// Drawing or writing fails; the message names `path`.
+pub fn write_png(
+    path: &Path,
+    (w, h): (u32, u32),
+    draw: impl FnOnce(DrawingArea<BitMapBackend<'_>, Shift>) -> Result<()>,
+) -> Result<()> {
+    use anyhow::Context as _;
+    use image::ImageEncoder as _;
+    let mut pixels = vec![0u8; 3 * w as usize * h as usize];
+    draw(BitMapBackend::with_buffer(&mut pixels, (w, h)).into_drawing_area())?;
+    let tmp = temp_beside(path)?;
+    let mut out = std::io::BufWriter::new(tmp.as_file());
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(&pixels, w, h, image::ColorType::Rgb8)
+        .with_context(|| format!("cannot write {}", path.display()))?;
+    std::io::Write::flush(&mut out).with_context(|| format!("cannot write {}", path.display()))?;
+    drop(out);
+    persist(tmp, path)
 }
 
 #[cfg(test)]

@@ -304,10 +304,7 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
 
 /// Write `text` to `path`, which appears whole.
 fn write_atomic(path: &std::path::Path, text: &str) -> Result<()> {
-    let tmp = temp_beside(path)?;
-    std::fs::write(tmp.path(), text).with_context(|| format!("writing {}", path.display()))?;
-    persist(tmp, path)?;
-    Ok(())
+    ptsa_host_sim::output::fs::write_atomic(path, text.as_bytes())
 }
 
 /// One run on the single loop, its ADC codes streamed into `trace` (a file that appears
