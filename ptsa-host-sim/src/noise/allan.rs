@@ -209,19 +209,20 @@ fn centred_prefix(v: &[f64]) -> Vec<f64> {
 }
 
 /// The series' running sums: `S` (length `N = M + 1`) and `C`, the prefix sums of `S`
-/// centred (length `N + 1`).
+/// centred (length `N + 1`), made when the modified variance first asks for it.
 pub struct Sums {
     s: Vec<f64>,
-    c: Vec<f64>,
+    c: std::sync::OnceLock<Vec<f64>>,
 }
 
 impl Sums {
     /// From the gate averages `y`.
     #[must_use]
     pub fn new(y: &[f64]) -> Self {
-        let s = centred_prefix(y);
-        let c = centred_prefix(&s);
-        Self { s, c }
+        Self {
+            s: centred_prefix(y),
+            c: std::sync::OnceLock::new(),
+        }
     }
 
     /// Boundaries `N`.
@@ -309,7 +310,7 @@ impl Sums {
         if m == 0 || 3 * m > n {
             return None;
         }
-        let c = &self.c;
+        let c = self.c.get_or_init(|| centred_prefix(&self.s));
         let terms = n - 3 * m + 1;
         let sum: f64 = (0..terms)
             .map(|j| {

@@ -176,6 +176,10 @@ pub(super) struct LoopConfig {
     pub(super) ptsa: Ptsa,
     /// The plant, discretised for the condition's `K_eff`.
     pub(super) plant: Plant,
+    /// The `K_eff` (dyn·cm/rad) `plant` was discretised for (NaN before the first): a
+    /// condition that leaves it as it was (a record's per-gate acceleration along IA) keeps
+    /// the plant instead of computing its matrix exponentials again.
+    plant_k_eff: f64,
     pub(super) prep: Prepared,
     /// The non-zero effect terms, `(term per unit coefficient, coefficient)`.
     pub(super) effect_terms: Vec<(TermFn, f64)>,
@@ -237,6 +241,7 @@ impl LoopConfig {
             ptsa,
             // Discretised for the condition's K_eff by `set_condition`.
             plant: Plant::default(),
+            plant_k_eff: f64::NAN,
             prep: Prepared::default(),
             effect_terms: Vec::new(),
             physics: None,
@@ -272,7 +277,10 @@ impl LoopConfig {
         self.a_pa0 = m.a_cm_s2[PA];
         self.wq0 = m.w_rad_s[IA].powi(2) - m.w_rad_s[PA].powi(2);
         let k_eff = instr.spring_dyn_cm_rad + p * self.a_pa0 - di * self.wq0;
-        self.plant = Plant::new(instr, k_eff);
+        if k_eff.to_bits() != self.plant_k_eff.to_bits() {
+            self.plant = Plant::new(instr, k_eff);
+            self.plant_k_eff = k_eff;
+        }
         self.prep = prep;
         // The instrument file's nominal model-equation terms are part of the baseline.
         self.effect_terms = instr
