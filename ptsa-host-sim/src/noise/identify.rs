@@ -34,6 +34,10 @@
 //! noises' [`InputNoise::mean_sd`] and the counting's): the count pattern depends on the
 //! input, which the record gives only to that error.
 //!
+//! A record longer than [`LOOP_GATES`] has its records simulated shortened: the loop for
+//! its first [`LOOP_GATES`] gates, its part carried beyond as white phase noise, the added
+//! noises drawn for the whole length ([`Grid::points`]).
+//!
 //! The points are compared on the log scale: the residuals `ln M − ln S` (measured,
 //! simulated mean), each log's bias (half its variance) taken out, `χ² = rᵀ C⁻¹ r` with `C`
 //! their covariance across the τ: a parametric bootstrap, [`REPLICAS`] records simulated
@@ -121,6 +125,22 @@ pub const MAX_RECORDS: u64 = (PICKOFF_GRID_UV.len() as u64 + 1)
     * SEEDS
     + (1 + (KINDS.len() + 1 + EXTENSIONS) as u64 * (REWEIGHTS as u64 + 1)) * REPLICAS
     + (1 + EXTENSIONS as u64) * REPLICAS;
+
+/// The longest record the loop is simulated for, gates (2¹³: 82 s of 10 ms gates). A
+/// longer record's simulated records run the loop for this many gates and take the rest from
+/// the loop's physics ([`Grid::points`]): the counts integrate the input to within the
+/// charge the loop holds, which is bounded, so beyond the count pattern's own time scale the
+/// loop adds to the Allan variance a part that falls as `1/τ²` (white phase noise), while the
+/// input's noises (`N`, `K`) are drawn for the record's whole length without the loop.
+pub const LOOP_GATES: u64 = 1 << 13;
+
+/// A shortened simulation's loop part is read up to `m ≤ gates / LOOP_SPLIT` (16 averaging
+/// windows at least) and carried beyond as `1/τ²` from there.
+pub const LOOP_SPLIT: usize = 4;
+
+/// The octaves below the split whose loop part, as `L·m²`, sets its level beyond
+/// ([`Grid::points`]).
+pub const LOOP_TAIL_OCTAVES: usize = 4;
 
 /// Mesh points per free noise in the profile: one, two or three noises free.
 const MESH: [usize; 3] = [321, 241, 49];
@@ -245,6 +265,12 @@ pub struct Identification {
     pub simulated_records: usize,
     /// The octave τ used, s.
     pub taus: Vec<f64>,
+    /// Gates each simulated record ran the loop for: the record's own, or [`LOOP_GATES`]
+    /// for a longer record.
+    pub simulated_gates: u64,
+    /// For a record longer than [`LOOP_GATES`]: the longest τ, s, whose loop part was
+    /// simulated; beyond it the loop's part is carried as `1/τ²` ([`LOOP_GATES`]).
+    pub loop_split_tau_s: Option<f64>,
     /// `χ²` of the file's loop alone, and its degrees of freedom (the τ).
     pub chi2_file: f64,
     /// The candidates in [`KINDS`]' order.
@@ -269,6 +295,9 @@ struct Grid<'a> {
     input_cm_s2: f64,
     gate_ticks: u64,
     gates: u64,
+    /// Gates the loop is simulated for: the record's, at most [`LOOP_GATES`] (or what the
+    /// caller set).
+    loop_gates: u64,
     tau0_s: f64,
     /// The error the counting leaves in the record's mean, cm/s²: the charge the loop
     /// holds at either end, up to a pulse each, over the record's span (`pulse/(T·√6)`, the
@@ -334,8 +363,14 @@ impl Grid<'_> {
     /// The records of `lanes`, on the batch engine: per lane, per measured τ, the Allan
     /// variance of its counts and the same with the control variate (the drawn input's own
     /// Allan variance out, its expectation in: what is left varies as the loop does, not as
-    /// one draw of the added noises).
-    fn simulate(&self, lanes: &[Lane]) -> Vec<Vec<(f64, f64)>> {
+    /// one draw of the added noises). With `whole`, a shortened simulation's first value is
+    /// the record's at its whole length ([`Grid::points`]); without, both are the control
+    /// variate's (only that is read).
+    fn simulate(&self, lanes: &[Lane], whole: bool) -> Vec<Vec<(f64, f64)>> {
+        use rayon::prelude::*;
+        let sim_gates = self.gates.min(self.loop_gates);
+        let drawn_gates = if whole { self.gates } else { sim_gates };
+        let looped = usize::try_from(sim_gates).unwrap_or(usize::MAX);
         let mut out = Vec::with_capacity(lanes.len());
         for chunk in lanes.chunks(JOBS_PER_CALL) {
             let instrs: Vec<Instrument> = chunk
@@ -347,10 +382,10 @@ impl Grid<'_> {
                 })
                 .collect();
             let accels: Vec<Vec<f64>> = chunk
-                .iter()
+                .par_iter()
                 .map(|l| {
                     l.noise
-                        .gate_accels(l.input_cm_s2, self.tau0_s, self.gates, !l.seed)
+                        .gate_accels(l.input_cm_s2, self.tau0_s, drawn_gates, !l.seed)
                 })
                 .collect();
             let jobs: Vec<RecordJob<'_>> = chunk
@@ -361,35 +396,102 @@ impl Grid<'_> {
                     instr,
                     seed: l.seed,
                     accel_cm_s2: l.input_cm_s2,
-                    gate_accels_cm_s2: a,
+                    gate_accels_cm_s2: &a[..a.len().min(looped)],
                 })
                 .collect();
             let counts =
-                Engine::default().simulate_records(&jobs, self.opts, self.gate_ticks, self.gates);
-            for ((l, c), input) in chunk.iter().zip(&counts).zip(&accels) {
-                let y: Vec<f64> = super::record_gates(c, self.gate_ticks, self.instr.clock_hz)
-                    .iter()
-                    .map(|g| g.indicated_cm_s2(self.instr.sf_cm_s2))
-                    .collect();
-                let (counted, drawn) = (allan::Sums::new(&y), allan::Sums::new(input));
-                out.push(
-                    self.measured
-                        .iter()
-                        .map(|&(m, ..)| {
-                            let a = counted.avar(m).map_or(f64::NAN, |x| x.0);
-                            let cv = match drawn.avar(m) {
-                                Some((d, _)) if !input.is_empty() => {
-                                    (a - d + l.noise.expected_avar(self.tau0_s, m)).max(a * 1e-6)
-                                }
-                                _ => a,
-                            };
-                            (a, cv)
-                        })
-                        .collect(),
-                );
-            }
+                Engine::default().simulate_records(&jobs, self.opts, self.gate_ticks, sim_gates);
+            out.par_extend(
+                chunk
+                    .par_iter()
+                    .zip(&counts)
+                    .zip(&accels)
+                    .map(|((l, c), input)| self.points(l, c, input)),
+            );
         }
         out
+    }
+
+    /// One simulated record's points: per measured τ, its Allan variance and its control
+    /// variate's. A record simulated whole gives them as they are. A shortened one (the
+    /// loop run for [`Grid::loop_gates`]) gives the loop's part `L(m)`, the counts' Allan
+    /// variance less the drawn input's over the simulated gates, up to the split `m_s`
+    /// (the longest τ with [`LOOP_SPLIT`] windows in them), and `c/m²` beyond, `c` the
+    /// geometric mean of `L·m²` over the last [`LOOP_TAIL_OCTAVES`] octaves up to `m_s`;
+    /// the control variate is `L(m)` plus the input's expected Allan variance, and the record's
+    /// own value `L(m)` plus the Allan variance of the input drawn for the whole length
+    /// (when it was: `input` as long as the record).
+    fn points(&self, l: &Lane, counts: &[u32], input: &[f64]) -> Vec<(f64, f64)> {
+        let y: Vec<f64> = super::record_gates(counts, self.gate_ticks, self.instr.clock_hz)
+            .iter()
+            .map(|g| g.indicated_cm_s2(self.instr.sf_cm_s2))
+            .collect();
+        let counted = allan::Sums::new(&y);
+        let drawn = allan::Sums::new(&input[..input.len().min(y.len())]);
+        let avar = |s: &allan::Sums, m: usize| s.avar(m).map_or(f64::NAN, |x| x.0);
+        if y.len() as u64 == self.gates {
+            return self
+                .measured
+                .iter()
+                .map(|&(m, ..)| {
+                    let a = avar(&counted, m);
+                    let cv = match drawn.avar(m) {
+                        Some((d, _)) if !input.is_empty() => {
+                            (a - d + l.noise.expected_avar(self.tau0_s, m)).max(a * 1e-6)
+                        }
+                        _ => a,
+                    };
+                    (a, cv)
+                })
+                .collect();
+        }
+        let loop_part = |m: usize| {
+            if input.is_empty() {
+                avar(&counted, m)
+            } else {
+                avar(&counted, m) - avar(&drawn, m)
+            }
+        };
+        let simulated: Vec<usize> = self
+            .measured
+            .iter()
+            .map(|&(m, ..)| m)
+            .filter(|&m| m * LOOP_SPLIT <= y.len())
+            .collect();
+        let split = simulated.last().copied();
+        // `L·m²` over the last octaves simulated, their geometric mean: the count pattern's
+        // part swings by a factor of about 8 between its tones' drops (docs/noise.md).
+        let tail: Vec<f64> = simulated
+            .iter()
+            .rev()
+            .take(LOOP_TAIL_OCTAVES)
+            .map(|&m| loop_part(m) * (m as f64).powi(2))
+            .filter(|x| *x > 0.0)
+            .map(f64::ln)
+            .collect();
+        let level = if tail.is_empty() {
+            0.0
+        } else {
+            (tail.iter().sum::<f64>() / tail.len() as f64).exp()
+        };
+        let record = (input.len() as u64 == self.gates).then(|| allan::Sums::new(input));
+        self.measured
+            .iter()
+            .map(|&(m, ..)| {
+                let part = match split {
+                    Some(s) if m <= s => loop_part(m),
+                    Some(_) => level / (m as f64).powi(2),
+                    None => f64::NAN,
+                };
+                let expected = l.noise.expected_avar(self.tau0_s, m);
+                let cv = (part + expected).max((part.abs() + expected) * 1e-6);
+                let a = record.as_ref().map_or(cv, |r| {
+                    let d = avar(r, m);
+                    (d + part).max((d + part.abs()) * 1e-6)
+                });
+                (a, cv)
+            })
+            .collect()
     }
 
     /// Simulate the nodes not yet simulated, all at once: [`SEEDS`] records each (seeds
@@ -431,7 +533,7 @@ impl Grid<'_> {
                 })
             })
             .collect();
-        let records = self.simulate(&lanes);
+        let records = self.simulate(&lanes, false);
         for (n, seeds) in todo
             .into_iter()
             .zip(records.chunks(usize::try_from(SEEDS).unwrap_or(1)))
@@ -514,7 +616,7 @@ impl Grid<'_> {
                 seed: self.opts.seed.wrapping_add(offset).wrapping_add(r),
             })
             .collect();
-        let records = self.simulate(&lanes);
+        let records = self.simulate(&lanes, true);
         let n = self.measured.len();
         let logs = |pick: fn(&(f64, f64)) -> f64| -> Vec<Vec<f64>> {
             records
@@ -888,15 +990,30 @@ fn axis(kind: Kind) -> usize {
 /// instrument file's loop (`opts`: seed, settling, configuration of the simulations).
 /// `progress(done, total)` counts the selection's steps.
 #[must_use]
-#[allow(
-    clippy::too_many_lines,
-    reason = "one procedure: the grid, the forward selection, the joint fit, in order"
-)]
 pub fn identify(
     instr: &Instrument,
     opts: &SimOptions,
     record: &Record,
     measured: &Analysis,
+    progress: &mut dyn FnMut(usize, usize),
+) -> Identification {
+    identify_looped(instr, opts, record, measured, LOOP_GATES, progress)
+}
+
+/// [`identify`] with the loop simulated for at most `loop_gates` gates of each simulated
+/// record (`identify` uses [`LOOP_GATES`]): a campaign sets it low to measure what the
+/// shortened simulation does to the intervals on records it can also simulate whole.
+#[must_use]
+#[allow(
+    clippy::too_many_lines,
+    reason = "one procedure: the grid, the forward selection, the joint fit, in order"
+)]
+pub fn identify_looped(
+    instr: &Instrument,
+    opts: &SimOptions,
+    record: &Record,
+    measured: &Analysis,
+    loop_gates: u64,
     progress: &mut dyn FnMut(usize, usize),
 ) -> Identification {
     let mixed = SimOptions {
@@ -939,6 +1056,7 @@ pub fn identify(
         input_cm_s2,
         gate_ticks: record.gates[0].ticks,
         gates: record.gates.len() as u64,
+        loop_gates: loop_gates.max(1),
         counting_sd_cm_s2: measured.pulse_cm_s.unwrap_or(0.0)
             / (record.gates.len() as f64 * record.tau0_s * 6f64.sqrt()),
         tau0_s: record.tau0_s,
@@ -1093,6 +1211,16 @@ pub fn identify(
         )
         .unwrap_or(usize::MAX),
         taus: g.measured.iter().map(|x| x.1).collect(),
+        simulated_gates: g.gates.min(g.loop_gates),
+        loop_split_tau_s: (g.loop_gates < g.gates)
+            .then(|| {
+                g.measured
+                    .iter()
+                    .filter(|x| x.0 as u64 * LOOP_SPLIT as u64 <= g.loop_gates)
+                    .map(|x| x.1)
+                    .next_back()
+            })
+            .flatten(),
         chi2_file,
         candidates,
     }
@@ -1128,6 +1256,7 @@ mod tests {
             input_cm_s2: 0.0,
             gate_ticks: 640,
             gates: 100,
+            loop_gates: LOOP_GATES,
             counting_sd_cm_s2: 0.0,
             tau0_s: 0.01,
             measured: vec![(1, 0.01, m)],

@@ -88,7 +88,10 @@ pub struct NoiseArgs {
     /// cm/s^2/rtHz, ug/rtHz) and a bias random walk K (alone AVAR = K^2 tau/3; cm/s^2.5,
     /// ug/rts) inside the loop (N and K entering the plant's input), on a grid interpolated
     /// in noise power, averaged over 2 seeds; selected forward with Holm's thresholds at
-    /// 5 % familywise; the selected ones with their 95 % intervals (docs/noise.md).
+    /// 5 % familywise; the selected ones with their 95 % intervals (docs/noise.md). A
+    /// record longer than 8192 gates has the loop simulated for its first 8192 and the
+    /// added noises for its whole length (a 12-hour record of 10 ms gates in about a
+    /// minute; docs/noise.md, "Long records").
     #[arg(long, requires = "counts")]
     pub identify: bool,
     /// With --identify: write the instrument file with the identified pickoff noise
@@ -147,6 +150,8 @@ pub struct NoiseArgs {
     /// "value", "ci95"}], "open_above", "interval_scale"; "selected", "chi2_file", "taus_s",
     /// "pickoff_grid_uv_rms", "white_acceleration_grid_cm_s2_rthz",
     /// "bias_random_walk_grid_cm_s2_rthz", "seeds_per_node", "simulated_records",
+    /// "simulated_record_gates" (gates each simulated record ran the loop for),
+    /// "loop_simulated_to_tau_s" (s; null unless the record is longer than that),
     /// "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test").
     #[arg(long)]
     pub json: bool,
@@ -864,10 +869,11 @@ fn identify(
     let instr = &ctx.instr;
     let ticks = record.gates[0].ticks;
     // At most every node of the grid; a record with nothing beyond the file's loop needs
-    // about a tenth of it.
+    // about a tenth of it. A record longer than LOOP_GATES runs the loop for that many.
     let sims = ident::MAX_RECORDS;
+    let looped = (record.gates.len() as u64).min(ident::LOOP_GATES);
     let est = Work::new(instr, opts)
-        .gate(ticks * record.gates.len() as u64 * sims)
+        .gate(ticks * looped * sims)
         .check(req.force, "the identification's simulated records")?;
     let bar = work::Progress::start("noise --identify", &est);
     let id = ident::identify(instr, opts, record, measured, &mut |_, _| {});
@@ -960,6 +966,8 @@ fn identification_json(id: &Identification) -> serde_json::Value {
         "bias_random_walk_grid_cm_s2_rthz": id.grid_walk,
         "seeds_per_node": ident::SEEDS,
         "simulated_records": id.simulated_records,
+        "simulated_record_gates": id.simulated_gates,
+        "loop_simulated_to_tau_s": id.loop_split_tau_s,
         "taus_s": id.taus,
         "chi2_file": id.chi2_file,
         "familywise_alpha": ident::ALPHA,
@@ -1040,6 +1048,14 @@ fn identification_text(id: &Identification) -> String {
         let _ = writeln!(
             s,
             "  nothing identified: the record's Allan deviation is the instrument file's loop's within its intervals"
+        );
+    }
+    if let Some(t) = id.loop_split_tau_s {
+        let _ = writeln!(
+            s,
+            "  a long record: each simulated record ran the loop for its first {} gates; the loop's part is simulated up to tau {} s and carried as 1/tau^2 beyond, the added noises drawn for the whole length (docs/noise.md, \"Long records\")",
+            id.simulated_gates,
+            sig(t, 4)
         );
     }
     s
