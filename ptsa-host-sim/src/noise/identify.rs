@@ -1004,10 +1004,6 @@ pub fn identify(
 /// record (`identify` uses [`LOOP_GATES`]): a campaign sets it low to measure what the
 /// shortened simulation does to the intervals on records it can also simulate whole.
 #[must_use]
-#[allow(
-    clippy::too_many_lines,
-    reason = "one procedure: the grid, the forward selection, the joint fit, in order"
-)]
 pub fn identify_looped(
     instr: &Instrument,
     opts: &SimOptions,
@@ -1020,78 +1016,11 @@ pub fn identify_looped(
         seed: opts.seed ^ record_seed(record),
         ..*opts
     };
-    let opts = &mixed;
-    let input_cm_s2 = measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0);
-    let file_uv = instr.noise_v_rms * 1e6;
-    let mut grid_uv: Vec<f64> = PICKOFF_GRID_UV.to_vec();
-    if !grid_uv.iter().any(|&u| (u - file_uv).abs() < 1e-9) {
-        grid_uv.push(file_uv);
-    }
-    grid_uv.sort_by(f64::total_cmp);
-    let base_u = grid_uv
-        .iter()
-        .position(|&u| (u - file_uv).abs() < 1e-9)
-        .unwrap_or(0);
-    let pts: Vec<(usize, f64, f64)> = measured
-        .points
-        .iter()
-        .filter(|p| p.adev > 0.0 && p.adev.is_finite())
-        .map(|p| (p.m, p.tau_s, p.adev * p.adev))
-        .collect();
-    let n2_max = measured
-        .points
-        .iter()
-        .map(|p| p.ci95_hi * p.ci95_hi * p.tau_s)
-        .fold(f64::INFINITY, f64::min);
-    let k2_max = measured
-        .points
-        .iter()
-        .map(|p| 3.0 * p.ci95_hi * p.ci95_hi / p.tau_s)
-        .fold(f64::INFINITY, f64::min);
-    let scaled =
-        |f: &[f64], top: f64| -> Vec<f64> { f.iter().map(|x| (x * top).max(0.0).sqrt()).collect() };
-    let mut g = Grid {
-        instr,
-        opts,
-        input_cm_s2,
-        gate_ticks: record.gates[0].ticks,
-        gates: record.gates.len() as u64,
-        loop_gates: loop_gates.max(1),
-        counting_sd_cm_s2: measured.pulse_cm_s.unwrap_or(0.0)
-            / (record.gates.len() as f64 * record.tau0_s * 6f64.sqrt()),
-        tau0_s: record.tau0_s,
-        measured: pts,
-        axes: [
-            grid_uv,
-            scaled(&WHITE_FRACTIONS, n2_max),
-            scaled(&WALK_FRACTIONS, k2_max),
-        ],
-        base: [base_u, 0, 0],
-        curves: HashMap::new(),
-        weights: HashMap::new(),
-        spreads: HashMap::new(),
-    };
-    // The first step's nodes (each noise alone), all at once; the τ kept are those with a
-    // positive simulated AVAR at every one of them.
-    let first: Vec<Node> = (0..3).flat_map(|a| g.nodes(&[a])).collect();
-    g.ensure(&first);
-    let keep: Vec<usize> = (0..g.measured.len())
-        .filter(|&i| g.curves.values().all(|c| c[i].is_finite() && c[i] > 0.0))
-        .collect();
-    g.measured = keep.iter().map(|&i| g.measured[i]).collect();
-    g.curves = g
-        .curves
-        .iter()
-        .map(|(n, c)| (*n, keep.iter().map(|&i| c[i]).collect()))
-        .collect();
-    let base_values = [
-        g.axes[0][g.base[0]],
-        g.axes[1][g.base[1]],
-        g.axes[2][g.base[2]],
-    ];
+    let mut g = Grid::new(instr, &mixed, record, measured, loop_gates);
+    g.first_step();
+    let base_values = g.axes_values(g.base);
     let w = g.weights(base_values);
     let chi2_file = g.profile(&[], &w).chi2;
-    let normal = Normal::standard();
     let mut candidates: Vec<Candidate> = KINDS
         .iter()
         .map(|&kind| Candidate {
@@ -1104,8 +1033,142 @@ pub fn identify_looped(
             interval_scale: 1.0,
         })
         .collect();
-    // Forward selection with Holm's thresholds; each step's weights are the EDFs of the
-    // model selected so far, at its fitted values, for the model and every extension alike.
+    let (chosen, current) = select(&mut g, &mut candidates, base_values, progress);
+    if !chosen.is_empty() {
+        joint_fit(&mut g, &chosen, current, &mut candidates);
+    }
+    g.identification(chi2_file, candidates)
+}
+
+impl<'a> Grid<'a> {
+    /// The grid for `record` analysed as `measured`: the input along IA that gives its mean,
+    /// its octave τ, the pickoff axis with the file's value, and the white and walk axes set
+    /// by the record's upper bounds; nothing simulated yet.
+    fn new(
+        instr: &'a Instrument,
+        opts: &'a SimOptions,
+        record: &Record,
+        measured: &Analysis,
+        loop_gates: u64,
+    ) -> Self {
+        let file_uv = instr.noise_v_rms * 1e6;
+        let mut grid_uv: Vec<f64> = PICKOFF_GRID_UV.to_vec();
+        if !grid_uv.iter().any(|&u| (u - file_uv).abs() < 1e-9) {
+            grid_uv.push(file_uv);
+        }
+        grid_uv.sort_by(f64::total_cmp);
+        let base_u = grid_uv
+            .iter()
+            .position(|&u| (u - file_uv).abs() < 1e-9)
+            .unwrap_or(0);
+        let pts: Vec<(usize, f64, f64)> = measured
+            .points
+            .iter()
+            .filter(|p| p.adev > 0.0 && p.adev.is_finite())
+            .map(|p| (p.m, p.tau_s, p.adev * p.adev))
+            .collect();
+        let n2_max = measured
+            .points
+            .iter()
+            .map(|p| p.ci95_hi * p.ci95_hi * p.tau_s)
+            .fold(f64::INFINITY, f64::min);
+        let k2_max = measured
+            .points
+            .iter()
+            .map(|p| 3.0 * p.ci95_hi * p.ci95_hi / p.tau_s)
+            .fold(f64::INFINITY, f64::min);
+        let scaled = |f: &[f64], top: f64| -> Vec<f64> {
+            f.iter().map(|x| (x * top).max(0.0).sqrt()).collect()
+        };
+        Grid {
+            instr,
+            opts,
+            input_cm_s2: measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0),
+            gate_ticks: record.gates[0].ticks,
+            gates: record.gates.len() as u64,
+            loop_gates: loop_gates.max(1),
+            counting_sd_cm_s2: measured.pulse_cm_s.unwrap_or(0.0)
+                / (record.gates.len() as f64 * record.tau0_s * 6f64.sqrt()),
+            tau0_s: record.tau0_s,
+            measured: pts,
+            axes: [
+                grid_uv,
+                scaled(&WHITE_FRACTIONS, n2_max),
+                scaled(&WALK_FRACTIONS, k2_max),
+            ],
+            base: [base_u, 0, 0],
+            curves: HashMap::new(),
+            weights: HashMap::new(),
+            spreads: HashMap::new(),
+        }
+    }
+
+    /// The first step's nodes (each noise alone), simulated all at once; the τ kept are
+    /// those with a positive simulated AVAR at every one of them.
+    fn first_step(&mut self) {
+        let first: Vec<Node> = (0..3).flat_map(|a| self.nodes(&[a])).collect();
+        self.ensure(&first);
+        let keep: Vec<usize> = (0..self.measured.len())
+            .filter(|&i| self.curves.values().all(|c| c[i].is_finite() && c[i] > 0.0))
+            .collect();
+        self.measured = keep.iter().map(|&i| self.measured[i]).collect();
+        self.curves = self
+            .curves
+            .iter()
+            .map(|(n, c)| (*n, keep.iter().map(|&i| c[i]).collect()))
+            .collect();
+    }
+
+    /// The noises (u, N, K) at `node`.
+    fn axes_values(&self, node: Node) -> [f64; 3] {
+        [
+            self.axes[0][node[0]],
+            self.axes[1][node[1]],
+            self.axes[2][node[2]],
+        ]
+    }
+
+    /// The identification: the grid as it ended, the records it simulated, the τ it used.
+    fn identification(&self, chi2_file: f64, candidates: Vec<Candidate>) -> Identification {
+        let [grid_uv, grid_white, grid_walk] = self.axes.clone();
+        Identification {
+            input_cm_s2: self.input_cm_s2,
+            file_uv: self.instr.noise_v_rms * 1e6,
+            grid_uv,
+            grid_white,
+            grid_walk,
+            simulated_records: usize::try_from(
+                self.curves.len() as u64 * SEEDS
+                    + (self.weights.len() + self.spreads.len()) as u64 * REPLICAS,
+            )
+            .unwrap_or(usize::MAX),
+            taus: self.measured.iter().map(|x| x.1).collect(),
+            simulated_gates: self.gates.min(self.loop_gates),
+            loop_split_tau_s: (self.loop_gates < self.gates)
+                .then(|| {
+                    self.measured
+                        .iter()
+                        .filter(|x| x.0 as u64 * LOOP_SPLIT as u64 <= self.loop_gates)
+                        .map(|x| x.1)
+                        .next_back()
+                })
+                .flatten(),
+            chi2_file,
+            candidates,
+        }
+    }
+}
+
+/// Forward selection with Holm's thresholds from the file's loop (`base_values`); each
+/// step's weights are those of the model selected so far, at its fitted values, for the
+/// model and every extension alike. Returns the axes selected and the values fitted last.
+fn select(
+    g: &mut Grid<'_>,
+    candidates: &mut [Candidate],
+    base_values: [f64; 3],
+    progress: &mut dyn FnMut(usize, usize),
+) -> (Vec<usize>, [f64; 3]) {
+    let normal = Normal::standard();
     let mut chosen: Vec<usize> = Vec::new();
     let mut current = base_values;
     for step in 0..KINDS.len() {
@@ -1145,84 +1208,62 @@ pub fn identify_looped(
         }
     }
     progress(KINDS.len(), KINDS.len());
-    if !chosen.is_empty() {
-        // The joint fit, with the bias random walk free as a nuisance where it was not
-        // selected: a walk too weak to be selected from the record still lifts its longest
-        // τ, which the others would otherwise take (N 5.6 % high over the campaign's
-        // records with K = 0.005, 2 % with none; docs/noise.md). Its grid is simulated
-        // already: the selection's last step tested it given the others.
-        let mut free = chosen.clone();
-        if !free.contains(&axis(Kind::RandomWalk)) {
-            free.push(axis(Kind::RandomWalk));
-            free.sort_unstable();
-        }
-        let (mut prof, mut w) = g.settle(&free, current);
-        // A selected white noise or walk whose interval reaches its grid's top (set from
-        // the record's upper bounds, the least over τ: one τ low by chance sets it low)
-        // gets nodes above it, and the fit is redone, at most [`EXTENSIONS`] times.
-        let mut limits = thresholds(&mut g, &free, &prof, &w);
-        for _ in 0..EXTENSIONS {
-            let short: Vec<usize> = free
-                .iter()
-                .enumerate()
-                .filter(|&(j, &a)| {
-                    let top = g.top(a);
-                    a != axis(Kind::Pickoff)
-                        && chosen.contains(&a)
-                        && interval(&prof.marginals[j], prof.chi2, limits[j])
-                            .is_some_and(|(_, hi)| hi >= top)
-                })
-                .map(|(_, &a)| a)
-                .collect();
-            if short.is_empty() {
-                break;
-            }
-            for &a in &short {
-                let top = g.top(a);
-                g.axes[a].extend(ABOVE_TOP.iter().map(|f| top * f.sqrt()));
-            }
-            (prof, w) = g.settle(&free, prof.values);
-            limits = thresholds(&mut g, &free, &prof, &w);
-        }
-        let b2 = birge_sq(&g, &free, &prof);
-        for (j, &a) in free.iter().enumerate() {
-            if !chosen.contains(&a) {
-                continue;
-            }
-            let v = prof.values[a];
-            let (lo, hi) = interval(&prof.marginals[j], prof.chi2, limits[j]).unwrap_or((v, v));
-            let top = g.top(a);
-            if let Some(c) = candidates.iter_mut().find(|c| axis(c.kind) == a) {
-                c.value = Some((v, lo, hi));
-                c.open_above = hi >= top;
-                c.interval_scale = limits[j] / (CHI2_1_95 * b2);
-            }
-        }
+    (chosen, current)
+}
+
+/// The joint fit of the `chosen` axes from `current`, with the bias random walk free as a
+/// nuisance where it was not selected: a walk too weak to be selected from the record still
+/// lifts its longest τ, which the others would otherwise take (N 5.6 % high over the
+/// campaign's records with K = 0.005, 2 % with none; docs/noise.md). Its grid is simulated
+/// already: the selection's last step tested it given the others. Each selected candidate
+/// gets its value and interval.
+fn joint_fit(g: &mut Grid<'_>, chosen: &[usize], current: [f64; 3], candidates: &mut [Candidate]) {
+    let mut free = chosen.to_vec();
+    if !free.contains(&axis(Kind::RandomWalk)) {
+        free.push(axis(Kind::RandomWalk));
+        free.sort_unstable();
     }
-    let [grid_uv, grid_white, grid_walk] = g.axes.clone();
-    Identification {
-        input_cm_s2,
-        file_uv,
-        grid_uv,
-        grid_white,
-        grid_walk,
-        simulated_records: usize::try_from(
-            g.curves.len() as u64 * SEEDS + (g.weights.len() + g.spreads.len()) as u64 * REPLICAS,
-        )
-        .unwrap_or(usize::MAX),
-        taus: g.measured.iter().map(|x| x.1).collect(),
-        simulated_gates: g.gates.min(g.loop_gates),
-        loop_split_tau_s: (g.loop_gates < g.gates)
-            .then(|| {
-                g.measured
-                    .iter()
-                    .filter(|x| x.0 as u64 * LOOP_SPLIT as u64 <= g.loop_gates)
-                    .map(|x| x.1)
-                    .next_back()
+    let (mut prof, mut w) = g.settle(&free, current);
+    // A selected white noise or walk whose interval reaches its grid's top (set from the
+    // record's upper bounds, the least over τ: one τ low by chance sets it low) gets nodes
+    // above it, and the fit is redone, at most [`EXTENSIONS`] times.
+    let mut limits = thresholds(g, &free, &prof, &w);
+    for _ in 0..EXTENSIONS {
+        let short: Vec<usize> = free
+            .iter()
+            .enumerate()
+            .filter(|&(j, &a)| {
+                let top = g.top(a);
+                a != axis(Kind::Pickoff)
+                    && chosen.contains(&a)
+                    && interval(&prof.marginals[j], prof.chi2, limits[j])
+                        .is_some_and(|(_, hi)| hi >= top)
             })
-            .flatten(),
-        chi2_file,
-        candidates,
+            .map(|(_, &a)| a)
+            .collect();
+        if short.is_empty() {
+            break;
+        }
+        for &a in &short {
+            let top = g.top(a);
+            g.axes[a].extend(ABOVE_TOP.iter().map(|f| top * f.sqrt()));
+        }
+        (prof, w) = g.settle(&free, prof.values);
+        limits = thresholds(g, &free, &prof, &w);
+    }
+    let b2 = birge_sq(g, &free, &prof);
+    for (j, &a) in free.iter().enumerate() {
+        if !chosen.contains(&a) {
+            continue;
+        }
+        let v = prof.values[a];
+        let (lo, hi) = interval(&prof.marginals[j], prof.chi2, limits[j]).unwrap_or((v, v));
+        let top = g.top(a);
+        if let Some(c) = candidates.iter_mut().find(|c| axis(c.kind) == a) {
+            c.value = Some((v, lo, hi));
+            c.open_above = hi >= top;
+            c.interval_scale = limits[j] / (CHI2_1_95 * b2);
+        }
     }
 }
 
