@@ -176,7 +176,6 @@ pub(crate) fn test(
 }
 
 /// [`test`] over given splits (`skipped`: the splits that did not apply, in words).
-#[allow(clippy::too_many_lines)] // one test: the model, the split columns, the p-value
 pub(crate) fn test_splits(
     data: &Data,
     f: &Fitted,
@@ -186,48 +185,12 @@ pub(crate) fn test_splits(
     splits: &[Split],
     skipped: &[String],
 ) -> Vec<StabilityReport> {
-    let n = data.n();
-    let m = selected.len();
-    let mut reports: Vec<StabilityReport> = (0..m).map(|_| StabilityReport::default()).collect();
-    let sigma = &f.sigma;
-    let weigh = |raw: &[f64]| -> Vec<f64> { raw.iter().zip(sigma).map(|(x, s)| x / s).collect() };
-    let z: Vec<f64> = weigh(resid);
-    // The final model's columns: the nuisance terms over every row, then each selected
-    // term with a signature here.
-    let all: Vec<usize> = (0..n).collect();
-    let (_, nraw, _) = fit::nuisance_columns(data, &all);
-    let mut base: Vec<Vec<f64>> = nraw
-        .iter()
-        .map(|c| unit(&weigh(c)).0)
-        .filter(|c| norm(c) > 0.0)
+    let mut reports: Vec<StabilityReport> = (0..selected.len())
+        .map(|_| StabilityReport::default())
         .collect();
-    let nn = base.len();
-    let mut terms: Vec<(usize, Vec<f64>)> = Vec::new();
-    for (j, s) in selected.iter().enumerate() {
-        let Some(sig) = data.signatures.iter().find(|g| g.id == s.id && !g.null) else {
-            reports[j]
-                .not_tested
-                .push("no first-order signature in these rows: not refitted".to_string());
-            continue;
-        };
-        let (u, scale) = unit(&weigh(&sig.col));
-        if s.companion {
-            // In the model as a common column, not refitted per part: no cause of its own.
-            reports[j].not_tested.push(
-                "fitted with the warm-up as the level its transient settles to: not refitted"
-                    .to_string(),
-            );
-            if scale > 0.0 {
-                base.push(u);
-            }
-            continue;
-        }
-        if scale > 0.0 {
-            terms.push((j, sig.col.iter().zip(sigma).map(|(x, s)| x / s).collect()));
-            base.push(u);
-        }
-    }
-    let refs: Vec<&[f64]> = base.iter().map(Vec::as_slice).collect();
+    let z: Vec<f64> = weighed(resid, &f.sigma);
+    let model = Model::new(data, f, selected, &mut reports);
+    let refs: Vec<&[f64]> = model.base.iter().map(Vec::as_slice).collect();
     if lsq(&z, &refs).is_none() {
         for r in &mut reports {
             r.not_tested
@@ -235,19 +198,135 @@ pub(crate) fn test_splits(
         }
         return reports;
     }
-    let min_partial = (1.0 - PART_COS * PART_COS).sqrt();
     for split in splits {
+        let (cols, split_cols) = model.split_columns(split, data.n());
+        let crefs: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
+        let full = lsq(&z, &crefs);
+        let dof = data.n().saturating_sub(crefs.len());
+        for (t, (j, w)) in model.terms.iter().enumerate() {
+            let mine = match &split_cols[t] {
+                Ok(m) => m,
+                Err(why) => {
+                    reports[*j].not_tested.push(why.clone());
+                    continue;
+                }
+            };
+            let Some(full) = full.as_ref().filter(|_| dof > 0) else {
+                reports[*j].not_tested.push(format!(
+                    "{}: too few rows to split every term",
+                    split.kind.key()
+                ));
+                continue;
+            };
+            let fit = SplitFit {
+                z: &z,
+                crefs: &crefs,
+                full,
+                dof,
+            };
+            if let Some(test) = fit.test(split, mine, w, &selected[*j], f.stated()) {
+                reports[*j].tests.push(test);
+            }
+        }
+    }
+    for r in &mut reports {
+        for s in skipped {
+            r.not_tested.push(s.clone());
+        }
+    }
+    holm(&mut reports, alpha);
+    for (s, r) in selected.iter_mut().zip(&reports) {
+        s.stable = if r.tests.is_empty() {
+            None
+        } else {
+            Some(r.tests.iter().all(|t| t.agrees))
+        };
+    }
+    reports
+}
+
+/// `raw` divided by the sigmas, element by element.
+fn weighed(raw: &[f64], sigma: &[f64]) -> Vec<f64> {
+    raw.iter().zip(sigma).map(|(x, s)| x / s).collect()
+}
+
+/// The final model's columns, weighed: the nuisance terms over every row (the first `nn`
+/// of `base`), then each selected term with a signature here (`terms`: its index in the
+/// selection and its weighed column; a warm-up's companion is in `base` but not refitted).
+struct Model {
+    base: Vec<Vec<f64>>,
+    nn: usize,
+    terms: Vec<(usize, Vec<f64>)>,
+}
+
+impl Model {
+    /// The columns; a term that cannot be tested says why in its report.
+    fn new(
+        data: &Data,
+        f: &Fitted,
+        selected: &[Selected],
+        reports: &mut [StabilityReport],
+    ) -> Self {
+        let sigma = &f.sigma;
+        let all: Vec<usize> = (0..data.n()).collect();
+        let (_, nraw, _) = fit::nuisance_columns(data, &all);
+        let mut base: Vec<Vec<f64>> = nraw
+            .iter()
+            .map(|c| unit(&weighed(c, sigma)).0)
+            .filter(|c| norm(c) > 0.0)
+            .collect();
+        let nn = base.len();
+        let mut terms: Vec<(usize, Vec<f64>)> = Vec::new();
+        for (j, s) in selected.iter().enumerate() {
+            let Some(sig) = data.signatures.iter().find(|g| g.id == s.id && !g.null) else {
+                reports[j]
+                    .not_tested
+                    .push("no first-order signature in these rows: not refitted".to_string());
+                continue;
+            };
+            let (u, scale) = unit(&weighed(&sig.col, sigma));
+            if s.companion {
+                // In the model as a common column, not refitted per part: no cause of its
+                // own.
+                reports[j].not_tested.push(
+                    "fitted with the warm-up as the level its transient settles to: not refitted"
+                        .to_string(),
+                );
+                if scale > 0.0 {
+                    base.push(u);
+                }
+                continue;
+            }
+            if scale > 0.0 {
+                terms.push((j, weighed(&sig.col, sigma)));
+                base.push(u);
+            }
+        }
+        Self { base, nn, terms }
+    }
+
+    /// The model for `split`: every term split into one column per part (the rows in no
+    /// part keep a column of their own), the nuisance terms common. Per term, its part
+    /// columns, or why it is not split (its whole column is then common to the parts).
+    #[allow(
+        clippy::type_complexity,
+        reason = "columns, and per term its parts or why not"
+    )]
+    fn split_columns(
+        &self,
+        split: &Split,
+        n: usize,
+    ) -> (Vec<Vec<f64>>, Vec<Result<Vec<PartColumn>, String>>) {
+        let min_partial = (1.0 - PART_COS * PART_COS).sqrt();
         let mut part_of: Vec<Option<usize>> = vec![None; n];
         for (p, (_, obs)) in split.parts.iter().enumerate() {
             for &k in obs {
                 part_of[k] = Some(p);
             }
         }
-        // Every term split into one column per part (the rows in no part keep a column of
-        // their own), the nuisance terms common: each term's columns, or why not.
-        let mut cols: Vec<Vec<f64>> = base[..nn].to_vec();
+        let mut cols: Vec<Vec<f64>> = self.base[..self.nn].to_vec();
         let mut split_cols: Vec<Result<Vec<PartColumn>, String>> = Vec::new();
-        for (_, w) in &terms {
+        for (_, w) in &self.terms {
             let mut mine: Vec<PartColumn> = Vec::new();
             let mut why: Option<String> = None;
             let mut tried: Vec<Vec<f64>> = Vec::new();
@@ -277,7 +356,6 @@ pub(crate) fn test_splits(
                 ));
             }
             if let Some(why) = why {
-                // Not split: the term's whole column, common to the parts.
                 cols.push(unit(w).0);
                 split_cols.push(Err(why));
                 continue;
@@ -295,101 +373,91 @@ pub(crate) fn test_splits(
             }
             split_cols.push(Ok(mine));
         }
-        let crefs: Vec<&[f64]> = cols.iter().map(Vec::as_slice).collect();
-        let full = lsq(&z, &crefs);
-        let dof = n.saturating_sub(crefs.len());
-        for (t, (j, w)) in terms.iter().enumerate() {
-            let name = selected[*j].id.info().name;
-            let mine = match &split_cols[t] {
-                Ok(m) => m,
-                Err(why) => {
-                    reports[*j].not_tested.push(why.clone());
-                    continue;
-                }
-            };
-            let Some(full) = full.as_ref().filter(|_| dof > 0) else {
-                reports[*j].not_tested.push(format!(
-                    "{}: too few rows to split every term",
-                    split.kind.key()
-                ));
-                continue;
-            };
-            // The same model with this term's part columns merged into its whole column.
-            let mut merged: Vec<&[f64]> = crefs
-                .iter()
-                .enumerate()
-                .filter(|(c, _)| !mine.iter().any(|&(_, at, _)| at == *c))
-                .map(|(_, c)| *c)
-                .collect();
-            let whole = unit(w).0;
-            merged.push(&whole);
-            let Some(m0) = lsq(&z, &merged) else {
-                continue;
-            };
-            let q = (m0.chi2 - full.chi2).max(0.0);
-            #[allow(clippy::cast_precision_loss)]
-            let (df, nu) = ((mine.len() - 1) as f64, dof as f64);
-            let reference = Reference {
-                s2: full.chi2 / nu,
-                dof: nu,
-                resid: Vec::new(),
-            };
-            let p_value = fit::scaled_p(q, df, f.stated(), &reference);
-            // The noise scale the p-value is on: the sigmas as stated, else the split
-            // model's residual variance (the F test's denominator).
-            let s2 = if f.stated() {
-                1.0
-            } else {
-                reference.s2.max(f64::MIN_POSITIVE)
-            };
-            let difference = match mine.as_slice() {
-                &[(_, a, sa), (_, b, sb)] => {
-                    let var = full.cov[(a, a)] / (sa * sa) + full.cov[(b, b)] / (sb * sb)
-                        - 2.0 * full.cov[(a, b)] / (sa * sb);
-                    Some([
-                        full.beta[b] / sb - full.beta[a] / sa,
-                        (var.max(0.0) * s2).sqrt(),
-                    ])
-                }
-                _ => None,
-            };
-            let values: Vec<PartValue> = mine
-                .iter()
-                .map(|&(p, c, scale)| PartValue {
-                    part: split.parts[p].0.clone(),
-                    rows: split.parts[p].1.len(),
-                    coefficient: selected[*j].coef + full.beta[c] / scale,
-                    stderr: full.cov[(c, c)].max(0.0).sqrt() / scale,
-                })
-                .collect();
-            reports[*j].tests.push(SplitTest {
-                name: name.to_string(),
-                split: split.kind.key(),
-                parts: values,
-                chi2: q,
-                dof: mine.len() - 1,
-                p_value,
-                difference,
-                statistic: q / s2,
-                threshold: f64::NAN,
-                agrees: true,
-            });
-        }
+        (cols, split_cols)
     }
-    for r in &mut reports {
-        for s in skipped {
-            r.not_tested.push(s.clone());
-        }
-    }
-    holm(&mut reports, alpha);
-    for (s, r) in selected.iter_mut().zip(&reports) {
-        s.stable = if r.tests.is_empty() {
-            None
-        } else {
-            Some(r.tests.iter().all(|t| t.agrees))
+}
+
+/// A split's model fitted: the weighed residuals `z`, its columns, its fit and degrees of
+/// freedom.
+struct SplitFit<'a> {
+    z: &'a [f64],
+    crefs: &'a [&'a [f64]],
+    full: &'a crate::stats::LsqFit,
+    dof: usize,
+}
+
+impl SplitFit<'_> {
+    /// The test of one term: the same model with the term's part columns (`mine`) merged
+    /// into its whole column `w`, the drop of χ² and its p-value, each part's coefficient.
+    /// `None` when the merged model cannot be fitted.
+    fn test(
+        &self,
+        split: &Split,
+        mine: &[PartColumn],
+        w: &[f64],
+        term: &Selected,
+        stated: bool,
+    ) -> Option<SplitTest> {
+        let full = self.full;
+        let mut merged: Vec<&[f64]> = self
+            .crefs
+            .iter()
+            .enumerate()
+            .filter(|(c, _)| !mine.iter().any(|&(_, at, _)| at == *c))
+            .map(|(_, c)| *c)
+            .collect();
+        let whole = unit(w).0;
+        merged.push(&whole);
+        let m0 = lsq(self.z, &merged)?;
+        let q = (m0.chi2 - full.chi2).max(0.0);
+        #[allow(clippy::cast_precision_loss)]
+        let (df, nu) = ((mine.len() - 1) as f64, self.dof as f64);
+        let reference = Reference {
+            s2: full.chi2 / nu,
+            dof: nu,
+            resid: Vec::new(),
         };
+        let p_value = fit::scaled_p(q, df, stated, &reference);
+        // The noise scale the p-value is on: the sigmas as stated, else the split model's
+        // residual variance (the F test's denominator).
+        let s2 = if stated {
+            1.0
+        } else {
+            reference.s2.max(f64::MIN_POSITIVE)
+        };
+        let difference = match mine {
+            &[(_, a, sa), (_, b, sb)] => {
+                let var = full.cov[(a, a)] / (sa * sa) + full.cov[(b, b)] / (sb * sb)
+                    - 2.0 * full.cov[(a, b)] / (sa * sb);
+                Some([
+                    full.beta[b] / sb - full.beta[a] / sa,
+                    (var.max(0.0) * s2).sqrt(),
+                ])
+            }
+            _ => None,
+        };
+        let parts: Vec<PartValue> = mine
+            .iter()
+            .map(|&(p, c, scale)| PartValue {
+                part: split.parts[p].0.clone(),
+                rows: split.parts[p].1.len(),
+                coefficient: term.coef + full.beta[c] / scale,
+                stderr: full.cov[(c, c)].max(0.0).sqrt() / scale,
+            })
+            .collect();
+        Some(SplitTest {
+            name: term.id.info().name.to_string(),
+            split: split.kind.key(),
+            parts,
+            chi2: q,
+            dof: mine.len() - 1,
+            p_value,
+            difference,
+            statistic: q / s2,
+            threshold: f64::NAN,
+            agrees: true,
+        })
     }
-    reports
 }
 
 /// Holm's step-down procedure over every test of every report: each test's `threshold`
