@@ -198,8 +198,11 @@ fn user_terms(p: &Problem<'_>) -> Vec<TermReport> {
         .collect()
 }
 
+/// A test of the residuals: what it found, the hint it gives, its weight in the
+/// familywise level.
+type Test = (UnexplainedTest, String, f64);
+
 /// The search of the residuals: lack of fit and the library's families.
-#[allow(clippy::too_many_lines)] // the tests in turn, on one fit
 fn search(data: &Data, f: &Fitted, alpha: f64) -> Unexplained {
     let keep = kept(f);
     let z = f.weighted_target();
@@ -207,72 +210,15 @@ fn search(data: &Data, f: &Fitted, alpha: f64) -> Unexplained {
         return none();
     };
     let n = z.len();
-    // (test, hint, weight)
-    let mut tests: Vec<(UnexplainedTest, String, f64)> = Vec::new();
-    // Lack of fit against pure error.
-    let sets = replicate_sets(data, &f.subset);
-    let df_pe: usize = sets.iter().map(|s| s.len() - 1).sum();
-    let dof = n.saturating_sub(keep.len());
-    if df_pe >= 2 && dof > df_pe {
-        let mut ss_pe = 0.0;
-        for set in &sets {
-            #[allow(clippy::cast_precision_loss)]
-            let m = set.iter().map(|&i| base.resid[i]).sum::<f64>() / set.len() as f64;
-            ss_pe += set
-                .iter()
-                .map(|&i| (base.resid[i] - m).powi(2))
-                .sum::<f64>();
-        }
-        let ss_lof = (base.chi2 - ss_pe).max(0.0);
-        let df_lof = dof - df_pe;
-        #[allow(clippy::cast_precision_loss)]
-        let fstat = (ss_lof / df_lof as f64) / (ss_pe / df_pe as f64).max(f64::MIN_POSITIVE);
-        #[allow(clippy::cast_precision_loss)]
-        let p = f_sf(fstat, df_lof as f64, df_pe as f64);
-        tests.push((
-            UnexplainedTest {
-                name: "lack_of_fit",
-                p_value: p,
-                detail: format!(
-                    "replicated rows disagree with the model beyond their own scatter (F = {fstat:.2} for {df_lof} and {df_pe} dof)"
-                ),
-            },
-            "the replicated rows' means (lack of fit against pure error)".to_string(),
-            1.0,
-        ));
-    }
+    let mut tests: Vec<Test> = lack_of_fit(data, f, &base, n.saturating_sub(keep.len()))
+        .into_iter()
+        .collect();
     // The library, family by family.
     let q = orthonormal(&keep);
     let mut families: Vec<(Family, usize, Vec<Tried>)> = Vec::new();
     if keep.len() + 2 <= n {
         for family in Family::ALL {
-            // Every element's weighted unit column and its χ² drop, by projection.
-            let mut screened: Vec<(usize, Vec<f64>, f64, f64)> = Vec::new();
-            for (k, s) in data.shapes.iter().enumerate() {
-                if s.family != family {
-                    continue;
-                }
-                let w: Vec<f64> = f
-                    .subset
-                    .iter()
-                    .enumerate()
-                    .map(|(j, &i)| s.col[i] * f.weight(j))
-                    .collect();
-                let scale = norm(&w);
-                if scale == 0.0 {
-                    continue;
-                }
-                let unit: Vec<f64> = w.iter().map(|x| x / scale).collect();
-                let part = partial(&unit, &q);
-                let pn = norm(&part);
-                let one_row = family != Family::Basis
-                    && part.iter().fold(0.0_f64, |m, x| m.max(x * x)) > ONE_ROW_SHARE * pn * pn;
-                if pn < 1e-6 || one_row {
-                    continue;
-                }
-                let d: f64 = part.iter().zip(&base.resid).map(|(a, b)| a * b).sum();
-                screened.push((k, unit, scale, (d / pn).powi(2)));
-            }
+            let mut screened = screen(data, f, family, &q, &base.resid);
             let tried = screened.len();
             if tried == 0 {
                 continue;
@@ -281,78 +227,13 @@ fn search(data: &Data, f: &Fitted, alpha: f64) -> Unexplained {
                 screened.sort_by(|a, b| b.3.total_cmp(&a.3));
                 screened.truncate(EXACT_PER_FAMILY);
             }
-            let mut fitted: Vec<Tried> = Vec::new();
-            for (k, unit, scale, _) in screened {
-                let mut trial = keep.clone();
-                trial.push(&unit);
-                let Some(g) = lsq(&z, &trial) else { continue };
-                let j = trial.len() - 1;
-                let p = step_p(&g, &trial, j, base.chi2, f.stated(), None);
-                let se = coefficient_se(f, &g, j, n - trial.len());
-                fitted.push(Tried {
-                    shape: k,
-                    p,
-                    delta: (base.chi2 - g.chi2).max(0.0),
-                    coef: g.beta[j] / scale,
-                    se: se / scale,
-                    partial: partial(&unit, &q),
-                });
-            }
+            let fitted = fit_each(f, &z, &keep, &q, base.chi2, screened);
             let Some(best) = fitted.iter().min_by(|a, b| a.p.total_cmp(&b.p)) else {
                 continue;
             };
-            let s = &data.shapes[best.shape];
             #[allow(clippy::cast_precision_loss)]
             let p_adj = (best.p * tried as f64).min(1.0);
-            let (detail, hint) = match family {
-                Family::Basis => (
-                    format!(
-                        "{tried} averages of the case inputs and their products; the strongest is {} (p = {:.2e} before the Bonferroni factor)",
-                        s.name, best.p
-                    ),
-                    format!("residual follows {}", s.name),
-                ),
-                Family::History => (
-                    format!(
-                        "{tried} of the previous row's inputs, their changes since it and the sign of the last move along IA; the strongest is {} (p = {:.2e} before the Bonferroni factor)",
-                        s.form, best.p
-                    ),
-                    format!("residual follows {} (the row before)", s.form),
-                ),
-                Family::Time => (
-                    format!(
-                        "{tried} shapes in time beyond the linear drift (t from the first row); the strongest is {} (p = {:.2e} before the Bonferroni factor)",
-                        s.form, best.p
-                    ),
-                    format!("residual follows {} (a shape in time)", s.form),
-                ),
-                Family::Products => (
-                    format!(
-                        "{tried} products of three of the case inputs; the strongest is {} (p = {:.2e} before the Bonferroni factor)",
-                        s.form, best.p
-                    ),
-                    format!("residual follows {}", s.form),
-                ),
-                Family::HistoryProducts => (
-                    format!(
-                        "{tried} products of the case inputs with the row before's (up to third order); the strongest is {} (p = {:.2e} before the Bonferroni factor)",
-                        s.form, best.p
-                    ),
-                    format!("residual follows {} (with the row before)", s.form),
-                ),
-                Family::Harmonics => (
-                    format!(
-                        "{tried} harmonics of the tumble's angle from the {}th to what its positions resolve (IEEE Std 1293's Fourier analysis); the strongest is {} (p = {:.2e} before the Bonferroni factor)",
-                        super::library::FIRST_HARMONIC,
-                        s.form,
-                        best.p
-                    ),
-                    format!(
-                        "residual follows {} (a harmonic of the tumble's angle)",
-                        s.form
-                    ),
-                ),
-            };
+            let (detail, hint) = family_words(family, tried, &data.shapes[best.shape], best.p);
             tests.push((
                 UnexplainedTest {
                     name: family.name(),
@@ -388,6 +269,170 @@ fn search(data: &Data, f: &Fitted, alpha: f64) -> Unexplained {
         tests: tests.into_iter().map(|(t, _, _)| t).collect(),
         proposals,
         terms: Vec::new(),
+    }
+}
+
+/// Lack of fit against pure error, where the replicated rows give at least 2 degrees of
+/// freedom and the model's residual (`dof`) has more.
+fn lack_of_fit(data: &Data, f: &Fitted, base: &crate::stats::LsqFit, dof: usize) -> Option<Test> {
+    let sets = replicate_sets(data, &f.subset);
+    let df_pe: usize = sets.iter().map(|s| s.len() - 1).sum();
+    if df_pe < 2 || dof <= df_pe {
+        return None;
+    }
+    let mut ss_pe = 0.0;
+    for set in &sets {
+        #[allow(clippy::cast_precision_loss)]
+        let m = set.iter().map(|&i| base.resid[i]).sum::<f64>() / set.len() as f64;
+        ss_pe += set
+            .iter()
+            .map(|&i| (base.resid[i] - m).powi(2))
+            .sum::<f64>();
+    }
+    let ss_lof = (base.chi2 - ss_pe).max(0.0);
+    let df_lof = dof - df_pe;
+    #[allow(clippy::cast_precision_loss)]
+    let fstat = (ss_lof / df_lof as f64) / (ss_pe / df_pe as f64).max(f64::MIN_POSITIVE);
+    #[allow(clippy::cast_precision_loss)]
+    let p = f_sf(fstat, df_lof as f64, df_pe as f64);
+    Some((
+        UnexplainedTest {
+            name: "lack_of_fit",
+            p_value: p,
+            detail: format!(
+                "replicated rows disagree with the model beyond their own scatter (F = {fstat:.2} for {df_lof} and {df_pe} dof)"
+            ),
+        },
+        "the replicated rows' means (lack of fit against pure error)".to_string(),
+        1.0,
+    ))
+}
+
+/// The elements of `family` the residuals can test: per element, its index, weighted unit
+/// column, scale and χ² drop by projection on the residuals `resid` (off the model's span
+/// `q`); those inside the span, and outside the basis those on one row, left out.
+fn screen(
+    data: &Data,
+    f: &Fitted,
+    family: Family,
+    q: &[Vec<f64>],
+    resid: &[f64],
+) -> Vec<(usize, Vec<f64>, f64, f64)> {
+    let mut screened = Vec::new();
+    for (k, s) in data.shapes.iter().enumerate() {
+        if s.family != family {
+            continue;
+        }
+        let w: Vec<f64> = f
+            .subset
+            .iter()
+            .enumerate()
+            .map(|(j, &i)| s.col[i] * f.weight(j))
+            .collect();
+        let scale = norm(&w);
+        if scale == 0.0 {
+            continue;
+        }
+        let unit: Vec<f64> = w.iter().map(|x| x / scale).collect();
+        let part = partial(&unit, q);
+        let pn = norm(&part);
+        let one_row = family != Family::Basis
+            && part.iter().fold(0.0_f64, |m, x| m.max(x * x)) > ONE_ROW_SHARE * pn * pn;
+        if pn < 1e-6 || one_row {
+            continue;
+        }
+        let d: f64 = part.iter().zip(resid).map(|(a, b)| a * b).sum();
+        screened.push((k, unit, scale, (d / pn).powi(2)));
+    }
+    screened
+}
+
+/// Each screened element fitted beside the model's columns `keep`: its p-value against
+/// the model's `χ²`, its coefficient and standard error in the element's own unit.
+fn fit_each(
+    f: &Fitted,
+    z: &[f64],
+    keep: &[&[f64]],
+    q: &[Vec<f64>],
+    chi2: f64,
+    screened: Vec<(usize, Vec<f64>, f64, f64)>,
+) -> Vec<Tried> {
+    let n = z.len();
+    let mut fitted: Vec<Tried> = Vec::new();
+    for (k, unit, scale, _) in screened {
+        let mut trial = keep.to_vec();
+        trial.push(&unit);
+        let Some(g) = lsq(z, &trial) else { continue };
+        let j = trial.len() - 1;
+        let p = step_p(&g, &trial, j, chi2, f.stated(), None);
+        let se = coefficient_se(f, &g, j, n - trial.len());
+        fitted.push(Tried {
+            shape: k,
+            p,
+            delta: (chi2 - g.chi2).max(0.0),
+            coef: g.beta[j] / scale,
+            se: se / scale,
+            partial: partial(&unit, q),
+        });
+    }
+    fitted
+}
+
+/// A family's test in words: what was tried and the strongest element (`detail`), and the
+/// hint it gives.
+fn family_words(
+    family: Family,
+    tried: usize,
+    s: &super::library::Shape,
+    p: f64,
+) -> (String, String) {
+    match family {
+        Family::Basis => (
+            format!(
+                "{tried} averages of the case inputs and their products; the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
+                s.name
+            ),
+            format!("residual follows {}", s.name),
+        ),
+        Family::History => (
+            format!(
+                "{tried} of the previous row's inputs, their changes since it and the sign of the last move along IA; the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
+                s.form
+            ),
+            format!("residual follows {} (the row before)", s.form),
+        ),
+        Family::Time => (
+            format!(
+                "{tried} shapes in time beyond the linear drift (t from the first row); the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
+                s.form
+            ),
+            format!("residual follows {} (a shape in time)", s.form),
+        ),
+        Family::Products => (
+            format!(
+                "{tried} products of three of the case inputs; the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
+                s.form
+            ),
+            format!("residual follows {}", s.form),
+        ),
+        Family::HistoryProducts => (
+            format!(
+                "{tried} products of the case inputs with the row before's (up to third order); the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
+                s.form
+            ),
+            format!("residual follows {} (with the row before)", s.form),
+        ),
+        Family::Harmonics => (
+            format!(
+                "{tried} harmonics of the tumble's angle from the {}th to what its positions resolve (IEEE Std 1293's Fourier analysis); the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
+                super::library::FIRST_HARMONIC,
+                s.form
+            ),
+            format!(
+                "residual follows {} (a harmonic of the tumble's angle)",
+                s.form
+            ),
+        ),
     }
 }
 
