@@ -265,7 +265,6 @@ pub fn predicted(
 /// `time_s` given on some measured rows but not on others; the simulator's observation of
 /// a measured row is not of the row's kind (no gain and phase for a response row, no
 /// value for another).
-#[allow(clippy::too_many_lines)] // observations, then signatures, over the same rows
 pub fn build(
     rows: &[Condition],
     observed: &[Observation],
@@ -274,150 +273,11 @@ pub fn build(
     sim: &dyn Simulator,
 ) -> anyhow::Result<Data> {
     let fitted: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].is_measured()).collect();
-    let with_time = fitted.iter().filter(|&&i| rows[i].time_s.is_some()).count();
-    if with_time > 0 && with_time < fitted.len() {
-        let i = fitted
-            .iter()
-            .find(|&&i| rows[i].time_s.is_none())
-            .copied()
-            .unwrap_or(0);
-        anyhow::bail!(
-            "`time_s` is given for {with_time} of the {} measured rows but not for row {} (`{}`); expected it on every measured row or on none (then the drift is fitted in row order)",
-            fitted.len(),
-            i + 1,
-            rows[i].label
-        );
-    }
-    let time_unit = if with_time > 0 {
-        TimeUnit::Seconds
-    } else {
-        TimeUnit::Row
-    };
-    let mut d = Data {
-        rows: Vec::new(),
-        quantity: Vec::new(),
-        y: Vec::new(),
-        base: Vec::new(),
-        stated: Vec::new(),
-        sim_sigma: Vec::new(),
-        fixture: Vec::new(),
-        shift: Vec::new(),
-        drifts: Vec::new(),
-        block: Vec::new(),
-        block_names: Vec::new(),
-        time: Vec::new(),
-        time_unit,
-        group: Vec::new(),
-        group_names: Vec::new(),
-        replicate: Vec::new(),
-        signatures: Vec::new(),
-        features: Vec::new(),
-        shapes: Vec::new(),
-    };
+    let mut d = Data::empty(time_unit(rows, &fitted)?);
+    d.observe(rows, &fitted, observed, default_sigma, sim)?;
     let g = sim.g_cm_s2();
-    // Replicate sets numbered in order of first appearance.
-    let mut keys: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
-    let sim_sigmas: Vec<Observation> = {
-        use rayon::prelude::*;
-        fitted
-            .par_iter()
-            .map(|&i| sim.observe_sigma(&rows[i]))
-            .collect()
-    };
-    for (k, &i) in fitted.iter().enumerate() {
-        let r = &rows[i];
-        let b = r.block.clone().unwrap_or_else(|| "all".to_string());
-        let bi = intern(&mut d.block_names, b.clone());
-        let sim_sigma = &sim_sigmas[k];
-        for (q, y, sigma) in observations(r, default_sigma) {
-            let (Some(base), Some(own)) = (observed[i].get(q), sim_sigma.get(q)) else {
-                anyhow::bail!(
-                    "row {} (`{}`, {}): the {} simulator's observation has no {}; expected a value in cm/s² for a difference or absolute row, a gain and a phase for a response row",
-                    i + 1,
-                    r.label,
-                    r.kind.name(),
-                    sim.name(),
-                    match q {
-                        Quantity::Value => "value in cm/s²",
-                        Quantity::Gain => "gain",
-                        Quantity::Phase => "phase",
-                    }
-                );
-            };
-            // A stated sigma is the measurement's; the simulator's own scatter, the
-            // fixture's orientation error and the counting's error add to it.
-            let fixture = if q == Quantity::Value {
-                r.fixture_sigma_cm_s2(g)
-                    .hypot(r.counting_sigma_cm_s2.unwrap_or(0.0))
-            } else {
-                0.0
-            };
-            let sigma = sigma.map(|s| s.hypot(own).hypot(fixture));
-            d.sim_sigma.push(own);
-            d.fixture.push(fixture);
-            d.rows.push(i);
-            d.quantity.push(q);
-            d.y.push(if q == Quantity::Phase {
-                unwrap_phase(y, base)
-            } else {
-                y
-            });
-            d.base.push(base);
-            d.stated.push(sigma);
-            d.shift.push(
-                q == Quantity::Value && r.kind == crate::model::condition::RowKind::Difference,
-            );
-            d.drifts.push(q == Quantity::Value);
-            d.block.push(bi);
-            let kind = match q {
-                Quantity::Value => excitation(r),
-                Quantity::Gain => "gain",
-                Quantity::Phase => "phase",
-            };
-            d.group
-                .push(intern(&mut d.group_names, format!("{b}/{kind}")));
-            // Replicated rows: bit-identical inputs.
-            let mut key = r.input_bits();
-            key.push(bi as u64);
-            key.push(q as u64);
-            let next = keys.len();
-            d.replicate.push(*keys.entry(key).or_insert(next));
-            #[allow(clippy::cast_precision_loss)]
-            d.time.push(r.time_s.unwrap_or(k as f64));
-        }
-    }
-    let obs_rows: Vec<&Condition> = d.rows.iter().map(|&i| &rows[i]).collect();
     let value: Vec<bool> = d.quantity.iter().map(|&q| q == Quantity::Value).collect();
-    // Additive terms act on the values; parameters by the closed loop's sensitivity.
-    let (params, additive): (Vec<CandidateId>, Vec<CandidateId>) = candidates
-        .iter()
-        .partition(|id| id.parameter_key().is_some());
-    let mut sigs = signatures(&obs_rows, &additive, g);
-    for s in &mut sigs {
-        for (x, &v) in s.col.iter_mut().zip(&value) {
-            if !v {
-                *x = 0.0;
-            }
-        }
-        s.null = s.col.iter().all(|&x| x == 0.0);
-    }
-    // Loop parameters show only in oscillating, absolute or response rows (a static
-    // difference is exact by charge balance whatever the loop).
-    let dynamic = d.rows.iter().any(|&i| {
-        rows[i].kind != crate::model::condition::RowKind::Difference || !rows[i].is_static()
-    });
-    if dynamic {
-        crate::simulation::work::set_stage("the loop parameters' central differences");
-        sigs.extend(parameter_signatures(rows, &d, &params, sim));
-    } else {
-        sigs.extend(params.iter().map(|&id| Signature {
-            id,
-            col: vec![0.0; d.n()],
-            null: true,
-        }));
-    }
-    sigs.sort_by_key(|s| s.id);
-    d.signatures = sigs;
+    d.signatures = all_signatures(rows, &d, &value, candidates, sim);
     d.shapes = shapes(
         rows,
         g,
@@ -434,6 +294,187 @@ pub fn build(
         .map(|s| (s.name.clone(), s.col.clone()))
         .collect();
     Ok(d)
+}
+
+/// The time the drifts run in: seconds where every measured row (`fitted`) gives
+/// `time_s`, rows where none does.
+///
+/// # Errors
+/// `time_s` given on some measured rows but not on others.
+fn time_unit(rows: &[Condition], fitted: &[usize]) -> anyhow::Result<TimeUnit> {
+    let with_time = fitted.iter().filter(|&&i| rows[i].time_s.is_some()).count();
+    if with_time > 0 && with_time < fitted.len() {
+        let i = fitted
+            .iter()
+            .find(|&&i| rows[i].time_s.is_none())
+            .copied()
+            .unwrap_or(0);
+        anyhow::bail!(
+            "`time_s` is given for {with_time} of the {} measured rows but not for row {} (`{}`); expected it on every measured row or on none (then the drift is fitted in row order)",
+            fitted.len(),
+            i + 1,
+            rows[i].label
+        );
+    }
+    Ok(if with_time > 0 {
+        TimeUnit::Seconds
+    } else {
+        TimeUnit::Row
+    })
+}
+
+/// Every candidate's signature over the observations of `d` (`value`: those that are
+/// values): additive terms act on the values; parameters by the closed loop's sensitivity,
+/// which shows only in oscillating, absolute or response rows (a static difference is exact
+/// by charge balance whatever the loop). Sorted by candidate.
+fn all_signatures(
+    rows: &[Condition],
+    d: &Data,
+    value: &[bool],
+    candidates: &[CandidateId],
+    sim: &dyn Simulator,
+) -> Vec<Signature> {
+    let obs_rows: Vec<&Condition> = d.rows.iter().map(|&i| &rows[i]).collect();
+    let (params, additive): (Vec<CandidateId>, Vec<CandidateId>) = candidates
+        .iter()
+        .partition(|id| id.parameter_key().is_some());
+    let mut sigs = signatures(&obs_rows, &additive, sim.g_cm_s2());
+    for s in &mut sigs {
+        for (x, &v) in s.col.iter_mut().zip(value) {
+            if !v {
+                *x = 0.0;
+            }
+        }
+        s.null = s.col.iter().all(|&x| x == 0.0);
+    }
+    let dynamic = d.rows.iter().any(|&i| {
+        rows[i].kind != crate::model::condition::RowKind::Difference || !rows[i].is_static()
+    });
+    if dynamic {
+        crate::simulation::work::set_stage("the loop parameters' central differences");
+        sigs.extend(parameter_signatures(rows, d, &params, sim));
+    } else {
+        sigs.extend(params.iter().map(|&id| Signature {
+            id,
+            col: vec![0.0; d.n()],
+            null: true,
+        }));
+    }
+    sigs.sort_by_key(|s| s.id);
+    sigs
+}
+
+impl Data {
+    /// No observations yet, the drifts in `time_unit`.
+    fn empty(time_unit: TimeUnit) -> Self {
+        Self {
+            rows: Vec::new(),
+            quantity: Vec::new(),
+            y: Vec::new(),
+            base: Vec::new(),
+            stated: Vec::new(),
+            sim_sigma: Vec::new(),
+            fixture: Vec::new(),
+            shift: Vec::new(),
+            drifts: Vec::new(),
+            block: Vec::new(),
+            block_names: Vec::new(),
+            time: Vec::new(),
+            time_unit,
+            group: Vec::new(),
+            group_names: Vec::new(),
+            replicate: Vec::new(),
+            signatures: Vec::new(),
+            features: Vec::new(),
+            shapes: Vec::new(),
+        }
+    }
+
+    /// The observations of the measured rows `fitted`, each with its baseline
+    /// (`observed`), its sigmas, block, group, replicate set and time.
+    ///
+    /// # Errors
+    /// The simulator's observation of a row is not of the row's kind.
+    fn observe(
+        &mut self,
+        rows: &[Condition],
+        fitted: &[usize],
+        observed: &[Observation],
+        default_sigma: Option<f64>,
+        sim: &dyn Simulator,
+    ) -> anyhow::Result<()> {
+        let g = sim.g_cm_s2();
+        // Replicate sets numbered in order of first appearance.
+        let mut keys: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
+        let sim_sigmas: Vec<Observation> = {
+            use rayon::prelude::*;
+            fitted
+                .par_iter()
+                .map(|&i| sim.observe_sigma(&rows[i]))
+                .collect()
+        };
+        for (k, &i) in fitted.iter().enumerate() {
+            let r = &rows[i];
+            let b = r.block.clone().unwrap_or_else(|| "all".to_string());
+            let bi = intern(&mut self.block_names, b.clone());
+            for (q, y, sigma) in observations(r, default_sigma) {
+                let (Some(base), Some(own)) = (observed[i].get(q), sim_sigmas[k].get(q)) else {
+                    anyhow::bail!(
+                        "row {} (`{}`, {}): the {} simulator's observation has no {}; expected a value in cm/s² for a difference or absolute row, a gain and a phase for a response row",
+                        i + 1,
+                        r.label,
+                        r.kind.name(),
+                        sim.name(),
+                        match q {
+                            Quantity::Value => "value in cm/s²",
+                            Quantity::Gain => "gain",
+                            Quantity::Phase => "phase",
+                        }
+                    );
+                };
+                // A stated sigma is the measurement's; the simulator's own scatter, the
+                // fixture's orientation error and the counting's error add to it.
+                let fixture = if q == Quantity::Value {
+                    r.fixture_sigma_cm_s2(g)
+                        .hypot(r.counting_sigma_cm_s2.unwrap_or(0.0))
+                } else {
+                    0.0
+                };
+                self.sim_sigma.push(own);
+                self.fixture.push(fixture);
+                self.rows.push(i);
+                self.quantity.push(q);
+                self.y.push(if q == Quantity::Phase {
+                    unwrap_phase(y, base)
+                } else {
+                    y
+                });
+                self.base.push(base);
+                self.stated.push(sigma.map(|s| s.hypot(own).hypot(fixture)));
+                self.shift.push(
+                    q == Quantity::Value && r.kind == crate::model::condition::RowKind::Difference,
+                );
+                self.drifts.push(q == Quantity::Value);
+                self.block.push(bi);
+                let kind = match q {
+                    Quantity::Value => excitation(r),
+                    Quantity::Gain => "gain",
+                    Quantity::Phase => "phase",
+                };
+                self.group
+                    .push(intern(&mut self.group_names, format!("{b}/{kind}")));
+                // Replicated rows: bit-identical inputs.
+                let mut key = r.input_bits();
+                key.push(bi as u64);
+                key.push(q as u64);
+                let next = keys.len();
+                self.replicate.push(*keys.entry(key).or_insert(next));
+                #[allow(clippy::cast_precision_loss)]
+                self.time.push(r.time_s.unwrap_or(k as f64));
+            }
+        }
+        Ok(())
+    }
 }
 
 /// The closed loop's sensitivity of every observation to each parameter candidate, by
