@@ -837,34 +837,71 @@ fn one_source(
 type Reading = (f64, crate::model::instrument::ReadingUnit, usize);
 
 /// One data row, the columns whose cell was empty and read as 0, and its raw reading.
-#[allow(clippy::too_many_lines)] // one row: its cells, then the checks across its columns
 fn parse_row(
     name: &str,
     line: usize,
     cells: &[String],
     cols: &[usize],
 ) -> Result<(Condition, Vec<&'static str>, Option<Reading>)> {
-    // As many cells as the header: `records` checked it.
-    let mut c = Condition::default();
-    let mut empty = Vec::new();
-    // The measurement sources the row gives, by header column (one at most), and the raw
-    // reading's cells.
-    let mut sources: Vec<(usize, &'static str, usize)> = Vec::new();
-    let (mut reading, mut unit) = (None, None);
+    let mut cells = read_cells(name, line, cells, cols)?;
+    let c = &mut cells.row;
+    check_oscillation(name, line, c)?;
+    check_response(name, line, c)?;
+    check_centrifuge(name, line, c)?;
+    check_power_on(name, line, c, cols)?;
+    let reading = one_source(
+        name,
+        line,
+        cols,
+        &cells.sources,
+        cells.reading,
+        cells.unit,
+        c.kind,
+    )?;
+    check_counts(name, line, c, cols)?;
+    if c.label.is_empty() {
+        c.label = format!("line {line}");
+    }
+    Ok((cells.row, cells.empty, reading))
+}
+
+/// A row's cells as read, before the checks across its columns.
+struct Cells {
+    row: Condition,
+    /// The columns whose cell was empty and read as 0.
+    empty: Vec<&'static str>,
+    /// The measurement sources the row gives, by header column (one at most): the 1-based
+    /// column, its name and its source.
+    sources: Vec<(usize, &'static str, usize)>,
+    /// The raw reading and its unit with the unit's column.
+    reading: Option<f64>,
+    unit: Option<(crate::model::instrument::ReadingUnit, usize)>,
+}
+
+/// Every cell of a data row read into its column (as many cells as the header: `records`
+/// checked it); a cell that is not what its column expects refused with its column.
+fn read_cells(name: &str, line: usize, cells: &[String], cols: &[usize]) -> Result<Cells> {
+    let mut r = Cells {
+        row: Condition::default(),
+        empty: Vec::new(),
+        sources: Vec::new(),
+        reading: None,
+        unit: None,
+    };
     for (j, (cell, &k)) in cells.iter().map(String::as_str).zip(cols).enumerate() {
         if let Some(g) = measurement_source(header_name(k))
             && !cell.trim().is_empty()
-            && !sources.iter().any(|&(_, _, h)| h == g)
+            && !r.sources.iter().any(|&(_, _, h)| h == g)
         {
-            sources.push((j + 1, header_name(k), g));
+            r.sources.push((j + 1, header_name(k), g));
         }
         if k >= COLUMNS.len() {
             reading_cell(
                 (name, line, j + 1),
                 header_name(k),
                 cell,
-                &mut reading,
-                &mut unit,
+                &mut r.reading,
+                &mut r.unit,
             )?;
             continue;
         }
@@ -876,7 +913,10 @@ fn parse_row(
                 } else {
                     cell.trim()
                 };
-                (col.set)(&mut c, Value::Text((!t.is_empty()).then(|| t.to_string())));
+                (col.set)(
+                    &mut r.row,
+                    Value::Text((!t.is_empty()).then(|| t.to_string())),
+                );
                 continue;
             }
             Check::OneOf(words) => {
@@ -889,7 +929,10 @@ fn parse_row(
                         col.expected
                     );
                 }
-                (col.set)(&mut c, Value::Text((!t.is_empty()).then(|| t.to_string())));
+                (col.set)(
+                    &mut r.row,
+                    Value::Text((!t.is_empty()).then(|| t.to_string())),
+                );
                 continue;
             }
             check => check,
@@ -897,7 +940,7 @@ fn parse_row(
         let s = cell.trim();
         if s.is_empty() {
             if empty_reads_as_zero(col) {
-                empty.push(col.name);
+                r.empty.push(col.name);
             }
             continue;
         }
@@ -918,26 +961,38 @@ fn parse_row(
                 col.expected
             );
         };
-        (col.set)(&mut c, Value::Num(Some(v)));
+        (col.set)(&mut r.row, Value::Num(Some(v)));
     }
-    if c.freq_hz == 0.0 {
-        for (j, axis) in ["ia", "pa", "oa"].iter().enumerate() {
-            if c.lin_cm_s2[j] != 0.0 {
-                bail!(
-                    "{name}:{line}: column `lin_{axis}_cm_s2` is {} but `freq_hz` is 0; \
-                     expected a frequency greater than 0 for an oscillation",
-                    c.lin_cm_s2[j]
-                );
-            }
-            if c.ang_mrad[j] != 0.0 {
-                bail!(
-                    "{name}:{line}: column `ang_{axis}_mrad` is {} but `freq_hz` is 0; \
-                     expected a frequency greater than 0 for an oscillation",
-                    c.ang_mrad[j]
-                );
-            }
+    Ok(r)
+}
+
+/// A static row (`freq_hz` 0) holds no oscillation.
+fn check_oscillation(name: &str, line: usize, c: &Condition) -> Result<()> {
+    if c.freq_hz != 0.0 {
+        return Ok(());
+    }
+    for (j, axis) in ["ia", "pa", "oa"].iter().enumerate() {
+        if c.lin_cm_s2[j] != 0.0 {
+            bail!(
+                "{name}:{line}: column `lin_{axis}_cm_s2` is {} but `freq_hz` is 0; \
+                 expected a frequency greater than 0 for an oscillation",
+                c.lin_cm_s2[j]
+            );
+        }
+        if c.ang_mrad[j] != 0.0 {
+            bail!(
+                "{name}:{line}: column `ang_{axis}_mrad` is {} but `freq_hz` is 0; \
+                 expected a frequency greater than 0 for an oscillation",
+                c.ang_mrad[j]
+            );
         }
     }
+    Ok(())
+}
+
+/// A response row has a frequency, an input along IA and a gain and phase, not a value;
+/// no other row has a gain or phase.
+fn check_response(name: &str, line: usize, c: &Condition) -> Result<()> {
     if c.kind == RowKind::Response {
         if c.freq_hz <= 0.0 {
             bail!(
@@ -960,42 +1015,44 @@ fn parse_row(
             c.kind.name()
         );
     }
-    if c.radius_cm != 0.0 {
-        if c.w_rad_s.iter().all(|&w| w == 0.0) {
-            bail!(
-                "{name}:{line}: column `radius_cm` is {} but the row has no rate (`w_ia_rad_s`, `w_pa_rad_s`, `w_oa_rad_s` all 0); expected the centrifuge's rate for a centrifuge row",
-                c.radius_cm
-            );
-        }
-        if c.centripetal_cm_s2(c.w_rad_s).is_none() || c.centripetal_cm_s2(c.ref_w_rad_s).is_none()
-        {
-            bail!(
-                "{name}:{line}: column `radius_cm` is {} but IA lies along the spin axis (the rates point along IA), so the arm's direction is undefined; expected IA in or tilted out of the turntable plane (docs/case-frame.md, centrifuge rows)",
-                c.radius_cm
-            );
-        }
+    Ok(())
+}
+
+/// A centrifuge row (`radius_cm` not 0) has a rate, and an arm whose direction is defined.
+fn check_centrifuge(name: &str, line: usize, c: &Condition) -> Result<()> {
+    if c.radius_cm == 0.0 {
+        return Ok(());
     }
-    if let Some(p) = c.power_on_s {
-        let j = cols
-            .iter()
-            .position(|&k| header_name(k) == "power_on_s")
-            .map_or(0, |j| j + 1);
-        match c.time_s {
-            None => bail!(
-                "{name}:{line}: column {j} (`power_on_s`) is {p} but the row has no `time_s`; expected `time_s` on the row, on the clock `power_on_s` is read on"
-            ),
-            Some(t) if p > t => bail!(
-                "{name}:{line}: column {j} (`power_on_s`) is {p} s, after the row's `time_s` {t} s; expected the time the instrument was switched on before this row, at or before its `time_s`"
-            ),
-            Some(_) => {}
-        }
+    if c.w_rad_s.iter().all(|&w| w == 0.0) {
+        bail!(
+            "{name}:{line}: column `radius_cm` is {} but the row has no rate (`w_ia_rad_s`, `w_pa_rad_s`, `w_oa_rad_s` all 0); expected the centrifuge's rate for a centrifuge row",
+            c.radius_cm
+        );
     }
-    let reading = one_source(name, line, cols, &sources, reading, unit, c.kind)?;
-    check_counts(name, line, &c, cols)?;
-    if c.label.is_empty() {
-        c.label = format!("line {line}");
+    if c.centripetal_cm_s2(c.w_rad_s).is_none() || c.centripetal_cm_s2(c.ref_w_rad_s).is_none() {
+        bail!(
+            "{name}:{line}: column `radius_cm` is {} but IA lies along the spin axis (the rates point along IA), so the arm's direction is undefined; expected IA in or tilted out of the turntable plane (docs/case-frame.md, centrifuge rows)",
+            c.radius_cm
+        );
     }
-    Ok((c, empty, reading))
+    Ok(())
+}
+
+/// `power_on_s` is read on the row's `time_s` clock, at or before it.
+fn check_power_on(name: &str, line: usize, c: &Condition, cols: &[usize]) -> Result<()> {
+    let Some(p) = c.power_on_s else {
+        return Ok(());
+    };
+    let j = column_at(cols, "power_on_s");
+    match c.time_s {
+        None => bail!(
+            "{name}:{line}: column {j} (`power_on_s`) is {p} but the row has no `time_s`; expected `time_s` on the row, on the clock `power_on_s` is read on"
+        ),
+        Some(t) if p > t => bail!(
+            "{name}:{line}: column {j} (`power_on_s`) is {p} s, after the row's `time_s` {t} s; expected the time the instrument was switched on before this row, at or before its `time_s`"
+        ),
+        Some(_) => Ok(()),
+    }
 }
 
 /// The 1-based column of `name` in the header `cols` (0 when it is not there).
