@@ -812,113 +812,196 @@ fn unit_hint(amp: f64, gain: f64, nominal: f64, band: [f64; 2], g_cm_s2: f64) ->
 /// an uncertainty larger than itself. Each message names the likely slip: a frequency that
 /// fits far better, an amplitude in another unit, the input's phase.
 #[must_use]
-#[allow(clippy::too_many_lines)] // one check after another, each with its message
 pub fn check(cx: &CheckContext<'_>, fit: &ResponseFit) -> FitCheck {
-    use crate::output::significant as sig;
-    let name = cx.name;
-    let instr = cx.instrument;
     let f = fit.freq_hz;
+    let instr = cx.instrument;
     let expected = expected_scatter(cx.gates, fit, instr.sf_cm_s2, cx.ticks_per_cycle);
     let prediction = predict(instr, f);
-    let ratio = fit.rms_cm_s2 / expected.rms_cm_s2;
-    let scattered = ratio > SCATTER_LIMIT;
     let best = best_frequency(cx.gates, instr.sf_cm_s2, fit.gate_s, f);
-    // A clearly different frequency that fits far better: half the residual RMS or less.
-    let better = best
-        .filter(|b| 2.0 * b.rms_cm_s2 < fit.rms_cm_s2 && (b.freq_hz - f).abs() > b.resolution_hz);
-    let freq_hint = better.map(|b| {
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let d = (-b.resolution_hz.log10().floor()).clamp(0.0, 9.0) as usize;
-        format!(
-            "the record's sine is near {:.d$} Hz (residual RMS {} cm/s² there against {} at {} Hz): --sine-hz {:.d$}",
-            b.freq_hz,
-            sig(b.rms_cm_s2, 3),
-            sig(fit.rms_cm_s2, 3),
-            sig(f, 8),
-            b.freq_hz
-        )
-    });
-    let (nominal, band) = prediction.map_or((1.0, [0.5, 2.0]), |p| {
-        (
-            p.gain,
-            [
-                p.gain_range[0] / MODEL_MARGIN.0,
-                p.gain_range[1] * MODEL_MARGIN.0,
-            ],
-        )
-    });
-    let amp_hint = || {
-        unit_hint(fit.amplitude_cm_s2, fit.gain, nominal, band, instr.g_cm_s2).unwrap_or_else(
-            || {
-                format!(
-                    "--sine-cm-s2 {} would give the loop's gain {}; check --sine-cm-s2 (cm/s²) and the instrument file's sf_cm_s2",
-                    sig(fit.amplitude_cm_s2 * fit.gain / nominal, 4),
-                    sig(nominal, 4)
-                )
-            },
-        )
-    };
-    let predicted_text = prediction.map_or_else(
-        || "the instrument file's loop is refused by the simulator, so there is no prediction".to_string(),
-        |p| {
-            format!(
-                "the instrument file's loop predicts {}, {} to {} over its tolerance box, its linear model good to a factor {}",
-                sig(p.gain, 4),
-                sig(p.gain_range[0], 4),
-                sig(p.gain_range[1], 4),
-                sig(MODEL_MARGIN.0, 3)
-            )
-        },
-    );
-    let gain_pm = format!("gain {} ± {}", sig(fit.gain, 4), sig(fit.sigma_gain, 2));
-    let limit = prediction.map_or(MAX_GAIN, |p| MAX_GAIN.max(p.gain_range[1] * MODEL_MARGIN.0));
-    let refusal = if fit.gain > limit {
-        Some(format!(
-            "{name}: {gain_pm} at --sine-hz {} is above {}, more than a loop the simulator accepts can give ({predicted_text}); {}",
-            sig(f, 8),
-            sig(limit, 4),
-            freq_hint.clone().unwrap_or_else(amp_hint)
-        ))
-    } else if fit.sigma_gain > fit.gain {
-        Some(format!(
-            "{name}: {gain_pm} at --sine-hz {}: the uncertainty is larger than the gain, so the record shows no sine at {} Hz; {}",
-            sig(f, 8),
-            sig(f, 8),
-            freq_hint.clone().unwrap_or_else(|| {
-                "check --sine-hz and that the input reached the instrument (no other frequency fits better)".to_string()
-            })
-        ))
-    } else {
-        None
-    };
+    let w = Words::new(cx, fit, prediction, best);
+    let refusal = w.refusal();
     let mut warnings = Vec::new();
+    let ratio = fit.rms_cm_s2 / expected.rms_cm_s2;
     // (A refusal that already names the frequency that fits says it all.)
-    if scattered && !(refusal.is_some() && better.is_some()) {
-        warnings.push(format!(
-            "{name}: the gates scatter about the fitted sine with RMS {} cm/s², {} times the {} cm/s² that counting leaves (pulses of {} cm/s² in gates of {} ticks, the charge carried between gates and the limit-cycle ripple): the record is not a clean sine at {} Hz; {}",
-            sig(fit.rms_cm_s2, 3),
-            sig(ratio, 2),
-            sig(expected.rms_cm_s2, 3),
-            sig(expected.pulse_cm_s2, 4),
-            cx.gates.first().map_or(0, |g| g.ticks),
-            sig(f, 8),
-            freq_hint.clone().unwrap_or_else(|| {
-                "no other frequency fits far better: a noisy or distorted input, or gates not counted on the instrument's clock".to_string()
-            })
-        ));
+    if ratio > SCATTER_LIMIT && !(refusal.is_some() && w.better.is_some()) {
+        warnings.push(w.scattered(&expected, ratio));
     }
     // Against the loop only when the fit is the record's sine (not refused, and no other
     // frequency fits far better).
     if let Some(p) = prediction
         && refusal.is_none()
-        && better.is_none()
+        && w.better.is_none()
     {
-        let s4 = 4.0 * fit.sigma_gain;
-        if fit.gain < band[0] - s4 || fit.gain > band[1] + s4 {
-            warnings.push(format!(
-                "{name}: {gain_pm} at {} Hz is far from the loop: {predicted_text}; {}",
+        warnings.extend(w.far_from_the_loop(&p));
+    }
+    FitCheck {
+        expected,
+        prediction,
+        best,
+        warnings,
+        refusal,
+    }
+}
+
+/// What [`check`]'s messages are made of: the fit, the frequency that fits far better
+/// (if any) and its hint, the loop's prediction with its band, and the phrases the
+/// messages share.
+struct Words<'a> {
+    cx: &'a CheckContext<'a>,
+    fit: &'a ResponseFit,
+    prediction: Option<Prediction>,
+    /// A clearly different frequency that fits far better: half the residual RMS or less.
+    better: Option<BestFrequency>,
+    freq_hint: Option<String>,
+    nominal: f64,
+    band: [f64; 2],
+    predicted_text: String,
+    gain_pm: String,
+}
+
+impl<'a> Words<'a> {
+    fn new(
+        cx: &'a CheckContext<'a>,
+        fit: &'a ResponseFit,
+        prediction: Option<Prediction>,
+        best: Option<BestFrequency>,
+    ) -> Self {
+        use crate::output::significant as sig;
+        let f = fit.freq_hz;
+        let better = best.filter(|b| {
+            2.0 * b.rms_cm_s2 < fit.rms_cm_s2 && (b.freq_hz - f).abs() > b.resolution_hz
+        });
+        let freq_hint = better.map(|b| {
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let d = (-b.resolution_hz.log10().floor()).clamp(0.0, 9.0) as usize;
+            format!(
+                "the record's sine is near {:.d$} Hz (residual RMS {} cm/s² there against {} at {} Hz): --sine-hz {:.d$}",
+                b.freq_hz,
+                sig(b.rms_cm_s2, 3),
+                sig(fit.rms_cm_s2, 3),
                 sig(f, 8),
-                amp_hint()
+                b.freq_hz
+            )
+        });
+        let (nominal, band) = prediction.map_or((1.0, [0.5, 2.0]), |p| {
+            (
+                p.gain,
+                [
+                    p.gain_range[0] / MODEL_MARGIN.0,
+                    p.gain_range[1] * MODEL_MARGIN.0,
+                ],
+            )
+        });
+        let predicted_text = prediction.map_or_else(
+            || "the instrument file's loop is refused by the simulator, so there is no prediction".to_string(),
+            |p| {
+                format!(
+                    "the instrument file's loop predicts {}, {} to {} over its tolerance box, its linear model good to a factor {}",
+                    sig(p.gain, 4),
+                    sig(p.gain_range[0], 4),
+                    sig(p.gain_range[1], 4),
+                    sig(MODEL_MARGIN.0, 3)
+                )
+            },
+        );
+        Self {
+            cx,
+            fit,
+            prediction,
+            better,
+            freq_hint,
+            nominal,
+            band,
+            predicted_text,
+            gain_pm: format!("gain {} ± {}", sig(fit.gain, 4), sig(fit.sigma_gain, 2)),
+        }
+    }
+
+    /// The likely slip of a gain far from the loop's: an amplitude in another unit, or
+    /// the amplitude that would give the loop's gain.
+    fn amp_hint(&self) -> String {
+        use crate::output::significant as sig;
+        let fit = self.fit;
+        unit_hint(
+            fit.amplitude_cm_s2,
+            fit.gain,
+            self.nominal,
+            self.band,
+            self.cx.instrument.g_cm_s2,
+        )
+        .unwrap_or_else(|| {
+            format!(
+                "--sine-cm-s2 {} would give the loop's gain {}; check --sine-cm-s2 (cm/s²) and the instrument file's sf_cm_s2",
+                sig(fit.amplitude_cm_s2 * fit.gain / self.nominal, 4),
+                sig(self.nominal, 4)
+            )
+        })
+    }
+
+    /// Refused: a gain above what a loop the simulator accepts can give, or with an
+    /// uncertainty larger than itself.
+    fn refusal(&self) -> Option<String> {
+        use crate::output::significant as sig;
+        let (name, fit, f) = (self.cx.name, self.fit, self.fit.freq_hz);
+        let gain_pm = &self.gain_pm;
+        let limit = self
+            .prediction
+            .map_or(MAX_GAIN, |p| MAX_GAIN.max(p.gain_range[1] * MODEL_MARGIN.0));
+        if fit.gain > limit {
+            Some(format!(
+                "{name}: {gain_pm} at --sine-hz {} is above {}, more than a loop the simulator accepts can give ({}); {}",
+                sig(f, 8),
+                sig(limit, 4),
+                self.predicted_text,
+                self.freq_hint.clone().unwrap_or_else(|| self.amp_hint())
+            ))
+        } else if fit.sigma_gain > fit.gain {
+            Some(format!(
+                "{name}: {gain_pm} at --sine-hz {}: the uncertainty is larger than the gain, so the record shows no sine at {} Hz; {}",
+                sig(f, 8),
+                sig(f, 8),
+                self.freq_hint.clone().unwrap_or_else(|| {
+                    "check --sine-hz and that the input reached the instrument (no other frequency fits better)".to_string()
+                })
+            ))
+        } else {
+            None
+        }
+    }
+
+    /// The gates scatter about the sine `ratio` times what counting leaves.
+    fn scattered(&self, expected: &Scatter, ratio: f64) -> String {
+        use crate::output::significant as sig;
+        let fit = self.fit;
+        format!(
+            "{}: the gates scatter about the fitted sine with RMS {} cm/s², {} times the {} cm/s² that counting leaves (pulses of {} cm/s² in gates of {} ticks, the charge carried between gates and the limit-cycle ripple): the record is not a clean sine at {} Hz; {}",
+            self.cx.name,
+            sig(fit.rms_cm_s2, 3),
+            sig(ratio, 2),
+            sig(expected.rms_cm_s2, 3),
+            sig(expected.pulse_cm_s2, 4),
+            self.cx.gates.first().map_or(0, |g| g.ticks),
+            sig(fit.freq_hz, 8),
+            self.freq_hint.clone().unwrap_or_else(|| {
+                "no other frequency fits far better: a noisy or distorted input, or gates not counted on the instrument's clock".to_string()
+            })
+        )
+    }
+
+    /// The gain and the phase against the loop's prediction `p`: a warning for each far
+    /// from it.
+    fn far_from_the_loop(&self, p: &Prediction) -> Vec<String> {
+        use crate::output::significant as sig;
+        let (name, fit, f) = (self.cx.name, self.fit, self.fit.freq_hz);
+        let mut warnings = Vec::new();
+        let s4 = 4.0 * fit.sigma_gain;
+        if fit.gain < self.band[0] - s4 || fit.gain > self.band[1] + s4 {
+            warnings.push(format!(
+                "{name}: {} at {} Hz is far from the loop: {}; {}",
+                self.gain_pm,
+                sig(f, 8),
+                self.predicted_text,
+                self.amp_hint()
             ));
         }
         let dp = wrap_deg(fit.phase_deg - p.phase_deg);
@@ -937,13 +1020,7 @@ pub fn check(cx: &CheckContext<'_>, fit: &ResponseFit) -> FitCheck {
                 sig(fit.input_phase_deg, 8)
             ));
         }
-    }
-    FitCheck {
-        expected,
-        prediction,
-        best,
-        warnings,
-        refusal,
+        warnings
     }
 }
 
