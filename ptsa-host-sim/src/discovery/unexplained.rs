@@ -386,54 +386,44 @@ fn family_words(
     s: &super::library::Shape,
     p: f64,
 ) -> (String, String) {
-    match family {
+    // What the family tried, and what the hint adds after the strongest element.
+    let (what, after) = match family {
         Family::Basis => (
-            format!(
-                "{tried} averages of the case inputs and their products; the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
-                s.name
-            ),
-            format!("residual follows {}", s.name),
+            "averages of the case inputs and their products".to_string(),
+            "",
         ),
         Family::History => (
-            format!(
-                "{tried} of the previous row's inputs, their changes since it and the sign of the last move along IA; the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
-                s.form
-            ),
-            format!("residual follows {} (the row before)", s.form),
+            "of the previous row's inputs, their changes since it and the sign of the last move along IA".to_string(),
+            " (the row before)",
         ),
         Family::Time => (
-            format!(
-                "{tried} shapes in time beyond the linear drift (t from the first row); the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
-                s.form
-            ),
-            format!("residual follows {} (a shape in time)", s.form),
+            "shapes in time beyond the linear drift (t from the first row)".to_string(),
+            " (a shape in time)",
         ),
-        Family::Products => (
-            format!(
-                "{tried} products of three of the case inputs; the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
-                s.form
-            ),
-            format!("residual follows {}", s.form),
-        ),
+        Family::Products => ("products of three of the case inputs".to_string(), ""),
         Family::HistoryProducts => (
-            format!(
-                "{tried} products of the case inputs with the row before's (up to third order); the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
-                s.form
-            ),
-            format!("residual follows {} (with the row before)", s.form),
+            "products of the case inputs with the row before's (up to third order)".to_string(),
+            " (with the row before)",
         ),
         Family::Harmonics => (
             format!(
-                "{tried} harmonics of the tumble's angle from the {}th to what its positions resolve (IEEE Std 1293's Fourier analysis); the strongest is {} (p = {p:.2e} before the Bonferroni factor)",
-                super::library::FIRST_HARMONIC,
-                s.form
+                "harmonics of the tumble's angle from the {}th to what its positions resolve (IEEE Std 1293's Fourier analysis)",
+                super::library::FIRST_HARMONIC
             ),
-            format!(
-                "residual follows {} (a harmonic of the tumble's angle)",
-                s.form
-            ),
+            " (a harmonic of the tumble's angle)",
         ),
-    }
+    };
+    let shown = if family == Family::Basis {
+        &s.name
+    } else {
+        &s.form
+    };
+    (
+        format!(
+            "{tried} {what}; the strongest is {shown} (p = {p:.2e} before the Bonferroni factor)"
+        ),
+        format!("residual follows {shown}{after}"),
+    )
 }
 
 /// The elements significant under the familywise control (the element's p-value times its
