@@ -36,7 +36,7 @@
 //!
 //! A record longer than [`LOOP_GATES`] has its records simulated shortened: the loop for
 //! its first [`LOOP_GATES`] gates, its part carried beyond as white phase noise, the added
-//! noises drawn for the whole length ([`Grid::points`]).
+//! noises drawn for the whole length (`Grid::points`).
 //!
 //! The points are compared on the log scale: the residuals `ln M − ln S` (measured,
 //! simulated mean), each log's bias (half its variance) taken out, `χ² = rᵀ C⁻¹ r` with `C`
@@ -128,7 +128,7 @@ pub const MAX_RECORDS: u64 = (PICKOFF_GRID_UV.len() as u64 + 1)
 
 /// The longest record the loop is simulated for, gates (2¹³: 82 s of 10 ms gates). A
 /// longer record's simulated records run the loop for this many gates and take the rest from
-/// the loop's physics ([`Grid::points`]): the counts integrate the input to within the
+/// the loop's physics (`Grid::points`): the counts integrate the input to within the
 /// charge the loop holds, which is bounded, so beyond the count pattern's own time scale the
 /// loop adds to the Allan variance a part that falls as `1/τ²` (white phase noise), while the
 /// input's noises (`N`, `K`) are drawn for the record's whole length without the loop.
@@ -139,7 +139,7 @@ pub const LOOP_GATES: u64 = 1 << 13;
 pub const LOOP_SPLIT: usize = 4;
 
 /// The octaves below the split whose loop part, as `L·m²`, sets its level beyond
-/// ([`Grid::points`]).
+/// (`Grid::points`).
 pub const LOOP_TAIL_OCTAVES: usize = 4;
 
 /// Mesh points per free noise in the profile: one, two or three noises free.
