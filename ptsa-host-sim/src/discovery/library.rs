@@ -541,7 +541,6 @@ fn active(inputs: &RowInputs, which: &[usize], v: usize, g_cm_s2: f64) -> bool {
 /// (|cos| > 0.9999), are left out. The basis family is in the order of the earlier
 /// generic basis, with its names.
 #[must_use]
-#[allow(clippy::too_many_lines)] // the products, then the time shapes, over the same rows
 pub fn shapes(
     rows: &[Condition],
     g_cm_s2: f64,
@@ -551,53 +550,77 @@ pub fn shapes(
     drifts: &[bool],
     seconds: bool,
 ) -> Vec<Shape> {
+    let mut out: Vec<Shape> = Vec::new();
+    // The basis first (in the earlier basis's order), then the history, then the rest, the
+    // time shapes and the harmonics: an element repeating an earlier one is left out.
+    for s in monomial_shapes(rows, g_cm_s2, which, value)
+        .into_iter()
+        .chain(time_shapes(which, time, drifts, seconds))
+        .chain(harmonics(rows, which, value))
+    {
+        push_new(&mut out, s);
+    }
+    // Families in test order, each keeping its own order.
+    out.sort_by_key(|s| Family::ALL.iter().position(|f| *f == s.family));
+    out
+}
+
+/// `s` added to `out` unless it vanishes or repeats an element already there
+/// (|cos| > 0.9999).
+fn push_new(out: &mut Vec<Shape>, s: Shape) {
+    let n = norm(&s.col);
+    if n == 0.0 {
+        return;
+    }
+    let repeats = out.iter().any(|o| {
+        let dot: f64 = o.col.iter().zip(&s.col).map(|(a, b)| a * b).sum();
+        (dot / (norm(&o.col) * n)).abs() > 0.9999
+    });
+    if !repeats {
+        out.push(s);
+    }
+}
+
+/// The products of the inputs active in these rows, family by family in test order (the
+/// basis in the earlier basis's order, with its names), each a column over the
+/// observations (0 where an observation is not a value).
+fn monomial_shapes(
+    rows: &[Condition],
+    g_cm_s2: f64,
+    which: &[usize],
+    value: &[bool],
+) -> Vec<Shape> {
     let inputs = RowInputs::of(rows, g_cm_s2);
     let act: Vec<usize> = (0..VARS.len())
         .filter(|&v| active(&inputs, which, v, g_cm_s2))
         .collect();
-    let mut out: Vec<Shape> = Vec::new();
-    let push = |out: &mut Vec<Shape>, s: Shape| {
-        let n = norm(&s.col);
-        if n == 0.0 {
-            return;
-        }
-        let repeats = out.iter().any(|o| {
-            let dot: f64 = o.col.iter().zip(&s.col).map(|(a, b)| a * b).sum();
-            (dot / (norm(&o.col) * n)).abs() > 0.9999
-        });
-        if !repeats {
-            out.push(s);
-        }
-    };
-    // The basis first (in the earlier basis's order), then the history, then the rest:
-    // an element repeating an earlier one is left out.
     let mut library: Vec<(Family, Monomial)> = monomials(&act)
         .into_iter()
         .filter_map(|m| Some((family_of(&m)?, m)))
         .collect();
     library.sort_by_key(|(f, _)| Family::ALL.iter().position(|x| x == f));
-    for (family, m) in library {
-        let f = |x: &[f64; 9], h: Option<&[f64; 19]>| {
-            m.iter().fold(1.0, |acc, &(v, k)| {
-                #[allow(clippy::cast_possible_wrap)]
-                let p = var_value(v, x, h).powi(k as i32);
-                acc * p
-            })
-        };
-        let mut col = inputs.column(which, &f);
-        for (x, &v) in col.iter_mut().zip(value) {
-            if !v {
-                *x = 0.0;
+    library
+        .into_iter()
+        .map(|(family, m)| {
+            let f = |x: &[f64; 9], h: Option<&[f64; 19]>| {
+                m.iter().fold(1.0, |acc, &(v, k)| {
+                    #[allow(clippy::cast_possible_wrap)]
+                    let p = var_value(v, x, h).powi(k as i32);
+                    acc * p
+                })
+            };
+            let mut col = inputs.column(which, &f);
+            for (x, &v) in col.iter_mut().zip(value) {
+                if !v {
+                    *x = 0.0;
+                }
             }
-        }
-        let form = monomial_form(&m);
-        let name = if family == Family::Basis {
-            basis_name(&m)
-        } else {
-            form.clone()
-        };
-        push(
-            &mut out,
+            let form = monomial_form(&m);
+            let name = if family == Family::Basis {
+                basis_name(&m)
+            } else {
+                form.clone()
+            };
             Shape {
                 family,
                 name,
@@ -609,63 +632,62 @@ pub fn shapes(
                 ),
                 form,
                 col,
-            },
-        );
-    }
-    // Time shapes over the observations that drift.
+            }
+        })
+        .collect()
+}
+
+/// The shapes in time beyond the linear drift over the observations that `drifts` (t², t³
+/// and exponentials of a sixteenth to half the span), `time` in s when `seconds`, else in
+/// rows; none when the times do not span.
+fn time_shapes(which: &[usize], time: &[f64], drifts: &[bool], seconds: bool) -> Vec<Shape> {
     let ts: Vec<f64> = (0..which.len())
         .filter(|&k| drifts[k])
         .map(|k| time[k])
         .collect();
     let t0 = ts.iter().copied().fold(f64::INFINITY, f64::min);
     let span = ts.iter().copied().fold(f64::NEG_INFINITY, f64::max) - t0;
-    if span > 0.0 && span.is_finite() {
-        let tdim = if seconds {
-            Dim { s: 1, ..ONE }
-        } else {
-            Dim { row: 1, ..ONE }
-        };
-        let unit = if seconds { "s" } else { "rows" };
-        let mut time_shape = |form: String, k: u32, f: &dyn Fn(f64) -> f64, dim: Dim| {
-            let col: Vec<f64> = (0..which.len())
-                .map(|j| if drifts[j] { f(time[j] - t0) } else { 0.0 })
-                .collect();
-            push(
-                &mut out,
-                Shape {
-                    family: Family::Time,
-                    name: form.clone(),
-                    form,
-                    unit: dim.coefficient().render(),
-                    complexity: (0, 1, k),
-                    col,
-                },
-            );
-        };
-        #[allow(clippy::cast_possible_wrap)]
-        for k in [2u32, 3] {
-            time_shape(
-                format!("t^{k}"),
-                k,
-                &|t| t.powi(k as i32),
-                tdim.pow(k as i32),
-            );
-        }
-        for per in [16.0, 8.0, 4.0, 2.0] {
-            let tau = span / per;
-            time_shape(
-                format!("exp(-t/{} {unit})", short(tau)),
-                1,
-                &|t| (-t / tau).exp(),
-                ONE,
-            );
-        }
+    if !(span > 0.0 && span.is_finite()) {
+        return Vec::new();
     }
-    for h in harmonics(rows, which, value) {
-        push(&mut out, h);
+    let tdim = if seconds {
+        Dim { s: 1, ..ONE }
+    } else {
+        Dim { row: 1, ..ONE }
+    };
+    let unit = if seconds { "s" } else { "rows" };
+    let time_shape = |form: String, k: u32, f: &dyn Fn(f64) -> f64, dim: Dim| {
+        let col: Vec<f64> = (0..which.len())
+            .map(|j| if drifts[j] { f(time[j] - t0) } else { 0.0 })
+            .collect();
+        Shape {
+            family: Family::Time,
+            name: form.clone(),
+            form,
+            unit: dim.coefficient().render(),
+            complexity: (0, 1, k),
+            col,
+        }
+    };
+    let mut out = Vec::new();
+    #[allow(clippy::cast_possible_wrap)]
+    for k in [2u32, 3] {
+        out.push(time_shape(
+            format!("t^{k}"),
+            k,
+            &|t| t.powi(k as i32),
+            tdim.pow(k as i32),
+        ));
     }
-    // Families in test order, each keeping its own order.
-    out.sort_by_key(|s| Family::ALL.iter().position(|f| *f == s.family));
+    for per in [16.0, 8.0, 4.0, 2.0] {
+        let tau = span / per;
+        out.push(time_shape(
+            format!("exp(-t/{} {unit})", short(tau)),
+            1,
+            &|t| (-t / tau).exp(),
+            ONE,
+        ));
+    }
     out
 }
 
