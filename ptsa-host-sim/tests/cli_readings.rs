@@ -255,3 +255,113 @@ fn bad_records_and_options_are_refused_with_their_line() {
         assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
     }
 }
+
+/// A white noise N and a random walk K (cm/s²/√Hz, cm/s^2.5) at `dt`, `n` samples, from
+/// Marsaglia's xorshift64 and Box–Muller (no code shared with the identification's
+/// replicas).
+fn white_and_walk(n: usize, dt: f64, white: f64, walk: f64) -> Vec<f64> {
+    let mut state = 0x9E37_79B9_7F4A_7C15_u64;
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        #[allow(clippy::cast_precision_loss)]
+        let u = ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+        u
+    };
+    let mut normal = move || {
+        let (u, v) = (uniform(), uniform());
+        (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+    };
+    let mut w = 0.0;
+    (0..n)
+        .map(|_| {
+            let y = white / dt.sqrt() * normal() + w;
+            w += walk * dt.sqrt() * normal();
+            y
+        })
+        .collect()
+}
+
+/// `--readings --identify`: a white noise and a walk are the terms selected (Holm at 5 %
+/// familywise), the white noise's 95 % interval holds the value the record was made with,
+/// the JSON keys and the text say so; refusals of what does not apply.
+#[test]
+fn the_terms_a_record_holds_are_identified() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (white, walk) = (0.05, 0.01);
+    std::fs::write(
+        tmp.path().join("nk.csv"),
+        record(&white_and_walk(20_000, 0.01, white, walk), 0.01),
+    )
+    .unwrap();
+    let v = json_in(
+        tmp.path(),
+        &["noise", "--readings", "nk.csv", "--identify", "--json"],
+    );
+    let id = &v["terms_identification"];
+    assert_eq!(
+        id["selected"],
+        serde_json::json!(["velocity_random_walk", "acceleration_random_walk"]),
+        "{id}"
+    );
+    let n = &id["candidates"][1];
+    assert_eq!(n["term"], "velocity_random_walk");
+    let ci = n["values"][0]["ci95"].as_array().unwrap();
+    let (lo, hi) = (ci[0].as_f64().unwrap(), ci[1].as_f64().unwrap());
+    assert!(lo < white && white < hi, "{n}");
+    assert_eq!(n["values"][0]["unit"], "cm/s^2/rtHz");
+    for key in [
+        "taus_s",
+        "chi2",
+        "dof",
+        "replicas",
+        "rounds",
+        "familywise_alpha",
+        "test",
+    ] {
+        assert!(!id[key].is_null(), "{key} in {id}");
+    }
+    assert_eq!(id["candidates"][2]["selected"], false);
+    let o = ptsa_in(tmp.path(), &["noise", "--readings", "nk.csv", "--identify"]);
+    let text = stdout(&o);
+    assert!(text.contains("identified terms (IEEE Std 952;"), "{text}");
+    assert!(
+        text.contains("K acceleration random walk: selected (z "),
+        "{text}"
+    );
+    assert!(text.contains("B bias instability: not selected"), "{text}");
+    for (args, needle) in [
+        (
+            &[
+                "noise",
+                "--readings",
+                "nk.csv",
+                "--identify",
+                "--write-instrument",
+                "x.toml",
+            ][..],
+            "--write-instrument applies to --counts FILE only",
+        ),
+        (
+            &[
+                "noise",
+                "--readings",
+                "nk.csv",
+                "--identify",
+                "--taus",
+                "decade",
+            ][..],
+            "expected --taus octave",
+        ),
+        (
+            &["noise", "--simulate", "--seconds", "1", "--identify"][..],
+            "--identify applies to --counts or --readings FILE only",
+        ),
+    ] {
+        let o = ptsa_in(tmp.path(), args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(needle), "{args:?}: {}", stderr(&o));
+    }
+    assert!(!tmp.path().join("x.toml").exists());
+}

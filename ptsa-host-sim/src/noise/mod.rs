@@ -7,6 +7,9 @@
 //! * [`terms`]: IEEE Std 952's noise terms (quantization, velocity random walk, bias
 //!   instability, acceleration random walk) fitted to the curve, in cgs and navigation
 //!   units;
+//! * [`identify_terms`]: which of those terms a record of readings holds, selected under
+//!   Holm's step-down with intervals, the points' covariance drawn from records made of
+//!   the terms ([`synth`]);
 //! * here: the record checked for what the analysis needs (gates back to back, of equal
 //!   length), the analysis of a record ([`Analysis`]: its JSON, its table, its plot), and a
 //!   record of the simulated closed loop at rest ([`simulate_record`], on the batch engine),
@@ -23,7 +26,9 @@
 pub mod allan;
 pub mod edf;
 pub mod identify;
+pub mod identify_terms;
 pub mod readings;
+pub mod synth;
 pub mod terms;
 
 use std::fmt::Write as _;

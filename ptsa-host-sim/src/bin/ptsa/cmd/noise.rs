@@ -16,11 +16,13 @@ use clap::Args;
 use ptsa_host_sim::model::instrument::ReadingUnit;
 use ptsa_host_sim::noise::allan::{Settings, Taus};
 use ptsa_host_sim::noise::identify::{self as ident, Identification, Kind};
+use ptsa_host_sim::noise::identify_terms as ident_terms;
 use ptsa_host_sim::noise::readings::{self, Readings};
 use ptsa_host_sim::noise::{self, Analysis, Record};
 use ptsa_host_sim::output::significant as sig;
 use ptsa_host_sim::output::write_atomic;
 use ptsa_host_sim::simulation::sim::SimOptions;
+use ptsa_host_sim::simulation::work::Estimate;
 
 use super::{Ctx, gate_ticks};
 use crate::flags::values::{non_negative_s, positive_s, seed};
@@ -92,7 +94,12 @@ pub struct NoiseArgs {
     /// record longer than 8192 gates has the loop simulated for its first 8192 and the
     /// added noises for its whole length (a 12-hour record of 10 ms gates in about a
     /// minute; docs/noise.md, "Long records").
-    #[arg(long, requires = "counts")]
+    /// With --readings: which of IEEE Std 952's terms the record holds (Q cm/s, N
+    /// cm/s^2/rtHz, B cm/s^2, K cm/s^2.5, R cm/s^3, each also in ug and navigation units),
+    /// the best single term first, then forward with Holm's thresholds at 5 % familywise,
+    /// the points' covariance from 200 records drawn at the fitted terms; each selected
+    /// one with its 95 % interval (docs/noise.md, "Which terms a record holds").
+    #[arg(long)]
     pub identify: bool,
     /// With --identify: write the instrument file with the identified pickoff noise
     /// (noise_uv_rms, uV rms) to FILE, only when the pickoff noise was identified; an
@@ -152,7 +159,10 @@ pub struct NoiseArgs {
     /// "bias_random_walk_grid_cm_s2_rthz", "seeds_per_node", "simulated_records",
     /// "simulated_record_gates" (gates each simulated record ran the loop for),
     /// "loop_simulated_to_tau_s" (s; null unless the record is longer than that),
-    /// "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test").
+    /// "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test"); with --readings
+    /// --identify also "terms_identification" ("candidates": "term", "symbol", "z", "p",
+    /// "selected", "values": [{"unit", "value", "ci95"}]; "selected", "taus_s", "chi2",
+    /// "dof", "replicas", "rounds", "familywise_alpha", "test").
     #[arg(long)]
     pub json: bool,
     /// Replace an existing --output, --plot or --write-instrument file (the work limit is
@@ -375,7 +385,13 @@ impl NoiseArgs {
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         self.check_flags()?;
         let outputs = self.outputs()?;
-        let identify = if self.identify {
+        let identify = if self.identify && self.readings.is_some() {
+            // Only the seed: the replicas are drawn from the terms, not simulated.
+            Some(SimOptions {
+                seed: self.seed,
+                ..SimOptions::default()
+            })
+        } else if self.identify {
             Some(self.sim_options(ctx)?)
         } else {
             None
@@ -424,6 +440,12 @@ impl NoiseArgs {
             (
                 self.identify,
                 "--identify",
+                "--counts or --readings",
+                self.counts.is_some() || self.readings.is_some(),
+            ),
+            (
+                self.write_instrument.is_some(),
+                "--write-instrument",
                 "--counts",
                 self.counts.is_some(),
             ),
@@ -606,6 +628,10 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     if let Some(id) = &identification {
         warnings.extend(identification_warnings(&name, id));
     }
+    let terms_identification = match (&req.source, &req.identify) {
+        (Source::Readings(_, r), Some(opts)) => Some(identify_terms(r, &a, opts.seed)?),
+        _ => None,
+    };
     if let (Some((path, replaced)), Some(id)) = (&req.write_instrument, &identification) {
         write_identified(ctx, path, replaced.as_deref(), &name, id)?;
     }
@@ -631,6 +657,9 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         if let (Some(id), Some(map)) = (&identification, v.as_object_mut()) {
             map.insert("identification".into(), identification_json(id));
         }
+        if let (Some(id), Some(map)) = (&terms_identification, v.as_object_mut()) {
+            map.insert("terms_identification".into(), id.json());
+        }
         writeln!(out, "{v}")?;
     } else {
         write!(out, "{}", a.text(&name))?;
@@ -640,8 +669,28 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         if let Some(id) = &identification {
             write!(out, "{}", identification_text(id))?;
         }
+        if let Some(id) = &terms_identification {
+            write!(out, "{}", id.text())?;
+        }
     }
     Ok(())
+}
+
+/// Which of IEEE Std 952's terms the readings hold (`--readings FILE --identify`), with a
+/// progress line on a long record.
+fn identify_terms(r: &Readings, a: &Analysis, seed: u64) -> Result<ident_terms::Identification> {
+    let est = Estimate {
+        other_s: ident_terms::work_seconds(r.y.len()),
+        ..Estimate::default()
+    };
+    let bar = work::Progress::start("noise --identify", &est);
+    let seed = ident_terms::record_seed(&r.y, seed);
+    let id = ident_terms::identify(&r.y, r.tau0_s, &a.terms, seed, &mut |_| {});
+    bar.finish();
+    id.context(format!(
+        "--identify: {} samples give fewer than three averaging times up to a quarter of the record; expected at least 16 samples",
+        r.y.len()
+    ))
 }
 
 /// The analysis's own warnings: too few averaging times for the terms, a curve the terms
