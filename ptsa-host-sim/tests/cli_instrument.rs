@@ -544,6 +544,48 @@ fn instrument_new_writes_a_template_and_keeps_an_existing_file() {
     assert!(!dir.join("x.toml").exists());
 }
 
+/// The global `--instrument` names a file to read, which `instrument new` never does: not
+/// listed in its help, refused when given (before or after the subcommand), nothing
+/// written.
+#[test]
+fn instrument_new_refuses_the_global_instrument() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let help = stdout(&ptsa_in(dir, &["instrument", "new", "--help"]));
+    assert!(!help.contains("--instrument"), "{help}");
+    for args in [
+        &[
+            "instrument",
+            "new",
+            "--class",
+            "mems",
+            "-o",
+            "y.toml",
+            "--instrument",
+            "mems",
+        ][..],
+        &[
+            "--instrument",
+            "mems",
+            "instrument",
+            "new",
+            "--class",
+            "mems",
+            "-o",
+            "y.toml",
+        ],
+    ] {
+        let o = ptsa_in(dir, args);
+        assert_eq!(o.status.code(), Some(1), "{args:?}");
+        assert!(
+            stderr(&o).contains("`instrument new` reads no instrument file"),
+            "{}",
+            stderr(&o)
+        );
+        assert!(!dir.join("y.toml").exists());
+    }
+}
+
 /// Raw readings in: the same MEMS record given as `reading` in LSB (through the file's
 /// 16384 LSB/g) is analysed as the record in cm/s²: the same terms to a thousandth of their
 /// sigma. With the Kearfott file, which gives no scale in LSB, it is refused naming the data

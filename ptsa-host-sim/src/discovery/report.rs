@@ -11,7 +11,7 @@ use crate::model::condition::Condition;
 use crate::model::effects::CandidateId;
 
 /// RMS and χ² of a set of residuals.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct FitSummary {
     /// Root mean square of `measured − simulated` over the rows measured in cm/s²
     /// (difference and absolute rows), cm/s²; `null` when there are none (response rows
@@ -29,7 +29,7 @@ pub struct FitSummary {
 }
 
 /// One selected effect, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct EffectReport {
     /// Effect name.
     pub name: String,
@@ -77,7 +77,7 @@ pub struct EffectReport {
 }
 
 /// The warm-up's time constant, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct TimeConstantReport {
     /// The estimate of τ, s.
     pub tau_s: f64,
@@ -94,7 +94,7 @@ pub struct TimeConstantReport {
 
 /// A form outside the vocabulary that could stand in a selected term's place, in the
 /// `--json` shape (`discovery/rivals.rs`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct Rival {
     /// The form, as `unexplained.proposals` and `--term` write it (`a_PA^3`,
     /// `exp(-t/360 s)`, `sign_delta_a_IA`).
@@ -115,7 +115,7 @@ pub struct Rival {
 
 /// The refits of an effect's coefficients on disjoint parts of the data, in the `--json`
 /// shape.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, schemars::JsonSchema)]
 pub struct StabilityReport {
     /// One test per coefficient and split that could be made.
     pub tests: Vec<SplitTest>,
@@ -124,7 +124,7 @@ pub struct StabilityReport {
 }
 
 /// One coefficient refitted on the parts of one split, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct SplitTest {
     /// The candidate (component name for `lever_arm`).
     pub name: String,
@@ -162,7 +162,7 @@ pub struct SplitTest {
 }
 
 /// A coefficient on one part of the data, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct PartValue {
     /// `first half in time`, `second half in time`, `approached from below`, `approached
     /// from above`, or `` block `name` ``.
@@ -176,7 +176,7 @@ pub struct PartValue {
 }
 
 /// Where a search through the closed loop stopped, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct SearchLimit {
     /// The candidate whose search it is.
     pub name: String,
@@ -188,7 +188,7 @@ pub struct SearchLimit {
 
 /// A row set aside as a suspected gross error (or kept with `--keep-outliers`), in the
 /// `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct OutlierReport {
     /// The row's label.
     pub row: String,
@@ -219,7 +219,7 @@ pub struct OutlierReport {
 }
 
 /// One step of the selection, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct StepReport {
     /// `add`, `drop` or `swap`.
     pub action: &'static str,
@@ -238,7 +238,7 @@ pub struct StepReport {
 }
 
 /// The nuisance terms' values, in the `--json` shape.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, schemars::JsonSchema)]
 pub struct NuisanceReport {
     /// Bias shift of each block (rows sharing a reference run), cm/s².
     pub bias_shift_cm_s2: BTreeMap<String, f64>,
@@ -253,7 +253,7 @@ pub struct NuisanceReport {
 }
 
 /// Where the noise came from, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct NoiseReport {
     /// `stated` (every row's `sigma_cm_s2` or `--sigma`), `replicates` (estimated from
     /// replicated rows) or `residuals` (estimated from the model's residuals).
@@ -272,7 +272,7 @@ pub struct NoiseReport {
 
 /// One observation of a row in the result (a response row has two: its gain and its
 /// phase; their values are in the `*_cm_s2` fields, in the unit `quantity` names).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct RowResult {
     /// Row label (a response row's with ` (gain)` or ` (phase)`).
     pub label: String,
@@ -303,7 +303,7 @@ pub struct RowResult {
 }
 
 /// One term of the model equation.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct Term {
     /// Candidate name (`bias`, `scale_factor`, `misalignment.delta_p_rad`, ...).
     pub name: String,
@@ -323,7 +323,7 @@ pub struct Term {
 /// selected term's change from the instrument file as the selection's fit gives it, in the
 /// reading's convention (the reading's own coefficient, not divided by the scale factor).
 /// Not the calibration: the instrument's values are `calibration`'s.
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, schemars::JsonSchema)]
 pub struct ModelEquation {
     /// The selected terms in the standard's units.
     pub terms: Vec<Term>,
@@ -334,7 +334,7 @@ pub struct ModelEquation {
 /// One term of the instrument's own model equation (`calibration.terms`), in the `--json`
 /// shape: its absolute value, not its change from the instrument file (the `model_equation`
 /// object gives the changes).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct CalibrationTerm {
     /// IEEE Std 1293 symbol: `K_0`, `K_1`, `K_2`, `K_3`, `δ_o`, `δ_p`, `K_ip`, `K_io`,
     /// `K_po`, `K_pp`, `K_oo`. `δ_p` is the misalignment itself, entering the equation as
@@ -395,7 +395,7 @@ pub struct CalibrationTerm {
 
 /// The instrument's own model equation with its uncertainties (`calibration`), in the
 /// `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct Calibration {
     /// The model equation (IEEE Std 1293, pendulous accelerometer), symbols only.
     pub equation: String,
@@ -440,7 +440,7 @@ pub struct Calibration {
 }
 
 /// `K_0` as the reading's offset (`calibration.reading_offset`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct ReadingOffset {
     /// The offset, µg of the local gravity (output-referred).
     pub value: f64,
@@ -456,7 +456,7 @@ pub struct ReadingOffset {
 }
 
 /// The calibration's fitted changes (`calibration.changes`).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, schemars::JsonSchema)]
 pub struct CalibrationChanges {
     /// The candidates fitted (the model equation's terms and any fitted beside them), in
     /// the fit's order.
@@ -476,7 +476,7 @@ pub struct CalibrationChanges {
 }
 
 /// A selected term the calibration leaves out (`calibration.doubtful`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct DoubtfulTerm {
     /// The candidate (`cross_axis_oo`, `hysteresis`, ...).
     pub candidate: String,
@@ -498,7 +498,7 @@ pub struct DoubtfulTerm {
 }
 
 /// A core term's value in another fit (`calibration.doubtful[].core_with_it`).
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct CoreValue {
     /// `K_0`, `K_1`, `δ_o`, `δ_p` or `K_2`.
     pub symbol: String,
@@ -511,7 +511,7 @@ pub struct CoreValue {
 }
 
 /// The `--json` object.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct JsonReport {
     /// Number of fitted observations (a row with a measurement, or a response row's gain
     /// and phase).
@@ -564,7 +564,7 @@ pub struct JsonReport {
 }
 
 /// A parameter of the instrument file as fitted, in the file's unit.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct ParameterValue {
     /// The instrument file's key (`pendulum.damping_dyn_cm_s`, ...).
     pub key: String,
@@ -585,7 +585,7 @@ pub struct ParameterValue {
 }
 
 /// One piece of advice, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct Advice {
     /// The candidates to separate (or to make testable).
     pub separates: Vec<String>,
@@ -599,7 +599,7 @@ pub struct Advice {
 }
 
 /// What the tests found, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct Unexplained {
     /// Structure found at the level `alpha` (familywise over the tests).
     pub detected: bool,
@@ -622,7 +622,7 @@ pub struct Unexplained {
 }
 
 /// A user's term (`--term`), in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct TermReport {
     /// `term:` and the text as given (`term:a_pa^3`).
     pub key: String,
@@ -645,7 +645,7 @@ pub struct TermReport {
 pub const MAX_PROPOSALS: usize = 5;
 
 /// A form the residual follows, in the `--json` shape: a proposal, not a cause.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct Proposal {
     /// The form (`a_PA^3`, `a_IA*w_PA`, `delta_a_IA`, `sign_delta_a_IA`, `t^2`,
     /// `exp(-t/90 s)`); a product's form is valid `--term` text.
@@ -670,7 +670,7 @@ pub struct Proposal {
 
 /// Whether the final model fits the data (`fit_check`): the extended model's χ² with the
 /// stated sigmas, or, with the noise estimated, the replicated rows' lack of fit.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct FitCheck {
     /// `true`: it fits (p ≥ 0.05); `false`: it does not; `null`: these data cannot tell
     /// (the noise estimated from the residuals, no replicated rows).
@@ -685,7 +685,7 @@ pub struct FitCheck {
 }
 
 /// One test.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct UnexplainedTest {
     /// `lack_of_fit`, `generic_basis`, `history`, `time_shapes`, `products`,
     /// `history_products` or `tumble_harmonics`.
@@ -697,7 +697,7 @@ pub struct UnexplainedTest {
 }
 
 /// The gain, in the `--json` shape.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct Gain {
     /// RMS of `measured − extended` on the rows that were fitted, in `unit`.
     pub rms_in_sample_cm_s2: f64,

@@ -10,6 +10,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Result;
 
 pub mod fs;
+pub mod json_reference;
 pub mod plot;
 pub mod table;
 

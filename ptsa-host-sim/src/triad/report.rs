@@ -6,7 +6,7 @@ use serde::Serialize;
 use crate::triad::fit::{self, Orientation, SigmaSource, Triad};
 
 /// `"triad"`: one calibration of three accelerometers on one block.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct TriadJson {
     /// `"exact"` (the nominal orientations are true) or `"approximate"` (each position's
     /// small rotation from nominal estimated too).
@@ -88,7 +88,7 @@ pub struct TriadJson {
 
 /// `"g_check"`: per position with all three axes measured, `|f̂| − g`, the magnitude of
 /// the corrected specific force `f̂ = M·(u − b)` against the local gravity.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct GCheckJson {
     /// Positions checked (three readings each).
     pub positions: usize,
@@ -117,7 +117,7 @@ pub struct GCheckJson {
 }
 
 /// One position of the result.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, schemars::JsonSchema)]
 pub struct TriadRow {
     /// The row's label.
     pub label: String,

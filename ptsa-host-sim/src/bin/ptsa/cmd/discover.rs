@@ -59,8 +59,9 @@ pub struct DiscoverArgs {
     /// g). The shipped mems and navigation classes give standard gravity, 980.665.
     #[arg(long, value_name = "CM_S2", value_parser = local_gravity_cm_s2)]
     pub local_gravity: Option<f64>,
-    /// Print exactly one JSON object on stdout (the text report goes to stderr). Without
-    /// --data, the object maps each report table's file name to its result.
+    /// Print exactly one JSON object on stdout (the text report goes to stderr); every key,
+    /// its type and meaning: docs/reference/json.md. Without --data, the object maps each
+    /// report table's file name to its result.
     #[arg(long)]
     pub json: bool,
     /// Folder for the per-row table and plots, STEM-discover.csv, .png and .svg (STEM: the

@@ -39,6 +39,10 @@ pub enum InstrumentAction {
         /// Replace an existing file.
         #[arg(long)]
         force: bool,
+        /// Hidden: the global `--instrument` names a file to read, which `new` never does
+        /// (refused when given, and so not listed in its help).
+        #[arg(long, hide = true, value_name = "FILE")]
+        instrument: Option<PathBuf>,
     },
 }
 
@@ -56,7 +60,18 @@ impl InstrumentArgs {
     /// # Errors
     /// `--output` is refused.
     pub fn request(self) -> Result<Request> {
-        let InstrumentAction::New { class, out, force } = self.action;
+        let InstrumentAction::New {
+            class,
+            out,
+            force,
+            instrument,
+        } = self.action;
+        if let Some(f) = instrument {
+            anyhow::bail!(
+                "--instrument {}: `instrument new` reads no instrument file; expected --class CLASS --output FILE only",
+                f.display()
+            );
+        }
         let replaced = paths::output_file("--output", &out, force)?.then(|| replaced_text(&out));
         Ok(Request {
             class,

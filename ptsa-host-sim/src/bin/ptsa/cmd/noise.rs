@@ -146,8 +146,8 @@ pub struct NoiseArgs {
     /// "ci95_hi" (cm/s², 95 %), "ci_lo", "ci_hi" (at --confidence), "edf", "m", "n_pairs",
     /// "mdev_cm_s2", "mdev_ci95_lo", "mdev_ci95_hi", "mdev_ci_lo", "mdev_ci_hi", "mdev_edf",
     /// "hdev_cm_s2", "hdev_ci_lo", "hdev_ci_hi", "hdev_edf", "hdev_alpha", "alpha",
-    /// "alpha_source", "slope_to_next"), "terms" (quantization, velocity_random_walk,
-    /// bias_instability, acceleration_random_walk, and rate_ramp for readings: "symbol",
+    /// "alpha_source", "slope_to_next"), "terms" ("quantization", "velocity_random_walk",
+    /// "bias_instability", "acceleration_random_walk", and "rate_ramp" for readings: "symbol",
     /// "adev_slope", "resolved", "values": [{"unit", "value", "sigma"}]),
     /// "terms_fit_chi2", "terms_fit_dof", "warnings"; with --compare also "comparison"
     /// ("input_cm_s2", "simulated_mean_cm_s2", "familywise_alpha", "test", "differing",

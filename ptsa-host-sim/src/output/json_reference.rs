@@ -1,0 +1,252 @@
+//! `docs/reference/json.md`: every key of `ptsa discover --json` (a single-axis file, and a
+//! triad file's `"triad"`), its type and its meaning, written from the report types' doc
+//! comments through their JSON Schema (`schemars`). The test below checks the page is
+//! current; `tests/json_reference.rs` runs discover on the shipped files and checks that
+//! every key printed is one of the schema's ([`undocumented`]).
+
+use std::fmt::Write as _;
+
+use serde_json::Value;
+
+use crate::discovery::report::JsonReport;
+use crate::triad::report::TriadJson;
+
+/// The schema of `discover --json` for a single-axis file.
+#[must_use]
+pub fn discover_schema() -> Value {
+    schemars::schema_for!(JsonReport).to_value()
+}
+
+/// The schema of a triad file's `"triad"` object.
+#[must_use]
+pub fn triad_schema() -> Value {
+    schemars::schema_for!(TriadJson).to_value()
+}
+
+/// `node` with its `$ref` resolved in the root's `$defs`.
+fn resolve<'a>(root: &'a Value, node: &'a Value) -> &'a Value {
+    match node.get("$ref").and_then(Value::as_str) {
+        Some(r) => r
+            .strip_prefix("#/$defs/")
+            .and_then(|name| root.get("$defs")?.get(name))
+            .map_or(node, |d| resolve(root, d)),
+        None => node,
+    }
+}
+
+/// What a value of `node` is, in words, and the object schema its keys are read from (an
+/// object, or the objects of an array or a map), if any.
+fn kind<'a>(root: &'a Value, node: &'a Value) -> (String, Option<&'a Value>) {
+    let node = resolve(root, node);
+    if let Some(alts) = node.get("anyOf").and_then(Value::as_array) {
+        let (parts, inner): (Vec<String>, Vec<Option<&Value>>) =
+            alts.iter().map(|a| kind(root, a)).unzip();
+        return (parts.join(" or "), inner.into_iter().flatten().next());
+    }
+    let types: Vec<&str> = match node.get("type") {
+        Some(Value::String(t)) => vec![t.as_str()],
+        Some(Value::Array(ts)) => ts.iter().filter_map(Value::as_str).collect(),
+        _ => vec![],
+    };
+    if types == ["null"] {
+        return ("null".to_string(), None);
+    }
+    let nullable = types.contains(&"null");
+    let (word, inner) = match types.iter().find(|t| **t != "null").copied() {
+        Some("array") => {
+            let items = node
+                .get("items")
+                .or_else(|| node.get("prefixItems").and_then(|p| p.get(0)));
+            let (w, i) = items.map_or(("any".to_string(), None), |it| kind(root, it));
+            let n = node.get("minItems").and_then(Value::as_u64);
+            let fixed = n.filter(|&n| Some(n) == node.get("maxItems").and_then(Value::as_u64));
+            (
+                match fixed {
+                    Some(n) => format!("[{n}] of {w}"),
+                    None => format!("list of {w}"),
+                },
+                i,
+            )
+        }
+        Some("object") if node.get("properties").is_some() => ("object".to_string(), Some(node)),
+        Some("object") => match node.get("additionalProperties") {
+            Some(v) if v.is_object() => {
+                let (w, i) = kind(root, v);
+                (format!("map of name → {w}"), i)
+            }
+            _ => ("object".to_string(), None),
+        },
+        Some(t) => (t.to_string(), None),
+        None => ("any".to_string(), None),
+    };
+    (
+        if nullable {
+            format!("{word} or null")
+        } else {
+            word
+        },
+        inner,
+    )
+}
+
+/// One row per key of the object `node` and, after each, its nested keys, `path` before.
+fn rows(out: &mut String, root: &Value, node: &Value, path: &str) {
+    let Some(props) = node.get("properties").and_then(Value::as_object) else {
+        return;
+    };
+    for (key, sub) in props {
+        let (word, inner) = kind(root, sub);
+        let what = sub
+            .get("description")
+            .or_else(|| resolve(root, sub).get("description"))
+            .and_then(Value::as_str)
+            .unwrap_or("");
+        let full = format!("{path}{key}");
+        let _ = writeln!(
+            out,
+            "| `{full}` | {word} | {} |",
+            what.split_whitespace()
+                .collect::<Vec<_>>()
+                .join(" ")
+                .replace("[`", "`")
+                .replace("`]", "`")
+                .replace('|', "\\|")
+        );
+        if let Some(inner) = inner {
+            let nested = if word.starts_with("list") || word.starts_with('[') {
+                format!("{full}[].")
+            } else if word.starts_with("map") {
+                format!("{full}.NAME.")
+            } else {
+                format!("{full}.")
+            };
+            rows(out, root, inner, &nested);
+        }
+    }
+}
+
+/// The page.
+#[must_use]
+pub fn page() -> String {
+    let mut out = String::from(
+        "# Reference: the keys of `ptsa discover --json`\n\n\
+         Generated from the report types' doc comments (`discovery/report.rs`, \
+         `triad/report.rs`) by the test \
+         `output::json_reference::tests::the_json_page_is_current` \
+         (`PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference` writes it \
+         again); `tests/json_reference.rs` checks that every key discover prints on the \
+         shipped files is here. Units are in the keys' names (`_cm_s2` cm/s², `_ppm`, \
+         `_rad`, `_s`, `_ug` µg) or said. `a[].b` is the key `b` of each element of the \
+         list `a`; `a.NAME.b` of each value of the map `a`. The options of every command \
+         are in [options.md](options.md); `noise --json`'s keys are in its `--json` \
+         help there.\n\n\
+         ## A single-axis file\n\n\
+         `ptsa discover --data FILE --json` prints one object:\n\n\
+         | key | type | meaning |\n|---|---|---|\n",
+    );
+    let d = discover_schema();
+    rows(&mut out, &d, &d, "");
+    out.push_str(
+        "\n## A triad file\n\n\
+         `ptsa discover --data TRIAD --json` prints `{\"data\", \"instrument\", \"triad\"}` \
+         (the two files' names and the calibration below), and `\"stream\"` when the file \
+         was a raw stream cut into positions (docs/discovery.md, \"A raw stream\"). \
+         `\"triad\"`:\n\n\
+         | key | type | meaning |\n|---|---|---|\n",
+    );
+    let t = triad_schema();
+    rows(&mut out, &t, &t, "triad.");
+    out
+}
+
+/// The keys of `value` (at any depth) that `schema` does not define, each as its path.
+/// A map's keys are its own (any name); an object's must be the schema's properties.
+#[must_use]
+pub fn undocumented(schema: &Value, value: &Value) -> Vec<String> {
+    let mut out = Vec::new();
+    walk(schema, schema, value, "", &mut out);
+    out
+}
+
+fn walk(root: &Value, node: &Value, value: &Value, path: &str, out: &mut Vec<String>) {
+    let node = resolve(root, node);
+    if let Some(alts) = node.get("anyOf").and_then(Value::as_array) {
+        // The alternative that is not null.
+        if let Some(a) = alts
+            .iter()
+            .find(|a| resolve(root, a).get("type").and_then(Value::as_str) != Some("null"))
+        {
+            walk(root, a, value, path, out);
+        }
+        return;
+    }
+    match value {
+        Value::Object(map) => {
+            if let Some(props) = node.get("properties").and_then(Value::as_object) {
+                for (k, v) in map {
+                    match props.get(k) {
+                        Some(sub) => walk(root, sub, v, &format!("{path}{k}."), out),
+                        None => out.push(format!("{path}{k}")),
+                    }
+                }
+            } else if let Some(sub) = node.get("additionalProperties").filter(|s| s.is_object()) {
+                for v in map.values() {
+                    walk(root, sub, v, &format!("{path}NAME."), out);
+                }
+            }
+        }
+        Value::Array(items) => {
+            let sub = node
+                .get("items")
+                .or_else(|| node.get("prefixItems").and_then(|p| p.get(0)));
+            if let Some(sub) = sub {
+                for v in items {
+                    walk(
+                        root,
+                        sub,
+                        v,
+                        &format!("{}[].", path.trim_end_matches('.')),
+                        out,
+                    );
+                }
+            }
+        }
+        _ => {}
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_json_page_is_current() {
+        let path =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/reference/json.md");
+        let want = page();
+        if std::env::var_os("PTSA_WRITE_REFERENCE").is_some() {
+            std::fs::write(&path, &want).unwrap();
+        }
+        let have = std::fs::read_to_string(&path).unwrap_or_default();
+        assert!(
+            have == want,
+            "docs/reference/json.md is not what the report types define: \
+             PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference"
+        );
+    }
+
+    /// A key the types do not have is found, with its path; a map's own keys are not.
+    #[test]
+    fn an_undocumented_key_is_named() {
+        let s = discover_schema();
+        let v = serde_json::json!({
+            "rows": 3,
+            "nuisance": {"bias_shift_cm_s2": {"block-a": 0.1}},
+            "effects": [{"name": "bias", "extra": 1}],
+            "surprise": true
+        });
+        let mut got = undocumented(&s, &v);
+        got.sort();
+        assert_eq!(got, vec!["effects[].extra", "surprise"]);
+    }
+}
