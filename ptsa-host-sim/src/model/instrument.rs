@@ -606,6 +606,12 @@ impl fmt::Debug for Parameter {
 }
 
 impl Parameter {
+    /// The valid range, as the refusal says it ("a pendulosity > 0 dyn·cm/g").
+    #[must_use]
+    pub fn expected(&self) -> &'static str {
+        self.expected
+    }
+
     /// Its value in `instr`, in the file's unit.
     #[must_use]
     pub fn get(&self, instr: &Instrument) -> f64 {

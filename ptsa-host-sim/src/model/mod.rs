@@ -19,3 +19,4 @@ pub mod design;
 pub mod effects;
 pub mod instrument;
 pub mod plant;
+pub mod reference;
