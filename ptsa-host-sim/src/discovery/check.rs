@@ -31,13 +31,13 @@ use super::problem::{Problem, Selected};
 use super::search::{
     FRESH_SEEDS, REACH, SWAP_MARGIN, Scorer, best_change, limit_note, not_worse, worse_p,
 };
+use super::sim::Simulator;
 use crate::model::effects::{CandidateId, Effects};
 
 /// For every selected parameter, the other parameters that explain the data as well
 /// (added to its partners) or clearly better (named instead, with a step in `steps` that
 /// says so); returns whether a name changed (the caller then refines the parameters
 /// again).
-#[allow(clippy::too_many_lines)] // each selected parameter against every other, then the verdict
 pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected], steps: &mut Vec<Step>) -> bool {
     let (rows, data, f, sim, alpha) = p.parts();
     let params: Vec<usize> = (0..selected.len())
@@ -63,22 +63,93 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected], steps: &mut Vec<
     let level = alpha / f.family.len().max(1) as f64;
     let dof = n.saturating_sub(scorer.linear.len() + params.len()).max(1);
     let reseeded = sim.reseeded(FRESH_SEEDS);
-    let fresh = reseeded
-        .as_deref()
-        .map(|s2| Scorer::new(rows, data, f, selected, s2));
+    let ctx = Context {
+        scorer,
+        fresh: reseeded
+            .as_deref()
+            .map(|s2| Scorer::new(rows, data, f, selected, s2)),
+        others,
+        level,
+        dof,
+        stated: f.stated(),
+    };
     let mut changed = false;
     for &k in &params {
-        let a = selected[k].id;
-        let Some(chi_a) = scorer.chi2(&theta) else {
+        let Some(t) = ctx.tried(&theta, selected, &params, k) else {
             continue;
         };
-        let mut rest = theta;
-        rest.set(a, 0.0);
-        let found: Vec<(CandidateId, f64, f64, Option<f64>)> = others
+        match ctx.best_swap(&t) {
+            Some(best) => {
+                let (old, new, d) = (selected[k].id, best.0, best.1);
+                ctx.swap(&mut selected[k], &t, best, steps, sim);
+                theta.set(old, 0.0);
+                theta.set(new, d);
+                changed = true;
+            }
+            None => ctx.add_partners(&mut selected[k], &t),
+        }
+    }
+    changed
+}
+
+/// What every selected parameter is checked with.
+struct Context<'a> {
+    /// The χ² of the search.
+    scorer: Scorer<'a>,
+    /// The fresh evaluation's, with runs of other seeds (none without a closed loop).
+    fresh: Option<Scorer<'a>>,
+    /// The other parameters of the instrument file with a signature here.
+    others: Vec<CandidateId>,
+    /// The test's level, `α/m`.
+    level: f64,
+    /// Residual degrees of freedom of the selection's fit.
+    dof: usize,
+    /// Whether the sigmas are stated.
+    stated: bool,
+}
+
+/// One other parameter put in a selected one's place: its change, its χ² relative to the
+/// selected one's (mean of both evaluations, and the fresh one alone).
+type Tried = (CandidateId, f64, f64, f64);
+
+/// The others tried in one selected parameter's place.
+struct Trial {
+    /// Each one found by the search: `(other, change, χ², where its search ended at its
+    /// grid's end)`.
+    found: Vec<(CandidateId, f64, f64, Option<f64>)>,
+    /// Each as [`Tried`].
+    tried: Vec<Tried>,
+    /// The selected one's χ², first evaluation.
+    chi_a: f64,
+    /// The selected one's χ², fresh evaluation.
+    chi_a2: f64,
+}
+
+impl Context<'_> {
+    /// Whether a χ² `c` is not significantly worse than `chi`.
+    fn similar(&self, c: f64, chi: f64) -> bool {
+        not_worse(c, chi, self.dof, self.stated, self.level)
+    }
+
+    /// Every other parameter put in selected parameter `k`'s place (`theta` the selected
+    /// parameters' values) and evaluated again with other seeds; `None` when the selected
+    /// model itself cannot be evaluated.
+    fn tried(
+        &self,
+        theta: &Effects,
+        selected: &[Selected],
+        params: &[usize],
+        k: usize,
+    ) -> Option<Trial> {
+        let chi_a = self.scorer.chi2(theta)?;
+        let mut rest = *theta;
+        rest.set(selected[k].id, 0.0);
+        let found: Vec<(CandidateId, f64, f64, Option<f64>)> = self
+            .others
             .par_iter()
             .filter(|&&b| !params.iter().any(|&j| selected[j].id == b))
             .filter_map(|&b| {
-                best_change(&scorer, &rest, b, chi_a + REACH).map(|(d, c, l)| (b, d, c, l))
+                best_change(&self.scorer, &rest, b, chi_a + REACH).map(|(d, c, l)| (b, d, c, l))
             })
             .collect();
         // Each χ² found is the least of some thirty evaluations with the loop's scatter in
@@ -87,11 +158,9 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected], steps: &mut Vec<
         // ten. So a swap needs a fresh evaluation of both points with runs of other seeds
         // (`Simulator::reseeded`) to agree, and a partner is judged on the mean of the two
         // evaluations' differences.
-        let (chi_a2, fresh_c): (f64, Vec<f64>) = match &fresh {
+        let (chi_a2, fresh_c): (f64, Vec<f64>) = match &self.fresh {
             Some(f2) => {
-                let Some(chi_a2) = f2.chi2(&theta) else {
-                    continue;
-                };
+                let chi_a2 = f2.chi2(theta)?;
                 let again: Vec<f64> = found
                     .par_iter()
                     .map(|&(b, d, c, _)| {
@@ -107,54 +176,70 @@ pub(crate) fn check(p: &Problem<'_>, selected: &mut [Selected], steps: &mut Vec<
             }
             None => (chi_a, found.iter().map(|x| x.2).collect()),
         };
-        let similar = |c: f64, chi: f64| not_worse(c, chi, dof, f.stated(), level);
-        // (other, its change, its χ² relative to the selected one's: mean of both
-        // evaluations, and the fresh one alone)
-        let tried: Vec<(CandidateId, f64, f64, f64)> = found
+        let tried = found
             .iter()
             .zip(&fresh_c)
             .map(|(&(b, d, c1, _), &c2)| (b, d, 0.5 * ((c1 - chi_a) + (c2 - chi_a2)), c2 - chi_a2))
             .collect();
-        let best = tried
+        Some(Trial {
+            found,
+            tried,
+            chi_a,
+            chi_a2,
+        })
+    }
+
+    /// The other that fits clearly better in the fresh evaluation, if any.
+    fn best_swap(&self, t: &Trial) -> Option<Tried> {
+        t.tried
             .iter()
             .copied()
             .min_by(|x, y| x.3.total_cmp(&y.3))
-            .filter(|&(_, _, _, dc)| dc < -SWAP_MARGIN && !similar(chi_a2, chi_a2 + dc));
-        let s = &mut selected[k];
-        if let Some((b, d, mean_b, dc)) = best {
-            let old = s.id;
-            let limit = found.iter().find(|x| x.0 == b).and_then(|x| x.3);
-            steps.push(swap_step(
-                old,
-                b,
-                -dc,
-                worse_p(chi_a2, chi_a2 + dc, dof, f.stated()),
-                level,
-                limit.map(|l| limit_note(b, l, sim)),
-            ));
-            s.search_limit = limit;
-            s.id = b;
-            s.coef = d;
-            s.confounded
-                .retain(|(o, _)| *o != b && o.parameter_key().is_none());
-            for &(o, od, mean_o, _) in &tried {
-                if o != b && similar(chi_a + mean_o, chi_a + mean_b) {
-                    s.confounded.push((o, od / d));
-                }
-            }
-            theta.set(old, 0.0);
-            theta.set(b, d);
-            changed = true;
-        } else {
-            for &(o, od, mean_o, _) in &tried {
-                if similar(chi_a + mean_o, chi_a) && !s.confounded.iter().any(|(c, _)| *c == o) {
-                    let factor = if s.coef == 0.0 { 0.0 } else { od / s.coef };
-                    s.confounded.push((o, factor));
-                }
+            .filter(|&(_, _, _, dc)| dc < -SWAP_MARGIN && !self.similar(t.chi_a2, t.chi_a2 + dc))
+    }
+
+    /// Name `best` instead of `s`, with its step; the others as good as it its partners.
+    fn swap(
+        &self,
+        s: &mut Selected,
+        t: &Trial,
+        best: Tried,
+        steps: &mut Vec<Step>,
+        sim: &dyn Simulator,
+    ) {
+        let (b, d, mean_b, dc) = best;
+        let old = s.id;
+        let limit = t.found.iter().find(|x| x.0 == b).and_then(|x| x.3);
+        steps.push(swap_step(
+            old,
+            b,
+            -dc,
+            worse_p(t.chi_a2, t.chi_a2 + dc, self.dof, self.stated),
+            self.level,
+            limit.map(|l| limit_note(b, l, sim)),
+        ));
+        s.search_limit = limit;
+        s.id = b;
+        s.coef = d;
+        s.confounded
+            .retain(|(o, _)| *o != b && o.parameter_key().is_none());
+        for &(o, od, mean_o, _) in &t.tried {
+            if o != b && self.similar(t.chi_a + mean_o, t.chi_a + mean_b) {
+                s.confounded.push((o, od / d));
             }
         }
     }
-    changed
+
+    /// The others not significantly worse than `s`, added to its partners.
+    fn add_partners(&self, s: &mut Selected, t: &Trial) {
+        for &(o, od, mean_o, _) in &t.tried {
+            if self.similar(t.chi_a + mean_o, t.chi_a) && !s.confounded.iter().any(|(c, _)| *c == o)
+            {
+                let factor = if s.coef == 0.0 { 0.0 } else { od / s.coef };
+                s.confounded.push((o, factor));
+            }
+        }
+    }
 }
 
 /// The step of a swap of `old` for `new`, worth `delta` in χ² in the fresh evaluation

@@ -17,9 +17,8 @@ use crate::stats::{lsq, norm};
 /// errors, at most [`GAUSS_NEWTON_STEPS`] times. The coefficients and standard errors of
 /// `selected` become those of the last step, or without convergence those of the iterate
 /// with the least χ².
-#[allow(clippy::too_many_lines)] // one Gauss-Newton iteration and its bookkeeping
 pub(crate) fn refine(p: &Problem<'_>, selected: &mut [Selected]) {
-    let (rows, data, f, sim, opts) = (p.rows, p.data, p.f, p.sim, p.opts);
+    let (rows, data, f, sim) = (p.rows, p.data, p.f, p.sim);
     let params: Vec<usize> = (0..selected.len())
         .filter(|&k| selected[k].id.parameter_key().is_some())
         .collect();
@@ -47,23 +46,14 @@ pub(crate) fn refine(p: &Problem<'_>, selected: &mut [Selected]) {
         if z.iter().any(|x| !x.is_finite()) {
             return;
         }
-        let w = |c: &[f64]| -> Vec<f64> { c.iter().zip(sigma).map(|(x, s)| x / s).collect() };
-        let mut cols: Vec<Vec<f64>> = jac.iter().map(|s| w(&s.col)).collect();
+        let mut cols: Vec<Vec<f64>> = jac.iter().map(|s| s.col.clone()).collect();
         for &k in &additive {
             if let Some(s) = data.signatures.iter().find(|s| s.id == selected[k].id) {
-                cols.push(w(&s.col));
+                cols.push(s.col.clone());
             }
         }
-        cols.extend(nuis.iter().map(|c| w(c)));
-        let scales: Vec<f64> = cols
-            .iter()
-            .map(|c| norm(c).max(f64::MIN_POSITIVE))
-            .collect();
-        let unit: Vec<Vec<f64>> = cols
-            .iter()
-            .zip(&scales)
-            .map(|(c, s)| c.iter().map(|x| x / s).collect())
-            .collect();
+        cols.extend(nuis.iter().cloned());
+        let (unit, scales) = weighted_unit_columns(&cols, sigma);
         let refs: Vec<&[f64]> = unit.iter().map(Vec::as_slice).collect();
         // χ² here: the residual with the additive and nuisance terms refitted, the
         // parameters as they stand.
@@ -73,29 +63,14 @@ pub(crate) fn refine(p: &Problem<'_>, selected: &mut [Selected]) {
             best = Some((here, selected.to_vec()));
         }
         let Some(g) = lsq(&z, &refs) else { return };
-        let dof = n.saturating_sub(refs.len());
-        let birge = crate::stats::birge_ratio(g.chi2, dof);
-        let mut done = true;
-        for (j, &k) in params.iter().enumerate() {
-            let step = g.beta[j] / scales[j];
-            let classical = g.cov[(j, j)].sqrt() * birge / scales[j];
-            let se = if f.stated() {
-                classical
-            } else {
-                classical.max(g.se_hc3[j] / scales[j])
-            };
-            theta.add(selected[k].id, step);
-            selected[k].coef = theta.get(selected[k].id);
-            selected[k].stderr = se;
-            selected[k].plausible = within_tolerance(selected[k].id, selected[k].coef, sim);
-            done &= step.abs() < GAUSS_NEWTON_TOLERANCE * se;
-        }
-        for (j, &k) in additive.iter().enumerate() {
-            let c = params.len() + j;
-            selected[k].coef = g.beta[c] / scales[c];
-            selected[k].stderr = g.cov[(c, c)].sqrt() * birge / scales[c];
-            selected[k].plausible = selected[k].coef.abs() <= opts.limits[selected[k].id.index()];
-        }
+        let birge = crate::stats::birge_ratio(g.chi2, n.saturating_sub(refs.len()));
+        let step = Step {
+            g: &g,
+            scales: &scales,
+            birge,
+        };
+        let done = step.parameters(p, selected, &params, &mut theta);
+        step.additive(p, selected, params.len(), &additive);
         if done {
             return;
         }
@@ -104,6 +79,79 @@ pub(crate) fn refine(p: &Problem<'_>, selected: &mut [Selected]) {
     // the noise, so the iterates wander; keep the best one seen.
     if let Some((_, b)) = best {
         selected.clone_from_slice(&b);
+    }
+}
+
+/// The columns, each divided by the rows' sigmas, then scaled to unit length; the scales.
+fn weighted_unit_columns(cols: &[Vec<f64>], sigma: &[f64]) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let weighted: Vec<Vec<f64>> = cols
+        .iter()
+        .map(|c| c.iter().zip(sigma).map(|(x, s)| x / s).collect())
+        .collect();
+    let scales: Vec<f64> = weighted
+        .iter()
+        .map(|c| norm(c).max(f64::MIN_POSITIVE))
+        .collect();
+    let unit = weighted
+        .iter()
+        .zip(&scales)
+        .map(|(c, s)| c.iter().map(|x| x / s).collect())
+        .collect();
+    (unit, scales)
+}
+
+/// One Gauss–Newton step's weighted least squares: its fit, the columns' scales and the
+/// Birge ratio its standard errors take.
+struct Step<'a> {
+    g: &'a crate::stats::LsqFit,
+    scales: &'a [f64],
+    birge: f64,
+}
+
+impl Step<'_> {
+    /// The parameters (the first columns) moved by their steps, with their standard errors;
+    /// whether every step fell below [`GAUSS_NEWTON_TOLERANCE`] of its standard error.
+    fn parameters(
+        &self,
+        p: &Problem<'_>,
+        selected: &mut [Selected],
+        params: &[usize],
+        theta: &mut Effects,
+    ) -> bool {
+        let (g, scales) = (self.g, self.scales);
+        let mut done = true;
+        for (j, &k) in params.iter().enumerate() {
+            let step = g.beta[j] / scales[j];
+            let classical = g.cov[(j, j)].sqrt() * self.birge / scales[j];
+            let se = if p.f.stated() {
+                classical
+            } else {
+                classical.max(g.se_hc3[j] / scales[j])
+            };
+            theta.add(selected[k].id, step);
+            selected[k].coef = theta.get(selected[k].id);
+            selected[k].stderr = se;
+            selected[k].plausible = within_tolerance(selected[k].id, selected[k].coef, p.sim);
+            done &= step.abs() < GAUSS_NEWTON_TOLERANCE * se;
+        }
+        done
+    }
+
+    /// The additive terms (the columns after the `first` parameters'), refitted.
+    fn additive(
+        &self,
+        p: &Problem<'_>,
+        selected: &mut [Selected],
+        first: usize,
+        additive: &[usize],
+    ) {
+        let (g, scales) = (self.g, self.scales);
+        for (j, &k) in additive.iter().enumerate() {
+            let c = first + j;
+            selected[k].coef = g.beta[c] / scales[c];
+            selected[k].stderr = g.cov[(c, c)].sqrt() * self.birge / scales[c];
+            selected[k].plausible = selected[k].coef.abs() <= p.opts.limits[selected[k].id.index()];
+        }
     }
 }
 

@@ -111,8 +111,6 @@ pub fn design(n: usize) -> Option<Vec<[f64; 3]>> {
 /// The text report of a fit: the three axes' coefficients with 1 σ, the misalignment
 /// matrix, the |g| check, the χ² and the correction written out.
 #[must_use]
-#[allow(clippy::too_many_lines)] // one report, section by section
-#[allow(clippy::needless_range_loop)] // j indexes the axes' names and several arrays
 pub fn text(t: &Triad, data: &str) -> String {
     let mut s = String::new();
     model(&mut s, t, data);
