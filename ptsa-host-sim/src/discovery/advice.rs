@@ -176,70 +176,98 @@ pub fn advise(
                 smallest_sv(&group_columns(&gc, &cc))
             };
             let start = score(&[]);
-            let mut added: Vec<usize> = Vec::new();
-            let mut best = start;
             // A term made testable needs at least two rows of its own.
             let min_rows = if group.len() == 1 { 2 } else { 1 };
-            while added.len() < MAX_ROWS && (best < GOOD || added.len() < min_rows) {
-                let mut pick: Option<(usize, f64)> = None;
-                for k in 0..lib.len() {
-                    // A row where every member's signature is 0 cannot help.
-                    if added.contains(&k) || lib_g.iter().all(|c| c[k] == 0.0) {
-                        continue;
-                    }
-                    let mut trial = added.clone();
-                    trial.push(k);
-                    let s = score(&trial);
-                    if pick.is_none_or(|(_, ps)| s > ps * (1.0 + 1e-9)) {
-                        pick = Some((k, s));
-                    }
-                }
-                match pick {
-                    Some((k, s))
-                        if s > best * (1.0 + 1e-6) + 1e-9
-                            || (added.len() < min_rows && s > 1e-6) =>
-                    {
-                        added.push(k);
-                        best = s;
-                    }
-                    _ => break,
-                }
-            }
-            let names: Vec<String> = group.iter().map(|c| c.info().name.to_string()).collect();
-            let what = if group.len() == 1 {
-                format!("to test {}", names[0])
-            } else {
-                format!("to tell {} apart", and_list(&names))
-            };
-            if added.is_empty() || best < 1e-6 {
-                return Advice {
-                    separates: names,
-                    add_rows: Vec::new(),
-                    note: format!(
-                        "{what}, no row of the library helps: {}",
-                        if group == [CandidateId::Anisoinertia, CandidateId::LeverArmPa] {
-                            "their mean signatures are the same, w_IA·w_PA, for every motion; separate them outside these data, by centring the proof mass on the table axis as R-890 did (so that the lever arm is known to be 0), or by the response at the oscillation frequency to angular acceleration about OA"
-                        } else {
-                            "their mean signatures stay dependent (or zero) for every tumble position, rate, vibration and centrifuge level of the library"
-                        }
-                    ),
-                    rows: Vec::new(),
-                };
-            }
+            let (added, best) = pick_rows(&score, &lib_g, start, min_rows);
             let rows: Vec<Condition> = added.iter().map(|&k| lib[k].clone()).collect();
-            Advice {
-                separates: names,
-                add_rows: rows.iter().map(crate::model::caseframe::to_object).collect(),
-                note: format!(
-                    "{what}, add these {} row{} (measured at about the data's {sigma:.3} cm/s²): the smallest singular value of the group's scaled signatures goes from {start:.3} to {best:.3}{}",
-                    rows.len(),
-                    if rows.len() == 1 { "" } else { "s" },
-                    if best >= GOOD { "" } else { " (still short of a clean separation)" }
-                ),
-                rows,
-            }
+            advice(&group, rows, (start, best), sigma)
         })
         .collect()
+}
+
+/// The library's rows added one at a time, each the one that lifts `score` (the smallest
+/// singular value of the group's scaled signatures, `start` with none) most, until it
+/// reaches [`GOOD`] with at least `min_rows` rows, or [`MAX_ROWS`], or no row helps; the
+/// rows (indices into the library, whose group signatures are `lib_g`) and the score.
+fn pick_rows(
+    score: &dyn Fn(&[usize]) -> f64,
+    lib_g: &[Vec<f64>],
+    start: f64,
+    min_rows: usize,
+) -> (Vec<usize>, f64) {
+    let rows = lib_g.first().map_or(0, Vec::len);
+    let mut added: Vec<usize> = Vec::new();
+    let mut best = start;
+    while added.len() < MAX_ROWS && (best < GOOD || added.len() < min_rows) {
+        let mut pick: Option<(usize, f64)> = None;
+        for k in 0..rows {
+            // A row where every member's signature is 0 cannot help.
+            if added.contains(&k) || lib_g.iter().all(|c| c[k] == 0.0) {
+                continue;
+            }
+            let mut trial = added.clone();
+            trial.push(k);
+            let s = score(&trial);
+            if pick.is_none_or(|(_, ps)| s > ps * (1.0 + 1e-9)) {
+                pick = Some((k, s));
+            }
+        }
+        match pick {
+            Some((k, s))
+                if s > best * (1.0 + 1e-6) + 1e-9 || (added.len() < min_rows && s > 1e-6) =>
+            {
+                added.push(k);
+                best = s;
+            }
+            _ => break,
+        }
+    }
+    (added, best)
+}
+
+/// The advice for `group`: the `rows` picked, with the score before and after them
+/// (`scores`), the data's median sigma `sigma`; or why no row of the library helps.
+fn advice(group: &[CandidateId], rows: Vec<Condition>, scores: (f64, f64), sigma: f64) -> Advice {
+    let (start, best) = scores;
+    let names: Vec<String> = group.iter().map(|c| c.info().name.to_string()).collect();
+    let what = if group.len() == 1 {
+        format!("to test {}", names[0])
+    } else {
+        format!("to tell {} apart", and_list(&names))
+    };
+    if rows.is_empty() || best < 1e-6 {
+        return Advice {
+            separates: names,
+            add_rows: Vec::new(),
+            note: format!(
+                "{what}, no row of the library helps: {}",
+                if group == [CandidateId::Anisoinertia, CandidateId::LeverArmPa] {
+                    "their mean signatures are the same, w_IA·w_PA, for every motion; separate them outside these data, by centring the proof mass on the table axis as R-890 did (so that the lever arm is known to be 0), or by the response at the oscillation frequency to angular acceleration about OA"
+                } else {
+                    "their mean signatures stay dependent (or zero) for every tumble position, rate, vibration and centrifuge level of the library"
+                }
+            ),
+            rows: Vec::new(),
+        };
+    }
+    Advice {
+        separates: names,
+        add_rows: rows
+            .iter()
+            .map(crate::model::caseframe::to_object)
+            .collect(),
+        note: format!(
+            "{what}, add these {} row{} (measured at about the data's {sigma:.3} cm/s²): the smallest singular value of the group's scaled signatures goes from {start:.3} to {best:.3}{}",
+            rows.len(),
+            if rows.len() == 1 { "" } else { "s" },
+            if best >= GOOD {
+                ""
+            } else {
+                " (still short of a clean separation)"
+            }
+        ),
+        rows,
+    }
 }
 
 /// The shapes whose order in time the rows' positions cannot tell from the terms of the

@@ -104,34 +104,78 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
     // these data better than a form that had no such choice.
     #[allow(clippy::cast_precision_loss)]
     let pair_level = alpha / f.family_size().max(1) as f64;
-    // A companion bias stays in the model; it names no cause a form could stand in for.
+    let search = Search {
+        data,
+        f,
+        cols: &cols,
+        nn,
+        z: &z,
+        forms: &forms,
+        reference: &reference,
+        alpha,
+        pair_level,
+    };
+    let mut found: Vec<Vec<Rival>> = vec![Vec::new(); selected.len()];
+    for group in &groups(selected) {
+        search.group(group, selected, &mut found);
+    }
+    for (s, rivals) in selected.iter_mut().zip(found) {
+        s.rivals = ordered(rivals);
+    }
+}
+
+/// One term, then every pair of terms, to be replaced by one form (a companion bias
+/// stays in the model: it names no cause a form could stand in for).
+fn groups(selected: &[Selected]) -> Vec<Vec<usize>> {
     let named: Vec<usize> = (0..selected.len())
         .filter(|&j| !selected[j].companion)
         .collect();
-    // One term, then every pair of terms, replaced by one form.
     let mut groups: Vec<Vec<usize>> = named.iter().map(|&j| vec![j]).collect();
     for (a, &j) in named.iter().enumerate() {
         for &k in &named[a + 1..] {
             groups.push(vec![j, k]);
         }
     }
-    let mut found: Vec<Vec<Rival>> = vec![Vec::new(); selected.len()];
-    for group in &groups {
-        let others: Vec<&[f64]> = keep
-            .iter()
-            .filter(|&&c| c < nn || !group.contains(&(c - nn)))
-            .map(|&c| cols[c])
+    groups
+}
+
+/// What every group's rivals are sought with: the final fit's unit columns (the `nn`
+/// nuisance ones first), its weighted target, the forms outside the vocabulary, the noise
+/// scale of the final model, the levels.
+struct Search<'a> {
+    data: &'a Data,
+    f: &'a Fitted,
+    cols: &'a [&'a [f64]],
+    nn: usize,
+    z: &'a [f64],
+    forms: &'a [(usize, Vec<f64>)],
+    reference: &'a fit::Reference,
+    alpha: f64,
+    pair_level: f64,
+}
+
+impl Search<'_> {
+    /// The forms that stand in the place of `group` (one term or two) not significantly
+    /// worse, added to each member's rivals in `found`.
+    fn group(&self, group: &[usize], selected: &[Selected], found: &mut [Vec<Rival>]) {
+        let nn = self.nn;
+        let others: Vec<&[f64]> = (0..self.cols.len())
+            .filter(|&c| c < nn || !group.contains(&(c - nn)))
+            .map(|c| self.cols[c])
             .collect();
         let q = orthonormal(&others);
-        let r = partial(&z, &q);
-        let parts: Vec<Vec<f64>> = group.iter().map(|&j| partial(cols[nn + j], &q)).collect();
+        let r = partial(self.z, &q);
+        let parts: Vec<Vec<f64>> = group
+            .iter()
+            .map(|&j| partial(self.cols[nn + j], &q))
+            .collect();
         if parts.iter().any(|p| norm(p) < 1e-6) {
-            continue;
+            return;
         }
         let refs: Vec<&[f64]> = parts.iter().map(Vec::as_slice).collect();
         let span = orthonormal(&refs);
         if span.len() < group.len() {
-            continue;
+            return;
         }
         // What the group explains of the target off the rest of the model.
         let held: f64 = span.iter().map(|b| dot(b, &r).powi(2)).sum();
@@ -141,7 +185,7 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
                 .find(|&&k| k != j)
                 .map(|&k| selected[k].id.info().key.to_string())
         };
-        for (k, unit) in &forms {
+        for (k, unit) in self.forms {
             let part = partial(unit, &q);
             let pn = norm(&part);
             if pn < 1e-6 || part.iter().fold(0.0_f64, |m, x| m.max(x * x)) > ONE_ROW_SHARE * pn * pn
@@ -163,13 +207,18 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
             // per term of the group.
             #[allow(clippy::cast_precision_loss)]
             let df = group.len() as f64;
-            let p_value = fit::scaled_p((held - b * b).max(0.0), df, f.stated(), &reference);
-            let level = if group.len() == 1 { alpha } else { pair_level };
+            let p_value =
+                fit::scaled_p((held - b * b).max(0.0), df, self.f.stated(), self.reference);
+            let level = if group.len() == 1 {
+                self.alpha
+            } else {
+                self.pair_level
+            };
             if p_value > level {
                 for &j in group {
                     found[j].push(Rival {
-                        form: data.shapes[*k].form.clone(),
-                        family: data.shapes[*k].family.name(),
+                        form: self.data.shapes[*k].form.clone(),
+                        family: self.data.shapes[*k].family.name(),
                         cos,
                         p_value,
                         together_with: partner(j),
@@ -177,9 +226,6 @@ pub(crate) fn find(data: &Data, f: &Fitted, selected: &mut [Selected], alpha: f6
                 }
             }
         }
-    }
-    for (s, rivals) in selected.iter_mut().zip(found) {
-        s.rivals = ordered(rivals);
     }
 }
 

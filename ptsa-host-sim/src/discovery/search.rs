@@ -148,9 +148,49 @@ pub(crate) fn best_change(
         scorer.chi2(&t)
     };
     let mut chi: Vec<Option<f64>> = grid.iter().map(|&d| score(d)).collect();
-    // While an end of the grid is the best on its side, the grid goes on outward by half
-    // again (a change beyond twice the distance to the band's edge: a 21° phase error
-    // against a ±10° band), at most [`GRID_EXTENSIONS`] times a side.
+    extend(&mut grid, &mut chi, &score, &valid);
+    let (i, c) = chi
+        .iter()
+        .enumerate()
+        .filter_map(|(i, c)| c.map(|c| (i, c)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))?;
+    // Golden-section search between the grid's best point's neighbours (the χ² of a
+    // parameter acting as cos φ is far from a parabola in it), and between those of the
+    // best grid point on the other side of the file's value too (an even response with a
+    // small odd part has a valley on each side), unless the grid's best is beyond reach.
+    let best = (grid[i], c);
+    if c > reach {
+        return Some((best.0, best.1, grid_end(&grid, best.0)));
+    }
+    let zero = grid.iter().position(|&d| d == 0.0).unwrap_or(0);
+    let other = chi
+        .iter()
+        .enumerate()
+        .filter(|&(j, _)| j != zero && (j < zero) != (i < zero) && i != zero)
+        .filter_map(|(j, c)| c.map(|c| (j, c)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .filter(|&(_, c)| c <= reach)
+        .map(|(j, _)| j);
+    let mut best = best;
+    for j in std::iter::once(i).chain(other) {
+        let g = golden(&grid, j, &score);
+        if g.1 < best.1 {
+            best = g;
+        }
+    }
+    Some((best.0, best.1, grid_end(&grid, best.0)))
+}
+
+/// While an end of the grid is the best on its side, the grid goes on outward by half
+/// again (a change beyond twice the distance to the band's edge: a 21° phase error against
+/// a ±10° band), at most [`GRID_EXTENSIONS`] times a side; `chi` the grid's χ² by `score`,
+/// a change kept only where `valid`.
+fn extend(
+    grid: &mut Vec<f64>,
+    chi: &mut Vec<Option<f64>>,
+    score: &dyn Fn(f64) -> Option<f64>,
+    valid: &dyn Fn(f64) -> bool,
+) {
     for _ in 0..GRID_EXTENSIONS {
         let mut grew = false;
         for end in [0, grid.len() - 1] {
@@ -177,58 +217,31 @@ pub(crate) fn best_change(
             break;
         }
     }
-    let (i, c) = chi
-        .iter()
-        .enumerate()
-        .filter_map(|(i, c)| c.map(|c| (i, c)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))?;
-    // Golden-section search between the grid's best point's neighbours (the χ² of a
-    // parameter acting as cos φ is far from a parabola in it), and between those of the
-    // best grid point on the other side of the file's value too (an even response with a
-    // small odd part has a valley on each side), unless the grid's best is beyond reach.
-    let best = (grid[i], c);
-    if c > reach {
-        return Some((best.0, best.1, grid_end(&grid, best.0)));
-    }
-    let zero = grid.iter().position(|&d| d == 0.0).unwrap_or(0);
-    let other = chi
-        .iter()
-        .enumerate()
-        .filter(|&(j, _)| j != zero && (j < zero) != (i < zero) && i != zero)
-        .filter_map(|(j, c)| c.map(|c| (j, c)))
-        .min_by(|a, b| a.1.total_cmp(&b.1))
-        .filter(|&(_, c)| c <= reach)
-        .map(|(j, _)| j);
-    let golden = |i: usize| -> (f64, f64) {
-        let (mut lo_x, mut hi_x) = (grid[i.saturating_sub(1)], grid[(i + 1).min(grid.len() - 1)]);
-        let r = 0.5 * (5f64.sqrt() - 1.0);
-        let mut x1 = hi_x - r * (hi_x - lo_x);
-        let mut x2 = lo_x + r * (hi_x - lo_x);
-        let mut f1 = score(x1).unwrap_or(f64::INFINITY);
-        let mut f2 = score(x2).unwrap_or(f64::INFINITY);
-        for _ in 0..GOLDEN_STEPS {
-            if f1 < f2 {
-                hi_x = x2;
-                (x2, f2) = (x1, f1);
-                x1 = hi_x - r * (hi_x - lo_x);
-                f1 = score(x1).unwrap_or(f64::INFINITY);
-            } else {
-                lo_x = x1;
-                (x1, f1) = (x2, f2);
-                x2 = lo_x + r * (hi_x - lo_x);
-                f2 = score(x2).unwrap_or(f64::INFINITY);
-            }
-        }
-        if f1 < f2 { (x1, f1) } else { (x2, f2) }
-    };
-    let mut best = best;
-    for j in std::iter::once(i).chain(other) {
-        let g = golden(j);
-        if g.1 < best.1 {
-            best = g;
+}
+
+/// Golden-section search of `score` between the neighbours of `grid[i]`,
+/// [`GOLDEN_STEPS`] steps: the best change and its χ².
+fn golden(grid: &[f64], i: usize, score: &dyn Fn(f64) -> Option<f64>) -> (f64, f64) {
+    let (mut lo_x, mut hi_x) = (grid[i.saturating_sub(1)], grid[(i + 1).min(grid.len() - 1)]);
+    let r = 0.5 * (5f64.sqrt() - 1.0);
+    let mut x1 = hi_x - r * (hi_x - lo_x);
+    let mut x2 = lo_x + r * (hi_x - lo_x);
+    let mut f1 = score(x1).unwrap_or(f64::INFINITY);
+    let mut f2 = score(x2).unwrap_or(f64::INFINITY);
+    for _ in 0..GOLDEN_STEPS {
+        if f1 < f2 {
+            hi_x = x2;
+            (x2, f2) = (x1, f1);
+            x1 = hi_x - r * (hi_x - lo_x);
+            f1 = score(x1).unwrap_or(f64::INFINITY);
+        } else {
+            lo_x = x1;
+            (x1, f1) = (x2, f2);
+            x2 = lo_x + r * (hi_x - lo_x);
+            f2 = score(x2).unwrap_or(f64::INFINITY);
         }
     }
-    Some((best.0, best.1, grid_end(&grid, best.0)))
+    if f1 < f2 { (x1, f1) } else { (x2, f2) }
 }
 
 /// The end of `grid` that `x` lies at (within [`AT_LIMIT`] of the last interval), if any.
