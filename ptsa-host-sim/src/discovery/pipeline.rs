@@ -5,9 +5,10 @@
 
 use super::assemble::{self, Found};
 use super::fit;
+use super::fit::Step;
 use super::observation::Observation;
 use super::outcome::Discovery;
-use super::problem::{Options, Problem};
+use super::problem::{Options, Problem, Selected};
 use super::profile;
 use super::sim::Simulator;
 use super::{
@@ -99,17 +100,7 @@ pub fn discover_with(
         sim,
         opts,
     };
-    cost::ahead_of_search(rows, sim, opts, &selected)?;
-    refine::refine(&p, &mut selected);
-    prune::prune(&p, &mut selected, &mut steps);
-    if scan::scan(&p, &mut selected, &mut steps) {
-        refine::refine(&p, &mut selected);
-    }
-    if check::check(&p, &mut selected, &mut steps) {
-        refine::refine(&p, &mut selected);
-    }
-    mirror::mirror(&p, &mut selected);
-    refine::settle(&mut selected, sim);
+    loop_parameters(&p, &mut selected, &mut steps)?;
     // 4. Extend and re-simulate.
     set_stage("re-simulation");
     let extended = extend::extend(&p, &selected, &baseline)?;
@@ -146,6 +137,31 @@ pub fn discover_with(
         scatter,
         stability,
     }))
+}
+
+/// The selected parameters of the instrument file through the closed loop: refined
+/// (Gauss–Newton), pruned, scanned, checked against the file's other parameters, their
+/// mirror images tried, then settled against the file's values.
+///
+/// # Errors
+/// The searches would run beyond the work limit ([`cost::ahead_of_search`]).
+fn loop_parameters(
+    p: &Problem<'_>,
+    selected: &mut Vec<Selected>,
+    steps: &mut Vec<Step>,
+) -> anyhow::Result<()> {
+    cost::ahead_of_search(p.rows, p.sim, p.opts, selected)?;
+    refine::refine(p, selected);
+    prune::prune(p, selected, steps);
+    if scan::scan(p, selected, steps) {
+        refine::refine(p, selected);
+    }
+    if check::check(p, selected, steps) {
+        refine::refine(p, selected);
+    }
+    mirror::mirror(p, selected);
+    refine::settle(selected, p.sim);
+    Ok(())
 }
 
 #[cfg(test)]
