@@ -9,7 +9,10 @@
 //!   every octave τ (19 of them), each with its noise identification (lag-1
 //!   autocorrelation), EDF and 95 % interval (`noise::allan::analyse`);
 //! * `allan/analysis_1e6`: the same and the noise terms' fit, as `ptsa noise` runs it on a
-//!   record already read (`noise::Analysis::of_series`).
+//!   record already read (`noise::Analysis::of_series`);
+//! * `allan/readings_parse_1e6`: a record of readings of 10⁶ rows (`time_s,reading`, the
+//!   text already in memory) read into samples, as `ptsa noise --readings` does
+//!   (`noise::readings::parse`: the header, the cells, the spacing check).
 //!
 //! The series is white noise plus a random walk (seeded), so the noise identification
 //! differences it at some τ.
@@ -17,7 +20,9 @@
 use std::hint::black_box;
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use ptsa_host_sim::noise::{Analysis, allan};
+use ptsa_host_sim::Instrument;
+use ptsa_host_sim::model::instrument::ReadingUnit;
+use ptsa_host_sim::noise::{Analysis, allan, readings};
 use rand::SeedableRng as _;
 use rand_distr::{Distribution as _, Normal};
 
@@ -42,6 +47,26 @@ fn bench(c: &mut Criterion) {
     });
     g.bench_function("analysis_1e6", |b| {
         b.iter(|| Analysis::of_series(black_box(&y), 0.01, 21_121.1, 64_000.0));
+    });
+    let mut text = String::from("time_s,reading\n");
+    for (k, v) in y.iter().enumerate() {
+        use std::fmt::Write as _;
+        #[allow(clippy::cast_precision_loss)]
+        let t = k as f64 * 0.01;
+        let _ = writeln!(text, "{t:.2},{v:.6}");
+    }
+    let instr = Instrument::kearfott_2401();
+    g.bench_function("readings_parse_1e6", |b| {
+        b.iter(|| {
+            readings::parse(
+                "bench",
+                black_box(&text),
+                ReadingUnit::CmPerS2,
+                &instr,
+                0.01,
+            )
+            .map(|r| r.y.len())
+        });
     });
     g.finish();
 }

@@ -12,8 +12,8 @@
 //!   processes, one per octave of correlation time from `τ₀` to four times the record,
 //!   each of variance `ln 2·B²/π`; an octave's worth of equal-variance Lorentzians has
 //!   the one-sided density `h/f` with `h = σ²/ln 2`, whose Allan variance `2·ln 2·h` is
-//!   `(2·ln 2/π)·B²`: within 10 % from 16 samples to a quarter of the record (the test
-//!   below), 15 % low at 4 samples. The identification takes only the replicas'
+//!   `(2·ln 2/π)·B²`: within 10 % from 16 to 1024 samples of a 2¹⁴-sample record (the
+//!   test below), 15 % low at 4 samples. The identification takes only the replicas'
 //!   spread and each log's bias from them, never their mean, so that departure does not
 //!   enter its fit. A process with a correlation time of 16 samples or more is stepped
 //!   once per eighth of it and held;

@@ -685,12 +685,11 @@ fn identify_terms(r: &Readings, a: &Analysis, seed: u64) -> Result<ident_terms::
     };
     let bar = work::Progress::start("noise --identify", &est);
     let seed = ident_terms::record_seed(&r.y, seed);
-    let id = ident_terms::identify(&r.y, r.tau0_s, &a.terms, seed, &mut |_| {});
+    let id = ident_terms::identify(&r.y, r.tau0_s, &a.terms, seed, &mut |round| {
+        bar.set_step(&format!("round {}", round + 1));
+    });
     bar.finish();
-    id.context(format!(
-        "--identify: {} samples give fewer than three averaging times up to a quarter of the record; expected at least 16 samples",
-        r.y.len()
-    ))
+    id.map_err(|e| anyhow::anyhow!("--identify: {} samples: {e}", r.y.len()))
 }
 
 /// The analysis's own warnings: too few averaging times for the terms, a curve the terms
