@@ -938,15 +938,8 @@ mod reference {
 
     #[test]
     fn the_candidates_page_is_current() {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../docs/reference/candidates.md");
-        let want = page();
-        if std::env::var_os("PTSA_WRITE_REFERENCE").is_some() {
-            std::fs::write(&path, &want).unwrap();
-        }
-        let have = std::fs::read_to_string(&path).unwrap_or_default();
         assert!(
-            have == want,
+            crate::output::reference_page_is_current("candidates.md", &page()),
             "docs/reference/candidates.md is not what the registry holds: \
              PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference"
         );

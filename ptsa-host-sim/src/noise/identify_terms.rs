@@ -468,18 +468,7 @@ impl Identification {
             .candidates
             .iter()
             .map(|c| {
-                let values: Vec<serde_json::Value> = c
-                    .term
-                    .units()
-                    .into_iter()
-                    .map(|(unit, k)| {
-                        serde_json::json!({
-                            "unit": unit,
-                            "value": c.value.map(|v| v.0 * k),
-                            "ci95": c.value.map(|v| [v.1 * k, v.2 * k]),
-                        })
-                    })
-                    .collect();
+                let values = super::terms::json_values(c.term.units(), c.value);
                 serde_json::json!({
                     "term": c.term.key(),
                     "symbol": c.term.symbol(),

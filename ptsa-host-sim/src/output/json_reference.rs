@@ -221,15 +221,8 @@ mod tests {
 
     #[test]
     fn the_json_page_is_current() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/reference/json.md");
-        let want = page();
-        if std::env::var_os("PTSA_WRITE_REFERENCE").is_some() {
-            std::fs::write(&path, &want).unwrap();
-        }
-        let have = std::fs::read_to_string(&path).unwrap_or_default();
         assert!(
-            have == want,
+            crate::output::reference_page_is_current("json.md", &page()),
             "docs/reference/json.md is not what the report types define: \
              PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference"
         );

@@ -983,18 +983,7 @@ fn identification_json(id: &Identification) -> serde_json::Value {
         .candidates
         .iter()
         .map(|c| {
-            let values: Vec<serde_json::Value> = c
-                .kind
-                .units()
-                .into_iter()
-                .map(|(unit, k)| {
-                    serde_json::json!({
-                        "unit": unit,
-                        "value": c.value.map(|v| v.0 * k),
-                        "ci95": c.value.map(|v| [v.1 * k, v.2 * k]),
-                    })
-                })
-                .collect();
+            let values = ptsa_host_sim::noise::terms::json_values(c.kind.units(), c.value);
             serde_json::json!({
                 "candidate": c.kind.key(),
                 "statistic": c.statistic,

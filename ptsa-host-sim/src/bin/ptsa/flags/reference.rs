@@ -99,15 +99,8 @@ mod tests {
 
     #[test]
     fn the_options_page_is_current() {
-        let path =
-            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../docs/reference/options.md");
-        let want = page();
-        if std::env::var_os("PTSA_WRITE_REFERENCE").is_some() {
-            std::fs::write(&path, &want).unwrap();
-        }
-        let have = std::fs::read_to_string(&path).unwrap_or_default();
         assert!(
-            have == want,
+            ptsa_host_sim::output::reference_page_is_current("options.md", &page()),
             "docs/reference/options.md is not what the command line defines: \
              PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --bin ptsa reference"
         );
