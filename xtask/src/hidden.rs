@@ -55,6 +55,8 @@
 //! the IEEE 1293 equation, the sets in which a selected term is marked unstable counted
 //! against the familywise 5 %; N sets in all (default 2000).
 
+use std::fmt::Write as _;
+
 use crate::util::{self, Error};
 
 /// `cargo xtask hidden --help`.
@@ -108,9 +110,12 @@ hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration 
                  the physics, analysed with the analytic simulator)";
 
 /// The campaign asked for, validated.
-struct Campaign {
-    sets: Option<String>,
-    seed: Option<String>,
+/// One campaign as asked for on the command line.
+pub struct Campaign {
+    /// `--sets`, when given.
+    pub sets: Option<String>,
+    /// `--seed`, when given.
+    pub seed: Option<String>,
     analytic: bool,
     which: &'static Which,
     additive: bool,
@@ -198,7 +203,8 @@ const CAMPAIGNS: &[Which] = &[
 ];
 
 /// Parses and validates `cargo xtask hidden`'s options.
-fn parse(args: &[String]) -> Result<Campaign, Error> {
+/// The campaign `args` ask for (`cargo xtask hidden`'s options).
+pub fn parse(args: &[String]) -> Result<Campaign, Error> {
     let mut sets: Option<String> = None;
     let mut seed: Option<String> = None;
     let mut analytic = false;
@@ -264,25 +270,32 @@ fn parse(args: &[String]) -> Result<Campaign, Error> {
     })
 }
 
-/// `cargo xtask hidden`.
-pub fn run(args: &[String]) -> Result<(), Error> {
-    let Campaign {
-        sets,
-        seed,
-        analytic,
-        which,
-        additive,
-    } = parse(args)?;
+#[cfg(test)]
+impl Campaign {
+    /// The campaign's ignored test.
+    pub fn name(&self) -> &'static str {
+        self.which.name
+    }
+}
+
+/// Every campaign's ignored test.
+#[cfg(test)]
+pub fn campaign_names() -> impl Iterator<Item = &'static str> {
+    CAMPAIGNS.iter().map(|c| c.name)
+}
+
+/// The campaign's command: `cargo test` of its ignored test, with its sets, seed and
+/// switches in the environment; and the command as a person would type it.
+pub fn command(c: &Campaign) -> (std::process::Command, String) {
     let Which {
         test,
         name,
         default_sets,
         ..
-    } = *which;
-    let sets = sets.unwrap_or_else(|| default_sets.to_string());
-    let root = util::root();
+    } = *c.which;
+    let sets = c.sets.clone().unwrap_or_else(|| default_sets.to_string());
     let mut cmd = std::process::Command::new(util::cargo());
-    cmd.current_dir(&root)
+    cmd.current_dir(util::root())
         .args([
             "test",
             "-p",
@@ -295,30 +308,30 @@ pub fn run(args: &[String]) -> Result<(), Error> {
             "--nocapture",
         ])
         .env("PTSA_HIDDEN_SETS", &sets);
-    if let Some(s) = &seed {
+    let mut shown = format!("PTSA_HIDDEN_SETS={sets}");
+    if let Some(s) = &c.seed {
         cmd.env("PTSA_HIDDEN_SEED", s);
+        let _ = write!(shown, " PTSA_HIDDEN_SEED={s}");
     }
-    if analytic {
+    if c.analytic {
         cmd.env("PTSA_HIDDEN_ANALYTIC", "1");
+        shown.push_str(" PTSA_HIDDEN_ANALYTIC=1");
     }
-    if additive {
+    if c.additive {
         cmd.env("PTSA_HIDDEN_ADDITIVE", "1");
+        shown.push_str(" PTSA_HIDDEN_ADDITIVE=1");
     }
-    eprintln!(
-        "+ PTSA_HIDDEN_SETS={sets}{}{}{} cargo test -p ptsa-tests --test {test} {name} -- --ignored --nocapture",
-        seed.as_ref()
-            .map_or(String::new(), |s| format!(" PTSA_HIDDEN_SEED={s}")),
-        if analytic {
-            " PTSA_HIDDEN_ANALYTIC=1"
-        } else {
-            ""
-        },
-        if additive {
-            " PTSA_HIDDEN_ADDITIVE=1"
-        } else {
-            ""
-        }
+    let _ = write!(
+        shown,
+        " cargo test -p ptsa-tests --test {test} {name} -- --ignored --nocapture"
     );
+    (cmd, shown)
+}
+
+/// `cargo xtask hidden`.
+pub fn run(args: &[String]) -> Result<(), Error> {
+    let (mut cmd, shown) = command(&parse(args)?);
+    eprintln!("+ {shown}");
     let t0 = std::time::Instant::now();
     let status = cmd
         .status()

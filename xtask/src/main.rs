@@ -20,7 +20,10 @@
 //!   discovery pipeline, or with `--parameters` the hidden-parameter one, with `--statics` the
 //!   hidden-statics one, with `--lab` the lab one, with `--sigma` the understated-sigma one,
 //!   with `--calibration` the calibration-coverage one, with `--triad` the triad
-//!   calibration's, with `--stability` the stability stage's false alarms.
+//!   calibration's, with `--stability` the stability stage's false alarms, with
+//!   `--noise-terms` the static records' noise terms.
+//! * `figures [ID ...] [--list] [--rescore-seed S | --no-rescore]` — run the measurements
+//!   the docs quote, each asserting its claim, and write `docs/figures/ID.md` for each.
 //!
 //! Before its first step, each command looks for everything it needs from the machine
 //! (`needs`: QEMU, the thumbv7em target, rustfmt, clippy, a C compiler, python3) and, if anything is
@@ -36,6 +39,7 @@ use util::Error;
 
 mod ci;
 mod constants;
+mod figures;
 mod firmware;
 mod golden;
 mod hidden;
@@ -45,13 +49,14 @@ mod report_data;
 mod util;
 
 /// The commands: name and usage (first line the synopsis, then what it does).
-const COMMANDS: [(&str, &str); 7] = [
+const COMMANDS: [(&str, &str); 8] = [
     ("ci", ci::USAGE),
     ("golden", golden::USAGE),
     ("constants", constants::USAGE),
     ("firmware", firmware::USAGE),
     ("pil", pil::USAGE),
     ("hidden", hidden::USAGE),
+    ("figures", figures::USAGE),
     ("report-data", report_data::USAGE),
 ];
 
@@ -109,7 +114,7 @@ fn main() -> ExitCode {
             }
             _ => {
                 eprintln!(
-                    "xtask help: expected one of ci, golden, constants, firmware, pil, hidden"
+                    "xtask help: expected one of ci, golden, constants, firmware, pil, hidden, figures, report-data"
                 );
                 eprint!("{}", usage());
                 ExitCode::from(2)
@@ -132,6 +137,7 @@ fn main() -> ExitCode {
         "firmware" => firmware::run(rest),
         "pil" => pil::run(rest),
         "hidden" => hidden::run(rest),
+        "figures" => figures::run(rest),
         "report-data" => report_data::run(rest),
         other => Err(Error::Usage(format!("unknown command `{other}`"))),
     };

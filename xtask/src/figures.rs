@@ -1,0 +1,567 @@
+//! `cargo xtask figures [ID ...] [--list] [--rescore-seed S | --no-rescore]`: the
+//! measurements that the docs quote, each run by a command that asserts its claim, written
+//! as one generated page per figure in `docs/figures/` with the command, the date, the
+//! commit, the machine and what the command printed, and an index page listing them.
+//!
+//! A seeded campaign runs twice: at its published seed, and re-scored at a seed chosen on
+//! the day of the run (`YYYYMMDD`), which no one can have tuned the method on. Both must
+//! pass. A figure whose command fails writes no page (the page before stays), and the run
+//! ends with an error naming it.
+
+use std::io::{BufRead as _, BufReader, Write as _};
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use std::fmt::Write as _;
+
+use crate::hidden;
+use crate::util::{self, Error};
+
+/// `cargo xtask figures --help`.
+pub const USAGE: &str = "\
+figures [ID ...] [--list] [--rescore-seed S | --no-rescore]
+    Runs the measurements the docs quote, each by a command that asserts its claim (a
+    campaign's rates by binomial tests against their goals; the firmware's budgets), and
+    writes docs/figures/ID.md for each: the command, the date, the commit, the machine,
+    and what the command printed. docs/figures/README.md lists them all. A figure whose
+    command fails keeps its old page, and the run fails naming it.
+    ID ...       the figures to run (default: every one; --list names them)
+    --list       print each figure's id, command and claim, and stop
+    --rescore-seed S  re-score each seeded campaign at seed S, a whole number (default:
+                 today's date as YYYYMMDD, a seed chosen after the method was fixed)
+    --no-rescore run each campaign at its published seed only (half the time)
+    The full run takes about an hour on 2 cores; the campaigns' CI-sized subsets run in
+    every `cargo xtask ci`.";
+
+/// How a figure is measured.
+enum Measure {
+    /// `cargo xtask hidden ARGS` (its seed replaced when re-scored).
+    Hidden(&'static [&'static str]),
+    /// `cargo xtask ARGS`, keeping the lines of its report (`ok`, `FAIL`, totals).
+    Xtask(&'static [&'static str]),
+}
+
+/// One published figure: what it supports and how it is measured.
+struct Figure {
+    /// The page's name, `docs/figures/ID.md`.
+    id: &'static str,
+    /// What is measured, in a few words.
+    title: &'static str,
+    /// The claim the command asserts.
+    claim: &'static str,
+    /// The pages that quote it.
+    quoted_in: &'static str,
+    measure: Measure,
+    /// The CI-sized subset that runs in every `cargo xtask ci`: a test file and a test.
+    ci: (&'static str, &'static str),
+}
+
+/// Every published figure.
+const FIGURES: &[Figure] = &[
+    Figure {
+        id: "hidden-effects",
+        title: "discovery: every candidate effect hidden as physics in the closed loop",
+        claim: "false selections at most 5 % per null kind; each effect named at 8 standard errors; the contract's rates per kind",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--sets", "200", "--seed", "7"]),
+        ci: ("hidden_effects", "hidden_effects_ci"),
+    },
+    Figure {
+        id: "hidden-effects-analytic",
+        title: "discovery: the same campaign on the quasi-static generator, 1000 sets per kind",
+        claim: "as hidden-effects, with the power of 1000 sets per kind",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--sets", "1000", "--analytic", "--seed", "4242"]),
+        ci: ("hidden_effects", "hidden_effects_ci"),
+    },
+    Figure {
+        id: "hidden-parameters",
+        title: "discovery: a loop parameter changed in the instrument file, identified blind",
+        claim: "each changed parameter named, no parameter named in the unchanged sets",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--parameters", "--sets", "10", "--seed", "4242"]),
+        ci: ("hidden_params", "hidden_parameters_ci"),
+    },
+    Figure {
+        id: "hidden-statics",
+        title: "discovery: IA tilts, quadratic and cubic terms, bias and scale-factor changes in the plant",
+        claim: "each recovered in the designs that can see it; false selections at most 5 %",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--statics", "--sets", "200", "--seed", "4242"]),
+        ci: ("hidden_statics", "hidden_statics_ci"),
+    },
+    Figure {
+        id: "hidden-lab",
+        title: "discovery: a lab's effects (hysteresis, temperature, warm-up, out-of-vocabulary terms)",
+        claim: "each named at 10 SE in its rate; false selections at most 5 %",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--lab", "--analytic", "--sets", "140", "--seed", "4242"]),
+        ci: ("hidden_lab", "hidden_lab_ci"),
+    },
+    Figure {
+        id: "hidden-sigma",
+        title: "discovery: a stated sigma too small by 1 to 4 times",
+        claim: "false selections at most 5 % with the sigma check; effects at 6 SE still found",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--sigma", "--sets", "600", "--seed", "4242"]),
+        ci: ("hidden_sigma", "hidden_sigma_ci"),
+    },
+    Figure {
+        id: "hidden-calibration",
+        title: "calibration: the k = 2 intervals of K_0, K_1, delta_o, delta_p, K_2",
+        claim: "the intervals cover the truth 95 +- 2.5 % of the time",
+        quoted_in: "docs/discovery.md, README.md",
+        measure: Measure::Hidden(&["--calibration", "--sets", "2000", "--seed", "4242"]),
+        ci: ("hidden_calibration", "hidden_calibration_ci"),
+    },
+    Figure {
+        id: "hidden-triad",
+        title: "triad: 8 to 37 positions, on a fixture and placed by hand",
+        claim: "the 95 % intervals cover the truth 95 +- 2.5 % of the time",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--triad", "--sets", "600", "--seed", "4242"]),
+        ci: ("hidden_triad", "hidden_triad_ci"),
+    },
+    Figure {
+        id: "hidden-stability",
+        title: "discovery: constant truths marked unstable",
+        claim: "sets with a term marked unstable at most the familywise 5 %",
+        quoted_in: "docs/discovery.md",
+        measure: Measure::Hidden(&["--stability", "--sets", "2000", "--seed", "4242"]),
+        ci: ("hidden_stability", "hidden_stability_ci"),
+    },
+    Figure {
+        id: "hidden-noise-terms",
+        title: "noise: which of IEEE Std 952's terms a static record holds (--identify)",
+        claim: "a term not in the record in at most 5 % of records; 95 % intervals that cover",
+        quoted_in: "docs/noise.md, README.md",
+        measure: Measure::Hidden(&["--noise-terms", "--sets", "200", "--seed", "4242"]),
+        ci: ("hidden_terms", "hidden_terms_ci"),
+    },
+    Figure {
+        id: "firmware",
+        title: "firmware: golden vectors and instruction, flash, RAM and stack budgets under QEMU",
+        claim: "every vector bit-exact on the emulated Cortex-M4; every budget within its limit",
+        quoted_in: "docs/firmware.md, README.md",
+        measure: Measure::Xtask(&["firmware"]),
+        ci: ("xtask ci", "firmware"),
+    },
+];
+
+/// What one run of a figure's command gave.
+struct Measured {
+    /// The command as a person would type it.
+    shown: String,
+    /// What the command printed that the page keeps.
+    text: String,
+    /// Wall time, build included.
+    seconds: f64,
+}
+
+/// Where and when the figures were measured.
+struct Machine {
+    date: String,
+    commit: String,
+    cpu: String,
+    load: String,
+    rustc: String,
+}
+
+/// `cargo xtask figures`.
+pub fn run(args: &[String]) -> Result<(), Error> {
+    let opts = parse(args)?;
+    if opts.list {
+        for f in FIGURES {
+            println!("{:<24} {}\n{:<24} claim: {}", f.id, shown(f), "", f.claim);
+        }
+        return Ok(());
+    }
+    let dir = util::root().join("docs").join("figures");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut failed = Vec::new();
+    let chosen: Vec<&Figure> = FIGURES
+        .iter()
+        .filter(|f| opts.ids.is_empty() || opts.ids.iter().any(|i| i == f.id))
+        .collect();
+    for (i, f) in chosen.iter().enumerate() {
+        eprintln!("figures: [{}/{}] {}", i + 1, chosen.len(), f.id);
+        let machine = machine();
+        match measure_all(f, opts.rescore.as_deref()) {
+            Ok(runs) => {
+                let path = dir.join(format!("{}.md", f.id));
+                util::write_atomic(&path, &page(f, &runs, &machine))?;
+                eprintln!("figures: wrote {}", path.display());
+            }
+            Err(e) => {
+                eprintln!("figures: {} FAILED: {e}", f.id);
+                failed.push(f.id);
+            }
+        }
+    }
+    util::write_atomic(&dir.join("README.md"), &index(&dir))?;
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "{} failed (their pages were kept as they were): {}",
+            failed.len(),
+            failed.join(", ")
+        )
+        .into())
+    }
+}
+
+/// The command line's choices.
+struct Options {
+    ids: Vec<String>,
+    list: bool,
+    rescore: Option<String>,
+}
+
+fn parse(args: &[String]) -> Result<Options, Error> {
+    let mut o = Options {
+        ids: Vec::new(),
+        list: false,
+        rescore: Some(today_seed()),
+    };
+    let mut it = args.iter();
+    while let Some(a) = it.next() {
+        match a.as_str() {
+            "--list" => o.list = true,
+            "--no-rescore" => o.rescore = None,
+            "--rescore-seed" => {
+                let s = it
+                    .next()
+                    .ok_or_else(|| Error::Usage("--rescore-seed needs a number".into()))?;
+                s.parse::<u64>().map_err(|_| {
+                    Error::Usage(format!("--rescore-seed {s}: expected a whole number"))
+                })?;
+                o.rescore = Some(s.clone());
+            }
+            id if FIGURES.iter().any(|f| f.id == id) => o.ids.push(id.to_string()),
+            other => {
+                return Err(Error::Usage(format!(
+                    "unknown figure or option `{other}` (`cargo xtask figures --list` names the figures)"
+                )));
+            }
+        }
+    }
+    Ok(o)
+}
+
+/// Today's date (UTC) as the number `YYYYMMDD`.
+fn today_seed() -> String {
+    humantime::format_rfc3339_seconds(std::time::SystemTime::now())
+        .to_string()
+        .chars()
+        .take(10)
+        .filter(char::is_ascii_digit)
+        .collect()
+}
+
+/// The figure's command as a person would type it.
+fn shown(f: &Figure) -> String {
+    match f.measure {
+        Measure::Hidden(args) => format!("cargo xtask hidden {}", args.join(" ")),
+        Measure::Xtask(args) => format!("cargo xtask {}", args.join(" ")),
+    }
+}
+
+/// The figure's runs: at its published seed, and at `rescore` when it has a seed.
+fn measure_all(f: &Figure, rescore: Option<&str>) -> Result<Vec<Measured>, String> {
+    match f.measure {
+        Measure::Hidden(args) => {
+            let args: Vec<String> = args.iter().map(|s| (*s).to_string()).collect();
+            let mut runs = vec![campaign(&args, None)?];
+            if let Some(seed) = rescore {
+                runs.push(campaign(&args, Some(seed))?);
+            }
+            Ok(runs)
+        }
+        Measure::Xtask(args) => {
+            let mut cmd = Command::new(util::cargo());
+            cmd.arg("xtask").args(args).current_dir(util::root());
+            let (all, seconds) = capture(cmd)?;
+            Ok(vec![Measured {
+                shown: shown(f),
+                text: report_lines(&all),
+                seconds,
+            }])
+        }
+    }
+}
+
+/// One campaign run, its seed replaced by `seed` when given.
+fn campaign(args: &[String], seed: Option<&str>) -> Result<Measured, String> {
+    let mut c = hidden::parse(args).map_err(|e| e.to_string())?;
+    if let Some(s) = seed {
+        c.seed = Some(s.to_string());
+    }
+    let (cmd, shown) = hidden::command(&c);
+    eprintln!("+ {shown}");
+    let (all, seconds) = capture(cmd)?;
+    Ok(Measured {
+        shown,
+        text: test_output(&all),
+        seconds,
+    })
+}
+
+/// Run `cmd` with its stdout and stderr in one pipe, echoed to ours as it goes (the
+/// progress); what it printed and the wall time, or why it failed.
+fn capture(mut cmd: Command) -> Result<(String, f64), String> {
+    let (reader, writer) = std::io::pipe().map_err(|e| format!("cannot make a pipe: {e}"))?;
+    let err = writer
+        .try_clone()
+        .map_err(|e| format!("cannot make a pipe: {e}"))?;
+    cmd.stdout(writer).stderr(err);
+    let t0 = std::time::Instant::now();
+    let mut child = cmd
+        .spawn()
+        .map_err(|e| format!("cannot start cargo: {e}"))?;
+    drop(cmd);
+    let mut all = String::new();
+    let mut echo = std::io::stderr().lock();
+    for line in BufReader::new(reader).lines() {
+        let line = line.map_err(|e| format!("reading the command's output: {e}"))?;
+        let _ = writeln!(echo, "{line}");
+        all.push_str(&line);
+        all.push('\n');
+    }
+    drop(echo);
+    let status = child.wait().map_err(|e| e.to_string())?;
+    let seconds = t0.elapsed().as_secs_f64();
+    if status.success() {
+        Ok((all, seconds))
+    } else {
+        Err(format!(
+            "the command failed ({status}): a claim not met, or the build failed (above)"
+        ))
+    }
+}
+
+/// What a test printed under libtest: the lines between `running 1 test` and
+/// `test result:`, without the harness's own lines; a line rewritten with `\r` keeps its
+/// last state.
+fn test_output(all: &str) -> String {
+    let mut keep = false;
+    let mut out = Vec::new();
+    for line in all.lines() {
+        let line = line.rsplit('\r').next().unwrap_or(line);
+        if line.starts_with("running ") && line.ends_with(" test") {
+            keep = true;
+        } else if line.starts_with("test result:") {
+            keep = false;
+        } else if keep
+            && !(line.starts_with("test ")
+                && (line.ends_with(" ... ok") || line.contains("has been running for over")))
+        {
+            out.push(line);
+        }
+    }
+    while out.last().is_some_and(|l| l.trim().is_empty()) {
+        out.pop();
+    }
+    out.join("\n")
+}
+
+/// An xtask check's report: its `ok` and `FAIL` lines and its totals.
+fn report_lines(all: &str) -> String {
+    all.lines()
+        .filter(|l| l.starts_with("ok ") || l.starts_with("FAIL ") || l.ends_with(" failed"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The machine, the commit and the time, read now.
+fn machine() -> Machine {
+    let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
+    let cpu = read("/proc/cpuinfo")
+        .lines()
+        .find_map(|l| l.strip_prefix("model name"))
+        .map_or_else(
+            || std::env::consts::ARCH.to_string(),
+            |m| m.trim_start_matches([' ', '\t', ':']).to_string(),
+        );
+    let cores = std::thread::available_parallelism().map_or(0, std::num::NonZero::get);
+    let load = read("/proc/loadavg")
+        .split_whitespace()
+        .take(3)
+        .collect::<Vec<_>>()
+        .join(" ");
+    let first_line = |program: &str, args: &[&str]| {
+        Command::new(program)
+            .args(args)
+            .current_dir(util::root())
+            .output()
+            .ok()
+            .map(|o| {
+                String::from_utf8_lossy(&o.stdout)
+                    .lines()
+                    .next()
+                    .unwrap_or("")
+                    .to_string()
+            })
+            .unwrap_or_default()
+    };
+    let dirty = !first_line("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty();
+    Machine {
+        date: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
+        commit: format!(
+            "{}{}",
+            first_line("git", &["rev-parse", "--short=12", "HEAD"]),
+            if dirty {
+                " with uncommitted changes"
+            } else {
+                ""
+            }
+        ),
+        cpu: format!("{cpu}, {cores} cores"),
+        load: if load.is_empty() {
+            "unknown".into()
+        } else {
+            load
+        },
+        rustc: first_line("rustc", &["-V"]),
+    }
+}
+
+/// A figure's generated page.
+fn page(f: &Figure, runs: &[Measured], m: &Machine) -> String {
+    let mut s = format!(
+        "# {}\n\n<!-- generated by `cargo xtask figures {}`: do not edit by hand -->\n\n\
+         **Claim, asserted by the command:** {}.\n\n**Quoted in:** {}.\n\n",
+        f.title, f.id, f.claim, f.quoted_in
+    );
+    s.push_str("| | |\n|---|---|\n");
+    for (i, r) in runs.iter().enumerate() {
+        let what = if i == 0 { "command" } else { "re-scored" };
+        let _ = writeln!(
+            s,
+            "| {what} | `{}` ({:.0} s, build included) |",
+            r.shown, r.seconds
+        );
+    }
+    let _ = write!(
+        s,
+        "| result | passed: the command exited 0 |\n| measured | {} |\n| commit | {} |\n\
+         | machine | {}; load average {} at the start |\n| toolchain | {} |\n\
+         | in every CI run | `cargo test -p ptsa-tests --test {} {}` (a smaller subset) |\n",
+        m.date, m.commit, m.cpu, m.load, m.rustc, f.ci.0, f.ci.1
+    );
+    if f.ci.0 == "xtask ci" {
+        s = s.replace(
+            &format!(
+                "`cargo test -p ptsa-tests --test xtask ci {}` (a smaller subset)",
+                f.ci.1
+            ),
+            "`cargo xtask ci` runs it whole",
+        );
+    }
+    for (i, r) in runs.iter().enumerate() {
+        let head = if i == 0 {
+            "What it printed".to_string()
+        } else {
+            "Re-scored on a seed chosen on the day of the run".to_string()
+        };
+        let _ = write!(s, "\n## {head}\n\n```text\n{}\n```\n", r.text);
+    }
+    s
+}
+
+/// The index page: every figure, its claim, its command and when its page was measured.
+fn index(dir: &Path) -> String {
+    let mut s = String::from(
+        "# Measured figures, generated\n\n\
+         <!-- generated by `cargo xtask figures`: do not edit by hand -->\n\n\
+         Each page below was written by `cargo xtask figures ID`, which runs a command that\n\
+         asserts the claim and records what it printed, the date, the commit and the machine.\n\
+         `cargo xtask figures` re-measures them all. Figures still kept by hand, each with its\n\
+         command: [../figures.md](../figures.md).\n\n\
+         | figure | claim | command | measured |\n|---|---|---|---|\n",
+    );
+    for f in FIGURES {
+        let path: PathBuf = dir.join(format!("{}.md", f.id));
+        let (name, date) = match measured_on(&path) {
+            Some(d) => (format!("[{}]({}.md)", f.id, f.id), d),
+            None => (f.id.to_string(), "not yet".to_string()),
+        };
+        let _ = writeln!(s, "| {name} | {} | `{}` | {date} |", f.claim, shown(f));
+    }
+    s
+}
+
+/// The `measured` date of a page, if the page exists.
+fn measured_on(path: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(path).ok()?;
+    text.lines()
+        .find_map(|l| l.strip_prefix("| measured | "))
+        .map(|d| d.trim_end_matches(" |").chars().take(10).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_index_is_current() {
+        let dir = util::root().join("docs").join("figures");
+        let on_disk = std::fs::read_to_string(dir.join("README.md")).unwrap_or_default();
+        assert_eq!(
+            on_disk,
+            index(&dir),
+            "docs/figures/README.md is not what `cargo xtask figures` writes: run `cargo xtask figures --no-rescore ID` for a figure, or write the index again"
+        );
+    }
+
+    #[test]
+    fn every_campaign_has_a_figure_and_every_figure_its_ci_subset() {
+        let root = util::root();
+        for f in FIGURES {
+            if let Measure::Hidden(args) = f.measure {
+                let args: Vec<String> = args.iter().map(|s| (*s).to_string()).collect();
+                assert!(hidden::parse(&args).is_ok(), "{}: {args:?}", f.id);
+            }
+            if f.ci.0 != "xtask ci" {
+                let file = root.join("tests").join(format!("{}.rs", f.ci.0));
+                let text = std::fs::read_to_string(&file).expect("the test file");
+                assert!(
+                    text.contains(&format!("#[test]\nfn {}() {{", f.ci.1)),
+                    "{}: no test `{}` that runs in CI in {}",
+                    f.id,
+                    f.ci.1,
+                    file.display()
+                );
+            }
+        }
+        for name in hidden::campaign_names() {
+            assert!(
+                FIGURES.iter().any(|f| match f.measure {
+                    Measure::Hidden(args) => {
+                        let args: Vec<String> = args.iter().map(|s| (*s).to_string()).collect();
+                        hidden::parse(&args).is_ok_and(|c| c.name() == name)
+                    }
+                    Measure::Xtask(_) => false,
+                }),
+                "the campaign {name} has no published figure"
+            );
+        }
+    }
+
+    #[test]
+    fn the_test_output_is_what_the_test_printed() {
+        let all = "   Compiling x\n     Running tests/a.rs\n\nrunning 1 test\nset 1\rset 2\n| a | b |\ntest a_campaign has been running for over 60 seconds\ntest a_campaign ... ok\n\ntest result: ok. 1 passed\n";
+        assert_eq!(test_output(all), "set 2\n| a | b |");
+        assert_eq!(
+            report_lines("+ build\nok   vector a\nFAIL budget\nnoise\n2 passed, 1 failed\n"),
+            "ok   vector a\nFAIL budget\n2 passed, 1 failed"
+        );
+    }
+
+    #[test]
+    fn the_rescore_seed_is_a_date() {
+        let s = today_seed();
+        assert_eq!(s.len(), 8, "{s}");
+        assert!(s.starts_with("20"), "{s}");
+    }
+}
