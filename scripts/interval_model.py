@@ -21,7 +21,7 @@ first parameter's 95 % interval holds its true value (0), for:
                  and the Birge ratio (what ptsa does now);
 * `true_w`:      the weights the true inverse covariance (the reference: 95 %).
 
-Pure Python, no packages; the figures of docs/noise.md come from `--trials 2000` at
+Pure Python, no packages; the figures of docs/method/noise.md come from `--trials 2000` at
 `--rho` 0.3, 0.6 and 0.9, `--seed 1`.
 """
 import argparse

@@ -13,7 +13,7 @@ cm/s² of noise. The
 plan's rows are repeated (labels ` rep k`) until there are N; `sigma_cm_s2` states the noise.
 The values come from `ptsa predict --json` (the closed loop); the noise is seeded
 (`random.seed(1)`), so the file is the same on every machine. With N = 1000 and `shaker` it
-is the 1000-row file of docs/discovery.md, "Speed", byte for byte.
+is the 1000-row file of docs/method/discovery.md, "Speed", byte for byte.
 """
 import argparse
 import csv

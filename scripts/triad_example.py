@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A synthetic triad file (docs/discovery.md, "A triad"): three accelerometers on one block.
+"""A synthetic triad file (docs/method/discovery.md, "A triad"): three accelerometers on one block.
 
     python3 scripts/triad_example.py PLACEMENT N OUT
 

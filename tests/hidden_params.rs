@@ -16,7 +16,7 @@ use ptsa_tests::hidden::params::{self, ParamDesign, Params};
 
 /// Sets per parameter in CI: the 5 parameters the design sees and an unperturbed set, each
 /// about 6 s on two cores (each set's analysis runs some 10 000 closed loops of its table's
-/// rows). The full campaign's rates are in docs/discovery.md.
+/// rows). The full campaign's rates are in docs/method/discovery.md.
 const CI_SETS: usize = 1;
 
 fn check(c: &Run<Params>, ci: bool) {

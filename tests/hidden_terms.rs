@@ -20,7 +20,7 @@
 //! flicker (`N+B weak`: the flicker above the white noise over less than a decade of τ)
 //! and the random walk in a record of 2^14 samples (`N+K short`: its rise over the last
 //! two octaves) are printed, not asserted: there the identification often names the rise
-//! another rising term (docs/noise.md).
+//! another rising term (docs/method/noise.md).
 
 use ptsa_host_sim::noise::identify_terms;
 use ptsa_host_sim::noise::terms::{self, WITH_RATE_RAMP};

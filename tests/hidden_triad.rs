@@ -1,6 +1,6 @@
 //! The triad campaign (`ptsa_tests::hidden::triad`): triads of 8, 12 and 24 positions on a
-//! precision fixture and of 24 and 37 positions placed by hand (0.5–1° from nominal),
-//! generated from the equations and calibrated blind by `ptsa_host_sim::triad::fit`; the
+//! precision fixture, of 24 and 37 positions placed by hand (0.5–1° from nominal), and of
+//! 37 positions cut from a raw stream, generated from the equations and calibrated blind by `ptsa_host_sim::triad::fit`; the
 //! 95 % intervals' coverage asserted.
 //!
 //! * `hidden_triad_ci`: [`CI_SETS`] sets of every design (in `cargo test --workspace`).

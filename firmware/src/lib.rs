@@ -148,7 +148,7 @@ pub struct Board {
     pub stopwatch: pac::TIM5,
     /// QEMU only: the virtual time, in ns since reset, at which TIM2's update generation
     /// (`EGR.UG`) was written. QEMU 7.2's STM32 timer model re-arms every period
-    /// `ARR + this` ns after the last one instead of `ARR + 1` (see docs/firmware.md), so the
+    /// `ARR + this` ns after the last one instead of `ARR + 1` (see docs/method/firmware.md), so the
     /// host check needs it to predict the emulated tick. Read from TIM5 before anything has
     /// written TIM5, when its count is the virtual time since reset.
     #[cfg(feature = "qemu")]

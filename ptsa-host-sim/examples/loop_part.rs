@@ -1,7 +1,7 @@
 //! The loop's own part of a record's Allan variance, `L(τ)`: the counts' Allan variance
 //! less that of the acceleration drawn at its input, averaged over seeds, at octave τ, with
 //! `L·m²` (constant where the loop's part is white phase noise, as the shortened simulation
-//! of `noise --identify` on long records assumes beyond its split; docs/noise.md, "Long
+//! of `noise --identify` on long records assumes beyond its split; docs/method/noise.md, "Long
 //! records") and the input's expected Allan variance beside it.
 //!
 //! ```sh

@@ -1,7 +1,7 @@
 //! A static counter record of the shipped loop with noises the instrument file does not
 //! hold: a white acceleration noise `N` and a bias random walk `K` entering the plant's
 //! input, and a pickoff noise of its own. For trying `ptsa noise --counts FILE --identify`
-//! on records of any length (the 12-hour record of docs/noise.md's "Long records").
+//! on records of any length (the 12-hour record of docs/method/noise.md's "Long records").
 //!
 //! ```sh
 //! cargo run --release -p ptsa-host-sim --example noisy_record -- \

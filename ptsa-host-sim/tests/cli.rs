@@ -1691,7 +1691,7 @@ fn lab_tumble(d: &Path, effects: &str, edit: impl Fn(usize, &mut Vec<String>)) -
     text
 }
 
-/// The lab's columns (`docs/case-frame.md`): a tumble plan writes `approach` and `temp_c`
+/// The lab's columns (`docs/reference/case-frame-format.md`): a tumble plan writes `approach` and `temp_c`
 /// empty; a hysteresis hidden in a 24-point tumble taken in angle order is named from the
 /// row order alone, and a recorded approach overrides it (every row `down`: the hysteresis
 /// is the bias, and the output says they cannot be told apart).

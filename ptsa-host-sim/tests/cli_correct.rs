@@ -121,7 +121,7 @@ fn correct_recovers_the_true_specific_force_within_its_uncertainty() {
         .iter()
         .map(|r| r["sigma_calibration_cm_s2"].as_f64().unwrap())
         .collect();
-    // The figures docs/discovery.md quotes (`-- --nocapture`).
+    // The figures docs/method/discovery.md quotes (`-- --nocapture`).
     eprintln!(
         "IA-PA rows: sigma_calibration_cm_s2 from {} to {}",
         cal.iter().copied().fold(f64::INFINITY, f64::min),
@@ -201,7 +201,7 @@ fn a_term_the_calibration_did_not_measure_is_in_the_sigmas() {
     let bound = ptsa_host_sim::Instrument::kearfott_2401()
         .plausibility
         .misalignment_rad;
-    // The figures docs/discovery.md quotes (`-- --nocapture`).
+    // The figures docs/method/discovery.md quotes (`-- --nocapture`).
     let range = |v: &serde_json::Value, k: &str| {
         let x: Vec<f64> = v["rows"]
             .as_array()

@@ -556,7 +556,7 @@ fn identify_finds_what_was_added() {
     assert_eq!(c["candidate"], "white_acceleration", "{id}");
     assert_eq!(c["selected"], true, "{id}");
     // The estimate within 25 % of the value written in (how often its interval holds it:
-    // docs/noise.md, "The campaign").
+    // docs/method/noise.md, "The campaign").
     let got = c["values"][0]["value"].as_f64().unwrap();
     assert!((got / n - 1.0).abs() < 0.25, "{got} for {n}: {id}");
     assert_eq!(c["values"][1]["unit"], "ug/rtHz");
@@ -667,7 +667,7 @@ fn campaign(
 /// identified on the file's own records; in the records with an untold pickoff noise,
 /// `N = 0.1 cm/s²/√Hz` and `K = 0.005 cm/s²·√Hz`, `N` is identified in both, within 25 %
 /// of 0.1, and both its 95 % intervals hold 0.1 (the rate over many records:
-/// docs/noise.md, "The campaign").
+/// docs/method/noise.md, "The campaign").
 #[test]
 fn identify_campaign_small() {
     let (n, k) = (0.1, 0.005);
@@ -683,7 +683,7 @@ fn identify_campaign_small() {
 /// loop simulated for its first 2048 gates only, as a record longer than `LOOP_GATES` is:
 /// `N` identified within 25 % of 0.1 and inside its interval (with the loop part carried
 /// from too short a split, 0.32 s, `N` came out 45 % high; the campaign over 100 records:
-/// docs/noise.md, "Long records").
+/// docs/method/noise.md, "Long records").
 #[test]
 fn a_shortened_loop_identifies_what_was_added() {
     let (n, k) = (0.1, 0.005);
@@ -708,7 +708,7 @@ fn the_help_names_the_shortened_loops_length() {
     );
 }
 
-/// The campaign of docs/noise.md (minutes; `PTSA_CAMPAIGN=100,12000 cargo test --release -p
+/// The campaign of docs/method/noise.md (minutes; `PTSA_CAMPAIGN=100,12000 cargo test --release -p
 /// ptsa-host-sim --test cli_noise identify_campaign -- --ignored --nocapture`,
 /// `PTSA_CAMPAIGN=records,gates[,K[,first[,lo-hi[,added[,loop-gates]]]]]`: `first` the first loop seed,
 /// 1000 unless given, so that a campaign can be extended by records it has not run; `lo-hi`
@@ -716,7 +716,7 @@ fn the_help_names_the_shortened_loops_length() {
 /// records with noises added; `loop-gates` the gates the loop is simulated for, the
 /// library's `LOOP_GATES` unless given).
 #[test]
-#[ignore = "a campaign of minutes; its figures are in docs/noise.md"]
+#[ignore = "a campaign of minutes; its figures are in docs/method/noise.md"]
 fn identify_campaign() {
     let spec = std::env::var("PTSA_CAMPAIGN").unwrap_or_else(|_| "100,12000".into());
     let v: Vec<&str> = spec.split(',').collect();

@@ -356,7 +356,7 @@ fn an_amplifier_gain_error_is_named_with_its_indistinguishable_twins() {
 /// 1 kHz limit cycle evenly (100, 200, 250, 500 Hz ... and 400 Hz, which repeats every
 /// 5 ms), the start phase of the sine against the loop's clock decides much of what a run
 /// measures, and the phase scatters several times more than at the neighbouring
-/// frequencies. Prints the table `docs/discovery.md` quotes (32 runs per frequency).
+/// frequencies. Prints the table `docs/method/discovery.md` quotes (32 runs per frequency).
 #[test]
 fn a_response_scatters_most_where_the_frequency_divides_the_limit_cycle() {
     use rayon::prelude::*;

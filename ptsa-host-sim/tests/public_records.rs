@@ -63,7 +63,7 @@ fn the_mpu9250_calibration_agrees_with_the_published_one() {
         ];
         for (symbol, w) in want {
             let (value, sigma) = term(&v, symbol);
-            // The figures of docs/discovery.md's table (`-- --nocapture`).
+            // The figures of docs/method/discovery.md's table (`-- --nocapture`).
             eprintln!(
                 "{axis} {symbol}: {value:.1} ± {sigma:.2} against the published {w:.1} ({:+.2} σ)",
                 (value - w) / sigma

@@ -54,7 +54,7 @@ fn blocks(md: &str) -> Vec<Block> {
             (None, None) => {}
         }
     }
-    assert!(open.is_none(), "README.md: a fenced block is not closed");
+    assert!(open.is_none(), "a fenced block is not closed");
     out
 }
 
@@ -79,14 +79,14 @@ fn shown_in(expected: &str, output: &str) -> bool {
 }
 
 /// Runs one `sh` block in `dir`: the combined stdout and stderr; panics if it fails.
-fn run_block(dir: &Path, block: &Block, xtask_log: &Path) -> String {
+fn run_block(dir: &Path, block: &Block, xtask_log: &Path, page: &str) -> String {
     let script = format!(
         "set -e\n\
          cargo() {{\n\
            case \"$1\" in\n\
              ptsa) shift; \"$PTSA\" \"$@\" ;;\n\
              xtask) shift; echo \"$*\" >> \"$XTASK_LOG\" ;;\n\
-             *) echo \"README runs cargo $*: not a command this test knows\" >&2; return 2 ;;\n\
+             *) echo \"the page runs cargo $*: not a command this test knows\" >&2; return 2 ;;\n\
            esac\n\
          }}\n{}",
         block.text
@@ -106,7 +106,7 @@ fn run_block(dir: &Path, block: &Block, xtask_log: &Path) -> String {
     );
     assert!(
         out.status.success(),
-        "README.md line {}: the block failed ({}):\n{}\n{text}",
+        "{page} line {}: the block failed ({}):\n{}\n{text}",
         block.line,
         out.status,
         block.text
@@ -114,9 +114,10 @@ fn run_block(dir: &Path, block: &Block, xtask_log: &Path) -> String {
     text
 }
 
-#[test]
-fn every_sh_block_runs_as_written_and_prints_what_the_readme_shows() {
-    let md = readme();
+/// Runs every `sh` block of `page` (a path from the repository's root) in a fresh folder
+/// and checks each `text` block against the output of the block before it; the folder.
+fn run_page(page: &str) -> tempfile::TempDir {
+    let md = std::fs::read_to_string(root().join(page)).unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
     std::os::unix::fs::symlink(root().join("data"), dir.join("data")).unwrap();
@@ -126,17 +127,17 @@ fn every_sh_block_runs_as_written_and_prints_what_the_readme_shows() {
     for b in blocks(&md) {
         match b.lang.as_str() {
             "sh" => {
-                last_output = Some((b.line, run_block(dir, &b, &xtask_log)));
+                last_output = Some((b.line, run_block(dir, &b, &xtask_log, page)));
                 ran += 1;
             }
             "text" => {
-                let (at, output) = last_output.as_ref().unwrap_or_else(|| {
-                    panic!("README.md line {}: output before any command", b.line)
-                });
+                let (at, output) = last_output
+                    .as_ref()
+                    .unwrap_or_else(|| panic!("{page} line {}: output before any command", b.line));
                 for (k, l) in b.text.lines().enumerate() {
                     assert!(
                         l.trim().is_empty() || shown_in(l, output),
-                        "README.md line {}: not in the output of the block at line {at}:\n{l}\n\
+                        "{page} line {}: not in the output of the block at line {at}:\n{l}\n\
                          --- the output ---\n{output}",
                         b.line + 1 + k
                     );
@@ -145,18 +146,54 @@ fn every_sh_block_runs_as_written_and_prints_what_the_readme_shows() {
             _ => {}
         }
     }
-    assert!(ran >= 6, "only {ran} sh blocks run");
+    assert!(ran >= 3, "{page}: only {ran} sh blocks run");
     let xtask = std::fs::read_to_string(&xtask_log).unwrap_or_default();
     for cmd in xtask.lines() {
         assert!(
             RUN_BY_CI.contains(&cmd.trim()),
-            "README.md shows `cargo xtask {cmd}`, which `cargo xtask ci` does not run: run it \
+            "{page} shows `cargo xtask {cmd}`, which `cargo xtask ci` does not run: run it \
              here or leave it out"
         );
     }
+    tmp
+}
+
+#[test]
+fn every_sh_block_runs_as_written_and_prints_what_the_readme_shows() {
+    let tmp = run_page("README.md");
+    let dir = tmp.path();
     assert!(dir.join("scratch/sn3/sn3.md").is_file());
     assert!(dir.join("scratch/allan.png").is_file());
     assert!(dir.join("report").is_dir(), "the main job wrote no report/");
+}
+
+/// The guides' pages: every `sh` block runs as written and prints what the page shows.
+#[test]
+fn every_guide_runs_as_written() {
+    let mut pages = guides();
+    pages.sort();
+    assert!(pages.len() >= 3, "{pages:?}");
+    for page in &pages {
+        let tmp = run_page(page);
+        assert!(
+            tmp.path().join("scratch").is_dir(),
+            "{page} wrote nothing into scratch/"
+        );
+    }
+}
+
+/// `docs/guide/*.md`, as paths from the repository's root.
+fn guides() -> Vec<String> {
+    std::fs::read_dir(root().join("docs/guide"))
+        .unwrap()
+        .filter_map(|e| {
+            let name = e.unwrap().file_name().to_string_lossy().into_owned();
+            std::path::Path::new(&name)
+                .extension()
+                .is_some_and(|x| x == "md")
+                .then(|| format!("docs/guide/{name}"))
+        })
+        .collect()
 }
 
 /// The prose outside code blocks and tables, one paragraph per item.
@@ -189,13 +226,25 @@ fn the_readme_is_a_quick_start() {
         first <= 40,
         "the first command is on line {first} (at most 40)"
     );
-    for p in paragraphs(&md) {
+    short_sentences("README.md", &md);
+}
+
+/// Every sentence of `md`'s prose has at most 40 words.
+fn short_sentences(page: &str, md: &str) {
+    for p in paragraphs(md) {
         // A sentence ends at '.', '?' or '!' before a space; a dot inside a name or a
         // number (`sn3.json`, `0.2`) has no space after it.
         for s in p.split_inclusive(&['.', '?', '!'][..]) {
             let n = s.split_whitespace().count();
-            assert!(n <= 40, "a sentence of {n} words (at most 40):{s}");
+            assert!(n <= 40, "{page}: a sentence of {n} words (at most 40):{s}");
         }
+    }
+}
+
+#[test]
+fn the_guides_sentences_are_short() {
+    for page in guides() {
+        short_sentences(&page, &std::fs::read_to_string(root().join(&page)).unwrap());
     }
 }
 

@@ -36,7 +36,7 @@
 //! when there are at least 20 exact namings, confident misnamings and false selections on
 //! unperturbed sets each consistent with at most 5 % (one-sided binomial test at 1 %). The
 //! CI subset (1 set per parameter in the 10-frequency design with saturation rows) asserts
-//! the same, detection less one binomial standard error. What the full campaign measures is in `docs/discovery.md`
+//! the same, detection less one binomial standard error. What the full campaign measures is in `docs/method/discovery.md`
 //! ("Where it fails").
 
 use std::fmt::Write as _;

@@ -158,7 +158,7 @@ impl Physics {
     }
 }
 
-/// A row's motion from its case-frame columns (`docs/case-frame.md`), evaluated with this
+/// A row's motion from its case-frame columns (`docs/reference/case-frame-format.md`), evaluated with this
 /// module's own trigonometry: gravity `g` (in g) fixed in the laboratory, constant rates,
 /// linear vibration `amp·sin(ωt + phase)`, small angular oscillation
 /// `φ = amp·sin(ωt + phase)` whose rate adds to the constant rates and which tilts gravity

@@ -1,7 +1,7 @@
 //! The stability null campaign: tumbles generated from the IEEE Std 1293 model equation
 //! with constant coefficients (written out here, never the candidate code), analysed by
 //! `ptsa_host_sim::discovery::discover`; no selected term may be marked unstable
-//! (`stable: false`, docs/discovery.md section 8b) in more than the familywise 5 % of the
+//! (`stable: false`, docs/method/discovery.md section 8b) in more than the familywise 5 % of the
 //! sets the stability stage is held at.
 //!
 //! * **Designs**, drawn uniformly per set: a 24- or 48-point tumble about OA or PA (the axis

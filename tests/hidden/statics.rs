@@ -79,7 +79,7 @@
 //! # Where it is weak
 //!
 //! Measured (`cargo xtask hidden --statics [--additive] --sets 200`, seed 4242;
-//! `docs/discovery.md`, "Hidden-statics tests"): every asserted rate is met in both
+//! `docs/method/discovery.md`, "Hidden-statics tests"): every asserted rate is met in both
 //! vocabularies, detection at ≥ 6 SE 96.4 % (additive) and 96.3 % (whole; 96.8 % and 97.0 %
 //! before the hysteresis and temperature candidates), but the 8-point
 //! tumble alone reaches only 90 % (98–100 % in the other designs). Eight rows hold the drift
@@ -365,7 +365,7 @@ impl ExtraPhysics for StaticTorque {
 
 /// The specific force a static row applies, cm/s², by this module's own kinematics:
 /// gravity, and a centrifuge arm's `|w|²·radius` along the part of IA perpendicular to the
-/// spin axis (IA mounted pointing at the axis for a positive radius; `docs/case-frame.md`).
+/// spin axis (IA mounted pointing at the axis for a positive radius; `docs/reference/case-frame-format.md`).
 #[must_use]
 pub fn static_force(row: &Condition, g_cm_s2: f64) -> [f64; 3] {
     let mut a = row.g.map(|x| x * g_cm_s2);

@@ -67,7 +67,7 @@ pub const LOG: &str = "tests/golden/firmware-qemu.stdout";
 /// test reads it.
 pub const TRIAD_LOG: &str = "tests/golden/triad-qemu.stdout";
 /// Triad: instructions per tick of its whole interrupt handler (three loops), worst case.
-/// The goal is 400, met (392 measured, docs/firmware.md); this limit leaves the
+/// The goal is 400, met (392 measured, docs/method/firmware.md); this limit leaves the
 /// slack it had and catches a regression, not the goal.
 pub const MAX_TRIAD_TICK_INSTRUCTIONS: u32 = 420;
 /// Triad: flash of its board image, bytes.

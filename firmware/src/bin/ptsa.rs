@@ -10,9 +10,9 @@
 //! behind), `tick` the ticks from the loop's first tick to the close of its last gate (a
 //! `u64`, never wrapping) and the stack's high-water mark so far
 //! ([`ptsa_firmware::stack_high_water_bytes`]). `ptsa record` turns these lines into a
-//! counter record (docs/firmware.md).
+//! counter record (docs/method/firmware.md).
 //!
-//! With the `qemu` feature (QEMU `netduinoplus2`, see docs/firmware.md) the clock set-up is
+//! With the `qemu` feature (QEMU `netduinoplus2`, see docs/method/firmware.md) the clock set-up is
 //! skipped, TIM2's registers are printed (`tim2 psc=<PSC> arr=<ARR> ug_ns=<virtual time of
 //! the update generation, ns>`), each report is also printed as text through semihosting,
 //! the same fields with the virtual time added (`gate seq=.. P=.. T=.. gates=.. tick=..

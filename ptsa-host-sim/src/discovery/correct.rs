@@ -5,7 +5,7 @@
 //! calibration's effects, [`AnalyticSimulator::absolute_cm_s2`]) for `a_IA` with the row's
 //! cross-axis inputs `a_PA`, `a_OA` held; its 1-sigma uncertainty comes from the reading's
 //! own noise and from the calibration's covariance, both carried through the model's
-//! slope (`docs/discovery.md`, `ptsa correct`). Also where every reading given as counts
+//! slope (`docs/method/discovery.md`, `ptsa correct`). Also where every reading given as counts
 //! becomes a value before it is fitted or corrected ([`counts_in`]).
 
 use anyhow::{Context as _, Result, bail};
@@ -157,7 +157,7 @@ impl Calibration {
 }
 
 /// A model-equation term the calibration does not apply: not measured by it (its status
-/// is not `selected` or `fitted`; docs/discovery.md, `ptsa correct`).
+/// is not `selected` or `fitted`; docs/method/discovery.md, `ptsa correct`).
 #[derive(Clone, Debug)]
 struct Unapplied {
     /// Which term.

@@ -1,5 +1,5 @@
 //! What a discovery costs, counted before it runs: the closed-loop runs of its steps
-//! (`docs/discovery.md`, "Speed") as [`Ticks`], and its least squares as seconds.
+//! (`docs/method/discovery.md`, "Speed") as [`Ticks`], and its least squares as seconds.
 //!
 //! Always run: every row's baseline; the simulator's own scatter of each measured response
 //! row (its runs once more); when the measured rows can show the loop's parameters (any
@@ -32,7 +32,7 @@ pub const SEARCH_PASSES: usize = GRID.len() + 1 + GRID_EXTENSIONS + 2 * (2 + GOL
 
 /// Seconds of least squares per observation and candidate (the stepwise selection, its
 /// cross-validation folds and the search of the residuals), measured with the analytic
-/// simulator (`docs/discovery.md`, "Speed"), on the slow side.
+/// simulator (`docs/method/discovery.md`, "Speed"), on the slow side.
 pub const LSQ_S_PER_OBSERVATION_CANDIDATE: f64 = 4e-6;
 
 /// A discovery's work, counted before it runs.

@@ -1,6 +1,6 @@
 //! `ptsa discover`: given measured data, show what the simulation gets wrong, name the cause,
-//! extend the model and measure the gain (method in `docs/discovery.md`, data format
-//! in `docs/case-frame.md`).
+//! extend the model and measure the gain (method in `docs/method/discovery.md`, data format
+//! in `docs/reference/case-frame-format.md`).
 //!
 //! From the bottom up (a module uses only those above it; `no_import_cycles` checks it):
 //!
@@ -708,7 +708,7 @@ mod tests {
         files
     }
 
-    /// Discovery's modules in layers, bottom-up, as ARCHITECTURE.md lists them: each uses
+    /// Discovery's modules in layers, bottom-up, as docs/method/code.md lists them: each uses
     /// only those before it (a new module takes its place here).
     const LAYERS: [&str; 33] = [
         "observation",
@@ -780,7 +780,7 @@ mod tests {
         for (from, to) in &edges {
             assert!(
                 layer(to) < layer(from),
-                "discovery::{from} uses discovery::{to}, listed above it in LAYERS (and in ARCHITECTURE.md)"
+                "discovery::{from} uses discovery::{to}, listed above it in LAYERS (and in docs/method/code.md)"
             );
         }
     }

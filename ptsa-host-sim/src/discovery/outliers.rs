@@ -43,7 +43,7 @@
 //! `slips::row_slips`) are therefore tested first, all together: each against the model
 //! selected without every one of them, at the same familywise level.
 //!
-//! Where it fails (measured in `docs/discovery.md`): the test assumes the model selected
+//! Where it fails (measured in `docs/method/discovery.md`): the test assumes the model selected
 //! without the row describes the other rows up to noise of the stated relative sizes. Noise
 //! that grows from row to row within one variance group without `sigma_cm_s2` saying so,
 //! or a real effect the vocabulary lacks (or the selection misses) concentrated on a few

@@ -1,4 +1,4 @@
-//! The method's stages in their order (`docs/discovery.md`): the baseline, the suspected
+//! The method's stages in their order (`docs/method/discovery.md`): the baseline, the suspected
 //! gross errors, the linear selection, the searches through the closed loop, the extended
 //! model, what is left and the gain out of sample, the advice, and the result. Each stage
 //! is its own module; this file only runs them in turn.

@@ -415,7 +415,7 @@ pub struct Calibration {
     pub notes: Vec<String>,
     /// The calibration's design: each absolute static row's gravity along IA, PA, OA (g),
     /// in the file's order. `ptsa correct` needs it to tell, at a record's row, how much of
-    /// a term the calibration did not apply its partners took up (docs/discovery.md,
+    /// a term the calibration did not apply its partners took up (docs/method/discovery.md,
     /// `ptsa correct`).
     pub design_g: Vec<[f64; 3]>,
     /// The local gravity every value in g (µg, µg/g², ...) is taken in, cm/s²: what
@@ -435,7 +435,7 @@ pub struct Calibration {
     pub changes: CalibrationChanges,
     /// Selected terms the calibration leaves out (rivaled or implausible, outside the core
     /// terms `K_0`, `K_1`, `δ_o`, `δ_p`, `K_2`), each with what it would change if it were
-    /// real (docs/discovery.md, "A doubtful term").
+    /// real (docs/method/discovery.md, "A doubtful term").
     pub doubtful: Vec<DoubtfulTerm>,
 }
 

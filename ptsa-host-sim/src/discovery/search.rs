@@ -11,7 +11,7 @@
 //! over the rows per other parameter, only when a parameter is selected (or scanned for,
 //! when none is).
 //!
-//! Measured: `docs/discovery.md`, "Where it fails" (`cargo xtask hidden --parameters`).
+//! Measured: `docs/method/discovery.md`, "Where it fails" (`cargo xtask hidden --parameters`).
 
 use super::data::{self, Data};
 use super::fit::{self, Fitted};

@@ -104,7 +104,7 @@ pub(crate) fn test(p: &Problem<'_>) -> Unexplained {
 
 /// The final model's unit columns, every selected term's among them: a term beyond its
 /// plausibility bound stays in the model these tests read (a bound flags, it does not
-/// remove; docs/discovery.md).
+/// remove; docs/method/discovery.md).
 fn kept(f: &Fitted) -> Vec<&[f64]> {
     f.unit_columns()
 }

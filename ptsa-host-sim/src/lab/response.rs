@@ -320,7 +320,7 @@ pub const ROW_COLUMNS: [&str; 8] = [
 ];
 
 impl ResponseFit {
-    /// The fit as a case-frame row, `kind = response` (`docs/case-frame.md`): the input
+    /// The fit as a case-frame row, `kind = response` (`docs/reference/case-frame-format.md`): the input
     /// (`freq_hz`, `lin_ia_cm_s2`), the gain and phase and their uncertainties. An
     /// uncertainty that is not greater than 0 (a record the sine fits exactly) is left out:
     /// the case frame takes only positive ones.
@@ -428,7 +428,7 @@ pub fn fit(
 /// quantizer's sub-tick carry and what the pendulum, the torquer and the compensator hold)
 /// is not lost but counted in the next gate, so a gate's count is off by the carry at its
 /// end minus the carry at its start. The simulated loop's carry at a boundary spreads over
-/// about ±1 pulse (a 1 s gate indicates the input within two pulses, `docs/host-sim.md`);
+/// about ±1 pulse (a 1 s gate indicates the input within two pulses, `docs/method/host-sim.md`);
 /// taken as uniform over that width, its variance is [`CARRY_VAR`] = 1/3 pulse², and the
 /// two ends together give `2/3` pulse². On top of that, a gate that does not start at the
 /// beginning of a limit cycle cuts a cycle: a cycle of `N` ticks with duty `d` (the
@@ -521,7 +521,7 @@ pub struct Prediction {
 
 /// How far beyond the tolerance box's range a fit may lie before it is "far" from the
 /// prediction: the linear model's own shortfall against the simulated loop (up to 2.5 dB
-/// and 20° at 400 Hz, `docs/host-sim.md`), rounded up: a factor in gain, degrees in phase.
+/// and 20° at 400 Hz, `docs/method/host-sim.md`), rounded up: a factor in gain, degrees in phase.
 pub const MODEL_MARGIN: (f64, f64) = (1.413, 25.0);
 
 /// The gain above which a fit is refused without `--force`: no loop the simulator accepts

@@ -1,4 +1,4 @@
-//! The case-frame CSV format (`docs/case-frame.md`): reader and writer.
+//! The case-frame CSV format (`docs/reference/case-frame-format.md`): reader and writer.
 //!
 //! One row is one test condition ([`Condition`]). The file has a header; any column may be
 //! left out (a missing column means 0, or "not given" for `measured_cm_s2` and
@@ -1031,7 +1031,7 @@ fn check_centrifuge(name: &str, line: usize, c: &Condition) -> Result<()> {
     }
     if c.centripetal_cm_s2(c.w_rad_s).is_none() || c.centripetal_cm_s2(c.ref_w_rad_s).is_none() {
         bail!(
-            "{name}:{line}: column `radius_cm` is {} but IA lies along the spin axis (the rates point along IA), so the arm's direction is undefined; expected IA in or tilted out of the turntable plane (docs/case-frame.md, centrifuge rows)",
+            "{name}:{line}: column `radius_cm` is {} but IA lies along the spin axis (the rates point along IA), so the arm's direction is undefined; expected IA in or tilted out of the turntable plane (docs/reference/case-frame-format.md, centrifuge rows)",
             c.radius_cm
         );
     }

@@ -1,6 +1,6 @@
 //! Test conditions in the instrument's case frame.
 //!
-//! A [`Condition`] is one row of the case-frame data format (`docs/case-frame.md`): gravity,
+//! A [`Condition`] is one row of the case-frame data format (`docs/reference/case-frame-format.md`): gravity,
 //! constant rates, and sinusoidal linear and angular oscillations, all along or about the
 //! case axes IA, PA, OA (right-handed). [`Condition::inputs_at`] evaluates what the
 //! instrument feels at a time `t`. Gravity is given in g; its value in cm/s² is the

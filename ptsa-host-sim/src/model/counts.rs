@@ -1,6 +1,6 @@
 //! Counts in: an absolute row's measurement given as the pulses `P` of positive torque the
 //! forced-binary loop counted over a gate of `T` clock ticks (R-890 section 6.1, eqs.
-//! 6.3/6.4; case-frame columns `pulses` and `ticks`, `docs/case-frame.md`), turned into the
+//! 6.3/6.4; case-frame columns `pulses` and `ticks`, `docs/reference/case-frame-format.md`), turned into the
 //! indicated acceleration `SF·(2P/T − 1)` with the instrument file's nominal scale factor,
 //! and the counting's own error.
 //!
@@ -15,7 +15,7 @@
 //! `(2·SF/T)·√(1/6) ≈ 0.816·SF/T` ([`counting_sigma_cm_s2`]). The simulated loop's static
 //! gates scatter by just that (`tests/cli_counts.rs`,
 //! `the_counting_error_is_the_simulated_loops`; 110 gates of 1 s through `ptsa static`:
-//! 0.270 cm/s² against the model's 0.269, `docs/case-frame.md`). Under a sine the carry
+//! 0.270 cm/s² against the model's 0.269, `docs/reference/case-frame-format.md`). Under a sine the carry
 //! spreads wider (`lab::response::CARRY_VAR`, ±1 pulse, for the short gates of a counter
 //! record). Not in it: the limit-cycle ripple of a gate that is not a whole number of limit
 //! cycles (a cut cycle leaves up to `N·d·(1 − d)` pulses, 16 at `N` = 64 ticks and `d` =

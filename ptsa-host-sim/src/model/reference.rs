@@ -38,7 +38,7 @@ pub fn instrument_page() -> String {
          `model::reference::tests::the_pages_are_current`. A toleranced entry can be fitted \
          by `ptsa discover` and rewritten by `--write-instrument`. The other sections \
          (`[instrument]`, `[board]`, `[model_equation]`, `[plausibility]`) and the classes \
-         without a loop are in [instrument.md](../instrument.md).\n\n\
+         without a loop are in [instrument-files.md](instrument-files.md).\n\n\
          | key | unit | written as | valid | meaning |\n|---|---|---|---|---|\n",
     );
     for p in PARAMETERS {
@@ -65,7 +65,7 @@ pub fn case_frame_page() -> String {
          `COLUMNS` (`model/caseframe.rs`) by the test \
          `model::reference::tests::the_pages_are_current`. Units are in the names. What \
          the rows mean, blocks, counts, response rows and the triad file are in \
-         [case-frame.md](../case-frame.md).\n\n\
+         [case-frame-format.md](case-frame-format.md).\n\n\
          | column | a cell holds |\n|---|---|\n",
     );
     for c in COLUMNS {

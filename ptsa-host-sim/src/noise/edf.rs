@@ -28,7 +28,7 @@
 //!
 //! Where it departs from the paper, each where the paper's continuous-time phase is not a
 //! counter record's, whose velocity at a gate's boundary is the count itself (measured
-//! against drawn series in docs/noise.md, "Confidence intervals"):
+//! against drawn series in docs/method/noise.md, "Confidence intervals"):
 //!
 //! * the unmodified variance of `α ≤ 0` takes the phase point-sampled (`F = ∞`) at every
 //!   `m`, where the paper averages it over one sample while `m·(d + 1) ≤ J_max`: at m = 1

@@ -47,7 +47,7 @@
 //! points describe a loop's record: its count pattern repeats from record to record far
 //! closer than a random noise's EDF says at short τ, varies more in the middle, and where
 //! the added noises dominate their few degrees of freedom and the overlap of the long τ
-//! rule (measured in docs/noise.md).
+//! rule (measured in docs/method/noise.md).
 //!
 //! The candidates are selected forward with Holm's thresholds (as discover selects): at
 //! step `j` each candidate left is tested given those already selected by the drop of the
@@ -66,7 +66,7 @@
 //! two-sided 95 % point for their `REPLICAS − 1` degrees of freedom: weights estimated from
 //! 24 records are noisy, and a fit weighted by a noisy inverse covariance varies more than
 //! its own `χ²` says (the profile's `3.84·b²` held the value in 273 of 300 campaign records;
-//! `scripts/interval_model.py` shows the same in a linear model, docs/noise.md). A selected
+//! `scripts/interval_model.py` shows the same in a linear model, docs/method/noise.md). A selected
 //! white noise or walk whose interval reaches its grid's top gets nodes above it
 //! ([`ABOVE_TOP`], at most [`EXTENSIONS`] times) and is fitted again; an interval that
 //! still reaches the top is open above.
@@ -460,7 +460,7 @@ impl Grid<'_> {
             .collect();
         let split = simulated.last().copied();
         // `L·m²` over the last octaves simulated, their geometric mean: the count pattern's
-        // part swings by a factor of about 8 between its tones' drops (docs/noise.md).
+        // part swings by a factor of about 8 between its tones' drops (docs/method/noise.md).
         let tail: Vec<f64> = simulated
             .iter()
             .rev()
@@ -670,7 +670,7 @@ impl Grid<'_> {
     /// [`Grid::spread`] at the fit. `W` estimated from [`REPLICAS`] records is noisy, and
     /// a noisy `W` makes `A⁻¹` too small: in `scripts/interval_model.py`'s linear model, 24
     /// records and 12 τ leave the profile's intervals (with the Birge ratio) holding the
-    /// value in 84–89 % of trials (docs/noise.md). `s` may be below 1 (a fit that varies
+    /// value in 84–89 % of trials (docs/method/noise.md). `s` may be below 1 (a fit that varies
     /// less than its weights say); it is used as it comes.
     fn interval_scales(&mut self, free: &[usize], prof: &Profile, w: &Weights) -> Vec<Option<f64>> {
         let inner: Vec<(usize, usize)> = free
@@ -893,7 +893,7 @@ impl Grid<'_> {
 /// mixed with this, so that the records of two measurements never share their draws: the
 /// grid's curves are the mean of [`SEEDS`] records a node, and with the same records
 /// behind every identification their Monte Carlo error moves every estimate alike instead
-/// of averaging out over a laboratory's records (docs/noise.md's campaign of 40 records:
+/// of averaging out over a laboratory's records (docs/method/noise.md's campaign of 40 records:
 /// `N` 6.6 % high on average with one seed for all, 5.6 % with each record's own, its
 /// interval holding the value in 34, then 36, of 40). The same record with the same
 /// `--seed` gives the same result.
@@ -1214,7 +1214,7 @@ fn select(
 /// The joint fit of the `chosen` axes from `current`, with the bias random walk free as a
 /// nuisance where it was not selected: a walk too weak to be selected from the record still
 /// lifts its longest τ, which the others would otherwise take (N 5.6 % high over the
-/// campaign's records with K = 0.005, 2 % with none; docs/noise.md). Its grid is simulated
+/// campaign's records with K = 0.005, 2 % with none; docs/method/noise.md). Its grid is simulated
 /// already: the selection's last step tested it given the others. Each selected candidate
 /// gets its value and interval.
 fn joint_fit(g: &mut Grid<'_>, chosen: &[usize], current: [f64; 3], candidates: &mut [Candidate]) {

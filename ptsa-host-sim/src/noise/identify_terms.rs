@@ -26,13 +26,13 @@
 //! Each step's test is made in the model of the terms selected before it, so the 5 %
 //! familywise holds once the record's true terms are in; a true term not yet selected
 //! leaves a rise or a fall another term of the same slope may take (the campaign in
-//! docs/noise.md measures both the false inclusions and these misnamings).
+//! docs/method/noise.md measures both the false inclusions and these misnamings).
 //!
 //! Each selected coefficient's interval: the joint fit's covariance of `θ` (Gauss–Newton
 //! at the minimum), scaled by the Birge ratio `√(χ²/dof)` when above 1 and by Student's
 //! two-sided point for `REPLICAS − 1` degrees of freedom (the weights are estimated from
 //! that many records), the interval on `θ` then its square root (its lower end at 0 when
-//! the interval on `θ` reaches it). The coverage is measured in docs/noise.md.
+//! the interval on `θ` reaches it). The coverage is measured in docs/method/noise.md.
 #![allow(
     clippy::cast_precision_loss,
     reason = "sample counts and averaging factors, far below 2^52, as f64"

@@ -150,7 +150,7 @@ pub fn page() -> String {
         "\n## A triad file\n\n\
          `ptsa discover --data TRIAD --json` prints `{\"data\", \"instrument\", \"triad\"}` \
          (the two files' names and the calibration below), and `\"stream\"` when the file \
-         was a raw stream cut into positions (docs/discovery.md, \"A raw stream\"). \
+         was a raw stream cut into positions (docs/method/discovery.md, \"A raw stream\"). \
          `\"triad\"`:\n\n\
          | key | type | meaning |\n|---|---|---|\n",
     );

@@ -41,7 +41,10 @@ pub fn section_json(
         s,
         "## Discovery: what the baseline model misses in Tables 6.1–6.3\n"
     );
-    let _ = writeln!(s, "Method: `docs/discovery.md`. Test: {TEST_STATEMENT}.\n");
+    let _ = writeln!(
+        s,
+        "Method: `docs/method/discovery.md`. Test: {TEST_STATEMENT}.\n"
+    );
     let _ = writeln!(
         s,
         "| data | rows | baseline RMS (cm/s²) | baseline χ² | selected | coefficient ± SE | indistinguishable from | extended RMS | extended χ² (p) |"

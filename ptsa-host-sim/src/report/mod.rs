@@ -222,7 +222,7 @@ impl Programme {
 
 /// Seconds of the programme beyond its closed-loop ticks and its discovery's least squares
 /// (the figures, the files, the margins of the tolerance box's corners), on the slow side
-/// (`docs/host-sim.md`, "Work estimates").
+/// (`docs/method/host-sim.md`, "Work estimates").
 pub const OVERHEAD_S: f64 = 1.0;
 
 /// The work of [`run`] with `instr` and `opts`, counted before it runs: every step's

@@ -97,7 +97,7 @@ pub fn render(p: &Programme) -> Result<String> {
     );
     let _ = writeln!(
         s,
-        "* Instrument file: `{}`\n* Noise seed {}, settling {} s, shortest window {} s; {} threads; wall time {:.2} s\n* Every figure here is reproduced by `cargo ptsa` (this report) or the subcommand named in its section. Method and model: `docs/host-sim.md`.\n* **Sign convention**: every difference is condition − reference (for the OA-coupling tables: dynamic − static), as in the case-frame format. The report's Tables 6.2 and 6.3 tabulate static − dynamic; their values appear negated here.\n",
+        "* Instrument file: `{}`\n* Noise seed {}, settling {} s, shortest window {} s; {} threads; wall time {:.2} s\n* Every figure here is reproduced by `cargo ptsa` (this report) or the subcommand named in its section. Method and model: `docs/method/host-sim.md`.\n* **Sign convention**: every difference is condition − reference (for the OA-coupling tables: dynamic − static), as in the case-frame format. The report's Tables 6.2 and 6.3 tabulate static − dynamic; their values appear negated here.\n",
         p.info.instrument,
         p.info.options.seed,
         p.info.options.warmup_s,

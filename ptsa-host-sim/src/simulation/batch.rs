@@ -54,7 +54,7 @@
 //! Measured with `ptsa bench --batch 16 --runs 7` on one core (2-core AMD EPYC, AVX-512,
 //! 2026-11-28, the core's tick in AVX-512 registers): static batch / single = 2.98–3.05 with
 //! 8 lanes (six invocations), 2.05 with 4, 1.05–1.08 with 1; with `--dynamic` 1.09–1.16,
-//! with `--dynamic --shared-condition` 2.88–2.95 (three each; see docs/host-sim.md,
+//! with `--dynamic --shared-condition` 2.88–2.95 (three each; see docs/method/host-sim.md,
 //! "Performance", which also gives the figures before, 1.82–1.86 static, and on an AVX2
 //! machine). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
 //! (criterion medians, one thread, 2026-11-28, AVX-512): 16 different oscillating

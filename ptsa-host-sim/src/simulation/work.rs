@@ -23,7 +23,7 @@ use crate::simulation::sim::SimOptions;
 
 /// Closed-loop ticks of the static path one core runs per second, counted on the slow side:
 /// the batch engine's static lanes with their per-tick statistics (measured 0.9e8 to 1.3e8
-/// per second per core on the development machine; `docs/host-sim.md`, "Work estimates").
+/// per second per core on the development machine; `docs/method/host-sim.md`, "Work estimates").
 pub const STATIC_TICKS_PER_S: f64 = 6e7;
 
 /// Closed-loop ticks of the dynamic path (oscillating inputs or a harmonic measured) one

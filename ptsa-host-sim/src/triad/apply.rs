@@ -1,7 +1,7 @@
 //! A triad calibration to apply: the file `ptsa discover --write-instrument` writes for a
 //! triad (one file for the three axes), read back from it or from a `discover --json`
 //! result, and applied to three readings (`ptsa correct` on a triad record): the specific
-//! force vector `f = M·(u − b)` with its 3×3 covariance (`docs/discovery.md`, "A triad").
+//! force vector `f = M·(u − b)` with its 3×3 covariance (`docs/method/discovery.md`, "A triad").
 //!
 //! One file for the three axes, not one per axis: the correction needs the three readings
 //! of a row at once (`Γ` mixes them), the three axes' parameters are correlated through the
@@ -197,7 +197,7 @@ impl TriadCalibration {
         let mut s = String::new();
         let _ = writeln!(
             s,
-            "# A triad's calibration written by `ptsa discover --write-instrument` (docs/discovery.md, \"A triad\").\n\
+            "# A triad's calibration written by `ptsa discover --write-instrument` (docs/method/discovery.md, \"A triad\").\n\
              # Apply it with `ptsa correct --data RECORD.csv --calibration THIS_FILE`.\n\
              #\n\
              # Model of a reading u_j of axis j (cm/s² through the nominal scale factor):\n\

@@ -1,5 +1,5 @@
 //! The triad's fit: three axes' model equations and their non-orthogonality, one
-//! orientation per position shared by the three, by Gauss–Newton (`docs/discovery.md`,
+//! orientation per position shared by the three, by Gauss–Newton (`docs/method/discovery.md`,
 //! "A triad").
 //!
 //! The model of a reading (cm/s²) of axis `j` in position `i`:

@@ -1,4 +1,4 @@
-//! The triad file (`docs/case-frame.md`, "A triad"): one calibration of three
+//! The triad file (`docs/reference/case-frame-format.md`, "A triad"): one calibration of three
 //! accelerometers on one block, one row per position, read with the case-frame's CSV rules
 //! and errors (`model::caseframe::records`).
 //!
@@ -208,7 +208,7 @@ fn parse(name: &str, bytes: &[u8], record: bool) -> Result<Vec<Position>> {
                     "{name}:{line}{place}: column {} of the header is `{cell}`, a single-axis \
                      case-frame column, in a triad file (its header has {}); expected one kind \
                      of file: a triad file of {} only, or a single-axis case-frame file \
-                     (docs/case-frame.md)",
+                     (docs/reference/case-frame-format.md)",
                     i + 1,
                     header
                         .cells

@@ -1,5 +1,5 @@
 //! A triad: one calibration of three accelerometers on one block (`ptsa discover --data`
-//! on a triad file; `docs/discovery.md`, "A triad"). A layer of its own beside
+//! on a triad file; `docs/method/discovery.md`, "A triad"). A layer of its own beside
 //! `discovery`: it uses only the model's file rules (`model::caseframe`), the instrument's
 //! local gravity and `stats` (and, for its sheet, `discovery::sheet`'s SHA-256, date and
 //! folder check).

@@ -1,5 +1,5 @@
 //! The `"triad"` object of `ptsa discover --json` on a triad file: every key with its unit
-//! and meaning (the contract; `docs/discovery.md`, "A triad", gives the convention).
+//! and meaning (the contract; `docs/method/discovery.md`, "A triad", gives the convention).
 
 use serde::Serialize;
 

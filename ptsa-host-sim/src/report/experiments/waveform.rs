@@ -35,7 +35,7 @@ pub fn work(instr: &Instrument, opts: &SimOptions, cycles: u64) -> crate::simula
     crate::simulation::work::Ticks::of(n, false)
 }
 
-/// Seconds to write one traced tick's row (`docs/host-sim.md`, "Work estimates"), on the
+/// Seconds to write one traced tick's row (`docs/method/host-sim.md`, "Work estimates"), on the
 /// slow side.
 pub const TRACE_S_PER_TICK: f64 = 2e-6;
 

@@ -23,7 +23,7 @@ use crate::paths;
 /// Arguments of `ptsa correct`.
 #[derive(Args, Debug, Clone)]
 pub struct CorrectArgs {
-    /// Case-frame CSV file (docs/case-frame.md) of absolute, static rows: each a reading in
+    /// Case-frame CSV file (docs/reference/case-frame-format.md) of absolute, static rows: each a reading in
     /// measured_cm_s2 (cm/s²) or counts in pulses and ticks (whole numbers, read as
     /// SF·(2P/T − 1) cm/s² with the instrument file's nominal SF), with the cross-axis
     /// inputs g_pa and g_oa in g (absent: 0, with a warning). g_ia is not read: it is what

@@ -27,10 +27,10 @@ use crate::{paths, work};
 #[derive(Args, Debug, Clone)]
 #[command(allow_negative_numbers = true)]
 pub struct DiscoverArgs {
-    /// Case-frame CSV file of measured conditions (docs/case-frame.md). Without it, the
+    /// Case-frame CSV file of measured conditions (docs/reference/case-frame-format.md). Without it, the
     /// report's Tables 6.1, 6.2 and 6.3 are analysed. A triad file (columns g_x, g_y, g_z,
     /// measured_x_cm_s2, measured_y_cm_s2, measured_z_cm_s2) is one calibration of three
-    /// accelerometers on one block instead (docs/discovery.md, "A triad"); with time_s and
+    /// accelerometers on one block instead (docs/method/discovery.md, "A triad"); with time_s and
     /// no g_x, g_y, g_z it is a raw stream of samples, cut into positions and calibrated
     /// from gravity alone ("A raw stream").
     #[arg(long, value_name = "FILE")]

@@ -90,15 +90,15 @@ pub struct NoiseArgs {
     /// cm/s^2/rtHz, ug/rtHz) and a bias random walk K (alone AVAR = K^2 tau/3; cm/s^2.5,
     /// ug/rts) inside the loop (N and K entering the plant's input), on a grid interpolated
     /// in noise power, averaged over 2 seeds; selected forward with Holm's thresholds at
-    /// 5 % familywise; the selected ones with their 95 % intervals (docs/noise.md). A
+    /// 5 % familywise; the selected ones with their 95 % intervals (docs/method/noise.md). A
     /// record longer than 8192 gates has the loop simulated for its first 8192 and the
     /// added noises for its whole length (a 12-hour record of 10 ms gates in about a
-    /// minute; docs/noise.md, "Long records").
+    /// minute; docs/method/noise.md, "Long records").
     /// With --readings: which of IEEE Std 952's terms the record holds (Q cm/s, N
     /// cm/s^2/rtHz, B cm/s^2, K cm/s^2.5, R cm/s^3, each also in ug and navigation units),
     /// the best single term first, then forward with Holm's thresholds at 5 % familywise,
     /// the points' covariance from 200 records drawn at the fitted terms; each selected
-    /// one with its 95 % interval (docs/noise.md, "Which terms a record holds").
+    /// one with its 95 % interval (docs/method/noise.md, "Which terms a record holds").
     #[arg(long)]
     pub identify: bool,
     /// With --identify: write the instrument file with the identified pickoff noise
@@ -715,7 +715,7 @@ fn analysis_warnings(name: &str, a: &Analysis) -> Vec<String> {
             sig(a.fit_chi2, 4),
             a.fit_dof,
             if a.pulse_cm_s.is_some() {
-                "; a loop's count pattern (its limit cycle's tones) gives stretches of slope -1/2 and sudden drops that no noise term makes (docs/noise.md)"
+                "; a loop's count pattern (its limit cycle's tones) gives stretches of slope -1/2 and sudden drops that no noise term makes (docs/method/noise.md)"
             } else {
                 "; look at the plot for a step, a periodic disturbance or a drift that is not a ramp"
             }
@@ -1090,7 +1090,7 @@ fn identification_text(id: &Identification) -> String {
     if let Some(t) = id.loop_split_tau_s {
         let _ = writeln!(
             s,
-            "  a long record: each simulated record ran the loop for its first {} gates; the loop's part is simulated up to tau {} s and carried as 1/tau^2 beyond, the added noises drawn for the whole length (docs/noise.md, \"Long records\")",
+            "  a long record: each simulated record ran the loop for its first {} gates; the loop's part is simulated up to tau {} s and carried as 1/tau^2 beyond, the added noises drawn for the whole length (docs/method/noise.md, \"Long records\")",
             id.simulated_gates,
             sig(t, 4)
         );

@@ -102,7 +102,7 @@ pub enum PlanKind {
         out: PlanOut,
     },
     /// A triad's calibration: N static positions of a block carrying three accelerometers
-    /// (docs/discovery.md, "A triad"): the block's nominal gravity g_x, g_y, g_z (g) and
+    /// (docs/method/discovery.md, "A triad"): the block's nominal gravity g_x, g_y, g_z (g) and
     /// the three measured columns (cm/s²) to fill in, or with --count-columns each axis's counts.
     Triad {
         /// Positions: 6 (the faces), 8 (the faces and two corners), 12 (the edges), 24
@@ -114,7 +114,7 @@ pub enum PlanKind {
         /// Write empty pulses_x, ticks_x, pulses_y, ticks_y, pulses_z, ticks_z columns (each
         /// axis's counts over its gate: P pulses of positive torque in T clock ticks, whole
         /// numbers) in place of the measured columns; discover converts them to
-        /// SF·(2P/T − 1) cm/s² with the instrument file's nominal SF (docs/case-frame.md).
+        /// SF·(2P/T − 1) cm/s² with the instrument file's nominal SF (docs/reference/case-frame-format.md).
         #[arg(long = "count-columns", alias = "counts")]
         counts: bool,
         #[command(flatten)]
@@ -128,7 +128,7 @@ pub struct CountArg {
     /// Write empty pulses and ticks columns (the counts over each position's gate: P pulses
     /// of positive torque in T clock ticks, whole numbers) in place of measured_cm_s2;
     /// discover and predict convert them to SF·(2P/T − 1) cm/s² with the instrument file's
-    /// nominal SF (docs/case-frame.md).
+    /// nominal SF (docs/reference/case-frame-format.md).
     #[arg(long = "count-columns", alias = "counts")]
     pub counts: bool,
 }

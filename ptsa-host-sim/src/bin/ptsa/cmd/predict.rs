@@ -21,7 +21,7 @@ use crate::work;
 /// Arguments of `ptsa predict`.
 #[derive(Args, Debug, Clone)]
 pub struct PredictArgs {
-    /// Case-frame CSV file (docs/case-frame.md): the conditions to predict (a
+    /// Case-frame CSV file (docs/reference/case-frame-format.md): the conditions to predict (a
     /// `measured_cm_s2` column, if any, is shown beside the prediction).
     #[arg(long, value_name = "FILE")]
     pub data: PathBuf,

@@ -81,7 +81,7 @@ pub fn request(a: &DiscoverArgs, data: &std::path::Path, ctx: &Ctx) -> Result<Re
     ];
     if let Some((flag, _)) = single.iter().find(|(_, on)| *on) {
         bail!(
-            "{flag} applies to a single-axis case-frame file, but {} is a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...); expected the triad's options only: --orientation, --sigma, --json, --out, --no-plots, --sheet, --write-instrument, --force (docs/discovery.md, \"A triad\")",
+            "{flag} applies to a single-axis case-frame file, but {} is a triad file (g_x, g_y, g_z, measured_x_cm_s2, ...); expected the triad's options only: --orientation, --sigma, --json, --out, --no-plots, --sheet, --write-instrument, --force (docs/method/discovery.md, \"A triad\")",
             data.display()
         );
     }

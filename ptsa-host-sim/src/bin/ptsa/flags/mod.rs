@@ -48,7 +48,7 @@ use values::{non_negative_s, positive_s, seed};
 pub struct Cli {
     /// Instrument file (TOML: Table 2.1 with tolerances and the PTSA electronics, see
     /// data/kearfott-2401.toml; or an accelerometer without a PTSA loop, see
-    /// docs/instrument.md), or a shipped instrument by name: kearfott-2401 (the default),
+    /// docs/reference/instrument-files.md), or a shipped instrument by name: kearfott-2401 (the default),
     /// navigation, mems.
     // Listed after each subcommand's own options (a global option is otherwise sorted in
     // among them by name).
@@ -158,7 +158,7 @@ pub enum Cmd {
     /// negative phase. The input is taken as A·sin(2πF·t + --input-phase-deg) on the
     /// record's time_s.
     ///
-    /// Prints the row as case-frame CSV with its header (docs/case-frame.md: label, kind,
+    /// Prints the row as case-frame CSV with its header (docs/reference/case-frame-format.md: label, kind,
     /// freq_hz, lin_ia_cm_s2, measured_gain, measured_phase_deg, sigma_gain,
     /// sigma_phase_deg), ready to append to a data file for `ptsa discover`, or with --json
     /// one JSON object; the fit's summary goes to stderr. Writes a plot of the gates and the
@@ -194,7 +194,7 @@ pub enum Cmd {
     /// --sigma, the counting error of counts, the fixture's sigma_angle_urad) and the
     /// calibration's covariance (its terms' standard errors and correlation), each divided
     /// by the model's slope; terms the calibration did not select carry no uncertainty
-    /// (docs/discovery.md, `ptsa correct`).
+    /// (docs/method/discovery.md, `ptsa correct`).
     ///
     /// Prints CSV (label, reading_cm_s2, sigma_reading_cm_s2, a_pa_cm_s2, a_oa_cm_s2,
     /// a_ia_cm_s2, a_ia_g, sigma_a_ia_cm_s2, sigma_noise_cm_s2, sigma_calibration_cm_s2:
@@ -210,7 +210,7 @@ pub enum Cmd {
     /// `time_s,pulses,ticks` (as for `ptsa response`) of gates back to back; each gate
     /// indicates SF·(2P/T − 1) cm/s² with the instrument file's nominal SF. --simulate
     /// --seconds N runs the instrument file's closed loop at rest (its bias and pickoff noise
-    /// included) and analyses its record the same way (--out FILE keeps the record).
+    /// included) and analyses its record the same way (--output FILE keeps the record).
     ///
     /// The intervals are chi-squared intervals with Greenhall's equivalent degrees of
     /// freedom (as Stable32 and allantools compute them) for every deviation, at 95 % and at
@@ -219,11 +219,11 @@ pub enum Cmd {
     /// random walk N, −1/2; bias instability B, 0; acceleration random walk K, +1/2; for
     /// readings also the rate ramp R, +1) come from a weighted fit of the variance curve, in
     /// cgs and in µg, µg/√Hz, (m/s)/√h, (m/s)/h^1.5, (m/s)/h², with 1-sigma uncertainties
-    /// (docs/noise.md). Prints a table, or one JSON object with --json; --plot FILE writes the
+    /// (docs/method/noise.md). Prints a table, or one JSON object with --json; --plot FILE writes the
     /// log–log plot as PNG and SVG.
     #[command(allow_negative_numbers = true)]
     Noise(NoiseArgs),
-    /// Instrument files: `instrument new --class CLASS --out FILE` writes a commented
+    /// Instrument files: `instrument new --class CLASS --output FILE` writes a commented
     /// template (kearfott-2401, navigation, mems).
     Instrument(InstrumentArgs),
 }

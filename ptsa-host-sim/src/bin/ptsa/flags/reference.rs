@@ -86,7 +86,7 @@ pub fn page() -> String {
          `flags::reference::tests::the_options_page_is_current` (`PTSA_WRITE_REFERENCE=1 cargo \
          test -p ptsa-host-sim --bin ptsa reference` writes it again). `ptsa SUBCOMMAND --help` \
          prints the same text. Old spellings kept for one release are not listed \
-         ([command-line.md](../command-line.md)).\n\n",
+         ([conventions.md](conventions.md)).\n\n",
     );
     let cmd = Cli::command();
     section(&mut out, &cmd, "ptsa");
