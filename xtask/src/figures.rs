@@ -61,72 +61,72 @@ const FIGURES: &[Figure] = &[
     Figure {
         id: "hidden-effects",
         title: "discovery: every candidate effect hidden as physics in the closed loop",
-        claim: "false selections at most 5 % per null kind; each effect named at 8 standard errors; the contract's rates per kind",
-        quoted_in: "docs/discovery.md",
+        claim: "each null kind: a false selection in at most 5 % of sets; each kind nothing can name: a confident misnaming in at most 5 %; each candidate named at 8 SE in at least 95 %, pooled coverage in the 99 % binomial band",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--sets", "200", "--seed", "7"]),
         ci: ("hidden_effects", "hidden_effects_ci"),
     },
     Figure {
         id: "hidden-effects-analytic",
         title: "discovery: the same campaign on the quasi-static generator, 1000 sets per kind",
-        claim: "as hidden-effects, with the power of 1000 sets per kind",
-        quoted_in: "docs/discovery.md",
+        claim: "the same assertions as hidden-effects, with the power of 1000 sets per kind",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--sets", "1000", "--analytic", "--seed", "4242"]),
         ci: ("hidden_effects", "hidden_effects_ci"),
     },
     Figure {
         id: "hidden-parameters",
         title: "discovery: a loop parameter changed in the instrument file, identified blind",
-        claim: "each changed parameter named, no parameter named in the unchanged sets",
-        quoted_in: "docs/discovery.md",
+        claim: "pooled over parameters and designs: false selections and misnamings each in at most 5 % of sets; named at 6 SE in at least 95 %; coverage in the 99 % binomial band",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--parameters", "--sets", "10", "--seed", "4242"]),
         ci: ("hidden_params", "hidden_parameters_ci"),
     },
     Figure {
         id: "hidden-statics",
         title: "discovery: IA tilts, quadratic and cubic terms, bias and scale-factor changes in the plant",
-        claim: "each recovered in the designs that can see it; false selections at most 5 %",
-        quoted_in: "docs/discovery.md",
+        claim: "pooled over kinds and designs: false and wrong selections each in at most 5 % of sets; named at 6 SE in at least 95 %; coverage in the 99 % binomial band",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--statics", "--sets", "200", "--seed", "4242"]),
         ci: ("hidden_statics", "hidden_statics_ci"),
     },
     Figure {
         id: "hidden-lab",
         title: "discovery: a lab's effects (hysteresis, temperature, warm-up, out-of-vocabulary terms)",
-        claim: "each named at 10 SE in its rate; false selections at most 5 %",
-        quoted_in: "docs/discovery.md",
+        claim: "each null and declared-fixture kind: false selections in at most 5 % of sets; hysteresis, temperature and warm-up named at 6 and 10 SE in at least 95 %; pooled coverage in the 99 % binomial band",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--lab", "--analytic", "--sets", "140", "--seed", "4242"]),
         ci: ("hidden_lab", "hidden_lab_ci"),
     },
     Figure {
         id: "hidden-sigma",
         title: "discovery: a stated sigma too small by 1 to 4 times",
-        claim: "false selections at most 5 % with the sigma check; effects at 6 SE still found",
-        quoted_in: "docs/discovery.md",
+        claim: "nulls whose sigma is stated right or 2 times too small, on each design: false selections in at most 5 % of sets (the other factors and the power are printed)",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--sigma", "--sets", "600", "--seed", "4242"]),
         ci: ("hidden_sigma", "hidden_sigma_ci"),
     },
     Figure {
         id: "hidden-calibration",
         title: "calibration: the k = 2 intervals of K_0, K_1, delta_o, delta_p, K_2",
-        claim: "the intervals cover the truth 95 +- 2.5 % of the time",
-        quoted_in: "docs/discovery.md, README.md",
+        claim: "the k = 2 intervals, pooled over terms and designs, cover the truth 95 +- 2.5 % of the time, over all sets and over the sets given as counts",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--calibration", "--sets", "2000", "--seed", "4242"]),
         ci: ("hidden_calibration", "hidden_calibration_ci"),
     },
     Figure {
         id: "hidden-triad",
         title: "triad: 8 to 37 positions, on a fixture and placed by hand",
-        claim: "the 95 % intervals cover the truth 95 +- 2.5 % of the time",
-        quoted_in: "docs/discovery.md",
+        claim: "each of six designs: pooled coverage of the 95 % intervals within 95 +- 2.5 % and the 99 % binomial band; sets with a warning in at most 5 %; no refusal",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--triad", "--sets", "600", "--seed", "4242"]),
         ci: ("hidden_triad", "hidden_triad_ci"),
     },
     Figure {
         id: "hidden-stability",
         title: "discovery: constant truths marked unstable",
-        claim: "sets with a term marked unstable at most the familywise 5 %",
-        quoted_in: "docs/discovery.md",
+        claim: "sets with a selected term marked unstable: at most the 99.5 % quantile of Binomial(n, 5 %) (126 of 2000)",
+        quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--stability", "--sets", "2000", "--seed", "4242"]),
         ci: ("hidden_stability", "hidden_stability_ci"),
     },
@@ -134,7 +134,7 @@ const FIGURES: &[Figure] = &[
         id: "hidden-noise-terms",
         title: "noise: which of IEEE Std 952's terms a static record holds (--identify)",
         claim: "a term not in the record in at most 5 % of records; 95 % intervals that cover",
-        quoted_in: "docs/noise.md, README.md",
+        quoted_in: "docs/method/noise.md, docs/guide/static-record.md",
         measure: Measure::Hidden(&["--noise-terms", "--sets", "200", "--seed", "4242"]),
         ci: ("hidden_terms", "hidden_terms_ci"),
     },
@@ -142,7 +142,7 @@ const FIGURES: &[Figure] = &[
         id: "firmware",
         title: "firmware: golden vectors and instruction, flash, RAM and stack budgets under QEMU",
         claim: "every vector bit-exact on the emulated Cortex-M4; every budget within its limit",
-        quoted_in: "docs/firmware.md, README.md",
+        quoted_in: "docs/method/firmware.md, README.md",
         measure: Measure::Xtask(&["firmware"]),
         ci: ("xtask ci", "firmware"),
     },
@@ -293,18 +293,28 @@ fn measure_all(f: &Figure, rescore: Option<&str>) -> Result<Vec<Measured>, Strin
 
 /// One campaign run, its seed replaced by `seed` when given.
 fn campaign(args: &[String], seed: Option<&str>) -> Result<Measured, String> {
-    let mut c = hidden::parse(args).map_err(|e| e.to_string())?;
-    if let Some(s) = seed {
-        c.seed = Some(s.to_string());
-    }
-    let (cmd, shown) = hidden::command(&c);
-    eprintln!("+ {shown}");
+    let args = with_seed(args, seed);
+    let c = hidden::parse(&args).map_err(|e| e.to_string())?;
+    let (cmd, env_form) = hidden::command(&c);
+    eprintln!("+ {env_form}");
     let (all, seconds) = capture(cmd)?;
     Ok(Measured {
-        shown,
+        shown: format!("cargo xtask hidden {}", args.join(" ")),
         text: test_output(&all),
         seconds,
     })
+}
+
+/// `args` with the value of `--seed` replaced by `seed` (or `--seed seed` appended).
+fn with_seed(args: &[String], seed: Option<&str>) -> Vec<String> {
+    let mut out = args.to_vec();
+    if let Some(s) = seed {
+        match out.iter().position(|a| a == "--seed") {
+            Some(i) if i + 1 < out.len() => out[i + 1] = s.to_string(),
+            _ => out.extend(["--seed".to_string(), s.to_string()]),
+        }
+    }
+    out
 }
 
 /// Run `cmd` with its stdout and stderr in one pipe, echoed to ours as it goes (the
@@ -444,7 +454,7 @@ fn page(f: &Figure, runs: &[Measured], m: &Machine) -> String {
     }
     let _ = write!(
         s,
-        "| result | passed: the command exited 0 |\n| measured | {} |\n| commit | {} |\n\
+        "| result | passed: the command exited 0 |\n| started | {} |\n| commit | {} |\n\
          | machine | {}; load average {} at the start |\n| toolchain | {} |\n\
          | in every CI run | `cargo test -p ptsa-tests --test {} {}` (a smaller subset) |\n",
         m.date, m.commit, m.cpu, m.load, m.rustc, f.ci.0, f.ci.1
@@ -477,7 +487,12 @@ fn index(dir: &Path) -> String {
          Each page below was written by `cargo xtask figures ID`, which runs a command that\n\
          asserts the claim and records what it printed, the date, the commit and the machine.\n\
          `cargo xtask figures` re-measures them all. Figures still kept by hand, each with its\n\
-         command: [../figures.md](../figures.md).\n\n\
+         command: [by-hand.md](by-hand.md).\n\n\
+         A rate \"in at most 5 %\" is asserted by a one-sided binomial test at the 1 % level:\n\
+         the run fails when P(X >= k) for the count k under a 5 % rate is below 0.01. The\n\
+         99 % binomial band is the central 99 % of Binomial(n, 0.95) for n intervals; a run\n\
+         outside it fails. A seeded campaign is also re-scored at a seed chosen on the day\n\
+         of the run, and must pass there too.\n\n\
          | figure | claim | command | measured |\n|---|---|---|---|\n",
     );
     for f in FIGURES {
@@ -495,7 +510,7 @@ fn index(dir: &Path) -> String {
 fn measured_on(path: &Path) -> Option<String> {
     let text = std::fs::read_to_string(path).ok()?;
     text.lines()
-        .find_map(|l| l.strip_prefix("| measured | "))
+        .find_map(|l| l.strip_prefix("| started | "))
         .map(|d| d.trim_end_matches(" |").chars().take(10).collect())
 }
 
@@ -503,14 +518,19 @@ fn measured_on(path: &Path) -> Option<String> {
 mod tests {
     use super::*;
 
+    /// The index as `cargo xtask figures` writes it; `PTSA_WRITE_REFERENCE=1 cargo test -p
+    /// xtask index` writes it again (after a page was removed, or a figure added).
     #[test]
     fn the_index_is_current() {
         let dir = util::root().join("docs").join("figures");
+        if std::env::var("PTSA_WRITE_REFERENCE").is_ok_and(|v| v == "1") {
+            util::write_atomic(&dir.join("README.md"), &index(&dir)).expect("written");
+        }
         let on_disk = std::fs::read_to_string(dir.join("README.md")).unwrap_or_default();
         assert_eq!(
             on_disk,
             index(&dir),
-            "docs/figures/README.md is not what `cargo xtask figures` writes: run `cargo xtask figures --no-rescore ID` for a figure, or write the index again"
+            "docs/figures/README.md is not what `cargo xtask figures` writes: PTSA_WRITE_REFERENCE=1 cargo test -p xtask index writes it again"
         );
     }
 
@@ -556,6 +576,17 @@ mod tests {
             report_lines("+ build\nok   vector a\nFAIL budget\nnoise\n2 passed, 1 failed\n"),
             "ok   vector a\nFAIL budget\n2 passed, 1 failed"
         );
+    }
+
+    #[test]
+    fn a_rescore_replaces_the_seed() {
+        let args: Vec<String> = ["--lab", "--seed", "7"].map(String::from).to_vec();
+        assert_eq!(
+            with_seed(&args, Some("20261129")),
+            ["--lab", "--seed", "20261129"]
+        );
+        assert_eq!(with_seed(&args[..1], Some("5")), ["--lab", "--seed", "5"]);
+        assert_eq!(with_seed(&args, None), args);
     }
 
     #[test]

@@ -112,10 +112,8 @@ hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration 
 /// The campaign asked for, validated.
 /// One campaign as asked for on the command line.
 pub struct Campaign {
-    /// `--sets`, when given.
-    pub sets: Option<String>,
-    /// `--seed`, when given.
-    pub seed: Option<String>,
+    sets: Option<String>,
+    seed: Option<String>,
     analytic: bool,
     which: &'static Which,
     additive: bool,
