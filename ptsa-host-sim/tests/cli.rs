@@ -440,6 +440,24 @@ fn every_simd_level_gives_the_single_loops_results() {
     assert!(out.contains("(same pulses in every run)"), "{out}");
 }
 
+/// `bench --compare-c`: the plain C loop, built with the system's C compiler, gives the
+/// same pulses and plant state as the Rust loop, bit for bit (a tiny run: the check
+/// behind `cargo xtask figures bench-c`, not a timing).
+#[test]
+fn bench_compare_c_gives_the_same_pulses_bit_for_bit() {
+    let tmp = tempfile::tempdir().unwrap();
+    let (out, err) = succeeds_in(
+        tmp.path(),
+        &["bench", "--compare-c", "--ticks", "64000", "--runs", "1"],
+    );
+    assert!(err.is_empty(), "{err}");
+    assert!(
+        out.contains("same pulses and plant state bit for bit"),
+        "{out}"
+    );
+    assert!(out.contains("bench: Rust / C = "), "{out}");
+}
+
 /// `bench --batch N`: both rates and their ratio, from a tiny run (a smoke test of the
 /// command, not a timing); its options refused out of range.
 #[test]

@@ -232,13 +232,38 @@ fn the_readme_is_a_quick_start() {
 /// Every sentence of `md`'s prose has at most 40 words.
 fn short_sentences(page: &str, md: &str) {
     for p in paragraphs(md) {
-        // A sentence ends at '.', '?' or '!' before a space; a dot inside a name or a
-        // number (`sn3.json`, `0.2`) has no space after it.
-        for s in p.split_inclusive(&['.', '?', '!'][..]) {
+        for s in sentences(&p) {
             let n = s.split_whitespace().count();
             assert!(n <= 40, "{page}: a sentence of {n} words (at most 40):{s}");
         }
     }
+}
+
+/// `p` cut into sentences: each ends at '.', '?' or '!' followed by a space or the end; a
+/// dot inside a name or a number (`sn3.json`, `0.2`) has no space after it.
+fn sentences(p: &str) -> Vec<&str> {
+    let mut out = Vec::new();
+    let mut start = 0;
+    let mut chars = p.char_indices().peekable();
+    while let Some((i, c)) = chars.next() {
+        let end = chars.peek().is_none_or(|(_, n)| n.is_whitespace());
+        if matches!(c, '.' | '?' | '!') && end {
+            out.push(&p[start..i + c.len_utf8()]);
+            start = i + c.len_utf8();
+        }
+    }
+    if start < p.len() {
+        out.push(&p[start..]);
+    }
+    out
+}
+
+#[test]
+fn a_dot_inside_a_name_or_a_number_ends_no_sentence() {
+    assert_eq!(
+        sentences("Write sn3.json with 0.2 s. Then stop! Or not"),
+        ["Write sn3.json with 0.2 s.", " Then stop!", " Or not"]
+    );
 }
 
 #[test]

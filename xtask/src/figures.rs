@@ -39,6 +39,13 @@ enum Measure {
     Hidden(&'static [&'static str]),
     /// `cargo xtask ARGS`, keeping the lines of its report (`ok`, `FAIL`, totals).
     Xtask(&'static [&'static str]),
+    /// `cargo ptsa bench ARGS`, keeping its `bench:` lines; the ratio printed after
+    /// `ratio` must be at least `min`.
+    Bench {
+        args: &'static [&'static str],
+        ratio: &'static str,
+        min: f64,
+    },
 }
 
 /// One published figure: what it supports and how it is measured.
@@ -52,7 +59,8 @@ struct Figure {
     /// The pages that quote it.
     quoted_in: &'static str,
     measure: Measure,
-    /// The CI-sized subset that runs in every `cargo xtask ci`: a test file and a test.
+    /// The CI-sized subset that runs in every `cargo xtask ci`: a test file (from the
+    /// repository's root) and a test, or `("xtask ci", step)` for a step of its own.
     ci: (&'static str, &'static str),
 }
 
@@ -64,7 +72,7 @@ const FIGURES: &[Figure] = &[
         claim: "each null kind: a false selection in at most 5 % of sets; each kind nothing can name: a confident misnaming in at most 5 %; each candidate named at 8 SE in at least 95 %, pooled coverage in the 99 % binomial band",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--sets", "200", "--seed", "7"]),
-        ci: ("hidden_effects", "hidden_effects_ci"),
+        ci: ("tests/hidden_effects.rs", "hidden_effects_ci"),
     },
     Figure {
         id: "hidden-effects-analytic",
@@ -72,7 +80,7 @@ const FIGURES: &[Figure] = &[
         claim: "the same assertions as hidden-effects, with the power of 1000 sets per kind",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--sets", "1000", "--analytic", "--seed", "4242"]),
-        ci: ("hidden_effects", "hidden_effects_ci"),
+        ci: ("tests/hidden_effects.rs", "hidden_effects_ci"),
     },
     Figure {
         id: "hidden-parameters",
@@ -80,7 +88,7 @@ const FIGURES: &[Figure] = &[
         claim: "pooled over parameters and designs: false selections and misnamings each in at most 5 % of sets; named at 6 SE in at least 95 %; coverage in the 99 % binomial band",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--parameters", "--sets", "10", "--seed", "4242"]),
-        ci: ("hidden_params", "hidden_parameters_ci"),
+        ci: ("tests/hidden_params.rs", "hidden_parameters_ci"),
     },
     Figure {
         id: "hidden-statics",
@@ -88,7 +96,7 @@ const FIGURES: &[Figure] = &[
         claim: "pooled over kinds and designs: false and wrong selections each in at most 5 % of sets; named at 6 SE in at least 95 %; coverage in the 99 % binomial band",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--statics", "--sets", "200", "--seed", "4242"]),
-        ci: ("hidden_statics", "hidden_statics_ci"),
+        ci: ("tests/hidden_statics.rs", "hidden_statics_ci"),
     },
     Figure {
         id: "hidden-lab",
@@ -96,7 +104,7 @@ const FIGURES: &[Figure] = &[
         claim: "each null and declared-fixture kind: false selections in at most 5 % of sets; hysteresis, temperature and warm-up named at 6 and 10 SE in at least 95 %; pooled coverage in the 99 % binomial band",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--lab", "--analytic", "--sets", "140", "--seed", "4242"]),
-        ci: ("hidden_lab", "hidden_lab_ci"),
+        ci: ("tests/hidden_lab.rs", "hidden_lab_ci"),
     },
     Figure {
         id: "hidden-sigma",
@@ -104,7 +112,7 @@ const FIGURES: &[Figure] = &[
         claim: "nulls whose sigma is stated right or 2 times too small, on each design: false selections in at most 5 % of sets (the other factors and the power are printed)",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--sigma", "--sets", "600", "--seed", "4242"]),
-        ci: ("hidden_sigma", "hidden_sigma_ci"),
+        ci: ("tests/hidden_sigma.rs", "hidden_sigma_ci"),
     },
     Figure {
         id: "hidden-calibration",
@@ -112,7 +120,7 @@ const FIGURES: &[Figure] = &[
         claim: "the k = 2 intervals, pooled over terms and designs, cover the truth 95 +- 2.5 % of the time, over all sets and over the sets given as counts",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--calibration", "--sets", "2000", "--seed", "4242"]),
-        ci: ("hidden_calibration", "hidden_calibration_ci"),
+        ci: ("tests/hidden_calibration.rs", "hidden_calibration_ci"),
     },
     Figure {
         id: "hidden-triad",
@@ -120,7 +128,7 @@ const FIGURES: &[Figure] = &[
         claim: "each of six designs: pooled coverage of the 95 % intervals within 95 +- 2.5 % and the 99 % binomial band; sets with a warning in at most 5 %; no refusal",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--triad", "--sets", "600", "--seed", "4242"]),
-        ci: ("hidden_triad", "hidden_triad_ci"),
+        ci: ("tests/hidden_triad.rs", "hidden_triad_ci"),
     },
     Figure {
         id: "hidden-stability",
@@ -128,7 +136,7 @@ const FIGURES: &[Figure] = &[
         claim: "sets with a selected term marked unstable: at most the 99.5 % quantile of Binomial(n, 5 %) (126 of 2000)",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--stability", "--sets", "2000", "--seed", "4242"]),
-        ci: ("hidden_stability", "hidden_stability_ci"),
+        ci: ("tests/hidden_stability.rs", "hidden_stability_ci"),
     },
     Figure {
         id: "hidden-noise-terms",
@@ -136,7 +144,7 @@ const FIGURES: &[Figure] = &[
         claim: "a term not in the record in at most 5 % of records; 95 % intervals that cover",
         quoted_in: "docs/method/noise.md, docs/guide/static-record.md",
         measure: Measure::Hidden(&["--noise-terms", "--sets", "200", "--seed", "4242"]),
-        ci: ("hidden_terms", "hidden_terms_ci"),
+        ci: ("tests/hidden_terms.rs", "hidden_terms_ci"),
     },
     Figure {
         id: "firmware",
@@ -145,6 +153,36 @@ const FIGURES: &[Figure] = &[
         quoted_in: "docs/method/firmware.md, README.md",
         measure: Measure::Xtask(&["firmware"]),
         ci: ("xtask ci", "firmware"),
+    },
+    Figure {
+        id: "bench-c",
+        title: "speed: the closed loop in Rust against the same loop in plain C",
+        claim: "the Rust loop runs at least 0.85 times as fast as the plain C loop (ticks per second, median of 5 runs in alternation), both giving the same pulses bit for bit",
+        quoted_in: "docs/figures/by-hand.md (Speed), docs/method/host-sim.md",
+        measure: Measure::Bench {
+            args: &["--compare-c"],
+            ratio: "bench: Rust / C = ",
+            min: 0.85,
+        },
+        ci: (
+            "ptsa-host-sim/tests/cli.rs",
+            "bench_compare_c_gives_the_same_pulses_bit_for_bit",
+        ),
+    },
+    Figure {
+        id: "bench-batch",
+        title: "speed: the batch engine against the single loop, 16 static conditions",
+        claim: "the batch engine (8 lanes, one thread) runs at least 1.5 times the single loop's ticks per second (median of 5 runs), with the same pulses",
+        quoted_in: "docs/figures/by-hand.md (Speed), docs/method/host-sim.md",
+        measure: Measure::Bench {
+            args: &["--batch", "16"],
+            ratio: "bench: batch / single = ",
+            min: 1.5,
+        },
+        ci: (
+            "ptsa-host-sim/tests/cli.rs",
+            "bench_batch_prints_both_rates",
+        ),
     },
 ];
 
@@ -264,6 +302,7 @@ fn shown(f: &Figure) -> String {
     match f.measure {
         Measure::Hidden(args) => format!("cargo xtask hidden {}", args.join(" ")),
         Measure::Xtask(args) => format!("cargo xtask {}", args.join(" ")),
+        Measure::Bench { args, .. } => format!("cargo ptsa bench {}", args.join(" ")),
     }
 }
 
@@ -285,6 +324,20 @@ fn measure_all(f: &Figure, rescore: Option<&str>) -> Result<Vec<Measured>, Strin
             Ok(vec![Measured {
                 shown: shown(f),
                 text: report_lines(&all),
+                seconds,
+            }])
+        }
+        Measure::Bench { args, ratio, min } => {
+            let mut cmd = Command::new(util::cargo());
+            cmd.args(["ptsa", "bench"])
+                .args(args)
+                .current_dir(util::root());
+            let (all, seconds) = capture(cmd)?;
+            let text = bench_lines(&all);
+            at_least(&text, ratio, min)?;
+            Ok(vec![Measured {
+                shown: shown(f),
+                text,
                 seconds,
             }])
         }
@@ -383,6 +436,29 @@ fn report_lines(all: &str) -> String {
         .join("\n")
 }
 
+/// A benchmark's report: its `bench:` lines.
+fn bench_lines(all: &str) -> String {
+    all.lines()
+        .filter(|l| l.starts_with("bench"))
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
+/// The number after `key` in `text` is at least `min`; else why not.
+fn at_least(text: &str, key: &str, min: f64) -> Result<f64, String> {
+    let value = text
+        .lines()
+        .find_map(|l| l.strip_prefix(key))
+        .and_then(|rest| rest.split_whitespace().next())
+        .and_then(|v| v.parse::<f64>().ok())
+        .ok_or_else(|| format!("no `{key}` followed by a number in the output"))?;
+    if value >= min {
+        Ok(value)
+    } else {
+        Err(format!("{key}{value}: below the claimed {min}"))
+    }
+}
+
 /// The machine, the commit and the time, read now.
 fn machine() -> Machine {
     let read = |p: &str| std::fs::read_to_string(p).unwrap_or_default();
@@ -456,18 +532,14 @@ fn page(f: &Figure, runs: &[Measured], m: &Machine) -> String {
         s,
         "| result | passed: the command exited 0 |\n| started | {} |\n| commit | {} |\n\
          | machine | {}; load average {} at the start |\n| toolchain | {} |\n\
-         | in every CI run | `cargo test -p ptsa-tests --test {} {}` (a smaller subset) |\n",
-        m.date, m.commit, m.cpu, m.load, m.rustc, f.ci.0, f.ci.1
+         | in every CI run | {} |\n",
+        m.date,
+        m.commit,
+        m.cpu,
+        m.load,
+        m.rustc,
+        ci_command(f.ci)
     );
-    if f.ci.0 == "xtask ci" {
-        s = s.replace(
-            &format!(
-                "`cargo test -p ptsa-tests --test xtask ci {}` (a smaller subset)",
-                f.ci.1
-            ),
-            "`cargo xtask ci` runs it whole",
-        );
-    }
     for (i, r) in runs.iter().enumerate() {
         let head = if i == 0 {
             "What it printed".to_string()
@@ -477,6 +549,21 @@ fn page(f: &Figure, runs: &[Measured], m: &Machine) -> String {
         let _ = write!(s, "\n## {head}\n\n```text\n{}\n```\n", r.text);
     }
     s
+}
+
+/// The command that runs a figure's CI subset, as a person would type it.
+fn ci_command((path, test): (&str, &str)) -> String {
+    if path == "xtask ci" {
+        return format!("`cargo xtask ci` runs `{test}` whole");
+    }
+    let (package, file) = match path.split_once("/tests/") {
+        Some((package, file)) => (package, file),
+        None => ("ptsa-tests", path.trim_start_matches("tests/")),
+    };
+    format!(
+        "`cargo test -p {package} --test {} {test}` (a smaller subset)",
+        file.trim_end_matches(".rs")
+    )
 }
 
 /// The index page: every figure, its claim, its command and when its page was measured.
@@ -543,7 +630,7 @@ mod tests {
                 assert!(hidden::parse(&args).is_ok(), "{}: {args:?}", f.id);
             }
             if f.ci.0 != "xtask ci" {
-                let file = root.join("tests").join(format!("{}.rs", f.ci.0));
+                let file = root.join(f.ci.0);
                 let text = std::fs::read_to_string(&file).expect("the test file");
                 assert!(
                     text.contains(&format!("#[test]\nfn {}() {{", f.ci.1)),
@@ -561,7 +648,7 @@ mod tests {
                         let args: Vec<String> = args.iter().map(|s| (*s).to_string()).collect();
                         hidden::parse(&args).is_ok_and(|c| c.name() == name)
                     }
-                    Measure::Xtask(_) => false,
+                    Measure::Xtask(_) | Measure::Bench { .. } => false,
                 }),
                 "the campaign {name} has no published figure"
             );
@@ -575,6 +662,22 @@ mod tests {
         assert_eq!(
             report_lines("+ build\nok   vector a\nFAIL budget\nnoise\n2 passed, 1 failed\n"),
             "ok   vector a\nFAIL budget\n2 passed, 1 failed"
+        );
+    }
+
+    #[test]
+    fn a_ratio_below_its_claim_fails() {
+        let text = "bench: x\nbench: Rust / C = 0.924\n";
+        assert_eq!(at_least(text, "bench: Rust / C = ", 0.85), Ok(0.924));
+        assert!(at_least(text, "bench: Rust / C = ", 0.95).is_err());
+        assert!(at_least("bench: x", "bench: Rust / C = ", 0.5).is_err());
+        assert_eq!(
+            ci_command(("tests/hidden_lab.rs", "hidden_lab_ci")),
+            "`cargo test -p ptsa-tests --test hidden_lab hidden_lab_ci` (a smaller subset)"
+        );
+        assert_eq!(
+            ci_command(("ptsa-host-sim/tests/cli.rs", "b")),
+            "`cargo test -p ptsa-host-sim --test cli b` (a smaller subset)"
         );
     }
 
