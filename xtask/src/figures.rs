@@ -490,7 +490,20 @@ fn machine() -> Machine {
             })
             .unwrap_or_default()
     };
-    let dirty = !first_line("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty();
+    // The run's own pages (docs/figures/) do not make the tree dirty: they change nothing
+    // the commands measure.
+    let dirty = !first_line(
+        "git",
+        &[
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            ".",
+            ":!docs/figures",
+        ],
+    )
+    .is_empty();
     Machine {
         date: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
         commit: format!(
