@@ -69,7 +69,7 @@ const FIGURES: &[Figure] = &[
     Figure {
         id: "hidden-effects",
         title: "discovery: every candidate effect hidden as physics in the closed loop",
-        claim: "each null kind: a false selection in at most 5 % of sets; each kind nothing can name: a confident misnaming in at most 5 %; each candidate named at 8 SE in at least 95 %, pooled coverage in the 99 % binomial band",
+        claim: "each null kind: a false selection in at most 5 % of sets; each kind nothing can name: a confident misnaming in at most 5 %; the candidates pooled: named at 8 SE in at least 95 %, coverage in the 99 % binomial band",
         quoted_in: "docs/method/discovery.md",
         measure: Measure::Hidden(&["--sets", "200", "--seed", "7"]),
         ci: ("tests/hidden_effects.rs", "hidden_effects_ci"),
@@ -160,7 +160,7 @@ const FIGURES: &[Figure] = &[
         claim: "the Rust loop runs at least 0.85 times as fast as the plain C loop (ticks per second, median of 5 runs in alternation), both giving the same pulses bit for bit",
         quoted_in: "docs/figures/by-hand.md (Speed), docs/method/host-sim.md",
         measure: Measure::Bench {
-            args: &["--compare-c"],
+            args: &["--compare-c", "--runs", "5"],
             ratio: "bench: Rust / C = ",
             min: 0.85,
         },
@@ -175,7 +175,7 @@ const FIGURES: &[Figure] = &[
         claim: "the batch engine (8 lanes, one thread) runs at least 1.5 times the single loop's ticks per second (median of 5 runs), with the same pulses",
         quoted_in: "docs/figures/by-hand.md (Speed), docs/method/host-sim.md",
         measure: Measure::Bench {
-            args: &["--batch", "16"],
+            args: &["--batch", "16", "--lanes", "8", "--runs", "5"],
             ratio: "bench: batch / single = ",
             min: 1.5,
         },
@@ -188,6 +188,8 @@ const FIGURES: &[Figure] = &[
 
 /// What one run of a figure's command gave.
 struct Measured {
+    /// The page's heading over what it printed.
+    heading: String,
     /// The command as a person would type it.
     shown: String,
     /// What the command printed that the page keeps.
@@ -224,7 +226,7 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     for (i, f) in chosen.iter().enumerate() {
         eprintln!("figures: [{}/{}] {}", i + 1, chosen.len(), f.id);
         let machine = machine();
-        match measure_all(f, opts.rescore.as_deref()) {
+        match measure_all(f, opts.rescore.as_ref()) {
             Ok(runs) => {
                 let path = dir.join(format!("{}.md", f.id));
                 util::write_atomic(&path, &page(f, &runs, &machine))?;
@@ -253,14 +255,24 @@ pub fn run(args: &[String]) -> Result<(), Error> {
 struct Options {
     ids: Vec<String>,
     list: bool,
-    rescore: Option<String>,
+    rescore: Option<Rescore>,
+}
+
+/// The seed a campaign is re-scored at, and where it came from.
+struct Rescore {
+    seed: String,
+    /// How the page says it was chosen.
+    chosen: &'static str,
 }
 
 fn parse(args: &[String]) -> Result<Options, Error> {
     let mut o = Options {
         ids: Vec::new(),
         list: false,
-        rescore: Some(today_seed()),
+        rescore: Some(Rescore {
+            seed: today_seed(),
+            chosen: "a seed chosen on the day of the run",
+        }),
     };
     let mut it = args.iter();
     while let Some(a) = it.next() {
@@ -274,7 +286,10 @@ fn parse(args: &[String]) -> Result<Options, Error> {
                 s.parse::<u64>().map_err(|_| {
                     Error::Usage(format!("--rescore-seed {s}: expected a whole number"))
                 })?;
-                o.rescore = Some(s.clone());
+                o.rescore = Some(Rescore {
+                    seed: s.clone(),
+                    chosen: "the seed given with --rescore-seed",
+                });
             }
             id if FIGURES.iter().any(|f| f.id == id) => o.ids.push(id.to_string()),
             other => {
@@ -307,13 +322,21 @@ fn shown(f: &Figure) -> String {
 }
 
 /// The figure's runs: at its published seed, and at `rescore` when it has a seed.
-fn measure_all(f: &Figure, rescore: Option<&str>) -> Result<Vec<Measured>, String> {
+fn measure_all(f: &Figure, rescore: Option<&Rescore>) -> Result<Vec<Measured>, String> {
     match f.measure {
         Measure::Hidden(args) => {
             let args: Vec<String> = args.iter().map(|s| (*s).to_string()).collect();
+            if let Some(r) = rescore.filter(|r| with_seed(&args, Some(&r.seed)) == args) {
+                return Err(format!(
+                    "the re-scoring seed {} is the published one: nothing would be re-scored",
+                    r.seed
+                ));
+            }
             let mut runs = vec![campaign(&args, None)?];
-            if let Some(seed) = rescore {
-                runs.push(campaign(&args, Some(seed))?);
+            if let Some(r) = rescore {
+                let mut run = campaign(&args, Some(&r.seed))?;
+                run.heading = format!("Re-scored at seed {}, {}", r.seed, r.chosen);
+                runs.push(run);
             }
             Ok(runs)
         }
@@ -322,6 +345,7 @@ fn measure_all(f: &Figure, rescore: Option<&str>) -> Result<Vec<Measured>, Strin
             cmd.arg("xtask").args(args).current_dir(util::root());
             let (all, seconds) = capture(cmd)?;
             Ok(vec![Measured {
+                heading: "What it printed".into(),
                 shown: shown(f),
                 text: report_lines(&all),
                 seconds,
@@ -336,6 +360,7 @@ fn measure_all(f: &Figure, rescore: Option<&str>) -> Result<Vec<Measured>, Strin
             let text = bench_lines(&all);
             at_least(&text, ratio, min)?;
             Ok(vec![Measured {
+                heading: "What it printed".into(),
                 shown: shown(f),
                 text,
                 seconds,
@@ -351,9 +376,20 @@ fn campaign(args: &[String], seed: Option<&str>) -> Result<Measured, String> {
     let (cmd, env_form) = hidden::command(&c);
     eprintln!("+ {env_form}");
     let (all, seconds) = capture(cmd)?;
+    let text = test_output(&all);
+    if !all
+        .lines()
+        .any(|l| l.starts_with("test result: ok. 1 passed"))
+        || text.is_empty()
+    {
+        return Err(format!(
+            "`{env_form}` ran no test, or one that printed nothing: no page for it"
+        ));
+    }
     Ok(Measured {
+        heading: "What it printed".into(),
         shown: format!("cargo xtask hidden {}", args.join(" ")),
-        text: test_output(&all),
+        text,
         seconds,
     })
 }
@@ -383,16 +419,12 @@ fn capture(mut cmd: Command) -> Result<(String, f64), String> {
         .spawn()
         .map_err(|e| format!("cannot start cargo: {e}"))?;
     drop(cmd);
-    let mut all = String::new();
-    let mut echo = std::io::stderr().lock();
-    for line in BufReader::new(reader).lines() {
-        let line = line.map_err(|e| format!("reading the command's output: {e}"))?;
-        let _ = writeln!(echo, "{line}");
-        all.push_str(&line);
-        all.push('\n');
+    let read = echo_and_keep(reader);
+    if read.is_err() {
+        let _ = child.kill();
     }
-    drop(echo);
     let status = child.wait().map_err(|e| e.to_string())?;
+    let all = read?;
     let seconds = t0.elapsed().as_secs_f64();
     if status.success() {
         Ok((all, seconds))
@@ -403,6 +435,27 @@ fn capture(mut cmd: Command) -> Result<(String, f64), String> {
     }
 }
 
+/// Everything `reader` gives, echoed to our stderr line by line as it comes (bytes that are
+/// not UTF-8 replaced).
+fn echo_and_keep(reader: std::io::PipeReader) -> Result<String, String> {
+    let mut reader = BufReader::new(reader);
+    let mut all = String::new();
+    let mut line = Vec::new();
+    let mut echo = std::io::stderr().lock();
+    loop {
+        line.clear();
+        let n = reader
+            .read_until(b'\n', &mut line)
+            .map_err(|e| format!("reading the command's output: {e}"))?;
+        if n == 0 {
+            return Ok(all);
+        }
+        let text = String::from_utf8_lossy(&line);
+        let _ = echo.write_all(text.as_bytes());
+        all.push_str(&text);
+    }
+}
+
 /// What a test printed under libtest: the lines between `running 1 test` and
 /// `test result:`, without the harness's own lines; a line rewritten with `\r` keeps its
 /// last state.
@@ -410,7 +463,18 @@ fn test_output(all: &str) -> String {
     let mut keep = false;
     let mut out = Vec::new();
     for line in all.lines() {
-        let line = line.rsplit('\r').next().unwrap_or(line);
+        let mut line = line.rsplit('\r').next().unwrap_or(line);
+        // With one test thread, libtest writes `test NAME ... ` before the test's output
+        // and `ok` on a line of its own after it.
+        if keep
+            && line.starts_with("test ")
+            && let Some((_, rest)) = line.split_once(" ... ")
+        {
+            line = rest;
+        }
+        if keep && line == "ok" {
+            continue;
+        }
         if line.starts_with("running ") && line.ends_with(" test") {
             keep = true;
         } else if line.starts_with("test result:") {
@@ -481,6 +545,7 @@ fn machine() -> Machine {
             .current_dir(util::root())
             .output()
             .ok()
+            .filter(|o| o.status.success())
             .map(|o| {
                 String::from_utf8_lossy(&o.stdout)
                     .lines()
@@ -492,29 +557,33 @@ fn machine() -> Machine {
     };
     // The run's own pages (docs/figures/) do not make the tree dirty: they change nothing
     // the commands measure.
-    let dirty = !first_line(
-        "git",
-        &[
-            "status",
-            "--porcelain",
-            "--untracked-files=no",
-            "--",
-            ".",
-            ":!docs/figures",
-        ],
-    )
-    .is_empty();
+    let status = Command::new("git")
+        .args(["status", "--porcelain", "--untracked-files=no", "--", "."])
+        .arg(":!docs/figures")
+        .current_dir(util::root())
+        .output()
+        .ok()
+        .filter(|o| o.status.success());
+    let commit = match (
+        first_line("git", &["rev-parse", "--short=12", "HEAD"]),
+        status,
+    ) {
+        (c, Some(o)) if !c.is_empty() => {
+            let dirty = !o.stdout.is_empty();
+            format!(
+                "{c}{}",
+                if dirty {
+                    " with uncommitted changes"
+                } else {
+                    ""
+                }
+            )
+        }
+        _ => "unknown (git did not say)".to_string(),
+    };
     Machine {
         date: humantime::format_rfc3339_seconds(std::time::SystemTime::now()).to_string(),
-        commit: format!(
-            "{}{}",
-            first_line("git", &["rev-parse", "--short=12", "HEAD"]),
-            if dirty {
-                " with uncommitted changes"
-            } else {
-                ""
-            }
-        ),
+        commit,
         cpu: format!("{cpu}, {cores} cores"),
         load: if load.is_empty() {
             "unknown".into()
@@ -553,13 +622,8 @@ fn page(f: &Figure, runs: &[Measured], m: &Machine) -> String {
         m.rustc,
         ci_command(f.ci)
     );
-    for (i, r) in runs.iter().enumerate() {
-        let head = if i == 0 {
-            "What it printed".to_string()
-        } else {
-            "Re-scored on a seed chosen on the day of the run".to_string()
-        };
-        let _ = write!(s, "\n## {head}\n\n```text\n{}\n```\n", r.text);
+    for r in runs {
+        let _ = write!(s, "\n## {}\n\n```text\n{}\n```\n", r.heading, r.text);
     }
     s
 }
@@ -634,6 +698,25 @@ mod tests {
         );
     }
 
+    /// A page written before its figure's claim or command changed is stale: run the
+    /// figure again.
+    #[test]
+    fn every_page_holds_its_figures_claim_and_command() {
+        let dir = util::root().join("docs").join("figures");
+        for f in FIGURES {
+            let Ok(page) = std::fs::read_to_string(dir.join(format!("{}.md", f.id))) else {
+                continue;
+            };
+            assert!(
+                page.contains(&format!("**Claim, asserted by the command:** {}.", f.claim))
+                    && page.contains(&format!("`{}`", shown(f))),
+                "docs/figures/{}.md is stale (its claim or command changed): run `cargo xtask figures {}`",
+                f.id,
+                f.id
+            );
+        }
+    }
+
     #[test]
     fn every_campaign_has_a_figure_and_every_figure_its_ci_subset() {
         let root = util::root();
@@ -672,6 +755,8 @@ mod tests {
     fn the_test_output_is_what_the_test_printed() {
         let all = "   Compiling x\n     Running tests/a.rs\n\nrunning 1 test\nset 1\rset 2\n| a | b |\ntest a_campaign has been running for over 60 seconds\ntest a_campaign ... ok\n\ntest result: ok. 1 passed\n";
         assert_eq!(test_output(all), "set 2\n| a | b |");
+        let one_thread = "running 1 test\ntest a_campaign ... | a | b |\nline\nok\n\ntest result: ok. 1 passed\n";
+        assert_eq!(test_output(one_thread), "| a | b |\nline");
         assert_eq!(
             report_lines("+ build\nok   vector a\nFAIL budget\nnoise\n2 passed, 1 failed\n"),
             "ok   vector a\nFAIL budget\n2 passed, 1 failed"

@@ -109,8 +109,7 @@ hidden [--parameters | --statics [--additive] | --lab | --sigma | --calibration 
                  --statics; with --lab: the closed loop's reading of each position plus
                  the physics, analysed with the analytic simulator)";
 
-/// The campaign asked for, validated.
-/// One campaign as asked for on the command line.
+/// One campaign as asked for on the command line, validated.
 pub struct Campaign {
     sets: Option<String>,
     seed: Option<String>,
@@ -200,8 +199,7 @@ const CAMPAIGNS: &[Which] = &[
     },
 ];
 
-/// Parses and validates `cargo xtask hidden`'s options.
-/// The campaign `args` ask for (`cargo xtask hidden`'s options).
+/// The campaign `args` ask for (`cargo xtask hidden`'s options), validated.
 pub fn parse(args: &[String]) -> Result<Campaign, Error> {
     let mut sets: Option<String> = None;
     let mut seed: Option<String> = None;
@@ -302,6 +300,7 @@ pub fn command(c: &Campaign) -> (std::process::Command, String) {
             test,
             name,
             "--",
+            "--exact",
             "--ignored",
             "--nocapture",
         ])
@@ -321,7 +320,7 @@ pub fn command(c: &Campaign) -> (std::process::Command, String) {
     }
     let _ = write!(
         shown,
-        " cargo test -p ptsa-tests --test {test} {name} -- --ignored --nocapture"
+        " cargo test -p ptsa-tests --test {test} {name} -- --exact --ignored --nocapture"
     );
     (cmd, shown)
 }
