@@ -341,9 +341,7 @@ fn measure_all(f: &Figure, rescore: Option<&Rescore>) -> Result<Vec<Measured>, S
             Ok(runs)
         }
         Measure::Xtask(args) => {
-            let mut cmd = Command::new(util::cargo());
-            cmd.arg("xtask").args(args).current_dir(util::root());
-            let (all, seconds) = capture(cmd)?;
+            let (all, seconds) = capture(cargo(&["xtask"], args))?;
             Ok(vec![Measured {
                 heading: "What it printed".into(),
                 shown: shown(f),
@@ -352,11 +350,7 @@ fn measure_all(f: &Figure, rescore: Option<&Rescore>) -> Result<Vec<Measured>, S
             }])
         }
         Measure::Bench { args, ratio, min } => {
-            let mut cmd = Command::new(util::cargo());
-            cmd.args(["ptsa", "bench"])
-                .args(args)
-                .current_dir(util::root());
-            let (all, seconds) = capture(cmd)?;
+            let (all, seconds) = capture(cargo(&["ptsa", "bench"], args))?;
             let text = bench_lines(&all);
             at_least(&text, ratio, min)?;
             Ok(vec![Measured {
@@ -367,6 +361,13 @@ fn measure_all(f: &Figure, rescore: Option<&Rescore>) -> Result<Vec<Measured>, S
             }])
         }
     }
+}
+
+/// `cargo COMMAND ARGS` in the repository's root.
+fn cargo(command: &[&str], args: &[&str]) -> Command {
+    let mut cmd = Command::new(util::cargo());
+    cmd.args(command).args(args).current_dir(util::root());
+    cmd
 }
 
 /// One campaign run, its seed replaced by `seed` when given.
@@ -687,7 +688,8 @@ mod tests {
     #[test]
     fn the_index_is_current() {
         let dir = util::root().join("docs").join("figures");
-        if std::env::var("PTSA_WRITE_REFERENCE").is_ok_and(|v| v == "1") {
+        // Set at all, as ptsa-host-sim's reference pages take it.
+        if std::env::var_os("PTSA_WRITE_REFERENCE").is_some() {
             util::write_atomic(&dir.join("README.md"), &index(&dir)).expect("written");
         }
         let on_disk = std::fs::read_to_string(dir.join("README.md")).unwrap_or_default();
