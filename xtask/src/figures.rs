@@ -39,6 +39,13 @@ enum Measure {
     Hidden(&'static [&'static str]),
     /// `cargo xtask ARGS`, keeping the lines of its report (`ok`, `FAIL`, totals).
     Xtask(&'static [&'static str]),
+    /// `cargo test -p PACKAGE --test FILE NAME -- --exact --nocapture`: one test of the
+    /// workspace, which CI runs as it is, asserting the claim and printing the figures.
+    Test {
+        package: &'static str,
+        file: &'static str,
+        name: &'static str,
+    },
     /// `cargo ptsa bench ARGS`, keeping its `bench:` lines; the ratio printed after
     /// `ratio` must be at least `min`.
     Bench {
@@ -155,10 +162,48 @@ const FIGURES: &[Figure] = &[
         ci: ("xtask ci", "firmware"),
     },
     Figure {
+        id: "pil",
+        title: "processor in the loop: the production interrupt handler on the emulated MCU around the host's pendulum",
+        claim: "in each case (static, static with the board's noise, a sine with 5 ms gates) the firmware's gates are the host's bit for bit, and in the static cases its counts are `ptsa static`'s",
+        quoted_in: "docs/method/firmware.md",
+        measure: Measure::Xtask(&["pil", "--ci"]),
+        ci: ("xtask ci", "processor in the loop"),
+    },
+    Figure {
+        id: "report-programme",
+        title: "the report's test programme: the tumble, Tables 6.1-6.3 and Table 2.1's tolerance box",
+        claim: "the tumble recovers the configured SF within 1 ppm and A_b within 0.001 cm/s²; Table 6.1's error is k·ω_IA·ω_PA within 0.1 % (under 0.001 cm/s² where that is 0) and its mean at 45° within 0.3 cm/s² of the report's; Tables 6.2/6.3 rectify under 0.01 cm/s² and the report's rows scatter under 0.3 cm/s²; every corner of Table 2.1's box keeps 45° and 6 dB of margin, and the 8 worst count right after their own SF",
+        quoted_in: "docs/method/host-sim.md",
+        measure: Measure::Test {
+            package: "ptsa-host-sim",
+            file: "published",
+            name: "the_report_programme_reproduces_r890",
+        },
+        ci: (
+            "ptsa-host-sim/tests/published.rs",
+            "the_report_programme_reproduces_r890",
+        ),
+    },
+    Figure {
+        id: "discovery-report-data",
+        title: "discovery on R-890's Tables 6.1-6.3 and on response rows with a hidden damping",
+        claim: "Table 6.1: anisoinertia alone selected, its interval of 2 standard errors holding the report's k = 3.0 cm; Tables 6.2/6.3: nothing selected; each extended fit's χ² p-value above 0.05; the synthetic response rows: the damping named, its 2-standard-error interval holding the 114 600 dyn·cm·s written",
+        quoted_in: "docs/method/discovery.md",
+        measure: Measure::Test {
+            package: "ptsa-host-sim",
+            file: "published",
+            name: "discovery_reads_the_reports_tables_as_the_report_did",
+        },
+        ci: (
+            "ptsa-host-sim/tests/published.rs",
+            "discovery_reads_the_reports_tables_as_the_report_did",
+        ),
+    },
+    Figure {
         id: "bench-c",
         title: "speed: the closed loop in Rust against the same loop in plain C",
         claim: "the Rust loop runs at least 0.85 times as fast as the plain C loop (ticks per second, median of 5 runs in alternation), both giving the same pulses bit for bit",
-        quoted_in: "docs/figures/by-hand.md (Speed), docs/method/host-sim.md",
+        quoted_in: "docs/method/host-sim.md",
         measure: Measure::Bench {
             args: &["--compare-c", "--runs", "5"],
             ratio: "bench: Rust / C = ",
@@ -173,7 +218,7 @@ const FIGURES: &[Figure] = &[
         id: "bench-batch",
         title: "speed: the batch engine against the single loop, 16 static conditions",
         claim: "the batch engine (8 lanes, one thread) runs at least 1.5 times the single loop's ticks per second (median of 5 runs), with the same pulses",
-        quoted_in: "docs/figures/by-hand.md (Speed), docs/method/host-sim.md",
+        quoted_in: "docs/method/host-sim.md",
         measure: Measure::Bench {
             args: &["--batch", "16", "--lanes", "8", "--runs", "5"],
             ratio: "bench: batch / single = ",
@@ -182,6 +227,30 @@ const FIGURES: &[Figure] = &[
         ci: (
             "ptsa-host-sim/tests/cli.rs",
             "bench_batch_prints_both_rates",
+        ),
+    },
+    Figure {
+        id: "bench-shared",
+        title: "speed: the batch engine against the single loop, one oscillating condition with 16 instruments (discovery's parameter sides)",
+        claim: "the batch engine (8 lanes, one thread) runs at least 2 times the single loop's ticks per second (median of 5 runs) on a CPU with AVX2 or AVX-512, with the same results bit for bit",
+        quoted_in: "docs/method/host-sim.md",
+        measure: Measure::Bench {
+            args: &[
+                "--batch",
+                "16",
+                "--dynamic",
+                "--shared-condition",
+                "--lanes",
+                "8",
+                "--runs",
+                "5",
+            ],
+            ratio: "bench: batch / single = ",
+            min: 2.0,
+        },
+        ci: (
+            "ptsa-host-sim/tests/cli.rs",
+            "bench_batch_dynamic_prints_both_rates",
         ),
     },
 ];
@@ -317,6 +386,11 @@ fn shown(f: &Figure) -> String {
     match f.measure {
         Measure::Hidden(args) => format!("cargo xtask hidden {}", args.join(" ")),
         Measure::Xtask(args) => format!("cargo xtask {}", args.join(" ")),
+        Measure::Test {
+            package,
+            file,
+            name,
+        } => format!("cargo test -p {package} --test {file} {name} -- --exact --nocapture"),
         Measure::Bench { args, .. } => format!("cargo ptsa bench {}", args.join(" ")),
     }
 }
@@ -349,6 +423,15 @@ fn measure_all(f: &Figure, rescore: Option<&Rescore>) -> Result<Vec<Measured>, S
                 seconds,
             }])
         }
+        Measure::Test {
+            package,
+            file,
+            name,
+        } => {
+            let args = [file, name, "--", "--exact", "--nocapture"];
+            let cmd = cargo(&["test", "-p", package, "--test"], &args);
+            Ok(vec![one_test(cmd, &shown(f))?])
+        }
         Measure::Bench { args, ratio, min } => {
             let (all, seconds) = capture(cargo(&["ptsa", "bench"], args))?;
             let text = bench_lines(&all);
@@ -376,6 +459,14 @@ fn campaign(args: &[String], seed: Option<&str>) -> Result<Measured, String> {
     let c = hidden::parse(&args).map_err(|e| e.to_string())?;
     let (cmd, env_form) = hidden::command(&c);
     eprintln!("+ {env_form}");
+    let mut run = one_test(cmd, &env_form)?;
+    run.shown = format!("cargo xtask hidden {}", args.join(" "));
+    Ok(run)
+}
+
+/// A command that runs one test under libtest (`--exact`): what the test printed, provided
+/// exactly one test ran, passed and printed something.
+fn one_test(cmd: Command, shown: &str) -> Result<Measured, String> {
     let (all, seconds) = capture(cmd)?;
     let text = test_output(&all);
     if !all
@@ -384,12 +475,12 @@ fn campaign(args: &[String], seed: Option<&str>) -> Result<Measured, String> {
         || text.is_empty()
     {
         return Err(format!(
-            "`{env_form}` ran no test, or one that printed nothing: no page for it"
+            "`{shown}` ran no test, or one that printed nothing: no page for it"
         ));
     }
     Ok(Measured {
         heading: "What it printed".into(),
-        shown: format!("cargo xtask hidden {}", args.join(" ")),
+        shown: shown.to_string(),
         text,
         seconds,
     })
@@ -493,10 +584,16 @@ fn test_output(all: &str) -> String {
     out.join("\n")
 }
 
-/// An xtask check's report: its `ok` and `FAIL` lines and its totals.
+/// An xtask check's report: its `ok` and `FAIL` lines, its totals, and the processor in
+/// the loop's lines.
 fn report_lines(all: &str) -> String {
     all.lines()
-        .filter(|l| l.starts_with("ok ") || l.starts_with("FAIL ") || l.ends_with(" failed"))
+        .filter(|l| {
+            l.starts_with("ok ")
+                || l.starts_with("FAIL ")
+                || l.ends_with(" failed")
+                || l.starts_with("processor in the loop (QEMU), ")
+        })
         .collect::<Vec<_>>()
         .join("\n")
 }
@@ -621,7 +718,7 @@ fn page(f: &Figure, runs: &[Measured], m: &Machine) -> String {
         m.cpu,
         m.load,
         m.rustc,
-        ci_command(f.ci)
+        ci_command(f)
     );
     for r in runs {
         let _ = write!(s, "\n## {}\n\n```text\n{}\n```\n", r.heading, r.text);
@@ -630,9 +727,15 @@ fn page(f: &Figure, runs: &[Measured], m: &Machine) -> String {
 }
 
 /// The command that runs a figure's CI subset, as a person would type it.
-fn ci_command((path, test): (&str, &str)) -> String {
+fn ci_command(f: &Figure) -> String {
+    let (path, test) = f.ci;
     if path == "xtask ci" {
         return format!("`cargo xtask ci` runs `{test}` whole");
+    }
+    if let Measure::Test { name, .. } = f.measure
+        && name == test
+    {
+        return "the same test, as it is".to_string();
     }
     let (package, file) = match path.split_once("/tests/") {
         Some((package, file)) => (package, file),
@@ -651,8 +754,7 @@ fn index(dir: &Path) -> String {
          <!-- generated by `cargo xtask figures`: do not edit by hand -->\n\n\
          Each page below was written by `cargo xtask figures ID`, which runs a command that\n\
          asserts the claim and records what it printed, the date, the commit and the machine.\n\
-         `cargo xtask figures` re-measures them all. Figures still kept by hand, each with its\n\
-         command: [by-hand.md](by-hand.md).\n\n\
+         `cargo xtask figures` re-measures them all.\n\n\
          A rate \"in at most 5 %\" is asserted by a one-sided binomial test at the 1 % level:\n\
          the run fails when P(X >= k) for the count k under a 5 % rate is below 0.01. The\n\
          99 % binomial band is the central 99 % of Binomial(n, 0.95) for n intervals; a run\n\
@@ -746,7 +848,7 @@ mod tests {
                         let args: Vec<String> = args.iter().map(|s| (*s).to_string()).collect();
                         hidden::parse(&args).is_ok_and(|c| c.name() == name)
                     }
-                    Measure::Xtask(_) | Measure::Bench { .. } => false,
+                    Measure::Xtask(_) | Measure::Test { .. } | Measure::Bench { .. } => false,
                 }),
                 "the campaign {name} has no published figure"
             );
@@ -771,13 +873,18 @@ mod tests {
         assert_eq!(at_least(text, "bench: Rust / C = ", 0.85), Ok(0.924));
         assert!(at_least(text, "bench: Rust / C = ", 0.95).is_err());
         assert!(at_least("bench: x", "bench: Rust / C = ", 0.5).is_err());
+        let figure = |id: &str| FIGURES.iter().find(|f| f.id == id).unwrap();
         assert_eq!(
-            ci_command(("tests/hidden_lab.rs", "hidden_lab_ci")),
+            ci_command(figure("hidden-lab")),
             "`cargo test -p ptsa-tests --test hidden_lab hidden_lab_ci` (a smaller subset)"
         );
         assert_eq!(
-            ci_command(("ptsa-host-sim/tests/cli.rs", "b")),
-            "`cargo test -p ptsa-host-sim --test cli b` (a smaller subset)"
+            ci_command(figure("bench-c")),
+            "`cargo test -p ptsa-host-sim --test cli bench_compare_c_gives_the_same_pulses_bit_for_bit` (a smaller subset)"
+        );
+        assert_eq!(
+            ci_command(figure("report-programme")),
+            "the same test, as it is"
         );
     }
 
