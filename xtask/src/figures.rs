@@ -653,11 +653,11 @@ fn machine() -> Machine {
             })
             .unwrap_or_default()
     };
-    // The run's own pages (docs/figures/) do not make the tree dirty: they change nothing
-    // the commands measure.
+    // Prose (the docs, the pages this run writes, any Markdown file) does not make the tree
+    // dirty: it changes nothing the commands measure.
     let status = Command::new("git")
         .args(["status", "--porcelain", "--untracked-files=no", "--", "."])
-        .arg(":!docs/figures")
+        .args([":!docs", ":!*.md"])
         .current_dir(util::root())
         .output()
         .ok()
