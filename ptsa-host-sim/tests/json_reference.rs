@@ -8,7 +8,9 @@ mod common;
 use std::path::Path;
 
 use common::ptsa_in;
-use ptsa_host_sim::output::json_reference::{discover_schema, triad_schema, undocumented};
+use ptsa_host_sim::output::json_reference::{
+    discover_schema, noise_schema, triad_schema, undocumented,
+};
 
 fn root() -> &'static Path {
     Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/.."))
@@ -86,36 +88,57 @@ fn keys(v: &serde_json::Value, out: &mut std::collections::BTreeSet<String>) {
     }
 }
 
-/// `noise --json`'s keys are listed in its `--json` help (docs/reference/options.md):
-/// every key it prints for a record of readings with `--identify`, and for the simulated
-/// loop, is named there in quotes.
+/// Every key `noise --json` prints is one the types of `noise/json.rs` define (so
+/// docs/reference/json.md, written from them, describes it), and every key they define is
+/// printed by one of these runs: readings with `--identify`, a counter record with
+/// `--compare` and with `--identify`, the simulated loop.
 #[test]
-fn every_key_noise_prints_is_in_its_help() {
-    let help = String::from_utf8(ptsa_in(root(), &["noise", "--help"]).stdout).unwrap();
+fn every_key_noise_prints_is_in_the_reference() {
+    let schema = noise_schema();
+    let tmp = tempfile::tempdir().unwrap();
+    let rec = tmp.path().join("rec.csv");
+    let rec = rec.to_str().unwrap();
+    let o = ptsa_in(
+        root(),
+        &["noise", "--simulate", "--seconds", "20", "--output", rec],
+    );
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let readings = "data/examples/static-readings.csv";
+    let mut seen = std::collections::BTreeSet::new();
     for args in [
-        &[
-            "noise",
-            "--readings",
-            "data/examples/static-readings.csv",
-            "--unit",
-            "g",
-            "--identify",
-            "--json",
-        ][..],
-        &["noise", "--simulate", "--seconds", "2", "--json"],
+        &["--readings", readings, "--unit", "g", "--identify"][..],
+        &["--counts", rec, "--compare"],
+        &["--counts", rec, "--identify"],
+        &["--simulate", "--seconds", "2"],
     ] {
-        let o = ptsa_in(root(), args);
-        assert!(o.status.success(), "{args:?}");
+        let mut all = vec!["noise", "--json"];
+        all.extend(args);
+        let o = ptsa_in(root(), &all);
+        assert!(o.status.success(), "{args:?}: {}", common::stderr(&o));
         let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
-        let mut all = std::collections::BTreeSet::new();
-        keys(&v, &mut all);
-        let missing: Vec<&String> = all
-            .iter()
-            .filter(|k| !help.contains(&format!("\"{k}\"")))
-            .collect();
+        let missing = undocumented(&schema, &v);
         assert!(
             missing.is_empty(),
-            "{args:?}: not in noise --help: {missing:?}"
+            "{args:?}: not in noise/json.rs: {missing:?}"
         );
+        keys(&v, &mut seen);
+    }
+    let mut defined = std::collections::BTreeSet::new();
+    properties(&schema, &mut defined);
+    let never: Vec<&String> = defined.difference(&seen).collect();
+    assert!(never.is_empty(), "defined but never printed: {never:?}");
+}
+
+/// Every property name of `schema` and of its definitions.
+fn properties(schema: &serde_json::Value, out: &mut std::collections::BTreeSet<String>) {
+    match schema {
+        serde_json::Value::Object(m) => {
+            if let Some(serde_json::Value::Object(p)) = m.get("properties") {
+                out.extend(p.keys().cloned());
+            }
+            m.values().for_each(|x| properties(x, out));
+        }
+        serde_json::Value::Array(a) => a.iter().for_each(|x| properties(x, out)),
+        _ => {}
     }
 }

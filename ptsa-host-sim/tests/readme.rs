@@ -275,8 +275,11 @@ fn user_pages() -> Vec<String> {
         for e in std::fs::read_dir(root().join(dir)).unwrap() {
             let name = e.unwrap().file_name().to_string_lossy().into_owned();
             let page = format!("{dir}/{name}");
+            let markdown = std::path::Path::new(&name)
+                .extension()
+                .is_some_and(|x| x == "md");
             let text = std::fs::read_to_string(root().join(&page)).unwrap();
-            if name.ends_with(".md") && !text.starts_with("# Reference:") {
+            if markdown && !text.starts_with("# Reference:") {
                 pages.push(page);
             }
         }

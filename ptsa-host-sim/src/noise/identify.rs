@@ -115,6 +115,9 @@ pub const EXTENSIONS: usize = 2;
 /// Simulated records averaged at each node of the grid (seeds `seed`, `seed + 1`, …).
 pub const SEEDS: u64 = 2;
 
+/// The model and the test, in words (`--json`'s `identification.test`).
+pub const TEST: &str = "AVAR_measured = AVAR_sim(noise_uv_rms, N, K): the loop simulated with the pickoff noise and with N (white acceleration noise) and K (bias random walk) entering the plant's input, averaged over seeds_per_node records, multilinear in the squares between the grid's nodes; the grid's records with their drawn input's own Allan variance replaced by its expectation, their inputs spread over the measured mean's error; compared as ln AVAR with each log's bias (half its variance) taken out, chi2 = r' C^-1 r with C the covariance of ln AVAR across the tau of records simulated at the noises fitted so far (correlations shrunk by half, re-evaluated until the fit settles); forward selection with Holm thresholds (0.05/3, 0.05/2, 0.05): each candidate left tested given those selected by its drop of the profiled chi2 (N, K: its root, one-sided normal; pickoff: against chi2(1)); 95 % intervals from the joint profile: the values whose profiled chi2 is within t^2 s b^2 of its least, t Student's two-sided 95 % point for the check's replicas less one degree of freedom, s (interval_scale, over 3.84 b^2) the sandwich variance of the weighted fit over the variance the profile assumes, with the covariance of records simulated at the fit apart from the weights', b the joint fit's Birge ratio above 1";
+
 /// Records simulated at most by one identification, for the work estimate: every node of
 /// the grid, [`SEEDS`] each, and the weights' [`REPLICAS`] at the file's loop and at each
 /// re-evaluation of a fit (one settled fit per step and the joint fit, each at most

@@ -460,38 +460,6 @@ fn result(
 pub const TEST: &str = "AVAR(tau) = 3 Q^2/tau^2 + N^2/tau + (2 ln 2/pi) B^2 + K^2 tau/3 + R^2 tau^2/2 at the octave taus up to a quarter of the record, compared as ln AVAR with each log's bias (Jensen's, from the replicas) taken out, chi2 = r' C^-1 r with C the covariance of ln AVAR across the tau of records drawn at the terms fitted so far (its inverse made unbiased for the replicas' number); the best single term first, then forward selection with Holm thresholds (0.05/4, 0.05/3, 0.05/2, 0.05): each term left tested given those selected by the root of its drop of chi2 against the one-sided normal; the covariance drawn again at the selected fit until the selection repeats; 95 % intervals on each squared coefficient from the joint fit's covariance, times the Birge ratio above 1 and Student's two-sided 95 % point for the replicas less one degree of freedom, then square-rooted";
 
 impl Identification {
-    /// The JSON object (`terms_identification` of `ptsa noise --readings FILE --identify
-    /// --json`).
-    #[must_use]
-    pub fn json(&self) -> serde_json::Value {
-        let candidates: Vec<serde_json::Value> = self
-            .candidates
-            .iter()
-            .map(|c| {
-                let values = super::terms::json_values(c.term.units(), c.value);
-                serde_json::json!({
-                    "term": c.term.key(),
-                    "symbol": c.term.symbol(),
-                    "z": c.z,
-                    "p": c.p,
-                    "selected": c.selected,
-                    "values": values,
-                })
-            })
-            .collect();
-        serde_json::json!({
-            "taus_s": self.taus,
-            "chi2": self.chi2,
-            "dof": self.dof,
-            "replicas": self.replicas,
-            "rounds": self.rounds,
-            "familywise_alpha": ALPHA,
-            "test": TEST,
-            "candidates": candidates,
-            "selected": self.candidates.iter().filter(|c| c.selected).map(|c| c.term.key()).collect::<Vec<_>>(),
-        })
-    }
-
     /// The table `ptsa noise --readings FILE --identify` prints.
     #[must_use]
     pub fn text(&self) -> String {

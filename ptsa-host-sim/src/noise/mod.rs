@@ -27,6 +27,7 @@ pub mod allan;
 pub mod edf;
 pub mod identify;
 pub mod identify_terms;
+pub mod json;
 pub mod readings;
 pub mod synth;
 pub mod terms;
@@ -283,87 +284,6 @@ impl Analysis {
         } else {
             None
         }
-    }
-
-    /// The JSON object (`ptsa noise --json`): the record's figures, the points, the terms.
-    #[must_use]
-    pub fn json(&self, record: &str, warnings: &[String]) -> serde_json::Value {
-        let points: Vec<serde_json::Value> = self
-            .points
-            .iter()
-            .enumerate()
-            .map(|(k, p)| {
-                serde_json::json!({
-                    "tau_s": p.tau_s,
-                    "adev_cm_s2": p.adev,
-                    "ci95_lo": p.ci95_lo,
-                    "ci95_hi": p.ci95_hi,
-                    "edf": p.edf,
-                    "m": p.m,
-                    "n_pairs": p.n_pairs,
-                    "mdev_cm_s2": p.mdev,
-                    "mdev_ci95_lo": p.mdev_ci95.map(|c| c.0),
-                    "mdev_ci95_hi": p.mdev_ci95.map(|c| c.1),
-                    "mdev_edf": p.mdev_edf,
-                    "alpha": p.alpha,
-                    "alpha_source": p.alpha_source.name(),
-                    "slope_to_next": self.slope(k),
-                    "ci_lo": p.ci.0,
-                    "ci_hi": p.ci.1,
-                    "mdev_ci_lo": p.mdev_ci.map(|c| c.0),
-                    "mdev_ci_hi": p.mdev_ci.map(|c| c.1),
-                    "hdev_cm_s2": p.hdev,
-                    "hdev_ci_lo": p.hdev_ci.map(|c| c.0),
-                    "hdev_ci_hi": p.hdev_ci.map(|c| c.1),
-                    "hdev_edf": p.hdev_edf,
-                    "hdev_alpha": p.hdev.map(|_| p.alpha_h),
-                })
-            })
-            .collect();
-        let mut terms = serde_json::Map::new();
-        for f in &self.terms {
-            let values: Vec<serde_json::Value> = f
-                .term
-                .units()
-                .into_iter()
-                .map(|(unit, factor)| {
-                    serde_json::json!({
-                        "unit": unit,
-                        "value": f.value.map(|v| v.0 * factor),
-                        "sigma": f.value.map(|v| v.1 * factor),
-                    })
-                })
-                .collect();
-            terms.insert(
-                f.term.key().into(),
-                serde_json::json!({
-                    "symbol": f.term.symbol(),
-                    "adev_slope": f.term.slope(),
-                    "resolved": f.value.is_some(),
-                    "values": values,
-                }),
-            );
-        }
-        serde_json::json!({
-            "record": record,
-            "gates": self.gates,
-            "gate_s": self.tau0_s,
-            "span_s": self.tau0_s * self.gates as f64,
-            "mean_cm_s2": self.mean_cm_s2,
-            "sf_cm_s2": self.sf_cm_s2,
-            "pulse_cm_s": self.pulse_cm_s,
-            "reading_unit": self.reading_unit,
-            "confidence": self.settings.confidence,
-            "taus": taus_name(&self.settings.taus),
-            "lag1_autocorrelation": self.lag1,
-            "edf_method": EDF_METHOD,
-            "noise_id_method": NOISE_ID_METHOD,
-            "points": points,
-            "terms": serde_json::Value::Object(terms),
-            "terms_fit_chi2": self.fit_chi2,
-            "terms_fit_dof": self.fit_dof,
-            "warnings": warnings,
-        })
     }
 
     /// The text report: the table of points, then the terms.
@@ -771,6 +691,9 @@ pub struct Compared {
 
 /// Familywise level of [`compare`]'s Holm step-down over the τ.
 pub const COMPARE_ALPHA: f64 = 0.05;
+
+/// `--compare`'s test, in words (its JSON's `test`).
+pub const COMPARE_TEST: &str = "z = ln(adev_measured/adev_simulated)/sqrt(1/(2 edf_measured) + 1/(2 edf_simulated)), two-sided normal p, Holm step-down over the taus";
 
 /// The measured and simulated Allan deviations τ by τ (the τ both have), each difference's
 /// `z` on the log scale and whether it is significant under Holm's step-down at

@@ -227,27 +227,6 @@ pub fn fit_terms(points: &[(f64, f64, f64)], terms: &[Term]) -> (Vec<Fitted>, f6
     (out, chi2, dof)
 }
 
-/// A coefficient's JSON `values` (`ptsa noise --json`'s identifications): one object per
-/// unit of `units` (`(unit, factor)`, value in the unit = factor × cgs value) with
-/// `"unit"`, `"value"` and `"ci95"` (`[low, high]`), the last two `null` without a
-/// `value` (cgs: the value and its 95 % interval).
-#[must_use]
-pub fn json_values(
-    units: Vec<(&'static str, f64)>,
-    value: Option<(f64, f64, f64)>,
-) -> Vec<serde_json::Value> {
-    units
-        .into_iter()
-        .map(|(unit, k)| {
-            serde_json::json!({
-                "unit": unit,
-                "value": value.map(|v| v.0 * k),
-                "ci95": value.map(|v| [v.1 * k, v.2 * k]),
-            })
-        })
-        .collect()
-}
-
 /// `AVAR(τ)` of the fitted terms, each and summed.
 #[must_use]
 pub fn model_avar(terms: &[Fitted], tau_s: f64) -> f64 {

@@ -1,14 +1,16 @@
 //! `docs/reference/json.md`: every key of `ptsa discover --json` (a single-axis file, and a
-//! triad file's `"triad"`), its type and its meaning, written from the report types' doc
-//! comments through their JSON Schema (`schemars`). The test below checks the page is
-//! current; `tests/json_reference.rs` runs discover on the shipped files and checks that
-//! every key printed is one of the schema's ([`undocumented`]).
+//! triad file's `"triad"`) and of `ptsa noise --json`, its type and its meaning, written
+//! from the report types' doc comments through their JSON Schema (`schemars`). The test
+//! below checks the page is current; `tests/json_reference.rs` runs both commands on the
+//! shipped files and checks that every key printed is one of the schema's
+//! ([`undocumented`]).
 
 use std::fmt::Write as _;
 
 use serde_json::Value;
 
 use crate::discovery::report::JsonReport;
+use crate::noise::json::NoiseJson;
 use crate::triad::report::TriadJson;
 
 /// The schema of `discover --json` for a single-axis file.
@@ -21,6 +23,12 @@ pub fn discover_schema() -> Value {
 #[must_use]
 pub fn triad_schema() -> Value {
     schemars::schema_for!(TriadJson).to_value()
+}
+
+/// The schema of `noise --json`.
+#[must_use]
+pub fn noise_schema() -> Value {
+    schemars::schema_for!(NoiseJson).to_value()
 }
 
 /// `node` with its `$ref` resolved in the root's `$defs`.
@@ -129,17 +137,16 @@ fn rows(out: &mut String, root: &Value, node: &Value, path: &str) {
 #[must_use]
 pub fn page() -> String {
     let mut out = String::from(
-        "# Reference: the keys of `ptsa discover --json`\n\n\
+        "# Reference: the keys of `--json`\n\n\
          Generated from the report types' doc comments (`discovery/report.rs`, \
-         `triad/report.rs`) by the test \
+         `triad/report.rs`, `noise/json.rs`) by the test \
          `output::json_reference::tests::the_json_page_is_current` \
          (`PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference` writes it \
-         again); `tests/json_reference.rs` checks that every key discover prints on the \
-         shipped files is here. Units are in the keys' names (`_cm_s2` cm/s², `_ppm`, \
+         again); `tests/json_reference.rs` checks that every key `discover` and `noise` print \
+         on the shipped files is here. Units are in the keys' names (`_cm_s2` cm/s², `_ppm`, \
          `_rad`, `_s`, `_ug` µg) or said. `a[].b` is the key `b` of each element of the \
          list `a`; `a.NAME.b` of each value of the map `a`. The options of every command \
-         are in [options.md](options.md); `noise --json`'s keys are in its `--json` \
-         help there.\n\n\
+         are in [options.md](options.md).\n\n\
          ## A single-axis file\n\n\
          `ptsa discover --data FILE --json` prints one object:\n\n\
          | key | type | meaning |\n|---|---|---|\n",
@@ -156,6 +163,15 @@ pub fn page() -> String {
     );
     let t = triad_schema();
     rows(&mut out, &t, &t, "triad.");
+    out.push_str(
+        "\n## A static record: `ptsa noise --json`\n\n\
+         `ptsa noise --counts FILE --json` (or `--readings FILE`, or `--simulate`) prints \
+         one object. Its keys are printed in the order of their names; an accelerometer's \
+         figures are input-referred, in cm/s²:\n\n\
+         | key | type | meaning |\n|---|---|---|\n",
+    );
+    let n = noise_schema();
+    rows(&mut out, &n, &n, "");
     out
 }
 

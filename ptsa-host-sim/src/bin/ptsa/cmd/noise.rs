@@ -17,6 +17,7 @@ use ptsa_host_sim::model::instrument::ReadingUnit;
 use ptsa_host_sim::noise::allan::{Settings, Taus};
 use ptsa_host_sim::noise::identify::{self as ident, Identification, Kind};
 use ptsa_host_sim::noise::identify_terms as ident_terms;
+use ptsa_host_sim::noise::json::{ComparisonJson, IdentificationJson, TermsIdentificationJson};
 use ptsa_host_sim::noise::readings::{self, Readings};
 use ptsa_host_sim::noise::{self, Analysis, Record};
 use ptsa_host_sim::output::significant as sig;
@@ -138,31 +139,10 @@ pub struct NoiseArgs {
     /// an existing file is replaced only with --force.
     #[arg(long, value_name = "FILE")]
     pub plot: Option<PathBuf>,
-    /// Print exactly one JSON object: "record", "gates" (gates or samples), "gate_s" (the
-    /// gate or sample interval), "span_s", "mean_cm_s2", "sf_cm_s2" and "pulse_cm_s" (one
-    /// pulse as a velocity step, cm/s; null for readings), "reading_unit" (null for
-    /// counts), "confidence", "taus", "lag1_autocorrelation", "edf_method",
-    /// "noise_id_method", "points" (one per tau: "tau_s", "adev_cm_s2", "ci95_lo",
-    /// "ci95_hi" (cm/s², 95 %), "ci_lo", "ci_hi" (at --confidence), "edf", "m", "n_pairs",
-    /// "mdev_cm_s2", "mdev_ci95_lo", "mdev_ci95_hi", "mdev_ci_lo", "mdev_ci_hi", "mdev_edf",
-    /// "hdev_cm_s2", "hdev_ci_lo", "hdev_ci_hi", "hdev_edf", "hdev_alpha", "alpha",
-    /// "alpha_source", "slope_to_next"), "terms" ("quantization", "velocity_random_walk",
-    /// "bias_instability", "acceleration_random_walk", and "rate_ramp" for readings: "symbol",
-    /// "adev_slope", "resolved", "values": [{"unit", "value", "sigma"}]),
-    /// "terms_fit_chi2", "terms_fit_dof", "warnings"; with --compare also "comparison"
-    /// ("input_cm_s2", "simulated_mean_cm_s2", "familywise_alpha", "test", "differing",
-    /// "points": "tau_s", "measured_adev_cm_s2", "measured_ci95", "simulated_adev_cm_s2",
-    /// "simulated_ci95", "z", "p", "differs"); with --identify also "identification"
-    /// ("candidates": "candidate", "statistic", "p", "selected", "values": [{"unit",
-    /// "value", "ci95"}], "open_above", "interval_scale"; "selected", "chi2_file", "taus_s",
-    /// "pickoff_grid_uv_rms", "white_acceleration_grid_cm_s2_rthz",
-    /// "bias_random_walk_grid_cm_s2_rthz", "seeds_per_node", "simulated_records",
-    /// "simulated_record_gates" (gates each simulated record ran the loop for),
-    /// "loop_simulated_to_tau_s" (s; null unless the record is longer than that),
-    /// "file_noise_uv_rms", "input_cm_s2", "familywise_alpha", "test"); with --readings
-    /// --identify also "terms_identification" ("candidates": "term", "symbol", "z", "p",
-    /// "selected", "values": [{"unit", "value", "ci95"}]; "selected", "taus_s", "chi2",
-    /// "dof", "replicas", "rounds", "familywise_alpha", "test").
+    /// Print exactly one JSON object: the record's figures, one point per tau (the
+    /// deviations and their intervals, cm/s²) and the noise terms; with --compare also
+    /// "comparison", with --identify "identification" (counts) or "terms_identification"
+    /// (readings). Every key, with its unit and meaning: docs/reference/json.md.
     #[arg(long)]
     pub json: bool,
     /// Replace an existing --output, --plot or --write-instrument file (the work limit is
@@ -651,16 +631,15 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     }
     if req.json {
         let mut v = a.json(&name, &warnings);
-        if let (Some(c), Some(map)) = (&comparison, v.as_object_mut()) {
-            map.insert("comparison".into(), c.json());
-        }
-        if let (Some(id), Some(map)) = (&identification, v.as_object_mut()) {
-            map.insert("identification".into(), identification_json(id));
-        }
-        if let (Some(id), Some(map)) = (&terms_identification, v.as_object_mut()) {
-            map.insert("terms_identification".into(), id.json());
-        }
-        writeln!(out, "{v}")?;
+        v.comparison = comparison
+            .as_ref()
+            .map(|c| ComparisonJson::new(c.input_cm_s2, c.simulated_mean_cm_s2, &c.points));
+        v.identification = identification.as_ref().map(IdentificationJson::new);
+        v.terms_identification = terms_identification
+            .as_ref()
+            .map(TermsIdentificationJson::new);
+        // Through a `Value`: its keys are printed in the order of their names, as ever.
+        writeln!(out, "{}", serde_json::to_value(&v)?)?;
     } else {
         write!(out, "{}", a.text(&name))?;
         if let Some(c) = &comparison {
@@ -818,33 +797,6 @@ struct Comparison {
 }
 
 impl Comparison {
-    fn json(&self) -> serde_json::Value {
-        let points: Vec<serde_json::Value> = self
-            .points
-            .iter()
-            .map(|c| {
-                serde_json::json!({
-                    "tau_s": c.measured.tau_s,
-                    "measured_adev_cm_s2": c.measured.adev,
-                    "measured_ci95": [c.measured.ci95_lo, c.measured.ci95_hi],
-                    "simulated_adev_cm_s2": c.simulated.adev,
-                    "simulated_ci95": [c.simulated.ci95_lo, c.simulated.ci95_hi],
-                    "z": c.z,
-                    "p": c.p,
-                    "differs": c.differs,
-                })
-            })
-            .collect();
-        serde_json::json!({
-            "input_cm_s2": self.input_cm_s2,
-            "simulated_mean_cm_s2": self.simulated_mean_cm_s2,
-            "familywise_alpha": noise::COMPARE_ALPHA,
-            "test": "z = ln(adev_measured/adev_simulated)/sqrt(1/(2 edf_measured) + 1/(2 edf_simulated)), two-sided normal p, Holm step-down over the taus",
-            "points": points,
-            "differing": self.points.iter().filter(|c| c.differs).count(),
-        })
-    }
-
     fn text(&self) -> String {
         use std::fmt::Write as _;
         let mut s = String::new();
@@ -976,42 +928,6 @@ fn write_identified(
         ctx.name
     );
     Ok(())
-}
-
-fn identification_json(id: &Identification) -> serde_json::Value {
-    let candidates: Vec<serde_json::Value> = id
-        .candidates
-        .iter()
-        .map(|c| {
-            let values = ptsa_host_sim::noise::terms::json_values(c.kind.units(), c.value);
-            serde_json::json!({
-                "candidate": c.kind.key(),
-                "statistic": c.statistic,
-                "p": c.p,
-                "selected": c.selected,
-                "values": values,
-                "open_above": c.open_above,
-                "interval_scale": c.interval_scale,
-            })
-        })
-        .collect();
-    serde_json::json!({
-        "input_cm_s2": id.input_cm_s2,
-        "file_noise_uv_rms": id.file_uv,
-        "pickoff_grid_uv_rms": id.grid_uv,
-        "white_acceleration_grid_cm_s2_rthz": id.grid_white,
-        "bias_random_walk_grid_cm_s2_rthz": id.grid_walk,
-        "seeds_per_node": ident::SEEDS,
-        "simulated_records": id.simulated_records,
-        "simulated_record_gates": id.simulated_gates,
-        "loop_simulated_to_tau_s": id.loop_split_tau_s,
-        "taus_s": id.taus,
-        "chi2_file": id.chi2_file,
-        "familywise_alpha": ident::ALPHA,
-        "test": "AVAR_measured = AVAR_sim(noise_uv_rms, N, K): the loop simulated with the pickoff noise and with N (white acceleration noise) and K (bias random walk) entering the plant's input, averaged over seeds_per_node records, multilinear in the squares between the grid's nodes; the grid's records with their drawn input's own Allan variance replaced by its expectation, their inputs spread over the measured mean's error; compared as ln AVAR with each log's bias (half its variance) taken out, chi2 = r' C^-1 r with C the covariance of ln AVAR across the tau of records simulated at the noises fitted so far (correlations shrunk by half, re-evaluated until the fit settles); forward selection with Holm thresholds (0.05/3, 0.05/2, 0.05): each candidate left tested given those selected by its drop of the profiled chi2 (N, K: its root, one-sided normal; pickoff: against chi2(1)); 95 % intervals from the joint profile: the values whose profiled chi2 is within t^2 s b^2 of its least, t Student's two-sided 95 % point for the check's replicas less one degree of freedom, s (interval_scale, over 3.84 b^2) the sandwich variance of the weighted fit over the variance the profile assumes, with the covariance of records simulated at the fit apart from the weights', b the joint fit's Birge ratio above 1",
-        "candidates": candidates,
-        "selected": id.candidates.iter().filter(|c| c.selected).map(|c| c.kind.key()).collect::<Vec<_>>(),
-    })
 }
 
 fn identification_text(id: &Identification) -> String {
