@@ -407,7 +407,7 @@ fn response_help_explains_gain_and_phase() {
         "time_s,pulses,ticks",
         "Nyquist",
         "--force",
-        "\"warnings\"",
+        "docs/reference/json.md",
     ] {
         assert!(h.contains(needle), "`{needle}` not in:\n{h}");
     }

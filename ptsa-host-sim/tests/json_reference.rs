@@ -9,7 +9,7 @@ use std::path::Path;
 
 use common::ptsa_in;
 use ptsa_host_sim::output::json_reference::{
-    discover_schema, noise_schema, triad_schema, undocumented,
+    command_schema, discover_schema, noise_schema, triad_schema, undocumented,
 };
 
 fn root() -> &'static Path {
@@ -140,5 +140,89 @@ fn properties(schema: &serde_json::Value, out: &mut std::collections::BTreeSet<S
         }
         serde_json::Value::Array(a) => a.iter().for_each(|x| properties(x, out)),
         _ => {}
+    }
+}
+
+/// A report line of the single-axis firmware.
+fn report(seq: u64, p: u64, t: u64, gates: u64, tick: u64) -> String {
+    format!("gate seq={seq} P={p} T={t} gates={gates} tick={tick} t_ns=0 stack=544\n")
+}
+
+/// The inputs the other commands' runs read, made in `d`: a calibration of each kind, a
+/// counter record, a log with a gap and a merged report.
+fn other_inputs(d: &Path) {
+    let made = |args: &str| {
+        let args: Vec<&str> = args.split_whitespace().collect();
+        let o = ptsa_in(d, &args);
+        assert!(o.status.success(), "{args:?}: {}", common::stderr(&o));
+        o.stdout
+    };
+    let data = root().join("data").display().to_string();
+    let sn3 = made(&format!(
+        "discover --data {data}/examples/tumble-counts.csv --analytic --no-plots --json"
+    ));
+    std::fs::write(d.join("sn3.json"), sn3).unwrap();
+    made(&format!(
+        "discover --data {data}/examples/triad-stream.csv --instrument mems --local-gravity 980.4 --no-plots --positions-out positions.csv --write-instrument triad.toml"
+    ));
+    made("noise --simulate --seconds 4 --gate-s 0.01 --output rec.csv");
+    let mut log = String::from("boot\n");
+    for (seq, gates, tick) in [(1, 1, 1000), (2, 1, 2000), (5, 1, 5000), (7, 2, 7000)] {
+        log += &report(seq, 100 * seq, 1000 * gates, gates, tick);
+    }
+    std::fs::write(d.join("run.log"), log).unwrap();
+}
+
+/// Every key `static`, `predict`, `response`, `record` and `correct` print with `--json` is
+/// one their types define (so docs/reference/json.md describes it), and every key a type
+/// defines is printed by one of these runs.
+#[test]
+fn every_key_the_other_commands_print_is_in_the_reference() {
+    let tmp = tempfile::tempdir().unwrap();
+    let d = tmp.path();
+    other_inputs(d);
+    let data = root().join("data").display().to_string();
+    let runs = [
+        ("static", "static --accel-cm-s2 1000 --seconds 0.1".to_string()),
+        ("static", "static --accel-cm-s2 1000,-2000 --seconds 0.1".into()),
+        ("predict", format!("predict --data {data}/synthetic-response.case.csv")),
+        ("predict", format!("predict --data {data}/r890-table-6.1.case.csv")),
+        (
+            "response",
+            "response --counts rec.csv --sine-hz 20 --sine-cm-s2 2000 --force".into(),
+        ),
+        ("record", "record --from run.log --output r.csv --allow-gaps".into()),
+        (
+            "correct",
+            format!("correct --calibration sn3.json --data {data}/examples/check-counts.csv"),
+        ),
+        (
+            "correct triad",
+            "correct --calibration triad.toml --data positions.csv --instrument mems --local-gravity 980.4 --sigma 0.07".into(),
+        ),
+    ];
+    let mut seen: std::collections::BTreeMap<&str, std::collections::BTreeSet<String>> =
+        std::collections::BTreeMap::new();
+    for (name, args) in &runs {
+        let mut all: Vec<&str> = args.split_whitespace().collect();
+        all.push("--json");
+        let o = ptsa_in(d, &all);
+        assert!(o.status.success(), "{all:?}: {}", common::stderr(&o));
+        let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+        let schema = command_schema(name).unwrap();
+        for item in v.as_array().cloned().unwrap_or_else(|| vec![v.clone()]) {
+            let missing = undocumented(&schema, &item);
+            assert!(missing.is_empty(), "{all:?}: not in its type: {missing:?}");
+            keys(&item, seen.entry(name).or_default());
+        }
+    }
+    for (name, printed) in seen {
+        let mut defined = std::collections::BTreeSet::new();
+        properties(&command_schema(name).unwrap(), &mut defined);
+        let never: Vec<&String> = defined.difference(&printed).collect();
+        assert!(
+            never.is_empty(),
+            "{name}: defined but never printed: {never:?}"
+        );
     }
 }

@@ -611,27 +611,29 @@ fn correlation(v: &serde_json::Value) -> Option<Correlation> {
 }
 
 /// One row corrected.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct Corrected {
     /// The reading, cm/s² (`measured_cm_s2`, or the counts' `SF·(2P/T − 1)`).
     pub reading_cm_s2: f64,
-    /// Its 1-sigma noise: the stated sigma (or the default), the counting's and the
-    /// fixture's, in quadrature, cm/s².
+    /// The reading's 1-sigma noise: the stated sigma (or the default), the counting's and
+    /// the fixture's, in quadrature, cm/s².
     pub sigma_reading_cm_s2: f64,
-    /// The cross-axis inputs held, cm/s² (the row's `g_pa`, `g_oa` times local gravity).
+    /// The cross-axis input along PA held, cm/s² (the row's `g_pa` times local gravity).
     pub a_pa_cm_s2: f64,
-    /// See `a_pa_cm_s2`.
+    /// The cross-axis input along OA held, cm/s² (the row's `g_oa` times local gravity).
     pub a_oa_cm_s2: f64,
     /// The specific force along IA that the model says gives the reading, cm/s².
     pub a_ia_cm_s2: f64,
     /// The same in g (of the instrument file's local gravity).
     pub a_ia_g: f64,
-    /// Its 1-sigma uncertainty, cm/s²: the two below in quadrature.
+    /// The 1-sigma uncertainty of `a_ia_cm_s2`, cm/s²: `sigma_noise_cm_s2` and
+    /// `sigma_calibration_cm_s2` in quadrature.
     pub sigma_a_ia_cm_s2: f64,
-    /// The part from the reading's noise, cm/s².
+    /// The part of `sigma_a_ia_cm_s2` from the reading's noise, cm/s².
     pub sigma_noise_cm_s2: f64,
-    /// The part from the calibration's covariance, cm/s² (shared by every row corrected
-    /// with the same calibration: the rows' errors are correlated through it).
+    /// The part of `sigma_a_ia_cm_s2` from the calibration's covariance, cm/s² (shared by
+    /// every row corrected with the same calibration: the rows' errors are correlated
+    /// through it).
     pub sigma_calibration_cm_s2: f64,
 }
 

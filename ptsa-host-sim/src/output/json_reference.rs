@@ -1,5 +1,6 @@
 //! `docs/reference/json.md`: every key of `ptsa discover --json` (a single-axis file, and a
-//! triad file's `"triad"`) and of `ptsa noise --json`, its type and its meaning, written
+//! triad file's `"triad"`), of `ptsa noise --json` and of the other commands' `--json`
+//! (`static`, `predict`, `response`, `record`, `correct`), its type and its meaning, written
 //! from the report types' doc comments through their JSON Schema (`schemars`). The test
 //! below checks the page is current; `tests/json_reference.rs` runs both commands on the
 //! shipped files and checks that every key printed is one of the schema's
@@ -30,6 +31,57 @@ pub fn triad_schema() -> Value {
 pub fn noise_schema() -> Value {
     schemars::schema_for!(NoiseJson).to_value()
 }
+
+/// The schema of each other command's `--json`, by the command's name: `static`,
+/// `predict`, `response`, `record`, `correct` (a single-axis file) and `correct triad`.
+#[must_use]
+pub fn command_schema(command: &str) -> Option<Value> {
+    use crate::output::command_json as c;
+    let s = match command {
+        "static" => schemars::schema_for!(crate::simulation::sim::StaticRun),
+        "predict" => schemars::schema_for!(c::PredictJson),
+        "response" => schemars::schema_for!(c::ResponseJson),
+        "record" => schemars::schema_for!(c::RecordJson),
+        "correct" => schemars::schema_for!(c::CorrectJson),
+        "correct triad" => schemars::schema_for!(c::TriadCorrectJson),
+        _ => return None,
+    };
+    Some(s.to_value())
+}
+
+/// The other commands' sections of the page: heading, what is printed, the schema's name.
+const COMMANDS: [(&str, &str, &str); 6] = [
+    (
+        "`ptsa static --json`",
+        "One object for one acceleration; a list of them, in the order given, for several.",
+        "static",
+    ),
+    (
+        "`ptsa predict --json`",
+        "One object: the prediction of each row of the data.",
+        "predict",
+    ),
+    (
+        "`ptsa response --json`",
+        "One object: the response row made from the counter record, with its fit and checks.",
+        "response",
+    ),
+    (
+        "`ptsa record --json`",
+        "One object: what the firmware's log held and the counter record made from it.",
+        "record",
+    ),
+    (
+        "`ptsa correct --json`, a single-axis file",
+        "One object: each row's specific force along IA, with its uncertainty.",
+        "correct",
+    ),
+    (
+        "`ptsa correct --json`, a triad file",
+        "One object: each row's specific force in the triad's frame, with its covariance.",
+        "correct triad",
+    ),
+];
 
 /// `node` with its `$ref` resolved in the root's `$defs`.
 fn resolve<'a>(root: &'a Value, node: &'a Value) -> &'a Value {
@@ -134,16 +186,19 @@ fn rows(out: &mut String, root: &Value, node: &Value, path: &str) {
 }
 
 /// The page.
+///
+/// # Panics
+/// Never: every section of `COMMANDS` names a schema [`command_schema`] has.
 #[must_use]
 pub fn page() -> String {
     let mut out = String::from(
         "# Reference: the keys of `--json`\n\n\
          Generated from the report types' doc comments (`discovery/report.rs`, \
-         `triad/report.rs`, `noise/json.rs`) by the test \
+         `triad/report.rs`, `noise/json.rs`, `output/command_json.rs`) by the test \
          `output::json_reference::tests::the_json_page_is_current` \
          (`PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference` writes it \
-         again); `tests/json_reference.rs` checks that every key `discover` and `noise` print \
-         on the shipped files is here. Units are in the keys' names (`_cm_s2` cm/s², `_ppm`, \
+         again); `tests/json_reference.rs` checks that every key the commands print on the \
+         shipped files is here. Units are in the keys' names (`_cm_s2` cm/s², `_ppm`, \
          `_rad`, `_s`, `_ug` µg) or said. `a[].b` is the key `b` of each element of the \
          list `a`; `a.NAME.b` of each value of the map `a`. The options of every command \
          are in [options.md](options.md).\n\n\
@@ -172,6 +227,14 @@ pub fn page() -> String {
     );
     let n = noise_schema();
     rows(&mut out, &n, &n, "");
+    for (heading, what, name) in COMMANDS {
+        let _ = write!(
+            out,
+            "\n## {heading}\n\n{what}\n\n| key | type | meaning |\n|---|---|---|\n"
+        );
+        let schema = command_schema(name).expect("every section's schema");
+        rows(&mut out, &schema, &schema, "");
+    }
     out
 }
 

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Result;
 
+pub mod command_json;
 pub mod fs;
 pub mod json_reference;
 pub mod plot;

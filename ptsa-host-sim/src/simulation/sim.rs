@@ -711,7 +711,7 @@ pub fn simulate_difference(
 }
 
 /// Result of `ptsa static` (the JSON object of `ptsa static --json`).
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, schemars::JsonSchema)]
 pub struct StaticRun {
     /// Clock ticks (`T`).
     pub ticks: u64,

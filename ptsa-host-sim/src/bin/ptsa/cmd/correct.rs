@@ -14,6 +14,9 @@ use ptsa_host_sim::discovery::{self, correct as lib};
 use ptsa_host_sim::model::caseframe;
 use ptsa_host_sim::model::condition::{RowKind, with_history};
 use ptsa_host_sim::model::counts;
+use ptsa_host_sim::output::command_json::{
+    CorrectJson, CorrectedRow, TriadCorrectJson, TriadCorrected, TriadCorrectedRow,
+};
 use ptsa_host_sim::output::{count, write_atomic};
 
 use super::Ctx;
@@ -56,11 +59,9 @@ pub struct CorrectArgs {
     /// Replace an existing --output file.
     #[arg(long, requires = "out")]
     pub force: bool,
-    /// Print exactly one JSON object instead of the CSV: {"data", "calibration",
-    /// "instrument", "g_cm_s2", "rows": [{"label", "line", and, for a row with a reading,
-    /// "reading_cm_s2", "sigma_reading_cm_s2", "a_pa_cm_s2", "a_oa_cm_s2", "a_ia_cm_s2",
-    /// "a_ia_g", "sigma_a_ia_cm_s2", "sigma_noise_cm_s2", "sigma_calibration_cm_s2" (cm/s²;
-    /// a_ia_g in g)}], "warnings"}.
+    /// Print exactly one JSON object instead of the CSV: the files, and each row's
+    /// specific force (along IA, or a triad's three axes) in cm/s² with its uncertainty.
+    /// Every key: docs/reference/json.md.
     #[arg(long)]
     pub json: bool,
 }
@@ -448,29 +449,25 @@ fn csv_line(label: &str, cells: Option<&[f64]>, n: usize) -> String {
 
 /// The JSON object (`--json`).
 fn json(req: &AxisRequest) -> serde_json::Value {
-    let rows: Vec<serde_json::Value> = req
+    let rows = req
         .rows
         .iter()
-        .map(|(r, line, c)| {
-            let mut m = serde_json::Map::new();
-            m.insert("label".into(), r.label.clone().into());
-            m.insert("line".into(), (*line).into());
-            if let Some(c) = c
-                && let Ok(serde_json::Value::Object(o)) = serde_json::to_value(c)
-            {
-                m.extend(o);
-            }
-            serde_json::Value::Object(m)
+        .map(|(r, line, c)| CorrectedRow {
+            label: r.label.clone(),
+            line: *line,
+            corrected: c.clone(),
         })
         .collect();
-    serde_json::json!({
-        "data": req.data.display().to_string(),
-        "calibration": req.calibration,
-        "instrument": req.instrument,
-        "g_cm_s2": req.g_cm_s2,
-        "rows": rows,
-        "warnings": req.warnings,
-    })
+    let v = CorrectJson {
+        data: req.data.display().to_string(),
+        calibration: req.calibration.clone(),
+        instrument: req.instrument.clone(),
+        g_cm_s2: req.g_cm_s2,
+        rows,
+        warnings: req.warnings.clone(),
+    };
+    // Through a `Value`: its keys in the order of their names.
+    serde_json::to_value(v).expect("plain data")
 }
 
 /// Write the corrected rows: the warnings on stderr, the CSV (or JSON) on `out` or into
@@ -615,48 +612,40 @@ fn triad_csv(req: &TriadRequest) -> String {
     s
 }
 
-/// The triad JSON (`--json`): `data`, `calibration`, `instrument`, `g_cm_s2`, `frame`,
-/// `rows` (per row `label`, `line` and, with three readings, `reading_cm_s2`,
-/// `sigma_reading_cm_s2`, `f_cm_s2`, `f_g`, `f_magnitude_cm_s2`,
-/// `sigma_f_magnitude_cm_s2`, `covariance_cm2_s4` (3×3, whole), `covariance_noise_cm2_s4`,
-/// `covariance_calibration_cm2_s4`), `warnings`.
+/// The triad JSON (`--json`).
 fn triad_json(req: &TriadRequest) -> serde_json::Value {
     let g = req.cal.g_cm_s2;
-    let rows: Vec<serde_json::Value> = req
+    let rows = req
         .rows
         .iter()
-        .map(|r| {
-            let mut m = serde_json::Map::new();
-            m.insert("label".into(), r.p.label.clone().into());
-            m.insert("line".into(), r.p.line.into());
-            if let Some((sig, c)) = &r.c {
+        .map(|r| TriadCorrectedRow {
+            label: r.p.label.clone(),
+            line: r.p.line,
+            corrected: r.c.as_ref().map(|(sig, c)| {
                 let (mag, smag) = c.magnitude();
-                m.insert("reading_cm_s2".into(), serde_json::json!(r.p.measured));
-                m.insert("sigma_reading_cm_s2".into(), serde_json::json!(sig));
-                m.insert("f_cm_s2".into(), serde_json::json!(c.f));
-                m.insert("f_g".into(), serde_json::json!(c.f.map(|x| x / g)));
-                m.insert("f_magnitude_cm_s2".into(), mag.into());
-                m.insert("sigma_f_magnitude_cm_s2".into(), smag.into());
-                m.insert(
-                    "covariance_cm2_s4".into(),
-                    serde_json::json!(c.covariance()),
-                );
-                m.insert("covariance_noise_cm2_s4".into(), serde_json::json!(c.noise));
-                m.insert(
-                    "covariance_calibration_cm2_s4".into(),
-                    serde_json::json!(c.calibration),
-                );
-            }
-            serde_json::Value::Object(m)
+                TriadCorrected {
+                    reading_cm_s2: r.p.measured,
+                    sigma_reading_cm_s2: *sig,
+                    f_cm_s2: c.f,
+                    f_g: c.f.map(|x| x / g),
+                    f_magnitude_cm_s2: mag,
+                    sigma_f_magnitude_cm_s2: smag,
+                    covariance_cm2_s4: c.covariance(),
+                    covariance_noise_cm2_s4: c.noise,
+                    covariance_calibration_cm2_s4: c.calibration,
+                }
+            }),
         })
         .collect();
-    serde_json::json!({
-        "data": req.data.display().to_string(),
-        "calibration": req.calibration,
-        "instrument": req.instrument,
-        "g_cm_s2": g,
-        "frame": req.cal.orientation.name(),
-        "rows": rows,
-        "warnings": req.warnings,
-    })
+    let v = TriadCorrectJson {
+        data: req.data.display().to_string(),
+        calibration: req.calibration.clone(),
+        instrument: req.instrument.clone(),
+        g_cm_s2: g,
+        frame: req.cal.orientation.name().to_string(),
+        rows,
+        warnings: req.warnings.clone(),
+    };
+    // Through a `Value`: its keys in the order of their names.
+    serde_json::to_value(v).expect("plain data")
 }

@@ -10,6 +10,7 @@ use ptsa_host_sim::Condition;
 use ptsa_host_sim::discovery::{self, Simulator};
 use ptsa_host_sim::model::condition::RowKind;
 use ptsa_host_sim::model::effects::{CandidateId, Effects, REGISTRY};
+use ptsa_host_sim::output::command_json::{PredictJson, PredictedRow};
 use ptsa_host_sim::output::{Cell, Column, Table, num, significant, text};
 use ptsa_host_sim::simulation::sim::SimOptions;
 use ptsa_host_sim::simulation::work::Estimate;
@@ -29,10 +30,8 @@ pub struct PredictArgs {
     /// `effects` array). Without it, the baseline model.
     #[arg(long, value_name = "FILE.json")]
     pub effects: Option<PathBuf>,
-    /// Print exactly one JSON object {"rows": [{"label", "predicted_cm_s2"}], "simulator"}
-    /// (a response row: `predicted_cm_s2` null, and `predicted_gain`, `predicted_phase_deg`;
-    /// "simulator": closed-loop, analytic, or loop-less analytic for an instrument file
-    /// without a PTSA loop).
+    /// Print exactly one JSON object: each row's predicted reading in cm/s² (a response
+    /// row's gain and phase) and the simulator used. Every key: docs/reference/json.md.
     #[arg(long)]
     pub json: bool,
     /// Seed of the simulator's pickoff noise (closed loop): a whole number from 0 to
@@ -143,23 +142,24 @@ fn estimate(rows: &[Condition], sim: &dyn Simulator, force: bool) -> Result<Esti
 /// `predicted_cm_s2` is null and its gain and phase come as `predicted_gain`,
 /// `predicted_phase_deg`.
 fn json(rows: &[Condition], pred: &[Vec<f64>], simulator: &str) -> serde_json::Value {
-    let rows: Vec<serde_json::Value> = rows
+    let rows = rows
         .iter()
         .zip(pred)
         .map(|(r, p)| {
-            if r.kind == RowKind::Response {
-                serde_json::json!({
-                    "label": r.label,
-                    "predicted_cm_s2": null,
-                    "predicted_gain": p.first(),
-                    "predicted_phase_deg": p.get(1),
-                })
-            } else {
-                serde_json::json!({"label": r.label, "predicted_cm_s2": p.first()})
+            let response = r.kind == RowKind::Response;
+            PredictedRow {
+                label: r.label.clone(),
+                predicted_cm_s2: if response { None } else { p.first().copied() },
+                predicted_gain: response.then(|| p.first().copied()),
+                predicted_phase_deg: response.then(|| p.get(1).copied()),
             }
         })
         .collect();
-    serde_json::json!({ "rows": rows, "simulator": simulator })
+    let v = PredictJson {
+        rows,
+        simulator: simulator.to_string(),
+    };
+    serde_json::to_value(v).expect("plain data")
 }
 
 /// The prediction table: a title line naming the file, the simulator and the effects, then

@@ -7,6 +7,8 @@
 use std::io::{Read as _, Write};
 use std::path::{Path, PathBuf};
 
+use ptsa_host_sim::output::command_json::{GapJson, RecordJson};
+
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
 use ptsa_host_sim::lab::record::{self, Stream};
@@ -39,13 +41,8 @@ pub struct RecordArgs {
     #[arg(long, value_name = "N")]
     pub axis: Option<u64>,
     /// Print one JSON object on standard output instead of the summary on stderr (needs
-    /// --output): {"from", "out", "axis", "lines", "skipped_lines", "reports" (the record's
-    /// rows), "gates" (the gates they hold, merged ones counted each),
-    /// "first_seq", "last_seq", "gaps" (a list of {"after_line", "before_line",
-    /// "first_missing", "last_missing", "missing_gates", "missing_ticks"}), "lost_gates",
-    /// "merged_reports", "merged_gates", "cut_last_line" (the line of a report dropped
-    /// because the log ends inside it, or null), "clock_hz", "span_s" (from the first
-    /// gate's start to the last one's end, s), "warnings"}.
+    /// --output): the log's lines and reports, its gaps and merged gates, the record's
+    /// span in s, the warnings. Every key: docs/reference/json.md.
     #[arg(long)]
     pub json: bool,
 }
@@ -229,37 +226,38 @@ fn json(
     span_s: f64,
     warnings: &[String],
 ) -> serde_json::Value {
-    let gaps: Vec<serde_json::Value> = s
+    let gaps = s
         .gaps
         .iter()
-        .map(|g| {
-            serde_json::json!({
-                "after_line": g.after_line,
-                "before_line": g.before_line,
-                "first_missing": g.first_missing,
-                "last_missing": g.last_missing,
-                "missing_gates": g.gates(),
-                "missing_ticks": g.missing_ticks,
-            })
+        .map(|g| GapJson {
+            after_line: g.after_line,
+            before_line: g.before_line,
+            first_missing: g.first_missing,
+            last_missing: g.last_missing,
+            missing_gates: g.gates(),
+            missing_ticks: g.missing_ticks,
         })
         .collect();
-    serde_json::json!({
-        "from": req.name,
-        "out": req.out.as_ref().map(|p| p.display().to_string()),
-        "axis": req.axis,
-        "lines": log.lines,
-        "skipped_lines": log.skipped,
-        "reports": s.gates.len(),
-        "gates": s.gates.len() - s.merges.len() + usize::try_from(s.merged_gates()).unwrap_or(usize::MAX),
-        "first_seq": s.seq.0,
-        "last_seq": s.seq.1,
-        "gaps": gaps,
-        "lost_gates": s.lost_gates(),
-        "merged_reports": s.merges.len(),
-        "merged_gates": s.merged_gates(),
-        "cut_last_line": log.cut_last,
-        "clock_hz": clock_hz,
-        "span_s": span_s,
-        "warnings": warnings,
-    })
+    let v = RecordJson {
+        from: req.name.clone(),
+        out: req.out.as_ref().map(|p| p.display().to_string()),
+        axis: req.axis,
+        lines: log.lines,
+        skipped_lines: log.skipped,
+        reports: s.gates.len(),
+        gates: s.gates.len() - s.merges.len()
+            + usize::try_from(s.merged_gates()).unwrap_or(usize::MAX),
+        first_seq: s.seq.0,
+        last_seq: s.seq.1,
+        gaps,
+        lost_gates: s.lost_gates(),
+        merged_reports: s.merges.len(),
+        merged_gates: s.merged_gates(),
+        cut_last_line: log.cut_last,
+        clock_hz,
+        span_s,
+        warnings: warnings.to_vec(),
+    };
+    // Through a `Value`: its keys in the order of their names.
+    serde_json::to_value(v).expect("plain data")
 }

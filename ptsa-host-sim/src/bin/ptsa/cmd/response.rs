@@ -11,6 +11,7 @@ use clap::Args;
 use ptsa_host_sim::lab::response::{self, FitCheck, Gate, ResponseFit};
 use ptsa_host_sim::model::condition::Condition;
 use ptsa_host_sim::model::design::Design;
+use ptsa_host_sim::output::command_json::ResponseJson;
 use ptsa_host_sim::output::{Figure, Plot, Series, count, significant as sig, write_figure};
 
 use super::Ctx;
@@ -41,12 +42,9 @@ pub struct ResponseArgs {
     /// The row's label (default: the frequency and the record's file name).
     #[arg(long, value_name = "TEXT", value_parser = label)]
     pub label: Option<String>,
-    /// Print exactly one JSON object: the row's columns {"label", "kind", "freq_hz",
-    /// "lin_ia_cm_s2", "measured_gain", "measured_phase_deg", "sigma_gain",
-    /// "sigma_phase_deg"}, the fit's "gates", "gate_s", "mean_cm_s2" and "rms_cm_s2", the
-    /// check's "expected_rms_cm_s2" (what counting leaves, cm/s²), "predicted_gain" and
-    /// "predicted_phase_deg" (the instrument file's loop; null if it has none) and
-    /// "warnings" (a list of the warnings' texts, empty if none).
+    /// Print exactly one JSON object: the row's columns, the fit (its gates and residual
+    /// RMS, cm/s²), the loop's predicted gain and phase, the warnings. Every key:
+    /// docs/reference/json.md.
     #[arg(long)]
     pub json: bool,
     /// Write the row even when the fit makes no physical sense: a gain above 2 (no loop the
@@ -286,24 +284,26 @@ fn print_row(
     json: bool,
 ) -> Result<()> {
     if json {
-        let v = serde_json::json!({
-            "label": row.label,
-            "kind": row.kind.name(),
-            "freq_hz": row.freq_hz,
-            "lin_ia_cm_s2": row.lin_cm_s2[0],
-            "measured_gain": row.measured_gain,
-            "measured_phase_deg": row.measured_phase_deg,
-            "sigma_gain": row.sigma_gain,
-            "sigma_phase_deg": row.sigma_phase_deg,
-            "gates": fit.gates,
-            "gate_s": fit.gate_s,
-            "mean_cm_s2": fit.mean_cm_s2,
-            "rms_cm_s2": fit.rms_cm_s2,
-            "expected_rms_cm_s2": checked.expected.rms_cm_s2,
-            "predicted_gain": checked.prediction.map(|p| p.gain),
-            "predicted_phase_deg": checked.prediction.map(|p| p.phase_deg),
-            "warnings": warnings,
-        });
+        let v = ResponseJson {
+            label: row.label.clone(),
+            kind: row.kind.name().to_string(),
+            freq_hz: row.freq_hz,
+            lin_ia_cm_s2: row.lin_cm_s2[0],
+            measured_gain: row.measured_gain,
+            measured_phase_deg: row.measured_phase_deg,
+            sigma_gain: row.sigma_gain,
+            sigma_phase_deg: row.sigma_phase_deg,
+            gates: fit.gates,
+            gate_s: fit.gate_s,
+            mean_cm_s2: fit.mean_cm_s2,
+            rms_cm_s2: fit.rms_cm_s2,
+            expected_rms_cm_s2: checked.expected.rms_cm_s2,
+            predicted_gain: checked.prediction.map(|p| p.gain),
+            predicted_phase_deg: checked.prediction.map(|p| p.phase_deg),
+            warnings: warnings.to_vec(),
+        };
+        // Through a `Value`: its keys in the order of their names.
+        let v = serde_json::to_value(v)?;
         writeln!(out, "{v}")?;
     } else {
         write!(out, "{}", response::rows_csv(&[row]))?;

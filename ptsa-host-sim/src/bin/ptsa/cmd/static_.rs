@@ -43,9 +43,9 @@ pub struct StaticArgs {
     /// Include the instrument file's bias A_b (18.7 cm/s² shipped) as a torque.
     #[arg(long)]
     pub with_bias: bool,
-    /// Print exactly one JSON object {"ticks", "pulses", "indicated_cm_s2",
-    /// "saturated"}; with several accelerations, one JSON array of such objects, in the
-    /// order given.
+    /// Print exactly one JSON object (the gate's ticks and pulses, the indicated value in
+    /// cm/s², whether the loop saturated); with several accelerations, one JSON array of
+    /// such objects, in the order given. Every key: docs/reference/json.md.
     #[arg(long)]
     pub json: bool,
     /// Write the ADC samples of this very run, settling included (one i16 per line,
