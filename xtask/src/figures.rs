@@ -46,6 +46,16 @@ enum Measure {
         file: &'static str,
         name: &'static str,
     },
+    /// `ENV cargo test --release -p PACKAGE --test FILE NAME -- --exact --ignored
+    /// --nocapture`: a campaign kept out of CI as an ignored test, set up by `env`, and
+    /// re-scored with `seed_var` set to the re-scoring seed.
+    Ignored {
+        package: &'static str,
+        file: &'static str,
+        name: &'static str,
+        env: &'static [(&'static str, &'static str)],
+        seed_var: &'static str,
+    },
     /// `cargo ptsa bench ARGS`, keeping its `bench:` lines; the ratio printed after
     /// `ratio` must be at least `min`.
     Bench {
@@ -152,6 +162,23 @@ const FIGURES: &[Figure] = &[
         quoted_in: "docs/method/noise.md, docs/guide/static-record.md",
         measure: Measure::Hidden(&["--noise-terms", "--sets", "200", "--seed", "4242"]),
         ci: ("tests/hidden_terms.rs", "hidden_terms_ci"),
+    },
+    Figure {
+        id: "identify-noise",
+        title: "noise: the white acceleration noise N beyond the file's loop, identified with --identify",
+        claim: "over 100 one-minute records with N = 0.1 cm/s²/√Hz, K = 0.005 cm/s²·√Hz and an untold pickoff noise of 0.2-2 µV added to the loop, N's 95 % intervals cover 0.1 at a rate inside the central 99 % of Binomial(n, 0.95), n the records where N is selected",
+        quoted_in: "docs/method/noise.md",
+        measure: Measure::Ignored {
+            package: "ptsa-host-sim",
+            file: "cli_noise",
+            name: "identify_campaign",
+            env: &[("PTSA_CAMPAIGN", "100,6000,0.005,1000,0.2-2,added")],
+            seed_var: "PTSA_CAMPAIGN_SEED",
+        },
+        ci: (
+            "ptsa-host-sim/tests/cli_noise.rs",
+            "identify_campaign_small",
+        ),
     },
     Figure {
         id: "firmware",
@@ -391,6 +418,7 @@ fn shown(f: &Figure) -> String {
             file,
             name,
         } => format!("cargo test -p {package} --test {file} {name} -- --exact --nocapture"),
+        Measure::Ignored { .. } => ignored_command(f, None).1,
         Measure::Bench { args, .. } => format!("cargo ptsa bench {}", args.join(" ")),
     }
 }
@@ -431,6 +459,17 @@ fn measure_all(f: &Figure, rescore: Option<&Rescore>) -> Result<Vec<Measured>, S
             let args = [file, name, "--", "--exact", "--nocapture"];
             let cmd = cargo(&["test", "-p", package, "--test"], &args);
             Ok(vec![one_test(cmd, &shown(f))?])
+        }
+        Measure::Ignored { .. } => {
+            let (cmd, shown) = ignored_command(f, None);
+            let mut runs = vec![one_test(cmd, &shown)?];
+            if let Some(r) = rescore {
+                let (cmd, shown) = ignored_command(f, Some(&r.seed));
+                let mut run = one_test(cmd, &shown)?;
+                run.heading = format!("Re-scored at seed {}, {}", r.seed, r.chosen);
+                runs.push(run);
+            }
+            Ok(runs)
         }
         Measure::Bench { args, ratio, min } => {
             let (all, seconds) = capture(cargo(&["ptsa", "bench"], args))?;
@@ -484,6 +523,41 @@ fn one_test(cmd: Command, shown: &str) -> Result<Measured, String> {
         text,
         seconds,
     })
+}
+
+/// An ignored campaign's command and its form as a person would type it, with `seed_var`
+/// set to `seed` when given.
+fn ignored_command(f: &Figure, seed: Option<&str>) -> (Command, String) {
+    let Measure::Ignored {
+        package,
+        file,
+        name,
+        env,
+        seed_var,
+    } = f.measure
+    else {
+        unreachable!("only an ignored campaign has this command")
+    };
+    let args = [
+        "--release",
+        "-p",
+        package,
+        "--test",
+        file,
+        name,
+        "--",
+        "--exact",
+        "--ignored",
+        "--nocapture",
+    ];
+    let mut cmd = cargo(&["test"], &args);
+    let mut shown = String::new();
+    for (k, v) in env.iter().chain(seed.map(|s| (seed_var, s)).as_ref()) {
+        cmd.env(k, v);
+        let _ = write!(shown, "{k}={v} ");
+    }
+    let _ = write!(shown, "cargo test {}", args.join(" "));
+    (cmd, shown)
 }
 
 /// `args` with the value of `--seed` replaced by `seed` (or `--seed seed` appended).
@@ -848,7 +922,10 @@ mod tests {
                         let args: Vec<String> = args.iter().map(|s| (*s).to_string()).collect();
                         hidden::parse(&args).is_ok_and(|c| c.name() == name)
                     }
-                    Measure::Xtask(_) | Measure::Test { .. } | Measure::Bench { .. } => false,
+                    Measure::Xtask(_)
+                    | Measure::Test { .. }
+                    | Measure::Ignored { .. }
+                    | Measure::Bench { .. } => false,
                 }),
                 "the campaign {name} has no published figure"
             );
