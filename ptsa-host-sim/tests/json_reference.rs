@@ -9,7 +9,8 @@ use std::path::Path;
 
 use common::ptsa_in;
 use ptsa_host_sim::output::json_reference::{
-    command_schema, discover_schema, noise_schema, triad_schema, undocumented,
+    command_schema, discover_schema, noise_schema, printed_paths, schema_paths, triad_schema,
+    undocumented,
 };
 
 fn root() -> &'static Path {
@@ -74,20 +75,6 @@ fn every_key_discover_prints_is_in_the_reference() {
     );
 }
 
-/// Every key of an object in `v`, at any depth.
-fn keys(v: &serde_json::Value, out: &mut std::collections::BTreeSet<String>) {
-    match v {
-        serde_json::Value::Object(m) => {
-            for (k, x) in m {
-                out.insert(k.clone());
-                keys(x, out);
-            }
-        }
-        serde_json::Value::Array(a) => a.iter().for_each(|x| keys(x, out)),
-        _ => {}
-    }
-}
-
 /// Every key `noise --json` prints is one the types of `noise/json.rs` define (so
 /// docs/reference/json.md, written from them, describes it), and every key they define is
 /// printed by one of these runs: readings with `--identify`, a counter record with
@@ -121,26 +108,11 @@ fn every_key_noise_prints_is_in_the_reference() {
             missing.is_empty(),
             "{args:?}: not in noise/json.rs: {missing:?}"
         );
-        keys(&v, &mut seen);
+        seen.extend(printed_paths(&schema, &v));
     }
-    let mut defined = std::collections::BTreeSet::new();
-    properties(&schema, &mut defined);
+    let defined = schema_paths(&schema);
     let never: Vec<&String> = defined.difference(&seen).collect();
     assert!(never.is_empty(), "defined but never printed: {never:?}");
-}
-
-/// Every property name of `schema` and of its definitions.
-fn properties(schema: &serde_json::Value, out: &mut std::collections::BTreeSet<String>) {
-    match schema {
-        serde_json::Value::Object(m) => {
-            if let Some(serde_json::Value::Object(p)) = m.get("properties") {
-                out.extend(p.keys().cloned());
-            }
-            m.values().for_each(|x| properties(x, out));
-        }
-        serde_json::Value::Array(a) => a.iter().for_each(|x| properties(x, out)),
-        _ => {}
-    }
 }
 
 /// A report line of the single-axis firmware.
@@ -213,12 +185,13 @@ fn every_key_the_other_commands_print_is_in_the_reference() {
         for item in v.as_array().cloned().unwrap_or_else(|| vec![v.clone()]) {
             let missing = undocumented(&schema, &item);
             assert!(missing.is_empty(), "{all:?}: not in its type: {missing:?}");
-            keys(&item, seen.entry(name).or_default());
+            seen.entry(name)
+                .or_default()
+                .extend(printed_paths(&schema, &item));
         }
     }
     for (name, printed) in seen {
-        let mut defined = std::collections::BTreeSet::new();
-        properties(&command_schema(name).unwrap(), &mut defined);
+        let defined = schema_paths(&command_schema(name).unwrap());
         let never: Vec<&String> = defined.difference(&printed).collect();
         assert!(
             never.is_empty(),

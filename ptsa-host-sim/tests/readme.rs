@@ -277,9 +277,12 @@ fn user_pages() -> Vec<String> {
             let page = format!("{dir}/{name}");
             let markdown = std::path::Path::new(&name)
                 .extension()
-                .is_some_and(|x| x == "md");
-            let text = std::fs::read_to_string(root().join(&page)).unwrap();
-            if markdown && !text.starts_with("# Reference:") {
+                .is_some_and(|x| x.eq_ignore_ascii_case("md"));
+            if markdown
+                && !std::fs::read_to_string(root().join(&page))
+                    .unwrap()
+                    .starts_with("# Reference:")
+            {
                 pages.push(page);
             }
         }

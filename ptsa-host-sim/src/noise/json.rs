@@ -54,13 +54,15 @@ pub struct NoiseJson {
     pub terms_fit_dof: usize,
     /// What the run warned of, each as printed on stderr.
     pub warnings: Vec<String>,
-    /// With `--compare`: the record against the simulated loop.
+    /// With `--compare`: the record against the simulated loop (absent without it).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub comparison: Option<ComparisonJson>,
-    /// With `--identify` on a counter record: the noises beyond the instrument file's loop.
+    /// With `--identify` on a counter record: the noises beyond the instrument file's loop
+    /// (absent otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub identification: Option<IdentificationJson>,
-    /// With `--readings --identify`: which IEEE Std 952 terms the record holds.
+    /// With `--readings --identify`: which IEEE Std 952 terms the record holds (absent
+    /// otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub terms_identification: Option<TermsIdentificationJson>,
 }
@@ -286,7 +288,9 @@ pub struct NoiseCandidateJson {
     pub values: Vec<ValueCi>,
     /// Whether its interval reaches the grid's top (its upper end is then a bound).
     pub open_above: bool,
-    /// The sandwich variance over the variance the profile assumes.
+    /// When selected: the factor its interval's threshold was of the profile's own
+    /// `3.84·b²`, `t²·s/3.84` (t Student's 95 % point, s the sandwich variance over the
+    /// variance the profile assumes; 1 where s was not computed).
     pub interval_scale: f64,
 }
 
@@ -340,7 +344,7 @@ pub struct TermsIdentificationJson {
     pub chi2: f64,
     /// Its degrees of freedom.
     pub dof: usize,
-    /// Records drawn per round to weigh the fit.
+    /// Records drawn in all, to weigh the fit.
     pub replicas: usize,
     /// Rounds of drawing.
     pub rounds: usize,

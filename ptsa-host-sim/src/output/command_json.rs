@@ -134,13 +134,15 @@ pub struct GapJson {
 pub struct CorrectJson {
     /// The data file corrected.
     pub data: String,
-    /// The calibration file applied.
+    /// The calibration applied: its file, or `the instrument file NAME` when none was
+    /// given (the file's nominal terms).
     pub calibration: String,
     /// The instrument file.
     pub instrument: String,
     /// The instrument file's local gravity, cm/s².
     pub g_cm_s2: f64,
-    /// One per row of the data.
+    /// One per row of the data: `label` and `line`, and the other keys only for a row
+    /// with a reading.
     pub rows: Vec<CorrectedRow>,
     /// What the run warned of, each as printed on stderr.
     pub warnings: Vec<String>,
@@ -172,7 +174,8 @@ pub struct TriadCorrectJson {
     /// The calibration's orientations, which give `f`'s frame: `exact` (the block's frame)
     /// or `approximate` (the triad's own).
     pub frame: String,
-    /// One per row of the data.
+    /// One per row of the data: `label` and `line`, and the other keys only for a row
+    /// with three readings.
     pub rows: Vec<TriadCorrectedRow>,
     /// What the run warned of, each as printed on stderr.
     pub warnings: Vec<String>,

@@ -242,12 +242,39 @@ pub fn page() -> String {
 /// A map's keys are its own (any name); an object's must be the schema's properties.
 #[must_use]
 pub fn undocumented(schema: &Value, value: &Value) -> Vec<String> {
-    let mut out = Vec::new();
+    let mut out = Paths::default();
     walk(schema, schema, value, "", &mut out);
-    out
+    out.missing
 }
 
-fn walk(root: &Value, node: &Value, value: &Value, path: &str, out: &mut Vec<String>) {
+/// The paths of the keys `value` holds that `schema` defines, as the page writes them
+/// (`a[].b`, `a.NAME.b`).
+#[must_use]
+pub fn printed_paths(schema: &Value, value: &Value) -> std::collections::BTreeSet<String> {
+    let mut out = Paths::default();
+    walk(schema, schema, value, "", &mut out);
+    out.found
+}
+
+/// The paths of every key `schema` defines, as the page writes them.
+#[must_use]
+pub fn schema_paths(schema: &Value) -> std::collections::BTreeSet<String> {
+    let mut page = String::new();
+    rows(&mut page, schema, schema, "");
+    page.lines()
+        .filter_map(|l| l.strip_prefix("| `")?.split('`').next())
+        .map(str::to_string)
+        .collect()
+}
+
+/// What [`walk`] finds: the keys printed that the schema defines, and those it does not.
+#[derive(Default)]
+struct Paths {
+    found: std::collections::BTreeSet<String>,
+    missing: Vec<String>,
+}
+
+fn walk(root: &Value, node: &Value, value: &Value, path: &str, out: &mut Paths) {
     let node = resolve(root, node);
     if let Some(alts) = node.get("anyOf").and_then(Value::as_array) {
         // The alternative that is not null.
@@ -264,8 +291,11 @@ fn walk(root: &Value, node: &Value, value: &Value, path: &str, out: &mut Vec<Str
             if let Some(props) = node.get("properties").and_then(Value::as_object) {
                 for (k, v) in map {
                     match props.get(k) {
-                        Some(sub) => walk(root, sub, v, &format!("{path}{k}."), out),
-                        None => out.push(format!("{path}{k}")),
+                        Some(sub) => {
+                            out.found.insert(format!("{path}{k}"));
+                            walk(root, sub, v, &format!("{path}{k}."), out);
+                        }
+                        None => out.missing.push(format!("{path}{k}")),
                     }
                 }
             } else if let Some(sub) = node.get("additionalProperties").filter(|s| s.is_object()) {
