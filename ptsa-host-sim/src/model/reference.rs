@@ -34,7 +34,7 @@ pub fn instrument_page() -> String {
         "# Reference: the instrument file's loop entries\n\n\
          Every numeric entry of the `[pendulum]`, `[pickoff]`, `[torquer]`, `[electronics]` \
          and `[stops]` tables, generated from the table the reader, `--write-instrument` \
-         and `ptsa discover` go through (`PARAMETERS`, `model/instrument.rs`) by the test \
+         and `ptsa discover` go through (`PARAMETERS`, `model/instrument/schema.rs`) by the test \
          `model::reference::tests::the_pages_are_current`. A toleranced entry can be fitted \
          by `ptsa discover` and rewritten by `--write-instrument`. The other sections \
          (`[instrument]`, `[board]`, `[model_equation]`, `[plausibility]`) and the classes \
