@@ -26,7 +26,7 @@ pub struct Board {
     /// shift: `V_REF/2` centres a unipolar converter).
     pub front_end_offset_v: f64,
     /// The torquer current the board's current source is set to, mA, when the file gives it
-    /// (it then sets [`Instrument::full_current_ma`]).
+    /// (it then sets [`super::Instrument::full_current_ma`]).
     pub torquer_current_ma: Option<f64>,
 }
 

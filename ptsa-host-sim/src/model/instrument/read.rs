@@ -6,7 +6,10 @@ use std::path::Path;
 use ptsa_core::adc::{AdcFormat, Alignment, Coding};
 use toml::Spanned;
 
-use super::schema::*;
+use super::schema::{
+    BoardT, ElectronicsT, FileT, IdentT, LOOP_SECTIONS, LooplessT, MODEL_EQUATION, ModelEquationT,
+    Num, NumOrParam, PARAMETERS, Param, Parameter, PlausibilityT, Raw, positive,
+};
 use super::units::{ReadingScale, ReadingUnit};
 use super::{Board, Instrument, Plausibility, Tolerance};
 use crate::model::effects::{CandidateId, Effects};

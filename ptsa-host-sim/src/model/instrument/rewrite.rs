@@ -74,7 +74,7 @@ fn add_entry(table: &mut Table, name: &str, text: &str, above: String) {
 fn toleranced<'a>(f: &'a FileT, key: &str) -> Option<&'a Param> {
     match (toleranceable(key)?.raw)(f) {
         Raw::Param(p) => Some(p.get_ref()),
-        Raw::Optional(p) => p.map(|p| p.get_ref()),
+        Raw::Optional(p) => p.map(toml::Spanned::get_ref),
         Raw::NumOrParam(g) => match g.get_ref() {
             NumOrParam::Param(q) => Some(q),
             NumOrParam::Num(_) => None,
@@ -251,21 +251,16 @@ impl Instrument {
                 .find(|m| m.id == *id)
                 .ok_or_else(|| fail(file, format!("{id}: not a term of the model equation")))?;
             let x = format!("{:?}", m.sign * v + 0.0);
-            if section(&mut doc, "model_equation").is_none() {
+            if let Some(t) = section(&mut doc, "model_equation") {
+                if set_entry(t, m.key, value(&x), note, false).is_none() {
+                    add_entry(t, m.key, &x, note_line(note));
+                }
+            } else {
                 let mut t = Table::new();
                 t.decor_mut().set_prefix("\n");
+                let above = format!("{MODEL_EQUATION_HEADER}{}", note_line(note));
+                add_entry(&mut t, m.key, &x, above);
                 doc.insert("model_equation", Item::Table(t));
-                add_entry(
-                    section(&mut doc, "model_equation").expect("just added"),
-                    m.key,
-                    &x,
-                    format!("{MODEL_EQUATION_HEADER}{}", note_line(note)),
-                );
-                continue;
-            }
-            let t = section(&mut doc, "model_equation").expect("present");
-            if set_entry(t, m.key, value(&x), note, false).is_none() {
-                add_entry(t, m.key, &x, note_line(note));
             }
         }
         let out = doc.to_string();
