@@ -116,6 +116,16 @@ fn section<'a>(doc: &'a mut DocumentMut, name: &str) -> Option<&'a mut Table> {
 }
 
 impl Instrument {
+    /// The section that holds the bias and the local gravity: `[electronics]` with a loop,
+    /// `[instrument]` without.
+    fn values_section(&self) -> &'static str {
+        if self.has_loop {
+            "electronics"
+        } else {
+            "instrument"
+        }
+    }
+
     /// The text of instrument file `src` with new values for toleranced parameters,
     /// everything else (comments, order, other entries) kept: each `(key, value, note)`
     /// rewrites that entry's inline table with the new `value` in the same tolerance form
@@ -181,14 +191,9 @@ impl Instrument {
         note: &str,
     ) -> Result<String, InstrumentError> {
         let src = src.strip_prefix('\u{feff}').unwrap_or(src);
-        let instr = Self::parse(src, file)?;
+        let name = Self::parse(src, file)?.values_section();
         let cx = Ctx { file, src };
         let mut doc = document(&cx)?;
-        let name = if instr.has_loop {
-            "electronics"
-        } else {
-            "instrument"
-        };
         section(&mut doc, name)
             .and_then(|t| {
                 let g = value(&format!("{g_cm_s2:?}"));
@@ -231,14 +236,9 @@ impl Instrument {
         changes: &[(CandidateId, f64, String)],
     ) -> Result<String, InstrumentError> {
         let src = src.strip_prefix('\u{feff}').unwrap_or(src);
-        let before = Self::parse(src, file)?;
+        let bias_section = Self::parse(src, file)?.values_section();
         let cx = Ctx { file, src };
         let mut doc = document(&cx)?;
-        let bias_section = if before.has_loop {
-            "electronics"
-        } else {
-            "instrument"
-        };
         for (id, v, note) in changes {
             if *id == CandidateId::Bias {
                 section(&mut doc, bias_section)
