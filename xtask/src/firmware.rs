@@ -146,27 +146,7 @@ fn check(only: &[String], overwrite_log: bool) -> Result<(), String> {
     let fw_target = firmware_target_dir()?;
 
     let mut report = Report::default();
-    // Format and lints of the firmware crate (it is outside the host workspace's checks).
-    match cargo_firmware(&fw, &fw_target, &["fmt", "--check"]) {
-        Ok(()) => report.pass("firmware: rustfmt clean"),
-        Err(e) => report.fail(&format!("firmware: {e} (run `cd firmware && cargo fmt`)")),
-    }
-    let clippy = ["clippy", "--all-targets", "--", "-D", "warnings"];
-    let clippy_qemu = [
-        "clippy",
-        "--all-targets",
-        "--features",
-        "qemu",
-        "--",
-        "-D",
-        "warnings",
-    ];
-    match cargo_firmware(&fw, &fw_target, &clippy)
-        .and_then(|()| cargo_firmware(&fw, &fw_target, &clippy_qemu))
-    {
-        Ok(()) => report.pass("firmware: clippy clean (-D warnings, with and without `qemu`)"),
-        Err(e) => report.fail(&format!("firmware: {e}")),
-    }
+    format_and_lint_checks(&fw, &fw_target, &mut report);
 
     // The board build: production image for the size budget, test images for the vectors.
     cargo_firmware(&fw, &fw_target, &["build", "--release", "--bins"])?;
@@ -180,10 +160,7 @@ fn check(only: &[String], overwrite_log: bool) -> Result<(), String> {
     let out_dir = fw_target.join("golden-out");
     std::fs::create_dir_all(&out_dir)
         .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
-    let mut worst: Option<(u32, String)> = None;
-    let mut worst_plain: u32 = 0;
-    let mut worst_bottom: u32 = 0;
-    let mut means = Vec::new();
+    let mut ticks = TickWorst::default();
     for name in &vectors {
         match run_vector(&root, &elf_dir, &out_dir, name) {
             Ok(b) => {
@@ -192,34 +169,12 @@ fn check(only: &[String], overwrite_log: bool) -> Result<(), String> {
                      interrupt max {} instructions, mean {:.2}; gate bottom half {})",
                     b.ticks, b.max, b.mean, b.bottom_half
                 ));
-                if worst.as_ref().is_none_or(|(w, _)| b.max > *w) {
-                    worst = Some((b.max, name.clone()));
-                }
-                worst_plain = worst_plain.max(b.max_plain);
-                worst_bottom = worst_bottom.max(b.bottom_half);
-                means.push(b.mean);
+                ticks.add(name, &b);
             }
             Err(e) => report.fail(&format!("golden {name}: {e}")),
         }
     }
-    match worst {
-        Some((max, name)) => {
-            let msg = format!(
-                "tick interrupt (TIM2 handler, whole): worst case {max} instructions over all \
-                 vectors (vector {name}; {worst_plain} on ticks that close no gate; limit \
-                 {MAX_TICK_INSTRUCTIONS}); means per vector {:.2}..{:.2}; gate bottom half \
-                 (EXTI0, once per gate) at most {worst_bottom}",
-                means.iter().copied().fold(f64::INFINITY, f64::min),
-                means.iter().copied().fold(0.0, f64::max),
-            );
-            if max <= MAX_TICK_INSTRUCTIONS {
-                report.pass(&msg);
-            } else {
-                report.fail(&msg);
-            }
-        }
-        None => report.fail("tick interrupt: no vector ran, nothing measured"),
-    }
+    ticks.check(&mut report);
 
     // The production image on the emulated board.
     match production_under_qemu(&root, &fw, &fw_target, &elf_dir.join("ptsa"), overwrite_log) {
@@ -246,6 +201,83 @@ fn check(only: &[String], overwrite_log: bool) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("{} firmware check(s) failed", report.failed))
+    }
+}
+
+/// Format and lints of the firmware crate (it is outside the host workspace's checks):
+/// `cargo fmt --check`, then clippy with warnings denied, without and with `qemu`.
+fn format_and_lint_checks(fw: &Path, fw_target: &Path, report: &mut Report) {
+    match cargo_firmware(fw, fw_target, &["fmt", "--check"]) {
+        Ok(()) => report.pass("firmware: rustfmt clean"),
+        Err(e) => report.fail(&format!("firmware: {e} (run `cd firmware && cargo fmt`)")),
+    }
+    let clippy = ["clippy", "--all-targets", "--", "-D", "warnings"];
+    let clippy_qemu = [
+        "clippy",
+        "--all-targets",
+        "--features",
+        "qemu",
+        "--",
+        "-D",
+        "warnings",
+    ];
+    match cargo_firmware(fw, fw_target, &clippy)
+        .and_then(|()| cargo_firmware(fw, fw_target, &clippy_qemu))
+    {
+        Ok(()) => report.pass("firmware: clippy clean (-D warnings, with and without `qemu`)"),
+        Err(e) => report.fail(&format!("firmware: {e}")),
+    }
+}
+
+/// The tick interrupt's instruction counts over the golden vectors run so far: the worst
+/// case and its vector, the worst on ticks that close no gate, the worst gate bottom half,
+/// and each vector's mean.
+#[derive(Default)]
+struct TickWorst {
+    /// The worst whole-handler count and the vector that gave it (the first, on a tie).
+    worst: Option<(u32, String)>,
+    /// The worst count on ticks that close no gate.
+    worst_plain: u32,
+    /// The worst count of the gate bottom half (EXTI0).
+    worst_bottom: u32,
+    /// The mean count per tick of each vector.
+    means: Vec<f64>,
+}
+
+impl TickWorst {
+    /// Take in the counts `b` of the vector `name`.
+    fn add(&mut self, name: &str, b: &Budget) {
+        if self.worst.as_ref().is_none_or(|(w, _)| b.max > *w) {
+            self.worst = Some((b.max, name.to_string()));
+        }
+        self.worst_plain = self.worst_plain.max(b.max_plain);
+        self.worst_bottom = self.worst_bottom.max(b.bottom_half);
+        self.means.push(b.mean);
+    }
+
+    /// The budget check: the worst case within [`MAX_TICK_INSTRUCTIONS`], one line of the
+    /// report.
+    fn check(&self, report: &mut Report) {
+        match &self.worst {
+            Some((max, name)) => {
+                let msg = format!(
+                    "tick interrupt (TIM2 handler, whole): worst case {max} instructions over all \
+                     vectors (vector {name}; {} on ticks that close no gate; limit \
+                     {MAX_TICK_INSTRUCTIONS}); means per vector {:.2}..{:.2}; gate bottom half \
+                     (EXTI0, once per gate) at most {}",
+                    self.worst_plain,
+                    self.means.iter().copied().fold(f64::INFINITY, f64::min),
+                    self.means.iter().copied().fold(0.0, f64::max),
+                    self.worst_bottom,
+                );
+                if *max <= MAX_TICK_INSTRUCTIONS {
+                    report.pass(&msg);
+                } else {
+                    report.fail(&msg);
+                }
+            }
+            None => report.fail("tick interrupt: no vector ran, nothing measured"),
+        }
     }
 }
 
