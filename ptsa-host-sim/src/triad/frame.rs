@@ -305,6 +305,26 @@ fn parse_row(
     cols: &[&str],
     record: bool,
 ) -> Result<Position> {
+    let (mut p, counts) = read_cells(name, line, cells, cols)?;
+    take_counts(name, cols, counts, &mut p)?;
+    gravity_direction(name, record, &mut p)?;
+    if p.label.is_empty() {
+        p.label = format!("line {line}");
+    }
+    Ok(p)
+}
+
+/// Each axis's counts as read: pulses, ticks.
+type RawCounts = [[Option<f64>; 2]; 3];
+
+/// The cells of the row at `line` read into a position, each checked against what its
+/// column expects; the counts as read are returned beside it, not yet checked.
+fn read_cells(
+    name: &str,
+    line: usize,
+    cells: &[String],
+    cols: &[&str],
+) -> Result<(Position, RawCounts)> {
     let mut p = Position {
         label: String::new(),
         line,
@@ -317,8 +337,7 @@ fn parse_row(
         sigma_cm_s2: None,
         sigma_angle_rad: None,
     };
-    // Each axis's counts as read: pulses, ticks.
-    let mut counts = [[None; 2]; 3];
+    let mut counts: RawCounts = [[None; 2]; 3];
     for (j, (cell, &col)) in cells.iter().zip(cols).enumerate() {
         if col == "label" {
             p.label.clone_from(cell);
@@ -358,6 +377,13 @@ fn parse_row(
             }
         }
     }
+    Ok((p, counts))
+}
+
+/// Each axis's counts as read into `p`, checked as the case frame checks them: never beside
+/// the axis's measured column, and both of the gate (pulses and ticks) or neither.
+fn take_counts(name: &str, cols: &[&str], counts: RawCounts, p: &mut Position) -> Result<()> {
+    let line = p.line;
     let at = |c: &str| cols.iter().position(|k| *k == c).map_or(0, |j| j + 1);
     for (axis, names) in AXIS_COLUMNS.iter().enumerate() {
         let [pulses, ticks] = counts[axis];
@@ -384,6 +410,13 @@ fn parse_row(
             p.counts[axis] = Some([pv, tv]);
         }
     }
+    Ok(())
+}
+
+/// The direction of `p`'s nominal gravity (zero when it has none), its magnitude checked to
+/// be 1 g within [`G_MAGNITUDE_TOLERANCE`] unless the row is of a `record` to correct.
+fn gravity_direction(name: &str, record: bool, p: &mut Position) -> Result<()> {
+    let line = p.line;
     let mag = p.g_nominal.iter().map(|x| x * x).sum::<f64>().sqrt();
     if !record && (mag - 1.0).abs() > G_MAGNITUDE_TOLERANCE {
         bail!(
@@ -401,10 +434,7 @@ fn parse_row(
     } else {
         [0.0; 3]
     };
-    if p.label.is_empty() {
-        p.label = format!("line {line}");
-    }
-    Ok(p)
+    Ok(())
 }
 
 /// `positions` as a triad file (the columns of [`TRIAD_COLUMNS`] that any row gives, and
