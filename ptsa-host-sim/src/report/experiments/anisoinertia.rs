@@ -77,6 +77,41 @@ pub fn run(
     lever_cm: [f64; 3],
 ) -> Result<AnisoRun> {
     let s62 = r890::section_6_2()?;
+    let rows = simulate_table(instr, opts, aniso_g_cm2, lever_cm, &s62)?;
+    let k = aniso_g_cm2 / instr.pendulosity_g_cm();
+    let (w1, w0) = (s62.rate_rad_s, s62.reference_rate_rad_s);
+    let (sim_mean, rep_mean, k_sim) = coefficient_as_reported(&rows, w1, w0);
+    let t = error_table(&rows, aniso_g_cm2, k);
+    let plot = error_plot(&rows, k, w1, w0);
+    let notes = vec![format!(
+        "anisoinertia: mean |A_in| at 45-deg positions: simulated {sim_mean:.3} cm/s^2 (report {rep_mean:.3}); coefficient {k_sim:.3} cm (configured {k:.3}, report {})",
+        s62.coefficient_cm
+    )];
+    Ok(AnisoRun {
+        rows,
+        k_simulated_cm: k_sim,
+        k_configured_cm: k,
+        output: Output {
+            tables: vec![t],
+            plots: vec![Figure::single("anisoinertia-table-6-1", plot)],
+            notes,
+        },
+    })
+}
+
+/// Each row of Table 6.1 simulated as a difference (the table at section 6.2's rate, minus
+/// at its reference rate) with the anisoinertia `aniso_g_cm2` and with the baseline (0),
+/// beside the report's value and eq. 6.5's prediction.
+///
+/// # Errors
+/// The report's transcription of Table 6.1 is malformed.
+fn simulate_table(
+    instr: &Instrument,
+    opts: &SimOptions,
+    aniso_g_cm2: f64,
+    lever_cm: [f64; 3],
+    s62: &r890::Section62,
+) -> Result<Vec<AnisoRow>> {
     let table = r890::table_6_1()?;
     let mut with = instr.clone();
     with.anisoinertia_g_cm2 = aniso_g_cm2;
@@ -84,7 +119,7 @@ pub fn run(
     base.anisoinertia_g_cm2 = 0.0;
     let k = aniso_g_cm2 / instr.pendulosity_g_cm();
     let (w1, w0) = (s62.rate_rad_s, s62.reference_rate_rad_s);
-    let rows: Vec<AnisoRow> = table
+    Ok(table
         .par_iter()
         .map(|r| {
             let s = fixtures::rate_table(r.ia_deg, w1, w0, lever_cm);
@@ -101,26 +136,29 @@ pub fn run(
                 predicted: k * (c[IA] * c[PA] - rf[IA] * rf[PA]),
             }
         })
-        .collect();
+        .collect())
+}
+
+/// The coefficient as the report derives it from `rows` (table rates `w1`, reference `w0`,
+/// rad/s): `(simulated mean |A_in| at 45°, the report's, the simulated coefficient)`, cm/s²
+/// and cm.
+fn coefficient_as_reported(rows: &[AnisoRow], w1: f64, w0: f64) -> (f64, f64, f64) {
     // w_IA·w_PA at a 45° position, measurement minus reference.
     let w45 = 0.5 * (w1 * w1 - w0 * w0);
     let is45 = |deg: f64| (deg % 90.0 - 45.0).abs() < 1e-9;
-    let mean = |v: Vec<f64>| {
-        #[allow(clippy::cast_precision_loss)]
-        let n = v.len().max(1) as f64;
-        v.iter().sum::<f64>() / n
-    };
     let sim_mean = mean(
-        rows.iter()
+        &rows
+            .iter()
             .filter(|r| is45(r.ia_deg))
             .map(|r| r.simulated.abs())
-            .collect(),
+            .collect::<Vec<_>>(),
     );
     let rep_mean = mean(
-        rows.iter()
+        &rows
+            .iter()
             .filter(|r| is45(r.ia_deg))
             .filter_map(|r| r.report.map(f64::abs))
-            .collect(),
+            .collect::<Vec<_>>(),
     );
     // As the report derives it (the mean magnitude at 45°), with the sign of the simulated
     // rows' correlation with w_IA·w_PA, which the magnitudes lose.
@@ -130,9 +168,20 @@ pub fn run(
         .map(|r| r.simulated * (2.0 * r.ia_deg).to_radians().sin())
         .sum::<f64>()
         .signum();
-    let k_sim = sign * sim_mean / w45;
-    let t = error_table(&rows, aniso_g_cm2, k);
-    let plot = Plot {
+    (sim_mean, rep_mean, sign * sim_mean / w45)
+}
+
+/// The mean of `v` (0 when empty).
+fn mean(v: &[f64]) -> f64 {
+    #[allow(clippy::cast_precision_loss)]
+    let n = v.len().max(1) as f64;
+    v.iter().sum::<f64>() / n
+}
+
+/// Table 6.1's figure: `rows` simulated, the report's, the baseline, and `k·w_IA·w_PA`
+/// (coefficient `k`, cm; table rate `w1`, reference `w0`, rad/s) over the IA position.
+fn error_plot(rows: &[AnisoRow], k: f64, w1: f64, w0: f64) -> Plot {
+    Plot {
         title: "Table 6.1: anisoinertia error vs IA position".into(),
         x_label: "IA position, deg".into(),
         y_label: "A_in(1.0 rad/s) - A_in(0.05 rad/s), cm/s^2".into(),
@@ -162,21 +211,7 @@ pub fn run(
             ),
         ],
         ..Plot::default()
-    };
-    let notes = vec![format!(
-        "anisoinertia: mean |A_in| at 45-deg positions: simulated {sim_mean:.3} cm/s^2 (report {rep_mean:.3}); coefficient {k_sim:.3} cm (configured {k:.3}, report {})",
-        s62.coefficient_cm
-    )];
-    Ok(AnisoRun {
-        rows,
-        k_simulated_cm: k_sim,
-        k_configured_cm: k,
-        output: Output {
-            tables: vec![t],
-            plots: vec![Figure::single("anisoinertia-table-6-1", plot)],
-            notes,
-        },
-    })
+    }
 }
 
 /// Table 6.1 of `rows`, for anisoinertia `aniso_g_cm2` (g·cm²) and its coefficient `k` (cm).
