@@ -22,7 +22,7 @@ use anyhow::{Context, Result, bail};
 
 use super::calibration;
 use super::outcome::Discovery;
-use super::report::Calibration;
+use super::report::{Calibration, RowResult};
 use crate::model::condition::{Condition, RowKind};
 use crate::output::{Figure, Plot, Series, StagedDir, XAxis, significant};
 
@@ -208,65 +208,15 @@ pub fn markdown(
     for n in calibration::show::statements(c) {
         let _ = writeln!(s, "\nNote: {n}");
     }
-    let measured: Vec<usize> = (0..c.terms.len())
-        .filter(|&i| c.terms[i].measured)
-        .collect();
-    if measured.len() > 1 {
-        s.push_str("\n## Correlation of the measured terms\n\n| |");
-        for &i in &measured {
-            let _ = write!(s, " {} |", c.terms[i].symbol);
-        }
-        s.push_str("\n|---|");
-        s.push_str(&"---|".repeat(measured.len()));
-        s.push('\n');
-        for &i in &measured {
-            let _ = write!(s, "| {} |", c.terms[i].symbol);
-            for &j in &measured {
-                let r = c.correlation[i][j];
-                let _ = write!(
-                    s,
-                    " {} |",
-                    r.map_or_else(|| "—".into(), |r| format!("{r:+.3}"))
-                );
-            }
-            s.push('\n');
-        }
-    }
+    correlation_table(&mut s, c);
     s.push_str(
         "\n## Design\n\nEach row's kind and gravity's specific force along IA, PA, OA with the case at rest (g).\n\n| row | kind | g_IA | g_PA | g_OA |\n|---|---|---|---|---|\n",
     );
-    for r in p.rows {
-        let kind = match r.kind {
-            RowKind::Absolute => "absolute",
-            RowKind::Difference => "difference",
-            RowKind::Response => "response",
-        };
-        let _ = writeln!(
-            s,
-            "| {} | {kind} | {} | {} | {} |",
-            r.label,
-            significant(r.g[0], 6),
-            significant(r.g[1], 6),
-            significant(r.g[2], 6)
-        );
-    }
+    table_rows(&mut s, p.rows.iter().map(design_row));
     s.push_str(
         "\n## Residuals\n\nMeasured against the instrument's model (baseline, nuisance terms and the selected terms), cm/s² (a response row's gain and phase in their own units).\n\n| row | measured | 1 σ | model | residual | residual/σ | set aside |\n|---|---|---|---|---|---|---|\n",
     );
-    for r in &d.table {
-        let res = r.residual_extended_cm_s2;
-        let _ = writeln!(
-            s,
-            "| {} | {} | {} | {} | {} | {} | {} |",
-            r.label,
-            cell(r.measured_cm_s2),
-            cell(Some(r.sigma_cm_s2)),
-            cell(Some(r.extended_cm_s2)),
-            cell(res),
-            res.map_or_else(|| "—".into(), |x| format!("{:+.2}", x / r.sigma_cm_s2)),
-            if r.outlier { "yes" } else { "" }
-        );
-    }
+    table_rows(&mut s, d.table.iter().map(residual_row));
     let _ = writeln!(
         s,
         "\n![residuals]({plot})\n\n## Verdict\n\n{}",
@@ -279,6 +229,75 @@ pub fn markdown(
         }
     }
     s
+}
+
+/// `rows` as the body of a Markdown table, one line `| a | b | … |` each.
+fn table_rows(s: &mut String, rows: impl Iterator<Item = Vec<String>>) {
+    for row in rows {
+        s.push('|');
+        for c in row {
+            let _ = write!(s, " {c} |");
+        }
+        s.push('\n');
+    }
+}
+
+/// The design table's row of `r`: its label, its kind and gravity's specific force along
+/// IA, PA, OA (g).
+fn design_row(r: &Condition) -> Vec<String> {
+    let kind = match r.kind {
+        RowKind::Absolute => "absolute",
+        RowKind::Difference => "difference",
+        RowKind::Response => "response",
+    };
+    let mut row = vec![r.label.clone(), kind.to_string()];
+    row.extend(r.g.iter().map(|&g| significant(g, 6)));
+    row
+}
+
+/// The residual table's row of `r`: measured, 1 σ, the model's value, the residual, the
+/// residual over σ, and whether it was set aside.
+fn residual_row(r: &RowResult) -> Vec<String> {
+    let res = r.residual_extended_cm_s2;
+    vec![
+        r.label.clone(),
+        cell(r.measured_cm_s2),
+        cell(Some(r.sigma_cm_s2)),
+        cell(Some(r.extended_cm_s2)),
+        cell(res),
+        res.map_or_else(|| "—".into(), |x| format!("{:+.2}", x / r.sigma_cm_s2)),
+        if r.outlier { "yes" } else { "" }.to_string(),
+    ]
+}
+
+/// The correlation of the measured terms, when more than one is measured: a table with a
+/// row and a column per term.
+fn correlation_table(s: &mut String, c: &Calibration) {
+    let measured: Vec<usize> = (0..c.terms.len())
+        .filter(|&i| c.terms[i].measured)
+        .collect();
+    if measured.len() <= 1 {
+        return;
+    }
+    s.push_str("\n## Correlation of the measured terms\n\n| |");
+    for &i in &measured {
+        let _ = write!(s, " {} |", c.terms[i].symbol);
+    }
+    s.push_str("\n|---|");
+    s.push_str(&"---|".repeat(measured.len()));
+    s.push('\n');
+    table_rows(
+        s,
+        measured.iter().map(|&i| {
+            let mut row = vec![c.terms[i].symbol.clone()];
+            row.extend(
+                measured.iter().map(|&j| {
+                    c.correlation[i][j].map_or_else(|| "—".into(), |r| format!("{r:+.3}"))
+                }),
+            );
+            row
+        }),
+    );
 }
 
 /// The calibration table as CSV (`NAME.csv`): `#` lines with the provenance, then one row
