@@ -1,5 +1,6 @@
 //! `cargo xtask ci`: everything CI runs, in order, stopping at the first failure.
 
+use std::path::PathBuf;
 use std::process::Command;
 use std::time::Instant;
 
@@ -40,75 +41,115 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         _ => return Err(Error::Usage("expected at most --no-firmware".into())),
     };
     check_needs(skip_firmware)?;
-    let root = util::root();
-    let cargo = util::cargo();
-    let t0 = Instant::now();
-    let step = |name: &str| eprintln!("\n== {name} ({:.0} s)", t0.elapsed().as_secs_f64());
+    let ci = Steps {
+        root: util::root(),
+        cargo: util::cargo(),
+        t0: Instant::now(),
+    };
 
-    step("rustfmt");
-    util::run(&root, &cargo, &["fmt", "--all", "--", "--check"])?;
+    ci.format_and_lints()?;
 
-    step("clippy (all targets, warnings denied)");
-    util::run(
-        &root,
-        &cargo,
-        &[
+    ci.step("ptsa-core as a crates.io package (its files, then a dry-run publish that builds it)");
+    package_ptsa_core(&ci.root, &ci.cargo)?;
+
+    ci.step("golden vectors are what the generator makes");
+    golden::run(&[])?;
+
+    ci.step("C twin written from ARITHMETIC.md agrees with every golden vector");
+    golden::check_c_twin()?;
+
+    ci.step("C twin again, with CARGO_TARGET_DIR set to a directory that does not exist yet");
+    c_twin_in_fresh_target_dir()?;
+
+    ci.step("host tests (optimised test profile, overflow checks on)");
+    // A test that cannot run on this machine (a SIMD level the CPU lacks) writes a line
+    // here; the summary at the end lists it with the tests that are ignored by design.
+    let skipped = util::target_dir()?.join("ci-skipped.txt");
+    let _ = std::fs::remove_file(&skipped);
+    host_tests(&ci.root, &ci.cargo, &skipped)?;
+
+    ci.cross_build(skip_firmware)?;
+
+    if skip_firmware {
+        eprintln!("\n(firmware checks skipped by --no-firmware)");
+    } else {
+        ci.step("firmware on the emulated STM32F405 (QEMU)");
+        firmware::ci()?;
+        ci.step(
+            "processor in the loop (QEMU): static, static with noise, sine; gate for gate against the host",
+        );
+        eprintln!("{}", pil::ci()?);
+    }
+
+    eprintln!("\nci passed in {:.0} s", ci.t0.elapsed().as_secs_f64());
+    eprintln!("{}", not_run(&ci.root, &ci.cargo, &skipped, skip_firmware));
+    Ok(())
+}
+
+/// What the steps share: the workspace's root, the cargo that runs them, and when the run
+/// began (each step's heading says the seconds since).
+struct Steps {
+    /// The workspace's root, where every cargo command runs.
+    root: PathBuf,
+    /// The cargo to run (`$CARGO`, else `cargo`).
+    cargo: String,
+    /// When the run began.
+    t0: Instant,
+}
+
+impl Steps {
+    /// The heading of the step `name`, with the seconds since the run began.
+    fn step(&self, name: &str) {
+        eprintln!("\n== {name} ({:.0} s)", self.t0.elapsed().as_secs_f64());
+    }
+
+    /// `cargo args` in the workspace's root, echoed; an error when it fails.
+    fn run_cargo(&self, args: &[&str]) -> Result<(), String> {
+        util::run(&self.root, &self.cargo, args)
+    }
+
+    /// The format and lint steps: rustfmt, clippy on all targets and rustdoc, warnings
+    /// denied.
+    fn format_and_lints(&self) -> Result<(), Error> {
+        self.step("rustfmt");
+        self.run_cargo(&["fmt", "--all", "--", "--check"])?;
+
+        self.step("clippy (all targets, warnings denied)");
+        self.run_cargo(&[
             "clippy",
             "--workspace",
             "--all-targets",
             "--",
             "-D",
             "warnings",
-        ],
-    )?;
+        ])?;
 
-    step("rustdoc (warnings denied)");
-    let status = Command::new(&cargo)
-        .args(["doc", "--workspace", "--no-deps"])
-        .env("RUSTDOCFLAGS", "-D warnings")
-        .current_dir(&root)
-        .status()
-        .map_err(|e| format!("cannot run cargo doc: {e}"))?;
-    if !status.success() {
-        return Err(format!("cargo doc failed ({status})").into());
+        self.step("rustdoc (warnings denied)");
+        let status = Command::new(&self.cargo)
+            .args(["doc", "--workspace", "--no-deps"])
+            .env("RUSTDOCFLAGS", "-D warnings")
+            .current_dir(&self.root)
+            .status()
+            .map_err(|e| format!("cannot run cargo doc: {e}"))?;
+        if !status.success() {
+            return Err(format!("cargo doc failed ({status})").into());
+        }
+        Ok(())
     }
 
-    step("ptsa-core as a crates.io package (its files, then a dry-run publish that builds it)");
-    package_ptsa_core(&root, &cargo)?;
-
-    step("golden vectors are what the generator makes");
-    golden::run(&[])?;
-
-    step("C twin written from ARITHMETIC.md agrees with every golden vector");
-    golden::check_c_twin()?;
-
-    step("C twin again, with CARGO_TARGET_DIR set to a directory that does not exist yet");
-    c_twin_in_fresh_target_dir()?;
-
-    step("host tests (optimised test profile, overflow checks on)");
-    // A test that cannot run on this machine (a SIMD level the CPU lacks) writes a line
-    // here; the summary at the end lists it with the tests that are ignored by design.
-    let skipped = util::target_dir()?.join("ci-skipped.txt");
-    let _ = std::fs::remove_file(&skipped);
-    host_tests(&root, &cargo, &skipped)?;
-
-    // With defmt it is built again by the firmware (its dependency has the feature on),
-    // so only without the firmware checks is that build a step of its own.
-    step(if skip_firmware {
-        "ptsa-core for the Cortex-M4F, with and without defmt"
-    } else {
-        "ptsa-core for the Cortex-M4F without defmt (with it: in the firmware's build)"
-    });
-    util::run(
-        &root,
-        &cargo,
-        &["build", "-p", "ptsa-core", "--target", THUMB],
-    )?;
-    if skip_firmware {
-        util::run(
-            &root,
-            &cargo,
-            &[
+    /// ptsa-core built for the Cortex-M4F without defmt, and with it when the firmware,
+    /// which builds it so, is skipped.
+    fn cross_build(&self, skip_firmware: bool) -> Result<(), Error> {
+        // With defmt it is built again by the firmware (its dependency has the feature on),
+        // so only without the firmware checks is that build a step of its own.
+        self.step(if skip_firmware {
+            "ptsa-core for the Cortex-M4F, with and without defmt"
+        } else {
+            "ptsa-core for the Cortex-M4F without defmt (with it: in the firmware's build)"
+        });
+        self.run_cargo(&["build", "-p", "ptsa-core", "--target", THUMB])?;
+        if skip_firmware {
+            self.run_cargo(&[
                 "build",
                 "-p",
                 "ptsa-core",
@@ -116,24 +157,10 @@ pub fn run(args: &[String]) -> Result<(), Error> {
                 THUMB,
                 "--features",
                 "defmt",
-            ],
-        )?;
+            ])?;
+        }
+        Ok(())
     }
-
-    if skip_firmware {
-        eprintln!("\n(firmware checks skipped by --no-firmware)");
-    } else {
-        step("firmware on the emulated STM32F405 (QEMU)");
-        firmware::ci()?;
-        step(
-            "processor in the loop (QEMU): static, static with noise, sine; gate for gate against the host",
-        );
-        eprintln!("{}", pil::ci()?);
-    }
-
-    eprintln!("\nci passed in {:.0} s", t0.elapsed().as_secs_f64());
-    eprintln!("{}", not_run(&root, &cargo, &skipped, skip_firmware));
-    Ok(())
 }
 
 /// The workspace's tests and doctests, with `PTSA_SKIPPED` naming `skipped`.
