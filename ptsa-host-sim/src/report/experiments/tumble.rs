@@ -105,7 +105,40 @@ fn sweep_deg() -> Vec<f64> {
 /// The report's transcription (section 6.1) is malformed.
 pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleRun> {
     let report = r890::section_6_1()?;
-    let ticks = gate_ticks(instr, opts, gate_s);
+    let t = tumble(instr, opts, gate_ticks(instr, opts, gate_s));
+    let tab = sf_bias_table(instr, &t, &report);
+    let sweep = sweep(instr, opts);
+    let expected = |a: f64| instr.g_cm_s2 * a.to_radians().sin() + t.bias_configured;
+    let tab2 = sweep_table(&sweep, &expected);
+    let [plot, residual] = sweep_plots(&sweep, &expected);
+    let notes = vec![format!(
+        "tumble: SF {:.4} cm/s^2 (configured {:.4}, error {:.3} ppm), A_b {:.5} cm/s^2 (configured {:.5}); plain {} s counts give SF {:.2}, A_b {:.3}",
+        t.sf,
+        t.sf_configured,
+        (t.sf / t.sf_configured - 1.0) * 1e6,
+        t.bias,
+        t.bias_configured,
+        gate_used_s(instr, t.ticks),
+        t.sf_count,
+        t.bias_count
+    )];
+    Ok(TumbleRun {
+        tumble: t,
+        sweep,
+        output: Output {
+            tables: vec![tab, tab2],
+            plots: vec![
+                Figure::single("tumble-sweep", plot),
+                Figure::single("tumble-sweep-error", residual),
+            ],
+            notes,
+        },
+    })
+}
+
+/// The ±1 g tumble over a gate of `ticks`: IA up and IA down counted after their settling,
+/// and SF and bias by eqs. 6.3 and 6.4 from the plain counts and from the estimator.
+fn tumble(instr: &Instrument, opts: &SimOptions, ticks: u64) -> Tumble {
     let count = |up: bool| {
         let c = fixtures::dividing_head(if up { 90.0 } else { 270.0 });
         let mut l = ClosedLoop::new(instr, &c, &Effects::NONE, opts);
@@ -124,7 +157,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
     let f1 = 0.5 * (1.0 + up.indicated_cm_s2 / sfc);
     let f2 = 0.5 * (1.0 + down.indicated_cm_s2 / sfc);
     let (sf, bias) = sf_and_bias(g, f1, f2);
-    let t = Tumble {
+    Tumble {
         ticks,
         p1: up.pulses,
         p2: down.pulses,
@@ -136,11 +169,13 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
         bias,
         sf_configured: instr.actual_sf_cm_s2(),
         bias_configured: instr.bias_cm_s2 + instr.loop_bias_cm_s2(0.0),
-    };
-    let tab = sf_bias_table(instr, &t, &report);
-    let sweep = sweep(instr, opts);
-    let expected = |a: f64| g * a.to_radians().sin() + t.bias_configured;
-    let mut tab2 = Table::new(
+    }
+}
+
+/// The sweep's table: at each IA angle the indicated acceleration against the `expected`
+/// `g sin(phi) + A_b`, and their difference.
+fn sweep_table(sweep: &[(f64, f64)], expected: &dyn Fn(f64) -> f64) -> Table {
+    let mut tab = Table::new(
         "tumble-sweep",
         "Tumble sweep: IA angle above horizontal",
         &[
@@ -150,11 +185,17 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
             "difference cm/s^2",
         ],
     );
-    for &(a, x) in &sweep {
+    for &(a, x) in sweep {
         let e = expected(a);
-        tab2.rows
+        tab.rows
             .push(vec![num(a, 0), num(x, 4), num(e, 4), num(x - e, 5)]);
     }
+    tab
+}
+
+/// The sweep's plots: the indicated acceleration against the `expected` curve over IA's
+/// angle, and the difference of the two.
+fn sweep_plots(sweep: &[(f64, f64)], expected: &dyn Fn(f64) -> f64) -> [Plot; 2] {
     let plot = Plot {
         title: "Tumble: indicated acceleration vs IA angle".into(),
         x_label: "IA angle above horizontal, deg".into(),
@@ -166,7 +207,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
                     .map(|a| (f64::from(a), expected(f64::from(a))))
                     .collect(),
             ),
-            Series::markers("simulated", sweep.clone()),
+            Series::markers("simulated", sweep.to_vec()),
         ],
         ..Plot::default()
     };
@@ -182,29 +223,7 @@ pub fn run(instr: &Instrument, opts: &SimOptions, gate_s: f64) -> Result<TumbleR
         zero_line: true,
         ..Plot::default()
     };
-    let notes = vec![format!(
-        "tumble: SF {:.4} cm/s^2 (configured {:.4}, error {:.3} ppm), A_b {:.5} cm/s^2 (configured {:.5}); plain {} s counts give SF {:.2}, A_b {:.3}",
-        sf,
-        t.sf_configured,
-        (sf / t.sf_configured - 1.0) * 1e6,
-        bias,
-        t.bias_configured,
-        gate_used_s(instr, ticks),
-        sf_count,
-        bias_count
-    )];
-    Ok(TumbleRun {
-        tumble: t,
-        sweep,
-        output: Output {
-            tables: vec![tab, tab2],
-            plots: vec![
-                Figure::single("tumble-sweep", plot),
-                Figure::single("tumble-sweep-error", residual),
-            ],
-            notes,
-        },
-    })
+    [plot, residual]
 }
 
 /// The tumble's SF and bias table: `t` against the configured values and the `report`'s.
