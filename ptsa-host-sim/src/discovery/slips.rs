@@ -330,12 +330,61 @@ pub fn sigma_check(
     if !f.stated() || data.quantity.iter().any(|&q| q != Quantity::Value) {
         return None;
     }
-    let n = data.n();
+    let (chi2, dof) = scatter_fit(data, f)?;
+    #[allow(clippy::cast_precision_loss)]
+    let nu = dof as f64;
+    let s = (chi2 / nu).sqrt();
+    if !(s > 0.0 && s.is_finite()) {
+        return None;
+    }
+    let factor = 1.0 / s;
+    let upper = chi2_sf(chi2, nu);
+    let far = (factor >= SIGMA_FACTOR && 1.0 - upper <= SIGMA_TAIL)
+        || (factor <= 1.0 / SIGMA_FACTOR && upper <= SIGMA_TAIL);
+    let (common, source) = stated_sigmas(data, default_sigma)?;
+    Some(SigmaSlip {
+        factor,
+        scatter_cm_s2: common.map(|c| c * s),
+        stated_cm_s2: common,
+        chi2,
+        dof,
+        source,
+        meant: meant_unit(factor, g),
+        far,
+    })
+}
+
+/// `(χ², degrees of freedom)` of the model the scatter is taken from: the better, per degree
+/// of freedom, of the largest model ([`largest_model`]) and the selected one of `f`;
+/// `None` when neither has a degree of freedom or a fit fails.
+fn scatter_fit(data: &Data, f: &Fitted) -> Option<(f64, usize)> {
     let z = f.weighted_target();
-    let nn = f.n_nuisance();
+    let big = largest_model(data, f, &z)?;
+    let r = lsq(&z, &big)?;
+    // The better of the largest model and the selected one, per degree of freedom: the
+    // greedy largest model can miss the terms that matter in a small design (six
+    // centrifuge rows), and the selected one holds nothing when the sigmas are too large.
+    [
+        (r.chi2, data.n().saturating_sub(big.len())),
+        (f.fit.chi2, f.dof()),
+    ]
+    .into_iter()
+    .filter(|&(_, d)| d > 0)
+    .min_by(|a, b| {
+        #[allow(clippy::cast_precision_loss)]
+        let (x, y) = (a.0 / a.1 as f64, b.0 / b.1 as f64);
+        x.total_cmp(&y)
+    })
+}
+
+/// The columns of the largest model of `f` for the weighted target `z`: the nuisance terms
+/// and every testable candidate that adds an independent column, those nearest the
+/// residual first, keeping [`fit::MIN_REFERENCE_DOF`] residual degrees of freedom.
+fn largest_model<'a>(data: &Data, f: &'a Fitted, z: &[f64]) -> Option<Vec<&'a [f64]>> {
+    let n = data.n();
     let cols = f.unit_columns();
-    let mut big: Vec<&[f64]> = cols[..nn].to_vec();
-    let base = lsq(&z, &big)?;
+    let mut big: Vec<&[f64]> = cols[..f.n_nuisance()].to_vec();
+    let base = lsq(z, &big)?;
     let min_partial = (1.0 - f.settings.confound_cos * f.settings.confound_cos)
         .max(0.0)
         .sqrt();
@@ -357,31 +406,14 @@ pub fn sigma_check(
             big.push(u);
         }
     }
-    let r = lsq(&z, &big)?;
-    // The better of the largest model and the selected one, per degree of freedom: the
-    // greedy largest model can miss the terms that matter in a small design (six
-    // centrifuge rows), and the selected one holds nothing when the sigmas are too large.
-    let (chi2, dof) = [(r.chi2, n.saturating_sub(big.len())), (f.fit.chi2, f.dof())]
-        .into_iter()
-        .filter(|&(_, d)| d > 0)
-        .min_by(|a, b| {
-            #[allow(clippy::cast_precision_loss)]
-            let (x, y) = (a.0 / a.1 as f64, b.0 / b.1 as f64);
-            x.total_cmp(&y)
-        })?;
-    #[allow(clippy::cast_precision_loss)]
-    let nu = dof as f64;
-    let s = (chi2 / nu).sqrt();
-    if !(s > 0.0 && s.is_finite()) {
-        return None;
-    }
-    let factor = 1.0 / s;
-    let upper = chi2_sf(chi2, nu);
-    let far = (factor >= SIGMA_FACTOR && 1.0 - upper <= SIGMA_TAIL)
-        || (factor <= 1.0 / SIGMA_FACTOR && upper <= SIGMA_TAIL);
-    // The stated sigma of every value without the simulator's scatter: the row's own or
-    // `--sigma`.
-    let own: Vec<f64> = (0..n)
+    Some(big)
+}
+
+/// The stated sigma of every value of `data` without the simulator's scatter (the row's own
+/// or `--sigma`, `default_sigma`): the one they all state, if they do, and where they came
+/// from; `None` when a value states none.
+fn stated_sigmas(data: &Data, default_sigma: Option<f64>) -> Option<(Option<f64>, &'static str)> {
+    let own: Vec<f64> = (0..data.n())
         .map(|i| {
             let s = data.stated[i]?;
             Some(
@@ -402,26 +434,23 @@ pub fn sigma_check(
         (false, _) => "sigma_cm_s2",
         (true, true) => "sigma_cm_s2 and --sigma",
     };
+    Some((common, source))
+}
+
+/// The unit the stated sigmas were probably in, when the stated sigma over the scatter,
+/// `factor`, is within [`SIGMA_UNIT_WINDOW`] of its conversion to cm/s² (`g`, the
+/// instrument file's gravity, for µg and g).
+fn meant_unit(factor: f64, g: f64) -> Option<&'static str> {
     let units: [(&'static str, f64); 4] = [
         ("µg (1 µg ≈ 0.00098 cm/s²)", 1.0 / (1e-6 * g)),
         ("mm/s² (1 mm/s² = 0.1 cm/s²)", 10.0),
         ("m/s² (1 m/s² = 100 cm/s²)", 0.01),
         ("g (1 g ≈ 980 cm/s²)", 1.0 / g),
     ];
-    let meant = units
+    units
         .iter()
         .find(|(_, c)| (factor / c).ln().abs() <= SIGMA_UNIT_WINDOW)
-        .map(|(u, _)| *u);
-    Some(SigmaSlip {
-        factor,
-        scatter_cm_s2: common.map(|c| c * s),
-        stated_cm_s2: common,
-        chi2,
-        dof,
-        source,
-        meant,
-        far,
-    })
+        .map(|(u, _)| *u)
 }
 
 /// The likely cause of a row set aside as a suspected gross error, in words: its input
