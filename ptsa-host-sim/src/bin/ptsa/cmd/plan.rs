@@ -197,7 +197,25 @@ impl PlanArgs {
         if ctx.instr.has_loop {
             ctx.config()?;
         }
-        let (rows, what, out, counts) = match self.kind {
+        let (rows, what, out, counts) = self.kind.case_frame(ctx.instr.g_cm_s2);
+        let also = lab_columns(&rows);
+        Ok(Request {
+            rows,
+            what,
+            dest: dest(out)?,
+            also,
+            counts,
+            text: None,
+        })
+    }
+}
+
+impl PlanKind {
+    /// A case-frame design (any but the triad's, with local gravity `g_cm_s2`, cm/s², for a
+    /// centrifuge's speeds): its rows, the design in words, where it goes, and whether its
+    /// readings are to be recorded as counts.
+    fn case_frame(self, g_cm_s2: f64) -> (Vec<Condition>, String, PlanOut, bool) {
+        match self {
             PlanKind::Tumble {
                 positions,
                 axis,
@@ -244,7 +262,7 @@ impl PlanArgs {
                 count,
                 out,
             } => (
-                plan::centrifuge(radius_cm, &g_levels, ctx.instr.g_cm_s2),
+                plan::centrifuge(radius_cm, &g_levels, g_cm_s2),
                 format!(
                     "centrifuge, arm {radius_cm} cm, at {} g, IA in and out",
                     g_levels
@@ -257,25 +275,20 @@ impl PlanArgs {
                 count.counts,
             ),
             PlanKind::Triad { .. } => unreachable!("a triad plan returned above"),
-        };
-        // Absolute rows (a tumble, a centrifuge): the columns a lab records beside each
-        // reading, written empty for it to fill in.
-        let also: &'static [&'static str] = if rows
-            .iter()
-            .any(|r| r.kind == ptsa_host_sim::model::condition::RowKind::Absolute)
-        {
-            &["temp_c", "approach"]
-        } else {
-            &[]
-        };
-        Ok(Request {
-            rows,
-            what,
-            dest: dest(out)?,
-            also,
-            counts,
-            text: None,
-        })
+        }
+    }
+}
+
+/// The columns a lab records beside each reading of absolute rows (a tumble, a
+/// centrifuge), written empty for it to fill in; none for other designs.
+fn lab_columns(rows: &[Condition]) -> &'static [&'static str] {
+    if rows
+        .iter()
+        .any(|r| r.kind == ptsa_host_sim::model::condition::RowKind::Absolute)
+    {
+        &["temp_c", "approach"]
+    } else {
+        &[]
     }
 }
 
