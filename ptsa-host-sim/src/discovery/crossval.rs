@@ -88,8 +88,25 @@ fn secant_signatures(p: &Problem<'_>, selected: &[Selected], baseline: &[Observa
 /// Cross-validate the fit of `data`.
 #[must_use]
 pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> Gain {
-    let n = data.n();
-    let (folds, method) = if n <= MAX_LEAVE_ONE_OUT {
+    let (folds, method) = split_folds(data.n(), seed);
+    let normalise = data.quantity.iter().any(|&q| q != Quantity::Value);
+    let errors = held_out_errors(data, settings, &folds, normalise);
+    let cv = rms(errors.iter().map(|e| e.0));
+    let cv_base = rms(errors.iter().map(|e| e.1));
+    Gain {
+        rms_in_sample_cm_s2: rms_in_sample,
+        rms_cross_validated_cm_s2: cv,
+        baseline_rms_cross_validated_cm_s2: cv_base,
+        ci95_rms_cm_s2: bootstrap_ci95(&errors, seed),
+        method,
+        unit: if normalise { "σ" } else { "cm/s²" }.to_string(),
+    }
+}
+
+/// The folds of `n` rows and the method in words: leave-one-out up to
+/// [`MAX_LEAVE_ONE_OUT`] rows, else [`FOLDS`] folds of the rows shuffled with `seed`.
+fn split_folds(n: usize, seed: u64) -> (Vec<Vec<usize>>, String) {
+    if n <= MAX_LEAVE_ONE_OUT {
         (
             (0..n).map(|i| vec![i]).collect::<Vec<_>>(),
             "leave-one-out".to_string(),
@@ -102,10 +119,20 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
             f[k % FOLDS].push(i);
         }
         (f, format!("{FOLDS}-fold"))
-    };
-    let normalise = data.quantity.iter().any(|&q| q != Quantity::Value);
-    // (held-out row, error with selection, error with nuisance only)
-    let errors: Vec<(f64, f64)> = folds
+    }
+}
+
+/// Every held-out row's prediction error, fold by fold, with the whole fit repeated on the
+/// rest: `(with selection, with the nuisance terms only)`, over the row's 1 σ when
+/// `normalise` (else in cm/s²).
+fn held_out_errors(
+    data: &Data,
+    settings: Settings,
+    folds: &[Vec<usize>],
+    normalise: bool,
+) -> Vec<(f64, f64)> {
+    let n = data.n();
+    folds
         .par_iter()
         .flat_map_iter(|held| {
             let mut out = vec![false; n];
@@ -147,21 +174,27 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
                 })
                 .collect::<Vec<_>>()
         })
-        .collect();
-    let rms = |v: &mut dyn Iterator<Item = f64>| {
-        let (s, k) = v.fold((0.0, 0usize), |(s, k), e| (s + e * e, k + 1));
-        #[allow(clippy::cast_precision_loss)]
-        let r = (s / k.max(1) as f64).sqrt();
-        r
-    };
-    let cv = rms(&mut errors.iter().map(|e| e.0));
-    let cv_base = rms(&mut errors.iter().map(|e| e.1));
+        .collect()
+}
+
+/// The root mean square of `v` (0 when empty).
+fn rms(v: impl Iterator<Item = f64>) -> f64 {
+    let (s, k) = v.fold((0.0, 0usize), |(s, k), e| (s + e * e, k + 1));
+    #[allow(clippy::cast_precision_loss)]
+    let r = (s / k.max(1) as f64).sqrt();
+    r
+}
+
+/// The bootstrap 95 % interval of the gain (the baseline's RMS minus the selection's) over
+/// the held-out rows' `errors`, [`BOOTSTRAP`] resamples drawn with `seed`; zeros when there
+/// are no errors.
+fn bootstrap_ci95(errors: &[(f64, f64)], seed: u64) -> [f64; 2] {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed);
     let m = errors.len();
     let mut gains: Vec<f64> = (0..BOOTSTRAP)
         .map(|_| {
             let idx: Vec<usize> = (0..m).map(|_| rng.random_range(0..m.max(1))).collect();
-            rms(&mut idx.iter().map(|&k| errors[k].1)) - rms(&mut idx.iter().map(|&k| errors[k].0))
+            rms(idx.iter().map(|&k| errors[k].1)) - rms(idx.iter().map(|&k| errors[k].0))
         })
         .collect();
     gains.sort_by(f64::total_cmp);
@@ -174,16 +207,9 @@ pub fn gain(data: &Data, settings: Settings, rms_in_sample: f64, seed: u64) -> G
         let k = ((q * (gains.len() - 1) as f64).round() as usize).min(gains.len() - 1);
         gains[k]
     };
-    Gain {
-        rms_in_sample_cm_s2: rms_in_sample,
-        rms_cross_validated_cm_s2: cv,
-        baseline_rms_cross_validated_cm_s2: cv_base,
-        ci95_rms_cm_s2: if m > 0 {
-            [at(0.025), at(0.975)]
-        } else {
-            [0.0, 0.0]
-        },
-        method,
-        unit: if normalise { "σ" } else { "cm/s²" }.to_string(),
+    if m > 0 {
+        [at(0.025), at(0.975)]
+    } else {
+        [0.0, 0.0]
     }
 }
