@@ -91,24 +91,15 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
         set_aside,
     );
     let sigma_slip = scatter.clone().filter(|s| s.far);
-    let mut warnings = verdict::slip_warnings(
-        &outliers_json,
-        screened.beyond_cap.as_ref().map(|(l, b)| (l.as_str(), *b)),
-        sigma_slip.as_ref(),
-        &selected,
-        sim,
-    );
-    if let Some(slip) = &unit_slip {
-        warnings.insert(0, slip.kept_message());
-    }
-    warnings.extend(verdict::warnings(data, f, &selected));
-    warnings.extend(verdict::unused_approach(rows));
     let effects_json = effect_reports(&selected, &stability, opts, sim);
-    warnings.extend(verdict::stability_warnings(&selected, &effects_json));
-    warnings.extend(verdict::rival_warnings(
+    let warnings = report_warnings(
+        &p,
+        screened,
+        (unit_slip.as_ref(), sigma_slip.as_ref()),
         &selected,
-        data.time_unit == TimeUnit::Seconds,
-    ));
+        &outliers_json,
+        &effects_json,
+    );
     let mut noise = noise_report(data, f);
     noise.stated_over_scatter = scatter.as_ref().map(|s| s.factor);
     let fit_check = fit_check(f, &ext, &unexplained);
@@ -142,13 +133,7 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
         steps,
         untestable: f.untestable.clone(),
         untestable_nuisance: f.untestable_nuisance.clone(),
-        untoleranced: sim.instrument().map_or_else(Vec::new, |i| {
-            f.untestable
-                .iter()
-                .copied()
-                .filter(|id| id.parameter_key().is_some_and(|k| i.tolerance(k).is_none()))
-                .collect()
-        }),
+        untoleranced: untoleranced(f, sim),
         confounded_groups: groups,
         family_size: f.family_size(),
         family: f.family.clone(),
@@ -159,6 +144,51 @@ pub(crate) fn discovery(found: Found<'_>) -> Discovery {
     };
     d.json.verdict = verdict::verdict(&d);
     d
+}
+
+/// The warnings, in the order the report gives them: values in another unit first, then
+/// the rows set aside and the stated sigmas far from the scatter (`slips`: the unit slip
+/// and the sigma slip), the fit's, an unused `approach` column, the selected terms found
+/// unstable (`effects`), and those with rivals.
+fn report_warnings(
+    p: &Problem<'_>,
+    screened: &Screened,
+    slips: (Option<&UnitSlip>, Option<&SigmaSlip>),
+    selected: &[Selected],
+    outliers: &[OutlierReport],
+    effects: &[EffectReport],
+) -> Vec<String> {
+    let (unit_slip, sigma_slip) = slips;
+    let mut warnings = verdict::slip_warnings(
+        outliers,
+        screened.beyond_cap.as_ref().map(|(l, b)| (l.as_str(), *b)),
+        sigma_slip,
+        selected,
+        p.sim,
+    );
+    if let Some(slip) = unit_slip {
+        warnings.insert(0, slip.kept_message());
+    }
+    warnings.extend(verdict::warnings(p.data, p.f, selected));
+    warnings.extend(verdict::unused_approach(p.rows));
+    warnings.extend(verdict::stability_warnings(selected, effects));
+    warnings.extend(verdict::rival_warnings(
+        selected,
+        p.data.time_unit == TimeUnit::Seconds,
+    ));
+    warnings
+}
+
+/// The parameters `f` cannot test that the simulator's instrument file gives no tolerance
+/// (none without an instrument file).
+fn untoleranced(f: &Fitted, sim: &dyn Simulator) -> Vec<CandidateId> {
+    sim.instrument().map_or_else(Vec::new, |i| {
+        f.untestable
+            .iter()
+            .copied()
+            .filter(|id| id.parameter_key().is_some_and(|k| i.tolerance(k).is_none()))
+            .collect()
+    })
 }
 
 /// The per-observation table: every observation of every row (measured or not; a row set
