@@ -25,6 +25,7 @@ pub mod model;
 pub mod noise;
 pub mod output;
 pub mod report;
+pub mod session;
 pub mod simulation;
 pub mod stats;
 pub mod stream;

@@ -236,6 +236,22 @@ fn write_instrument_file(w: &InstrumentOut, text: Option<&str>, d: &Discovery) -
     Ok(())
 }
 
+/// `ptsa discover`'s analysis of the case frame at `path`, nothing written: the rows read
+/// (in cm/s², each with its σ) and the discovery.
+///
+/// # Errors
+/// The file is refused (its line and column); the analysis fails (under the file's name).
+pub fn analyse(
+    path: &Path,
+    sim: &dyn Simulator,
+    opts: &Options,
+) -> Result<(Vec<Condition>, Discovery)> {
+    let frame = read_rows(path, sim)?;
+    let d = pipeline::discover_with(&frame.rows, &frame.empty, sim, opts)
+        .with_context(|| path.display().to_string())?;
+    Ok((frame.rows, d))
+}
+
 /// Run `ptsa discover` with simulator `sim` (the closed loop of the instrument file and run
 /// options, or the analytic model): the text (or JSON) goes to `stdout`, logs to stderr.
 ///
@@ -252,11 +268,8 @@ pub fn run(req: &Request, sim: &dyn Simulator, stdout: &mut dyn Write) -> Result
         .as_ref()
         .map(|_| sheet::sheet_time())
         .transpose()?;
-    let frame = read_rows(path, sim)?;
-    let rows = frame.rows;
     let t0 = Instant::now();
-    let d = pipeline::discover_with(&rows, &frame.empty, sim, opts)
-        .with_context(|| path.display().to_string())?;
+    let (rows, d) = analyse(path, sim, opts)?;
     let elapsed = t0.elapsed();
     let text = show::text_report(&path.display().to_string(), &d);
     // The corrected instrument file is made before anything is written, so that a value

@@ -40,6 +40,8 @@
 
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 
+use crate::output::significant as sig;
+
 use super::edf::{self, Estimator};
 
 /// Fewest points of the `m`-averaged series the lag-1 autocorrelation identifies a noise
@@ -135,6 +137,49 @@ pub enum Taus {
 }
 
 impl Taus {
+    /// A named set of `--taus`: `octave`, `decade` or `all`.
+    #[must_use]
+    pub fn named(name: &str) -> Option<Self> {
+        match name.trim() {
+            "octave" => Some(Self::Octave),
+            "decade" => Some(Self::Decade),
+            "all" => Some(Self::All),
+            _ => None,
+        }
+    }
+
+    /// The factors of the averaging times `ts`, s, for a record of interval `tau0_s` and `n`
+    /// gates or samples; `flag` names the option in a refusal.
+    ///
+    /// # Errors
+    /// A time that is not a whole number of intervals, or beyond half the record.
+    pub fn of_seconds(flag: &str, ts: &[f64], tau0_s: f64, n: usize) -> anyhow::Result<Self> {
+        let mut m = Vec::with_capacity(ts.len());
+        for &t in ts {
+            let k = t / tau0_s;
+            if (k - k.round()).abs() > 1e-6 * k.max(1.0) || k.round() < 1.0 {
+                anyhow::bail!(
+                    "{flag} {}: not a whole number of the record's {} s intervals; expected multiples of it",
+                    sig(t, 8),
+                    sig(tau0_s, 8)
+                );
+            }
+            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+            let k = k.round() as usize;
+            if 2 * k > n {
+                #[allow(clippy::cast_precision_loss)]
+                let half = tau0_s * n as f64 / 2.0;
+                anyhow::bail!(
+                    "{flag} {}: beyond half the record ({} s); expected averaging times with at least one pair of averages",
+                    sig(t, 8),
+                    sig(half, 8)
+                );
+            }
+            m.push(k);
+        }
+        Ok(Self::Factors(m))
+    }
+
     /// The factors for `M` gates, each with at least one overlapping pair (`2m ≤ M`),
     /// ascending, each once.
     #[must_use]

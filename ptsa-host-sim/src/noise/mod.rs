@@ -95,6 +95,94 @@ pub fn read_record(path: &Path, clock_hz: f64) -> Result<Record> {
     check_record(&name, gates, &lines, clock_hz)
 }
 
+/// The counter record `text` (`name` in messages) read as [`read_record`] reads a file,
+/// with the same refusals.
+///
+/// # Errors
+/// As [`read_record`].
+pub fn parse_record(name: &str, text: &str, clock_hz: f64) -> Result<Record> {
+    let gates = response::parse(name, text)?;
+    check_record(name, gates, &gate_lines(text), clock_hz)
+}
+
+/// Most gates a simulated record holds (memory: a record of that many gates is about
+/// 0.5 GB of gates and text).
+pub const MAX_SIMULATED_GATES: f64 = 2e7;
+
+/// The whole gates of `gate_ticks` ticks in `seconds` of a simulated record, from
+/// [`MIN_GATES`] to [`MAX_SIMULATED_GATES`]; `flags` name the length and the gate in a
+/// refusal.
+///
+/// # Errors
+/// Fewer or more gates than that.
+pub fn simulated_gates(
+    flags: (&str, &str),
+    seconds: f64,
+    gate_ticks: u64,
+    clock_hz: f64,
+) -> Result<u64> {
+    let (seconds_flag, gate_flag) = flags;
+    #[allow(clippy::cast_precision_loss)]
+    let gate = gate_ticks as f64 / clock_hz;
+    let n = (seconds / gate).floor();
+    #[allow(clippy::cast_precision_loss)]
+    if n < MIN_GATES as f64 {
+        bail!(
+            "{seconds_flag} {}: {} gates of {} s; expected at least {} gates ({seconds_flag} at least {} s)",
+            sig(seconds, 8),
+            n,
+            sig(gate, 8),
+            MIN_GATES,
+            sig(gate * MIN_GATES as f64, 8)
+        );
+    }
+    if n > MAX_SIMULATED_GATES {
+        bail!(
+            "{seconds_flag} {}: {} gates of {} s; expected at most {} gates (a longer {gate_flag}, or fewer {seconds_flag})",
+            sig(seconds, 8),
+            sig(n, 6),
+            sig(gate, 8),
+            sig(MAX_SIMULATED_GATES, 3)
+        );
+    }
+    #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
+    Ok(n as u64)
+}
+
+/// The analysis's own warnings on the record `name`: too few averaging times for the
+/// terms, a curve the terms do not describe.
+#[must_use]
+pub fn analysis_warnings(name: &str, a: &Analysis) -> Vec<String> {
+    let mut warnings = Vec::new();
+    let what = if a.pulse_cm_s.is_some() {
+        "gates"
+    } else {
+        "samples"
+    };
+    if a.points.len() < 4 {
+        warnings.push(format!(
+            "{name}: {} {what} give {} averaging times: too few to read the noise terms from the slopes",
+            a.gates,
+            a.points.len()
+        ));
+    }
+    #[allow(clippy::cast_precision_loss)]
+    if a.fit_dof > 0 && crate::stats::chi2_sf(a.fit_chi2, a.fit_dof as f64) < 1e-3 {
+        warnings.push(format!(
+            "{name}: the Allan variance is not a sum of the {} power laws (the terms' fit has chi2 {} on {} dof): the terms are the fit's compromise, not readings{}",
+            a.terms.len(),
+            sig(a.fit_chi2, 4),
+            a.fit_dof,
+            if a.pulse_cm_s.is_some() {
+                "; a loop's count pattern (its limit cycle's tones) gives stretches of slope -1/2 and sudden drops that no noise term makes (docs/method/noise.md)"
+            } else {
+                "; look at the plot for a step, a periodic disturbance or a drift that is not a ramp"
+            }
+        ));
+    }
+    warnings
+}
+
 /// [`read_record`]'s checks on gates already read; `lines[k]` is gate `k`'s line.
 ///
 /// # Errors

@@ -19,6 +19,17 @@ pub use fs::{StagedDir, write_atomic};
 pub use plot::{Figure, Plot, Series, Style, XAxis, write_figure};
 pub use table::{Align, Cell, Column, Table, num, opt, significant, text};
 
+/// A number as the messages show it: plain from 0.001 to 10⁶, in exponent form beyond.
+#[must_use]
+pub fn shown_number(x: f64) -> String {
+    let a = x.abs();
+    if a != 0.0 && a.is_finite() && !(1e-3..1e6).contains(&a) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// `n thing` or `n things`.
 #[must_use]
 pub fn count(n: u64, thing: &str) -> String {

@@ -30,10 +30,6 @@ use crate::flags::values::{non_negative_s, positive_s, seed};
 use crate::paths;
 use crate::work::{self, Work};
 
-/// Most gates `--simulate` writes (memory: a record of that many gates is about 0.5 GB of
-/// gates and text).
-pub const MAX_SIMULATED_GATES: f64 = 2e7;
-
 /// Arguments of `ptsa noise`.
 #[derive(Args, Debug, Clone)]
 pub struct NoiseArgs {
@@ -194,22 +190,20 @@ pub enum TausArg {
 
 /// `--taus`: `octave`, `decade`, `all` or a list of times in s, each more than 0.
 fn taus_arg(s: &str) -> Result<TausArg, String> {
-    match s.trim() {
-        "octave" => Ok(TausArg::Named(Taus::Octave)),
-        "decade" => Ok(TausArg::Named(Taus::Decade)),
-        "all" => Ok(TausArg::Named(Taus::All)),
-        list => list
-            .split(',')
-            .map(|t| {
-                t.trim()
-                    .parse::<f64>()
-                    .ok()
-                    .filter(|v| v.is_finite() && *v > 0.0)
-                    .ok_or_else(|| format!("`{}`: expected octave, decade, all, or averaging times in s (more than 0), comma separated", t.trim()))
-            })
-            .collect::<Result<Vec<f64>, String>>()
-            .map(TausArg::Seconds),
+    if let Some(t) = Taus::named(s) {
+        return Ok(TausArg::Named(t));
     }
+    s.trim()
+        .split(',')
+        .map(|t| {
+            t.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v > 0.0)
+                .ok_or_else(|| format!("`{}`: expected octave, decade, all, or averaging times in s (more than 0), comma separated", t.trim()))
+        })
+        .collect::<Result<Vec<f64>, String>>()
+        .map(TausArg::Seconds)
 }
 
 /// `--confidence`: a level strictly between 0 and 1.
@@ -247,34 +241,10 @@ impl TausArg {
     /// # Errors
     /// A time that is not a whole number of intervals, or beyond half the record.
     fn taus(&self, tau0_s: f64, n: usize) -> Result<Taus> {
-        let TausArg::Seconds(ts) = self else {
-            let TausArg::Named(t) = self else {
-                unreachable!()
-            };
-            return Ok(t.clone());
-        };
-        let mut m = Vec::with_capacity(ts.len());
-        for &t in ts {
-            let k = t / tau0_s;
-            if (k - k.round()).abs() > 1e-6 * k.max(1.0) || k.round() < 1.0 {
-                bail!(
-                    "--taus {}: not a whole number of the record's {} s intervals; expected multiples of it",
-                    sig(t, 8),
-                    sig(tau0_s, 8)
-                );
-            }
-            #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-            let k = k.round() as usize;
-            if 2 * k > n {
-                bail!(
-                    "--taus {}: beyond half the record ({} s); expected averaging times with at least one pair of averages",
-                    sig(t, 8),
-                    sig(tau0_s * n as f64 / 2.0, 8)
-                );
-            }
-            m.push(k);
+        match self {
+            TausArg::Named(t) => Ok(t.clone()),
+            TausArg::Seconds(ts) => Taus::of_seconds("--taus", ts, tau0_s, n),
         }
-        Ok(Taus::Factors(m))
     }
 }
 
@@ -532,31 +502,12 @@ impl NoiseArgs {
         }
         let opts = self.sim_options(ctx)?;
         let ticks = gate_ticks("--gate-s", self.gate_s, &ctx.instr, &opts)?;
-        let seconds = self.seconds.unwrap_or(0.0);
-        #[allow(clippy::cast_precision_loss)]
-        let gate = ticks as f64 / ctx.instr.clock_hz;
-        let n = (seconds / gate).floor();
-        if n < noise::MIN_GATES as f64 {
-            bail!(
-                "--seconds {}: {} gates of {} s; expected at least {} gates (--seconds at least {} s)",
-                sig(seconds, 8),
-                n,
-                sig(gate, 8),
-                noise::MIN_GATES,
-                sig(gate * noise::MIN_GATES as f64, 8)
-            );
-        }
-        if n > MAX_SIMULATED_GATES {
-            bail!(
-                "--seconds {}: {} gates of {} s; expected at most {} gates (a longer --gate-s, or fewer --seconds)",
-                sig(seconds, 8),
-                sig(n, 6),
-                sig(gate, 8),
-                sig(MAX_SIMULATED_GATES, 3)
-            );
-        }
-        #[allow(clippy::cast_possible_truncation, clippy::cast_sign_loss)]
-        let gates = n as u64;
+        let gates = noise::simulated_gates(
+            ("--seconds", "--gate-s"),
+            self.seconds.unwrap_or(0.0),
+            ticks,
+            ctx.instr.clock_hz,
+        )?;
         Ok(Source::Simulate { opts, ticks, gates })
     }
 }
@@ -586,7 +537,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         (_, Some(rec)) => Analysis::of_with(rec, instr.sf_cm_s2, instr.clock_hz, &req.settings),
         (_, None) => unreachable!("a counter record or a simulated one"),
     };
-    warnings.extend(analysis_warnings(&name, &a));
+    warnings.extend(noise::analysis_warnings(&name, &a));
     let comparison = match (&compare_opts, &record) {
         (Some(opts), Some(record)) => Some(simulate_and_compare(ctx, req, opts, record, &a)?),
         _ => None,
@@ -669,38 +620,6 @@ fn identify_terms(r: &Readings, a: &Analysis, seed: u64) -> Result<ident_terms::
     });
     bar.finish();
     id.map_err(|e| anyhow::anyhow!("--identify: {} samples: {e}", r.y.len()))
-}
-
-/// The analysis's own warnings: too few averaging times for the terms, a curve the terms
-/// do not describe.
-fn analysis_warnings(name: &str, a: &Analysis) -> Vec<String> {
-    let mut warnings = Vec::new();
-    let what = if a.pulse_cm_s.is_some() {
-        "gates"
-    } else {
-        "samples"
-    };
-    if a.points.len() < 4 {
-        warnings.push(format!(
-            "{name}: {} {what} give {} averaging times: too few to read the noise terms from the slopes",
-            a.gates,
-            a.points.len()
-        ));
-    }
-    if a.fit_dof > 0 && ptsa_host_sim::stats::chi2_sf(a.fit_chi2, a.fit_dof as f64) < 1e-3 {
-        warnings.push(format!(
-            "{name}: the Allan variance is not a sum of the {} power laws (the terms' fit has chi2 {} on {} dof): the terms are the fit's compromise, not readings{}",
-            a.terms.len(),
-            sig(a.fit_chi2, 4),
-            a.fit_dof,
-            if a.pulse_cm_s.is_some() {
-                "; a loop's count pattern (its limit cycle's tones) gives stretches of slope -1/2 and sudden drops that no noise term makes (docs/method/noise.md)"
-            } else {
-                "; look at the plot for a step, a periodic disturbance or a drift that is not a ramp"
-            }
-        ));
-    }
-    warnings
 }
 
 /// The identification's warnings: what the record needs beyond the file's loop, and each

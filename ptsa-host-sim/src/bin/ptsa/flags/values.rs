@@ -133,16 +133,7 @@ fn number(s: &str) -> Result<f64, String> {
         .map_err(|_| format!("`{s}` is not a number"))
 }
 
-/// A number for a message: plain when it reads well, in exponent form when it is very large
-/// or very small (`1e12`, `1e-9`, not twelve zeros).
-pub fn num(x: f64) -> String {
-    let a = x.abs();
-    if a != 0.0 && a.is_finite() && !(1e-3..1e6).contains(&a) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
-}
+pub use ptsa_host_sim::output::shown_number as num;
 
 /// A finite number.
 pub fn finite(s: &str) -> Result<f64, String> {
