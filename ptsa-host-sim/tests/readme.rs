@@ -287,7 +287,7 @@ fn user_pages() -> Vec<String> {
             }
         }
     }
-    pages.extend(["docs/README.md".to_string(), "ARCHITECTURE.md".to_string()]);
+    pages.extend(["docs/README.md", "ARCHITECTURE.md", "python/README.md"].map(String::from));
     pages
 }
 

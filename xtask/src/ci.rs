@@ -6,7 +6,7 @@ use std::time::Instant;
 
 use crate::needs::{self, Need};
 use crate::util::{self, Error};
-use crate::{firmware, golden, pil};
+use crate::{firmware, golden, pil, python};
 
 /// `cargo xtask ci --help`.
 pub const USAGE: &str = "\
@@ -15,14 +15,16 @@ ci [--no-firmware]
     targets, warnings denied), rustdoc (warnings denied), ptsa-core as a crates.io package
     (`cargo package --list`, its README's links in it, `cargo publish --dry-run`), the
     golden vectors, the C twin (in cargo's target directory, then again in a fresh
-    temporary CARGO_TARGET_DIR), host tests and doctests, ptsa-core built for
+    temporary CARGO_TARGET_DIR), host tests and doctests, the Python package's tests
+    (`python`), ptsa-core built for
     thumbv7em-none-eabihf without defmt (with defmt by the firmware's build, or on its
     own with --no-firmware), the firmware checks of `firmware`
     (QEMU) and the three short processor-in-the-loop cases of `pil --ci` (QEMU: a static
     input without and with the pickoff noise, a sine), whose gates must be the host's bit
     for bit. The host tests include the freshness check of the
     firmware's generated constants (`cargo xtask constants`).
-    Needs rustfmt, clippy, a C compiler, python3, the thumbv7em-none-eabihf target and (unless
+    Needs rustfmt, clippy, a C compiler, python3 (and $PTSA_PYTHON with numpy, pandas
+    and pytest), the thumbv7em-none-eabihf target and (unless
     --no-firmware) qemu-system-arm; it looks for all of them first and, if any is
     missing, says how to install each and stops (it installs nothing; `.ci/run` does, on
     a throwaway CI machine). The dry-run publish needs crates.io over the network.
@@ -67,6 +69,9 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     let skipped = util::target_dir()?.join("ci-skipped.txt");
     let _ = std::fs::remove_file(&skipped);
     host_tests(&ci.root, &ci.cargo, &skipped)?;
+
+    ci.step("the Python package: python/tests (pytest) against the command line");
+    python::run(&[])?;
 
     ci.cross_build(skip_firmware)?;
 
@@ -255,6 +260,7 @@ fn check_needs(skip_firmware: bool) -> Result<(), Error> {
         Need::CCompiler,
         Need::Thumb,
         Need::Python,
+        Need::PythonPackages,
     ];
     if !skip_firmware {
         for need in firmware::NEEDS {

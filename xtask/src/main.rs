@@ -26,7 +26,7 @@
 //!   the docs quote, each asserting its claim, and write `docs/figures/ID.md` for each.
 //!
 //! Before its first step, each command looks for everything it needs from the machine
-//! (`needs`: QEMU, the thumbv7em target, rustfmt, clippy, a C compiler, python3) and, if anything is
+//! (`needs`: QEMU, the thumbv7em target, rustfmt, clippy, a C compiler, python3 and its packages) and, if anything is
 //! missing, names each missing thing with the command that installs it and exits 1. xtask
 //! never installs anything itself; only `.ci/run`, on a throwaway CI machine, does.
 //!
@@ -45,16 +45,18 @@ mod golden;
 mod hidden;
 mod needs;
 mod pil;
+mod python;
 mod report_data;
 mod util;
 
 /// The commands: name and usage (first line the synopsis, then what it does).
-const COMMANDS: [(&str, &str); 8] = [
+const COMMANDS: [(&str, &str); 9] = [
     ("ci", ci::USAGE),
     ("golden", golden::USAGE),
     ("constants", constants::USAGE),
     ("firmware", firmware::USAGE),
     ("pil", pil::USAGE),
+    ("python", python::USAGE),
     ("hidden", hidden::USAGE),
     ("figures", figures::USAGE),
     ("report-data", report_data::USAGE),
@@ -77,7 +79,7 @@ fn usage() -> String {
     }
     s.push_str(
         "before any work, each command looks for what it needs (QEMU, the thumbv7em target,\n\
-         rustfmt, clippy, a C compiler, python3) and, if any is missing, says how to install it and\n\
+         rustfmt, clippy, a C compiler, python3 and its packages) and, if any is missing, says how to install it and\n\
          stops; xtask installs nothing (only .ci/run does, on a throwaway CI machine)\n\n\
          exit status: 0 passed, 1 a check failed or something needed is missing, 2 unknown\n\
          command or option\n",
@@ -114,7 +116,7 @@ fn main() -> ExitCode {
             }
             _ => {
                 eprintln!(
-                    "xtask help: expected one of ci, golden, constants, firmware, pil, hidden, figures, report-data"
+                    "xtask help: expected one of ci, golden, constants, firmware, pil, python, hidden, figures, report-data"
                 );
                 eprint!("{}", usage());
                 ExitCode::from(2)
@@ -136,6 +138,7 @@ fn main() -> ExitCode {
         "constants" => constants::run(rest),
         "firmware" => firmware::run(rest),
         "pil" => pil::run(rest),
+        "python" => python::run(rest),
         "hidden" => hidden::run(rest),
         "figures" => figures::run(rest),
         "report-data" => report_data::run(rest),

@@ -29,6 +29,11 @@ pub enum Need {
     Qemu,
     /// Python 3, which remakes the README's example files in a host test.
     Python,
+    /// The Python (`$PTSA_PYTHON`, default `python3`) that tests the package `ptsa`, with
+    /// numpy, pandas and pytest importable.
+    PythonPackages,
+    /// maturin in that Python, which builds the package's wheel.
+    Maturin,
 }
 
 /// The parts of the machine the checks look at.
@@ -83,6 +88,8 @@ impl Machine {
                 "Python 3, which remakes the README's example files (scripts/examples.py)",
                 "--version",
             ),
+            Need::PythonPackages => python_packages_problem(&PYTHON_PACKAGES),
+            Need::Maturin => python_packages_problem(&["maturin"]),
         }?;
         Some((problem, self.remedy(need)))
     }
@@ -122,6 +129,10 @@ impl Machine {
             Need::Python => {
                 "install Debian's package python3: `sudo apt-get install python3`".into()
             }
+            Need::PythonPackages | Need::Maturin => "install them into a virtual environment \
+                and name its Python: `python3 -m venv .venv && .venv/bin/pip install maturin \
+                numpy pandas pytest`, then `export PTSA_PYTHON=$PWD/.venv/bin/python`"
+                .into(),
         }
     }
 
@@ -208,6 +219,32 @@ impl Machine {
                 lib.display()
             )
         })
+    }
+}
+
+/// The Python packages the package `ptsa` is tested with.
+pub const PYTHON_PACKAGES: [&str; 3] = ["numpy", "pandas", "pytest"];
+
+/// Why `$PTSA_PYTHON` (default `python3`) cannot build and test the package `ptsa`: it does
+/// not start, or some of `packages` cannot be imported.
+fn python_packages_problem(packages: &[&str]) -> Option<String> {
+    let python = crate::python::python();
+    let probe = format!(
+        "import importlib.util, sys; m = [n for n in {packages:?} if importlib.util.find_spec(n) is None]; print(' '.join(m)); sys.exit(1 if m else 0)"
+    );
+    match Command::new(&python)
+        .args(["-c", &probe])
+        .stdin(Stdio::null())
+        .output()
+    {
+        Ok(o) if o.status.success() => None,
+        Ok(o) => Some(format!(
+            "`{python}` (the Python of $PTSA_PYTHON, default python3) lacks {}",
+            String::from_utf8_lossy(&o.stdout).trim()
+        )),
+        Err(e) => Some(format!(
+            "`{python}` (the Python of $PTSA_PYTHON, default python3) does not start: {e}"
+        )),
     }
 }
 

@@ -1,0 +1,215 @@
+"""ptsa from Python: the PTSA pulse-torque rebalance loop, its noise and its calibration.
+
+Each function calls the same Rust library as the ``ptsa`` command line, never the
+program itself, and returns what the command's ``--json`` prints (as dicts and lists) or
+numpy arrays. Units are the command line's: accelerations in cm/s², times in s.
+A refusal raises :class:`PtsaError` with the command line's message (file, line,
+column and what was expected).
+
+    >>> import ptsa
+    >>> ptsa.static([-1000.0, 0.0, 1000.0], seconds=0.1)[0]["indicated_cm_s2"]  # doctest: +SKIP
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from typing import Any, Mapping, Sequence, Union
+
+import numpy as np
+
+from . import _ptsa
+from ._ptsa import PtsaError
+
+__all__ = ["PtsaError", "static", "record", "noise", "discover"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _path(p: PathLike | None) -> str | None:
+    return None if p is None else os.fspath(p)
+
+
+def static(
+    accels_cm_s2: Sequence[float] | np.ndarray,
+    seconds: float = 1.0,
+    *,
+    warmup_s: float | None = None,
+    instrument: PathLike | None = None,
+    seed: int | None = None,
+    with_bias: bool = False,
+) -> list[dict[str, Any]]:
+    """The closed loop under constant accelerations along IA: ``ptsa static --json``.
+
+    One gate after the settling at each acceleration, all run as one batch of the batch
+    engine (each lane bit for bit the single loop's); the GIL is released while it runs.
+
+    Args:
+        accels_cm_s2: accelerations along IA, cm/s² (beyond full scale the loop
+            saturates, and the result says so).
+        seconds: the gate, s (at least one limit cycle, 0.001 s at 64 kHz).
+        warmup_s: settling before the gate, s; None: the command line's default.
+        instrument: an instrument file or a shipped name (``mems``, ...); None: the
+            Kearfott 2401 of R-890.
+        seed: seed of the pickoff noise (0 to 2**64 - 1); None: the default.
+        with_bias: include the instrument file's bias A_b as a torque.
+
+    Returns:
+        One dict per acceleration, in order: the objects of ``ptsa static --json``
+        (``ticks``, ``pulses``, ``indicated_cm_s2`` in cm/s², ``saturated``; every key:
+        docs/reference/json.md).
+    """
+    accels = [float(a) for a in np.atleast_1d(np.asarray(accels_cm_s2, dtype=float))]
+    text = _ptsa.static_json(
+        accels, float(seconds), warmup_s, _path(instrument), seed, bool(with_bias)
+    )
+    return json.loads(text)
+
+
+def record(
+    seconds: float,
+    gate_s: float = 0.1,
+    *,
+    warmup_s: float | None = None,
+    instrument: PathLike | None = None,
+    seed: int | None = None,
+) -> dict[str, np.ndarray]:
+    """A simulated counter record of the loop at rest: ``ptsa noise --simulate --output``.
+
+    Gates of ``gate_s`` back to back for ``seconds`` after the settling, the loop's bias
+    and pickoff noise included.
+
+    Args:
+        seconds: the record's length after the settling, s.
+        gate_s: the gate, s (a whole number of clock ticks; at least one limit cycle).
+        warmup_s: settling from reset before the first gate, s; None: the default.
+        instrument: an instrument file or a shipped name; None: the Kearfott 2401.
+        seed: seed of the pickoff noise; None: the default.
+
+    Returns:
+        ``{"time_s": float64 (s, from the end of the settling), "pulses": uint64 (data
+        pulses per gate), "ticks": uint64 (clock ticks per gate)}``, the columns of the
+        record the command writes.
+    """
+    t, p, k = _ptsa.record(float(seconds), float(gate_s), warmup_s, _path(instrument), seed)
+    return {"time_s": t, "pulses": p, "ticks": k}
+
+
+def _column(data: Any, name: str) -> np.ndarray | None:
+    try:
+        col = data[name]
+    except (KeyError, IndexError, TypeError):
+        return None
+    return np.asarray(col)
+
+
+def noise(
+    data: Any,
+    *,
+    name: str = "<array>",
+    unit: str | None = None,
+    instrument: PathLike | None = None,
+    spacing_tol: float | None = None,
+    taus: str | Sequence[float] = "octave",
+    confidence: float = 0.95,
+) -> dict[str, Any]:
+    """The Allan analysis of a static record: ``ptsa noise --readings/--counts --json``.
+
+    Args:
+        data: a pandas DataFrame or a dict of arrays with the columns of a record of
+            readings (``time_s`` in s, ``reading`` in ``unit``) or of a counter record
+            (``time_s`` in s, ``pulses``, ``ticks``); or the path of such a CSV file.
+        name: the record's name in messages and in the JSON's ``record`` (a path's own).
+        unit: the readings' unit (``cm/s2``, ``m/s2``, ``g``, ``V``, ``mA``, ``LSB``);
+            None: the instrument file's ``reading_unit``, else cm/s².
+        instrument: an instrument file or a shipped name; None: the Kearfott 2401.
+        spacing_tol: tolerance on each spacing of the readings, a fraction of the median
+            spacing; None: the default.
+        taus: ``"octave"``, ``"decade"``, ``"all"``, or averaging times in s.
+        confidence: the second confidence level of the intervals (0 to 1, exclusive).
+
+    Returns:
+        The object ``ptsa noise --json`` prints: the record's figures, one point per tau
+        (deviations and intervals in cm/s²) and the noise terms (every key:
+        docs/reference/json.md).
+
+    Raises:
+        PtsaError: the record is refused (a gap, too few samples...); the row named is
+            the line of the record as a CSV, its header being line 1.
+    """
+    taus_arg: Any = taus if isinstance(taus, str) else [float(t) for t in taus]
+    if isinstance(data, (str, os.PathLike)):
+        # The file as the command line reads it: its own lines and columns in messages.
+        path = os.fspath(data)
+        with open(path, encoding="utf-8") as f:
+            text = f.read()
+        counts = _header(text) == ["time_s", "pulses", "ticks"]
+        name = path if name == "<array>" else name
+    else:
+        t = _column(data, "time_s")
+        reading = _column(data, "reading")
+        pulses, ticks = _column(data, "pulses"), _column(data, "ticks")
+        if t is None or (reading is None and (pulses is None or ticks is None)):
+            raise PtsaError(
+                f"{name}: expected the columns time_s and reading (a record of readings) "
+                "or time_s, pulses and ticks (a counter record)"
+            )
+        counts = reading is None
+        names = ["time_s", "pulses", "ticks"] if counts else ["time_s", "reading"]
+        cols = [t, pulses, ticks] if counts else [t, reading]
+        text = _ptsa.columns_csv(names, [np.ascontiguousarray(c, dtype=np.float64) for c in cols])
+    return json.loads(
+        _ptsa.noise_json(
+            name, text, counts, unit, _path(instrument), spacing_tol, taus_arg, float(confidence)
+        )
+    )
+
+
+def _header(text: str) -> list[str]:
+    """The cells of the first line that is neither blank nor a comment."""
+    for line in text.lstrip("\ufeff").splitlines():
+        t = line.strip()
+        if t and not t.startswith("#"):
+            return [c.strip() for c in t.split(",")]
+    return []
+
+
+def discover(
+    data: Any,
+    *,
+    instrument: PathLike | None = None,
+    analytic: bool = False,
+    seed: int | None = None,
+    sigma_cm_s2: float | None = None,
+    keep_outliers: bool = False,
+) -> dict[str, Any]:
+    """Calibrate and discover from a case frame: ``ptsa discover --data FILE --json``.
+
+    Args:
+        data: the path of a case-frame CSV (docs/reference/case-frame-format.md), or a
+            pandas DataFrame or a dict of equal-length arrays with its columns (written
+            to a temporary file, read by the same reader).
+        instrument: an instrument file or a shipped name; None: the Kearfott 2401.
+        analytic: analyse on the quasi-static analytic model instead of the closed loop.
+        seed: seed of the simulated loop's pickoff noise; None: the default.
+        sigma_cm_s2: the rows' standard deviation, cm/s², where the data give none.
+        keep_outliers: keep the rows the analysis would set aside as outliers.
+
+    Returns:
+        The object ``ptsa discover --json`` prints (the calibration's values and
+        uncertainties, each candidate's test, the advice; every key:
+        docs/reference/json.md).
+    """
+    args = (_path(instrument), bool(analytic), seed, sigma_cm_s2, bool(keep_outliers))
+    if isinstance(data, (str, os.PathLike)):
+        return json.loads(_ptsa.discover_json(os.fspath(data), *args))
+    if isinstance(data, Mapping):
+        import pandas as pd
+
+        data = pd.DataFrame({k: np.asarray(v) for k, v in data.items()})
+    with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
+        path = os.path.join(d, "data.case.csv")
+        # repr-exact floats: the reader sees the frame's values bit for bit.
+        data.to_csv(path, index=False, float_format=None)
+        return json.loads(_ptsa.discover_json(path, *args))

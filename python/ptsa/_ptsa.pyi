@@ -1,0 +1,47 @@
+"""Type stubs of the native module (python/src/lib.rs); call the functions of `ptsa`."""
+
+from typing import Optional, Sequence, Union
+
+import numpy as np
+import numpy.typing as npt
+
+class PtsaError(ValueError):
+    """A refusal of ptsa's library, with the command line's message."""
+
+def defaults() -> tuple[float, int, float]:
+    """(warmup_s in s, seed, spacing_tol as a fraction): the command line's defaults."""
+
+def static_json(
+    accels_cm_s2: Sequence[float],
+    seconds: float,
+    warmup_s: Optional[float],
+    instrument: Optional[str],
+    seed: Optional[int],
+    with_bias: bool,
+) -> str: ...
+def record(
+    seconds: float,
+    gate_s: float,
+    warmup_s: Optional[float],
+    instrument: Optional[str],
+    seed: Optional[int],
+) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.uint64]]: ...
+def columns_csv(names: Sequence[str], columns: Sequence[npt.NDArray[np.float64]]) -> str: ...
+def noise_json(
+    name: str,
+    text: str,
+    counts: bool,
+    unit: Optional[str],
+    instrument: Optional[str],
+    spacing_tol: Optional[float],
+    taus: Union[str, Sequence[float]],
+    confidence: float,
+) -> str: ...
+def discover_json(
+    path: str,
+    instrument: Optional[str],
+    analytic: bool,
+    seed: Optional[int],
+    sigma_cm_s2: Optional[float],
+    keep_outliers: bool,
+) -> str: ...

@@ -1,0 +1,278 @@
+//! The native half of the Python package `ptsa`: each function here calls the
+//! `ptsa-host-sim` library exactly as the `ptsa` command line does and hands back its
+//! JSON text (the same serde types the command prints) or numpy arrays.
+//!
+//! The Python half (`python/ptsa/__init__.py`) turns the JSON into dicts and the inputs
+//! (paths, pandas frames, dicts of arrays) into what these functions take. No algorithm
+//! lives in either half: a result that differs from the command line's is a bug here.
+#![allow(
+    clippy::needless_pass_by_value,
+    reason = "pyo3 hands each argument of a Python function over as an owned value"
+)]
+
+use std::path::{Path, PathBuf};
+
+use numpy::{PyArray1, PyReadonlyArray1};
+use pyo3::create_exception;
+use pyo3::prelude::*;
+
+use ptsa_host_sim::discovery::{self, Options};
+use ptsa_host_sim::model::instrument::ReadingUnit;
+use ptsa_host_sim::noise::allan::{Settings, Taus};
+use ptsa_host_sim::noise::{self, Analysis, readings};
+use ptsa_host_sim::session::{Session, gate_ticks, simulator};
+use ptsa_host_sim::simulation::sim::SimOptions;
+
+create_exception!(
+    _ptsa,
+    PtsaError,
+    pyo3::exceptions::PyValueError,
+    "A refusal of ptsa's library: the command line's error message (file, line, column and what was expected, where a file is at fault)."
+);
+
+/// An error of the library as the exception the command line's message would be.
+fn refused(e: anyhow::Error) -> PyErr {
+    PtsaError::new_err(format!("{e:#}"))
+}
+
+/// The instrument file at `path` (a shipped name or a file; `None`: the Kearfott 2401).
+fn session(instrument: Option<&Path>) -> PyResult<Session> {
+    Session::load(instrument).map_err(refused)
+}
+
+/// The simulation options of `seed` and `warmup_s` (the command line's defaults where
+/// `None`) for the checked loop of `s`.
+fn sim_options(s: &Session, seed: Option<u64>, warmup_s: Option<f64>) -> PyResult<SimOptions> {
+    let d = SimOptions::default();
+    Ok(SimOptions {
+        seed: seed.unwrap_or(d.seed),
+        warmup_s: warmup_s.unwrap_or(d.warmup_s),
+        config: s.config().map_err(refused)?,
+        ..d
+    })
+}
+
+/// The command line's defaults, by option name (so that the Python docstrings need not
+/// copy them).
+#[pyfunction]
+fn defaults() -> (f64, u64, f64) {
+    let d = SimOptions::default();
+    (d.warmup_s, d.seed, readings::SPACING_TOL)
+}
+
+/// `ptsa static --json`: one gate at each acceleration along IA, as one batch of the batch
+/// engine (its lanes bit for bit the single loop's), the GIL released while it runs.
+#[pyfunction]
+#[pyo3(signature = (accels_cm_s2, seconds, warmup_s, instrument, seed, with_bias))]
+fn static_json(
+    py: Python<'_>,
+    accels_cm_s2: Vec<f64>,
+    seconds: f64,
+    warmup_s: Option<f64>,
+    instrument: Option<PathBuf>,
+    seed: Option<u64>,
+    with_bias: bool,
+) -> PyResult<String> {
+    let s = session(instrument.as_deref())?;
+    let opts = sim_options(&s, seed, warmup_s)?;
+    let mut instr = s.instr.clone();
+    if !with_bias {
+        instr.bias_cm_s2 = 0.0;
+    }
+    let ticks = gate_ticks("seconds", seconds, &instr, &opts).map_err(refused)?;
+    if let Some(a) = accels_cm_s2.iter().find(|a| !a.is_finite()) {
+        return Err(PtsaError::new_err(format!(
+            "accels_cm_s2: {a}; expected finite accelerations, cm/s²"
+        )));
+    }
+    let runs = py.detach(|| {
+        ptsa_host_sim::simulation::batch::run_static(&instr, &accels_cm_s2, ticks, &opts)
+    });
+    serde_json::to_string(&runs).map_err(|e| refused(e.into()))
+}
+
+/// The three columns of a counter record, as numpy arrays.
+type RecordArrays<'py> = (
+    Bound<'py, PyArray1<f64>>,
+    Bound<'py, PyArray1<u64>>,
+    Bound<'py, PyArray1<u64>>,
+);
+
+/// `ptsa noise --simulate --output FILE`'s record: the loop at rest, gates of `gate_s`
+/// back to back for `seconds` after the settling, as arrays `time_s, pulses, ticks`.
+#[pyfunction]
+#[pyo3(signature = (seconds, gate_s, warmup_s, instrument, seed))]
+fn record(
+    py: Python<'_>,
+    seconds: f64,
+    gate_s: f64,
+    warmup_s: Option<f64>,
+    instrument: Option<PathBuf>,
+    seed: Option<u64>,
+) -> PyResult<RecordArrays<'_>> {
+    let s = session(instrument.as_deref())?;
+    let opts = sim_options(&s, seed, warmup_s)?;
+    let ticks = gate_ticks("gate_s", gate_s, &s.instr, &opts).map_err(refused)?;
+    let gates = noise::simulated_gates(("seconds", "gate_s"), seconds, ticks, s.instr.clock_hz)
+        .map_err(refused)?;
+    let g = py.detach(|| noise::simulate_record(&s.instr, &opts, 0.0, ticks, gates));
+    Ok((
+        PyArray1::from_iter(py, g.iter().map(|g| g.time_s)),
+        PyArray1::from_iter(py, g.iter().map(|g| g.pulses)),
+        PyArray1::from_iter(py, g.iter().map(|g| g.ticks)),
+    ))
+}
+
+/// The columns as the CSV text the command line reads (Rust's shortest round-trip form of
+/// each number, so that the file's reader and its checks see exactly these values; its
+/// line numbers are the rows' plus one, the header being line 1).
+#[pyfunction]
+fn columns_csv(names: Vec<String>, columns: Vec<PyReadonlyArray1<'_, f64>>) -> PyResult<String> {
+    use std::fmt::Write as _;
+    let columns: Vec<Vec<f64>> = columns.iter().map(|c| c.as_array().to_vec()).collect();
+    let n = columns.first().map_or(0, Vec::len);
+    if let Some((k, c)) = columns.iter().enumerate().find(|(_, c)| c.len() != n) {
+        return Err(PtsaError::new_err(format!(
+            "{}: {} values, and {}: {n}; expected columns of equal length",
+            names.get(k).map_or("?", String::as_str),
+            c.len(),
+            names.first().map_or("?", String::as_str)
+        )));
+    }
+    let mut s = String::with_capacity(n * 24 * columns.len() + 32);
+    s.push_str(&names.join(","));
+    s.push('\n');
+    for i in 0..n {
+        for (k, c) in columns.iter().enumerate() {
+            let sep = if k + 1 == columns.len() { '\n' } else { ',' };
+            let _ = write!(s, "{}{sep}", c[i]);
+        }
+    }
+    Ok(s)
+}
+
+/// The analysis settings of `ptsa noise`: `taus` a name or times in s, the second
+/// confidence level, the Hadamard deviation computed.
+fn settings(taus: &TausIn, confidence: f64, tau0_s: f64, n: usize) -> PyResult<Settings> {
+    if !(confidence > 0.0 && confidence < 1.0) {
+        return Err(PtsaError::new_err(format!(
+            "confidence {confidence}: expected a level more than 0 and less than 1 (0.95 for 95 %)"
+        )));
+    }
+    let taus = match taus {
+        TausIn::Named(name) => Taus::named(name).ok_or_else(|| {
+            PtsaError::new_err(format!(
+                "taus `{name}`: expected octave, decade, all, or averaging times in s"
+            ))
+        })?,
+        TausIn::Seconds(ts) => Taus::of_seconds("taus", ts, tau0_s, n).map_err(refused)?,
+    };
+    Ok(Settings {
+        taus,
+        confidence,
+        hadamard: true,
+    })
+}
+
+/// `taus=` as Python gives it: a name or a sequence of times in s.
+#[derive(FromPyObject)]
+enum TausIn {
+    /// `"octave"`, `"decade"` or `"all"`.
+    Named(String),
+    /// Averaging times, s.
+    Seconds(Vec<f64>),
+}
+
+/// `ptsa noise --readings FILE --json` (or `--counts FILE` when `counts`): the record's
+/// text `text` (`name` in messages) read by the command line's reader and analysed as
+/// the command analyses it.
+#[pyfunction]
+#[pyo3(signature = (name, text, counts, unit, instrument, spacing_tol, taus, confidence))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the Python function's keyword arguments"
+)]
+fn noise_json(
+    py: Python<'_>,
+    name: &str,
+    text: &str,
+    counts: bool,
+    unit: Option<&str>,
+    instrument: Option<PathBuf>,
+    spacing_tol: Option<f64>,
+    taus: TausIn,
+    confidence: f64,
+) -> PyResult<String> {
+    let s = session(instrument.as_deref())?;
+    let a = if counts {
+        s.require_loop().map_err(refused)?;
+        let rec = noise::parse_record(name, text, s.instr.clock_hz).map_err(refused)?;
+        let settings = settings(&taus, confidence, rec.tau0_s, rec.gates.len())?;
+        let (sf, clock) = (s.instr.sf_cm_s2, s.instr.clock_hz);
+        py.detach(|| Analysis::of_with(&rec, sf, clock, &settings))
+    } else {
+        let unit = match unit {
+            Some(u) => ReadingUnit::parse(u).ok_or_else(|| {
+                PtsaError::new_err(format!(
+                    "unit `{u}`: expected one of {}",
+                    ReadingUnit::names()
+                ))
+            })?,
+            None => s
+                .instr
+                .reading_scale
+                .as_ref()
+                .map_or(ReadingUnit::CmPerS2, |r| r.unit),
+        };
+        let tol = spacing_tol.unwrap_or(readings::SPACING_TOL);
+        let r = readings::parse(name, text, unit, &s.instr, tol).map_err(refused)?;
+        let settings = settings(&taus, confidence, r.tau0_s, r.y.len())?;
+        py.detach(|| Analysis::of_readings(&r, &settings))
+    };
+    let warnings = noise::analysis_warnings(name, &a);
+    serde_json::to_value(a.json(name, &warnings))
+        .map(|v| v.to_string())
+        .map_err(|e| refused(e.into()))
+}
+
+/// `ptsa discover --data FILE --json --no-plots`: the case frame at `path` analysed, the
+/// JSON object the command prints.
+#[pyfunction]
+#[pyo3(signature = (path, instrument, analytic, seed, sigma_cm_s2, keep_outliers))]
+fn discover_json(
+    py: Python<'_>,
+    path: PathBuf,
+    instrument: Option<PathBuf>,
+    analytic: bool,
+    seed: Option<u64>,
+    sigma_cm_s2: Option<f64>,
+    keep_outliers: bool,
+) -> PyResult<String> {
+    let s = session(instrument.as_deref())?;
+    let seed = seed.unwrap_or(SimOptions::default().seed);
+    let config = s.model_config(seed).map_err(refused)?;
+    let sim = simulator(&s.instr, config, analytic, seed);
+    let options = Options {
+        default_sigma_cm_s2: sigma_cm_s2,
+        seed,
+        keep_outliers,
+        ..Options::for_instrument(&s.instr)
+    };
+    let (_, d) = py
+        .detach(|| discovery::analyse(&path, &*sim, &options))
+        .map_err(refused)?;
+    serde_json::to_string(&d.json).map_err(|e| refused(e.into()))
+}
+
+/// The module `ptsa._ptsa`.
+#[pymodule]
+fn _ptsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("PtsaError", m.py().get_type::<PtsaError>())?;
+    m.add_function(wrap_pyfunction!(defaults, m)?)?;
+    m.add_function(wrap_pyfunction!(static_json, m)?)?;
+    m.add_function(wrap_pyfunction!(record, m)?)?;
+    m.add_function(wrap_pyfunction!(columns_csv, m)?)?;
+    m.add_function(wrap_pyfunction!(noise_json, m)?)?;
+    m.add_function(wrap_pyfunction!(discover_json, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,148 @@
+"""Each function of the package against the command line on the same inputs.
+
+The command line is the program `cargo xtask ci` built from the same tree (its path in
+the environment variable PTSA_BIN). Equal means equal: the same JSON values, the same
+arrays bit for bit, the same refusal's message.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import ptsa
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLES = ROOT / "data" / "examples"
+
+
+def cli(*args: str, ok: bool = True) -> subprocess.CompletedProcess[str]:
+    exe = os.environ.get("PTSA_BIN")
+    if not exe:
+        pytest.fail("PTSA_BIN is not set: run these tests through `cargo xtask python`")
+    r = subprocess.run([exe, *args], capture_output=True, text=True, cwd=ROOT)
+    if ok and r.returncode != 0:
+        pytest.fail(f"ptsa {' '.join(args)} failed: {r.stderr}")
+    return r
+
+
+def cli_json(*args: str):
+    return json.loads(cli(*args, "--json").stdout)
+
+
+def test_static_is_the_command_lines_batch():
+    got = ptsa.static([-1000.0, 0.0, 1234.5], seconds=0.05, seed=11)
+    want = cli_json("static", "--accel-cm-s2", "-1000,0,1234.5", "--seconds", "0.05", "--seed", "11")
+    assert got == want
+    assert len(got) == 3 and all(r["ticks"] == 3200 for r in got)
+
+
+def test_static_one_acceleration_with_bias_and_an_instrument_file():
+    instr = "data/kearfott-2401-discovery.toml"
+    got = ptsa.static([500.0], seconds=0.02, warmup_s=0.1, with_bias=True, instrument=ROOT / instr)
+    want = cli_json(
+        "--instrument", instr, "static", "--accel-cm-s2", "500",
+        "--seconds", "0.02", "--warmup-s", "0.1", "--with-bias",
+    )
+    assert got == [want]
+
+
+def test_record_is_the_simulated_record_the_command_writes(tmp_path):
+    out = tmp_path / "rec.csv"
+    cli("noise", "--simulate", "--seconds", "1", "--gate-s", "0.01", "--seed", "7",
+        "--output", str(out), "--json")
+    rows = [r for r in csv.reader(l for l in out.read_text().splitlines() if not l.startswith("#"))]
+    assert rows[0] == ["time_s", "pulses", "ticks"]
+    got = ptsa.record(1.0, gate_s=0.01, seed=7)
+    assert got["time_s"].dtype == np.float64 and got["pulses"].dtype == np.uint64
+    assert got["time_s"].tolist() == [float(r[0]) for r in rows[1:]]
+    assert got["pulses"].tolist() == [int(r[1]) for r in rows[1:]]
+    assert got["ticks"].tolist() == [int(r[2]) for r in rows[1:]]
+    # The record analysed from arrays is the file analysed by the command.
+    want = cli_json("noise", "--counts", str(out))
+    assert ptsa.noise(got, name=str(out)) == want
+    assert ptsa.noise(out) == want
+
+
+def test_noise_of_readings_from_a_file_a_frame_and_a_dict():
+    path = EXAMPLES / "static-readings.csv"
+    rel = "data/examples/static-readings.csv"
+    want = cli_json("noise", "--readings", rel, "--taus", "decade", "--confidence", "0.683")
+    assert ptsa.noise(path, name=rel, taus="decade", confidence=0.683) == want
+    frame = pd.read_csv(path, comment="#")
+    assert ptsa.noise(frame, name=rel, taus="decade", confidence=0.683) == want
+    as_dict = {"time_s": frame["time_s"].to_numpy(), "reading": frame["reading"].to_numpy()}
+    assert ptsa.noise(as_dict, name=rel, taus="decade", confidence=0.683) == want
+
+
+def test_noise_refuses_a_gap_with_the_command_lines_message(tmp_path):
+    t = np.arange(64) * 0.01
+    t[40:] += 0.05
+    frame = pd.DataFrame({"time_s": t, "reading": np.zeros(64)})
+    path = tmp_path / "gap.csv"
+    path.write_text(ptsa._ptsa.columns_csv(["time_s", "reading"], [t, np.zeros(64)]))
+    r = cli("noise", "--readings", str(path), "--json", ok=False)
+    assert r.returncode == 1
+    with pytest.raises(ptsa.PtsaError) as e:
+        ptsa.noise(frame, name=str(path))
+    assert f"error: {e.value}" == r.stderr.strip()
+    assert ":42:" in str(e.value)
+
+
+def test_discover_from_a_path_and_a_frame():
+    rel = "data/examples/tumble-counts.csv"
+    want = cli_json("discover", "--data", rel, "--analytic", "--no-plots")
+    assert ptsa.discover(rel, analytic=True) == want
+    frame = pd.read_csv(ROOT / rel, comment="#", dtype=str)
+    from_frame = ptsa.discover(frame, analytic=True)
+    assert from_frame == want
+
+
+def test_errors_are_ptsa_errors_with_the_message():
+    with pytest.raises(ptsa.PtsaError, match="expected a gate of at least one limit cycle"):
+        ptsa.static([0.0], seconds=1e-5)
+    with pytest.raises(ptsa.PtsaError, match="no-such-instrument.toml"):
+        ptsa.static([0.0], instrument="no-such-instrument.toml")
+
+
+def test_a_refused_case_frame_names_its_line_and_column_as_the_command_does(tmp_path):
+    lines = (EXAMPLES / "tumble-counts.csv").read_text().splitlines()
+    k = next(i for i, l in enumerate(lines) if l and not l.startswith("#")) + 3
+    cells = lines[k].split(",")
+    cells[-1] = "twelve"
+    lines[k] = ",".join(cells)
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines) + "\n")
+    r = cli("discover", "--data", str(bad), "--analytic", "--no-plots", "--json", ok=False)
+    assert r.returncode == 1
+    with pytest.raises(ptsa.PtsaError) as e:
+        ptsa.discover(bad, analytic=True)
+    assert f"error: {e.value}" == r.stderr.strip().splitlines()[-1]
+    assert f"{bad}:{k + 1}:" in str(e.value)
+
+
+def test_the_gil_is_released_while_the_loop_runs():
+    import threading
+
+    ticks = []
+    done = threading.Event()
+
+    def run():
+        ptsa.static([0.0] * 8, seconds=200.0)
+        done.set()
+
+    t = threading.Thread(target=run)
+    t.start()
+    while not done.is_set():
+        ticks.append(1)
+        done.wait(0.001)
+    t.join()
+    # The main thread ran Python while the batch ran (with the GIL held it could not).
+    assert len(ticks) > 10
