@@ -210,6 +210,32 @@ pub fn t_two_sided_quantile(p: f64, k: f64) -> f64 {
     StudentsT::new(0.0, 1.0, k).map_or(f64::NAN, |d| d.inverse_cdf(1.0 - 0.5 * p))
 }
 
+/// The Clopper–Pearson interval of a binomial rate, `k` of `n`, at the confidence `level`
+/// (0.95 for 95 %): the exact interval from the Beta distribution's quantiles (`[0, …]`
+/// when `k` is 0, `[…, 1]` when it is `n`; NaN for `n` = 0).
+#[must_use]
+pub fn clopper_pearson(k: u64, n: u64, level: f64) -> (f64, f64) {
+    use statrs::distribution::{Beta, ContinuousCDF as _};
+    if n == 0 || k > n {
+        return (f64::NAN, f64::NAN);
+    }
+    let a = (1.0 - level) / 2.0;
+    let (all, none) = (k == n, k == 0);
+    #[allow(clippy::cast_precision_loss)]
+    let (k, n) = (k as f64, n as f64);
+    let lo = if none {
+        0.0
+    } else {
+        Beta::new(k, n - k + 1.0).map_or(f64::NAN, |b| b.inverse_cdf(a))
+    };
+    let hi = if all {
+        1.0
+    } else {
+        Beta::new(k + 1.0, n - k).map_or(f64::NAN, |b| b.inverse_cdf(1.0 - a))
+    };
+    (lo, hi)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -261,5 +287,32 @@ mod tests {
             let q = t_two_sided_quantile(0.05, k);
             assert!((q - t).abs() < 1e-4, "{k}: {q} against {t}");
         }
+    }
+
+    #[test]
+    fn clopper_pearson_is_where_the_binomial_tails_reach_two_and_a_half_percent() {
+        use statrs::distribution::{Binomial, DiscreteCDF as _};
+        // 58 of 60 and 59 of 60: the identification campaign's rates, [88.5, 99.6] % and
+        // [91.1, 100.0] % by bisection on the tails (tests/hidden/sigma.rs).
+        let (lo, hi) = clopper_pearson(58, 60, 0.95);
+        assert!(
+            (lo - 0.885).abs() < 5e-4 && (hi - 0.996).abs() < 5e-4,
+            "{lo} {hi}"
+        );
+        let (lo, hi) = clopper_pearson(59, 60, 0.95);
+        assert!(
+            (lo - 0.911).abs() < 5e-4 && (hi - 1.0).abs() < 5e-4,
+            "{lo} {hi}"
+        );
+        for (k, n) in [(1, 10), (7, 20), (50, 100), (999, 1000)] {
+            let (lo, hi) = clopper_pearson(k, n, 0.95);
+            // P(X >= k | lo) = 2.5 % and P(X <= k | hi) = 2.5 %.
+            let at_lo = Binomial::new(lo, n).unwrap().sf(k - 1);
+            let at_hi = Binomial::new(hi, n).unwrap().cdf(k);
+            assert!((at_lo - 0.025).abs() < 1e-6, "{k}/{n}: {at_lo}");
+            assert!((at_hi - 0.025).abs() < 1e-6, "{k}/{n}: {at_hi}");
+        }
+        assert!(clopper_pearson(0, 10, 0.95).0.to_bits() == 0.0_f64.to_bits());
+        assert!(clopper_pearson(10, 10, 0.95).1.to_bits() == 1.0_f64.to_bits());
     }
 }

@@ -172,6 +172,10 @@ fn every_key_the_other_commands_print_is_in_the_reference() {
             "correct triad",
             "correct --calibration triad.toml --data positions.csv --instrument mems --local-gravity 980.4 --sigma 0.07".into(),
         ),
+        (
+            "monte-carlo --yield",
+            "monte-carlo --yield 4 --gates 2 --spec-sf-ppm 1000 --spec-bias-cm-s2 30 --spec-linearity-ppm-fs 100 --spec-noise-cm-s2 10".into(),
+        ),
     ];
     let mut seen: std::collections::BTreeMap<&str, std::collections::BTreeSet<String>> =
         std::collections::BTreeMap::new();

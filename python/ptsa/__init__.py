@@ -22,7 +22,7 @@ import numpy as np
 from . import _ptsa
 from ._ptsa import PtsaError
 
-__all__ = ["PtsaError", "static", "record", "noise", "discover"]
+__all__ = ["PtsaError", "static", "record", "noise", "discover", "yield_study"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -213,3 +213,92 @@ def discover(
         # repr-exact floats: the reader sees the frame's values bit for bit.
         data.to_csv(path, index=False, float_format=None)
         return json.loads(_ptsa.discover_json(path, *args))
+
+
+def yield_plan(
+    instruments: int,
+    *,
+    instrument: PathLike | None = None,
+    seed: int | None = None,
+    warmup_s: float | None = None,
+    fractions: Sequence[float] | None = None,
+    gate_s: float | None = None,
+    gates: int | None = None,
+    spec_sf_ppm: float | None = None,
+    spec_bias_cm_s2: float | None = None,
+    spec_linearity_ppm_fs: float | None = None,
+    spec_noise_cm_s2: float | None = None,
+    spec_pm_deg: float | None = None,
+    spec_gm_db: float | None = None,
+) -> dict[str, Any]:
+    """The plan of a yield study, checked as ``ptsa monte-carlo --yield N`` checks it.
+
+    Options left at None take the command line's defaults (``ptsa monte-carlo --help``).
+    The keys are the JSON's ``plan`` (docs/reference/json.md).
+    """
+    spec = (
+        spec_sf_ppm,
+        spec_bias_cm_s2,
+        spec_linearity_ppm_fs,
+        spec_noise_cm_s2,
+        spec_pm_deg,
+        spec_gm_db,
+    )
+    return json.loads(
+        _ptsa.yield_plan_json(
+            int(instruments),
+            _path(instrument),
+            seed,
+            warmup_s,
+            None if fractions is None else [float(f) for f in fractions],
+            gate_s,
+            gates,
+            spec,
+        )
+    )
+
+
+def yield_units(
+    plan: Mapping[str, Any], start: int, count: int, *, instrument: PathLike | None = None
+) -> list[dict[str, Any]]:
+    """Instruments ``start`` to ``start + count - 1`` of the study ``plan``, each run through
+    the closed loop. An instrument depends on the plan's seed and its index only, so pieces
+    computed anywhere (threads, processes, Ray tasks) join into the same study."""
+    return json.loads(
+        _ptsa.yield_units_json(json.dumps(plan), _path(instrument), int(start), int(count))
+    )
+
+
+def yield_summary(
+    plan: Mapping[str, Any],
+    units: Sequence[Mapping[str, Any]],
+    *,
+    instrument: PathLike | None = None,
+) -> dict[str, Any]:
+    """The study's report from its instruments, in any order: ``ptsa monte-carlo --yield
+    N --json``'s object."""
+    return json.loads(
+        _ptsa.yield_summary_json(json.dumps(plan), _path(instrument), json.dumps(list(units)))
+    )
+
+
+def yield_study(instruments: int, *, instrument: PathLike | None = None, **options: Any) -> dict[str, Any]:
+    """The production yield over the tolerance box: ``ptsa monte-carlo --yield N --json``.
+
+    Args:
+        instruments: instruments drawn from the box (each toleranced parameter uniform
+            between its limits).
+        instrument: an instrument file with a tolerance box, or a shipped name; None: the
+            Kearfott 2401 and R-890's Table 2.1.
+        options: those of :func:`yield_plan` (``seed``, ``warmup_s`` in s, ``fractions``
+            of full scale, ``gate_s`` in s, ``gates``, ``spec_sf_ppm``,
+            ``spec_bias_cm_s2``, ``spec_linearity_ppm_fs``, ``spec_noise_cm_s2``,
+            ``spec_pm_deg``, ``spec_gm_db``).
+
+    Returns:
+        The plan, the yield with its 95 % Clopper-Pearson interval, each figure's
+        distribution and every instrument (docs/reference/json.md).
+    """
+    plan = yield_plan(instruments, instrument=instrument, **options)
+    units = yield_units(plan, 0, plan["instruments"], instrument=instrument)
+    return yield_summary(plan, units, instrument=instrument)

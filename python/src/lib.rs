@@ -22,6 +22,7 @@ use ptsa_host_sim::noise::allan::{Settings, Taus};
 use ptsa_host_sim::noise::{self, Analysis, readings};
 use ptsa_host_sim::session::{Session, gate_ticks, simulator};
 use ptsa_host_sim::simulation::sim::SimOptions;
+use ptsa_host_sim::simulation::yield_study::{self, Plan, Spec};
 
 create_exception!(
     _ptsa,
@@ -264,6 +265,108 @@ fn discover_json(
     serde_json::to_string(&d.json).map_err(|e| refused(e.into()))
 }
 
+/// A specification's limits as Python passes them: |SF error| ppm, |bias| cm/s²,
+/// linearity ppm of full scale, noise cm/s², phase margin degrees, gain margin dB.
+type SpecLimits = (
+    Option<f64>,
+    Option<f64>,
+    Option<f64>,
+    Option<f64>,
+    Option<f64>,
+    Option<f64>,
+);
+
+/// The plan of `ptsa monte-carlo --yield N` from its options (the command line's default
+/// where `None`), checked as the command checks it; as JSON.
+#[pyfunction]
+#[pyo3(signature = (instruments, instrument, seed, warmup_s, fractions, gate_s, gates, spec))]
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the Python function's keyword arguments"
+)]
+fn yield_plan_json(
+    instruments: u64,
+    instrument: Option<PathBuf>,
+    seed: Option<u64>,
+    warmup_s: Option<f64>,
+    fractions: Option<Vec<f64>>,
+    gate_s: Option<f64>,
+    gates: Option<u64>,
+    spec: SpecLimits,
+) -> PyResult<String> {
+    let s = session(instrument.as_deref())?;
+    let opts = sim_options(&s, seed, warmup_s)?;
+    if s.instr.tolerances.is_empty() {
+        return Err(PtsaError::new_err(format!(
+            "{}: no [tolerances]; expected an instrument file with a tolerance box to draw from",
+            s.name
+        )));
+    }
+    let gate_s = gate_s.unwrap_or(yield_study::DEFAULT_GATE_S);
+    let ticks = gate_ticks("gate_s", gate_s, &s.instr, &opts).map_err(refused)?;
+    let d = Spec::default();
+    #[allow(clippy::cast_precision_loss)]
+    let plan = Plan {
+        instruments,
+        seed: opts.seed,
+        fractions_of_full_scale: fractions
+            .unwrap_or_else(|| yield_study::DEFAULT_FRACTIONS.to_vec()),
+        gate_s: ticks as f64 / s.instr.clock_hz,
+        gates: gates.unwrap_or(yield_study::DEFAULT_GATES),
+        warmup_s: opts.warmup_s,
+        spec: Spec {
+            sf_error_ppm: spec.0,
+            bias_cm_s2: spec.1,
+            linearity_ppm_fs: spec.2,
+            noise_cm_s2: spec.3,
+            phase_margin_deg: spec.4.or(d.phase_margin_deg),
+            gain_margin_db: spec.5.or(d.gain_margin_db),
+        },
+    };
+    serde_json::to_string(&plan).map_err(|e| refused(e.into()))
+}
+
+/// The plan's JSON read back.
+fn plan_of(plan_json: &str) -> PyResult<Plan> {
+    serde_json::from_str(plan_json).map_err(|e| PtsaError::new_err(format!("plan: {e}")))
+}
+
+/// Instruments `start .. start + count` of the yield study `plan_json`, as a JSON list:
+/// each depends on the plan's seed and its index only, so pieces run anywhere join into
+/// the study.
+#[pyfunction]
+#[pyo3(signature = (plan_json, instrument, start, count))]
+fn yield_units_json(
+    py: Python<'_>,
+    plan_json: &str,
+    instrument: Option<PathBuf>,
+    start: u64,
+    count: u64,
+) -> PyResult<String> {
+    let s = session(instrument.as_deref())?;
+    let plan = plan_of(plan_json)?;
+    let opts = sim_options(&s, Some(plan.seed), Some(plan.warmup_s))?;
+    let units = py.detach(|| yield_study::units(&s.instr, &opts, &plan, start..start + count));
+    serde_json::to_string(&units).map_err(|e| refused(e.into()))
+}
+
+/// `ptsa monte-carlo --yield N --json` from the study's instruments (the pieces joined, in
+/// any order).
+#[pyfunction]
+#[pyo3(signature = (plan_json, instrument, units_json))]
+fn yield_summary_json(
+    plan_json: &str,
+    instrument: Option<PathBuf>,
+    units_json: &str,
+) -> PyResult<String> {
+    let s = session(instrument.as_deref())?;
+    let plan = plan_of(plan_json)?;
+    let units: Vec<yield_study::Unit> =
+        serde_json::from_str(units_json).map_err(|e| PtsaError::new_err(format!("units: {e}")))?;
+    serde_json::to_string(&yield_study::summary(&s.instr, &plan, &units))
+        .map_err(|e| refused(e.into()))
+}
+
 /// The module `ptsa._ptsa`.
 #[pymodule]
 fn _ptsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
@@ -274,5 +377,8 @@ fn _ptsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(columns_csv, m)?)?;
     m.add_function(wrap_pyfunction!(noise_json, m)?)?;
     m.add_function(wrap_pyfunction!(discover_json, m)?)?;
+    m.add_function(wrap_pyfunction!(yield_plan_json, m)?)?;
+    m.add_function(wrap_pyfunction!(yield_units_json, m)?)?;
+    m.add_function(wrap_pyfunction!(yield_summary_json, m)?)?;
     Ok(())
 }

@@ -146,3 +146,15 @@ def test_the_gil_is_released_while_the_loop_runs():
     t.join()
     # The main thread ran Python while the batch ran (with the GIL held it could not).
     assert len(ticks) > 10
+
+
+def test_the_yield_study_is_the_command_lines_in_one_piece_or_many():
+    args = ["monte-carlo", "--yield", "12", "--seed", "5", "--gates", "3", "--gate-s", "0.05",
+            "--spec-sf-ppm", "20000", "--spec-noise-cm-s2", "30"]
+    want = cli_json(*args)
+    opts = dict(seed=5, gates=3, gate_s=0.05, spec_sf_ppm=20000, spec_noise_cm_s2=30)
+    assert ptsa.yield_study(12, **opts) == want
+    plan = ptsa.yield_plan(12, **opts)
+    parts = [ptsa.yield_units(plan, s, c) for s, c in [(7, 5), (0, 3), (3, 4)]]
+    assert ptsa.yield_summary(plan, [u for p in parts for u in p]) == want
+    assert 0 < want["within_spec"] < 12, "the limits split the instruments"

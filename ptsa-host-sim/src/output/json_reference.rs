@@ -33,7 +33,8 @@ pub fn noise_schema() -> Value {
 }
 
 /// The schema of each other command's `--json`, by the command's name: `static`,
-/// `predict`, `response`, `record`, `correct` (a single-axis file) and `correct triad`.
+/// `predict`, `response`, `record`, `correct` (a single-axis file), `correct triad` and
+/// `monte-carlo --yield`.
 #[must_use]
 pub fn command_schema(command: &str) -> Option<Value> {
     use crate::output::command_json as c;
@@ -44,13 +45,16 @@ pub fn command_schema(command: &str) -> Option<Value> {
         "record" => schemars::schema_for!(c::RecordJson),
         "correct" => schemars::schema_for!(c::CorrectJson),
         "correct triad" => schemars::schema_for!(c::TriadCorrectJson),
+        "monte-carlo --yield" => {
+            schemars::schema_for!(crate::simulation::yield_study::YieldJson)
+        }
         _ => return None,
     };
     Some(s.to_value())
 }
 
 /// The other commands' sections of the page: heading, what is printed, the schema's name.
-const COMMANDS: [(&str, &str, &str); 6] = [
+const COMMANDS: [(&str, &str, &str); 7] = [
     (
         "`ptsa static --json`",
         "One object for one acceleration; a list of them, in the order given, for several.",
@@ -80,6 +84,11 @@ const COMMANDS: [(&str, &str, &str); 6] = [
         "`ptsa correct --json`, a triad file",
         "One object: each row's specific force in the triad's frame, with its covariance.",
         "correct triad",
+    ),
+    (
+        "`ptsa monte-carlo --yield N --json`",
+        "One object: the yield study's plan, its yield with a 95 % interval, each figure's distribution and every instrument drawn.",
+        "monte-carlo --yield",
     ),
 ];
 

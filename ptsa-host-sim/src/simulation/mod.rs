@@ -33,3 +33,4 @@ pub mod sim;
 pub mod simd;
 mod state;
 pub mod work;
+pub mod yield_study;

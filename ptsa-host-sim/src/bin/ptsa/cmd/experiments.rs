@@ -133,6 +133,8 @@ pub struct MonteCarloArgs {
     #[arg(long, value_name = "N", value_parser = count)]
     pub samples: Option<usize>,
     #[command(flatten)]
+    pub yield_study: super::yield_study::YieldArgs,
+    #[command(flatten)]
     pub run: RunArgs,
     #[command(flatten)]
     pub out: OutArgs,
@@ -170,6 +172,8 @@ enum Experiment {
     MonteCarlo {
         samples: usize,
     },
+    /// The yield study of `--yield N` (its own output: nothing written into the folder).
+    Yield(Box<super::yield_study::Request>),
 }
 
 impl TumbleArgs {
@@ -328,6 +332,14 @@ impl MonteCarloArgs {
     /// The loop cannot be simulated; `--out` is not a folder.
     pub fn request(self, ctx: &Ctx) -> Result<Request> {
         let opts = self.run.options(ctx.config()?);
+        if let Some(y) = self.yield_study.request(ctx, opts, self.run.force)? {
+            return Ok(Request {
+                opts,
+                force: self.run.force,
+                out: self.out.out,
+                what: Experiment::Yield(Box::new(y)),
+            });
+        }
         let n = ctx.instr.tolerances.len();
         if let Some(k) = self.samples
             && n <= monte_carlo::MAX_EXHAUSTIVE
@@ -437,5 +449,6 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
             p.finish();
             emit(&r.output, &req.out, 0, out)
         }
+        Experiment::Yield(y) => super::yield_study::run(ctx, y, out),
     }
 }

@@ -33,6 +33,7 @@ pub mod report;
 pub mod response;
 pub mod static_;
 pub mod triad;
+pub mod yield_study;
 
 use std::io::Write;
 use std::path::Path;

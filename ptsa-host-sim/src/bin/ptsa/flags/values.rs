@@ -315,3 +315,23 @@ pub fn runs(s: &str) -> Result<usize, String> {
     let n = whole_in(s, 1, 1000, "a number of runs")?;
     usize::try_from(n).map_err(|e| e.to_string())
 }
+
+/// A number of instruments for `monte-carlo --yield`, 1 to 10⁶.
+pub fn instruments(s: &str) -> Result<u64, String> {
+    whole_in(s, 1, 1_000_000, "a number of instruments")
+}
+
+/// A number of gates at each input, 2 to 10 000.
+pub fn gates(s: &str) -> Result<u64, String> {
+    whole_in(s, 2, 10_000, "a number of gates")
+}
+
+/// A limit of a specification: a finite number, 0 or more.
+pub fn limit(s: &str) -> Result<f64, String> {
+    within(s, 0.0, f64::MAX, "a limit, 0 or more")
+}
+
+/// A fraction of full scale, from −1 to 1.
+pub fn fraction_fs(s: &str) -> Result<f64, String> {
+    within(s, -1.0, 1.0, "a fraction of full scale from -1 to 1")
+}
