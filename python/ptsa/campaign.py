@@ -58,7 +58,11 @@ def yield_study(
         else:
             ray_mod.init(address=ray, log_to_driver=False)
     try:
-        task = ray_mod.remote(num_cpus=1)(_units_task)
+        # One core per task: the batch engine's thread pool limited to it, so that Ray's
+        # count of CPUs is the cores used.
+        task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
+            _units_task
+        )
         refs = [task.remote(plan, s, c, instrument) for s, c in parts]
         units = [u for piece in ray_mod.get(refs) for u in piece]
     finally:
@@ -71,6 +75,46 @@ def _units_task(plan: dict[str, Any], start: int, count: int, instrument: str | 
     """One Ray task: its instruments, run on one core (the batch engine's own threads
     limited to it)."""
     return ptsa.yield_units(plan, start, count, instrument=instrument)
+
+
+def bench(instruments: int, repeats: int, task_size: int, expect: float | None) -> dict[str, Any]:
+    """The study on a local Ray of 1 and of 2 CPUs, ``repeats`` times each: the medians, the
+    speed-up, one task's ticks and seconds. With ``expect``, the speed-up must reach it."""
+    import statistics
+    import time
+
+    import ray as ray_mod
+
+    plan = ptsa.yield_plan(instruments)
+    clock_hz = 64000.0  # the shipped instrument's clock (data/kearfott-2401.toml)
+    per_unit = len(plan["fractions_of_full_scale"]) * (
+        plan["warmup_s"] + plan["gates"] * plan["gate_s"]
+    ) * clock_hz
+    out: dict[str, Any] = {
+        "instruments": instruments,
+        "task_size": task_size,
+        "tasks": len(pieces(instruments, task_size)),
+        "ticks_per_instrument": per_unit,
+        "ticks_per_task": per_unit * task_size,
+        "median_s": {},
+    }
+    for cpus in (1, 2):
+        ray_mod.init(num_cpus=cpus, include_dashboard=False, log_to_driver=False)
+        try:
+            yield_study(8, task_size=4)  # the workers started before the clock runs
+            times = []
+            for _ in range(repeats):
+                t0 = time.perf_counter()
+                yield_study(instruments, task_size=task_size)
+                times.append(time.perf_counter() - t0)
+        finally:
+            ray_mod.shutdown()
+        out["median_s"][str(cpus)] = statistics.median(times)
+    out["speedup_2_over_1"] = out["median_s"]["1"] / out["median_s"]["2"]
+    out["seconds_per_task_1_cpu"] = out["median_s"]["1"] / out["tasks"]
+    if expect is not None and out["speedup_2_over_1"] < expect:
+        raise SystemExit(f"speed-up {out['speedup_2_over_1']:.3f} from 1 to 2 workers; expected at least {expect}")
+    return out
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -94,7 +138,15 @@ def main(argv: Sequence[str] | None = None) -> int:
                          "an address, or none (no Ray)")
     mc.add_argument("--num-cpus", type=int, help="CPUs of a local Ray (default: all)")
     mc.add_argument("--task-size", type=int, default=64, help="instruments per task (default 64)")
+    b = sub.add_parser("bench", help="the yield study on a local Ray of 1 and 2 CPUs: medians and speed-up")
+    b.add_argument("--yield", dest="instruments", type=int, default=256, metavar="N")
+    b.add_argument("--repeats", type=int, default=3)
+    b.add_argument("--task-size", type=int, default=16)
+    b.add_argument("--expect-speedup", type=float, help="fail unless 2 workers are this much faster than 1")
     a = p.parse_args(argv)
+    if a.campaign == "bench":
+        print(json.dumps(bench(a.instruments, a.repeats, a.task_size, a.expect_speedup), indent=1))
+        return 0
     options = {k: v for k, v in vars(a).items()
                if k not in ("campaign", "instruments", "ray", "num_cpus", "task_size", "instrument")
                and v is not None}

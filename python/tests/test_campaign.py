@@ -29,7 +29,6 @@ def test_without_ray_the_pieces_join_into_the_command_lines_study():
 
 @pytest.mark.parametrize("workers", [1, 2])
 def test_on_a_local_ray_the_json_is_the_command_lines(workers):
-    pytest.importorskip("ray", reason="Ray is not installed (pip install ray)")
     want = cli_json("monte-carlo", *ARGS)
     r = subprocess.run(
         [sys.executable, "-m", "ptsa.campaign", "monte-carlo", *ARGS,

@@ -23,8 +23,8 @@ ci [--no-firmware]
     input without and with the pickoff noise, a sine), whose gates must be the host's bit
     for bit. The host tests include the freshness check of the
     firmware's generated constants (`cargo xtask constants`).
-    Needs rustfmt, clippy, a C compiler, python3 (and $PTSA_PYTHON with numpy, pandas
-    and pytest), the thumbv7em-none-eabihf target and (unless
+    Needs rustfmt, clippy, a C compiler, python3 (and $PTSA_PYTHON with numpy, pandas,
+    pytest, matplotlib and Ray), the thumbv7em-none-eabihf target and (unless
     --no-firmware) qemu-system-arm; it looks for all of them first and, if any is
     missing, says how to install each and stops (it installs nothing; `.ci/run` does, on
     a throwaway CI machine). The dry-run publish needs crates.io over the network.

@@ -30,7 +30,7 @@ pub enum Need {
     /// Python 3, which remakes the README's example files in a host test.
     Python,
     /// The Python (`$PTSA_PYTHON`, default `python3`) that tests the package `ptsa`, with
-    /// numpy, pandas and pytest importable.
+    /// numpy, pandas, pytest, matplotlib and Ray importable.
     PythonPackages,
     /// maturin in that Python, which builds the package's wheel.
     Maturin,
@@ -131,7 +131,7 @@ impl Machine {
             }
             Need::PythonPackages | Need::Maturin => "install them into a virtual environment \
                 and name its Python: `python3 -m venv .venv && .venv/bin/pip install maturin \
-                numpy pandas pytest`, then `export PTSA_PYTHON=$PWD/.venv/bin/python`"
+                numpy pandas pytest matplotlib ray`, then `export PTSA_PYTHON=$PWD/.venv/bin/python`"
                 .into(),
         }
     }
@@ -223,7 +223,7 @@ impl Machine {
 }
 
 /// The Python packages the package `ptsa` is tested with.
-pub const PYTHON_PACKAGES: [&str; 3] = ["numpy", "pandas", "pytest"];
+pub const PYTHON_PACKAGES: [&str; 5] = ["numpy", "pandas", "pytest", "matplotlib", "ray"];
 
 /// Why `$PTSA_PYTHON` (default `python3`) cannot build and test the package `ptsa`: it does
 /// not start, or some of `packages` cannot be imported.

@@ -7,7 +7,8 @@
 //! cdylib cargo builds in the test profile, whose crates `cargo test` has already
 //! compiled (seconds, in CI); `--wheel` builds the wheel with maturin in the release
 //! profile, as `pip install ./python` does (minutes), and unpacks it there instead. The
-//! Python is `$PTSA_PYTHON` (default `python3`), with maturin, numpy, pandas and pytest.
+//! Python is `$PTSA_PYTHON` (default `python3`), with numpy, pandas, pytest, matplotlib
+//! and Ray (and maturin for `--wheel`).
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -23,8 +24,9 @@ python [--wheel]
     tree. Its native module is cargo's build of python/ in the test profile (what
     `cargo test` has compiled already); --wheel: the wheel maturin builds in the release
     profile, as `pip install ./python` does, unpacked there instead (minutes more).
-    The Python is $PTSA_PYTHON (default python3); it needs maturin, numpy, pandas and
-    pytest, and if any is missing this says how to install them and stops.";
+    The Python is $PTSA_PYTHON (default python3); it needs numpy, pandas, pytest,
+    matplotlib and Ray (and maturin for --wheel), and if any is missing this says how to
+    install them and stops.";
 
 /// What the step needs from the machine (and `--wheel` maturin besides).
 pub const NEEDS: [Need; 1] = [Need::PythonPackages];
