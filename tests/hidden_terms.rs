@@ -375,22 +375,9 @@ fn pct(k: usize, n: usize) -> f64 {
     r
 }
 
-/// The Clopper–Pearson 95 % interval of a proportion `k/n` (statrs' beta quantiles).
+/// The Clopper–Pearson 95 % interval of a proportion `k/n` (the library's).
 fn clopper_pearson(k: usize, n: usize) -> (f64, f64) {
-    use statrs::distribution::{Beta, ContinuousCDF as _};
-    #[allow(clippy::cast_precision_loss)]
-    let (kf, nf) = (k as f64, n as f64);
-    let lo = if k == 0 {
-        0.0
-    } else {
-        Beta::new(kf, nf - kf + 1.0).map_or(f64::NAN, |b| b.inverse_cdf(0.025))
-    };
-    let hi = if k == n {
-        1.0
-    } else {
-        Beta::new(kf + 1.0, nf - kf).map_or(f64::NAN, |b| b.inverse_cdf(0.975))
-    };
-    (lo, hi)
+    ptsa_host_sim::stats::clopper_pearson(k as u64, n as u64, 0.95)
 }
 
 #[test]

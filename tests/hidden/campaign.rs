@@ -17,6 +17,7 @@ use ptsa_host_sim::discovery::Selected;
 use ptsa_host_sim::discovery::{Discovery, Options, Simulator, discover};
 use ptsa_host_sim::model::condition::Condition;
 use rayon::prelude::*;
+use statrs::distribution::{Binomial, DiscreteCDF as _};
 
 /// Largest asserted false-selection and misnaming rate.
 pub const RATE_MAX: f64 = 0.05;
@@ -669,34 +670,21 @@ pub fn detected(what: &str, c: Count, ci: bool) -> Option<String> {
     })
 }
 
-/// `ln P(X = k)` for X ~ Binomial(n, p), every k.
-fn binomial_ln_pmf(n: usize, p: f64) -> Vec<f64> {
-    let q = 1.0 - p;
-    #[allow(clippy::cast_precision_loss)]
-    let mut v = vec![n as f64 * q.ln()];
-    for k in 0..n {
-        #[allow(clippy::cast_precision_loss)]
-        let step = ((n - k) as f64 / (k + 1) as f64).ln() + (p / q).ln();
-        let last = v[k];
-        v.push(last + step);
-    }
-    v
+/// Binomial(n, p) (statrs).
+fn binomial(n: usize, p: f64) -> Binomial {
+    Binomial::new(p, n as u64).expect("a probability from 0 to 1")
 }
 
 /// The central interval of Binomial(n, p) holding `level` of it: `[q_(1−level)/2,
-/// q_(1+level)/2]`, with `q_a` the smallest `k` with `P(X ≤ k) ≥ a`.
+/// q_(1+level)/2]`, with `q_a` the smallest `k` with `P(X ≤ k) ≥ a` (a relative slack of
+/// 1e-12 on `a`, so that a sum that lands a rounding below it still counts).
 #[must_use]
 pub fn binomial_interval(n: usize, p: f64, level: f64) -> (usize, usize) {
-    let pmf: Vec<f64> = binomial_ln_pmf(n, p).into_iter().map(f64::exp).collect();
+    let b = binomial(n, p);
     let quantile = |a: f64| {
-        let mut c = 0.0;
-        for (k, x) in pmf.iter().enumerate() {
-            c += x;
-            if c >= a * (1.0 - 1e-12) {
-                return k;
-            }
-        }
-        n
+        (0..=n)
+            .find(|&k| b.cdf(k as u64) >= a * (1.0 - 1e-12))
+            .unwrap_or(n)
     };
     (
         quantile((1.0 - level) / 2.0),
@@ -707,12 +695,10 @@ pub fn binomial_interval(n: usize, p: f64, level: f64) -> (usize, usize) {
 /// `P(X ≥ k)` for X ~ Binomial(n, p).
 #[must_use]
 pub fn binomial_upper_tail(n: usize, p: f64, k: usize) -> f64 {
-    binomial_ln_pmf(n, p)
-        .into_iter()
-        .skip(k)
-        .map(f64::exp)
-        .sum::<f64>()
-        .min(1.0)
+    if k == 0 {
+        return 1.0;
+    }
+    binomial(n, p).sf(k as u64 - 1)
 }
 
 /// Every asserted rate met, or a panic listing those that are not (`what`: the campaign).

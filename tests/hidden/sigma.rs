@@ -405,36 +405,9 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-/// The 95 % Clopper–Pearson interval of a rate, `k` of `n`, by bisection on the binomial
-/// tails.
+/// The 95 % Clopper–Pearson interval of a rate, `k` of `n` (the library's, from statrs'
+/// Beta quantiles; its test checks them against the binomial tails).
 #[must_use]
 pub fn clopper_pearson(k: usize, n: usize) -> (f64, f64) {
-    use super::campaign::binomial_upper_tail;
-    if n == 0 {
-        return (f64::NAN, f64::NAN);
-    }
-    // The p where `f`, increasing in p, reaches `target`.
-    let solve = |f: &dyn Fn(f64) -> f64, target: f64| {
-        let (mut lo, mut hi) = (0.0_f64, 1.0_f64);
-        for _ in 0..60 {
-            let mid = 0.5 * (lo + hi);
-            if f(mid) < target {
-                lo = mid;
-            } else {
-                hi = mid;
-            }
-        }
-        0.5 * (lo + hi)
-    };
-    let lower = if k == 0 {
-        0.0
-    } else {
-        solve(&|p| binomial_upper_tail(n, p, k), 0.025)
-    };
-    let upper = if k == n {
-        1.0
-    } else {
-        solve(&|p| binomial_upper_tail(n, p, k + 1), 0.975)
-    };
-    (lower, upper)
+    ptsa_host_sim::stats::clopper_pearson(k as u64, n as u64, 0.95)
 }

@@ -39,9 +39,18 @@ impl From<&str> for Error {
 /// # Errors
 /// The file cannot be written or renamed: the path and the error.
 pub fn write_atomic(path: &Path, text: &str) -> Result<(), String> {
-    let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, text).map_err(|e| format!("{}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("{}: {e}", path.display()))
+    use std::io::Write as _;
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)
+        .map_err(|e| format!("{}: cannot make a temporary file: {e}", dir.display()))?;
+    tmp.write_all(text.as_bytes())
+        .map_err(|e| format!("{}: {e}", tmp.path().display()))?;
+    tmp.persist(path)
+        .map(|_| ())
+        .map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// The workspace root (the parent of this crate's directory).
@@ -69,90 +78,14 @@ pub fn target_dir() -> Result<PathBuf, String> {
                 String::from_utf8_lossy(&out.stderr).trim()
             ));
         }
-        let json = String::from_utf8(out.stdout)
-            .map_err(|_| "cargo metadata printed something that is not UTF-8".to_string())?;
-        top_level_string(&json, "target_directory")
+        let json: serde_json::Value = serde_json::from_slice(&out.stdout)
+            .map_err(|e| format!("cargo metadata printed something that is not JSON: {e}"))?;
+        json.get("target_directory")
+            .and_then(serde_json::Value::as_str)
             .map(PathBuf::from)
             .ok_or_else(|| "no `target_directory` in cargo metadata's output".to_string())
     })
     .clone()
-}
-
-/// The string value of `key` in the outermost object of the JSON text `json` (keys of
-/// nested objects, such as a package's `metadata`, are skipped), unescaped.
-fn top_level_string(json: &str, key: &str) -> Option<String> {
-    let mut chars = json.char_indices().peekable();
-    let mut depth = 0usize;
-    while let Some((_, c)) = chars.next() {
-        match c {
-            '{' | '[' => depth += 1,
-            '}' | ']' => depth = depth.checked_sub(1)?,
-            '"' => {
-                let s = json_string(&mut chars)?;
-                if depth != 1 || s != key {
-                    continue;
-                }
-                // A key is followed by `:`; the same text as a value is followed by `,` or `}`.
-                while chars.next_if(|(_, c)| c.is_whitespace()).is_some() {}
-                if chars.next_if(|&(_, c)| c == ':').is_none() {
-                    continue;
-                }
-                while chars.next_if(|(_, c)| c.is_whitespace()).is_some() {}
-                chars.next_if(|&(_, c)| c == '"')?;
-                return json_string(&mut chars);
-            }
-            _ => {}
-        }
-    }
-    None
-}
-
-/// The rest of a JSON string whose opening quote has been read, unescaped; `None` if it is
-/// malformed.
-fn json_string(chars: &mut impl Iterator<Item = (usize, char)>) -> Option<String> {
-    let mut s = String::new();
-    loop {
-        let (_, c) = chars.next()?;
-        match c {
-            '"' => return Some(s),
-            '\\' => {
-                let (_, e) = chars.next()?;
-                s.push(match e {
-                    '"' | '\\' | '/' => e,
-                    'b' => '\u{8}',
-                    'f' => '\u{c}',
-                    'n' => '\n',
-                    'r' => '\r',
-                    't' => '\t',
-                    'u' => {
-                        let unit = |chars: &mut dyn Iterator<Item = (usize, char)>| {
-                            let hex: String = chars.take(4).map(|(_, c)| c).collect();
-                            u32::from_str_radix(&hex, 16)
-                                .ok()
-                                .filter(|_| hex.len() == 4)
-                        };
-                        let hi = unit(chars)?;
-                        if (0xd800..0xdc00).contains(&hi) {
-                            // A surrogate pair: `\uD8xx\uDCxx`.
-                            let (_, '\\') = chars.next()? else {
-                                return None;
-                            };
-                            let (_, 'u') = chars.next()? else { return None };
-                            let lo = unit(chars)?;
-                            if !(0xdc00..0xe000).contains(&lo) {
-                                return None;
-                            }
-                            char::from_u32(0x1_0000 + ((hi - 0xd800) << 10) + (lo - 0xdc00))?
-                        } else {
-                            char::from_u32(hi)?
-                        }
-                    }
-                    _ => return None,
-                });
-            }
-            c => s.push(c),
-        }
-    }
 }
 
 /// Run a command in `dir`, echoing it, and fail with its exit status.
@@ -194,38 +127,4 @@ pub fn ptsa_release(args: &[&str]) -> Command {
 /// `cargo` as the caller invoked it (respects `$CARGO`).
 pub fn cargo() -> String {
     std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_string())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::top_level_string;
-
-    #[test]
-    fn target_directory_is_read_from_the_top_level_only() {
-        let json = r#"{"packages":[{"name":"a","metadata":{"target_directory":"/nested"}}],
-            "target_directory" : "/w/t\"a\\b\/c \u00e9\ud83d\ude00","workspace_root":"/w"}"#;
-        assert_eq!(
-            top_level_string(json, "target_directory").as_deref(),
-            Some("/w/t\"a\\b/c é😀")
-        );
-        assert_eq!(
-            top_level_string(json, "workspace_root").as_deref(),
-            Some("/w")
-        );
-        // A value equal to the key is not a key.
-        let json = r#"{"x":"target_directory","target_directory":"/t"}"#;
-        assert_eq!(
-            top_level_string(json, "target_directory").as_deref(),
-            Some("/t")
-        );
-        assert_eq!(top_level_string(r#"{"a":1}"#, "target_directory"), None);
-        assert_eq!(
-            top_level_string(r#"{"target_directory":"/t"#, "target_directory"),
-            None
-        );
-        assert_eq!(
-            top_level_string(r#"{"target_directory":"\q"}"#, "target_directory"),
-            None
-        );
-    }
 }
