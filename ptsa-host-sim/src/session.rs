@@ -165,7 +165,7 @@ impl Session {
 pub fn gate_ticks(flag: &str, gate_s: f64, instr: &Instrument, opts: &SimOptions) -> Result<u64> {
     let per_cycle = f64::from(opts.config.ticks_per_cycle);
     let ticks = (gate_s * instr.clock_hz).round();
-    if ticks < per_cycle {
+    if ticks.is_nan() || ticks < per_cycle {
         bail!(
             "{flag} {}: expected a gate of at least one limit cycle, {} s ({per_cycle} ticks at {} Hz); {} s is {} ticks",
             num(gate_s),

@@ -22,7 +22,17 @@ import numpy as np
 from . import _ptsa
 from ._ptsa import PtsaError
 
-__all__ = ["PtsaError", "static", "record", "noise", "discover", "yield_study"]
+__all__ = [
+    "PtsaError",
+    "static",
+    "record",
+    "noise",
+    "discover",
+    "yield_plan",
+    "yield_units",
+    "yield_summary",
+    "yield_study",
+]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -69,7 +79,7 @@ def static(
 
 def record(
     seconds: float,
-    gate_s: float = 0.1,
+    gate_s: float | None = None,
     *,
     warmup_s: float | None = None,
     instrument: PathLike | None = None,
@@ -82,7 +92,8 @@ def record(
 
     Args:
         seconds: the record's length after the settling, s.
-        gate_s: the gate, s (a whole number of clock ticks; at least one limit cycle).
+        gate_s: the gate, s (at least one limit cycle); None: the command line's default
+            (``ptsa noise --gate-s``, 0.01 s).
         warmup_s: settling from reset before the first gate, s; None: the default.
         instrument: an instrument file or a shipped name; None: the Kearfott 2401.
         seed: seed of the pickoff noise; None: the default.
@@ -92,7 +103,8 @@ def record(
         pulses per gate), "ticks": uint64 (clock ticks per gate)}``, the columns of the
         record the command writes.
     """
-    t, p, k = _ptsa.record(float(seconds), float(gate_s), warmup_s, _path(instrument), seed)
+    gate = None if gate_s is None else float(gate_s)
+    t, p, k = _ptsa.record(float(seconds), gate, warmup_s, _path(instrument), seed)
     return {"time_s": t, "pulses": p, "ticks": k}
 
 
@@ -208,6 +220,10 @@ def discover(
         import pandas as pd
 
         data = pd.DataFrame({k: np.asarray(v) for k, v in data.items()})
+    if not hasattr(data, "to_csv"):
+        raise PtsaError(
+            f"discover: a {type(data).__name__}; expected a path, a pandas DataFrame or a dict of arrays"
+        )
     with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
         path = os.path.join(d, "data.case.csv")
         # repr-exact floats: the reader sees the frame's values bit for bit.

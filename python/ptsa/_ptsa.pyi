@@ -21,7 +21,7 @@ def static_json(
 ) -> str: ...
 def record(
     seconds: float,
-    gate_s: float,
+    gate_s: Optional[float],
     warmup_s: Optional[float],
     instrument: Optional[str],
     seed: Optional[int],
@@ -37,6 +37,18 @@ def noise_json(
     taus: Union[str, Sequence[float]],
     confidence: float,
 ) -> str: ...
+def yield_plan_json(
+    instruments: int,
+    instrument: Optional[str],
+    seed: Optional[int],
+    warmup_s: Optional[float],
+    fractions: Optional[Sequence[float]],
+    gate_s: Optional[float],
+    gates: Optional[int],
+    spec: tuple[Optional[float], ...],
+) -> str: ...
+def yield_units_json(plan_json: str, instrument: Optional[str], start: int, count: int) -> str: ...
+def yield_summary_json(plan_json: str, instrument: Optional[str], units_json: str) -> str: ...
 def discover_json(
     path: str,
     instrument: Optional[str],

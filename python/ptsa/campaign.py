@@ -6,10 +6,12 @@ The study is cut into tasks of ``--task-size`` instruments. Each task runs
 JSON is the same as ``ptsa monte-carlo --yield N --json`` on one machine, whatever the
 number of workers.
 
-``--ray local`` (the default) starts Ray on this machine only; ``--ray auto`` joins the
-cluster that ``ray start`` made (its address in RAY_ADDRESS); ``--ray none`` runs the
-tasks one after another in this process, without Ray. No port is opened beyond the
-machine unless the cluster you join has one.
+``--ray none`` (the default) runs the tasks one after another in this process, without
+Ray, and opens no port. ``--ray local`` starts a new Ray on this machine: its processes
+listen on every interface of the machine (Ray's own choice), so use it on a machine whose
+ports are closed to the outside. ``--ray auto`` joins the running cluster (RAY_ADDRESS,
+or the one ``ray start`` made here); any other value is a cluster's address. An
+instrument file must be at the same path on every node (or be a shipped name).
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ def pieces(n: int, size: int) -> list[tuple[int, int]]:
 def yield_study(
     instruments: int,
     *,
-    ray: str = "local",
+    ray: str = "none",
     num_cpus: int | None = None,
     task_size: int = 64,
     instrument: str | None = None,
@@ -39,11 +41,14 @@ def yield_study(
     """:func:`ptsa.yield_study` with its instruments run as Ray tasks of ``task_size``.
 
     Args:
-        ray: ``"local"`` (a Ray on this machine, bound to 127.0.0.1), ``"auto"`` (the
-            running cluster) or ``"none"`` (no Ray: the tasks in turn, in this process).
+        ray: ``"none"`` (no Ray: the tasks in turn, in this process, no port opened),
+            ``"local"`` (a new Ray on this machine, listening on its interfaces),
+            ``"auto"`` (the running cluster) or a cluster's address.
         num_cpus: the CPUs a local Ray may use (None: all).
         task_size: instruments per task.
     """
+    if task_size < 1:
+        raise ptsa.PtsaError(f"task_size {task_size}: expected 1 or more instruments per task")
     plan = ptsa.yield_plan(instruments, instrument=instrument, **options)
     parts = pieces(plan["instruments"], task_size)
     if ray == "none":
@@ -53,10 +58,7 @@ def yield_study(
 
     started = not ray_mod.is_initialized()
     if started:
-        if ray == "local":
-            ray_mod.init(num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
-        else:
-            ray_mod.init(address=ray, log_to_driver=False)
+        _start(ray_mod, ray, num_cpus)
     try:
         # One core per task: the batch engine's thread pool limited to it, so that Ray's
         # count of CPUs is the cores used.
@@ -69,6 +71,14 @@ def yield_study(
         if started:
             ray_mod.shutdown()
     return ptsa.yield_summary(plan, units, instrument=instrument)
+
+
+def _start(ray_mod: Any, ray: str, num_cpus: int | None) -> None:
+    """Start (``local``) or join (``auto``, an address) a Ray."""
+    if ray == "local":
+        ray_mod.init(address="local", num_cpus=num_cpus, include_dashboard=False, log_to_driver=False)
+    else:
+        ray_mod.init(address=ray, log_to_driver=False)
 
 
 def _units_task(plan: dict[str, Any], start: int, count: int, instrument: str | None) -> list[dict[str, Any]]:
@@ -99,7 +109,7 @@ def bench(instruments: int, repeats: int, task_size: int, expect: float | None) 
         "median_s": {},
     }
     for cpus in (1, 2):
-        ray_mod.init(num_cpus=cpus, include_dashboard=False, log_to_driver=False)
+        _start(ray_mod, "local", cpus)
         try:
             yield_study(8, task_size=4)  # the workers started before the clock runs
             times = []
@@ -128,14 +138,17 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="instruments drawn from the tolerance box")
     mc.add_argument("--seed", type=int, help="seed of the draws (default: the command line's)")
     mc.add_argument("--instrument", help="an instrument file with a tolerance box, or a shipped name")
+    mc.add_argument("--warmup-s", type=float, help="settling from reset before the first gate, s")
+    mc.add_argument("--fractions", type=lambda v: [float(x) for x in v.split(",")],
+                    help="the inputs along IA, fractions of full scale, comma separated")
     mc.add_argument("--gate-s", type=float, help="the gate at each input, s")
     mc.add_argument("--gates", type=int, help="gates at each input")
     for flag, unit in [("sf-ppm", "ppm"), ("bias-cm-s2", "cm/s^2"), ("linearity-ppm-fs", "ppm of full scale"),
                        ("noise-cm-s2", "cm/s^2"), ("pm-deg", "degrees"), ("gm-db", "dB")]:
         mc.add_argument(f"--spec-{flag}", type=float, help=f"a limit of the specification, {unit}")
-    mc.add_argument("--ray", default="local",
-                    help="local (a Ray on this machine, the default), auto (the running cluster), "
-                         "an address, or none (no Ray)")
+    mc.add_argument("--ray", default="none",
+                    help="none (no Ray, no port opened: the default), local (a new Ray on this "
+                         "machine, listening on its interfaces), auto (the running cluster) or an address")
     mc.add_argument("--num-cpus", type=int, help="CPUs of a local Ray (default: all)")
     mc.add_argument("--task-size", type=int, default=64, help="instruments per task (default 64)")
     b = sub.add_parser("bench", help="the yield study on a local Ray of 1 and 2 CPUs: medians and speed-up")

@@ -24,8 +24,10 @@ use ptsa_host_sim::session::{Session, gate_ticks, simulator};
 use ptsa_host_sim::simulation::sim::SimOptions;
 use ptsa_host_sim::simulation::yield_study::{self, Plan, Spec};
 
+// Named `ptsa.PtsaError` (the package re-exports it), so that it pickles: an error raised in
+// another process or a Ray task is the same class.
 create_exception!(
-    _ptsa,
+    ptsa,
     PtsaError,
     pyo3::exceptions::PyValueError,
     "A refusal of ptsa's library: the command line's error message (file, line, column and what was expected, where a file is at fault)."
@@ -45,6 +47,13 @@ fn session(instrument: Option<&Path>) -> PyResult<Session> {
 /// `None`) for the checked loop of `s`.
 fn sim_options(s: &Session, seed: Option<u64>, warmup_s: Option<f64>) -> PyResult<SimOptions> {
     let d = SimOptions::default();
+    if let Some(w) = warmup_s
+        && !(w >= 0.0 && w.is_finite())
+    {
+        return Err(PtsaError::new_err(format!(
+            "warmup_s {w}: expected a settling of 0 s or more"
+        )));
+    }
     Ok(SimOptions {
         seed: seed.unwrap_or(d.seed),
         warmup_s: warmup_s.unwrap_or(d.warmup_s),
@@ -106,13 +115,14 @@ type RecordArrays<'py> = (
 fn record(
     py: Python<'_>,
     seconds: f64,
-    gate_s: f64,
+    gate_s: Option<f64>,
     warmup_s: Option<f64>,
     instrument: Option<PathBuf>,
     seed: Option<u64>,
 ) -> PyResult<RecordArrays<'_>> {
     let s = session(instrument.as_deref())?;
     let opts = sim_options(&s, seed, warmup_s)?;
+    let gate_s = gate_s.unwrap_or(noise::DEFAULT_GATE_S);
     let ticks = gate_ticks("gate_s", gate_s, &s.instr, &opts).map_err(refused)?;
     let gates = noise::simulated_gates(("seconds", "gate_s"), seconds, ticks, s.instr.clock_hz)
         .map_err(refused)?;
@@ -226,6 +236,11 @@ fn noise_json(
                 .map_or(ReadingUnit::CmPerS2, |r| r.unit),
         };
         let tol = spacing_tol.unwrap_or(readings::SPACING_TOL);
+        if !(0.0..=0.5).contains(&tol) {
+            return Err(PtsaError::new_err(format!(
+                "spacing_tol {tol}: expected a fraction of the spacing from 0 to 0.5 (0.01 for 1 %)"
+            )));
+        }
         let r = readings::parse(name, text, unit, &s.instr, tol).map_err(refused)?;
         let settings = settings(&taus, confidence, r.tau0_s, r.y.len())?;
         py.detach(|| Analysis::of_readings(&r, &settings))
@@ -296,12 +311,7 @@ fn yield_plan_json(
 ) -> PyResult<String> {
     let s = session(instrument.as_deref())?;
     let opts = sim_options(&s, seed, warmup_s)?;
-    if s.instr.tolerances.is_empty() {
-        return Err(PtsaError::new_err(format!(
-            "{}: no [tolerances]; expected an instrument file with a tolerance box to draw from",
-            s.name
-        )));
-    }
+    yield_study::check_box(&s.instr, &s.name).map_err(PtsaError::new_err)?;
     let gate_s = gate_s.unwrap_or(yield_study::DEFAULT_GATE_S);
     let ticks = gate_ticks("gate_s", gate_s, &s.instr, &opts).map_err(refused)?;
     let d = Spec::default();
@@ -323,12 +333,16 @@ fn yield_plan_json(
             gain_margin_db: spec.5.or(d.gain_margin_db),
         },
     };
+    plan.check().map_err(PtsaError::new_err)?;
     serde_json::to_string(&plan).map_err(|e| refused(e.into()))
 }
 
 /// The plan's JSON read back.
 fn plan_of(plan_json: &str) -> PyResult<Plan> {
-    serde_json::from_str(plan_json).map_err(|e| PtsaError::new_err(format!("plan: {e}")))
+    let plan: Plan =
+        serde_json::from_str(plan_json).map_err(|e| PtsaError::new_err(format!("plan: {e}")))?;
+    plan.check().map_err(PtsaError::new_err)?;
+    Ok(plan)
 }
 
 /// Instruments `start .. start + count` of the yield study `plan_json`, as a JSON list:
@@ -346,7 +360,16 @@ fn yield_units_json(
     let s = session(instrument.as_deref())?;
     let plan = plan_of(plan_json)?;
     let opts = sim_options(&s, Some(plan.seed), Some(plan.warmup_s))?;
-    let units = py.detach(|| yield_study::units(&s.instr, &opts, &plan, start..start + count));
+    let end = start
+        .checked_add(count)
+        .filter(|&e| e <= plan.instruments)
+        .ok_or_else(|| {
+            PtsaError::new_err(format!(
+                "start {start}, count {count}: expected instruments inside the plan's {}",
+                plan.instruments
+            ))
+        })?;
+    let units = py.detach(|| yield_study::units(&s.instr, &opts, &plan, start..end));
     serde_json::to_string(&units).map_err(|e| refused(e.into()))
 }
 
@@ -363,6 +386,7 @@ fn yield_summary_json(
     let plan = plan_of(plan_json)?;
     let units: Vec<yield_study::Unit> =
         serde_json::from_str(units_json).map_err(|e| PtsaError::new_err(format!("units: {e}")))?;
+    yield_study::check_units(&plan, &units).map_err(PtsaError::new_err)?;
     serde_json::to_string(&yield_study::summary(&s.instr, &plan, &units))
         .map_err(|e| refused(e.into()))
 }

@@ -158,3 +158,41 @@ def test_the_yield_study_is_the_command_lines_in_one_piece_or_many():
     parts = [ptsa.yield_units(plan, s, c) for s, c in [(7, 5), (0, 3), (3, 4)]]
     assert ptsa.yield_summary(plan, [u for p in parts for u in p]) == want
     assert 0 < want["within_spec"] < 12, "the limits split the instruments"
+
+
+def test_the_defaults_are_the_command_lines(tmp_path):
+    assert ptsa.static([250.0]) == [cli_json("static", "--accel-cm-s2", "250")]
+    out = tmp_path / "r.csv"
+    cli("noise", "--simulate", "--seconds", "2", "--output", str(out))
+    assert ptsa.record(2.0)["time_s"].tolist() == [
+        float(l.split(",")[0]) for l in out.read_text().splitlines()[3:]
+    ]
+    rel = "data/examples/static-readings.csv"
+    assert ptsa.noise(rel) == cli_json("noise", "--readings", rel)
+
+
+def test_a_ptsa_error_pickles_as_itself():
+    import pickle
+
+    e = pickle.loads(pickle.dumps(ptsa.PtsaError("x")))
+    assert type(e) is ptsa.PtsaError and str(e) == "x"
+
+
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda: ptsa.static([0.0], seconds=float("nan")), "seconds NaN"),
+        (lambda: ptsa.record(float("nan")), "seconds NaN"),
+        (lambda: ptsa.static([0.0], warmup_s=-1.0), "warmup_s -1"),
+        (lambda: ptsa.noise("data/examples/static-readings.csv", taus=[float("nan")]), "taus NaN"),
+        (lambda: ptsa.yield_plan(4, gates=1), "gates 1"),
+        (lambda: ptsa.yield_plan(4, fractions=[0.3]), "two different inputs"),
+        (lambda: ptsa.yield_units(ptsa.yield_plan(4), 3, 2), "inside the plan's 4"),
+        (lambda: ptsa.yield_summary(ptsa.yield_plan(2), []), "instrument 0 is missing"),
+        (lambda: ptsa.discover(42), "expected a path"),
+    ],
+)
+def test_bad_input_is_a_ptsa_error_that_says_what_was_expected(call, message, monkeypatch):
+    monkeypatch.chdir(ROOT)
+    with pytest.raises(ptsa.PtsaError, match=message):
+        call()

@@ -156,6 +156,9 @@ impl Taus {
     pub fn of_seconds(flag: &str, ts: &[f64], tau0_s: f64, n: usize) -> anyhow::Result<Self> {
         let mut m = Vec::with_capacity(ts.len());
         for &t in ts {
+            if !(t > 0.0 && t.is_finite()) {
+                anyhow::bail!("{flag} {t}: expected averaging times in s, more than 0");
+            }
             let k = t / tau0_s;
             if (k - k.round()).abs() > 1e-6 * k.max(1.0) || k.round() < 1.0 {
                 anyhow::bail!(

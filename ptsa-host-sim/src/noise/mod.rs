@@ -105,6 +105,9 @@ pub fn parse_record(name: &str, text: &str, clock_hz: f64) -> Result<Record> {
     check_record(name, gates, &gate_lines(text), clock_hz)
 }
 
+/// The gate of a simulated record by default, s (`ptsa noise --simulate --gate-s`).
+pub const DEFAULT_GATE_S: f64 = 0.01;
+
 /// Most gates a simulated record holds (memory: a record of that many gates is about
 /// 0.5 GB of gates and text).
 pub const MAX_SIMULATED_GATES: f64 = 2e7;
@@ -126,7 +129,7 @@ pub fn simulated_gates(
     let gate = gate_ticks as f64 / clock_hz;
     let n = (seconds / gate).floor();
     #[allow(clippy::cast_precision_loss)]
-    if n < MIN_GATES as f64 {
+    if n.is_nan() || n < MIN_GATES as f64 {
         bail!(
             "{seconds_flag} {}: {} gates of {} s; expected at least {} gates ({seconds_flag} at least {} s)",
             sig(seconds, 8),

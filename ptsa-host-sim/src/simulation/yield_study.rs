@@ -35,6 +35,10 @@ pub const DEFAULT_FRACTIONS: [f64; 7] = [-0.9, -0.6, -0.3, 0.0, 0.3, 0.6, 0.9];
 pub const DEFAULT_GATE_S: f64 = 0.1;
 /// The default number of gates at each input.
 pub const DEFAULT_GATES: u64 = 8;
+/// Most instruments in one study.
+pub const MAX_INSTRUMENTS: u64 = 1_000_000;
+/// Fewest and most gates at each input.
+pub const GATES: std::ops::RangeInclusive<u64> = 2..=10_000;
 /// The default smallest phase margin, degrees (R-890's design goal).
 pub const DEFAULT_PM_DEG: f64 = 45.0;
 /// The default smallest gain margin, dB (R-890's design goal).
@@ -57,6 +61,126 @@ pub struct Plan {
     pub warmup_s: f64,
     /// The specification an instrument must meet to count towards the yield.
     pub spec: Spec,
+}
+
+impl Plan {
+    /// The plan's own checks (the command line's and the Python package's): 1 to
+    /// [`MAX_INSTRUMENTS`] instruments, [`GATES`] gates, at least two different inputs from
+    /// −1 to 1 of full scale, a gate more than 0 s, a settling of 0 s or more, and limits
+    /// of 0 or more.
+    ///
+    /// # Errors
+    /// The first value out of range: its name, the value and what was expected.
+    pub fn check(&self) -> Result<(), String> {
+        if !(1..=MAX_INSTRUMENTS).contains(&self.instruments) {
+            return Err(format!(
+                "instruments {}: expected a whole number from 1 to {MAX_INSTRUMENTS}",
+                self.instruments
+            ));
+        }
+        if !GATES.contains(&self.gates) {
+            return Err(format!(
+                "gates {}: expected a whole number from {} to {} (the noise at rest is their standard deviation)",
+                self.gates,
+                GATES.start(),
+                GATES.end()
+            ));
+        }
+        let f = &self.fractions_of_full_scale;
+        if let Some(x) = f.iter().find(|x| !(-1.0..=1.0).contains(*x)) {
+            return Err(format!(
+                "fractions: {x}; expected fractions of full scale from -1 to 1"
+            ));
+        }
+        if !f
+            .iter()
+            .any(|x| f.first().is_some_and(|y| x.total_cmp(y).is_ne()))
+        {
+            return Err(format!(
+                "fractions: {f:?}; expected at least two different inputs (a line is fitted through them)"
+            ));
+        }
+        if !(self.gate_s > 0.0 && self.gate_s.is_finite()) {
+            return Err(format!(
+                "gate_s {}: expected a gate more than 0 s",
+                self.gate_s
+            ));
+        }
+        if !(self.warmup_s >= 0.0 && self.warmup_s.is_finite()) {
+            return Err(format!(
+                "warmup_s {}: expected a settling of 0 s or more",
+                self.warmup_s
+            ));
+        }
+        self.spec.check()
+    }
+}
+
+impl Spec {
+    /// Every limit given is a finite number, 0 or more.
+    ///
+    /// # Errors
+    /// The first limit that is not: its name and value.
+    pub fn check(&self) -> Result<(), String> {
+        let limits = [
+            ("spec_sf_ppm", self.sf_error_ppm),
+            ("spec_bias_cm_s2", self.bias_cm_s2),
+            ("spec_linearity_ppm_fs", self.linearity_ppm_fs),
+            ("spec_noise_cm_s2", self.noise_cm_s2),
+            ("spec_pm_deg", self.phase_margin_deg),
+            ("spec_gm_db", self.gain_margin_db),
+        ];
+        for (name, v) in limits {
+            if let Some(v) = v
+                && !(v >= 0.0 && v.is_finite())
+            {
+                return Err(format!(
+                    "{name} {v}: expected a limit, a finite number 0 or more"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Refuse an instrument file (`name`) without a tolerance box to draw from.
+///
+/// # Errors
+/// The file has no `[tolerances]`.
+pub fn check_box(instr: &Instrument, name: &str) -> Result<(), String> {
+    if instr.tolerances.is_empty() {
+        return Err(format!(
+            "{name} has no [tolerances]; expected an instrument file with a tolerance box to draw from"
+        ));
+    }
+    Ok(())
+}
+
+/// The instruments `units` are the study `plan`'s, each once: indices `0..instruments`.
+///
+/// # Errors
+/// An index missing, repeated or beyond the plan.
+pub fn check_units(plan: &Plan, units: &[Unit]) -> Result<(), String> {
+    let mut seen = vec![false; usize::try_from(plan.instruments).unwrap_or(0)];
+    for u in units {
+        match usize::try_from(u.index).ok().and_then(|k| seen.get_mut(k)) {
+            Some(s) if !*s => *s = true,
+            Some(_) => return Err(format!("instrument {} is given twice", u.index)),
+            None => {
+                return Err(format!(
+                    "instrument {} is beyond the plan's {}",
+                    u.index, plan.instruments
+                ));
+            }
+        }
+    }
+    match seen.iter().position(|s| !s) {
+        Some(k) => Err(format!(
+            "instrument {k} is missing: expected every index from 0 to {}",
+            plan.instruments - 1
+        )),
+        None => Ok(()),
+    }
 }
 
 /// A specification: each limit given is a bound on one figure; a limit left out (`null`)
@@ -108,10 +232,12 @@ pub struct Unit {
     pub linearity_ppm_fs: f64,
     /// The standard deviation of the gates at the input nearest zero, cm/s².
     pub noise_cm_s2: f64,
-    /// Phase margin of its linearised loop, degrees.
-    pub phase_margin_deg: f64,
-    /// Gain margin, dB (`null` when the phase never reaches −180° below Nyquist).
-    pub gain_margin_db: f64,
+    /// Phase margin of its linearised loop, degrees (`null` when the loop gain never
+    /// crosses 1: no margin to read, and the instrument breaks a phase-margin limit).
+    pub phase_margin_deg: Option<f64>,
+    /// Gain margin, dB (`null` when the phase never reaches −180° below Nyquist: an
+    /// unbounded margin, which meets any gain-margin limit).
+    pub gain_margin_db: Option<f64>,
 }
 
 /// Instrument `index` of the study of `seed`: its parameters drawn uniformly inside the
@@ -178,8 +304,8 @@ pub fn units(nominal: &Instrument, opts: &SimOptions, plan: &Plan, range: Range<
                 bias_cm_s2: f.bias_cm_s2,
                 linearity_ppm_fs: f.linearity_ppm_fs,
                 noise_cm_s2: f.noise_cm_s2,
-                phase_margin_deg: m.phase_margin_deg,
-                gain_margin_db: m.gain_margin_db,
+                phase_margin_deg: m.phase_margin_deg.is_finite().then_some(m.phase_margin_deg),
+                gain_margin_db: m.gain_margin_db.is_finite().then_some(m.gain_margin_db),
             }
         })
         .collect()
@@ -284,11 +410,17 @@ pub fn broken(spec: &Spec, u: &Unit) -> Vec<&'static str> {
         ("noise_cm_s2", above(u.noise_cm_s2, spec.noise_cm_s2)),
         (
             "phase_margin_deg",
-            below(u.phase_margin_deg, spec.phase_margin_deg),
+            below(
+                u.phase_margin_deg.unwrap_or(f64::NAN),
+                spec.phase_margin_deg,
+            ),
         ),
         (
             "gain_margin_db",
-            below(u.gain_margin_db, spec.gain_margin_db),
+            below(
+                u.gain_margin_db.unwrap_or(f64::INFINITY),
+                spec.gain_margin_db,
+            ),
         ),
     ]
     .into_iter()
@@ -297,9 +429,12 @@ pub fn broken(spec: &Spec, u: &Unit) -> Vec<&'static str> {
     .collect()
 }
 
-/// One figure's distribution over the instruments.
+/// One figure's distribution over the instruments that have it (a margin that is `null`
+/// is left out).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 pub struct Distribution {
+    /// Instruments counted (those with a finite value).
+    pub n: u64,
     /// Smallest.
     pub min: f64,
     /// 5th percentile (nearest rank).
@@ -334,6 +469,7 @@ impl Distribution {
             s[k - 1]
         };
         Self {
+            n: s.len() as u64,
             min: at(0.0),
             p05: at(0.05),
             median: s.get(s.len() / 2).copied().unwrap_or(f64::NAN),
@@ -393,8 +529,12 @@ pub fn summary(nominal: &Instrument, plan: &Plan, units: &[Unit]) -> YieldJson {
         ("bias_cm_s2", |u| u.bias_cm_s2),
         ("linearity_ppm_fs", |u| u.linearity_ppm_fs),
         ("noise_cm_s2", |u| u.noise_cm_s2),
-        ("phase_margin_deg", |u| u.phase_margin_deg),
-        ("gain_margin_db", |u| u.gain_margin_db),
+        ("phase_margin_deg", |u| {
+            u.phase_margin_deg.unwrap_or(f64::NAN)
+        }),
+        ("gain_margin_db", |u| {
+            u.gain_margin_db.unwrap_or(f64::INFINITY)
+        }),
     ];
     let distributions = figures
         .iter()
@@ -480,5 +620,50 @@ mod tests {
             spread > 1000.0,
             "the box moves the full scale: {spread} ppm"
         );
+    }
+
+    #[test]
+    fn a_margin_that_is_not_a_number_is_null_read_back_and_judged() {
+        let u = Unit {
+            index: 0,
+            parameters: BTreeMap::new(),
+            noise_seed: 1,
+            sf_error_ppm: 10.0,
+            bias_cm_s2: 0.5,
+            linearity_ppm_fs: 3.0,
+            noise_cm_s2: 0.1,
+            phase_margin_deg: None,
+            gain_margin_db: None,
+        };
+        let back: Unit = serde_json::from_str(&serde_json::to_string(&u).unwrap()).unwrap();
+        assert_eq!(back, u);
+        // No crossover: no phase margin to meet the limit with; no -180°: any gain margin.
+        assert_eq!(broken(&Spec::default(), &u), vec!["phase_margin_deg"]);
+        let p = plan(1, 0.01);
+        let y = summary(&Instrument::kearfott_2401(), &p, &[u]);
+        assert_eq!(y.distributions["gain_margin_db"].n, 0);
+        assert_eq!(y.within_spec, 0);
+    }
+
+    #[test]
+    fn a_plan_and_its_pieces_are_checked() {
+        let mut p = plan(4, 0.01);
+        assert!(p.check().is_ok());
+        p.fractions_of_full_scale = vec![0.5, 0.5];
+        assert!(p.check().unwrap_err().contains("two different inputs"));
+        let mut p = plan(4, 0.01);
+        p.gates = 1;
+        assert!(p.check().unwrap_err().starts_with("gates 1"));
+        let i = Instrument::kearfott_2401();
+        let p = plan(3, 0.01);
+        let us = units(&i, &opts(&i), &p, 0..3);
+        assert!(check_units(&p, &us).is_ok());
+        assert!(
+            check_units(&p, &us[..2])
+                .unwrap_err()
+                .contains("instrument 2 is missing")
+        );
+        let twice = [us[0].clone(), us[0].clone(), us[1].clone()];
+        assert!(check_units(&p, &twice).unwrap_err().contains("given twice"));
     }
 }

@@ -107,7 +107,8 @@ pub struct NoiseArgs {
     #[arg(long, value_name = "S", value_parser = positive_s, requires = "simulate")]
     pub seconds: Option<f64>,
     /// With --simulate: the gate, s (at least one limit cycle, 0.001 s at 64 kHz).
-    #[arg(long, default_value_t = 0.01, value_name = "S", value_parser = positive_s)]
+    #[arg(long, default_value_t = noise::DEFAULT_GATE_S, value_name = "S",
+          value_parser = positive_s)]
     pub gate_s: f64,
     /// With --simulate, --compare or --identify: seed of the simulated loop's pickoff
     /// noise, a whole number from 0 to 2^64 − 1, no unit (with --identify mixed with the

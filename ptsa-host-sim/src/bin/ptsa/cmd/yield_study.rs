@@ -4,7 +4,7 @@
 use std::fmt::Write as _;
 use std::io::Write;
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::Args;
 use ptsa_host_sim::output::{Column, Table, num, text};
 use ptsa_host_sim::simulation::sim::SimOptions;
@@ -82,12 +82,8 @@ impl YieldArgs {
         let Some(instruments) = self.instruments else {
             return Ok(None);
         };
-        if ctx.instr.tolerances.is_empty() {
-            bail!(
-                "--yield {instruments}: {} has no [tolerances]; expected an instrument file with a tolerance box to draw from",
-                ctx.name
-            );
-        }
+        yield_study::check_box(&ctx.instr, &ctx.name)
+            .map_err(|e| anyhow::anyhow!("--yield {instruments}: {e}"))?;
         let ticks = gate_ticks("--gate-s", self.gate_s, &ctx.instr, &opts)?;
         #[allow(clippy::cast_precision_loss)]
         let gate_s = ticks as f64 / ctx.instr.clock_hz;
@@ -107,6 +103,8 @@ impl YieldArgs {
                 gain_margin_db: Some(self.spec_gm_db),
             },
         };
+        plan.check()
+            .map_err(|e| anyhow::anyhow!("--yield {instruments}: {e}"))?;
         Ok(Some(Request {
             plan,
             opts,

@@ -318,12 +318,14 @@ pub fn runs(s: &str) -> Result<usize, String> {
 
 /// A number of instruments for `monte-carlo --yield`, 1 to 10⁶.
 pub fn instruments(s: &str) -> Result<u64, String> {
-    whole_in(s, 1, 1_000_000, "a number of instruments")
+    use ptsa_host_sim::simulation::yield_study::MAX_INSTRUMENTS;
+    whole_in(s, 1, MAX_INSTRUMENTS, "a number of instruments")
 }
 
 /// A number of gates at each input, 2 to 10 000.
 pub fn gates(s: &str) -> Result<u64, String> {
-    whole_in(s, 2, 10_000, "a number of gates")
+    use ptsa_host_sim::simulation::yield_study::GATES;
+    whole_in(s, *GATES.start(), *GATES.end(), "a number of gates")
 }
 
 /// A limit of a specification: a finite number, 0 or more.
