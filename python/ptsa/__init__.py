@@ -28,6 +28,7 @@ __all__ = [
     "record",
     "noise",
     "discover",
+    "correct",
     "yield_plan",
     "yield_units",
     "yield_summary",
@@ -216,19 +217,64 @@ def discover(
     args = (_path(instrument), bool(analytic), seed, sigma_cm_s2, bool(keep_outliers))
     if isinstance(data, (str, os.PathLike)):
         return json.loads(_ptsa.discover_json(os.fspath(data), *args))
+    with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
+        path = _frame_file(data, d, "discover")
+        return json.loads(_ptsa.discover_json(path, *args))
+
+
+def correct(
+    data: Any,
+    calibration: PathLike | Mapping[str, Any] | None = None,
+    *,
+    instrument: PathLike | None = None,
+    sigma: float | None = None,
+    local_gravity_cm_s2: float | None = None,
+) -> dict[str, Any]:
+    """A calibration applied to a single-axis record: ``ptsa correct --data FILE --json``.
+
+    Args:
+        data: the record (a case frame: each row a reading in ``measured_cm_s2`` or
+            counts in ``pulses`` and ``ticks``, with ``g_pa`` and ``g_oa`` in g): a path,
+            a pandas DataFrame or a dict of arrays.
+        calibration: what ``ptsa.discover`` returned (a dict), or the path of a
+            ``ptsa discover --json`` file; None: the instrument file's own model (then
+            ``instrument`` is required).
+        instrument: the instrument file the calibration was made with, or a shipped name.
+        sigma: the noise of a reading that states none, cm/s² (1 sigma).
+        local_gravity_cm_s2: the test stand's local gravity, cm/s² (970 to 990).
+
+    Returns:
+        The object ``ptsa correct --json`` prints: each row's specific force along IA in
+        cm/s² and g with its 1-sigma uncertainty, and the warnings.
+    """
+    with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
+        if isinstance(calibration, Mapping):
+            path = os.path.join(d, "calibration.json")
+            with open(path, "w", encoding="utf-8") as f:
+                json.dump(calibration, f)
+            calibration = path
+        if not isinstance(data, (str, os.PathLike)):
+            data = _frame_file(data, d, "correct")
+        return json.loads(
+            _ptsa.correct_json(
+                os.fspath(data), _path(calibration), _path(instrument), sigma, local_gravity_cm_s2
+            )
+        )
+
+
+def _frame_file(data: Any, d: str, what: str) -> str:
+    """A DataFrame or a dict of arrays written as a case-frame file in the folder ``d``."""
     if isinstance(data, Mapping):
         import pandas as pd
 
         data = pd.DataFrame({k: np.asarray(v) for k, v in data.items()})
     if not hasattr(data, "to_csv"):
         raise PtsaError(
-            f"discover: a {type(data).__name__}; expected a path, a pandas DataFrame or a dict of arrays"
+            f"{what}: a {type(data).__name__}; expected a path, a pandas DataFrame or a dict of arrays"
         )
-    with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
-        path = os.path.join(d, "data.case.csv")
-        # repr-exact floats: the reader sees the frame's values bit for bit.
-        data.to_csv(path, index=False, float_format=None)
-        return json.loads(_ptsa.discover_json(path, *args))
+    path = os.path.join(d, "data.case.csv")
+    data.to_csv(path, index=False)
+    return path
 
 
 def yield_plan(

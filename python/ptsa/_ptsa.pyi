@@ -37,6 +37,13 @@ def noise_json(
     taus: Union[str, Sequence[float]],
     confidence: float,
 ) -> str: ...
+def correct_json(
+    data: str,
+    calibration: Optional[str],
+    instrument: Optional[str],
+    sigma: Optional[float],
+    local_gravity_cm_s2: Optional[float],
+) -> str: ...
 def yield_plan_json(
     instruments: int,
     instrument: Optional[str],

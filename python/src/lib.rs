@@ -291,6 +291,55 @@ type SpecLimits = (
     Option<f64>,
 );
 
+/// `ptsa correct --data FILE --json` on a single-axis record: the calibration (a `discover
+/// --json` file, or the instrument file's own model when only `instrument` is given)
+/// applied to every row.
+#[pyfunction]
+#[pyo3(signature = (data, calibration, instrument, sigma, local_gravity_cm_s2))]
+fn correct_json(
+    data: PathBuf,
+    calibration: Option<PathBuf>,
+    instrument: Option<PathBuf>,
+    sigma: Option<f64>,
+    local_gravity_cm_s2: Option<f64>,
+) -> PyResult<String> {
+    use ptsa_host_sim::discovery::correct_record::{choose_calibration, correct_record};
+    if ptsa_host_sim::triad::frame::is_triad_file(&data) {
+        return Err(PtsaError::new_err(format!(
+            "{}: a triad record; ptsa.correct corrects single-axis records (a triad's: `ptsa correct` on the command line)",
+            data.display()
+        )));
+    }
+    if let Some(v) = sigma
+        && !(v > 0.0 && v.is_finite())
+    {
+        return Err(PtsaError::new_err(format!(
+            "sigma {v}: expected a noise in cm/s², more than 0"
+        )));
+    }
+    let mut s = session(instrument.as_deref())?;
+    if let Some(g) = local_gravity_cm_s2 {
+        if !(970.0..=990.0).contains(&g) {
+            return Err(PtsaError::new_err(format!(
+                "local_gravity_cm_s2 {g}: expected a local gravity from 970 to 990 cm/s²"
+            )));
+        }
+        s.set_local_gravity(g).map_err(refused)?;
+    }
+    let (cal, name, flag) = choose_calibration(
+        calibration.as_deref(),
+        &data,
+        &s.instr,
+        &s.name,
+        instrument.is_some(),
+    )
+    .map_err(refused)?;
+    let rec = correct_record(&data, &s.instr, &cal, &flag, sigma).map_err(refused)?;
+    Ok(rec
+        .json(&data.display().to_string(), &name, &s.name)
+        .to_string())
+}
+
 /// The plan of `ptsa monte-carlo --yield N` from its options (the command line's default
 /// where `None`), checked as the command checks it; as JSON.
 #[pyfunction]
@@ -401,6 +450,7 @@ fn _ptsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(columns_csv, m)?)?;
     m.add_function(wrap_pyfunction!(noise_json, m)?)?;
     m.add_function(wrap_pyfunction!(discover_json, m)?)?;
+    m.add_function(wrap_pyfunction!(correct_json, m)?)?;
     m.add_function(wrap_pyfunction!(yield_plan_json, m)?)?;
     m.add_function(wrap_pyfunction!(yield_units_json, m)?)?;
     m.add_function(wrap_pyfunction!(yield_summary_json, m)?)?;

@@ -196,3 +196,22 @@ def test_bad_input_is_a_ptsa_error_that_says_what_was_expected(call, message, mo
     monkeypatch.chdir(ROOT)
     with pytest.raises(ptsa.PtsaError, match=message):
         call()
+
+
+def test_correct_applies_a_calibration_as_the_command_does(tmp_path):
+    tumble, check = "data/examples/tumble-counts.csv", "data/examples/check-counts.csv"
+    sn3 = tmp_path / "sn3.json"
+    sn3.write_text(cli("discover", "--data", tumble, "--analytic", "--no-plots", "--json").stdout)
+    want = cli_json("correct", "--calibration", str(sn3), "--data", check)
+    assert ptsa.correct(check, sn3) == want
+    # The calibration as ptsa.discover returns it: the same rows, to the bit.
+    from_dict = ptsa.correct(ROOT / check, ptsa.discover(tumble, analytic=True))
+    assert from_dict["rows"] == want["rows"]
+    # From a frame: the same values (the lines are the temporary file's, without comments).
+    frame = pd.read_csv(ROOT / check, comment="#", dtype=str)
+    keys = ["label", "a_ia_cm_s2", "sigma_a_ia_cm_s2"]
+    assert [[r.get(k) for k in keys] for r in ptsa.correct(frame, sn3)["rows"]] == [
+        [r.get(k) for k in keys] for r in want["rows"]
+    ]
+    with pytest.raises(ptsa.PtsaError, match="no calibration to apply"):
+        ptsa.correct(check)

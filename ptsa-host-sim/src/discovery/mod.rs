@@ -56,6 +56,7 @@ pub mod calibration;
 pub mod check;
 pub mod confounding;
 pub mod correct;
+pub mod correct_record;
 pub mod cost;
 pub mod crossval;
 pub mod data;

@@ -9,14 +9,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context as _, Result, bail};
 use clap::Args;
-use ptsa_host_sim::Condition;
-use ptsa_host_sim::discovery::{self, correct as lib};
-use ptsa_host_sim::model::caseframe;
-use ptsa_host_sim::model::condition::{RowKind, with_history};
-use ptsa_host_sim::model::counts;
-use ptsa_host_sim::output::command_json::{
-    CorrectJson, CorrectedRow, TriadCorrectJson, TriadCorrected, TriadCorrectedRow,
+use ptsa_host_sim::discovery::correct as lib;
+use ptsa_host_sim::discovery::correct_record::{
+    CorrectedRecord, choose_calibration, correct_record,
 };
+use ptsa_host_sim::output::command_json::{TriadCorrectJson, TriadCorrected, TriadCorrectedRow};
 use ptsa_host_sim::output::{count, write_atomic};
 
 use super::Ctx;
@@ -94,9 +91,8 @@ pub struct AxisRequest {
     data: PathBuf,
     calibration: String,
     instrument: String,
-    g_cm_s2: f64,
-    rows: Vec<(Condition, usize, Option<lib::Corrected>)>,
-    warnings: Vec<String>,
+    /// The rows corrected, the warnings, the local gravity.
+    rec: CorrectedRecord,
     /// The --output file, with what it held when --force replaces it.
     out: Option<(PathBuf, Option<String>)>,
     json: bool,
@@ -124,78 +120,12 @@ impl CorrectArgs {
         }
         let (cal, calibration, flag) = self.calibration(ctx, instrument_given)?;
         let out = self.out_checked()?;
-        let name = self.data.display().to_string();
-        let mut frame = caseframe::read_frame(&self.data)?;
-        // Raw readings (`reading`, `reading_unit`) in cm/s² through the instrument file.
-        frame.convert_readings(&name, &ctx.instr)?;
-        let mut warnings: Vec<String> = cal.notes.iter().map(|n| format!("{flag}: {n}")).collect();
-        let g = cal.g_cm_s2();
-        let rows = with_history(&counts::with_counts(&frame.rows, ctx.instr.sf_cm_s2), g);
-        let mut done = Vec::with_capacity(rows.len());
-        for (k, r) in rows.iter().enumerate() {
-            let line = frame.lines.get(k).copied().unwrap_or(0);
-            let c = lib::correct_row(&cal, r, self.sigma).map_err(|e| match e {
-                lib::Refusal::Kind(kind) => anyhow::anyhow!(
-                    "{name}:{line}: row `{}` is a {} row; expected absolute rows (one reading of the case at rest each: `kind` = absolute)",
-                    r.label,
-                    kind.name()
-                ),
-                lib::Refusal::NotStatic => anyhow::anyhow!(
-                    "{name}:{line}: row `{}` has a rate, an oscillation or a centrifuge arm; expected static rows (the case at rest: `correct` recovers the specific force of gravity's kind only)",
-                    r.label
-                ),
-                lib::Refusal::NoSolution => anyhow::anyhow!(
-                    "{name}:{line}: row `{}`: no specific force along IA gives the reading {} cm/s² under the calibration; expected a reading within the instrument's range (a value in another unit?)",
-                    r.label,
-                    r.measured_cm_s2.unwrap_or(f64::NAN)
-                ),
-            })?;
-            done.push((frame.rows[k].clone(), line, c));
-        }
-        warnings.extend(untested_warnings(&flag, &cal, &done, &rows));
-        let with_reading = done.iter().filter(|d| d.2.is_some()).count();
-        if with_reading == 0 {
-            bail!(
-                "{name}: no row has a reading; expected `measured_cm_s2` or `pulses` and `ticks` on the rows to correct"
-            );
-        }
-        if with_reading < done.len() {
-            warnings.push(format!(
-                "{name}: {} without a reading (`measured_cm_s2` or counts empty): written without corrected values",
-                count((done.len() - with_reading) as u64, "row")
-            ));
-        }
-        let noiseless = rows
-            .iter()
-            .filter(|r| {
-                r.measured_cm_s2.is_some()
-                    && r.sigma_cm_s2.is_none()
-                    && r.counting_sigma_cm_s2.is_none()
-            })
-            .count();
-        if noiseless > 0 && self.sigma.is_none() {
-            warnings.push(format!(
-                "{name}: {} with a reading {} no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their sigmas hold the calibration's uncertainty only (give --sigma CM_S2, or sigma_cm_s2 on the rows)",
-                count(noiseless as u64, "row"),
-                if noiseless == 1 { "states" } else { "state" }
-            ));
-        }
-        if rows
-            .iter()
-            .filter(|r| r.kind == RowKind::Absolute)
-            .all(|r| r.g[1] == 0.0 && r.g[2] == 0.0)
-        {
-            warnings.push(format!(
-                "{name}: no row gives a cross-axis input (`g_pa`, `g_oa` absent or 0): a_PA and a_OA are taken as 0, so the calibration's misalignment and cross-axis terms correct nothing; give them where the case is tilted"
-            ));
-        }
+        let rec = correct_record(&self.data, &ctx.instr, &cal, &flag, self.sigma)?;
         Ok(Request::Axis(AxisRequest {
             data: self.data,
             calibration,
             instrument: ctx.name.clone(),
-            g_cm_s2: g,
-            rows: done,
-            warnings,
+            rec,
             out,
             json: self.json,
         }))
@@ -306,94 +236,14 @@ impl CorrectArgs {
         ctx: &Ctx,
         instrument_given: bool,
     ) -> Result<(lib::Calibration, String, String)> {
-        Ok(match &self.calibration {
-            Some(p) => {
-                let triad_file = std::fs::read_to_string(p).is_ok_and(|t| {
-                    t.contains(ptsa_host_sim::triad::apply::FORMAT)
-                        && !t.trim_start().starts_with('{')
-                });
-                let v = if triad_file {
-                    None
-                } else {
-                    Some(discovery::read_result_json(
-                        p,
-                        &format!("--calibration {}", p.display()),
-                    )?)
-                };
-                let Some(v) = v.filter(|v| v.get("triad").is_none()) else {
-                    bail!(
-                        "--calibration {}: a triad's calibration, but {} is a single-axis record; expected a single-axis `ptsa discover --json` result, or a triad record (g_x, ..., measured_x_cm_s2, ... or each axis's counts)",
-                        p.display(),
-                        self.data.display()
-                    );
-                };
-                let cal = lib::Calibration::from_discover_json(&v, &ctx.instr)
-                    .with_context(|| format!("--calibration {}", p.display()))?;
-                (
-                    cal,
-                    p.display().to_string(),
-                    format!("--calibration {}", p.display()),
-                )
-            }
-            None if instrument_given => (
-                lib::Calibration::of_instrument(&ctx.instr),
-                format!("the instrument file {}", ctx.name),
-                format!("--instrument {}", ctx.name),
-            ),
-            None => bail!(
-                "no calibration to apply; expected --calibration FILE.json (the output of `ptsa discover --json`) or --instrument FILE (an instrument file of the instrument's calibrated values, e.g. written by `ptsa discover --write-instrument`)"
-            ),
-        })
+        choose_calibration(
+            self.calibration.as_deref(),
+            &self.data,
+            &ctx.instr,
+            &ctx.name,
+            instrument_given,
+        )
     }
-}
-
-/// A warning for each term the calibration could not test that acts on some corrected row.
-fn untested_warnings(
-    flag: &str,
-    cal: &lib::Calibration,
-    done: &[(Condition, usize, Option<lib::Corrected>)],
-    rows: &[Condition],
-) -> Vec<String> {
-    let mut warnings = Vec::new();
-    // The terms the calibration could not test, by the rows they act on.
-    let mut untested: Vec<(&'static str, usize)> = Vec::new();
-    for ((_, _, c), r) in done.iter().zip(rows) {
-        for id in c.iter().flat_map(|c| lib::untested_terms(cal, r, c)) {
-            let n = id.info().name;
-            match untested.iter_mut().find(|u| u.0 == n) {
-                Some(u) => u.1 += 1,
-                None => untested.push((n, 1)),
-            }
-        }
-    }
-    // A warm-up acts through the time since power-on, which rows without `time_s` lack.
-    if let Some((name, a, tau)) = cal.warm_up() {
-        let untimed = done
-            .iter()
-            .zip(rows)
-            .filter(|((_, _, c), r)| c.is_some() && r.history.t_on_span.is_none())
-            .count();
-        if untimed > 0 {
-            warnings.push(format!(
-                "{flag}: the calibration's warm-up (`{name}` = {} cm/s²{}) acts through the time since power-on, which {} without `time_s` lack: their readings are corrected as if the instrument had warmed up (give `time_s`, and `power_on_s` where it was switched on, to correct the transient)",
-                ptsa_host_sim::output::significant(a, 4),
-                tau.map_or(String::new(), |t| format!(", τ = {} s", ptsa_host_sim::output::significant(t, 4))),
-                count(untimed as u64, "row")
-            ));
-        }
-    }
-    for (n, k) in untested {
-        warnings.push(format!(
-                "{flag}: `{n}` was not testable in the calibration's data, and it acts on {} here: {} (calibrate with positions that exercise it)",
-                count(k as u64, "row"),
-                if lib::at_its_bound(cal, n) {
-                    "not corrected; its plausibility bound is in their sigmas, which it may dominate"
-                } else {
-                    "its error is in neither their corrected values nor their sigmas"
-                }
-            ));
-    }
-    warnings
 }
 
 /// The CSV: a comment line naming the data, the calibration and the instrument file, the
@@ -405,10 +255,10 @@ fn csv(req: &AxisRequest) -> String {
         req.data.display(),
         req.calibration,
         req.instrument,
-        req.g_cm_s2,
+        req.rec.g_cm_s2,
         COLUMNS.join(",")
     );
-    for (r, _, c) in &req.rows {
+    for (r, _, c) in &req.rec.rows {
         let cells = c.as_ref().map(|c| {
             [
                 c.reading_cm_s2,
@@ -449,25 +299,11 @@ fn csv_line(label: &str, cells: Option<&[f64]>, n: usize) -> String {
 
 /// The JSON object (`--json`).
 fn json(req: &AxisRequest) -> serde_json::Value {
-    let rows = req
-        .rows
-        .iter()
-        .map(|(r, line, c)| CorrectedRow {
-            label: r.label.clone(),
-            line: *line,
-            corrected: c.clone(),
-        })
-        .collect();
-    let v = CorrectJson {
-        data: req.data.display().to_string(),
-        calibration: req.calibration.clone(),
-        instrument: req.instrument.clone(),
-        g_cm_s2: req.g_cm_s2,
-        rows,
-        warnings: req.warnings.clone(),
-    };
-    // Through a `Value`: its keys in the order of their names.
-    serde_json::to_value(v).expect("plain data")
+    req.rec.json(
+        &req.data.display().to_string(),
+        &req.calibration,
+        &req.instrument,
+    )
 }
 
 /// Write the corrected rows: the warnings on stderr, the CSV (or JSON) on `out` or into
@@ -478,14 +314,14 @@ fn json(req: &AxisRequest) -> serde_json::Value {
 pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
     let (warnings, text, target, corrected) = match req {
         Request::Axis(r) => (
-            &r.warnings,
+            &r.rec.warnings,
             if r.json {
                 format!("{}\n", json(r))
             } else {
                 csv(r)
             },
             &r.out,
-            r.rows.iter().filter(|r| r.2.is_some()).count(),
+            r.rec.rows.iter().filter(|r| r.2.is_some()).count(),
         ),
         Request::Triad(r) => (
             &r.warnings,

@@ -20,7 +20,7 @@ use crate::work::{self, Work};
 /// The yield study's options (`monte-carlo --yield N ...`).
 #[derive(Args, Debug, Clone)]
 pub struct YieldArgs {
-    /// Draw N instruments from the tolerance box (each toleranced parameter uniform
+    /// Draw N instruments (a count, no unit) from the tolerance box (each toleranced parameter uniform
     /// between its limits, seeded by --seed), run each through the closed loop across
     /// ±full scale, and report the figures' distributions and the fraction within the
     /// specification (the --spec-* limits), instead of the corners' margins.
@@ -35,7 +35,8 @@ pub struct YieldArgs {
     #[arg(long, value_name = "S", value_parser = positive_s, requires = "instruments",
           default_value_t = DEFAULT_GATE_S)]
     pub gate_s: f64,
-    /// Gates at each input (2 to 10 000); the noise at rest is their standard deviation.
+    /// Gates at each input, a count with no unit (2 to 10 000); the noise at rest is their
+    /// standard deviation.
     #[arg(long, value_name = "N", value_parser = gates, requires = "instruments",
           default_value_t = DEFAULT_GATES)]
     pub gates: u64,

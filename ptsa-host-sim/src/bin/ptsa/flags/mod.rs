@@ -500,6 +500,8 @@ mod tests {
             "S2_CM" => &["s²/cm"],
             "S2" => &[", s²"],
             "DEG" => &["degrees"],
+            "PPM" => &["ppm"],
+            "DB" => &["dB"],
             "G" => &["in g"],
             // A count: of what, or that it has none (a seed).
             "N" | "K" => &[
