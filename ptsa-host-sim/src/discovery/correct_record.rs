@@ -27,6 +27,23 @@ pub struct CorrectedRecord {
     pub g_cm_s2: f64,
 }
 
+/// A `ptsa discover --json` result file read as JSON (`predict --effects`, `correct
+/// --calibration`); `what` prefixes the message when it cannot be read (e.g. the flag).
+///
+/// # Errors
+/// The file cannot be read, or is not JSON (`file:line:column` and what was expected).
+pub fn read_result_json(p: &Path, what: &str) -> Result<serde_json::Value> {
+    let text = std::fs::read_to_string(p).with_context(|| format!("{what}: cannot read"))?;
+    serde_json::from_str(&text).map_err(|e| {
+        anyhow::anyhow!(
+            "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
+            p.display(),
+            e.line(),
+            e.column()
+        )
+    })
+}
+
 /// The calibration at `p` (a single-axis `ptsa discover --json` result) for the record
 /// `data`, under the option `flag` (`--calibration FILE`, named in refusals).
 ///
@@ -38,7 +55,7 @@ pub fn read_calibration(p: &Path, data: &Path, instr: &Instrument) -> Result<lib
     let v = if triad_file {
         None
     } else {
-        Some(super::read_result_json(
+        Some(read_result_json(
             p,
             &format!("--calibration {}", p.display()),
         )?)

@@ -57,6 +57,7 @@ pub mod check;
 pub mod confounding;
 pub mod correct;
 pub mod correct_record;
+pub use correct_record::read_result_json;
 pub mod cost;
 pub mod crossval;
 pub mod data;
@@ -496,23 +497,6 @@ fn decimals(sigma: f64) -> usize {
     }
 }
 
-/// A `ptsa discover --json` result file read as JSON (`predict --effects`, `correct
-/// --calibration`); `what` prefixes the message when it cannot be read (e.g. the flag).
-///
-/// # Errors
-/// The file cannot be read, or is not JSON (`file:line:column` and what was expected).
-pub fn read_result_json(p: &Path, what: &str) -> Result<serde_json::Value> {
-    let text = std::fs::read_to_string(p).with_context(|| format!("{what}: cannot read"))?;
-    serde_json::from_str(&text).map_err(|e| {
-        anyhow::anyhow!(
-            "{}:{}:{}: not JSON: {e}; expected the output of `ptsa discover --json`",
-            p.display(),
-            e.line(),
-            e.column()
-        )
-    })
-}
-
 /// What the instrument should read in each row (`ptsa predict`): the simulator's prediction
 /// with `effects` put into the plant ([`Simulator::observe`]), in the flat form of the
 /// prediction table ([`observation::Observation::values`]): `[cm/s²]` for a difference or
@@ -724,7 +708,7 @@ mod tests {
 
     /// Discovery's modules in layers, bottom-up, as docs/method/code.md lists them: each uses
     /// only those before it (a new module takes its place here).
-    const LAYERS: [&str; 33] = [
+    const LAYERS: [&str; 34] = [
         "observation",
         "sim",
         "library",
@@ -750,6 +734,7 @@ mod tests {
         "advice",
         "calibration",
         "correct",
+        "correct_record",
         "cost",
         "outcome",
         "show",
