@@ -218,8 +218,10 @@ def discover(
     if isinstance(data, (str, os.PathLike)):
         return json.loads(_ptsa.discover_json(os.fspath(data), *args))
     with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
-        path = _frame_file(data, d, "discover")
-        return json.loads(_ptsa.discover_json(path, *args))
+        path, name = _frame_file(data, d, "discover")
+        names = {path: name}
+        with _named(names):
+            return _renamed(json.loads(_ptsa.discover_json(path, *args)), names)
 
 
 def correct(
@@ -248,33 +250,74 @@ def correct(
         cm/s² and g with its 1-sigma uncertainty, and the warnings.
     """
     with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
+        names = {}
         if isinstance(calibration, Mapping):
             path = os.path.join(d, "calibration.json")
+            try:
+                text = json.dumps(calibration, allow_nan=False)
+            except (TypeError, ValueError) as e:
+                raise PtsaError(f"correct: the calibration dict is not plain JSON ({e}); expected what ptsa.discover returns") from None
             with open(path, "w", encoding="utf-8") as f:
-                json.dump(calibration, f)
+                f.write(text)
+            names[path] = "<calibration dict>"
             calibration = path
         if not isinstance(data, (str, os.PathLike)):
-            data = _frame_file(data, d, "correct")
-        return json.loads(
-            _ptsa.correct_json(
-                os.fspath(data), _path(calibration), _path(instrument), sigma, local_gravity_cm_s2
+            data, names[data] = _frame_file(data, d, "correct")
+        with _named(names):
+            return _renamed(
+                json.loads(
+                    _ptsa.correct_json(
+                        os.fspath(data), _path(calibration), _path(instrument), sigma, local_gravity_cm_s2
+                    )
+                ),
+                names,
             )
-        )
 
 
-def _frame_file(data: Any, d: str, what: str) -> str:
-    """A DataFrame or a dict of arrays written as a case-frame file in the folder ``d``."""
+class _named:
+    """Within it, a PtsaError names the caller's frame or dict, not its temporary file."""
+
+    def __init__(self, names: Mapping[str, str]):
+        self.names = names
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, kind: Any, e: Any, tb: Any) -> bool:
+        if isinstance(e, PtsaError) and self.names:
+            raise PtsaError(_renamed(str(e), self.names)) from None
+        return False
+
+
+def _renamed(v: Any, names: Mapping[str, str]) -> Any:
+    """``v`` with every temporary file's path replaced by what the caller gave."""
+    if isinstance(v, str):
+        for path, name in names.items():
+            v = v.replace(path, name)
+        return v
+    if isinstance(v, list):
+        return [_renamed(x, names) for x in v]
+    if isinstance(v, dict):
+        return {k: _renamed(x, names) for k, x in v.items()}
+    return v
+
+
+def _frame_file(data: Any, d: str, what: str) -> tuple[str, str]:
+    """A DataFrame or a dict of arrays written as a case-frame file in the folder ``d``:
+    its path, and the name messages give it (``<DataFrame>`` or ``<dict>``)."""
+    kind = "DataFrame"
     if isinstance(data, Mapping):
         import pandas as pd
 
         data = pd.DataFrame({k: np.asarray(v) for k, v in data.items()})
+        kind = "dict"
     if not hasattr(data, "to_csv"):
         raise PtsaError(
             f"{what}: a {type(data).__name__}; expected a path, a pandas DataFrame or a dict of arrays"
         )
     path = os.path.join(d, "data.case.csv")
     data.to_csv(path, index=False)
-    return path
+    return path, f"<{kind}>"
 
 
 def yield_plan(

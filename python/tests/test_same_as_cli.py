@@ -215,3 +215,19 @@ def test_correct_applies_a_calibration_as_the_command_does(tmp_path):
     ]
     with pytest.raises(ptsa.PtsaError, match="no calibration to apply"):
         ptsa.correct(check)
+
+
+def test_a_frame_or_a_dict_is_named_as_such_not_by_a_temporary_file():
+    check = ROOT / "data/examples/check-counts.csv"
+    cal = ptsa.discover("data/examples/tumble-counts.csv", analytic=True)
+    frame = pd.read_csv(check, comment="#", dtype=str)
+    out = ptsa.correct(frame, cal)
+    assert (out["data"], out["calibration"]) == ("<DataFrame>", "<calibration dict>")
+    assert "/tmp" not in json.dumps(out)
+    bad = frame.copy()
+    bad.loc[2, "pulses"] = "twelve"
+    with pytest.raises(ptsa.PtsaError) as e:
+        ptsa.discover(bad, analytic=True)
+    assert str(e.value).startswith("<DataFrame>:") and "/tmp" not in str(e.value)
+    with pytest.raises(ptsa.PtsaError, match="not plain JSON"):
+        ptsa.correct(frame, {**cal, "x": float("nan")})

@@ -45,7 +45,7 @@ pub fn read_result_json(p: &Path, what: &str) -> Result<serde_json::Value> {
 }
 
 /// The calibration at `p` (a single-axis `ptsa discover --json` result) for the record
-/// `data`, under the option `flag` (`--calibration FILE`, named in refusals).
+/// `data`; refusals name it as `--calibration FILE`.
 ///
 /// # Errors
 /// It cannot be read; it is a triad's; `correct` cannot apply it.
