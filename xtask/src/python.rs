@@ -4,8 +4,8 @@
 //!
 //! Nothing is installed: the package is put together in `target/python/site` and that
 //! folder is put on `PYTHONPATH` for pytest only. By default its native module is the
-//! cdylib cargo builds in the test profile, whose crates `cargo test` has already
-//! compiled (seconds, in CI); `--wheel` builds the wheel with maturin in the release
+//! cdylib of the workspace's test build, exactly as the host tests built it (nothing
+//! compiled again, in CI); `--wheel` builds the wheel with maturin in the release
 //! profile, as `pip install ./python` does (minutes), and unpacks it there instead. The
 //! Python is `$PTSA_PYTHON` (default `python3`), with numpy, pandas, pytest, matplotlib
 //! and Ray (and maturin for `--wheel`).
@@ -21,9 +21,10 @@ pub const USAGE: &str = "\
 python [--wheel]
     The Python package in python/ put together in target/python/site (nothing is
     installed) and its tests (python/tests, pytest) run against `ptsa` built from this
-    tree. Its native module is cargo's build of python/ in the test profile (what
-    `cargo test` has compiled already); --wheel: the wheel maturin builds in the release
-    profile, as `pip install ./python` does, unpacked there instead (minutes more).
+    tree. Its native module is python/'s cdylib from `cargo build --profile test
+    --workspace --all-targets` (what the host tests have compiled already, so after them
+    only the cdylib is linked); --wheel: the wheel maturin builds in the release profile, as
+    `pip install ./python` does, unpacked there instead (minutes more).
     The Python is $PTSA_PYTHON (default python3); it needs numpy, pandas, pytest,
     matplotlib and Ray (and maturin for --wheel), and if any is missing this says how to
     install them and stops.";
@@ -49,28 +50,86 @@ pub fn run(args: &[String]) -> Result<(), Error> {
     let root = util::root();
     let target = util::target_dir()?;
     let python = python();
-    let profile = if wheel { "release" } else { "test" };
-    let ptsa = build_cli(&root, profile, &target)?;
     let site = target.join("python").join("site");
     if site.exists() {
         std::fs::remove_dir_all(&site).map_err(|e| format!("{}: {e}", site.display()))?;
     }
-    if wheel {
+    let ptsa = if wheel {
         build_and_unpack(&root, &python, &target, &site)?;
+        build_cli(&root, &target)?
     } else {
-        assemble(&root, &target, &site)?;
-    }
+        let built = test_build(&root)?;
+        assemble(&root, &built.cdylib, &site)?;
+        built.ptsa
+    };
     test(&root, &python, &site, &ptsa)
 }
 
-/// The package from its sources: python/ptsa's files, and the cdylib cargo builds in the
-/// test profile as its native module `_ptsa`.
-fn assemble(root: &Path, target: &Path, site: &Path) -> Result<(), String> {
-    util::run(
-        root,
-        &util::cargo(),
-        &["build", "--profile", "test", "-p", "ptsa-python"],
-    )?;
+/// The test build's artifacts the package needs.
+struct TestBuild {
+    /// The native module: python/'s cdylib.
+    cdylib: PathBuf,
+    /// The command line the tests compare with.
+    ptsa: PathBuf,
+}
+
+/// The workspace's test build as `cargo test --workspace --all-targets` makes it (the
+/// same packages, targets, features and profile, so that after the host tests only
+/// python/'s cdylib is linked: `cargo test` builds it as a test harness alone), and the two
+/// artifacts the package's tests need, from cargo's messages.
+fn test_build(root: &Path) -> Result<TestBuild, String> {
+    let cargo = util::cargo();
+    let args = [
+        "build",
+        "--profile",
+        "test",
+        "--workspace",
+        "--all-targets",
+        "--message-format=json-render-diagnostics",
+    ];
+    eprintln!("+ {cargo} {}", args.join(" "));
+    let out = Command::new(&cargo)
+        .args(args)
+        .current_dir(root)
+        .stderr(std::process::Stdio::inherit())
+        .output()
+        .map_err(|e| format!("cannot start `{cargo}`: {e}"))?;
+    if !out.status.success() {
+        return Err(format!(
+            "`{cargo} {}` failed ({})",
+            args.join(" "),
+            out.status
+        ));
+    }
+    let (mut cdylib, mut ptsa) = (None, None);
+    for line in String::from_utf8_lossy(&out.stdout).lines() {
+        let Ok(m) = serde_json::from_str::<serde_json::Value>(line) else {
+            continue;
+        };
+        if m["reason"] != "compiler-artifact" || m["profile"]["test"] == true {
+            continue;
+        }
+        let kinds = &m["target"]["kind"];
+        let first = |key: &str| m[key].as_array()?.first()?.as_str().map(PathBuf::from);
+        if kinds
+            .as_array()
+            .is_some_and(|k| k.iter().any(|k| k == "cdylib"))
+            && m["target"]["name"] == "_ptsa"
+        {
+            cdylib = first("filenames");
+        } else if m["target"]["name"] == "ptsa" && kinds[0] == "bin" {
+            ptsa = m["executable"].as_str().map(PathBuf::from);
+        }
+    }
+    Ok(TestBuild {
+        cdylib: cdylib.ok_or("cargo's test build made no cdylib for python/ (_ptsa)")?,
+        ptsa: ptsa.ok_or("cargo's test build made no `ptsa` executable")?,
+    })
+}
+
+/// The package from its sources: python/ptsa's files, and `cdylib` as its native module
+/// `_ptsa`.
+fn assemble(root: &Path, cdylib: &Path, site: &Path) -> Result<(), String> {
     let pkg = site.join("ptsa");
     std::fs::create_dir_all(&pkg).map_err(|e| format!("{}: {e}", pkg.display()))?;
     let src = root.join("python").join("ptsa");
@@ -82,9 +141,9 @@ fn assemble(root: &Path, target: &Path, site: &Path) -> Result<(), String> {
                 .map_err(|e| format!("{} -> {}: {e}", p.display(), to.display()))?;
         }
     }
-    let lib = target.join("debug").join("lib_ptsa.so");
     let to = pkg.join("_ptsa.abi3.so");
-    std::fs::copy(&lib, &to).map_err(|e| format!("{} -> {}: {e}", lib.display(), to.display()))?;
+    std::fs::copy(cdylib, &to)
+        .map_err(|e| format!("{} -> {}: {e}", cdylib.display(), to.display()))?;
     Ok(())
 }
 
@@ -93,28 +152,14 @@ pub fn python() -> String {
     std::env::var("PTSA_PYTHON").unwrap_or_else(|_| "python3".into())
 }
 
-/// The command line the tests compare with, built in `profile`; its path.
-fn build_cli(root: &Path, profile: &str, target: &Path) -> Result<PathBuf, String> {
-    let cargo = util::cargo();
+/// The release command line the wheel's tests compare with; its path.
+fn build_cli(root: &Path, target: &Path) -> Result<PathBuf, String> {
     util::run(
         root,
-        &cargo,
-        &[
-            "build",
-            "--profile",
-            profile,
-            "-p",
-            "ptsa-host-sim",
-            "--bin",
-            "ptsa",
-        ],
+        &util::cargo(),
+        &["build", "--release", "-p", "ptsa-host-sim", "--bin", "ptsa"],
     )?;
-    let dir = if profile == "release" {
-        "release"
-    } else {
-        "debug"
-    };
-    Ok(target.join(dir).join("ptsa"))
+    Ok(target.join("release").join("ptsa"))
 }
 
 /// The wheel built by maturin in the release profile into `target/python/wheels`, then
