@@ -20,16 +20,15 @@
 //! * [`stats`]: dense weighted least squares and the tail probabilities.
 
 pub mod discovery;
-pub mod lab;
-pub mod model;
 pub mod noise;
 pub mod output;
 pub mod report;
 pub mod session;
-pub mod simulation;
-pub mod stats;
 pub mod stream;
 pub mod triad;
+
+// The layers below discovery are the crate `ptsa-sim`; they keep their paths here.
+pub use ptsa_sim::{lab, model, simulation, stats};
 
 pub use model::condition::{CaseInputs, Condition};
 pub use model::effects::{CandidateId, Effects};

@@ -17,7 +17,8 @@ pub mod table;
 
 pub use fs::{StagedDir, write_atomic};
 pub use plot::{Figure, Plot, Series, Style, XAxis, write_figure};
-pub use table::{Align, Cell, Column, Table, num, opt, significant, text};
+pub use ptsa_sim::text::{reference_page_is_current, significant};
+pub use table::{Align, Cell, Column, Table, num, opt, text};
 
 /// A number as the messages show it: plain from 0.001 to 10⁶, in exponent form beyond.
 #[must_use]
@@ -109,22 +110,4 @@ impl Output {
         self.plots.extend(other.plots);
         self.notes.extend(other.notes);
     }
-}
-
-/// Whether the generated page `docs/reference/NAME` (under the repository's `docs/`) holds
-/// `want`; with `PTSA_WRITE_REFERENCE` set in the environment it is written first. The
-/// reference pages' tests (options, candidates, JSON keys, instrument file, case frame)
-/// check their page with it.
-///
-/// # Panics
-/// The page cannot be written when asked to.
-#[must_use]
-pub fn reference_page_is_current(name: &str, want: &str) -> bool {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../docs/reference")
-        .join(name);
-    if std::env::var_os("PTSA_WRITE_REFERENCE").is_some() {
-        std::fs::write(&path, want).expect("docs/reference is writable");
-    }
-    std::fs::read_to_string(&path).is_ok_and(|have| have == want)
 }

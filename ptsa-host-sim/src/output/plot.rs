@@ -352,7 +352,7 @@ where
             let x = (xr.start.max(1e-12)..xr.end.max(2e-12)).log_scale();
             let mut chart = b.build_cartesian_2d(x, yr).map_err(err)?;
             // Four significant digits: `1`, `10`, `0.5`, `2e4`.
-            let log_tick = |x: &f64| super::table::significant(*x, 4);
+            let log_tick = |x: &f64| super::significant(*x, 4);
             mesh!(chart, m => m.x_label_formatter(&log_tick));
             draw_series(&mut chart, plot, fonts)
         }

@@ -1275,7 +1275,7 @@ fn quote(s: &str) -> String {
 
 /// One CSV record of a case-frame-like file: its 1-based line in the file and its cells.
 #[derive(Clone, Debug)]
-pub(crate) struct Record {
+pub struct Record {
     /// The record's line in the file.
     pub line: usize,
     /// Its cells, as written (not trimmed).
@@ -1292,7 +1292,7 @@ pub(crate) struct Record {
 ///
 /// # Errors
 /// As [`parse_bytes`] for the encoding and the CSV itself; no header line.
-pub(crate) fn records(
+pub fn records(
     name: &str,
     bytes: &[u8],
     header_of: &str,
@@ -1308,7 +1308,7 @@ pub(crate) fn records(
 ///
 /// # Errors
 /// As [`records`], and `on_header`'s.
-pub(crate) fn records_with<H>(
+pub fn records_with<H>(
     name: &str,
     bytes: &[u8],
     header_of: &str,
@@ -1407,7 +1407,8 @@ pub(crate) fn records_with<H>(
 /// The first header cell (trimmed, in order) of a case-frame-like text, without reading
 /// further: what a caller looks at to tell one kind of file from another. Empty when the
 /// bytes are not UTF-8 or hold no header (the reader then says why).
-pub(crate) fn header_cells(bytes: &[u8]) -> Vec<String> {
+#[must_use]
+pub fn header_cells(bytes: &[u8]) -> Vec<String> {
     let Ok(text) = std::str::from_utf8(bytes) else {
         return Vec::new();
     };

@@ -782,7 +782,7 @@ pub struct CheckContext<'a> {
 /// X`, when reading it so puts the gain inside `band` (the nearest to `nominal` if several
 /// do).
 fn unit_hint(amp: f64, gain: f64, nominal: f64, band: [f64; 2], g_cm_s2: f64) -> Option<String> {
-    use crate::output::significant;
+    use crate::text::significant;
     [
         ("g", g_cm_s2),
         ("ft/s²", 30.48),
@@ -866,7 +866,7 @@ impl<'a> Words<'a> {
         prediction: Option<Prediction>,
         best: Option<BestFrequency>,
     ) -> Self {
-        use crate::output::significant as sig;
+        use crate::text::significant as sig;
         let f = fit.freq_hz;
         let better = best.filter(|b| {
             2.0 * b.rms_cm_s2 < fit.rms_cm_s2 && (b.freq_hz - f).abs() > b.resolution_hz
@@ -920,7 +920,7 @@ impl<'a> Words<'a> {
     /// The likely slip of a gain far from the loop's: an amplitude in another unit, or
     /// the amplitude that would give the loop's gain.
     fn amp_hint(&self) -> String {
-        use crate::output::significant as sig;
+        use crate::text::significant as sig;
         let fit = self.fit;
         unit_hint(
             fit.amplitude_cm_s2,
@@ -941,7 +941,7 @@ impl<'a> Words<'a> {
     /// Refused: a gain above what a loop the simulator accepts can give, or with an
     /// uncertainty larger than itself.
     fn refusal(&self) -> Option<String> {
-        use crate::output::significant as sig;
+        use crate::text::significant as sig;
         let (name, fit, f) = (self.cx.name, self.fit, self.fit.freq_hz);
         let gain_pm = &self.gain_pm;
         let limit = self
@@ -971,7 +971,7 @@ impl<'a> Words<'a> {
 
     /// The gates scatter about the sine `ratio` times what counting leaves.
     fn scattered(&self, expected: &Scatter, ratio: f64) -> String {
-        use crate::output::significant as sig;
+        use crate::text::significant as sig;
         let fit = self.fit;
         format!(
             "{}: the gates scatter about the fitted sine with RMS {} cm/s², {} times the {} cm/s² that counting leaves (pulses of {} cm/s² in gates of {} ticks, the charge carried between gates and the limit-cycle ripple): the record is not a clean sine at {} Hz; {}",
@@ -991,7 +991,7 @@ impl<'a> Words<'a> {
     /// The gain and the phase against the loop's prediction `p`: a warning for each far
     /// from it.
     fn far_from_the_loop(&self, p: &Prediction) -> Vec<String> {
-        use crate::output::significant as sig;
+        use crate::text::significant as sig;
         let (name, fit, f) = (self.cx.name, self.fit, self.fit.freq_hz);
         let mut warnings = Vec::new();
         let s4 = 4.0 * fit.sigma_gain;

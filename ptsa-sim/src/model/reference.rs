@@ -2,7 +2,7 @@
 //! tables the readers themselves go through: the instrument file's numeric entries
 //! ([`PARAMETERS`]: key, unit, form, valid range, meaning) and the case-frame's columns
 //! ([`COLUMNS`]: name and what a cell must hold). The tests check both pages are current;
-//! `PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference` writes them again.
+//! `PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-sim --lib reference` writes them again.
 
 use std::fmt::Write as _;
 
@@ -85,9 +85,9 @@ mod tests {
             ("case-frame.md", case_frame_page()),
         ] {
             assert!(
-                crate::output::reference_page_is_current(file, &want),
+                crate::text::reference_page_is_current(file, &want),
                 "docs/reference/{file} is not what the code defines: \
-                 PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference"
+                 PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-sim --lib reference"
             );
         }
     }

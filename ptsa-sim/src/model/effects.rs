@@ -361,7 +361,7 @@ impl CandidateId {
     /// The warm-up's transient `A·e^(−t/τ)`: one of the grid's time constants
     /// (registered in increasing τ, [`CandidateId::profile_rate`]) or the one estimated
     /// from the data ([`CandidateId::WarmUp`]). They are one hypothesis of the selection's
-    /// family (its p-value corrected for the search over τ, [`crate::discovery::fit`]),
+    /// family (its p-value corrected for the search over τ, `ptsa_host_sim::discovery::fit`),
     /// and at most one of them is selected.
     #[must_use]
     pub fn profiled(self) -> bool {
@@ -906,7 +906,7 @@ mod reference {
              The {N_CANDIDATES} candidates of `ptsa discover`, in the registry's order (the order of \
              every listing). Generated from `model/effects.rs` by the test \
              `model::effects::reference::the_candidates_page_is_current` \
-             (`PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference` writes it \
+             (`PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-sim --lib reference` writes it \
              again). `name` is what `--candidates` takes and the JSON's `confounded_with` \
              lists; `effect` and `key` are the JSON's effect name and coefficient key (cgs, the \
              unit in the key); the IEEE Std 1293 symbol and unit are the calibration's.\n\n\
@@ -939,9 +939,9 @@ mod reference {
     #[test]
     fn the_candidates_page_is_current() {
         assert!(
-            crate::output::reference_page_is_current("candidates.md", &page()),
+            crate::text::reference_page_is_current("candidates.md", &page()),
             "docs/reference/candidates.md is not what the registry holds: \
-             PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-host-sim --lib reference"
+             PTSA_WRITE_REFERENCE=1 cargo test -p ptsa-sim --lib reference"
         );
     }
 }
