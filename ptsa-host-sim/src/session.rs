@@ -72,17 +72,33 @@ impl Session {
                 crate::model::instrument::KEARFOTT_2401_TOML.to_string(),
             ),
         };
+        Ok(Self::checked(instr, name, text))
+    }
+
+    /// The instrument file `name` given as its text (a campaign's task on a machine that
+    /// does not have the file), checked as [`Session::load`] checks a file: the same
+    /// session, the same messages.
+    ///
+    /// # Errors
+    /// The text is not a valid instrument file.
+    pub fn of_text(name: &str, text: &str) -> Result<Self> {
+        let instr = Instrument::parse(text, name)?;
+        Ok(Self::checked(instr, name.to_string(), text.to_string()))
+    }
+
+    /// The session of an instrument read, its loop checked.
+    fn checked(instr: Instrument, name: String, text: String) -> Self {
         let checked = if instr.has_loop {
             check_loop(&instr)
         } else {
             Err("the file describes an instrument without a PTSA loop".to_string())
         };
-        Ok(Self {
+        Self {
             instr,
             name,
             text,
             checked,
-        })
+        }
     }
 
     /// The instrument file as if it gave `g_cm_s2` for its local gravity

@@ -27,6 +27,8 @@ __all__ = [
     "static",
     "record",
     "noise",
+    "noise_text",
+    "instrument_text",
     "discover",
     "correct",
     "yield_plan",
@@ -36,10 +38,33 @@ __all__ = [
 ]
 
 PathLike = Union[str, "os.PathLike[str]"]
+# An instrument: a file's path, a shipped name (`mems`, `navigation`), or a file's name and
+# its text as a pair (what a campaign's task gets on a machine without the file).
+Instrument = Union[PathLike, "tuple[str, str]"]
 
 
 def _path(p: PathLike | None) -> str | None:
     return None if p is None else os.fspath(p)
+
+
+def _instrument(p: Instrument | None) -> str | tuple[str, str] | None:
+    if isinstance(p, tuple):
+        name, text = p
+        return (str(name), str(text))
+    return _path(p)
+
+
+def instrument_text(instrument: Instrument | None) -> Instrument | None:
+    """``instrument`` as a task on another machine can use it: a file's path becomes the
+    pair (its path, its text), so the file need not be on that machine; a shipped name, a
+    pair or None stay as they are."""
+    if instrument is None or isinstance(instrument, tuple):
+        return instrument
+    path = os.fspath(instrument)
+    if not os.path.isfile(path):
+        return path  # a shipped name, or a file the library will say it cannot read
+    with open(path, encoding="utf-8") as f:
+        return (path, f.read())
 
 
 def static(
@@ -47,7 +72,7 @@ def static(
     seconds: float = 1.0,
     *,
     warmup_s: float | None = None,
-    instrument: PathLike | None = None,
+    instrument: Instrument | None = None,
     seed: int | None = None,
     with_bias: bool = False,
 ) -> list[dict[str, Any]]:
@@ -73,7 +98,7 @@ def static(
     """
     accels = [float(a) for a in np.atleast_1d(np.asarray(accels_cm_s2, dtype=float))]
     text = _ptsa.static_json(
-        accels, float(seconds), warmup_s, _path(instrument), seed, bool(with_bias)
+        accels, float(seconds), warmup_s, _instrument(instrument), seed, bool(with_bias)
     )
     return json.loads(text)
 
@@ -83,7 +108,7 @@ def record(
     gate_s: float | None = None,
     *,
     warmup_s: float | None = None,
-    instrument: PathLike | None = None,
+    instrument: Instrument | None = None,
     seed: int | None = None,
 ) -> dict[str, np.ndarray]:
     """A simulated counter record of the loop at rest: ``ptsa noise --simulate --output``.
@@ -105,7 +130,7 @@ def record(
         record the command writes.
     """
     gate = None if gate_s is None else float(gate_s)
-    t, p, k = _ptsa.record(float(seconds), gate, warmup_s, _path(instrument), seed)
+    t, p, k = _ptsa.record(float(seconds), gate, warmup_s, _instrument(instrument), seed)
     return {"time_s": t, "pulses": p, "ticks": k}
 
 
@@ -122,10 +147,14 @@ def noise(
     *,
     name: str = "<array>",
     unit: str | None = None,
-    instrument: PathLike | None = None,
+    instrument: Instrument | None = None,
     spacing_tol: float | None = None,
     taus: str | Sequence[float] = "octave",
     confidence: float = 0.95,
+    compare: bool = False,
+    identify: bool = False,
+    seed: int | None = None,
+    warmup_s: float | None = None,
 ) -> dict[str, Any]:
     """The Allan analysis of a static record: ``ptsa noise --readings/--counts --json``.
 
@@ -141,40 +170,86 @@ def noise(
             spacing; None: the default.
         taus: ``"octave"``, ``"decade"``, ``"all"``, or averaging times in s.
         confidence: the second confidence level of the intervals (0 to 1, exclusive).
+        compare: ``--compare``, a counter record only: the instrument file's loop simulated
+            as long as the record, at its mean, and the deviations compared tau by tau.
+            Takes ``taus="octave"``.
+        identify: ``--identify``. A counter record: the white acceleration noise, the bias
+            random walk and the pickoff noise its loop needs beyond the instrument file's,
+            by simulating the loop (seconds to minutes). Readings: which of IEEE Std 952's
+            terms they hold. Takes ``taus="octave"``.
+        seed: with ``compare`` or ``identify``: the seed of the simulated noise (None: the
+            command's).
+        warmup_s: with ``compare`` or ``identify`` on a counter record: the simulations'
+            settling, s (None: the command's).
 
     Returns:
         The object ``ptsa noise --json`` prints: the record's figures, one point per tau
         (deviations and intervals in cm/s²) and the noise terms (every key:
-        docs/reference/json.md).
+        docs/reference/json.md); with ``compare``, its ``comparison``; with ``identify``,
+        its ``identification`` (counts) or ``terms_identification`` (readings).
 
     Raises:
         PtsaError: the record is refused (a gap, too few samples...); the row named is
             the line of the record as a CSV, its header being line 1.
     """
-    taus_arg: Any = taus if isinstance(taus, str) else [float(t) for t in taus]
+    options = dict(
+        unit=unit, instrument=instrument, spacing_tol=spacing_tol, taus=taus,
+        confidence=confidence, compare=compare, identify=identify, seed=seed, warmup_s=warmup_s,
+    )
     if isinstance(data, (str, os.PathLike)):
         # The file as the command line reads it: its own lines and columns in messages.
         path = os.fspath(data)
         with open(path, encoding="utf-8") as f:
             text = f.read()
-        counts = _header(text) == ["time_s", "pulses", "ticks"]
-        name = path if name == "<array>" else name
-    else:
-        t = _column(data, "time_s")
-        reading = _column(data, "reading")
-        pulses, ticks = _column(data, "pulses"), _column(data, "ticks")
-        if t is None or (reading is None and (pulses is None or ticks is None)):
-            raise PtsaError(
-                f"{name}: expected the columns time_s and reading (a record of readings) "
-                "or time_s, pulses and ticks (a counter record)"
-            )
-        counts = reading is None
-        names = ["time_s", "pulses", "ticks"] if counts else ["time_s", "reading"]
-        cols = [t, pulses, ticks] if counts else [t, reading]
-        text = _ptsa.columns_csv(names, [np.ascontiguousarray(c, dtype=np.float64) for c in cols])
+        return noise_text(path if name == "<array>" else name, text, **options)
+    t = _column(data, "time_s")
+    reading = _column(data, "reading")
+    pulses, ticks = _column(data, "pulses"), _column(data, "ticks")
+    if t is None or (reading is None and (pulses is None or ticks is None)):
+        raise PtsaError(
+            f"{name}: expected the columns time_s and reading (a record of readings) "
+            "or time_s, pulses and ticks (a counter record)"
+        )
+    counts = reading is None
+    names = ["time_s", "pulses", "ticks"] if counts else ["time_s", "reading"]
+    cols = [t, pulses, ticks] if counts else [t, reading]
+    text = _ptsa.columns_csv(names, [np.ascontiguousarray(c, dtype=np.float64) for c in cols])
+    return noise_text(name, text, **options)
+
+
+def noise_text(
+    name: str,
+    text: str,
+    *,
+    unit: str | None = None,
+    instrument: Instrument | None = None,
+    spacing_tol: float | None = None,
+    taus: str | Sequence[float] = "octave",
+    confidence: float = 0.95,
+    compare: bool = False,
+    identify: bool = False,
+    seed: int | None = None,
+    warmup_s: float | None = None,
+) -> dict[str, Any]:
+    """:func:`noise` of a record given as the text of its CSV file, ``name`` in messages:
+    a counter record if its header is ``time_s,pulses,ticks``, else readings. What a
+    campaign's task receives, so that the file need not be on the worker's disk."""
+    taus_arg: Any = taus if isinstance(taus, str) else [float(t) for t in taus]
+    counts = _header(text) == ["time_s", "pulses", "ticks"]
     return json.loads(
         _ptsa.noise_json(
-            name, text, counts, unit, _path(instrument), spacing_tol, taus_arg, float(confidence)
+            name,
+            text,
+            counts,
+            unit,
+            _instrument(instrument),
+            spacing_tol,
+            taus_arg,
+            float(confidence),
+            bool(compare),
+            bool(identify),
+            seed,
+            warmup_s,
         )
     )
 
@@ -191,7 +266,7 @@ def _header(text: str) -> list[str]:
 def discover(
     data: Any,
     *,
-    instrument: PathLike | None = None,
+    instrument: Instrument | None = None,
     analytic: bool = False,
     seed: int | None = None,
     sigma_cm_s2: float | None = None,
@@ -214,7 +289,7 @@ def discover(
         uncertainties, each candidate's test, the advice; every key:
         docs/reference/json.md).
     """
-    args = (_path(instrument), bool(analytic), seed, sigma_cm_s2, bool(keep_outliers))
+    args = (_instrument(instrument), bool(analytic), seed, sigma_cm_s2, bool(keep_outliers))
     if isinstance(data, (str, os.PathLike)):
         return json.loads(_ptsa.discover_json(os.fspath(data), *args))
     with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
@@ -228,7 +303,7 @@ def correct(
     data: Any,
     calibration: PathLike | Mapping[str, Any] | None = None,
     *,
-    instrument: PathLike | None = None,
+    instrument: Instrument | None = None,
     sigma: float | None = None,
     local_gravity_cm_s2: float | None = None,
 ) -> dict[str, Any]:
@@ -267,7 +342,7 @@ def correct(
             return _renamed(
                 json.loads(
                     _ptsa.correct_json(
-                        os.fspath(data), _path(calibration), _path(instrument), sigma, local_gravity_cm_s2
+                        os.fspath(data), _path(calibration), _instrument(instrument), sigma, local_gravity_cm_s2
                     )
                 ),
                 names,
@@ -323,7 +398,7 @@ def _frame_file(data: Any, d: str, what: str) -> tuple[str, str]:
 def yield_plan(
     instruments: int,
     *,
-    instrument: PathLike | None = None,
+    instrument: Instrument | None = None,
     seed: int | None = None,
     warmup_s: float | None = None,
     fractions: Sequence[float] | None = None,
@@ -352,7 +427,7 @@ def yield_plan(
     return json.loads(
         _ptsa.yield_plan_json(
             int(instruments),
-            _path(instrument),
+            _instrument(instrument),
             seed,
             warmup_s,
             None if fractions is None else [float(f) for f in fractions],
@@ -364,13 +439,13 @@ def yield_plan(
 
 
 def yield_units(
-    plan: Mapping[str, Any], start: int, count: int, *, instrument: PathLike | None = None
+    plan: Mapping[str, Any], start: int, count: int, *, instrument: Instrument | None = None
 ) -> list[dict[str, Any]]:
     """Instruments ``start`` to ``start + count - 1`` of the study ``plan``, each run through
     the closed loop. An instrument depends on the plan's seed and its index only, so pieces
     computed anywhere (threads, processes, Ray tasks) join into the same study."""
     return json.loads(
-        _ptsa.yield_units_json(json.dumps(plan), _path(instrument), int(start), int(count))
+        _ptsa.yield_units_json(json.dumps(plan), _instrument(instrument), int(start), int(count))
     )
 
 
@@ -378,16 +453,16 @@ def yield_summary(
     plan: Mapping[str, Any],
     units: Sequence[Mapping[str, Any]],
     *,
-    instrument: PathLike | None = None,
+    instrument: Instrument | None = None,
 ) -> dict[str, Any]:
     """The study's report from its instruments, in any order: ``ptsa monte-carlo --yield
     N --json``'s object."""
     return json.loads(
-        _ptsa.yield_summary_json(json.dumps(plan), _path(instrument), json.dumps(list(units)))
+        _ptsa.yield_summary_json(json.dumps(plan), _instrument(instrument), json.dumps(list(units)))
     )
 
 
-def yield_study(instruments: int, *, instrument: PathLike | None = None, **options: Any) -> dict[str, Any]:
+def yield_study(instruments: int, *, instrument: Instrument | None = None, **options: Any) -> dict[str, Any]:
     """The production yield over the tolerance box: ``ptsa monte-carlo --yield N --json``.
 
     Args:

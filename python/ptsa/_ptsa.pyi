@@ -15,7 +15,7 @@ def static_json(
     accels_cm_s2: Sequence[float],
     seconds: float,
     warmup_s: Optional[float],
-    instrument: Optional[str],
+    instrument: Optional[Union[str, tuple[str, str]]],
     seed: Optional[int],
     with_bias: bool,
 ) -> str: ...
@@ -23,7 +23,7 @@ def record(
     seconds: float,
     gate_s: Optional[float],
     warmup_s: Optional[float],
-    instrument: Optional[str],
+    instrument: Optional[Union[str, tuple[str, str]]],
     seed: Optional[int],
 ) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.uint64], npt.NDArray[np.uint64]]: ...
 def columns_csv(names: Sequence[str], columns: Sequence[npt.NDArray[np.float64]]) -> str: ...
@@ -32,21 +32,25 @@ def noise_json(
     text: str,
     counts: bool,
     unit: Optional[str],
-    instrument: Optional[str],
+    instrument: Optional[Union[str, tuple[str, str]]],
     spacing_tol: Optional[float],
     taus: Union[str, Sequence[float]],
     confidence: float,
+    compare: bool,
+    identify: bool,
+    seed: Optional[int],
+    warmup_s: Optional[float],
 ) -> str: ...
 def correct_json(
     data: str,
     calibration: Optional[str],
-    instrument: Optional[str],
+    instrument: Optional[Union[str, tuple[str, str]]],
     sigma: Optional[float],
     local_gravity_cm_s2: Optional[float],
 ) -> str: ...
 def yield_plan_json(
     instruments: int,
-    instrument: Optional[str],
+    instrument: Optional[Union[str, tuple[str, str]]],
     seed: Optional[int],
     warmup_s: Optional[float],
     fractions: Optional[Sequence[float]],
@@ -54,11 +58,11 @@ def yield_plan_json(
     gates: Optional[int],
     spec: tuple[Optional[float], ...],
 ) -> str: ...
-def yield_units_json(plan_json: str, instrument: Optional[str], start: int, count: int) -> str: ...
-def yield_summary_json(plan_json: str, instrument: Optional[str], units_json: str) -> str: ...
+def yield_units_json(plan_json: str, instrument: Optional[Union[str, tuple[str, str]]], start: int, count: int) -> str: ...
+def yield_summary_json(plan_json: str, instrument: Optional[Union[str, tuple[str, str]]], units_json: str) -> str: ...
 def discover_json(
     path: str,
-    instrument: Optional[str],
+    instrument: Optional[Union[str, tuple[str, str]]],
     analytic: bool,
     seed: Optional[int],
     sigma_cm_s2: Optional[float],

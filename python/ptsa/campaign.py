@@ -1,23 +1,31 @@
-"""Campaigns spread over Ray workers: ``python -m ptsa.campaign monte-carlo --yield N``.
+"""Campaigns spread over Ray workers.
 
-The study is cut into tasks of ``--task-size`` instruments. Each task runs
+``python -m ptsa.campaign monte-carlo --yield N``: the yield study, cut into tasks of
+``--task-size`` instruments. Each task runs
 :func:`ptsa.yield_units` on its own indices, and the driver joins the pieces with
 :func:`ptsa.yield_summary`. An instrument depends on the seed and its index only, so the
 JSON is the same as ``ptsa monte-carlo --yield N --json`` on one machine, whatever the
 number of workers.
+
+``python -m ptsa.campaign noise FOLDER [--compare] [--identify]``: every record in a folder (a rack of
+instruments, each a long static record), one task per record. Each record's JSON is the
+line ``ptsa noise --counts/--readings FILE --json`` prints, in the order of the files'
+names; a record refused is an ``error:`` line and exit status 1, the others printed.
+A record travels to its task as its text.
 
 ``--ray none`` (the default) runs the tasks one after another in this process, without
 Ray, and opens no port. ``--ray local`` starts a new Ray on this machine: its processes
 listen on every interface of the machine (Ray's own choice), so use it on a machine whose
 ports are closed to the outside. ``--ray auto`` joins the running cluster (RAY_ADDRESS,
 or the one ``ray start`` made here); any other value is a cluster's address. An
-instrument file must be at the same path on every node (or be a shipped name).
+instrument file travels to each task as its text (:func:`ptsa.instrument_text`).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from typing import Any, Sequence
 
@@ -35,7 +43,7 @@ def yield_study(
     ray: str = "none",
     num_cpus: int | None = None,
     task_size: int = 64,
-    instrument: str | None = None,
+    instrument: ptsa.Instrument | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """:func:`ptsa.yield_study` with its instruments run as Ray tasks of ``task_size``.
@@ -51,6 +59,7 @@ def yield_study(
         raise ptsa.PtsaError(f"task_size {task_size}: expected 1 or more instruments per task")
     plan = ptsa.yield_plan(instruments, instrument=instrument, **options)
     parts = pieces(plan["instruments"], task_size)
+    instrument = ptsa.instrument_text(instrument)
     if ray == "none":
         units = [u for s, c in parts for u in ptsa.yield_units(plan, s, c, instrument=instrument)]
         return ptsa.yield_summary(plan, units, instrument=instrument)
@@ -81,10 +90,68 @@ def _start(ray_mod: Any, ray: str, num_cpus: int | None) -> None:
         ray_mod.init(address=ray, log_to_driver=False)
 
 
-def _units_task(plan: dict[str, Any], start: int, count: int, instrument: str | None) -> list[dict[str, Any]]:
+def _units_task(plan: dict[str, Any], start: int, count: int, instrument: ptsa.Instrument | None) -> list[dict[str, Any]]:
     """One Ray task: its instruments, run on one core (the batch engine's own threads
     limited to it)."""
     return ptsa.yield_units(plan, start, count, instrument=instrument)
+
+
+def records_in(folder: str) -> list[str]:
+    """The records of ``folder``: its ``.csv`` files (not its subfolders'), by name."""
+    names = sorted(n for n in os.listdir(folder) if n.endswith(".csv"))
+    paths = [os.path.join(folder, n) for n in names]
+    return [p for p in paths if os.path.isfile(p)]
+
+
+def noise_folder(
+    folder: str,
+    *,
+    ray: str = "none",
+    num_cpus: int | None = None,
+    **options: Any,
+) -> list[dict[str, Any] | ptsa.PtsaError]:
+    """:func:`ptsa.noise` of every record in ``folder`` (:func:`records_in`), one Ray task
+    each, in the order of their names: each result the dict ``ptsa noise --json`` prints
+    for that file, or the :class:`ptsa.PtsaError` that refused it.
+
+    Args:
+        ray: as :func:`yield_study`'s.
+        num_cpus: the CPUs a local Ray may use (None: all).
+        options: :func:`ptsa.noise`'s keywords (``identify``, ``taus``, ``instrument``...).
+    """
+    paths = records_in(folder)
+    if not paths:
+        raise ptsa.PtsaError(f"{folder}: no records (.csv files) in the folder")
+    if "instrument" in options:
+        options = {**options, "instrument": ptsa.instrument_text(options["instrument"])}
+    if ray == "none":
+        return [_noise_task(p, _text(p), options) for p in paths]
+    import ray as ray_mod
+
+    started = not ray_mod.is_initialized()
+    if started:
+        _start(ray_mod, ray, num_cpus)
+    try:
+        task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
+            _noise_task
+        )
+        return ray_mod.get([task.remote(p, _text(p), options) for p in paths])
+    finally:
+        if started:
+            ray_mod.shutdown()
+
+
+def _text(path: str) -> str:
+    with open(path, encoding="utf-8") as f:
+        return f.read()
+
+
+def _noise_task(name: str, text: str, options: dict[str, Any]) -> dict[str, Any] | ptsa.PtsaError:
+    """One record's analysis, from its text: its dict, or the error that refused it."""
+    try:
+        return ptsa.noise_text(name, text, **options)
+    except ptsa.PtsaError as e:
+        return e
 
 
 def bench(instruments: int, repeats: int, task_size: int, expect: float | None) -> dict[str, Any]:
@@ -146,11 +213,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     for flag, unit in [("sf-ppm", "ppm"), ("bias-cm-s2", "cm/s^2"), ("linearity-ppm-fs", "ppm of full scale"),
                        ("noise-cm-s2", "cm/s^2"), ("pm-deg", "degrees"), ("gm-db", "dB")]:
         mc.add_argument(f"--spec-{flag}", type=float, help=f"a limit of the specification, {unit}")
-    mc.add_argument("--ray", default="none",
-                    help="none (no Ray, no port opened: the default), local (a new Ray on this "
-                         "machine, listening on its interfaces), auto (the running cluster) or an address")
-    mc.add_argument("--num-cpus", type=int, help="CPUs of a local Ray (default: all)")
     mc.add_argument("--task-size", type=int, default=64, help="instruments per task (default 64)")
+    nz = sub.add_parser("noise", help="ptsa noise --json of every record (.csv) of a folder, a task each")
+    nz.add_argument("folder", help="the folder of records: counter records or readings, one .csv each")
+    nz.add_argument("--compare", action="store_true",
+                    help="each counter record against the instrument file's loop, simulated (ptsa noise --compare)")
+    nz.add_argument("--identify", action="store_true",
+                    help="what each record's noise needs beyond the instrument file's (ptsa noise --identify)")
+    nz.add_argument("--instrument", help="an instrument file or a shipped name")
+    nz.add_argument("--unit", help="the readings' unit: cm/s2, m/s2, g, V, mA or LSB")
+    nz.add_argument("--confidence", type=float, help="the second confidence level, 0 to 1 (default 0.95)")
+    nz.add_argument("--seed", type=int, help="with --identify: the seed of the simulated noise")
+    nz.add_argument("--warmup-s", type=float, help="with --identify: the simulations' settling, s")
+    for q in (mc, nz):
+        q.add_argument("--ray", default="none",
+                       help="none (no Ray, no port opened: the default), local (a new Ray on this "
+                            "machine, listening on its interfaces), auto (the running cluster) or an address")
+        q.add_argument("--num-cpus", type=int, help="CPUs of a local Ray (default: all)")
     b = sub.add_parser("bench", help="the yield study on a local Ray of 1 and 2 CPUs: medians and speed-up")
     b.add_argument("--yield", dest="instruments", type=int, default=256, metavar="N")
     b.add_argument("--repeats", type=int, default=3)
@@ -160,6 +239,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     if a.campaign == "bench":
         print(json.dumps(bench(a.instruments, a.repeats, a.task_size, a.expect_speedup), indent=1))
         return 0
+    if a.campaign == "noise":
+        return _noise_main(a)
     options = {k: v for k, v in vars(a).items()
                if k not in ("campaign", "instruments", "ray", "num_cpus", "task_size", "instrument")
                and v is not None}
@@ -171,6 +252,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 1
     print(json.dumps(out, separators=(",", ":")))
     return 0
+
+
+def _noise_main(a: argparse.Namespace) -> int:
+    """``noise FOLDER``: a JSON line per record, an ``error:`` line per record refused."""
+    options = {k: v for k, v in vars(a).items()
+               if k in ("compare", "identify", "instrument", "unit", "confidence", "seed", "warmup_s") and v is not None}
+    try:
+        results = noise_folder(a.folder, ray=a.ray, num_cpus=a.num_cpus, **options)
+    except (ptsa.PtsaError, OSError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    status = 0
+    for r in results:
+        if isinstance(r, ptsa.PtsaError):
+            print(f"error: {r}", file=sys.stderr)
+            status = 1
+        else:
+            print(json.dumps(r, separators=(",", ":")))
+    return status
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@
     reason = "pyo3 hands each argument of a Python function over as an owned value"
 )]
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::create_exception;
@@ -19,7 +19,9 @@ use pyo3::prelude::*;
 use ptsa_host_sim::discovery::{self, Options};
 use ptsa_host_sim::model::instrument::ReadingUnit;
 use ptsa_host_sim::noise::allan::{Settings, Taus};
-use ptsa_host_sim::noise::{self, Analysis, readings};
+use ptsa_host_sim::noise::comparison::Comparison;
+use ptsa_host_sim::noise::json::{IdentificationJson, NoiseJson, TermsIdentificationJson};
+use ptsa_host_sim::noise::{self, Analysis, identify, readings};
 use ptsa_host_sim::session::{Session, gate_ticks, simulator};
 use ptsa_host_sim::simulation::sim::SimOptions;
 use ptsa_host_sim::simulation::yield_study::{self, Plan, Spec};
@@ -38,9 +40,25 @@ fn refused(e: anyhow::Error) -> PyErr {
     PtsaError::new_err(format!("{e:#}"))
 }
 
-/// The instrument file at `path` (a shipped name or a file; `None`: the Kearfott 2401).
-fn session(instrument: Option<&Path>) -> PyResult<Session> {
-    Session::load(instrument).map_err(refused)
+/// `instrument=` as Python gives it.
+#[derive(FromPyObject)]
+enum InstrumentIn {
+    /// `(name, text)`: an instrument file's name in messages and its text, for a campaign's
+    /// task on a machine that does not have the file.
+    Text((String, String)),
+    /// A file's path or a shipped name.
+    Path(PathBuf),
+}
+
+/// The instrument file given (a shipped name, a file, or a file's name and text; `None`: the
+/// Kearfott 2401).
+fn session(instrument: Option<&InstrumentIn>) -> PyResult<Session> {
+    match instrument {
+        Some(InstrumentIn::Text((name, text))) => Session::of_text(name, text),
+        Some(InstrumentIn::Path(p)) => Session::load(Some(p)),
+        None => Session::load(None),
+    }
+    .map_err(refused)
 }
 
 /// The simulation options of `seed` and `warmup_s` (the command line's defaults where
@@ -79,11 +97,11 @@ fn static_json(
     accels_cm_s2: Vec<f64>,
     seconds: f64,
     warmup_s: Option<f64>,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     seed: Option<u64>,
     with_bias: bool,
 ) -> PyResult<String> {
-    let s = session(instrument.as_deref())?;
+    let s = session(instrument.as_ref())?;
     let opts = sim_options(&s, seed, warmup_s)?;
     let mut instr = s.instr.clone();
     if !with_bias {
@@ -117,10 +135,10 @@ fn record(
     seconds: f64,
     gate_s: Option<f64>,
     warmup_s: Option<f64>,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     seed: Option<u64>,
 ) -> PyResult<RecordArrays<'_>> {
-    let s = session(instrument.as_deref())?;
+    let s = session(instrument.as_ref())?;
     let opts = sim_options(&s, seed, warmup_s)?;
     let gate_s = gate_s.unwrap_or(noise::DEFAULT_GATE_S);
     let ticks = gate_ticks("gate_s", gate_s, &s.instr, &opts).map_err(refused)?;
@@ -194,11 +212,11 @@ enum TausIn {
     Seconds(Vec<f64>),
 }
 
-/// `ptsa noise --readings FILE --json` (or `--counts FILE` when `counts`): the record's
-/// text `text` (`name` in messages) read by the command line's reader and analysed as
-/// the command analyses it.
+/// `ptsa noise --readings FILE --json` (or `--counts FILE` when `counts`; with `--compare`
+/// and `--identify` when asked): the record's text `text` (`name` in messages) read by the
+/// command line's reader and analysed as the command analyses it.
 #[pyfunction]
-#[pyo3(signature = (name, text, counts, unit, instrument, spacing_tol, taus, confidence))]
+#[pyo3(signature = (name, text, counts, unit, instrument, spacing_tol, taus, confidence, compare, identify, seed, warmup_s))]
 #[allow(
     clippy::too_many_arguments,
     reason = "the Python function's keyword arguments"
@@ -209,46 +227,148 @@ fn noise_json(
     text: &str,
     counts: bool,
     unit: Option<&str>,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     spacing_tol: Option<f64>,
     taus: TausIn,
     confidence: f64,
+    compare: bool,
+    identify: bool,
+    seed: Option<u64>,
+    warmup_s: Option<f64>,
 ) -> PyResult<String> {
-    let s = session(instrument.as_deref())?;
-    let a = if counts {
-        s.require_loop().map_err(refused)?;
-        let rec = noise::parse_record(name, text, s.instr.clock_hz).map_err(refused)?;
-        let settings = settings(&taus, confidence, rec.tau0_s, rec.gates.len())?;
-        let (sf, clock) = (s.instr.sf_cm_s2, s.instr.clock_hz);
-        py.detach(|| Analysis::of_with(&rec, sf, clock, &settings))
-    } else {
-        let unit = match unit {
-            Some(u) => ReadingUnit::parse(u).ok_or_else(|| {
-                PtsaError::new_err(format!(
-                    "unit `{u}`: expected one of {}",
-                    ReadingUnit::names()
-                ))
-            })?,
-            None => s
-                .instr
-                .reading_scale
-                .as_ref()
-                .map_or(ReadingUnit::CmPerS2, |r| r.unit),
-        };
-        let tol = spacing_tol.unwrap_or(readings::SPACING_TOL);
-        if !(0.0..=0.5).contains(&tol) {
-            return Err(PtsaError::new_err(format!(
-                "spacing_tol {tol}: expected a fraction of the spacing from 0 to 0.5 (0.01 for 1 %)"
-            )));
-        }
-        let r = readings::parse(name, text, unit, &s.instr, tol).map_err(refused)?;
-        let settings = settings(&taus, confidence, r.tau0_s, r.y.len())?;
-        py.detach(|| Analysis::of_readings(&r, &settings))
+    let against = Against {
+        compare,
+        identify,
+        seed,
+        warmup_s,
     };
-    let warnings = noise::analysis_warnings(name, &a);
-    serde_json::to_value(a.json(name, &warnings))
+    against.check(counts, &taus)?;
+    let s = session(instrument.as_ref())?;
+    let v = if counts {
+        counts_json(py, &s, name, text, &taus, confidence, &against)?
+    } else {
+        let r = readings_of(&s, name, text, unit, spacing_tol)?;
+        let settings = settings(&taus, confidence, r.tau0_s, r.y.len())?;
+        let a = py.detach(|| Analysis::of_readings(&r, &settings));
+        let warnings = noise::analysis_warnings(name, &a);
+        let id = if identify {
+            // Only the seed: the replicas are drawn from the terms, not simulated.
+            let seed = seed.unwrap_or(SimOptions::default().seed);
+            Some(
+                py.detach(|| noise::identify_readings(&r, &a, seed, &mut |_| {}))
+                    .map_err(refused)?,
+            )
+        } else {
+            None
+        };
+        let mut v = a.json(name, &warnings);
+        v.terms_identification = id.as_ref().map(TermsIdentificationJson::new);
+        v
+    };
+    serde_json::to_value(v)
         .map(|v| v.to_string())
         .map_err(|e| refused(e.into()))
+}
+
+/// What `noise` sets a record against: the simulated loop (`--compare`), the candidates
+/// beyond it (`--identify`), and the simulations' seed and settling.
+struct Against {
+    compare: bool,
+    identify: bool,
+    seed: Option<u64>,
+    warmup_s: Option<f64>,
+}
+
+impl Against {
+    /// The refusals of the command line's `check_flags`, in the Python names.
+    fn check(&self, counts: bool, taus: &TausIn) -> PyResult<()> {
+        if self.compare && !counts {
+            return Err(PtsaError::new_err(
+                "compare applies to a counter record (time_s, pulses, ticks) only; expected it with one, or not at all",
+            ));
+        }
+        if (self.compare || self.identify) && !matches!(taus, TausIn::Named(t) if t == "octave") {
+            return Err(PtsaError::new_err(format!(
+                "taus: {} compares the record with simulated ones at octave averaging times; expected taus=\"octave\" (the default) with it",
+                if self.identify { "identify" } else { "compare" }
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// `noise --counts FILE [--compare] [--identify] --json`'s object, the warnings in the
+/// command's order.
+fn counts_json(
+    py: Python<'_>,
+    s: &Session,
+    name: &str,
+    text: &str,
+    taus: &TausIn,
+    confidence: f64,
+    against: &Against,
+) -> PyResult<NoiseJson> {
+    s.require_loop().map_err(refused)?;
+    let rec = noise::parse_record(name, text, s.instr.clock_hz).map_err(refused)?;
+    let settings = settings(taus, confidence, rec.tau0_s, rec.gates.len())?;
+    let (sf, clock) = (s.instr.sf_cm_s2, s.instr.clock_hz);
+    let a = py.detach(|| Analysis::of_with(&rec, sf, clock, &settings));
+    let mut warnings = noise::analysis_warnings(name, &a);
+    if !(against.compare || against.identify) {
+        return Ok(a.json(name, &warnings));
+    }
+    let opts = sim_options(s, against.seed, against.warmup_s)?;
+    let comparison = if against.compare {
+        let c = py
+            .detach(|| Comparison::simulate(&s.instr, &opts, &rec, &a))
+            .map_err(refused)?;
+        warnings.extend(c.warning(name));
+        Some(c)
+    } else {
+        None
+    };
+    let id = if against.identify {
+        let id = py.detach(|| identify::identify(&s.instr, &opts, &rec, &a, &mut |_, _| {}));
+        warnings.extend(noise::identification_warnings(name, &id));
+        Some(id)
+    } else {
+        None
+    };
+    let mut v = a.json(name, &warnings);
+    v.comparison = comparison.as_ref().map(Comparison::json);
+    v.identification = id.as_ref().map(IdentificationJson::new);
+    Ok(v)
+}
+
+/// A record of readings as `noise --readings` reads it: the unit by name (None: the
+/// instrument file's, else cm/s²), the spacing's tolerance a fraction (None: the default).
+fn readings_of(
+    s: &Session,
+    name: &str,
+    text: &str,
+    unit: Option<&str>,
+    spacing_tol: Option<f64>,
+) -> PyResult<readings::Readings> {
+    let unit = match unit {
+        Some(u) => ReadingUnit::parse(u).ok_or_else(|| {
+            PtsaError::new_err(format!(
+                "unit `{u}`: expected one of {}",
+                ReadingUnit::names()
+            ))
+        })?,
+        None => s
+            .instr
+            .reading_scale
+            .as_ref()
+            .map_or(ReadingUnit::CmPerS2, |r| r.unit),
+    };
+    let tol = spacing_tol.unwrap_or(readings::SPACING_TOL);
+    if !(0.0..=0.5).contains(&tol) {
+        return Err(PtsaError::new_err(format!(
+            "spacing_tol {tol}: expected a fraction of the spacing from 0 to 0.5 (0.01 for 1 %)"
+        )));
+    }
+    readings::parse(name, text, unit, &s.instr, tol).map_err(refused)
 }
 
 /// `ptsa discover --data FILE --json --no-plots`: the case frame at `path` analysed, the
@@ -258,13 +378,13 @@ fn noise_json(
 fn discover_json(
     py: Python<'_>,
     path: PathBuf,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     analytic: bool,
     seed: Option<u64>,
     sigma_cm_s2: Option<f64>,
     keep_outliers: bool,
 ) -> PyResult<String> {
-    let s = session(instrument.as_deref())?;
+    let s = session(instrument.as_ref())?;
     let seed = seed.unwrap_or(SimOptions::default().seed);
     let config = s.model_config(seed).map_err(refused)?;
     let sim = simulator(&s.instr, config, analytic, seed);
@@ -299,7 +419,7 @@ type SpecLimits = (
 fn correct_json(
     data: PathBuf,
     calibration: Option<PathBuf>,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     sigma: Option<f64>,
     local_gravity_cm_s2: Option<f64>,
 ) -> PyResult<String> {
@@ -317,7 +437,7 @@ fn correct_json(
             "sigma {v}: expected a noise in cm/s², more than 0"
         )));
     }
-    let mut s = session(instrument.as_deref())?;
+    let mut s = session(instrument.as_ref())?;
     if let Some(g) = local_gravity_cm_s2 {
         if !(970.0..=990.0).contains(&g) {
             return Err(PtsaError::new_err(format!(
@@ -350,7 +470,7 @@ fn correct_json(
 )]
 fn yield_plan_json(
     instruments: u64,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     seed: Option<u64>,
     warmup_s: Option<f64>,
     fractions: Option<Vec<f64>>,
@@ -358,7 +478,7 @@ fn yield_plan_json(
     gates: Option<u64>,
     spec: SpecLimits,
 ) -> PyResult<String> {
-    let s = session(instrument.as_deref())?;
+    let s = session(instrument.as_ref())?;
     let opts = sim_options(&s, seed, warmup_s)?;
     yield_study::check_box(&s.instr, &s.name).map_err(PtsaError::new_err)?;
     let gate_s = gate_s.unwrap_or(yield_study::DEFAULT_GATE_S);
@@ -402,11 +522,11 @@ fn plan_of(plan_json: &str) -> PyResult<Plan> {
 fn yield_units_json(
     py: Python<'_>,
     plan_json: &str,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     start: u64,
     count: u64,
 ) -> PyResult<String> {
-    let s = session(instrument.as_deref())?;
+    let s = session(instrument.as_ref())?;
     let plan = plan_of(plan_json)?;
     let opts = sim_options(&s, Some(plan.seed), Some(plan.warmup_s))?;
     let end = start
@@ -428,10 +548,10 @@ fn yield_units_json(
 #[pyo3(signature = (plan_json, instrument, units_json))]
 fn yield_summary_json(
     plan_json: &str,
-    instrument: Option<PathBuf>,
+    instrument: Option<InstrumentIn>,
     units_json: &str,
 ) -> PyResult<String> {
-    let s = session(instrument.as_deref())?;
+    let s = session(instrument.as_ref())?;
     let plan = plan_of(plan_json)?;
     let units: Vec<yield_study::Unit> =
         serde_json::from_str(units_json).map_err(|e| PtsaError::new_err(format!("units: {e}")))?;

@@ -82,6 +82,37 @@ def test_noise_of_readings_from_a_file_a_frame_and_a_dict():
     assert ptsa.noise(as_dict, name=rel, taus="decade", confidence=0.683) == want
 
 
+def test_noise_compare_and_identify_are_the_command_lines(tmp_path):
+    rec = tmp_path / "rest.csv"
+    cli("noise", "--simulate", "--seconds", "20", "--gate-s", "0.01", "--seed", "3", "--output", str(rec))
+    want = cli_json("noise", "--counts", str(rec), "--identify", "--seed", "5", "--warmup-s", "0.2")
+    got = ptsa.noise(rec, identify=True, seed=5, warmup_s=0.2)
+    assert got == want and got["identification"] is not None
+    want = cli_json("noise", "--counts", str(rec), "--compare", "--identify", "--seed", "6")
+    got = ptsa.noise(rec, compare=True, identify=True, seed=6)
+    assert got == want and got["comparison"] is not None
+    rel = "data/examples/static-readings.csv"
+    want = cli_json("noise", "--readings", rel, "--identify")
+    got = ptsa.noise(EXAMPLES / "static-readings.csv", name=rel, identify=True)
+    assert got == want and got["terms_identification"] is not None
+    with pytest.raises(ptsa.PtsaError, match="octave"):
+        ptsa.noise(rec, identify=True, taus="decade")
+    with pytest.raises(ptsa.PtsaError, match="counter record"):
+        ptsa.noise(EXAMPLES / "static-readings.csv", compare=True)
+
+
+def test_an_instrument_given_as_its_text_is_the_file():
+    path = "data/kearfott-2401-discovery.toml"
+    pair = ptsa.instrument_text(ROOT / path)
+    assert isinstance(pair, tuple) and pair[1] == (ROOT / path).read_text()
+    assert ptsa.static([500.0], seconds=0.02, instrument=pair) == ptsa.static(
+        [500.0], seconds=0.02, instrument=ROOT / path
+    )
+    assert ptsa.instrument_text("mems") == "mems"
+    with pytest.raises(ptsa.PtsaError, match=r"bad\.toml:1:"):
+        ptsa.static([0.0], seconds=0.01, instrument=("bad.toml", "[loop\n"))
+
+
 def test_noise_refuses_a_gap_with_the_command_lines_message(tmp_path):
     t = np.arange(64) * 0.01
     t[40:] += 0.05

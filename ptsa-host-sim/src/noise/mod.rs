@@ -24,6 +24,7 @@
 )]
 
 pub mod allan;
+pub mod comparison;
 pub mod edf;
 pub mod identify;
 pub mod identify_terms;
@@ -184,6 +185,56 @@ pub fn analysis_warnings(name: &str, a: &Analysis) -> Vec<String> {
         ));
     }
     warnings
+}
+
+/// The identification's warnings: what the record needs beyond the file's loop, and each
+/// selected noise whose interval is open above.
+#[must_use]
+pub fn identification_warnings(name: &str, id: &identify::Identification) -> Vec<String> {
+    let mut out = Vec::new();
+    let chosen: Vec<&str> = id
+        .candidates
+        .iter()
+        .filter(|c| c.selected)
+        .map(|c| c.kind.key())
+        .collect();
+    if !chosen.is_empty() {
+        out.push(format!(
+            "{name}: beyond the instrument file's loop the record needs {} (Holm, 5 % familywise): the file's noise is not the instrument's",
+            chosen.join(", ")
+        ));
+    }
+    for c in id.candidates.iter().filter(|c| c.selected && c.open_above) {
+        let top = match c.kind {
+            identify::Kind::Pickoff => id.grid_uv.last(),
+            identify::Kind::WhiteAcceleration => id.grid_white.last(),
+            identify::Kind::RandomWalk => id.grid_walk.last(),
+        };
+        let unit = c.kind.units().first().map_or("", |u| u.0);
+        out.push(format!(
+            "{name}: the {}'s 95 % interval reaches the largest simulated value ({} {unit}): it is open above",
+            c.kind.key().replace('_', " "),
+            sig(top.copied().unwrap_or(0.0), 4)
+        ));
+    }
+    out
+}
+
+/// `noise --readings FILE --identify`: which of IEEE Std 952's terms the readings hold,
+/// the replicas seeded from the record and `seed`; `on_round` is told each round as it
+/// starts (a progress line).
+///
+/// # Errors
+/// The identification cannot be made (too few samples for its replicas).
+pub fn identify_readings(
+    r: &readings::Readings,
+    a: &Analysis,
+    seed: u64,
+    on_round: &mut dyn FnMut(usize),
+) -> Result<identify_terms::Identification> {
+    let seed = identify_terms::record_seed(&r.y, seed);
+    identify_terms::identify(&r.y, r.tau0_s, &a.terms, seed, on_round)
+        .map_err(|e| anyhow::anyhow!("--identify: {} samples: {e}", r.y.len()))
 }
 
 /// [`read_record`]'s checks on gates already read; `lines[k]` is gate `k`'s line.

@@ -15,9 +15,10 @@ use anyhow::{Context as _, Result, bail};
 use clap::Args;
 use ptsa_host_sim::model::instrument::ReadingUnit;
 use ptsa_host_sim::noise::allan::{Settings, Taus};
+use ptsa_host_sim::noise::comparison::Comparison;
 use ptsa_host_sim::noise::identify::{self as ident, Identification, Kind};
 use ptsa_host_sim::noise::identify_terms as ident_terms;
-use ptsa_host_sim::noise::json::{ComparisonJson, IdentificationJson, TermsIdentificationJson};
+use ptsa_host_sim::noise::json::{IdentificationJson, TermsIdentificationJson};
 use ptsa_host_sim::noise::readings::{self, Readings};
 use ptsa_host_sim::noise::{self, Analysis, Record};
 use ptsa_host_sim::output::significant as sig;
@@ -543,22 +544,15 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
         (Some(opts), Some(record)) => Some(simulate_and_compare(ctx, req, opts, record, &a)?),
         _ => None,
     };
-    if let Some(c) = &comparison {
-        let n = c.points.iter().filter(|p| p.differs).count();
-        if n > 0 {
-            warnings.push(format!(
-                "{name}: the simulated loop's Allan deviation differs from the record's at {} of {} taus (Holm, 5 % familywise): the instrument file's noise is not the instrument's there",
-                n,
-                c.points.len()
-            ));
-        }
+    if let Some(w) = comparison.as_ref().and_then(|c| c.warning(&name)) {
+        warnings.push(w);
     }
     let identification = match (&req.identify, &record) {
         (Some(opts), Some(record)) => Some(identify(ctx, req, opts, record, &a)?),
         _ => None,
     };
     if let Some(id) = &identification {
-        warnings.extend(identification_warnings(&name, id));
+        warnings.extend(noise::identification_warnings(&name, id));
     }
     let terms_identification = match (&req.source, &req.identify) {
         (Source::Readings(_, r), Some(opts)) => Some(identify_terms(r, &a, opts.seed)?),
@@ -583,9 +577,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     }
     if req.json {
         let mut v = a.json(&name, &warnings);
-        v.comparison = comparison
-            .as_ref()
-            .map(|c| ComparisonJson::new(c.input_cm_s2, c.simulated_mean_cm_s2, &c.points));
+        v.comparison = comparison.as_ref().map(Comparison::json);
         v.identification = identification.as_ref().map(IdentificationJson::new);
         v.terms_identification = terms_identification
             .as_ref()
@@ -615,44 +607,11 @@ fn identify_terms(r: &Readings, a: &Analysis, seed: u64) -> Result<ident_terms::
         ..Estimate::default()
     };
     let bar = work::Progress::start("noise --identify", &est);
-    let seed = ident_terms::record_seed(&r.y, seed);
-    let id = ident_terms::identify(&r.y, r.tau0_s, &a.terms, seed, &mut |round| {
+    let id = noise::identify_readings(r, a, seed, &mut |round| {
         bar.set_step(&format!("round {}", round + 1));
     });
     bar.finish();
-    id.map_err(|e| anyhow::anyhow!("--identify: {} samples: {e}", r.y.len()))
-}
-
-/// The identification's warnings: what the record needs beyond the file's loop, and each
-/// selected noise whose interval is open above.
-fn identification_warnings(name: &str, id: &Identification) -> Vec<String> {
-    let mut out = Vec::new();
-    let chosen: Vec<&str> = id
-        .candidates
-        .iter()
-        .filter(|c| c.selected)
-        .map(|c| c.kind.key())
-        .collect();
-    if !chosen.is_empty() {
-        out.push(format!(
-            "{name}: beyond the instrument file's loop the record needs {} (Holm, 5 % familywise): the file's noise is not the instrument's",
-            chosen.join(", ")
-        ));
-    }
-    for c in id.candidates.iter().filter(|c| c.selected && c.open_above) {
-        let top = match c.kind {
-            Kind::Pickoff => id.grid_uv.last(),
-            Kind::WhiteAcceleration => id.grid_white.last(),
-            Kind::RandomWalk => id.grid_walk.last(),
-        };
-        let unit = c.kind.units().first().map_or("", |u| u.0);
-        out.push(format!(
-            "{name}: the {}'s 95 % interval reaches the largest simulated value ({} {unit}): it is open above",
-            c.kind.key().replace('_', " "),
-            sig(top.copied().unwrap_or(0.0), 4)
-        ));
-    }
-    out
+    id
 }
 
 /// Simulate the loop at rest (refused beyond the work limit without `--no-limit`), write its
@@ -707,49 +666,9 @@ fn simulated(
     Ok((name, record))
 }
 
-/// The record against the simulated loop (`--compare`).
-struct Comparison {
-    /// The acceleration along IA simulated, cm/s².
-    input_cm_s2: f64,
-    /// The simulated record's mean, cm/s².
-    simulated_mean_cm_s2: f64,
-    points: Vec<noise::Compared>,
-}
-
-impl Comparison {
-    fn text(&self) -> String {
-        use std::fmt::Write as _;
-        let mut s = String::new();
-        let _ = writeln!(
-            s,
-            "against the simulated loop ({} cm/s^2 along IA, simulated mean {} cm/s^2); differs: Holm at 5 % familywise over the taus:",
-            sig(self.input_cm_s2, 8),
-            sig(self.simulated_mean_cm_s2, 8)
-        );
-        let _ = writeln!(
-            s,
-            "{:>12} {:>12} {:>25} {:>12} {:>25} {:>8} {:>8}",
-            "tau_s", "measured", "ci95", "simulated", "ci95", "z", "differs"
-        );
-        for c in &self.points {
-            let _ = writeln!(
-                s,
-                "{:>12} {:>12.5e} {:>25} {:>12.5e} {:>25} {:>8.2} {:>8}",
-                sig(c.measured.tau_s, 6),
-                c.measured.adev,
-                format!("[{:.4e}, {:.4e}]", c.measured.ci95_lo, c.measured.ci95_hi),
-                c.simulated.adev,
-                format!("[{:.4e}, {:.4e}]", c.simulated.ci95_lo, c.simulated.ci95_hi),
-                c.z,
-                if c.differs { "yes" } else { "no" }
-            );
-        }
-        s
-    }
-}
-
 /// Simulate the loop as long as `record`, with its gate, at the acceleration along IA that
-/// gives its mean, and compare the deviations.
+/// gives its mean, and compare the deviations (refused beyond the work limit without
+/// `--no-limit`).
 fn simulate_and_compare(
     ctx: &Ctx,
     req: &Request,
@@ -757,24 +676,15 @@ fn simulate_and_compare(
     record: &Record,
     measured: &Analysis,
 ) -> Result<Comparison> {
-    let instr = &ctx.instr;
     let ticks = record.gates[0].ticks;
     let gates = record.gates.len() as u64;
-    let est = Work::new(instr, opts)
+    let est = Work::new(&ctx.instr, opts)
         .gate(ticks * gates)
         .check(req.force, "the comparison's simulated record")?;
-    let input_cm_s2 = measured.mean_cm_s2 - instr.bias_cm_s2 - instr.loop_bias_cm_s2(0.0);
     let bar = work::Progress::start("noise --compare", &est);
-    let g = noise::simulate_record(instr, opts, input_cm_s2, ticks, gates);
+    let c = Comparison::simulate(&ctx.instr, opts, record, measured);
     bar.finish();
-    let lines: Vec<usize> = (0..g.len()).map(|k| k + 1).collect();
-    let sim = noise::check_record("the simulated record", g, &lines, instr.clock_hz)?;
-    let s = Analysis::of(&sim, instr.sf_cm_s2, instr.clock_hz);
-    Ok(Comparison {
-        input_cm_s2,
-        simulated_mean_cm_s2: s.mean_cm_s2,
-        points: noise::compare(&measured.points, &s.points),
-    })
+    c
 }
 
 /// Identify the candidates beyond the file's loop (`--identify`): the simulations refused
