@@ -49,8 +49,9 @@ def _path(p: PathLike | None) -> str | None:
 
 def _instrument(p: Instrument | None) -> str | tuple[str, str] | None:
     if isinstance(p, tuple):
-        name, text = p
-        return (str(name), str(text))
+        if len(p) != 2:
+            raise PtsaError(f"instrument: a pair of {len(p)}; expected (name, text)")
+        return (str(p[0]), str(p[1]))
     return _path(p)
 
 
@@ -61,10 +62,13 @@ def instrument_text(instrument: Instrument | None) -> Instrument | None:
     if instrument is None or isinstance(instrument, tuple):
         return instrument
     path = os.fspath(instrument)
-    if not os.path.isfile(path):
-        return path  # a shipped name, or a file the library will say it cannot read
-    with open(path, encoding="utf-8") as f:
-        return (path, f.read())
+    if not os.path.exists(path):
+        return path  # a shipped name, or a file the library will say it cannot find
+    try:
+        with open(path, "rb") as f:
+            return (path, f.read().decode("utf-8"))
+    except (OSError, UnicodeDecodeError) as e:
+        raise PtsaError(f"{path}: cannot read: {e}") from None
 
 
 def static(
@@ -199,9 +203,7 @@ def noise(
     if isinstance(data, (str, os.PathLike)):
         # The file as the command line reads it: its own lines and columns in messages.
         path = os.fspath(data)
-        with open(path, encoding="utf-8") as f:
-            text = f.read()
-        return noise_text(path if name == "<array>" else name, text, **options)
+        return noise_text(path if name == "<array>" else name, _decoded(path, _read(path)), **options)
     t = _column(data, "time_s")
     reading = _column(data, "reading")
     pulses, ticks = _column(data, "pulses"), _column(data, "ticks")
@@ -234,24 +236,73 @@ def noise_text(
     """:func:`noise` of a record given as the text of its CSV file, ``name`` in messages:
     a counter record if its header is ``time_s,pulses,ticks``, else readings. What a
     campaign's task receives, so that the file need not be on the worker's disk."""
-    taus_arg: Any = taus if isinstance(taus, str) else [float(t) for t in taus]
-    counts = _header(text) == ["time_s", "pulses", "ticks"]
     return json.loads(
-        _ptsa.noise_json(
-            name,
-            text,
-            counts,
-            unit,
-            _instrument(instrument),
-            spacing_tol,
-            taus_arg,
-            float(confidence),
-            bool(compare),
-            bool(identify),
-            seed,
-            warmup_s,
+        _noise_json(
+            name, text, unit=unit, instrument=instrument, spacing_tol=spacing_tol, taus=taus,
+            confidence=confidence, compare=compare, identify=identify, seed=seed,
+            warmup_s=warmup_s,
         )
     )
+
+
+def _taus(taus: str | Sequence[float]) -> Any:
+    return taus if isinstance(taus, str) else [float(t) for t in taus]
+
+
+def _noise_json(name: str, text: str, **o: Any) -> str:
+    """:func:`noise_text`'s JSON as the command line prints it, byte for byte."""
+    counts = _header(text) == ["time_s", "pulses", "ticks"]
+    return _ptsa.noise_json(
+        name,
+        text,
+        counts,
+        o["unit"],
+        _instrument(o["instrument"]),
+        o["spacing_tol"],
+        _taus(o["taus"]),
+        float(o["confidence"]),
+        bool(o["compare"]),
+        bool(o["identify"]),
+        o["seed"],
+        o["warmup_s"],
+    )
+
+
+def _noise_check(
+    *,
+    instrument: Instrument | None = None,
+    taus: str | Sequence[float] = "octave",
+    confidence: float = 0.95,
+    compare: bool = False,
+    identify: bool = False,
+    warmup_s: float | None = None,
+    **_record_options: Any,
+) -> None:
+    """:func:`noise`'s options checked without a record (a campaign, before its tasks)."""
+    _ptsa.noise_check(
+        _instrument(instrument), _taus(taus), float(confidence), bool(compare), bool(identify), warmup_s
+    )
+
+
+def _read(path: str) -> bytes:
+    try:
+        with open(path, "rb") as f:
+            return f.read()
+    except OSError as e:
+        raise PtsaError(f"{path}: cannot read: {e.strerror}") from None
+
+
+def _decoded(name: str, data: bytes) -> str:
+    """A record's bytes as text, its line ends kept as the command line keeps them; bytes
+    that are not UTF-8 refused at their line."""
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as e:
+        line = data.count(b"\n", 0, e.start) + 1
+        raise PtsaError(
+            f"{name}:{line}: not UTF-8 text (a bad byte at byte offset {e.start}); "
+            "expected a CSV record in UTF-8"
+        ) from None
 
 
 def _header(text: str) -> list[str]:

@@ -41,6 +41,14 @@ def noise_json(
     seed: Optional[int],
     warmup_s: Optional[float],
 ) -> str: ...
+def noise_check(
+    instrument: Optional[Union[str, tuple[str, str]]],
+    taus: Union[str, Sequence[float]],
+    confidence: float,
+    compare: bool,
+    identify: bool,
+    warmup_s: Optional[float],
+) -> None: ...
 def correct_json(
     data: str,
     calibration: Optional[str],

@@ -8,10 +8,10 @@ JSON is the same as ``ptsa monte-carlo --yield N --json`` on one machine, whatev
 number of workers.
 
 ``python -m ptsa.campaign noise FOLDER [--compare] [--identify]``: every record in a folder (a rack of
-instruments, each a long static record), one task per record. Each record's JSON is the
-line ``ptsa noise --counts/--readings FILE --json`` prints, in the order of the files'
-names; a record refused is an ``error:`` line and exit status 1, the others printed.
-A record travels to its task as its text.
+instruments, each a long static record), one task per record. Each record's JSON is,
+byte for byte, the line ``ptsa noise --counts/--readings FILE --json`` prints, in the order
+of the files' names; a record refused is an ``error:`` line and exit status 1, the others
+printed. A record travels to its task as its bytes.
 
 ``--ray none`` (the default) runs the tasks one after another in this process, without
 Ray, and opens no port. ``--ray local`` starts a new Ray on this machine: its processes
@@ -97,8 +97,12 @@ def _units_task(plan: dict[str, Any], start: int, count: int, instrument: ptsa.I
 
 
 def records_in(folder: str) -> list[str]:
-    """The records of ``folder``: its ``.csv`` files (not its subfolders'), by name."""
-    names = sorted(n for n in os.listdir(folder) if n.endswith(".csv"))
+    """The records of ``folder``: its ``.csv`` files (any case; not its subfolders'), in the
+    order of their names."""
+    try:
+        names = sorted(n for n in os.listdir(folder) if n.lower().endswith(".csv"))
+    except OSError as e:
+        raise ptsa.PtsaError(f"{folder}: cannot read the folder: {e.strerror}") from None
     paths = [os.path.join(folder, n) for n in names]
     return [p for p in paths if os.path.isfile(p)]
 
@@ -117,15 +121,27 @@ def noise_folder(
     Args:
         ray: as :func:`yield_study`'s.
         num_cpus: the CPUs a local Ray may use (None: all).
-        options: :func:`ptsa.noise`'s keywords (``identify``, ``taus``, ``instrument``...).
+        options: :func:`ptsa.noise`'s keywords (``compare``, ``identify``, ``taus``,
+            ``instrument``...), checked once before any task starts.
     """
+    return [r if isinstance(r, ptsa.PtsaError) else json.loads(r)
+            for r in _noise_lines(folder, ray, num_cpus, options)]
+
+
+def _noise_lines(
+    folder: str, ray: str, num_cpus: int | None, options: dict[str, Any]
+) -> list[str | ptsa.PtsaError]:
+    """Each record's JSON text as the command line prints it, or its refusal."""
+    if "name" in options:
+        raise ptsa.PtsaError("name: each record is named by its path in the folder")
     paths = records_in(folder)
     if not paths:
         raise ptsa.PtsaError(f"{folder}: no records (.csv files) in the folder")
-    if "instrument" in options:
-        options = {**options, "instrument": ptsa.instrument_text(options["instrument"])}
+    options = {**_noise_defaults(), **options}
+    options["instrument"] = ptsa.instrument_text(options["instrument"])
+    ptsa._noise_check(**options)  # one refusal for all, before Ray starts
     if ray == "none":
-        return [_noise_task(p, _text(p), options) for p in paths]
+        return [_noise_task(p, ptsa._read(p), options) for p in paths]
     import ray as ray_mod
 
     started = not ray_mod.is_initialized()
@@ -135,23 +151,31 @@ def noise_folder(
         task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
             _noise_task
         )
-        return ray_mod.get([task.remote(p, _text(p), options) for p in paths])
+        # One record read at a time on the driver, sent to its task as bytes.
+        return ray_mod.get([task.remote(p, ptsa._read(p), options) for p in paths])
     finally:
         if started:
             ray_mod.shutdown()
 
 
-def _text(path: str) -> str:
-    with open(path, encoding="utf-8") as f:
-        return f.read()
+def _noise_defaults() -> dict[str, Any]:
+    """:func:`ptsa.noise_text`'s keyword defaults."""
+    import inspect
+
+    sig = inspect.signature(ptsa.noise_text)
+    return {k: p.default for k, p in sig.parameters.items() if p.kind is p.KEYWORD_ONLY}
 
 
-def _noise_task(name: str, text: str, options: dict[str, Any]) -> dict[str, Any] | ptsa.PtsaError:
-    """One record's analysis, from its text: its dict, or the error that refused it."""
+def _noise_task(name: str, data: bytes, options: dict[str, Any]) -> str | ptsa.PtsaError:
+    """One record's analysis, from its bytes: its JSON text, or the error that refused it,
+    named by the record."""
     try:
-        return ptsa.noise_text(name, text, **options)
+        return ptsa._noise_json(name, ptsa._decoded(name, data), **options)
     except ptsa.PtsaError as e:
-        return e
+        m = str(e)
+        return e if m.startswith(name) else ptsa.PtsaError(f"{name}: {m}")
+    except Exception as e:  # noqa: BLE001 - a record's failure must not lose the others'
+        return ptsa.PtsaError(f"{name}: {type(e).__name__}: {e}")
 
 
 def bench(instruments: int, repeats: int, task_size: int, expect: float | None) -> dict[str, Any]:
@@ -217,14 +241,15 @@ def main(argv: Sequence[str] | None = None) -> int:
     nz = sub.add_parser("noise", help="ptsa noise --json of every record (.csv) of a folder, a task each")
     nz.add_argument("folder", help="the folder of records: counter records or readings, one .csv each")
     nz.add_argument("--compare", action="store_true",
-                    help="each counter record against the instrument file's loop, simulated (ptsa noise --compare)")
+                    help="each counter record against the instrument file's loop, simulated (ptsa noise --compare); "
+                         "a record of readings is refused")
     nz.add_argument("--identify", action="store_true",
                     help="what each record's noise needs beyond the instrument file's (ptsa noise --identify)")
     nz.add_argument("--instrument", help="an instrument file or a shipped name")
     nz.add_argument("--unit", help="the readings' unit: cm/s2, m/s2, g, V, mA or LSB")
     nz.add_argument("--confidence", type=float, help="the second confidence level, 0 to 1 (default 0.95)")
-    nz.add_argument("--seed", type=int, help="with --identify: the seed of the simulated noise")
-    nz.add_argument("--warmup-s", type=float, help="with --identify: the simulations' settling, s")
+    nz.add_argument("--seed", type=int, help="with --compare or --identify: the seed of the simulated noise")
+    nz.add_argument("--warmup-s", type=float, help="with --compare or --identify: the simulations' settling, s")
     for q in (mc, nz):
         q.add_argument("--ray", default="none",
                        help="none (no Ray, no port opened: the default), local (a new Ray on this "
@@ -259,8 +284,8 @@ def _noise_main(a: argparse.Namespace) -> int:
     options = {k: v for k, v in vars(a).items()
                if k in ("compare", "identify", "instrument", "unit", "confidence", "seed", "warmup_s") and v is not None}
     try:
-        results = noise_folder(a.folder, ray=a.ray, num_cpus=a.num_cpus, **options)
-    except (ptsa.PtsaError, OSError) as e:
+        results = _noise_lines(a.folder, a.ray, a.num_cpus, options)
+    except ptsa.PtsaError as e:
         print(f"error: {e}", file=sys.stderr)
         return 1
     status = 0
@@ -269,7 +294,7 @@ def _noise_main(a: argparse.Namespace) -> int:
             print(f"error: {r}", file=sys.stderr)
             status = 1
         else:
-            print(json.dumps(r, separators=(",", ":")))
+            print(r)
     return status
 
 

@@ -61,17 +61,21 @@ fn session(instrument: Option<&InstrumentIn>) -> PyResult<Session> {
     .map_err(refused)
 }
 
+/// `warmup_s` refused unless it is a settling of 0 s or more.
+fn check_warmup(warmup_s: Option<f64>) -> PyResult<()> {
+    match warmup_s {
+        Some(w) if !(w >= 0.0 && w.is_finite()) => Err(PtsaError::new_err(format!(
+            "warmup_s {w}: expected a settling of 0 s or more"
+        ))),
+        _ => Ok(()),
+    }
+}
+
 /// The simulation options of `seed` and `warmup_s` (the command line's defaults where
 /// `None`) for the checked loop of `s`.
 fn sim_options(s: &Session, seed: Option<u64>, warmup_s: Option<f64>) -> PyResult<SimOptions> {
     let d = SimOptions::default();
-    if let Some(w) = warmup_s
-        && !(w >= 0.0 && w.is_finite())
-    {
-        return Err(PtsaError::new_err(format!(
-            "warmup_s {w}: expected a settling of 0 s or more"
-        )));
-    }
+    check_warmup(warmup_s)?;
     Ok(SimOptions {
         seed: seed.unwrap_or(d.seed),
         warmup_s: warmup_s.unwrap_or(d.warmup_s),
@@ -180,14 +184,21 @@ fn columns_csv(names: Vec<String>, columns: Vec<PyReadonlyArray1<'_, f64>>) -> P
     Ok(s)
 }
 
+/// `confidence` refused unless it is a level between 0 and 1.
+fn check_confidence(confidence: f64) -> PyResult<()> {
+    if confidence > 0.0 && confidence < 1.0 {
+        Ok(())
+    } else {
+        Err(PtsaError::new_err(format!(
+            "confidence {confidence}: expected a level more than 0 and less than 1 (0.95 for 95 %)"
+        )))
+    }
+}
+
 /// The analysis settings of `ptsa noise`: `taus` a name or times in s, the second
 /// confidence level, the Hadamard deviation computed.
 fn settings(taus: &TausIn, confidence: f64, tau0_s: f64, n: usize) -> PyResult<Settings> {
-    if !(confidence > 0.0 && confidence < 1.0) {
-        return Err(PtsaError::new_err(format!(
-            "confidence {confidence}: expected a level more than 0 and less than 1 (0.95 for 95 %)"
-        )));
-    }
+    check_confidence(confidence)?;
     let taus = match taus {
         TausIn::Named(name) => Taus::named(name).ok_or_else(|| {
             PtsaError::new_err(format!(
@@ -243,6 +254,7 @@ fn noise_json(
         warmup_s,
     };
     against.check(counts, &taus)?;
+    check_warmup(warmup_s)?;
     let s = session(instrument.as_ref())?;
     let v = if counts {
         counts_json(py, &s, name, text, &taus, confidence, &against)?
@@ -309,15 +321,17 @@ fn counts_json(
     against: &Against,
 ) -> PyResult<NoiseJson> {
     s.require_loop().map_err(refused)?;
+    // The simulations' options before the record, as the command checks them.
+    let opts = if against.compare || against.identify {
+        sim_options(s, against.seed, against.warmup_s)?
+    } else {
+        SimOptions::default()
+    };
     let rec = noise::parse_record(name, text, s.instr.clock_hz).map_err(refused)?;
     let settings = settings(taus, confidence, rec.tau0_s, rec.gates.len())?;
     let (sf, clock) = (s.instr.sf_cm_s2, s.instr.clock_hz);
     let a = py.detach(|| Analysis::of_with(&rec, sf, clock, &settings));
     let mut warnings = noise::analysis_warnings(name, &a);
-    if !(against.compare || against.identify) {
-        return Ok(a.json(name, &warnings));
-    }
-    let opts = sim_options(s, against.seed, against.warmup_s)?;
     let comparison = if against.compare {
         let c = py
             .detach(|| Comparison::simulate(&s.instr, &opts, &rec, &a))
@@ -338,6 +352,44 @@ fn counts_json(
     v.comparison = comparison.as_ref().map(Comparison::json);
     v.identification = id.as_ref().map(IdentificationJson::new);
     Ok(v)
+}
+
+/// The options of `noise_json` checked without a record, as a campaign does once before
+/// its tasks: the instrument file read, the taus named, the confidence, the settling, and
+/// with `compare` or `identify` a loop to simulate. A record's own refusals (its kind, its
+/// rows, taus it is too short for) are its task's.
+#[pyfunction]
+#[pyo3(signature = (instrument, taus, confidence, compare, identify, warmup_s))]
+fn noise_check(
+    instrument: Option<InstrumentIn>,
+    taus: TausIn,
+    confidence: f64,
+    compare: bool,
+    identify: bool,
+    warmup_s: Option<f64>,
+) -> PyResult<()> {
+    let against = Against {
+        compare,
+        identify,
+        seed: None,
+        warmup_s,
+    };
+    against.check(true, &taus)?;
+    check_warmup(warmup_s)?;
+    check_confidence(confidence)?;
+    if let TausIn::Named(name) = &taus {
+        settings(&taus, confidence, 1.0, 1 << 20).map_err(|_| {
+            PtsaError::new_err(format!(
+                "taus `{name}`: expected octave, decade, all, or averaging times in s"
+            ))
+        })?;
+    }
+    let s = session(instrument.as_ref())?;
+    if compare {
+        s.require_loop().map_err(refused)?;
+        sim_options(&s, None, warmup_s)?;
+    }
+    Ok(())
 }
 
 /// A record of readings as `noise --readings` reads it: the unit by name (None: the
@@ -569,6 +621,7 @@ fn _ptsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(record, m)?)?;
     m.add_function(wrap_pyfunction!(columns_csv, m)?)?;
     m.add_function(wrap_pyfunction!(noise_json, m)?)?;
+    m.add_function(wrap_pyfunction!(noise_check, m)?)?;
     m.add_function(wrap_pyfunction!(discover_json, m)?)?;
     m.add_function(wrap_pyfunction!(correct_json, m)?)?;
     m.add_function(wrap_pyfunction!(yield_plan_json, m)?)?;

@@ -59,24 +59,37 @@ def folder_campaign(*args: str) -> subprocess.CompletedProcess[str]:
 def test_a_folder_identified_on_a_local_ray_is_the_command_lines_lines(rack):
     # Two workers only: each record is a task of its own, so the count of workers cannot
     # change a line; the yield study above is the campaign whose tasks share a result.
-    want = [cli_json("noise", "--counts", str(rack / f"unit{k}.csv"), "--identify") for k in range(3)]
+    want = "".join(
+        cli("noise", "--counts", str(rack / f"unit{k}.csv"), "--identify", "--json").stdout for k in range(3)
+    )
     r = folder_campaign(str(rack), "--identify", "--ray", "local", "--num-cpus", "2")
     assert r.returncode == 0, r.stderr
-    assert [json.loads(line) for line in r.stdout.splitlines()] == want
-    assert all(w["identification"] is not None for w in want)
+    assert r.stdout == want  # byte for byte
+    assert all(json.loads(line)["identification"] is not None for line in r.stdout.splitlines())
 
 
 def test_a_record_refused_is_an_error_line_and_the_others_are_analysed(rack, tmp_path):
-    for k in (0, 2):
-        (tmp_path / f"unit{k}.csv").write_text((rack / f"unit{k}.csv").read_text())
+    for k in (0, 3):
+        (tmp_path / f"unit{k}.csv").write_text((rack / f"unit{k % 3}.csv").read_text())
     (tmp_path / "unit1.csv").write_text("time_s,pulses,ticks\n0.01,320,640\n0.02,x,640\n")
-    r = folder_campaign(str(tmp_path))
+    (tmp_path / "unit2.csv").write_bytes(b"time_s,pulses,ticks\n0.01,320,640\n0.02,3\xff0,640\n")
+    r = folder_campaign(str(tmp_path), "--compare")
     assert r.returncode == 1
-    want = cli("noise", "--counts", str(tmp_path / "unit1.csv"), ok=False).stderr
-    assert r.stderr == want
-    assert [json.loads(line) for line in r.stdout.splitlines()] == [
-        cli_json("noise", "--counts", str(tmp_path / f"unit{k}.csv")) for k in (0, 2)
+    bad = str(tmp_path / "unit1.csv")
+    assert r.stderr.splitlines() == [
+        cli("noise", "--counts", bad, ok=False).stderr.strip(),
+        f"error: {tmp_path / 'unit2.csv'}:3: not UTF-8 text (a bad byte at byte offset 39); "
+        "expected a CSV record in UTF-8",
     ]
+    assert r.stdout == "".join(
+        cli("noise", "--counts", str(tmp_path / f"unit{k}.csv"), "--compare", "--json").stdout for k in (0, 3)
+    )
+
+
+def test_options_are_refused_once_before_any_record(rack):
+    r = folder_campaign(str(rack), "--confidence", "2")
+    assert (r.returncode, r.stdout) == (1, "")
+    assert r.stderr == "error: confidence 2: expected a level more than 0 and less than 1 (0.95 for 95 %)\n"
 
 
 def test_an_empty_folder_is_refused(tmp_path):
