@@ -90,7 +90,7 @@ impl Config {
     /// The default loop: 64 ticks per cycle, 100 Hz crossover on the Kearfott 2401 at the
     /// documented pickoff scale, 1 s gate at 64 kHz, no noise shaping.
     ///
-    /// The coefficients are the output of the design in `ptsa-host-sim` (`ptsa design`),
+    /// The coefficients are the output of the design in `ptsa-sim` (`ptsa design`),
     /// rounded to their formats; a test there recomputes them and checks these literals.
     pub const DEFAULT: Config = Config {
         ticks_per_cycle: 64,
@@ -201,7 +201,7 @@ impl Default for Config {
     }
 }
 
-// Default compensator, Q15.16 bits. Recomputed and checked by `ptsa-host-sim`'s
+// Default compensator, Q15.16 bits. Recomputed and checked by `ptsa-sim`'s
 // design test; do not edit by hand (run `ptsa design --print-core-constants`).
 const DEFAULT_B0_BITS: i32 = 362_602_752;
 const DEFAULT_B1_BITS: i32 = -360_827_191;

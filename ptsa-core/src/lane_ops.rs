@@ -8,7 +8,7 @@
 //! [`Ptsa::tick_lanes`] with `L = 1`), and a host may run it with any `L`, leaving the
 //! vectorisation to the compiler. A host that wants the lanes in SIMD registers, with the
 //! flags as a CPU's mask registers, implements `LaneOps` on its own vector types
-//! (`ptsa-host-sim` does for AVX-512 and AVX2) and gets the same tick, bit for bit: every
+//! (`ptsa-sim` does for AVX-512 and AVX2) and gets the same tick, bit for bit: every
 //! operation's meaning is given here as what `Each` does lane by lane.
 //!
 //! Overflow policy: `I32` arithmetic wraps (the counters are `u32` read as `i32` bits; the

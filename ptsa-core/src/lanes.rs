@@ -16,7 +16,7 @@
 //! lane), and [`Ptsa::tick_lanes`] the tick on it. [`Ptsa::tick`], the form the firmware
 //! runs, *is* that function with one lane: a [`State`] is a [`Lanes<1>`] (the firmware's
 //! instruction budget and the golden vectors check that nothing else changed). A host that
-//! runs many independent loops (`ptsa-host-sim`'s batch engine) runs them through the same
+//! runs many independent loops (`ptsa-sim`'s batch engine) runs them through the same
 //! definition with its own lane operations: eight lanes in AVX-512 registers, or [`Each`]
 //! with `L` = 4 or 8, vectorised by the compiler.
 

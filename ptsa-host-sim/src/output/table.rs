@@ -4,6 +4,9 @@ use std::fmt::Write as _;
 
 use anyhow::Result;
 
+// Its old path: `output::table::significant`.
+pub use ptsa_sim::text::significant;
+
 /// A cell: a number (with its display precision) or text; `Missing` is a missing value.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Cell {

@@ -51,20 +51,9 @@
 //!   and inputs are made once per block for the whole group; kernels of 8 with AVX-512 as
 //!   the static ones.
 //!
-//! Measured with `ptsa bench --batch 16 --runs 7` on one core (2-core AMD EPYC, AVX-512,
-//! 2026-11-28, the core's tick in AVX-512 registers): static batch / single = 2.98–3.05 with
-//! 8 lanes (six invocations), 2.05 with 4, 1.05–1.08 with 1; with `--dynamic` 1.09–1.16,
-//! with `--dynamic --shared-condition` 2.88–2.95 (three each; see docs/method/host-sim.md,
-//! "Performance", which also gives the figures before, 1.82–1.86 static, and on an AVX2
-//! machine). Dynamic, `cargo bench -p ptsa-host-sim --bench batch -- 'dynamic_loop|ident_loop'`
-//! (criterion medians, one thread, 2026-11-28, AVX-512): 16 different oscillating
-//! conditions 16.6 ms single, 14.9 ms with 8 lanes (1.11×; 4 lanes, on arrays, 19.5 ms; 16
-//! lanes, one kernel on arrays, 17.7 ms); one condition with 16
-//! instruments (identification) 14.6–15.0 ms single, 4.96 ms with 8 lanes (2.9–3.0×; 4
-//! lanes 7.4–7.6 ms). On the AVX2 machine earlier, 4 lanes: 35.9 against 29.7 ms (1.21×)
-//! and 26.2 against 14.1 ms (1.85×; 23.9 ms, 1.16×, before the dynamic tick ran on lanes).
-//! `cargo bench -p ptsa-host-sim --bench batch` measures every setting; `ptsa bench --batch N`
-//! (with `--dynamic`, `--shared-condition`) prints the single and the batch rate.
+//! Its speed: `ptsa bench --batch N` (with `--dynamic`, `--shared-condition`) prints the
+//! single and the batch rate, and `cargo bench -p ptsa-host-sim --bench batch` measures every
+//! setting; the figures are in docs/method/host-sim.md, "Performance".
 
 use std::collections::HashMap;
 
