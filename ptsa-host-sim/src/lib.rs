@@ -3,9 +3,9 @@
 //! It closes the loop tick by tick: [`ptsa_core`] (the very code the firmware runs) against
 //! an `f64` model of the pendulum, and reproduces the test programme of Draper report R-890.
 //!
-//! The crate in layers, each a folder; a layer uses only those above it (and the foundation:
-//! output, statistics). The first three are the crate `ptsa-sim`, re-exported here under
-//! the same paths:
+//! The crate in layers, each a folder; a layer uses only those above it and the foundation
+//! (statistics; output for the layers of this crate). `model`, `lab`, `simulation` and
+//! `stats` are the crate `ptsa-sim`, re-exported here under the same paths:
 //!
 //! * [`model`]: the instrument file, test conditions, the candidate registry, the plant of
 //!   eq. 4.2, the loop design and the case-frame format.

@@ -64,11 +64,7 @@ def instrument_text(instrument: Instrument | None) -> Instrument | None:
     path = os.fspath(instrument)
     if not os.path.exists(path):
         return path  # a shipped name, or a file the library will say it cannot find
-    try:
-        with open(path, "rb") as f:
-            return (path, f.read().decode("utf-8"))
-    except (OSError, UnicodeDecodeError) as e:
-        raise PtsaError(f"{path}: cannot read: {e}") from None
+    return (path, _decoded(path, _read(path), "an instrument file (TOML)"))
 
 
 def static(
@@ -270,17 +266,23 @@ def _noise_json(name: str, text: str, **o: Any) -> str:
 
 def _noise_check(
     *,
+    unit: str | None = None,
     instrument: Instrument | None = None,
+    spacing_tol: float | None = None,
     taus: str | Sequence[float] = "octave",
     confidence: float = 0.95,
     compare: bool = False,
     identify: bool = False,
+    seed: int | None = None,
     warmup_s: float | None = None,
-    **_record_options: Any,
 ) -> None:
-    """:func:`noise`'s options checked without a record (a campaign, before its tasks)."""
+    """:func:`noise_text`'s options checked without a record (a campaign, before its
+    tasks); ``spacing_tol`` is checked with each record of readings."""
+    if seed is not None and not 0 <= seed < 2**64:
+        raise PtsaError(f"seed {seed}: expected a whole number from 0 to 2^64 - 1")
     _ptsa.noise_check(
-        _instrument(instrument), _taus(taus), float(confidence), bool(compare), bool(identify), warmup_s
+        _instrument(instrument), unit, _taus(taus), float(confidence), bool(compare), bool(identify),
+        warmup_s,
     )
 
 
@@ -292,8 +294,8 @@ def _read(path: str) -> bytes:
         raise PtsaError(f"{path}: cannot read: {e.strerror}") from None
 
 
-def _decoded(name: str, data: bytes) -> str:
-    """A record's bytes as text, its line ends kept as the command line keeps them; bytes
+def _decoded(name: str, data: bytes, what: str = "a CSV record") -> str:
+    """A file's bytes as text, its line ends kept as the command line keeps them; bytes
     that are not UTF-8 refused at their line."""
     try:
         return data.decode("utf-8")
@@ -301,7 +303,7 @@ def _decoded(name: str, data: bytes) -> str:
         line = data.count(b"\n", 0, e.start) + 1
         raise PtsaError(
             f"{name}:{line}: not UTF-8 text (a bad byte at byte offset {e.start}); "
-            "expected a CSV record in UTF-8"
+            f"expected {what} in UTF-8"
         ) from None
 
 

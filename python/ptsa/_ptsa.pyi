@@ -43,6 +43,7 @@ def noise_json(
 ) -> str: ...
 def noise_check(
     instrument: Optional[Union[str, tuple[str, str]]],
+    unit: Optional[str],
     taus: Union[str, Sequence[float]],
     confidence: float,
     compare: bool,

@@ -132,16 +132,20 @@ def _noise_lines(
     folder: str, ray: str, num_cpus: int | None, options: dict[str, Any]
 ) -> list[str | ptsa.PtsaError]:
     """Each record's JSON text as the command line prints it, or its refusal."""
-    if "name" in options:
-        raise ptsa.PtsaError("name: each record is named by its path in the folder")
+    defaults = _noise_defaults()
+    unknown = sorted(set(options) - set(defaults))
+    if unknown:
+        raise ptsa.PtsaError(
+            f"{', '.join(unknown)}: not an option of a record's analysis; expected {', '.join(defaults)}"
+        )
     paths = records_in(folder)
     if not paths:
         raise ptsa.PtsaError(f"{folder}: no records (.csv files) in the folder")
-    options = {**_noise_defaults(), **options}
+    options = {**defaults, **options}
     options["instrument"] = ptsa.instrument_text(options["instrument"])
     ptsa._noise_check(**options)  # one refusal for all, before Ray starts
     if ray == "none":
-        return [_noise_task(p, ptsa._read(p), options) for p in paths]
+        return [_noise_task(p, _bytes(p), options) for p in paths]
     import ray as ray_mod
 
     started = not ray_mod.is_initialized()
@@ -151,11 +155,34 @@ def _noise_lines(
         task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
             _noise_task
         )
-        # One record read at a time on the driver, sent to its task as bytes.
-        return ray_mod.get([task.remote(p, ptsa._read(p), options) for p in paths])
+        # Each record read on the driver and sent to its task as bytes; one that cannot be
+        # read is its refusal, not a task.
+        refs = []
+        for p in paths:
+            data = _bytes(p)
+            refs.append(data if isinstance(data, ptsa.PtsaError) else task.remote(p, data, options))
+        return [_result(ray_mod, p, r) for p, r in zip(paths, refs)]
     finally:
         if started:
             ray_mod.shutdown()
+
+
+def _bytes(path: str) -> bytes | ptsa.PtsaError:
+    try:
+        return ptsa._read(path)
+    except ptsa.PtsaError as e:
+        return e
+
+
+def _result(ray_mod: Any, name: str, ref: Any) -> str | ptsa.PtsaError:
+    """A task's result, or its failure (a worker lost, a task killed) as the record's
+    refusal: one task's fate never takes the others' results with it."""
+    if isinstance(ref, ptsa.PtsaError):
+        return ref
+    try:
+        return ray_mod.get(ref)
+    except Exception as e:  # noqa: BLE001
+        return ptsa.PtsaError(f"{name}: the task failed: {type(e).__name__}: {e}")
 
 
 def _noise_defaults() -> dict[str, Any]:
@@ -166,15 +193,19 @@ def _noise_defaults() -> dict[str, Any]:
     return {k: p.default for k, p in sig.parameters.items() if p.kind is p.KEYWORD_ONLY}
 
 
-def _noise_task(name: str, data: bytes, options: dict[str, Any]) -> str | ptsa.PtsaError:
+def _noise_task(name: str, data: bytes | ptsa.PtsaError, options: dict[str, Any]) -> str | ptsa.PtsaError:
     """One record's analysis, from its bytes: its JSON text, or the error that refused it,
     named by the record."""
+    if isinstance(data, ptsa.PtsaError):
+        return data
     try:
         return ptsa._noise_json(name, ptsa._decoded(name, data), **options)
     except ptsa.PtsaError as e:
         m = str(e)
         return e if m.startswith(name) else ptsa.PtsaError(f"{name}: {m}")
-    except Exception as e:  # noqa: BLE001 - a record's failure must not lose the others'
+    except BaseException as e:  # a record's failure (a Rust panic included) keeps the others'
+        if isinstance(e, (KeyboardInterrupt, SystemExit)):
+            raise
         return ptsa.PtsaError(f"{name}: {type(e).__name__}: {e}")
 
 

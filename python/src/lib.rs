@@ -254,6 +254,11 @@ fn noise_json(
         warmup_s,
     };
     against.check(counts, &taus)?;
+    if counts && unit.is_some() {
+        return Err(PtsaError::new_err(
+            "unit applies to a record of readings (time_s, reading) only; expected it with one, or not at all",
+        ));
+    }
     check_warmup(warmup_s)?;
     let s = session(instrument.as_ref())?;
     let v = if counts {
@@ -321,7 +326,7 @@ fn counts_json(
     against: &Against,
 ) -> PyResult<NoiseJson> {
     s.require_loop().map_err(refused)?;
-    // The simulations' options before the record, as the command checks them.
+    // The simulations' options before the record (the command checks --identify's so).
     let opts = if against.compare || against.identify {
         sim_options(s, against.seed, against.warmup_s)?
     } else {
@@ -355,13 +360,15 @@ fn counts_json(
 }
 
 /// The options of `noise_json` checked without a record, as a campaign does once before
-/// its tasks: the instrument file read, the taus named, the confidence, the settling, and
-/// with `compare` or `identify` a loop to simulate. A record's own refusals (its kind, its
-/// rows, taus it is too short for) are its task's.
+/// its tasks: the instrument file read, the unit and the taus named, the confidence, the
+/// settling, and with `compare` a loop to simulate (`identify` needs one for a counter
+/// record only). A record's own refusals (its kind, its rows, taus it is too short for) are
+/// its task's.
 #[pyfunction]
-#[pyo3(signature = (instrument, taus, confidence, compare, identify, warmup_s))]
+#[pyo3(signature = (instrument, unit, taus, confidence, compare, identify, warmup_s))]
 fn noise_check(
     instrument: Option<InstrumentIn>,
+    unit: Option<&str>,
     taus: TausIn,
     confidence: f64,
     compare: bool,
@@ -385,11 +392,31 @@ fn noise_check(
         })?;
     }
     let s = session(instrument.as_ref())?;
+    if unit.is_some() {
+        reading_unit(&s, unit)?;
+    }
     if compare {
         s.require_loop().map_err(refused)?;
         sim_options(&s, None, warmup_s)?;
     }
     Ok(())
+}
+
+/// The readings' unit by name (None: the instrument file's, else cm/s²).
+fn reading_unit(s: &Session, unit: Option<&str>) -> PyResult<ReadingUnit> {
+    match unit {
+        Some(u) => ReadingUnit::parse(u).ok_or_else(|| {
+            PtsaError::new_err(format!(
+                "unit `{u}`: expected one of {}",
+                ReadingUnit::names()
+            ))
+        }),
+        None => Ok(s
+            .instr
+            .reading_scale
+            .as_ref()
+            .map_or(ReadingUnit::CmPerS2, |r| r.unit)),
+    }
 }
 
 /// A record of readings as `noise --readings` reads it: the unit by name (None: the
@@ -401,19 +428,7 @@ fn readings_of(
     unit: Option<&str>,
     spacing_tol: Option<f64>,
 ) -> PyResult<readings::Readings> {
-    let unit = match unit {
-        Some(u) => ReadingUnit::parse(u).ok_or_else(|| {
-            PtsaError::new_err(format!(
-                "unit `{u}`: expected one of {}",
-                ReadingUnit::names()
-            ))
-        })?,
-        None => s
-            .instr
-            .reading_scale
-            .as_ref()
-            .map_or(ReadingUnit::CmPerS2, |r| r.unit),
-    };
+    let unit = reading_unit(s, unit)?;
     let tol = spacing_tol.unwrap_or(readings::SPACING_TOL);
     if !(0.0..=0.5).contains(&tol) {
         return Err(PtsaError::new_err(format!(

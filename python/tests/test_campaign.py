@@ -9,6 +9,7 @@ import sys
 
 import pytest
 
+import ptsa
 from ptsa import campaign
 
 from test_same_as_cli import ROOT, cli, cli_json
@@ -90,6 +91,14 @@ def test_options_are_refused_once_before_any_record(rack):
     r = folder_campaign(str(rack), "--confidence", "2")
     assert (r.returncode, r.stdout) == (1, "")
     assert r.stderr == "error: confidence 2: expected a level more than 0 and less than 1 (0.95 for 95 %)\n"
+
+
+def test_unknown_options_and_a_bad_seed_are_refused_before_any_record(rack):
+    with pytest.raises(ptsa.PtsaError, match="identfy: not an option"):
+        campaign.noise_folder(str(rack), identfy=True)
+    r = folder_campaign(str(rack), "--seed", "-1")
+    assert (r.returncode, r.stdout) == (1, "")
+    assert r.stderr == "error: seed -1: expected a whole number from 0 to 2^64 - 1\n"
 
 
 def test_an_empty_folder_is_refused(tmp_path):

@@ -53,7 +53,8 @@
 //!
 //! Its speed: `ptsa bench --batch N` (with `--dynamic`, `--shared-condition`) prints the
 //! single and the batch rate, and `cargo bench -p ptsa-host-sim --bench batch` measures every
-//! setting; the figures are in docs/method/host-sim.md, "Performance".
+//! setting; the figures are in docs/method/host-sim.md, "Performance", and the dated ones
+//! in docs/notes/performance.md.
 
 use std::collections::HashMap;
 
