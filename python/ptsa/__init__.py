@@ -360,22 +360,26 @@ def correct(
     sigma: float | None = None,
     local_gravity_cm_s2: float | None = None,
 ) -> dict[str, Any]:
-    """A calibration applied to a single-axis record: ``ptsa correct --data FILE --json``.
+    """A calibration applied to a record: ``ptsa correct --data FILE --json``.
 
     Args:
-        data: the record (a case frame: each row a reading in ``measured_cm_s2`` or
-            counts in ``pulses`` and ``ticks``, with ``g_pa`` and ``g_oa`` in g): a path,
-            a pandas DataFrame or a dict of arrays.
+        data: the record: a path, a pandas DataFrame or a dict of arrays. A single-axis
+            case frame (each row a reading in ``measured_cm_s2`` or counts in ``pulses``
+            and ``ticks``, with ``g_pa`` and ``g_oa`` in g), or a triad record (each row
+            ``measured_x_cm_s2``, ``measured_y_cm_s2``, ``measured_z_cm_s2`` or each axis's
+            counts).
         calibration: what ``ptsa.discover`` returned (a dict), or the path of a
-            ``ptsa discover --json`` file; None: the instrument file's own model (then
-            ``instrument`` is required).
+            ``ptsa discover --json`` file or, for a triad, of its calibration file; None:
+            the instrument file's own model (a single axis only; then ``instrument`` is
+            required).
         instrument: the instrument file the calibration was made with, or a shipped name.
         sigma: the noise of a reading that states none, cm/s² (1 sigma).
         local_gravity_cm_s2: the test stand's local gravity, cm/s² (970 to 990).
 
     Returns:
-        The object ``ptsa correct --json`` prints: each row's specific force along IA in
-        cm/s² and g with its 1-sigma uncertainty, and the warnings.
+        The object ``ptsa correct --json`` prints: each row's specific force along IA (a
+        triad: its three axes in the calibration's frame, with their covariance) in cm/s²
+        and g with its 1-sigma uncertainty, and the warnings.
     """
     with tempfile.TemporaryDirectory(prefix="ptsa-") as d:
         names = {}

@@ -491,12 +491,6 @@ fn correct_json(
     local_gravity_cm_s2: Option<f64>,
 ) -> PyResult<String> {
     use ptsa_host_sim::discovery::correct_record::{choose_calibration, correct_record};
-    if ptsa_host_sim::triad::frame::is_triad_file(&data) {
-        return Err(PtsaError::new_err(format!(
-            "{}: a triad record; ptsa.correct corrects single-axis records (a triad's: `ptsa correct` on the command line)",
-            data.display()
-        )));
-    }
     if let Some(v) = sigma
         && !(v > 0.0 && v.is_finite())
     {
@@ -513,6 +507,9 @@ fn correct_json(
         }
         s.set_local_gravity(g).map_err(refused)?;
     }
+    if ptsa_host_sim::triad::frame::is_triad_file(&data) {
+        return correct_triad_json(&s, &data, calibration.as_deref(), sigma);
+    }
     let (cal, name, flag) = choose_calibration(
         calibration.as_deref(),
         &data,
@@ -525,6 +522,32 @@ fn correct_json(
     Ok(rec
         .json(&data.display().to_string(), &name, &s.name)
         .to_string())
+}
+
+/// `ptsa correct --data TRIAD --calibration FILE --json`: the triad record `data` corrected
+/// with the triad's calibration in the file `calibration`.
+fn correct_triad_json(
+    s: &Session,
+    data: &std::path::Path,
+    calibration: Option<&std::path::Path>,
+    sigma: Option<f64>,
+) -> PyResult<String> {
+    use ptsa_host_sim::triad::correct_record::{correct_triad, read_calibration};
+    let Some(p) = calibration else {
+        return Err(PtsaError::new_err(format!(
+            "{} is a triad record (three axes' readings per row); expected calibration: a triad's calibration file (`ptsa discover --data TRIAD.csv --write-instrument FILE`) or what ptsa.discover returned for the triad",
+            data.display()
+        )));
+    };
+    let cal =
+        read_calibration(p, &format!("--calibration {}", p.display()), data).map_err(refused)?;
+    let t = correct_triad(data, cal, s.instr.sf_cm_s2, sigma).map_err(refused)?;
+    Ok(t.json(
+        &data.display().to_string(),
+        &p.display().to_string(),
+        &s.name,
+    )
+    .to_string())
 }
 
 /// The plan of `ptsa monte-carlo --yield N` from its options (the command line's default

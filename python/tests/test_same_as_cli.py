@@ -229,6 +229,27 @@ def test_bad_input_is_a_ptsa_error_that_says_what_was_expected(call, message, mo
         call()
 
 
+def test_correct_applies_a_triads_calibration_as_the_command_does(tmp_path):
+    stream = "data/examples/triad-stream.csv"
+    toml, js = tmp_path / "cal.toml", tmp_path / "cal.json"
+    js.write_text(cli("discover", "--data", stream, "--no-plots", "--json", "--write-instrument", str(toml)).stdout)
+    rec = tmp_path / "rec.csv"
+    rec.write_text(
+        "label,measured_x_cm_s2,measured_y_cm_s2,measured_z_cm_s2\n"
+        "up,1.2,-0.8,980.1\nside,979.5,2.0,0.5\nhalf,,3.0,4.0\n"
+    )
+    for cal in (toml, js):
+        want = cli_json("correct", "--data", str(rec), "--calibration", str(cal), "--sigma", "0.05")
+        assert ptsa.correct(rec, cal, sigma=0.05) == want
+    got = ptsa.correct(rec, js)
+    assert got == cli_json("correct", "--data", str(rec), "--calibration", str(js))
+    assert len(got["warnings"]) == 2 and "f_cm_s2" not in got["rows"][2] and "f_cm_s2" in got["rows"][0]
+    frame = pd.read_csv(rec)
+    assert ptsa.correct(frame, js)["rows"] == got["rows"]
+    with pytest.raises(ptsa.PtsaError, match="is a triad record"):
+        ptsa.correct(rec)
+
+
 def test_correct_applies_a_calibration_as_the_command_does(tmp_path):
     tumble, check = "data/examples/tumble-counts.csv", "data/examples/check-counts.csv"
     sn3 = tmp_path / "sn3.json"

@@ -17,6 +17,7 @@
 //! * this module: the text report and the per-position table.
 
 pub mod apply;
+pub mod correct_record;
 pub mod fit;
 pub mod frame;
 pub mod report;

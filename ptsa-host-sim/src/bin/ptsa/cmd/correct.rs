@@ -7,14 +7,14 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context as _, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use ptsa_host_sim::discovery::correct as lib;
 use ptsa_host_sim::discovery::correct_record::{
     CorrectedRecord, choose_calibration, correct_record,
 };
-use ptsa_host_sim::output::command_json::{TriadCorrectJson, TriadCorrected, TriadCorrectedRow};
 use ptsa_host_sim::output::{count, write_atomic};
+use ptsa_host_sim::triad::correct_record as triad_record;
 
 use super::Ctx;
 use crate::flags::values::{local_gravity_cm_s2, positive_cm_s2};
@@ -150,7 +150,6 @@ impl CorrectArgs {
     /// No --calibration, or one that is not a triad's; the record cannot be read; no row
     /// has three readings; --output refused.
     fn triad_request(&self, ctx: &Ctx) -> Result<TriadRequest> {
-        use ptsa_host_sim::triad::{apply::TriadCalibration, frame};
         let Some(p) = &self.calibration else {
             bail!(
                 "{} is a triad record (three axes' readings per row); expected --calibration FILE: a triad's calibration file (`ptsa discover --data TRIAD.csv --write-instrument FILE`) or the triad's `ptsa discover --json` result",
@@ -158,68 +157,15 @@ impl CorrectArgs {
             );
         };
         let flag = format!("--calibration {}", p.display());
-        let text = std::fs::read_to_string(p).with_context(|| format!("{flag}: cannot read"))?;
-        let cal = match serde_json::from_str::<serde_json::Value>(&text) {
-            Ok(v) if v.get("triad").is_some() => TriadCalibration::from_json(&flag, &v)?,
-            Ok(_) => bail!(
-                "{flag}: a single-axis calibration, but {} is a triad record (three axes' readings per row); expected a triad's calibration (`ptsa discover --data TRIAD.csv --json` or its --write-instrument file)",
-                self.data.display()
-            ),
-            Err(_) => TriadCalibration::parse(&p.display().to_string(), &text)?,
-        };
+        let cal = triad_record::read_calibration(p, &flag, &self.data)?;
         let out = self.out_checked()?;
-        let name = self.data.display().to_string();
-        let mut positions = frame::read_record(&self.data)?;
-        frame::with_counts(&mut positions, ctx.instr.sf_cm_s2);
-        let mut warnings = Vec::new();
-        let mut noiseless = 0usize;
-        let rows: Vec<TriadRow> = positions
-            .into_iter()
-            .map(|p| {
-                let c = if let [Some(x), Some(y), Some(z)] = p.measured {
-                    let stated = p.sigma_cm_s2.or(self.sigma);
-                    if stated.is_none() && p.counting_sigma_cm_s2.iter().all(Option::is_none) {
-                        noiseless += 1;
-                    }
-                    let var = [0, 1, 2].map(|j| {
-                        stated
-                            .unwrap_or(0.0)
-                            .hypot(p.counting_sigma_cm_s2[j].unwrap_or(0.0))
-                            .powi(2)
-                    });
-                    Some((var.map(f64::sqrt), cal.correct([x, y, z], var)))
-                } else {
-                    None
-                };
-                TriadRow { p, c }
-            })
-            .collect();
-        let with = rows.iter().filter(|r| r.c.is_some()).count();
-        if with == 0 {
-            bail!(
-                "{name}: no row has all three axes' readings; expected `measured_x_cm_s2`, `measured_y_cm_s2` and `measured_z_cm_s2` (or each axis's counts) on the rows to correct"
-            );
-        }
-        if with < rows.len() {
-            warnings.push(format!(
-                "{name}: {} without all three axes' readings: written without corrected values (the triad's correction needs the three at once)",
-                count((rows.len() - with) as u64, "row")
-            ));
-        }
-        if noiseless > 0 && self.sigma.is_none() {
-            warnings.push(format!(
-                "{name}: {} with readings {} no noise (no `sigma_cm_s2`, no counts) and --sigma is not given: their covariance holds the calibration's uncertainty only (give --sigma CM_S2, or sigma_cm_s2 on the rows)",
-                count(noiseless as u64, "row"),
-                if noiseless == 1 { "states" } else { "state" }
-            ));
-        }
+        let corrected =
+            triad_record::correct_triad(&self.data, cal, ctx.instr.sf_cm_s2, self.sigma)?;
         Ok(TriadRequest {
             data: self.data.clone(),
             calibration: p.display().to_string(),
             instrument: ctx.name.clone(),
-            cal,
-            rows,
-            warnings,
+            corrected,
             out,
             json: self.json,
         })
@@ -324,14 +270,14 @@ pub fn run(req: &Request, out: &mut dyn Write) -> Result<()> {
             r.rec.rows.iter().filter(|r| r.2.is_some()).count(),
         ),
         Request::Triad(r) => (
-            &r.warnings,
+            &r.corrected.warnings,
             if r.json {
                 format!("{}\n", triad_json(r))
             } else {
                 triad_csv(r)
             },
             &r.out,
-            r.rows.iter().filter(|r| r.c.is_some()).count(),
+            r.corrected.rows.iter().filter(|r| r.c.is_some()).count(),
         ),
     };
     for w in warnings {
@@ -359,18 +305,9 @@ pub struct TriadRequest {
     data: PathBuf,
     calibration: String,
     instrument: String,
-    cal: ptsa_host_sim::triad::apply::TriadCalibration,
-    rows: Vec<TriadRow>,
-    warnings: Vec<String>,
+    corrected: triad_record::CorrectedTriad,
     out: Option<(PathBuf, Option<String>)>,
     json: bool,
-}
-
-/// One row of a triad record: the position as read and, with three readings, their 1 σ
-/// and the corrected force.
-struct TriadRow {
-    p: ptsa_host_sim::triad::frame::Position,
-    c: Option<([f64; 3], ptsa_host_sim::triad::apply::Corrected)>,
 }
 
 /// The triad CSV's columns after `label`: the readings and their noise, `f` and `|f|` with
@@ -437,11 +374,11 @@ fn triad_csv(req: &TriadRequest) -> String {
         req.data.display(),
         req.calibration,
         req.instrument,
-        req.cal.g_cm_s2,
-        ptsa_host_sim::triad::apply::frame_words(req.cal.orientation),
+        req.corrected.cal.g_cm_s2,
+        ptsa_host_sim::triad::apply::frame_words(req.corrected.cal.orientation),
         TRIAD_COLUMNS.join(",")
     );
-    for r in &req.rows {
+    for r in &req.corrected.rows {
         let cells = r.c.as_ref().map(|(sig, c)| triad_cells(&r.p, *sig, c));
         s.push_str(&csv_line(&r.p.label, cells.as_deref(), TRIAD_COLUMNS.len()));
     }
@@ -450,38 +387,9 @@ fn triad_csv(req: &TriadRequest) -> String {
 
 /// The triad JSON (`--json`).
 fn triad_json(req: &TriadRequest) -> serde_json::Value {
-    let g = req.cal.g_cm_s2;
-    let rows = req
-        .rows
-        .iter()
-        .map(|r| TriadCorrectedRow {
-            label: r.p.label.clone(),
-            line: r.p.line,
-            corrected: r.c.as_ref().map(|(sig, c)| {
-                let (mag, smag) = c.magnitude();
-                TriadCorrected {
-                    reading_cm_s2: r.p.measured,
-                    sigma_reading_cm_s2: *sig,
-                    f_cm_s2: c.f,
-                    f_g: c.f.map(|x| x / g),
-                    f_magnitude_cm_s2: mag,
-                    sigma_f_magnitude_cm_s2: smag,
-                    covariance_cm2_s4: c.covariance(),
-                    covariance_noise_cm2_s4: c.noise,
-                    covariance_calibration_cm2_s4: c.calibration,
-                }
-            }),
-        })
-        .collect();
-    let v = TriadCorrectJson {
-        data: req.data.display().to_string(),
-        calibration: req.calibration.clone(),
-        instrument: req.instrument.clone(),
-        g_cm_s2: g,
-        frame: req.cal.orientation.name().to_string(),
-        rows,
-        warnings: req.warnings.clone(),
-    };
-    // Through a `Value`: its keys in the order of their names.
-    serde_json::to_value(v).expect("plain data")
+    req.corrected.json(
+        &req.data.display().to_string(),
+        &req.calibration,
+        &req.instrument,
+    )
 }
