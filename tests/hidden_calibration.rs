@@ -1,4 +1,4 @@
-//! Calibration-coverage tests (`ptsa_tests::hidden::calibration`): tumbles of 8, 12 and 24
+//! Calibration-coverage tests (`ptsa_campaigns::calibration`): tumbles of 8, 12 and 24
 //! positions and two 24-point tumbles, generated from the IEEE Std 1293 model equation with
 //! the instrument's absolute `K_0`, `K_1`, `δ_o`, `δ_p`, `K_2` drawn per set, analysed by
 //! `ptsa_host_sim::discovery::discover` with the analytic simulator; the `calibration`
@@ -13,8 +13,8 @@
 //!   alone) within 95 ± 2.5 %; run by
 //!   `cargo xtask hidden --calibration`.
 
-use ptsa_tests::hidden::calibration::Calibration;
-use ptsa_tests::hidden::campaign::{assert_met, env};
+use ptsa_campaigns::calibration::Calibration;
+use ptsa_campaigns::campaign::{assert_met, env};
 
 /// Sets of the CI subset.
 const CI_SETS: usize = 120;

@@ -1,4 +1,4 @@
-//! Hidden-effect tests of the discovery pipeline (`ptsa_tests::hidden`): synthetic measured
+//! Hidden-effect tests of the discovery pipeline (`ptsa_campaigns`): synthetic measured
 //! sets made by the closed loop with physics injected from the equations (one candidate's,
 //! one outside the vocabulary, a bias shift per block, a drift, or nothing with homo- or
 //! heteroscedastic noise), analysed blind by `ptsa_host_sim::discovery::discover`, scored,
@@ -19,10 +19,10 @@
 //! `ptsa discover` does.
 
 use ptsa_host_sim::discovery::{self, Simulator};
-use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
-use ptsa_tests::hidden::effects::{self, Effects};
-use ptsa_tests::hidden::physics::Generator;
+use ptsa_campaigns::Run;
+use ptsa_campaigns::campaign::{assert_met, env, env_flag};
+use ptsa_campaigns::effects::{self, Effects};
+use ptsa_campaigns::physics::Generator;
 
 /// Sets of every kind in the CI test: 19 kinds × 35 = 665 sets, about 25 s on two cores.
 /// A null or misnaming kind fails when its count k has `P(X ≥ k | 35, 5 %) < 1 %`, i.e. at

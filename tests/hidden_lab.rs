@@ -1,4 +1,4 @@
-//! The lab campaign (`ptsa_tests::hidden::lab`): a hysteresis in angle and interleaved
+//! The lab campaign (`ptsa_campaigns::lab`): a hysteresis in angle and interleaved
 //! order, a bias and a scale factor changing with temperature, hidden as physics in a
 //! 24-point tumble about OA at 6 and 10 SE, and nulls, recovered blind by
 //! `ptsa_host_sim::discovery::discover`; the rates asserted.
@@ -11,9 +11,9 @@
 //!
 //! `PTSA_HIDDEN_LOG=1` prints every set, not only those that matter for the rates.
 
-use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
-use ptsa_tests::hidden::lab::{self, Lab};
+use ptsa_campaigns::Run;
+use ptsa_campaigns::campaign::{assert_met, env, env_flag};
+use ptsa_campaigns::lab::{self, Lab};
 
 /// Sets of every kind in the CI test: 23 kinds × 20 = 460 sets of 24 rows, analytic.
 const CI_SETS: usize = 20;
@@ -49,7 +49,7 @@ fn hidden_lab_campaign() {
 #[test]
 #[ignore = "a debugging aid: PTSA_HIDDEN_EXPLAIN_KIND=... PTSA_HIDDEN_EXPLAIN_SEED=..."]
 fn explain_one_lab_set() {
-    use ptsa_tests::hidden::campaign::Campaign as _;
+    use ptsa_campaigns::campaign::Campaign as _;
     let name = std::env::var("PTSA_HIDDEN_EXPLAIN_KIND").unwrap_or_else(|_| "null".into());
     let seed: u64 = env("PTSA_HIDDEN_EXPLAIN_SEED", 1);
     let kind = lab::LabKind::all()

@@ -1,4 +1,4 @@
-//! Hidden-parameter tests (`ptsa_tests::hidden::params`): response tables (and saturation
+//! Hidden-parameter tests (`ptsa_campaigns::params`): response tables (and saturation
 //! rows) measured on an instrument file with one parameter changed, or none, identified
 //! blind through the closed loop of the shipped file; the rates asserted.
 //!
@@ -10,9 +10,9 @@
 //! * `hidden_parameters_campaign` (ignored): `PTSA_HIDDEN_SETS` per parameter and design
 //!   (default 10), seed `PTSA_HIDDEN_SEED`, run by `cargo xtask hidden --parameters`.
 
-use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::{assert_met, env};
-use ptsa_tests::hidden::params::{self, ParamDesign, Params};
+use ptsa_campaigns::Run;
+use ptsa_campaigns::campaign::{assert_met, env};
+use ptsa_campaigns::params::{self, ParamDesign, Params};
 
 /// Sets per parameter in CI: the 5 parameters the design sees and an unperturbed set, each
 /// about 6 s on two cores (each set's analysis runs some 10 000 closed loops of its table's

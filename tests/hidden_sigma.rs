@@ -1,4 +1,4 @@
-//! The understated-sigma campaign (`ptsa_tests::hidden::sigma`): null sets whose stated
+//! The understated-sigma campaign (`ptsa_campaigns::sigma`): null sets whose stated
 //! sigma is the true noise over 1, 1.5, 2, 3 and 4, and sets with one effect at 6 SE, on
 //! R-890 Table 6.1's 8 rows and a 24-point tumble about OA, analysed blind by
 //! `ptsa_host_sim::discovery::discover`; the false-selection rates asserted.
@@ -10,9 +10,9 @@
 //!
 //! `PTSA_HIDDEN_LOG=1` prints every set, not only those that matter for the rates.
 
-use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
-use ptsa_tests::hidden::sigma::{self, ASSERTED, Sigma, SigmaKind};
+use ptsa_campaigns::Run;
+use ptsa_campaigns::campaign::{assert_met, env, env_flag};
+use ptsa_campaigns::sigma::{self, ASSERTED, Sigma, SigmaKind};
 
 /// Sets of every kind in the CI test: 4 kinds × 100 analytic sets of 8 or 24 rows.
 const CI_SETS: usize = 100;

@@ -1,4 +1,4 @@
-//! Stability null campaign (`ptsa_tests::hidden::stability`): tumbles of 24 and 48 points
+//! Stability null campaign (`ptsa_campaigns::stability`): tumbles of 24 and 48 points
 //! about one or two axes, generated from the IEEE Std 1293 model equation with constant
 //! coefficients (Kearfott 2401 and the loop-less `mems` file, scale-factor changes up to
 //! 4 %, with and without `K_2`, stated and estimated noise), analysed by
@@ -11,8 +11,8 @@
 //!   `PTSA_HIDDEN_SEED`:
 //!   `PTSA_HIDDEN_SETS=2000 cargo test -q -p ptsa-tests --test hidden_stability -- --ignored hidden_stability_campaign`.
 
-use ptsa_tests::hidden::campaign::{assert_met, env};
-use ptsa_tests::hidden::stability::Stability;
+use ptsa_campaigns::campaign::{assert_met, env};
+use ptsa_campaigns::stability::Stability;
 
 /// Sets of the CI subset.
 const CI_SETS: usize = 200;

@@ -1,4 +1,4 @@
-//! Hidden-statics tests (`ptsa_tests::hidden::statics`): the model equation's static terms
+//! Hidden-statics tests (`ptsa_campaigns::statics`): the model equation's static terms
 //! (an IA tilt toward PA or OA, a quadratic or cubic term, a bias change, a scale-factor
 //! error) hidden as physics in the closed loop's plant, measured in 8-, 12- and 24-point
 //! tumbles and a centrifuge after an 8-point tumble, recovered blind by
@@ -18,9 +18,9 @@
 //!
 //! `PTSA_HIDDEN_LOG=1` prints every set, not only those that matter for the rates.
 
-use ptsa_tests::hidden::Run;
-use ptsa_tests::hidden::campaign::{assert_met, env, env_flag};
-use ptsa_tests::hidden::statics::{self, Statics};
+use ptsa_campaigns::Run;
+use ptsa_campaigns::campaign::{assert_met, env, env_flag};
+use ptsa_campaigns::statics::{self, Statics};
 
 /// Sets of every kind in each of the CI campaigns: 7 kinds × 30 = 210 sets with the whole
 /// vocabulary (about 8 s on two cores) and 210 with the additive terms (about 3 s).

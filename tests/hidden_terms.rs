@@ -24,7 +24,7 @@
 
 use ptsa_host_sim::noise::identify_terms;
 use ptsa_host_sim::noise::terms::{self, WITH_RATE_RAMP};
-use ptsa_tests::hidden::campaign::{assert_met, binomial_upper_tail, env};
+use ptsa_campaigns::campaign::{assert_met, binomial_upper_tail, env};
 use rayon::prelude::*;
 
 /// Records of each kind in the CI campaign (7 kinds, about 30 s on two cores).

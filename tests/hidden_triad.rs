@@ -1,4 +1,4 @@
-//! The triad campaign (`ptsa_tests::hidden::triad`): triads of 8, 12 and 24 positions on a
+//! The triad campaign (`ptsa_campaigns::triad`): triads of 8, 12 and 24 positions on a
 //! precision fixture, of 24 and 37 positions placed by hand (0.5–1° from nominal), and of
 //! 37 positions cut from a raw stream, generated from the equations and calibrated blind by `ptsa_host_sim::triad::fit`; the
 //! 95 % intervals' coverage asserted.
@@ -10,8 +10,8 @@
 //!   as if on a precision fixture: the χ² and the |g| check must say so.
 
 use ptsa_host_sim::triad::fit::{self, Orientation};
-use ptsa_tests::hidden::campaign::{assert_met, env};
-use ptsa_tests::hidden::triad::{self, G, TriadKind, generate_triad};
+use ptsa_campaigns::campaign::{assert_met, env};
+use ptsa_campaigns::triad::{self, G, TriadKind, generate_triad};
 
 /// Sets of every design in the CI test.
 const CI_SETS: usize = 60;

@@ -1,10 +1,8 @@
-//! Shared helpers for the workspace-level tests: the golden-vector files and the
-//! hidden-effect generator of the discovery tests ([`hidden`]). Test support only; nothing
-//! here is part of `ptsa-core`'s or `ptsa-host-sim`'s interface.
+//! Shared helpers for the workspace-level tests: the golden-vector files. (The hidden-effect
+//! generator and campaigns the `hidden_*` tests run are the crate `ptsa-campaigns`.) Test
+//! support only; nothing here is part of `ptsa-core`'s or `ptsa-host-sim`'s interface.
 
 use std::path::{Path, PathBuf};
-
-pub mod hidden;
 
 /// The `tests/golden` directory.
 #[must_use]

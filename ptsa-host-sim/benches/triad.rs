@@ -24,7 +24,7 @@ use rand::SeedableRng as _;
 
 /// The triad generator written from the equations (shared with the triad campaign and the
 /// CLI tests; it uses nothing of `ptsa_host_sim`).
-#[path = "../../tests/hidden/triad_gen.rs"]
+#[path = "../../ptsa-campaigns/src/triad_gen.rs"]
 mod triad_gen;
 use triad_gen::{G, TriadTruth};
 

@@ -12,7 +12,7 @@ use common::{assert_clean_of, json_in, numbers, ptsa_in, stderr, stdout};
 
 /// The triad generator written from the equations (shared with the triad campaign and
 /// the benchmark; it uses nothing of `ptsa_host_sim`).
-#[path = "../../tests/hidden/triad_gen.rs"]
+#[path = "../../ptsa-campaigns/src/triad_gen.rs"]
 mod triad_gen;
 use triad_gen::{StreamSpec, TriadTruth, design37, hand_placed, in_triad_frame, stream_csv};
 

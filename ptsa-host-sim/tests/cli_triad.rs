@@ -13,7 +13,7 @@ use common::{json_in, numbers, ptsa_in, refused_in_folder, stderr, stdout};
 
 /// The triad generator written from the equations (shared with the triad campaign and
 /// the benchmark; it uses nothing of `ptsa_host_sim`).
-#[path = "../../tests/hidden/triad_gen.rs"]
+#[path = "../../ptsa-campaigns/src/triad_gen.rs"]
 mod triad_gen;
 use triad_gen::{G, TriadTruth};
 

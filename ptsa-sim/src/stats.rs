@@ -293,7 +293,7 @@ mod tests {
     fn clopper_pearson_is_where_the_binomial_tails_reach_two_and_a_half_percent() {
         use statrs::distribution::{Binomial, DiscreteCDF as _};
         // 58 of 60 and 59 of 60: the identification campaign's rates, [88.5, 99.6] % and
-        // [91.1, 100.0] % by bisection on the tails (tests/hidden/sigma.rs).
+        // [91.1, 100.0] % by bisection on the tails (ptsa-campaigns/src/sigma.rs).
         let (lo, hi) = clopper_pearson(58, 60, 0.95);
         assert!(
             (lo - 0.885).abs() < 5e-4 && (hi - 0.996).abs() < 5e-4,

@@ -49,7 +49,7 @@
 //! significant.
 //!
 //! Where it fails: the coverage of the k = 2 intervals was measured on tumbles written from
-//! the equation (`cargo xtask hidden --calibration`, `tests/hidden/calibration.rs`); a term
+//! the equation (`cargo xtask hidden --calibration`, `ptsa-campaigns/src/calibration.rs`); a term
 //! the model equation does not hold (a hysteresis, a temperature or time dependence) that the
 //! selection does not name biases the terms whose columns it shares.
 

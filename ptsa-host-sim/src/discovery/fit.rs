@@ -143,7 +143,7 @@ pub const EQUIVALENT_COS: f64 = 0.999;
 /// half the true noise, which a reference with a few degrees of freedom often cannot
 /// reject, is still within the error the pooling grants it. It was 8 (25 %): on R-890
 /// Table 6.1's 8 rows a null set with its sigma stated 2× too small then selected an effect
-/// in 63 of 600 sets (10.5 %); with 2, 30 of 600 (`tests/hidden/sigma.rs`).
+/// in 63 of 600 sets (10.5 %); with 2, 30 of 600 (`ptsa-campaigns/src/sigma.rs`).
 pub const STATED_SIGMA_DOF: f64 = 2.0;
 
 /// Level of the χ² test (upper tail) by which the reference model's residuals reject a

@@ -1,5 +1,5 @@
 //! The triad generator written from the equations, one definition shared by the triad
-//! campaign (`tests/hidden/triad.rs`), the triad CLI tests
+//! campaign (`ptsa-campaigns/src/triad.rs`), the triad CLI tests
 //! (`ptsa-host-sim/tests/cli_triad.rs`) and the triad benchmark
 //! (`ptsa-host-sim/benches/triad.rs`), which include this file by its path. It uses only
 //! `std` and `rand`: nothing of `ptsa_host_sim`, so that what it writes owes nothing to the

@@ -1,6 +1,7 @@
-//! Hidden-effect generator and campaign of the discovery pipeline
-//! (`tests/hidden_effects.rs`, `cargo xtask hidden`). Test support: not part of
-//! `ptsa-host-sim`'s interface.
+//! The hidden-effect generator and the campaigns of the analyses: sets generated from the
+//! equations, analysed blind, scored. Run by the tests crate (`tests/hidden_*.rs`, a CI
+//! subset each) and by `cargo xtask hidden` (the full campaigns). A validation harness,
+//! not part of `ptsa-host-sim`'s interface.
 //!
 //! A set is a design ([`designs`]) whose measured values are made by the closed loop with
 //! physics injected from the equations ([`physics`]: the instrument's anisoinertia, an
