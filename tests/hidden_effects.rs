@@ -18,11 +18,9 @@
 //! dynamics); otherwise the pipeline's baseline and re-simulation use the closed loop, as
 //! `ptsa discover` does.
 
-use ptsa_host_sim::discovery::{self, Simulator};
 use ptsa_campaigns::Run;
 use ptsa_campaigns::campaign::{assert_met, env, env_flag};
-use ptsa_campaigns::effects::{self, Effects};
-use ptsa_campaigns::physics::Generator;
+use ptsa_campaigns::effects::Effects;
 
 /// Sets of every kind in the CI test: 19 kinds × 35 = 665 sets, about 25 s on two cores.
 /// A null or misnaming kind fails when its count k has `P(X ≥ k | 35, 5 %) < 1 %`, i.e. at
@@ -30,12 +28,8 @@ use ptsa_campaigns::physics::Generator;
 /// at 20 % with probability 73 % (`campaign::RATE_TEST_LEVEL`).
 const CI_SETS: usize = 35;
 
-fn sims() -> (Generator, Box<dyn Simulator>) {
-    if env_flag("PTSA_HIDDEN_ANALYTIC") {
-        (Generator::quasi_static(), discovery::analytic())
-    } else {
-        (Generator::closed_loop(), discovery::sim::closed_loop(1))
-    }
+fn campaign() -> Effects {
+    Effects::of(env_flag("PTSA_HIDDEN_ANALYTIC"))
 }
 
 fn check(c: &Run<Effects>, ci: bool) {
@@ -56,8 +50,7 @@ fn check(c: &Run<Effects>, ci: bool) {
 
 #[test]
 fn hidden_effects_ci() {
-    let (source, fit) = sims();
-    check(&effects::run(CI_SETS, 2026, source, fit), true);
+    check(&Run::new(campaign(), CI_SETS, 2026), true);
 }
 
 #[test]
@@ -65,6 +58,5 @@ fn hidden_effects_ci() {
 fn hidden_effects_campaign() {
     let n: usize = env("PTSA_HIDDEN_SETS", 50);
     let seed: u64 = env("PTSA_HIDDEN_SEED", 4242);
-    let (source, fit) = sims();
-    check(&effects::run(n, seed, source, fit), false);
+    check(&Run::new(campaign(), n, seed), false);
 }

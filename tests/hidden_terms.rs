@@ -22,9 +22,9 @@
 //! two octaves) are printed, not asserted: there the identification often names the rise
 //! another rising term (docs/method/noise.md).
 
+use ptsa_campaigns::campaign::{assert_met, binomial_upper_tail, env};
 use ptsa_host_sim::noise::identify_terms;
 use ptsa_host_sim::noise::terms::{self, WITH_RATE_RAMP};
-use ptsa_campaigns::campaign::{assert_met, binomial_upper_tail, env};
 use rayon::prelude::*;
 
 /// Records of each kind in the CI campaign (7 kinds, about 30 s on two cores).

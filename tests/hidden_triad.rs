@@ -9,9 +9,9 @@
 //! * `exact_orientations_on_a_hand_placed_block_are_flagged`: hand-placed sets analysed
 //!   as if on a precision fixture: the χ² and the |g| check must say so.
 
-use ptsa_host_sim::triad::fit::{self, Orientation};
 use ptsa_campaigns::campaign::{assert_met, env};
 use ptsa_campaigns::triad::{self, G, TriadKind, generate_triad};
+use ptsa_host_sim::triad::fit::{self, Orientation};
 
 /// Sets of every design in the CI test.
 const CI_SETS: usize = 60;

@@ -17,6 +17,7 @@ use ptsa_host_sim::discovery::Selected;
 use ptsa_host_sim::discovery::{Discovery, Options, Simulator, discover};
 use ptsa_host_sim::model::condition::Condition;
 use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
 use statrs::distribution::{Binomial, DiscreteCDF as _};
 
 /// Largest asserted false-selection and misnaming rate.
@@ -85,7 +86,7 @@ pub fn set_seed(seed: u64, kind_index: usize, k: usize) -> u64 {
 }
 
 /// One selection as the scoring keeps it.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Named {
     /// The candidate.
     pub id: CandidateId,
@@ -104,7 +105,7 @@ pub struct Named {
 }
 
 /// How the pipeline did on one set.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 // Independent yes/no outcomes, each counted.
 #[allow(clippy::struct_excessive_bools)]
 pub struct Outcome<T> {
@@ -135,7 +136,7 @@ pub struct Outcome<T> {
     pub outliers: Vec<String>,
     /// How many warnings the result gives (`warnings` of the JSON).
     pub warnings: usize,
-    /// The extended model's χ² tail probability (NaN when refused).
+    /// The extended model's χ² tail probability (NaN when refused; `null` in JSON).
     pub extended_p: f64,
     /// The pipeline refused the set.
     pub error: Option<String>,
@@ -315,28 +316,35 @@ pub struct Run<C: Campaign> {
     pub seconds: f64,
 }
 
+/// Every set a run makes, in table order: its seed and its kind.
+fn jobs<C: Campaign>(c: &C, sets: usize, seed: u64) -> Vec<(u64, C::Kind)> {
+    c.kinds()
+        .into_iter()
+        .enumerate()
+        .flat_map(|(i, kind)| (0..sets).map(move |k| (set_seed(seed, i, k), kind)))
+        .filter(|&(_, kind)| c.hidden(kind))
+        .collect()
+}
+
+/// Make and analyse the sets `jobs`, in their order.
+fn analyse_jobs<C: Campaign>(c: &C, jobs: &[(u64, C::Kind)]) -> Vec<Outcome<C::Truth>> {
+    let one = |&(s, kind): &(u64, C::Kind)| {
+        let (rows, truth) = c.generate(s, kind);
+        analyse(c, s, &rows, truth)
+    };
+    if C::PARALLEL {
+        jobs.par_iter().map(one).collect()
+    } else {
+        jobs.iter().map(one).collect()
+    }
+}
+
 impl<C: Campaign> Run<C> {
     /// Make and analyse `sets` sets of every kind `campaign` hides.
     #[must_use]
     pub fn new(campaign: C, sets: usize, seed: u64) -> Self {
         let t0 = Instant::now();
-        let c = &campaign;
-        let jobs: Vec<(u64, C::Kind)> = c
-            .kinds()
-            .into_iter()
-            .enumerate()
-            .flat_map(|(i, kind)| (0..sets).map(move |k| (set_seed(seed, i, k), kind)))
-            .filter(|&(_, kind)| c.hidden(kind))
-            .collect();
-        let one = |&(s, kind): &(u64, C::Kind)| {
-            let (rows, truth) = c.generate(s, kind);
-            analyse(c, s, &rows, truth)
-        };
-        let outcomes = if C::PARALLEL {
-            jobs.par_iter().map(one).collect()
-        } else {
-            jobs.iter().map(one).collect()
-        };
+        let outcomes = analyse_jobs(&campaign, &jobs(&campaign, sets, seed));
         let seconds = t0.elapsed().as_secs_f64();
         Run {
             campaign,
@@ -345,6 +353,73 @@ impl<C: Campaign> Run<C> {
             outcomes,
             seconds,
         }
+    }
+
+    /// Shard `part` of `parts` of the run [`Run::new`] makes: the sets whose position in
+    /// table order is `part` modulo `parts` (so that every shard has its share of every
+    /// kind), made and analysed. Each set's outcome depends on its seed alone, so the
+    /// shards put together by [`Run::gather`] are [`Run::new`]'s outcomes whatever `parts`.
+    ///
+    /// # Panics
+    /// If `part` is not below `parts`.
+    #[must_use]
+    pub fn shard(
+        campaign: &C,
+        sets: usize,
+        seed: u64,
+        part: usize,
+        parts: usize,
+    ) -> Vec<Outcome<C::Truth>> {
+        assert!(part < parts, "shard {part} of {parts}");
+        let mine: Vec<_> = jobs(campaign, sets, seed)
+            .into_iter()
+            .skip(part)
+            .step_by(parts)
+            .collect();
+        analyse_jobs(campaign, &mine)
+    }
+
+    /// The run whose shards [`Run::shard`] made, `shards[p]` being shard `p` of
+    /// `shards.len()`; `seconds` is the wall time the caller measured.
+    ///
+    /// # Errors
+    /// If a shard does not hold the sets its place says (another campaign, size or seed).
+    pub fn gather(
+        campaign: C,
+        sets: usize,
+        seed: u64,
+        shards: Vec<Vec<Outcome<C::Truth>>>,
+        seconds: f64,
+    ) -> Result<Self, String> {
+        let seeds: Vec<u64> = jobs(&campaign, sets, seed).iter().map(|j| j.0).collect();
+        let parts = shards.len().max(1);
+        let mut iters: Vec<_> = shards.into_iter().map(Vec::into_iter).collect();
+        let mut outcomes = Vec::with_capacity(seeds.len());
+        for (i, &s) in seeds.iter().enumerate() {
+            match iters.get_mut(i % parts).and_then(Iterator::next) {
+                Some(o) if o.seed == s => outcomes.push(o),
+                Some(o) => {
+                    return Err(format!(
+                        "shard {} of {parts}: set {} where set {s} belongs",
+                        i % parts,
+                        o.seed
+                    ));
+                }
+                None => return Err(format!("shard {} of {parts}: set {s} missing", i % parts)),
+            }
+        }
+        if let Some(p) = iters.iter_mut().position(|it| it.next().is_some()) {
+            return Err(format!(
+                "shard {p} of {parts}: more sets than the campaign makes"
+            ));
+        }
+        Ok(Run {
+            campaign,
+            sets,
+            seed,
+            outcomes,
+            seconds,
+        })
     }
 
     /// The figures of the sets `keep` keeps, gathered by `add`.

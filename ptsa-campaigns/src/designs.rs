@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use super::{Draw, Rng, rng};
 
 /// A design's kind.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Design {
     /// Table 6.1-like rate table.
     RateTable,

@@ -26,7 +26,7 @@ use std::fmt::Write as _;
 
 use ptsa_host_sim::CandidateId;
 use ptsa_host_sim::discovery::Selected;
-use ptsa_host_sim::discovery::{Options, Simulator};
+use ptsa_host_sim::discovery::{self, Options, Simulator};
 use ptsa_host_sim::model::condition::Condition;
 
 use super::campaign::{
@@ -70,6 +70,18 @@ impl Effects {
             source,
             fit,
             options: additive(),
+        }
+    }
+
+    /// The campaign as `cargo xtask hidden` runs it: the data made by the closed loop with
+    /// the physics injected and analysed with the closed loop, or (`analytic`) made by the
+    /// generator's quasi-static model and analysed with the analytic simulator.
+    #[must_use]
+    pub fn of(analytic: bool) -> Self {
+        if analytic {
+            Effects::new(Generator::quasi_static(), discovery::analytic())
+        } else {
+            Effects::new(Generator::closed_loop(), discovery::sim::closed_loop(1))
         }
     }
 }

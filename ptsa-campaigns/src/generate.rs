@@ -28,7 +28,7 @@ use super::{Draw, Rng, rng};
 pub const OUT_OF_VOCABULARY: &[Product] = &[Product::WoaApa];
 
 /// What a set hides.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Kind {
     /// One candidate's physics.
     Candidate(CandidateId),
@@ -196,7 +196,7 @@ pub fn hidden_in_difference_data(id: CandidateId) -> bool {
 }
 
 /// What was hidden in a set.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Truth {
     /// The kind.
     pub kind: Kind,

@@ -86,7 +86,7 @@ pub const WARM_UP_ROWS: f64 = 4.8;
 const NO_CHANGE_CM_S2: f64 = 1e-6;
 
 /// The order the tumble's positions are measured in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Order {
     /// 0°, 15°, …, 345°.
     Angle,
@@ -95,7 +95,7 @@ pub enum Order {
 }
 
 /// What a set hides.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Effect {
     /// A hysteresis `h·s`, cm/s², in the given order.
     Hysteresis(Order),
@@ -250,7 +250,7 @@ const NULLS: [Effect; 6] = [
 ];
 
 /// A kind of the campaign: an effect at a strength (0 for the nulls).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LabKind {
     /// What is hidden.
     pub effect: Effect,
@@ -483,7 +483,7 @@ pub enum LabGenerator {
 }
 
 /// What a set hides.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct LabTruth {
     /// The kind.
     pub kind: LabKind,

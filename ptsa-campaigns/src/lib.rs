@@ -1,7 +1,8 @@
 //! The hidden-effect generator and the campaigns of the analyses: sets generated from the
 //! equations, analysed blind, scored. Run by the tests crate (`tests/hidden_*.rs`, a CI
-//! subset each) and by `cargo xtask hidden` (the full campaigns). A validation harness,
-//! not part of `ptsa-host-sim`'s interface.
+//! subset each), by `cargo xtask hidden` (the full campaigns) and by Python's
+//! `python -m ptsa.campaign hidden` (the naming campaigns in shards on Ray, [`shard`]).
+//! A validation harness, not part of `ptsa-host-sim`'s interface.
 //!
 //! A set is a design ([`designs`]) whose measured values are made by the closed loop with
 //! physics injected from the equations ([`physics`]: the instrument's anisoinertia, an
@@ -50,6 +51,7 @@ pub mod generate;
 pub mod lab;
 pub mod params;
 pub mod physics;
+pub mod shard;
 pub mod sigma;
 pub mod stability;
 pub mod statics;

@@ -71,7 +71,7 @@ pub const PARAMETERS: [CandidateId; 8] = [
 ];
 
 /// A design's rows, without measurements.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum ParamDesign {
     /// 20 frequencies from 2 to 400 Hz at 2000 cm/s² along IA.
     Response20,
@@ -184,7 +184,7 @@ fn calibration(design: ParamDesign) -> &'static Vec<Vec<f64>> {
 }
 
 /// What a set hides.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct ParamTruth {
     /// The parameter, or `None` (unperturbed).
     pub id: Option<CandidateId>,

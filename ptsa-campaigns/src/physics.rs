@@ -47,7 +47,7 @@ pub fn lever_arm_accel(w: [f64; 3], dw: [f64; 3], r: [f64; 3]) -> [f64; 3] {
 }
 
 /// A product of the case inputs, as an extra specific force along IA per unit coefficient.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum Product {
     /// `a_IA·a_PA` (vibropendulosity), s²/cm.
     AiaApa,

@@ -50,7 +50,7 @@ pub const ASSERTED: [f64; 2] = [1.0, 2.0];
 pub const POWER_SE: f64 = 6.0;
 
 /// A design of the campaign.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum SigmaDesign {
     /// R-890 Table 6.1's 8 rows.
     Table61,
@@ -160,7 +160,7 @@ impl SigmaDesign {
 
 /// A kind: a design, the factor its sigma is understated by, and the strength of what is
 /// hidden (0: a null).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SigmaKind {
     /// The design.
     pub design: SigmaDesign,
@@ -208,7 +208,7 @@ impl SigmaKind {
 }
 
 /// What a set hides.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct SigmaTruth {
     /// The kind.
     pub kind: SigmaKind,
@@ -232,18 +232,22 @@ impl std::fmt::Debug for Sigma {
     }
 }
 
-/// Run `sets` sets of every kind of `kinds` (default: [`SigmaKind::all`]).
-#[must_use]
-pub fn run(sets: usize, seed: u64, kinds: Option<Vec<SigmaKind>>) -> Run<Sigma> {
-    Run::new(
+impl Sigma {
+    /// The campaign over `kinds` (default: [`SigmaKind::all`]).
+    #[must_use]
+    pub fn new(kinds: Option<Vec<SigmaKind>>) -> Self {
         Sigma {
             sim: discovery::analytic(),
             options: super::effects::additive(),
             kinds: kinds.unwrap_or_else(SigmaKind::all),
-        },
-        sets,
-        seed,
-    )
+        }
+    }
+}
+
+/// Run `sets` sets of every kind of `kinds` (default: [`SigmaKind::all`]).
+#[must_use]
+pub fn run(sets: usize, seed: u64, kinds: Option<Vec<SigmaKind>>) -> Run<Sigma> {
+    Run::new(Sigma::new(kinds), sets, seed)
 }
 
 /// A set's outcome.

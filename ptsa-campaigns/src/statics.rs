@@ -122,7 +122,7 @@ use super::generate::residualize;
 use super::{Draw, Rng, rng};
 
 /// What a set hides.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum StaticKind {
     /// IA tilted toward PA by δ (about OA), rad.
     TiltTowardPa,
@@ -223,7 +223,7 @@ impl StaticKind {
 }
 
 /// A design of absolute rows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum StaticDesign {
     /// A tumble of `positions` equally spaced positions about `axis` (OA or PA).
     Tumble {
@@ -498,7 +498,7 @@ pub const MAX_DESIGN_DRAWS: usize = 200;
 pub const MIN_PARTIAL: f64 = 0.3;
 
 /// What a set hides.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct StaticTruth {
     /// The kind.
     pub kind: StaticKind,

@@ -13,6 +13,13 @@ byte for byte, the line ``ptsa noise --counts/--readings FILE --json`` prints, i
 of the files' names; a record refused is an ``error:`` line and exit status 1, the others
 printed. A record travels to its task as its bytes.
 
+``python -m ptsa.campaign hidden NAME --sets N --seed S``: a naming campaign of the
+analyses (``effects``, ``statics``, ``params``, ``lab``, ``sigma``: ``cargo xtask hidden``'s),
+cut into ``--tasks`` shards. Shard ``p`` is the sets at positions ``p``, ``p + tasks``, ...
+in table order; each set depends on the seed, its kind and its index only, so the table and
+the ``--json`` line are the same whatever the number of tasks or workers. What travels is
+five small values out and each shard's outcomes back, as bytes.
+
 ``--ray none`` (the default) runs the tasks one after another in this process, without
 Ray, and opens no port. ``--ray local`` starts a new Ray on this machine: its processes
 listen on every interface of the machine (Ray's own choice), so use it on a machine whose
@@ -209,6 +216,92 @@ def _noise_task(name: str, data: bytes | ptsa.PtsaError, options: dict[str, Any]
         return ptsa.PtsaError(f"{name}: {type(e).__name__}: {e}")
 
 
+class HiddenRun(dict):
+    """A naming campaign put together: ``json`` (the dict the ``--json`` line holds: every
+    set's outcome in table order and the ``failures``), ``text`` (that line),
+    ``notable`` (the sets that matter for the rates), ``table`` (the campaign's table, its
+    wall time in the first line) and ``failures`` (the asserted rates not met; empty: the
+    campaign passes)."""
+
+
+def hidden(
+    name: str,
+    *,
+    sets: int,
+    seed: int,
+    analytic: bool = False,
+    additive: bool = False,
+    ray: str = "none",
+    num_cpus: int | None = None,
+    tasks: int = 64,
+    progress: bool = False,
+) -> HiddenRun:
+    """The naming campaign ``name`` (:func:`hidden_names`), ``sets`` sets of every kind,
+    in ``tasks`` shards, each a Ray task on one core.
+
+    Args:
+        analytic: ``effects`` and ``lab``: data from the quasi-static model, analysed with
+            the analytic simulator (fast, no loop dynamics).
+        additive: ``statics``: the loop's parameters left out of the vocabulary.
+        ray: as :func:`yield_study`'s; ``"none"`` runs the whole campaign in this process
+            on every core.
+        tasks: shards, one Ray task each (a shard beyond the campaign's sets is empty).
+        progress: a line on standard error as each shard ends.
+    """
+    import time
+
+    _ptsa = ptsa._ptsa
+    if tasks < 1:
+        raise ptsa.PtsaError(f"tasks {tasks}: expected 1 or more")
+    key = (name, int(sets), int(seed), bool(analytic), bool(additive))
+    _ptsa.hidden_check(*key)  # one refusal for all, before Ray starts
+    t0 = time.perf_counter()
+    if ray == "none":
+        return _hidden_run(_ptsa.hidden_whole(*key))
+    import ray as ray_mod
+
+    started = not ray_mod.is_initialized()
+    if started:
+        _start(ray_mod, ray, num_cpus)
+    try:
+        task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
+            _ptsa_hidden_part
+        )
+        refs = [task.remote(key, p, tasks) for p in range(tasks)]
+        _wait(ray_mod, refs, "shards", progress)
+        shards = ray_mod.get(refs)
+    finally:
+        if started:
+            ray_mod.shutdown()
+    return _hidden_run(_ptsa.hidden_gather(*key, shards, time.perf_counter() - t0))
+
+
+def hidden_names() -> list[str]:
+    """The naming campaigns :func:`hidden` runs."""
+    return list(ptsa._ptsa.hidden_names())
+
+
+def _ptsa_hidden_part(key: tuple[str, int, int, bool, bool], part: int, parts: int) -> bytes:
+    """One Ray task: a shard of the campaign, on one core."""
+    return ptsa._ptsa.hidden_part(*key, part, parts)
+
+
+def _hidden_run(out: tuple[str, str, str, list[str]]) -> HiddenRun:
+    text, notable, table, failures = out
+    return HiddenRun(json=json.loads(text), text=text, notable=notable, table=table, failures=list(failures))
+
+
+def _wait(ray_mod: Any, refs: list[Any], what: str, progress: bool) -> None:
+    """Wait for every task, with a line on standard error as each ends."""
+    pending = list(refs)
+    while pending:
+        done, pending = ray_mod.wait(pending, num_returns=1)
+        if progress:
+            print(f"\r{len(refs) - len(pending)}/{len(refs)} {what} done", end="", file=sys.stderr, flush=True)
+    if progress:
+        print(file=sys.stderr)
+
+
 def bench(instruments: int, repeats: int, task_size: int, expect: float | None) -> dict[str, Any]:
     """The study on a local Ray of 1 and of 2 CPUs, ``repeats`` times each: the medians, the
     speed-up, one task's ticks and seconds. With ``expect``, the speed-up must reach it."""
@@ -281,7 +374,18 @@ def main(argv: Sequence[str] | None = None) -> int:
     nz.add_argument("--confidence", type=float, help="the second confidence level, 0 to 1 (default 0.95)")
     nz.add_argument("--seed", type=int, help="with --compare or --identify: the seed of the simulated noise")
     nz.add_argument("--warmup-s", type=float, help="with --compare or --identify: the simulations' settling, s")
-    for q in (mc, nz):
+    hd = sub.add_parser("hidden", help="a naming campaign of the analyses (cargo xtask hidden's), in shards")
+    hd.add_argument("name", choices=hidden_names(),
+                    help="effects (xtask hidden), statics (--statics), params (--parameters), lab (--lab), sigma (--sigma)")
+    hd.add_argument("--sets", type=int, required=True, help="sets per kind (xtask's defaults: effects 50, statics 200, "
+                    "params 10, lab 140, sigma 600)")
+    hd.add_argument("--seed", type=int, required=True, help="the campaign's seed")
+    hd.add_argument("--analytic", action="store_true",
+                    help="effects, lab: data from the quasi-static model, analysed with the analytic simulator")
+    hd.add_argument("--additive", action="store_true", help="statics: the loop's parameters out of the vocabulary")
+    hd.add_argument("--tasks", type=int, default=64, help="shards, one task each (default 64)")
+    hd.add_argument("--json", action="store_true", help="print the JSON line (every set, the failures), not the table")
+    for q in (mc, nz, hd):
         q.add_argument("--ray", default="none",
                        help="none (no Ray, no port opened: the default), local (a new Ray on this "
                             "machine, listening on its interfaces), auto (the running cluster) or an address")
@@ -297,6 +401,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 0
     if a.campaign == "noise":
         return _noise_main(a)
+    if a.campaign == "hidden":
+        return _hidden_main(a)
     options = {k: v for k, v in vars(a).items()
                if k not in ("campaign", "instruments", "ray", "num_cpus", "task_size", "instrument")
                and v is not None}
@@ -327,6 +433,22 @@ def _noise_main(a: argparse.Namespace) -> int:
         else:
             print(r)
     return status
+
+
+def _hidden_main(a: argparse.Namespace) -> int:
+    """``hidden NAME``: the table (or the JSON line); exit 1 when an asserted rate is not met."""
+    try:
+        r = hidden(a.name, sets=a.sets, seed=a.seed, analytic=a.analytic, additive=a.additive,
+                   ray=a.ray, num_cpus=a.num_cpus, tasks=a.tasks, progress=sys.stderr.isatty())
+    except ptsa.PtsaError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    if a.json:
+        print(r["text"])
+    else:
+        print(r["notable"], end="")
+        print(r["table"], end="" if r["table"].endswith("\n") else "\n")
+    return 1 if r["failures"] else 0
 
 
 if __name__ == "__main__":

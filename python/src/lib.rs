@@ -12,6 +12,8 @@
 
 use std::path::PathBuf;
 
+mod hidden;
+
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::create_exception;
 use pyo3::prelude::*;
@@ -662,5 +664,10 @@ fn _ptsa(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(yield_plan_json, m)?)?;
     m.add_function(wrap_pyfunction!(yield_units_json, m)?)?;
     m.add_function(wrap_pyfunction!(yield_summary_json, m)?)?;
+    m.add_function(wrap_pyfunction!(hidden::hidden_names, m)?)?;
+    m.add_function(wrap_pyfunction!(hidden::hidden_check, m)?)?;
+    m.add_function(wrap_pyfunction!(hidden::hidden_part, m)?)?;
+    m.add_function(wrap_pyfunction!(hidden::hidden_gather, m)?)?;
+    m.add_function(wrap_pyfunction!(hidden::hidden_whole, m)?)?;
     Ok(())
 }

@@ -104,3 +104,36 @@ def test_unknown_options_and_a_bad_seed_are_refused_before_any_record(rack):
 def test_an_empty_folder_is_refused(tmp_path):
     r = folder_campaign(str(tmp_path))
     assert r.returncode == 1 and r.stderr == f"error: {tmp_path}: no records (.csv files) in the folder\n"
+
+
+def hidden_campaign(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, "-m", "ptsa.campaign", "hidden", *args],
+                          capture_output=True, text=True, cwd=ROOT, env=os.environ)
+
+
+def test_a_naming_campaign_in_shards_on_a_local_ray_is_the_whole_run():
+    # 18 kinds, 2 sets each, in 5 shards on 2 workers, against the run in one process.
+    whole = campaign.hidden("effects", sets=2, seed=11, analytic=True)
+    assert len(whole["json"]["outcomes"]) == 36
+    assert whole["json"]["failures"] == whole["failures"]
+    r = hidden_campaign("effects", "--sets", "2", "--seed", "11", "--analytic", "--json",
+                        "--ray", "local", "--num-cpus", "2", "--tasks", "5")
+    assert r.returncode == (1 if whole["failures"] else 0), r.stderr
+    assert r.stdout == whole["text"] + "\n"
+    # The sets that matter and the table are the whole run's; only the title's wall time
+    # differs.
+    t = hidden_campaign("effects", "--sets", "2", "--seed", "11", "--analytic", "--tasks", "3")
+    title = len(whole["notable"].splitlines())
+    got, want = t.stdout.splitlines(), (whole["notable"] + whole["table"]).splitlines()
+    assert got[title].startswith("hidden-effect campaign: 2 sets per kind, seed 11;")
+    assert got[:title] + got[title + 1:] == want[:title] + want[title + 1:]
+
+
+def test_a_naming_campaign_refuses_what_it_does_not_have_before_any_task():
+    r = hidden_campaign("params", "--sets", "1", "--seed", "1", "--analytic", "--ray", "local")
+    assert (r.returncode, r.stdout) == (1, "")
+    assert r.stderr == "error: --analytic: only the effects and lab campaigns have it, not params\n"
+    with pytest.raises(ptsa.PtsaError, match="at least 1 set"):
+        campaign.hidden("sigma", sets=0, seed=1)
+    with pytest.raises(ptsa.PtsaError, match="tasks 0"):
+        campaign.hidden("sigma", sets=1, seed=1, tasks=0)

@@ -15,7 +15,9 @@
 use crate::model::condition::{Condition, RowKind};
 
 /// Which axis a tumble or rate-table position turns about (it lies horizontal).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize, serde::Deserialize,
+)]
 pub enum Axis {
     /// IA turns in the IA–PA plane, about OA.
     Oa,

@@ -453,6 +453,14 @@ impl Serialize for CandidateId {
     }
 }
 
+impl<'de> serde::Deserialize<'de> for CandidateId {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let name = String::deserialize(d)?;
+        CandidateId::from_name(&name)
+            .ok_or_else(|| serde::de::Error::custom(format!("no candidate is called {name:?}")))
+    }
+}
+
 const _: () = {
     // The registry and the enum are generated together; check the order once more.
     let mut k = 0;
