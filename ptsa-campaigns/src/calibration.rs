@@ -264,7 +264,7 @@ pub fn generate(seed: u64, index: u64) -> Set {
 pub const TERMS: [&str; 5] = ["K_0", "K_1", "K_2", "δ_o", "δ_p"];
 
 /// One term's interval against its truth.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Scored {
     /// Index into [`TERMS`].
     pub term: usize,
@@ -274,6 +274,34 @@ pub struct Scored {
     pub measured: bool,
     /// `(value − truth)/sigma` (NaN when not measured).
     pub z: f64,
+}
+
+/// One set's scores, as the campaign's counts keep them.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SetScores {
+    /// Index of the set's source in [`Source::NAMES`].
+    pub source: usize,
+    /// The pipeline estimated the noise (it was not stated).
+    pub estimated: bool,
+    /// The design's family ([`Design::family`]).
+    pub family: usize,
+    /// Each term's interval against its truth.
+    pub scored: Vec<Scored>,
+}
+
+/// Set `index` of the campaign seeded `seed`, made and scored.
+///
+/// # Panics
+/// The analysis fails or has no calibration.
+#[must_use]
+pub fn piece(seed: u64, index: u64) -> SetScores {
+    let set = generate(seed, index);
+    SetScores {
+        source: set.source.index(),
+        estimated: !set.stated,
+        family: set.design.family(),
+        scored: score(&set),
+    }
 }
 
 /// The scored terms of one set's analysis.
@@ -363,22 +391,23 @@ impl Calibration {
     #[must_use]
     pub fn run(sets: usize, seed: u64) -> Self {
         use rayon::prelude::*;
-        let scored: Vec<(Set, Vec<Scored>)> = (0..sets as u64)
+        let pieces: Vec<SetScores> = (0..sets as u64)
             .into_par_iter()
-            .map(|i| {
-                let s = generate(seed, i);
-                let sc = score(&s);
-                (s, sc)
-            })
+            .map(|i| piece(seed, i))
             .collect();
+        Calibration::from_pieces(sets, &pieces)
+    }
+
+    /// The campaign's counts from every set's scores ([`piece`]).
+    #[must_use]
+    pub fn from_pieces(sets: usize, pieces: &[SetScores]) -> Self {
         let mut c = Calibration {
             sets,
             ..Calibration::default()
         };
-        for (set, sc) in &scored {
-            for x in sc {
-                c.counts[set.source.index()][usize::from(!set.stated)][set.design.family()][x.term]
-                    .add(x);
+        for p in pieces {
+            for x in &p.scored {
+                c.counts[p.source][usize::from(p.estimated)][p.family][x.term].add(x);
             }
         }
         c

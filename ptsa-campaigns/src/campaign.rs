@@ -317,7 +317,8 @@ pub struct Run<C: Campaign> {
 }
 
 /// Every set a run makes, in table order: its seed and its kind.
-fn jobs<C: Campaign>(c: &C, sets: usize, seed: u64) -> Vec<(u64, C::Kind)> {
+#[must_use]
+pub fn jobs<C: Campaign>(c: &C, sets: usize, seed: u64) -> Vec<(u64, C::Kind)> {
     c.kinds()
         .into_iter()
         .enumerate()
@@ -326,16 +327,19 @@ fn jobs<C: Campaign>(c: &C, sets: usize, seed: u64) -> Vec<(u64, C::Kind)> {
         .collect()
 }
 
+/// Make and analyse the set `job` (one of [`jobs`]).
+#[must_use]
+pub fn analyse_job<C: Campaign>(c: &C, job: (u64, C::Kind)) -> Outcome<C::Truth> {
+    let (rows, truth) = c.generate(job.0, job.1);
+    analyse(c, job.0, &rows, truth)
+}
+
 /// Make and analyse the sets `jobs`, in their order.
 fn analyse_jobs<C: Campaign>(c: &C, jobs: &[(u64, C::Kind)]) -> Vec<Outcome<C::Truth>> {
-    let one = |&(s, kind): &(u64, C::Kind)| {
-        let (rows, truth) = c.generate(s, kind);
-        analyse(c, s, &rows, truth)
-    };
     if C::PARALLEL {
-        jobs.par_iter().map(one).collect()
+        jobs.par_iter().map(|&j| analyse_job(c, j)).collect()
     } else {
-        jobs.iter().map(one).collect()
+        jobs.iter().map(|&j| analyse_job(c, j)).collect()
     }
 }
 
@@ -353,73 +357,6 @@ impl<C: Campaign> Run<C> {
             outcomes,
             seconds,
         }
-    }
-
-    /// Shard `part` of `parts` of the run [`Run::new`] makes: the sets whose position in
-    /// table order is `part` modulo `parts` (so that every shard has its share of every
-    /// kind), made and analysed. Each set's outcome depends on its seed alone, so the
-    /// shards put together by [`Run::gather`] are [`Run::new`]'s outcomes whatever `parts`.
-    ///
-    /// # Panics
-    /// If `part` is not below `parts`.
-    #[must_use]
-    pub fn shard(
-        campaign: &C,
-        sets: usize,
-        seed: u64,
-        part: usize,
-        parts: usize,
-    ) -> Vec<Outcome<C::Truth>> {
-        assert!(part < parts, "shard {part} of {parts}");
-        let mine: Vec<_> = jobs(campaign, sets, seed)
-            .into_iter()
-            .skip(part)
-            .step_by(parts)
-            .collect();
-        analyse_jobs(campaign, &mine)
-    }
-
-    /// The run whose shards [`Run::shard`] made, `shards[p]` being shard `p` of
-    /// `shards.len()`; `seconds` is the wall time the caller measured.
-    ///
-    /// # Errors
-    /// If a shard does not hold the sets its place says (another campaign, size or seed).
-    pub fn gather(
-        campaign: C,
-        sets: usize,
-        seed: u64,
-        shards: Vec<Vec<Outcome<C::Truth>>>,
-        seconds: f64,
-    ) -> Result<Self, String> {
-        let seeds: Vec<u64> = jobs(&campaign, sets, seed).iter().map(|j| j.0).collect();
-        let parts = shards.len().max(1);
-        let mut iters: Vec<_> = shards.into_iter().map(Vec::into_iter).collect();
-        let mut outcomes = Vec::with_capacity(seeds.len());
-        for (i, &s) in seeds.iter().enumerate() {
-            match iters.get_mut(i % parts).and_then(Iterator::next) {
-                Some(o) if o.seed == s => outcomes.push(o),
-                Some(o) => {
-                    return Err(format!(
-                        "shard {} of {parts}: set {} where set {s} belongs",
-                        i % parts,
-                        o.seed
-                    ));
-                }
-                None => return Err(format!("shard {} of {parts}: set {s} missing", i % parts)),
-            }
-        }
-        if let Some(p) = iters.iter_mut().position(|it| it.next().is_some()) {
-            return Err(format!(
-                "shard {p} of {parts}: more sets than the campaign makes"
-            ));
-        }
-        Ok(Run {
-            campaign,
-            sets,
-            seed,
-            outcomes,
-            seconds,
-        })
     }
 
     /// The figures of the sets `keep` keeps, gathered by `add`.
@@ -537,7 +474,7 @@ impl Columns {
 }
 
 /// `k` of `n`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Count {
     /// Hits.
     pub k: usize,

@@ -1,7 +1,7 @@
 //! The hidden-effect generator and the campaigns of the analyses: sets generated from the
 //! equations, analysed blind, scored. Run by the tests crate (`tests/hidden_*.rs`, a CI
 //! subset each), by `cargo xtask hidden` (the full campaigns) and by Python's
-//! `python -m ptsa.campaign hidden` (the naming campaigns in shards on Ray, [`shard`]).
+//! `python -m ptsa.campaign hidden` (every campaign in shards on Ray, [`shard`]).
 //! A validation harness, not part of `ptsa-host-sim`'s interface.
 //!
 //! A set is a design ([`designs`]) whose measured values are made by the closed loop with

@@ -1,4 +1,4 @@
-//! The naming campaigns cut into shards, for a runner beyond one process: Python's
+//! The campaigns cut into shards, for a runner beyond one process: Python's
 //! `python -m ptsa.campaign hidden`, one Ray task per shard.
 //!
 //! ```text
@@ -6,27 +6,33 @@
 //! gather(spec, [bytes of 0, …, n−1], seconds)   the driver: JSON, table, failures
 //! ```
 //!
-//! Shard `p` of `n` is the sets at positions `p`, `p + n`, `p + 2n`, … of the run in table
-//! order ([`Run::shard`]), so every shard has its share of every kind. A set's outcome
-//! depends on its seed alone, so the gathered run is [`whole`]'s, and its JSON the same
-//! bytes, whatever the number of shards or of the workers that ran them. What travels
-//! between processes is the spec (five small values) and each shard's outcomes, in
-//! `postcard`'s binary form (it keeps every `f64` bit for bit, NaN included, where JSON
-//! would turn a NaN into `null`).
+//! A run is a list of pieces, each made from the spec and its index alone: a set and its
+//! analysis, scored. Shard `p` of `n` is the pieces at positions `p`, `p + n`, `p + 2n`, …
+//! (so every shard has its share of every kind), and [`gather`] puts them back in order
+//! and makes the run from them as [`whole`] does in one process: the same JSON, byte for
+//! byte, whatever the number of shards or of the workers that ran them. What travels
+//! between processes is the spec (five small values) and each shard's pieces with their
+//! indices, in `postcard`'s binary form (it keeps every `f64` bit for bit, NaN included,
+//! where JSON would turn a NaN into `null`).
 
 use std::fmt;
 
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
-use crate::campaign::{Campaign, Outcome, Run};
+use rayon::prelude::*;
+
+use crate::calibration::{self, Calibration};
+use crate::campaign::{self, Campaign, Run};
 use crate::effects::Effects;
 use crate::lab::Lab;
 use crate::params::Params;
 use crate::sigma::Sigma;
+use crate::stability::{self, Stability};
 use crate::statics::Statics;
+use crate::triad::{self, TriadKind};
 
-/// A naming campaign that runs in shards.
+/// A campaign that runs in shards.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Name {
@@ -42,16 +48,25 @@ pub enum Name {
     Lab,
     /// An understated sigma ([`crate::sigma`]; `--sigma`).
     Sigma,
+    /// The calibration's k = 2 intervals' coverage ([`crate::calibration`]; `--calibration`).
+    Calibration,
+    /// The triad's intervals' coverage ([`crate::triad`]; `--triad`).
+    Triad,
+    /// False alarms of the stability test ([`crate::stability`]; `--stability`).
+    Stability,
 }
 
 impl Name {
     /// Every campaign, in the order `--help` lists them.
-    pub const ALL: [Name; 5] = [
+    pub const ALL: [Name; 8] = [
         Name::Effects,
         Name::Statics,
         Name::Params,
         Name::Lab,
         Name::Sigma,
+        Name::Calibration,
+        Name::Triad,
+        Name::Stability,
     ];
 
     /// The name on the command line and in the JSON.
@@ -63,6 +78,9 @@ impl Name {
             Name::Params => "params",
             Name::Lab => "lab",
             Name::Sigma => "sigma",
+            Name::Calibration => "calibration",
+            Name::Triad => "triad",
+            Name::Stability => "stability",
         }
     }
 
@@ -95,7 +113,7 @@ impl fmt::Display for Name {
 pub struct Spec {
     /// The campaign.
     pub name: Name,
-    /// Sets per kind.
+    /// Sets per kind (`calibration`, `stability`: sets in all).
     pub sets: usize,
     /// The campaign's seed (a set's seed is made from it, the kind and the set's index).
     pub seed: u64,
@@ -146,8 +164,9 @@ impl Spec {
 #[derive(Clone, Debug)]
 pub struct Gathered {
     /// `{"campaign", "sets", "seed", "analytic", "additive", "outcomes", "failures"}`: every
-    /// set's outcome in table order (a NaN is `null`) and the asserted rates not met. Holds
-    /// no wall time, so that it depends on the spec alone.
+    /// set's outcome in table order (a NaN is `null`) and the asserted rates not met. It
+    /// holds no wall time, so that it depends on the spec alone, but for the `triad`
+    /// campaign's fit times (`seconds` of each outcome).
     pub json: String,
     /// The sets that matter for the rates, one line each (as `cargo xtask hidden` logs them).
     pub notable: String,
@@ -157,36 +176,164 @@ pub struct Gathered {
     pub failures: Vec<String>,
 }
 
-/// Run `$body` with `$c` bound to the campaign `$spec` names.
-macro_rules! with_campaign {
+/// A campaign run as a list of pieces.
+trait Sharded: Sync {
+    /// A set and its analysis, scored.
+    type Piece: Serialize + DeserializeOwned + Send;
+    /// Pieces in the run.
+    fn count(&self) -> usize;
+    /// Piece `i`, made and analysed.
+    fn piece(&self, i: usize) -> Self::Piece;
+    /// Pieces are made in parallel (`false`: each one keeps every core busy already).
+    fn parallel(&self) -> bool {
+        true
+    }
+    /// The run from every piece, in order; `seconds` its wall time.
+    fn finish(self, pieces: Vec<Self::Piece>, seconds: f64) -> Finished;
+}
+
+/// A naming campaign's run: its sets are [`campaign::jobs`].
+struct Naming<C: Campaign> {
+    campaign: C,
+    sets: usize,
+    seed: u64,
+    jobs: Vec<(u64, C::Kind)>,
+}
+
+impl<C: Campaign> Naming<C> {
+    fn new(campaign: C, spec: &Spec) -> Self {
+        let jobs = campaign::jobs(&campaign, spec.sets, spec.seed);
+        Naming {
+            campaign,
+            sets: spec.sets,
+            seed: spec.seed,
+            jobs,
+        }
+    }
+}
+
+impl<C: Campaign> Sharded for Naming<C>
+where
+    C::Truth: Serialize + DeserializeOwned,
+{
+    type Piece = campaign::Outcome<C::Truth>;
+    fn count(&self) -> usize {
+        self.jobs.len()
+    }
+    fn piece(&self, i: usize) -> Self::Piece {
+        campaign::analyse_job(&self.campaign, self.jobs[i])
+    }
+    fn parallel(&self) -> bool {
+        C::PARALLEL
+    }
+    fn finish(self, outcomes: Vec<Self::Piece>, seconds: f64) -> Finished {
+        let run = Run {
+            campaign: self.campaign,
+            sets: self.sets,
+            seed: self.seed,
+            outcomes,
+            seconds,
+        };
+        let failures = run.failures(false);
+        finished(&run.outcomes, run.notable(), run.table(false), failures)
+    }
+}
+
+/// The calibration-coverage campaign's run.
+struct CoverageOfCalibration(usize, u64);
+
+impl Sharded for CoverageOfCalibration {
+    type Piece = calibration::SetScores;
+    fn count(&self) -> usize {
+        self.0
+    }
+    fn piece(&self, i: usize) -> Self::Piece {
+        calibration::piece(self.1, i as u64)
+    }
+    fn finish(self, pieces: Vec<Self::Piece>, _seconds: f64) -> Finished {
+        let c = Calibration::from_pieces(self.0, &pieces);
+        finished(&pieces, String::new(), c.table(), c.failures(false))
+    }
+}
+
+/// The stability campaign's run.
+struct FalseInstability(usize, u64);
+
+impl Sharded for FalseInstability {
+    type Piece = stability::SetScore;
+    fn count(&self) -> usize {
+        self.0
+    }
+    fn piece(&self, i: usize) -> Self::Piece {
+        stability::piece(self.1, i as u64)
+    }
+    fn finish(self, pieces: Vec<Self::Piece>, _seconds: f64) -> Finished {
+        let json = serde_json::to_value(&pieces).unwrap_or_default();
+        let c = Stability::from_pieces(self.0, pieces);
+        finished(&json, String::new(), c.table(), c.failures())
+    }
+}
+
+/// The triad campaign's run: `sets` of every kind, kind by kind.
+struct TriadCoverage(usize, u64);
+
+impl Sharded for TriadCoverage {
+    type Piece = triad::SetScore;
+    fn count(&self) -> usize {
+        TriadKind::ALL.len() * self.0
+    }
+    fn piece(&self, i: usize) -> Self::Piece {
+        triad::piece(self.1, i / self.0, i % self.0)
+    }
+    fn finish(self, pieces: Vec<Self::Piece>, seconds: f64) -> Finished {
+        let json = serde_json::to_value(&pieces).unwrap_or_default();
+        let r = triad::from_pieces(self.0, self.1, pieces, seconds);
+        finished(&json, String::new(), r.table(false), r.failures(false))
+    }
+}
+
+/// Run `$body` with `$c` bound to the run `$spec` names.
+macro_rules! with_run {
     ($spec:expr, $c:ident => $body:expr) => {
         match $spec.name {
             Name::Effects => {
-                let $c = Effects::of($spec.analytic);
+                let $c = Naming::new(Effects::of($spec.analytic), $spec);
                 $body
             }
             Name::Statics => {
-                let $c = Statics::new(!$spec.additive);
+                let $c = Naming::new(Statics::new(!$spec.additive), $spec);
                 $body
             }
             Name::Params => {
-                let $c = Params::new();
+                let $c = Naming::new(Params::new(), $spec);
                 $body
             }
             Name::Lab => {
-                let $c = Lab::new($spec.analytic);
+                let $c = Naming::new(Lab::new($spec.analytic), $spec);
                 $body
             }
             Name::Sigma => {
-                let $c = Sigma::new(None);
+                let $c = Naming::new(Sigma::new(None), $spec);
+                $body
+            }
+            Name::Calibration => {
+                let $c = CoverageOfCalibration($spec.sets, $spec.seed);
+                $body
+            }
+            Name::Triad => {
+                let $c = TriadCoverage($spec.sets, $spec.seed);
+                $body
+            }
+            Name::Stability => {
+                let $c = FalseInstability($spec.sets, $spec.seed);
                 $body
             }
         }
     };
 }
 
-/// Shard `part` of `parts` of `spec`'s run, made and analysed: its outcomes as bytes for
-/// [`gather`].
+/// Shard `part` of `parts` of `spec`'s run, made and analysed: its pieces with their
+/// indices, as bytes for [`gather`].
 ///
 /// # Errors
 /// If `part` is not below `parts`.
@@ -196,65 +343,113 @@ pub fn part(spec: &Spec, part: usize, parts: usize) -> Result<Vec<u8>, String> {
             "shard {part} of {parts}: expected a shard below {parts}"
         ));
     }
-    with_campaign!(spec, c => encode(&Run::shard(&c, spec.sets, spec.seed, part, parts)))
+    with_run!(spec, r => {
+        let mine: Vec<usize> = (part..r.count()).step_by(parts).collect();
+        encode(&make(&r, &mine))
+    })
 }
 
 /// `spec`'s run from its shards' bytes, `shards[p]` being shard `p` of `shards.len()`;
 /// `seconds` is the wall time the caller measured, for the table.
 ///
 /// # Errors
-/// If a shard's bytes cannot be read or do not hold the sets its place says.
+/// If a shard's bytes cannot be read or do not hold the pieces its place says.
 pub fn gather(spec: &Spec, shards: &[Vec<u8>], seconds: f64) -> Result<Gathered, String> {
-    with_campaign!(spec, c => {
-        let outcomes = decode_all(shards)?;
-        Ok(put_together(spec, &Run::gather(c, spec.sets, spec.seed, outcomes, seconds)?))
+    with_run!(spec, r => {
+        let pieces = put_in_order(r.count(), shards)?;
+        Ok(gathered(spec, r.finish(pieces, seconds)))
     })
 }
 
-/// `spec`'s run in this process ([`Run::new`]).
+/// `spec`'s run in this process, on every core.
 #[must_use]
 pub fn whole(spec: &Spec) -> Gathered {
-    with_campaign!(spec, c => put_together(spec, &Run::new(c, spec.sets, spec.seed)))
+    with_run!(spec, r => {
+        let t0 = std::time::Instant::now();
+        let all: Vec<usize> = (0..r.count()).collect();
+        let pieces = make(&r, &all).into_iter().map(|(_, p)| p).collect();
+        gathered(spec, r.finish(pieces, t0.elapsed().as_secs_f64()))
+    })
 }
 
-fn encode<T: Serialize>(outcomes: &[Outcome<T>]) -> Result<Vec<u8>, String> {
-    postcard::to_stdvec(outcomes).map_err(|e| format!("a shard's outcomes: {e}"))
+/// Pieces `indices` of `r`, each with its index.
+fn make<R: Sharded>(r: &R, indices: &[usize]) -> Vec<(usize, R::Piece)> {
+    if r.parallel() {
+        indices.par_iter().map(|&i| (i, r.piece(i))).collect()
+    } else {
+        indices.iter().map(|&i| (i, r.piece(i))).collect()
+    }
 }
 
-fn decode_all<T: DeserializeOwned>(shards: &[Vec<u8>]) -> Result<Vec<Vec<Outcome<T>>>, String> {
-    shards
-        .iter()
+fn encode<P: Serialize>(pieces: &[(usize, P)]) -> Result<Vec<u8>, String> {
+    postcard::to_stdvec(pieces).map_err(|e| format!("a shard's outcomes: {e}"))
+}
+
+/// The `count` pieces of a run from its shards, in order.
+fn put_in_order<P: DeserializeOwned>(count: usize, shards: &[Vec<u8>]) -> Result<Vec<P>, String> {
+    let parts = shards.len();
+    let mut slots: Vec<Option<P>> = std::iter::repeat_with(|| None).take(count).collect();
+    for (p, bytes) in shards.iter().enumerate() {
+        let pieces: Vec<(usize, P)> = postcard::from_bytes(bytes).map_err(|e| {
+            format!("shard {p} of {parts}: its bytes are not this campaign's outcomes: {e}")
+        })?;
+        for (i, piece) in pieces {
+            if i >= count || i % parts != p || slots[i].is_some() {
+                return Err(format!(
+                    "shard {p} of {parts}: set {i} is not this shard's (a run of {count} sets)"
+                ));
+            }
+            slots[i] = Some(piece);
+        }
+    }
+    slots
+        .into_iter()
         .enumerate()
-        .map(|(p, b)| {
-            postcard::from_bytes(b).map_err(|e| {
-                format!(
-                    "shard {p} of {}: its bytes are not this campaign's outcomes: {e}",
-                    shards.len()
-                )
-            })
+        .map(|(i, s)| {
+            s.ok_or_else(|| format!("shard {} of {parts}: set {i} missing", i % parts.max(1)))
         })
         .collect()
 }
 
-fn put_together<C: Campaign>(spec: &Spec, run: &Run<C>) -> Gathered
-where
-    C::Truth: Serialize,
-{
-    let failures = run.failures(false);
+/// What a run's [`Sharded::finish`] makes of its pieces.
+struct Finished {
+    outcomes: serde_json::Value,
+    notable: String,
+    table: String,
+    failures: Vec<String>,
+}
+
+fn finished<O: Serialize + ?Sized>(
+    outcomes: &O,
+    notable: String,
+    table: String,
+    failures: Vec<String>,
+) -> Finished {
+    Finished {
+        // Plain data (numbers, strings, lists): it always converts; a NaN is `null`.
+        outcomes: serde_json::to_value(outcomes).unwrap_or_default(),
+        notable,
+        table,
+        failures,
+    }
+}
+
+/// The spec's run as the command prints it.
+fn gathered(spec: &Spec, f: Finished) -> Gathered {
     let json = serde_json::json!({
         "campaign": spec.name,
         "sets": spec.sets,
         "seed": spec.seed,
         "analytic": spec.analytic,
         "additive": spec.additive,
-        "outcomes": run.outcomes,
-        "failures": failures,
+        "outcomes": f.outcomes,
+        "failures": f.failures,
     });
     Gathered {
         json: json.to_string(),
-        notable: run.notable(),
-        table: run.table(false),
-        failures,
+        notable: f.notable,
+        table: f.table,
+        failures: f.failures,
     }
 }
 
@@ -275,6 +470,34 @@ mod tests {
             let g = gather(&s, &shards, 0.0).unwrap();
             assert_eq!(g.json, whole.json, "{parts} shards");
             assert_eq!(g.failures, whole.failures);
+        }
+    }
+
+    /// The JSON without the triad's fit times (`seconds`), the one figure that differs.
+    fn timeless(json: &str) -> serde_json::Value {
+        let mut v: serde_json::Value = serde_json::from_str(json).unwrap();
+        for o in v["outcomes"].as_array_mut().unwrap() {
+            o.as_object_mut().unwrap().remove("seconds");
+        }
+        v
+    }
+
+    #[test]
+    fn coverage_and_stability_campaigns_in_shards_are_the_whole_run() {
+        for (name, sets) in [
+            (Name::Calibration, 3),
+            (Name::Stability, 2),
+            (Name::Triad, 1),
+        ] {
+            let s = Spec::new(name, sets, 5, false, false).unwrap();
+            let whole = whole(&s);
+            let shards: Vec<Vec<u8>> = (0..2).map(|p| part(&s, p, 2).unwrap()).collect();
+            let g = gather(&s, &shards, 0.0).unwrap();
+            assert_eq!(timeless(&g.json), timeless(&whole.json), "{name}");
+            assert_eq!(g.failures, whole.failures, "{name}");
+            if name != Name::Triad {
+                assert_eq!(g.table, whole.table, "{name}");
+            }
         }
     }
 

@@ -159,9 +159,51 @@ pub fn generate(seed: u64, index: u64) -> Set {
     }
 }
 
+/// One set's score, as the campaign's counts keep it.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SetScore {
+    /// `[kearfott, mems][stated, estimated][no K_2, K_2]` indices.
+    pub class: (usize, usize, usize),
+    /// `[24 one axis, 24 two axes, 48 one axis, 48 two axes]` index.
+    pub design: usize,
+    /// The set and what was flagged, for the table (empty when nothing was).
+    pub flagged: String,
+    /// The analysis scored.
+    pub scored: Scored,
+}
+
+/// Set `index` of the campaign seeded `seed`, made and analysed.
+///
+/// # Panics
+/// The analysis fails.
+#[must_use]
+pub fn piece(seed: u64, index: u64) -> SetScore {
+    let set = generate(seed, index);
+    let scored = score(&set);
+    let flagged = if scored.unstable.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "{} {}×{} ε {:.0} ppm {}: {}",
+            if set.mems { "mems" } else { "kearfott" },
+            if set.two_axes { 2 } else { 1 },
+            set.positions,
+            set.eps * 1e6,
+            if set.stated { "stated" } else { "estimated" },
+            scored.unstable.join("; ")
+        )
+    };
+    SetScore {
+        class: set.class(),
+        design: usize::from(set.two_axes) + 2 * usize::from(set.positions == 48),
+        flagged,
+        scored,
+    }
+}
+
 /// One set's analysis: the selected terms marked unstable, each with its smallest
 /// p-value and split (`name split p`); and whether any term was tested.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Scored {
     /// The terms marked `stable: false`.
     pub unstable: Vec<String>,
@@ -247,35 +289,26 @@ impl Stability {
     #[must_use]
     pub fn run(sets: usize, seed: u64) -> Self {
         use rayon::prelude::*;
-        let scored: Vec<(Set, Scored)> = (0..sets as u64)
+        let pieces: Vec<SetScore> = (0..sets as u64)
             .into_par_iter()
-            .map(|i| {
-                let s = generate(seed, i);
-                let sc = score(&s);
-                (s, sc)
-            })
+            .map(|i| piece(seed, i))
             .collect();
+        Stability::from_pieces(sets, pieces)
+    }
+
+    /// The campaign's counts from every set's score ([`piece`]), in the sets' order.
+    #[must_use]
+    pub fn from_pieces(sets: usize, pieces: Vec<SetScore>) -> Self {
         let mut c = Stability {
             sets,
             ..Stability::default()
         };
-        for (i, (set, sc)) in scored.iter().enumerate() {
-            let (a, b, k) = set.class();
-            c.counts[a][b][k].add(sc);
-            c.designs[usize::from(set.two_axes) + 2 * usize::from(set.positions == 48)].add(sc);
-            if !sc.unstable.is_empty() {
-                c.flagged.push((
-                    i,
-                    format!(
-                        "{} {}×{} ε {:.0} ppm {}: {}",
-                        if set.mems { "mems" } else { "kearfott" },
-                        if set.two_axes { 2 } else { 1 },
-                        set.positions,
-                        set.eps * 1e6,
-                        if set.stated { "stated" } else { "estimated" },
-                        sc.unstable.join("; ")
-                    ),
-                ));
+        for (i, p) in pieces.into_iter().enumerate() {
+            let (a, b, k) = p.class;
+            c.counts[a][b][k].add(&p.scored);
+            c.designs[p.design].add(&p.scored);
+            if !p.scored.unstable.is_empty() {
+                c.flagged.push((i, p.flagged));
             }
         }
         c

@@ -309,63 +309,111 @@ pub struct TriadRun {
     pub seconds: f64,
 }
 
-/// A set's seed, its fit and truth (or the refusal) and the fit's time, s.
-type SetFit = (u64, Result<(Triad, TriadTruth), String>, f64);
+/// One set's fit, as the campaign's counts keep it.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct SetScore {
+    /// The set's seed.
+    pub seed: u64,
+    /// What the fit gave, or its refusal.
+    pub result: Result<FitScore, String>,
+    /// The fit's wall time, s (the table's slowest fit; the one figure that differs between
+    /// runs).
+    pub seconds: f64,
+}
+
+/// What a fit gave, scored.
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+pub struct FitScore {
+    /// Fitted without `K_2`.
+    pub no_k2: bool,
+    /// Its warnings (every one a false alarm here: the model is right).
+    pub warnings: Vec<String>,
+    /// Coverage per group ([`covered`]).
+    pub groups: [Count; 4],
+}
+
+/// Set `s` of the kind at `kind_index` of [`TriadKind::ALL`], campaign seed `seed`, made
+/// and fitted.
+#[must_use]
+pub fn piece(seed: u64, kind_index: usize, s: usize) -> SetScore {
+    let kind = TriadKind::ALL[kind_index];
+    let design = kind.design();
+    let seed = set_seed(seed, kind_index, s);
+    let score = |f: &Triad, truth: &TriadTruth| FitScore {
+        no_k2: f.k2.is_none(),
+        warnings: f.warnings.clone(),
+        groups: covered(f, truth),
+    };
+    if kind == TriadKind::Stream37 {
+        let (text, truth, spans) = generate_stream(seed, &design);
+        let t = Instant::now();
+        let r = fit_stream(&text, &spans).map(|f| score(&f, &truth));
+        return SetScore {
+            seed,
+            result: r,
+            seconds: t.elapsed().as_secs_f64(),
+        };
+    }
+    let set = generate_triad(seed, &design, kind.by_hand());
+    let opts = fit::Options {
+        orientation: if kind.by_hand() {
+            Orientation::Approximate
+        } else {
+            Orientation::Exact
+        },
+        default_sigma_cm_s2: None,
+        g_cm_s2: G,
+    };
+    let t = Instant::now();
+    let r = fit::fit("set", &set.positions, &opts)
+        .map(|f| score(&f, &set.truth))
+        .map_err(|e| format!("{e:#}"));
+    SetScore {
+        seed,
+        result: r,
+        seconds: t.elapsed().as_secs_f64(),
+    }
+}
 
 /// Make and fit `sets` sets of every kind.
 #[must_use]
 pub fn run(sets: usize, seed: u64) -> TriadRun {
     let t0 = Instant::now();
+    let pieces: Vec<SetScore> = (0..TriadKind::ALL.len() * sets)
+        .into_par_iter()
+        .map(|i| piece(seed, i / sets, i % sets))
+        .collect();
+    from_pieces(sets, seed, pieces, t0.elapsed().as_secs_f64())
+}
+
+/// The run from every set's score ([`piece`]), kind by kind in [`TriadKind::ALL`]'s
+/// order, `sets` each; `seconds` its wall time.
+///
+/// # Panics
+/// If `pieces` is not `sets` per kind.
+#[must_use]
+pub fn from_pieces(sets: usize, seed: u64, pieces: Vec<SetScore>, seconds: f64) -> TriadRun {
+    assert_eq!(pieces.len(), TriadKind::ALL.len() * sets, "sets per kind");
+    let mut pieces = pieces.into_iter();
     let kinds = TriadKind::ALL
         .iter()
-        .enumerate()
-        .map(|(ki, &kind)| {
-            let design = kind.design();
-            let outs: Vec<SetFit> = (0..sets)
-                .into_par_iter()
-                .map(|s| {
-                    let seed = set_seed(seed, ki, s);
-                    if kind == TriadKind::Stream37 {
-                        let (text, truth, spans) = generate_stream(seed, &design);
-                        let t = Instant::now();
-                        let r = fit_stream(&text, &spans).map(|f| (f, truth));
-                        return (seed, r, t.elapsed().as_secs_f64());
-                    }
-                    let set = generate_triad(seed, &design, kind.by_hand());
-                    let opts = fit::Options {
-                        orientation: if kind.by_hand() {
-                            Orientation::Approximate
-                        } else {
-                            Orientation::Exact
-                        },
-                        default_sigma_cm_s2: None,
-                        g_cm_s2: G,
-                    };
-                    let t = Instant::now();
-                    let r = fit::fit("set", &set.positions, &opts)
-                        .map(|f| (f, set.truth))
-                        .map_err(|e| format!("{e:#}"));
-                    (seed, r, t.elapsed().as_secs_f64())
-                })
-                .collect();
+        .map(|&kind| {
             let mut k = KindRun::default();
-            for (seed, r, dt) in outs {
-                k.slowest_s = k.slowest_s.max(dt);
-                match r {
-                    Ok((f, truth)) => {
-                        if f.k2.is_none() {
-                            k.no_k2 += 1;
-                        }
+            for p in pieces.by_ref().take(sets) {
+                k.slowest_s = k.slowest_s.max(p.seconds);
+                match p.result {
+                    Ok(f) => {
+                        k.no_k2 += usize::from(f.no_k2);
                         k.warned.add(!f.warnings.is_empty());
                         if !f.warnings.is_empty() && super::campaign::env_flag("PTSA_HIDDEN_LOG") {
-                            eprintln!("{} set {seed}: {}", kind.name(), f.warnings.join(" | "));
+                            eprintln!("{} set {}: {}", kind.name(), p.seed, f.warnings.join(" | "));
                         }
-                        for (g, c) in k.groups.iter_mut().zip(covered(&f, &truth)) {
+                        for (g, c) in k.groups.iter_mut().zip(f.groups) {
                             g.k += c.k;
                             g.n += c.n;
                         }
                     }
-                    Err(e) => k.refused.push((seed, e)),
+                    Err(e) => k.refused.push((p.seed, e)),
                 }
             }
             (kind, k)
@@ -375,7 +423,7 @@ pub fn run(sets: usize, seed: u64) -> TriadRun {
         sets,
         seed,
         kinds,
-        seconds: t0.elapsed().as_secs_f64(),
+        seconds,
     }
 }
 

@@ -13,12 +13,13 @@ byte for byte, the line ``ptsa noise --counts/--readings FILE --json`` prints, i
 of the files' names; a record refused is an ``error:`` line and exit status 1, the others
 printed. A record travels to its task as its bytes.
 
-``python -m ptsa.campaign hidden NAME --sets N --seed S``: a naming campaign of the
-analyses (``effects``, ``statics``, ``params``, ``lab``, ``sigma``: ``cargo xtask hidden``'s),
-cut into ``--tasks`` shards. Shard ``p`` is the sets at positions ``p``, ``p + tasks``, ...
-in table order; each set depends on the seed, its kind and its index only, so the table and
-the ``--json`` line are the same whatever the number of tasks or workers. What travels is
-five small values out and each shard's outcomes back, as bytes.
+``python -m ptsa.campaign hidden NAME --sets N --seed S``: a hidden-effect or coverage
+campaign of the analyses (``cargo xtask hidden``'s: ``effects``, ``statics``, ``params``,
+``lab``, ``sigma``, ``calibration``, ``triad``, ``stability``), cut into ``--tasks``
+shards. Shard ``p`` is the sets at positions ``p``, ``p + tasks``, ... in table order; each
+set depends on the seed, its kind and its index only, so the table and the ``--json`` line
+are the same whatever the number of tasks or workers (but for the triad's fit times). What
+travels is five small values out and each shard's outcomes back, as bytes.
 
 ``--ray none`` (the default) runs the tasks one after another in this process, without
 Ray, and opens no port. ``--ray local`` starts a new Ray on this machine: its processes
@@ -217,7 +218,7 @@ def _noise_task(name: str, data: bytes | ptsa.PtsaError, options: dict[str, Any]
 
 
 class HiddenRun(dict):
-    """A naming campaign put together: ``json`` (the dict the ``--json`` line holds: every
+    """A campaign put together: ``json`` (the dict the ``--json`` line holds: every
     set's outcome in table order and the ``failures``), ``text`` (that line),
     ``notable`` (the sets that matter for the rates), ``table`` (the campaign's table, its
     wall time in the first line) and ``failures`` (the asserted rates not met; empty: the
@@ -236,8 +237,9 @@ def hidden(
     tasks: int = 64,
     progress: bool = False,
 ) -> HiddenRun:
-    """The naming campaign ``name`` (:func:`hidden_names`), ``sets`` sets of every kind,
-    in ``tasks`` shards, each a Ray task on one core.
+    """The campaign ``name`` (:func:`hidden_names`), ``sets`` sets of every kind
+    (``calibration``, ``stability``: in all), in ``tasks`` shards, each a Ray task on one
+    core.
 
     Args:
         analytic: ``effects`` and ``lab``: data from the quasi-static model, analysed with
@@ -277,7 +279,7 @@ def hidden(
 
 
 def hidden_names() -> list[str]:
-    """The naming campaigns :func:`hidden` runs."""
+    """The campaigns :func:`hidden` runs."""
     return list(ptsa._ptsa.hidden_names())
 
 
@@ -374,11 +376,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     nz.add_argument("--confidence", type=float, help="the second confidence level, 0 to 1 (default 0.95)")
     nz.add_argument("--seed", type=int, help="with --compare or --identify: the seed of the simulated noise")
     nz.add_argument("--warmup-s", type=float, help="with --compare or --identify: the simulations' settling, s")
-    hd = sub.add_parser("hidden", help="a naming campaign of the analyses (cargo xtask hidden's), in shards")
+    hd = sub.add_parser("hidden", help="a hidden-effect or coverage campaign (cargo xtask hidden's), in shards")
     hd.add_argument("name", choices=hidden_names(),
-                    help="effects (xtask hidden), statics (--statics), params (--parameters), lab (--lab), sigma (--sigma)")
-    hd.add_argument("--sets", type=int, required=True, help="sets per kind (xtask's defaults: effects 50, statics 200, "
-                    "params 10, lab 140, sigma 600)")
+                    help="effects (xtask hidden), statics (--statics), params (--parameters), lab (--lab), "
+                         "sigma (--sigma), calibration (--calibration), triad (--triad), stability (--stability)")
+    hd.add_argument("--sets", type=int, required=True,
+                    help="sets per kind; calibration and stability: sets in all (xtask's defaults: effects 50, "
+                         "statics 200, params 10, lab 140, sigma 600, calibration 2000, triad 600, stability 2000)")
     hd.add_argument("--seed", type=int, required=True, help="the campaign's seed")
     hd.add_argument("--analytic", action="store_true",
                     help="effects, lab: data from the quasi-static model, analysed with the analytic simulator")

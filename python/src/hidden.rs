@@ -1,4 +1,4 @@
-//! The naming campaigns in shards (`ptsa_campaigns::shard`), for `python -m ptsa.campaign
+//! The hidden-effect and coverage campaigns in shards (`ptsa_campaigns::shard`), for `python -m ptsa.campaign
 //! hidden`: a shard's outcomes travel as bytes, the driver puts them together.
 
 use pyo3::prelude::*;
