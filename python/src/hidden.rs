@@ -7,6 +7,7 @@ use pyo3::types::PyBytes;
 use ptsa_campaigns::shard::{self, Gathered, Name, Spec};
 
 use crate::PtsaError;
+use crate::interrupt::interruptible;
 
 /// The campaign run `name`, `sets` per kind, `seed`, checked as the command checks it.
 fn spec(name: &str, sets: usize, seed: u64, analytic: bool, additive: bool) -> PyResult<Spec> {
@@ -56,9 +57,7 @@ pub fn hidden_part<'py>(
     parts: usize,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = spec(name, sets, seed, analytic, additive)?;
-    let bytes = py
-        .detach(|| shard::part(&s, part, parts))
-        .map_err(PtsaError::new_err)?;
+    let bytes = interruptible(py, || shard::part(&s, part, parts))?.map_err(PtsaError::new_err)?;
     Ok(PyBytes::new(py, &bytes))
 }
 
@@ -94,5 +93,5 @@ pub fn hidden_whole(
     additive: bool,
 ) -> PyResult<Out> {
     let s = spec(name, sets, seed, analytic, additive)?;
-    Ok(out(py.detach(|| shard::whole(&s))))
+    Ok(out(interruptible(py, || shard::whole(&s))?))
 }

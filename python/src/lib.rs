@@ -13,6 +13,9 @@
 use std::path::PathBuf;
 
 mod hidden;
+mod interrupt;
+
+use interrupt::interruptible;
 
 use numpy::{PyArray1, PyReadonlyArray1};
 use pyo3::create_exception;
@@ -119,9 +122,9 @@ fn static_json(
             "accels_cm_s2: {a}; expected finite accelerations, cm/s²"
         )));
     }
-    let runs = py.detach(|| {
+    let runs = interruptible(py, || {
         ptsa_host_sim::simulation::batch::run_static(&instr, &accels_cm_s2, ticks, &opts)
-    });
+    })?;
     serde_json::to_string(&runs).map_err(|e| refused(e.into()))
 }
 
@@ -150,7 +153,9 @@ fn record(
     let ticks = gate_ticks("gate_s", gate_s, &s.instr, &opts).map_err(refused)?;
     let gates = noise::simulated_gates(("seconds", "gate_s"), seconds, ticks, s.instr.clock_hz)
         .map_err(refused)?;
-    let g = py.detach(|| noise::simulate_record(&s.instr, &opts, 0.0, ticks, gates));
+    let g = interruptible(py, || {
+        noise::simulate_record(&s.instr, &opts, 0.0, ticks, gates)
+    })?;
     Ok((
         PyArray1::from_iter(py, g.iter().map(|g| g.time_s)),
         PyArray1::from_iter(py, g.iter().map(|g| g.pulses)),
@@ -268,13 +273,13 @@ fn noise_json(
     } else {
         let r = readings_of(&s, name, text, unit, spacing_tol)?;
         let settings = settings(&taus, confidence, r.tau0_s, r.y.len())?;
-        let a = py.detach(|| Analysis::of_readings(&r, &settings));
+        let a = interruptible(py, || Analysis::of_readings(&r, &settings))?;
         let warnings = noise::analysis_warnings(name, &a);
         let id = if identify {
             // Only the seed: the replicas are drawn from the terms, not simulated.
             let seed = seed.unwrap_or(SimOptions::default().seed);
             Some(
-                py.detach(|| noise::identify_readings(&r, &a, seed, &mut |_| {}))
+                interruptible(py, || noise::identify_readings(&r, &a, seed, &mut |_| {}))?
                     .map_err(refused)?,
             )
         } else {
@@ -337,11 +342,10 @@ fn counts_json(
     let rec = noise::parse_record(name, text, s.instr.clock_hz).map_err(refused)?;
     let settings = settings(taus, confidence, rec.tau0_s, rec.gates.len())?;
     let (sf, clock) = (s.instr.sf_cm_s2, s.instr.clock_hz);
-    let a = py.detach(|| Analysis::of_with(&rec, sf, clock, &settings));
+    let a = interruptible(py, || Analysis::of_with(&rec, sf, clock, &settings))?;
     let mut warnings = noise::analysis_warnings(name, &a);
     let comparison = if against.compare {
-        let c = py
-            .detach(|| Comparison::simulate(&s.instr, &opts, &rec, &a))
+        let c = interruptible(py, || Comparison::simulate(&s.instr, &opts, &rec, &a))?
             .map_err(refused)?;
         warnings.extend(c.warning(name));
         Some(c)
@@ -349,7 +353,9 @@ fn counts_json(
         None
     };
     let id = if against.identify {
-        let id = py.detach(|| identify::identify(&s.instr, &opts, &rec, &a, &mut |_, _| {}));
+        let id = interruptible(py, || {
+            identify::identify(&s.instr, &opts, &rec, &a, &mut |_, _| {})
+        })?;
         warnings.extend(noise::identification_warnings(name, &id));
         Some(id)
     } else {
@@ -460,9 +466,8 @@ fn discover_json(
         keep_outliers,
         ..Options::for_instrument(&s.instr)
     };
-    let (_, d) = py
-        .detach(|| discovery::analyse(&path, &*sim, &options))
-        .map_err(refused)?;
+    let (_, d) =
+        interruptible(py, || discovery::analyse(&path, &*sim, &options))?.map_err(refused)?;
     serde_json::to_string(&d.json).map_err(|e| refused(e.into()))
 }
 
@@ -627,7 +632,9 @@ fn yield_units_json(
                 plan.instruments
             ))
         })?;
-    let units = py.detach(|| yield_study::units(&s.instr, &opts, &plan, start..end));
+    let units = interruptible(py, || {
+        yield_study::units(&s.instr, &opts, &plan, start..end)
+    })?;
     serde_json::to_string(&units).map_err(|e| refused(e.into()))
 }
 

@@ -532,6 +532,8 @@ pub fn analyse_with(y: &[f64], tau0_s: f64, settings: &Settings) -> Vec<Point> {
     let raw: Vec<Raw> = factors
         .par_iter()
         .map(|&m| {
+            // Each averaging time a point where a host's Ctrl-C may stop the analysis.
+            crate::simulation::work::checkpoint();
             let (avar, hvar) = sums.avar_hvar(m, settings.hadamard);
             Raw {
                 m,

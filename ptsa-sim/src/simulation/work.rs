@@ -12,9 +12,13 @@
 //! * A limit on a long computation whose length is only known part way (discover's search
 //!   of the loop's parameters): [`set_limit`] by the command line, [`ahead`] by the
 //!   computation before such a stage.
+//! * Cancellation, for a host whose user pressed Ctrl-C while a call runs (Python's):
+//!   [`cancel`], checked at every [`checkpoint`] (the end of each closed-loop run and of
+//!   each step of the batch engine; the analysis adds its own, such as each averaging time
+//!   of an Allan analysis), and [`resume`].
 
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::Instant;
 
 use crate::model::condition::Condition;
@@ -153,12 +157,40 @@ pub fn difference(instr: &Instrument, cond: &Condition, opts: &SimOptions) -> Ti
 static DONE_FIXED: AtomicU64 = AtomicU64::new(0);
 static DONE_DYNAMIC: AtomicU64 = AtomicU64::new(0);
 
-/// Count `n` ticks run (by the closed loop or the batch engine).
+/// Count `n` ticks run (by the closed loop or the batch engine), then [`checkpoint`].
 pub(crate) fn count(n: u64, dynamic: bool) {
     if dynamic {
         DONE_DYNAMIC.fetch_add(n, Ordering::Relaxed);
     } else {
         DONE_FIXED.fetch_add(n, Ordering::Relaxed);
+    }
+    checkpoint();
+}
+
+static CANCEL: AtomicBool = AtomicBool::new(false);
+
+/// The payload a cancelled computation unwinds with ([`cancel`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cancelled;
+
+/// Ask every computation of this process to stop at its next [`checkpoint`], where it
+/// unwinds with the payload [`Cancelled`] (`std::panic::resume_unwind`: no panic message,
+/// and rayon carries it to the caller of a parallel loop). The caller catches it with
+/// `std::panic::catch_unwind`, then calls [`resume`]. No lock is held at a checkpoint, so
+/// nothing is left poisoned; the result of the cancelled call is simply not made.
+pub fn cancel() {
+    CANCEL.store(true, Ordering::Relaxed);
+}
+
+/// Let computations run again after [`cancel`].
+pub fn resume() {
+    CANCEL.store(false, Ordering::Relaxed);
+}
+
+/// Unwind with [`Cancelled`] if [`cancel`] was asked (and not [`resume`]d).
+pub fn checkpoint() {
+    if CANCEL.load(Ordering::Relaxed) {
+        std::panic::resume_unwind(Box::new(Cancelled));
     }
 }
 
