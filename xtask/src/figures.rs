@@ -56,9 +56,11 @@ enum Measure {
         env: &'static [(&'static str, &'static str)],
         seed_var: &'static str,
     },
-    /// `cargo ptsa bench ARGS`, keeping its `bench:` lines; the ratio printed after
+    /// `cargo COMMAND ARGS` (`ptsa bench`, or `xtask python --bench` for the Python
+    /// package's Ray campaigns), keeping its `bench:` lines; the ratio printed after
     /// `ratio` must be at least `min`.
     Bench {
+        command: &'static [&'static str],
         args: &'static [&'static str],
         ratio: &'static str,
         min: f64,
@@ -232,6 +234,7 @@ const FIGURES: &[Figure] = &[
         claim: "the Rust loop runs at least 0.85 times as fast as the plain C loop (ticks per second, median of 5 runs in alternation), both giving the same pulses bit for bit",
         quoted_in: "docs/method/host-sim.md",
         measure: Measure::Bench {
+            command: &["ptsa", "bench"],
             args: &["--compare-c", "--runs", "5"],
             ratio: "bench: Rust / C = ",
             min: 0.85,
@@ -247,6 +250,7 @@ const FIGURES: &[Figure] = &[
         claim: "the batch engine (8 lanes, one thread) runs at least 1.5 times the single loop's ticks per second (median of 5 runs), with the same pulses",
         quoted_in: "docs/method/host-sim.md",
         measure: Measure::Bench {
+            command: &["ptsa", "bench"],
             args: &["--batch", "16", "--lanes", "8", "--runs", "5"],
             ratio: "bench: batch / single = ",
             min: 1.5,
@@ -262,6 +266,7 @@ const FIGURES: &[Figure] = &[
         claim: "the batch engine (8 lanes, one thread) runs at least 2 times the single loop's ticks per second (median of 5 runs) on a CPU with AVX2 or AVX-512, with the same results bit for bit",
         quoted_in: "docs/method/host-sim.md",
         measure: Measure::Bench {
+            command: &["ptsa", "bench"],
             args: &[
                 "--batch",
                 "16",
@@ -278,6 +283,31 @@ const FIGURES: &[Figure] = &[
         ci: (
             "ptsa-host-sim/tests/cli.rs",
             "bench_batch_dynamic_prints_both_rates",
+        ),
+    },
+    Figure {
+        id: "bench-ray",
+        title: "speed: the yield study as Ray tasks on 1 and on 2 workers (the Python package, built as `pip install ./python` builds it)",
+        claim: "2 workers run the study at least 1.5 times as fast as 1 (median of 3 runs each), its JSON the same on both (checked in CI)",
+        quoted_in: "docs/method/host-sim.md",
+        measure: Measure::Bench {
+            command: &["xtask", "python", "--bench"],
+            args: &[
+                "--yield",
+                "1024",
+                "--repeats",
+                "3",
+                "--task-size",
+                "64",
+                "--expect-speedup",
+                "1.5",
+            ],
+            ratio: "bench: 1 worker / 2 workers = ",
+            min: 1.5,
+        },
+        ci: (
+            "python/tests/test_campaign.py",
+            "test_on_a_local_ray_the_json_is_the_command_lines",
         ),
     },
 ];
@@ -419,7 +449,9 @@ fn shown(f: &Figure) -> String {
             name,
         } => format!("cargo test -p {package} --test {file} {name} -- --exact --nocapture"),
         Measure::Ignored { .. } => ignored_command(f, None).1,
-        Measure::Bench { args, .. } => format!("cargo ptsa bench {}", args.join(" ")),
+        Measure::Bench { command, args, .. } => {
+            format!("cargo {} {}", command.join(" "), args.join(" "))
+        }
     }
 }
 
@@ -478,8 +510,13 @@ fn measure_all(f: &Figure, rescore: Option<&Rescore>) -> Result<Vec<Measured>, S
             }
             Ok(runs)
         }
-        Measure::Bench { args, ratio, min } => {
-            let (all, seconds) = capture(cargo(&["ptsa", "bench"], args))?;
+        Measure::Bench {
+            command,
+            args,
+            ratio,
+            min,
+        } => {
+            let (all, seconds) = capture(cargo(command, args))?;
             let text = bench_lines(&all);
             at_least(&text, ratio, min)?;
             Ok(vec![Measured {
@@ -815,6 +852,9 @@ fn ci_command(f: &Figure) -> String {
     if path == "xtask ci" {
         return format!("`cargo xtask ci` runs `{test}` whole");
     }
+    if Path::new(path).extension().is_some_and(|e| e == "py") {
+        return format!("`cargo xtask python` runs `{test}` in `{path}` (a smaller subset)");
+    }
     if let Measure::Test { name, .. } = f.measure
         && name == test
     {
@@ -915,8 +955,13 @@ mod tests {
             if f.ci.0 != "xtask ci" {
                 let file = root.join(f.ci.0);
                 let text = std::fs::read_to_string(&file).expect("the test file");
+                let test = if Path::new(f.ci.0).extension().is_some_and(|e| e == "py") {
+                    format!("\ndef {}(", f.ci.1)
+                } else {
+                    format!("#[test]\nfn {}() {{", f.ci.1)
+                };
                 assert!(
-                    text.contains(&format!("#[test]\nfn {}() {{", f.ci.1)),
+                    text.contains(&test),
                     "{}: no test `{}` that runs in CI in {}",
                     f.id,
                     f.ci.1,

@@ -18,13 +18,16 @@ use crate::util::{self, Error};
 
 /// `cargo xtask python --help`.
 pub const USAGE: &str = "\
-python [--wheel]
+python [--wheel] [--bench [ARGS...]]
     The Python package in python/ put together in target/python/site (nothing is
     installed) and its tests (python/tests, pytest) run against `ptsa` built from this
     tree. Its native module is python/'s cdylib from `cargo build --profile test
     --workspace --all-targets` (what the host tests have compiled already, so after them
     only the cdylib is linked); --wheel: the wheel maturin builds in the release profile, as
     `pip install ./python` does, unpacked there instead (minutes more).
+    --bench: instead of the tests, `python -m ptsa.campaign bench ARGS` on the wheel (the
+    yield study on a local Ray of 1 and of 2 CPUs: medians and speed-up; --bench implies
+    --wheel, the build a user installs).
     The Python is $PTSA_PYTHON (default python3); it needs numpy, pandas, pytest,
     matplotlib and Ray (and maturin for --wheel), and if any is missing this says how to
     install them and stops.";
@@ -37,12 +40,7 @@ pub const NEEDS: [Need; 1] = [Need::PythonPackages];
 /// # Errors
 /// Bad arguments; a missing need; the build, the unpacking or a test fails.
 pub fn run(args: &[String]) -> Result<(), Error> {
-    let wheel = match args {
-        [] => false,
-        [a] if a == "--wheel" => true,
-        [a] => return Err(Error::Usage(format!("unknown option `{a}`"))),
-        _ => return Err(Error::Usage("expected at most --wheel".into())),
-    };
+    let (wheel, bench) = parse(args)?;
     needs::check(&NEEDS, None)?;
     if wheel {
         needs::check(&[Need::Maturin], None)?;
@@ -62,7 +60,48 @@ pub fn run(args: &[String]) -> Result<(), Error> {
         assemble(&root, &built.cdylib, &site)?;
         built.ptsa
     };
-    test(&root, &python, &site, &ptsa)
+    match bench {
+        Some(args) => run_bench(&root, &python, &site, args),
+        None => test(&root, &python, &site, &ptsa),
+    }
+}
+
+/// `--wheel` and `--bench ARGS` (which implies `--wheel`).
+fn parse(args: &[String]) -> Result<(bool, Option<&[String]>), Error> {
+    let mut wheel = false;
+    for (k, a) in args.iter().enumerate() {
+        match a.as_str() {
+            "--wheel" => wheel = true,
+            "--bench" => return Ok((true, Some(&args[k + 1..]))),
+            _ => {
+                return Err(Error::Usage(format!(
+                    "unknown option `{a}`: expected --wheel or --bench [ARGS...]"
+                )));
+            }
+        }
+    }
+    Ok((wheel, None))
+}
+
+/// `python -m ptsa.campaign bench ARGS` on the package in `site`.
+fn run_bench(root: &Path, python: &str, site: &Path, args: &[String]) -> Result<(), Error> {
+    eprintln!(
+        "+ PYTHONPATH={} {python} -m ptsa.campaign bench {}",
+        site.display(),
+        args.join(" ")
+    );
+    let status = Command::new(python)
+        .args(["-m", "ptsa.campaign", "bench"])
+        .args(args)
+        .env("PYTHONPATH", site)
+        .current_dir(root)
+        .status()
+        .map_err(|e| format!("cannot start `{python}`: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("the Ray benchmark failed ({status})").into())
+    }
 }
 
 /// The test build's artifacts the package needs.
