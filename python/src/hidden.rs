@@ -57,7 +57,8 @@ pub fn hidden_part<'py>(
     parts: usize,
 ) -> PyResult<Bound<'py, PyBytes>> {
     let s = spec(name, sets, seed, analytic, additive)?;
-    let bytes = interruptible(py, || shard::part(&s, part, parts))?.map_err(PtsaError::new_err)?;
+    let bytes = interruptible(py, "ptsa.campaign hidden", || shard::part(&s, part, parts))?
+        .map_err(PtsaError::new_err)?;
     Ok(PyBytes::new(py, &bytes))
 }
 
@@ -93,5 +94,7 @@ pub fn hidden_whole(
     additive: bool,
 ) -> PyResult<Out> {
     let s = spec(name, sets, seed, analytic, additive)?;
-    Ok(out(interruptible(py, || shard::whole(&s))?))
+    Ok(out(interruptible(py, "ptsa.campaign hidden", || {
+        shard::whole(&s)
+    })?))
 }

@@ -122,7 +122,7 @@ fn static_json(
             "accels_cm_s2: {a}; expected finite accelerations, cm/s²"
         )));
     }
-    let runs = interruptible(py, || {
+    let runs = interruptible(py, "ptsa.static", || {
         ptsa_host_sim::simulation::batch::run_static(&instr, &accels_cm_s2, ticks, &opts)
     })?;
     serde_json::to_string(&runs).map_err(|e| refused(e.into()))
@@ -153,7 +153,7 @@ fn record(
     let ticks = gate_ticks("gate_s", gate_s, &s.instr, &opts).map_err(refused)?;
     let gates = noise::simulated_gates(("seconds", "gate_s"), seconds, ticks, s.instr.clock_hz)
         .map_err(refused)?;
-    let g = interruptible(py, || {
+    let g = interruptible(py, "ptsa.record", || {
         noise::simulate_record(&s.instr, &opts, 0.0, ticks, gates)
     })?;
     Ok((
@@ -273,14 +273,16 @@ fn noise_json(
     } else {
         let r = readings_of(&s, name, text, unit, spacing_tol)?;
         let settings = settings(&taus, confidence, r.tau0_s, r.y.len())?;
-        let a = interruptible(py, || Analysis::of_readings(&r, &settings))?;
+        let a = interruptible(py, "ptsa.noise", || Analysis::of_readings(&r, &settings))?;
         let warnings = noise::analysis_warnings(name, &a);
         let id = if identify {
             // Only the seed: the replicas are drawn from the terms, not simulated.
             let seed = seed.unwrap_or(SimOptions::default().seed);
             Some(
-                interruptible(py, || noise::identify_readings(&r, &a, seed, &mut |_| {}))?
-                    .map_err(refused)?,
+                interruptible(py, "ptsa.noise", || {
+                    noise::identify_readings(&r, &a, seed, &mut |_| {})
+                })?
+                .map_err(refused)?,
             )
         } else {
             None
@@ -342,18 +344,22 @@ fn counts_json(
     let rec = noise::parse_record(name, text, s.instr.clock_hz).map_err(refused)?;
     let settings = settings(taus, confidence, rec.tau0_s, rec.gates.len())?;
     let (sf, clock) = (s.instr.sf_cm_s2, s.instr.clock_hz);
-    let a = interruptible(py, || Analysis::of_with(&rec, sf, clock, &settings))?;
+    let a = interruptible(py, "ptsa.noise", || {
+        Analysis::of_with(&rec, sf, clock, &settings)
+    })?;
     let mut warnings = noise::analysis_warnings(name, &a);
     let comparison = if against.compare {
-        let c = interruptible(py, || Comparison::simulate(&s.instr, &opts, &rec, &a))?
-            .map_err(refused)?;
+        let c = interruptible(py, "ptsa.noise", || {
+            Comparison::simulate(&s.instr, &opts, &rec, &a)
+        })?
+        .map_err(refused)?;
         warnings.extend(c.warning(name));
         Some(c)
     } else {
         None
     };
     let id = if against.identify {
-        let id = interruptible(py, || {
+        let id = interruptible(py, "ptsa.noise", || {
             identify::identify(&s.instr, &opts, &rec, &a, &mut |_, _| {})
         })?;
         warnings.extend(noise::identification_warnings(name, &id));
@@ -466,8 +472,10 @@ fn discover_json(
         keep_outliers,
         ..Options::for_instrument(&s.instr)
     };
-    let (_, d) =
-        interruptible(py, || discovery::analyse(&path, &*sim, &options))?.map_err(refused)?;
+    let (_, d) = interruptible(py, "ptsa.discover", || {
+        discovery::analyse(&path, &*sim, &options)
+    })?
+    .map_err(refused)?;
     serde_json::to_string(&d.json).map_err(|e| refused(e.into()))
 }
 
@@ -632,7 +640,7 @@ fn yield_units_json(
                 plan.instruments
             ))
         })?;
-    let units = interruptible(py, || {
+    let units = interruptible(py, "ptsa.yield_units", || {
         yield_study::units(&s.instr, &opts, &plan, start..end)
     })?;
     serde_json::to_string(&units).map_err(|e| refused(e.into()))

@@ -38,3 +38,14 @@ def test_ctrl_c_stops_a_long_simulation_and_the_next_call_runs():
     assert lines[1] == "again 1"
     # Stopped within a fraction of a second, not at the end of the day's simulation.
     assert waited < 5.0, f"{waited:.2f} s from Ctrl-C to the end of the process"
+
+
+def test_a_long_call_says_it_is_running_once_a_period():
+    # PTSA_PROGRESS_S as the command line reads it: a line every 0.3 s instead of 10 s.
+    script = "import ptsa; ptsa.record(3600.0, gate_s=1.0); print('done')"
+    r = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                       env={**os.environ, "PTSA_PROGRESS_S": "0.3"}, timeout=120)
+    assert r.returncode == 0 and r.stdout == "done\n", r.stderr
+    lines = [l for l in r.stderr.splitlines() if l.startswith("progress: ptsa.record: running, ")]
+    assert len(lines) >= 2, r.stderr
+    assert lines[0].endswith(" s elapsed")

@@ -285,6 +285,86 @@ pub fn ahead(what: &str, more: Ticks) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// Seconds between two progress lines of a log (not a terminal's bar), and before the
+/// first, so that a short run stays quiet.
+pub const PROGRESS_S: f64 = 10.0;
+
+/// A positive number of seconds from the environment variable `var`, else `default` (with
+/// a warning when it is set but not such a number).
+#[must_use]
+pub fn seconds_from_env(var: &str, default: f64) -> f64 {
+    match std::env::var(var) {
+        Err(_) => default,
+        Ok(v) => match v.trim().parse::<f64>() {
+            Ok(s) if s > 0.0 && s.is_finite() => s,
+            _ => {
+                eprintln!(
+                    "warning: {var}={v}: expected a positive number of seconds; using {default}"
+                );
+                default
+            }
+        },
+    }
+}
+
+/// Seconds between progress lines: `PTSA_PROGRESS_S` when set (read once), else
+/// [`PROGRESS_S`].
+#[must_use]
+pub fn progress_s() -> f64 {
+    static EVERY: std::sync::OnceLock<f64> = std::sync::OnceLock::new();
+    *EVERY.get_or_init(|| seconds_from_env("PTSA_PROGRESS_S", PROGRESS_S))
+}
+
+/// When the progress lines of a log are due: the first after `every_s` seconds of work,
+/// then one every `every_s` seconds (a line missed while the machine was busy is not made
+/// up for).
+#[derive(Clone, Copy, Debug)]
+pub struct Lines {
+    every_s: f64,
+    next_s: f64,
+}
+
+impl Lines {
+    /// Lines every `every_s` seconds, the first after `every_s`.
+    #[must_use]
+    pub fn new(every_s: f64) -> Self {
+        Self {
+            every_s,
+            next_s: every_s,
+        }
+    }
+
+    /// Whether a line is due `elapsed_s` seconds after the start (and if so, the next one
+    /// is due a period later).
+    pub fn due(&mut self, elapsed_s: f64) -> bool {
+        if elapsed_s < self.next_s {
+            return false;
+        }
+        while self.next_s <= elapsed_s {
+            self.next_s += self.every_s;
+        }
+        true
+    }
+}
+
+/// A progress line: `what`, the fraction of the estimated work done (capped at 99 %
+/// while the work runs, `None` when it is not known) and the stage, the elapsed time.
+#[must_use]
+pub fn line(what: &str, stage: &str, fraction: Option<f64>, elapsed_s: f64) -> String {
+    let stage = if stage.is_empty() {
+        String::new()
+    } else {
+        format!(" ({stage})")
+    };
+    match fraction {
+        Some(f) => format!(
+            "progress: {what}: {:.0} % of the estimated work done{stage}, {elapsed_s:.0} s elapsed",
+            100.0 * f.clamp(0.0, 0.99)
+        ),
+        None => format!("progress: {what}: running{stage}, {elapsed_s:.0} s elapsed"),
+    }
+}
+
 /// Seconds as a human duration (`42 s`, `14 min`, `3 h`, `2 days`, `5 years`).
 #[must_use]
 pub fn human(s: f64) -> String {
@@ -304,6 +384,40 @@ pub fn human(s: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Lines every 10 s: none in the first 10 s (a short run stays quiet), then one per
+    /// period, whatever the polling; a period the machine slept through is not made up.
+    #[test]
+    fn progress_lines_start_after_a_period_and_come_once_a_period() {
+        let mut l = Lines::new(10.0);
+        let polled: Vec<f64> = (0..=130).map(|k| f64::from(k) * 0.2).collect();
+        let due: Vec<f64> = polled.into_iter().filter(|&t| l.due(t)).collect();
+        assert_eq!(due.len(), 2, "{due:?}");
+        assert!(
+            (due[0] - 10.0).abs() < 1e-9 && (due[1] - 20.0).abs() < 1e-9,
+            "{due:?}"
+        );
+        assert!(!l.due(29.9));
+        assert!(l.due(55.0));
+        assert!(!l.due(59.9));
+        assert!(l.due(60.0));
+    }
+
+    #[test]
+    fn a_progress_line_says_what_how_far_and_how_long() {
+        assert_eq!(
+            line("discover", "baseline", Some(0.421), 65.2),
+            "progress: discover: 42 % of the estimated work done (baseline), 65 s elapsed"
+        );
+        assert_eq!(
+            line("discover", "", Some(1.7), 700.0),
+            "progress: discover: 99 % of the estimated work done, 700 s elapsed"
+        );
+        assert_eq!(
+            line("predict", "", None, 12.0),
+            "progress: predict: running, 12 s elapsed"
+        );
+    }
 
     #[test]
     fn ticks_add_and_convert_by_path() {

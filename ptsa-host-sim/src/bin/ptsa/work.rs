@@ -1,6 +1,7 @@
 //! Work that is estimated before it runs (refused beyond a limit without `--no-limit`, and
 //! announced when it is long), and shown while it runs: a progress bar on stderr when it is
-//! a terminal; otherwise (a log, a pipe) a plain line every [`PROGRESS_S`] seconds once the
+//! a terminal; otherwise (a log, a pipe) a plain line every [`PROGRESS_S`] seconds (the
+//! environment variable `PTSA_PROGRESS_S` sets another) once the
 //! work has run that long, so that a short run stays quiet.
 //!
 //! The estimate and the progress count closed-loop ticks ([`ptsa_host_sim::simulation::work`]): the
@@ -18,38 +19,20 @@ use anyhow::{Result, bail};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use ptsa_host_sim::Instrument;
 use ptsa_host_sim::simulation::sim::SimOptions;
-use ptsa_host_sim::simulation::work::{Estimate, Ticks, human};
+use ptsa_host_sim::simulation::work::{
+    Estimate, Lines, Ticks, human, line, progress_s, seconds_from_env,
+};
 
 /// Estimated seconds beyond which a run needs `--no-limit` (the environment variable
 /// `PTSA_LIMIT_S` sets another).
 pub const LIMIT_S: f64 = 600.0;
 /// Estimated seconds beyond which the estimate is printed before the work starts.
 pub const ANNOUNCE_S: f64 = 10.0;
-/// Seconds between two progress lines when stderr is not a terminal, and before the
-/// first (the environment variable `PTSA_PROGRESS_S` sets another).
-pub const PROGRESS_S: f64 = 10.0;
 /// Seconds of the linear margins of one corner of the tolerance box (`ptsa monte-carlo`),
 /// on one core, on the slow side.
 pub const MARGINS_S_PER_CORNER: f64 = 2e-4;
 /// Most limit cycles the waveform trace takes without `--no-limit`.
 pub const MAX_TRACE_CYCLES: u64 = 10_000;
-
-/// A positive number of seconds from the environment variable `var`, else `default` (with
-/// a warning when it is set but not such a number).
-fn seconds_from_env(var: &str, default: f64) -> f64 {
-    match std::env::var(var) {
-        Err(_) => default,
-        Ok(v) => match v.trim().parse::<f64>() {
-            Ok(s) if s > 0.0 && s.is_finite() => s,
-            _ => {
-                eprintln!(
-                    "warning: {var}={v}: expected a positive number of seconds; using {default}"
-                );
-                default
-            }
-        },
-    }
-}
 
 /// `--no-limit` was given: run whatever the estimate.
 static NO_LIMIT: AtomicBool = AtomicBool::new(false);
@@ -70,12 +53,6 @@ pub fn lifted(force: bool) -> bool {
 pub fn limit_s() -> f64 {
     static LIMIT: OnceLock<f64> = OnceLock::new();
     *LIMIT.get_or_init(|| seconds_from_env("PTSA_LIMIT_S", LIMIT_S))
-}
-
-/// Seconds between progress lines (read once).
-fn progress_s() -> f64 {
-    static EVERY: OnceLock<f64> = OnceLock::new();
-    *EVERY.get_or_init(|| seconds_from_env("PTSA_PROGRESS_S", PROGRESS_S))
 }
 
 /// An estimate of a command's closed-loop ticks, built up by the shape of its runs.
@@ -170,54 +147,6 @@ pub fn check(
         );
     }
     Ok(est)
-}
-
-/// When the progress lines of a log are due: the first after `every_s` seconds of work,
-/// then one every `every_s` seconds (a line missed while the machine was busy is not made
-/// up for).
-#[derive(Clone, Copy, Debug)]
-pub struct Lines {
-    every_s: f64,
-    next_s: f64,
-}
-
-impl Lines {
-    /// Lines every `every_s` seconds, the first after `every_s`.
-    pub fn new(every_s: f64) -> Self {
-        Self {
-            every_s,
-            next_s: every_s,
-        }
-    }
-
-    /// Whether a line is due `elapsed_s` seconds after the start (and if so, the next one
-    /// is due a period later).
-    pub fn due(&mut self, elapsed_s: f64) -> bool {
-        if elapsed_s < self.next_s {
-            return false;
-        }
-        while self.next_s <= elapsed_s {
-            self.next_s += self.every_s;
-        }
-        true
-    }
-}
-
-/// A progress line: `what`, the fraction of the estimated work done (capped at 99 %
-/// while the work runs, `None` when it is not known) and the stage, the elapsed time.
-pub fn line(what: &str, stage: &str, fraction: Option<f64>, elapsed_s: f64) -> String {
-    let stage = if stage.is_empty() {
-        String::new()
-    } else {
-        format!(" ({stage})")
-    };
-    match fraction {
-        Some(f) => format!(
-            "progress: {what}: {:.0} % of the estimated work done{stage}, {elapsed_s:.0} s elapsed",
-            100.0 * f.clamp(0.0, 0.99)
-        ),
-        None => format!("progress: {what}: running{stage}, {elapsed_s:.0} s elapsed"),
-    }
 }
 
 /// Work shown while it runs (see the module docs); stop it with [`Progress::finish`] (or
@@ -378,45 +307,6 @@ pub fn warn_beyond_full_scale(instr: &Instrument, a_cm_s2: f64, what: &str) {
         eprintln!(
             "warning: {what} = {a_cm_s2} cm/s^2 is beyond the loop's full scale of ±{} cm/s^2: the loop saturates and the results are not measurements of the input",
             instr.sf_cm_s2
-        );
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// Lines every 10 s: none in the first 10 s (a short run stays quiet), then one per
-    /// period, whatever the polling; a period the machine slept through is not made up.
-    #[test]
-    fn progress_lines_start_after_a_period_and_come_once_a_period() {
-        let mut l = Lines::new(10.0);
-        let polled: Vec<f64> = (0..=130).map(|k| f64::from(k) * 0.2).collect();
-        let due: Vec<f64> = polled.into_iter().filter(|&t| l.due(t)).collect();
-        assert_eq!(due.len(), 2, "{due:?}");
-        assert!(
-            (due[0] - 10.0).abs() < 1e-9 && (due[1] - 20.0).abs() < 1e-9,
-            "{due:?}"
-        );
-        assert!(!l.due(29.9));
-        assert!(l.due(55.0));
-        assert!(!l.due(59.9));
-        assert!(l.due(60.0));
-    }
-
-    #[test]
-    fn a_progress_line_says_what_how_far_and_how_long() {
-        assert_eq!(
-            line("discover", "baseline", Some(0.421), 65.2),
-            "progress: discover: 42 % of the estimated work done (baseline), 65 s elapsed"
-        );
-        assert_eq!(
-            line("discover", "", Some(1.7), 700.0),
-            "progress: discover: 99 % of the estimated work done, 700 s elapsed"
-        );
-        assert_eq!(
-            line("predict", "", None, 12.0),
-            "progress: predict: running, 12 s elapsed"
         );
     }
 }
