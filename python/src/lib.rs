@@ -660,7 +660,7 @@ fn yield_summary_json(
     let units: Vec<yield_study::Unit> =
         serde_json::from_str(units_json).map_err(|e| PtsaError::new_err(format!("units: {e}")))?;
     yield_study::check_units(&plan, &units).map_err(PtsaError::new_err)?;
-    serde_json::to_string(&yield_study::summary(&s.instr, &plan, &units))
+    serde_json::to_string(&yield_study::summary(&s.instr, &plan, units))
         .map_err(|e| refused(e.into()))
 }
 

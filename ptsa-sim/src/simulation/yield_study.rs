@@ -507,10 +507,10 @@ pub struct YieldJson {
 /// One figure of a unit.
 type Figure = fn(&Unit) -> f64;
 
-/// The study's report from its instruments (in any order; sorted by index here).
+/// The study's report from its instruments (in any order; sorted by index here). It takes
+/// them over, so that a large study is held once.
 #[must_use]
-pub fn summary(nominal: &Instrument, plan: &Plan, units: &[Unit]) -> YieldJson {
-    let mut units = units.to_vec();
+pub fn summary(nominal: &Instrument, plan: &Plan, mut units: Vec<Unit>) -> YieldJson {
     units.sort_by_key(|u| u.index);
     let mut broken_by: BTreeMap<String, u64> = BTreeMap::new();
     let mut within = 0;
@@ -593,7 +593,7 @@ mod tests {
         let whole = units(&i, &o, &p, 0..6);
         let mut pieces = units(&i, &o, &p, 4..6);
         pieces.extend(units(&i, &o, &p, 0..4));
-        assert_eq!(summary(&i, &p, &whole), summary(&i, &p, &pieces));
+        assert_eq!(summary(&i, &p, whole.clone()), summary(&i, &p, pieces));
         assert_ne!(whole[0].parameters, whole[1].parameters);
     }
 
@@ -640,7 +640,7 @@ mod tests {
         // No crossover: no phase margin to meet the limit with; no -180°: any gain margin.
         assert_eq!(broken(&Spec::default(), &u), vec!["phase_margin_deg"]);
         let p = plan(1, 0.01);
-        let y = summary(&Instrument::kearfott_2401(), &p, &[u]);
+        let y = summary(&Instrument::kearfott_2401(), &p, vec![u]);
         assert_eq!(y.distributions["gain_margin_db"].n, 0);
         assert_eq!(y.within_spec, 0);
     }

@@ -133,7 +133,7 @@ pub fn run(ctx: &Ctx, req: &Request, out: &mut dyn Write) -> Result<()> {
     let p = work::Progress::start(&format!("yield, {} instruments", plan.instruments), &est);
     let units = yield_study::units(instr, &req.opts, plan, 0..plan.instruments);
     p.finish();
-    let y = yield_study::summary(instr, plan, &units);
+    let y = yield_study::summary(instr, plan, units);
     if req.json {
         writeln!(out, "{}", serde_json::to_string(&y)?)?;
     } else {
