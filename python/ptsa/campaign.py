@@ -32,10 +32,11 @@ instrument file travels to each task as its text (:func:`ptsa.instrument_text`).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
-from typing import Any, Sequence
+from typing import Any, Iterator, Sequence
 
 import ptsa
 
@@ -86,22 +87,9 @@ def _yield_study_text(
     if ray == "none":
         texts = [_units_task(plan_json, s, c, instrument) for s, c in parts]
         return _summary_text(plan_json, instrument, texts)
-    import ray as ray_mod
-
-    started = not ray_mod.is_initialized()
-    if started:
-        _start(ray_mod, ray, num_cpus)
-    try:
-        # One core per task: the batch engine's thread pool limited to it, so that Ray's
-        # count of CPUs is the cores used.
-        task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
-            _units_task
-        )
-        refs = [task.remote(plan_json, s, c, instrument) for s, c in parts]
-        texts = ray_mod.get(refs)
-    finally:
-        if started:
-            ray_mod.shutdown()
+    with _ray_session(ray, num_cpus) as ray_mod:
+        task = _one_core_task(ray_mod, _units_task)
+        texts = ray_mod.get([task.remote(plan_json, s, c, instrument) for s, c in parts])
     return _summary_text(plan_json, instrument, texts)
 
 
@@ -109,6 +97,29 @@ def _summary_text(plan_json: str, instrument: ptsa.Instrument | None, texts: lis
     """The study's JSON text from its pieces' JSON lists, joined as text."""
     joined = "[" + ",".join(t[1:-1] for t in texts if t != "[]") + "]"
     return ptsa._ptsa.yield_summary_json(plan_json, ptsa._instrument(instrument), joined)
+
+
+@contextlib.contextmanager
+def _ray_session(ray: str, num_cpus: int | None) -> Iterator[Any]:
+    """The module ``ray``, joined to the Ray ``ray`` names (or to the one already
+    initialised in this process, which is left running); a Ray started here is shut down
+    on the way out."""
+    import ray as ray_mod
+
+    started = not ray_mod.is_initialized()
+    if started:
+        _start(ray_mod, ray, num_cpus)
+    try:
+        yield ray_mod
+    finally:
+        if started:
+            ray_mod.shutdown()
+
+
+def _one_core_task(ray_mod: Any, f: Any) -> Any:
+    """``f`` as a Ray task on one core: the library's thread pool limited to it, so that
+    Ray's count of CPUs is the cores used."""
+    return ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(f)
 
 
 def _start(ray_mod: Any, ray: str, num_cpus: int | None) -> None:
@@ -175,15 +186,8 @@ def _noise_lines(
     ptsa._noise_check(**options)  # one refusal for all, before Ray starts
     if ray == "none":
         return [_noise_task(p, _bytes(p), options) for p in paths]
-    import ray as ray_mod
-
-    started = not ray_mod.is_initialized()
-    if started:
-        _start(ray_mod, ray, num_cpus)
-    try:
-        task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
-            _noise_task
-        )
+    with _ray_session(ray, num_cpus) as ray_mod:
+        task = _one_core_task(ray_mod, _noise_task)
         # Each record read on the driver and sent to its task as bytes; one that cannot be
         # read is its refusal, not a task.
         refs = []
@@ -191,9 +195,6 @@ def _noise_lines(
             data = _bytes(p)
             refs.append(data if isinstance(data, ptsa.PtsaError) else task.remote(p, data, options))
         return [_result(ray_mod, p, r) for p, r in zip(paths, refs)]
-    finally:
-        if started:
-            ray_mod.shutdown()
 
 
 def _bytes(path: str) -> bytes | ptsa.PtsaError:
@@ -281,21 +282,11 @@ def hidden(
     t0 = time.perf_counter()
     if ray == "none":
         return _hidden_run(_ptsa.hidden_whole(*key))
-    import ray as ray_mod
-
-    started = not ray_mod.is_initialized()
-    if started:
-        _start(ray_mod, ray, num_cpus)
-    try:
-        task = ray_mod.remote(num_cpus=1, runtime_env={"env_vars": {"RAYON_NUM_THREADS": "1"}})(
-            _ptsa_hidden_part
-        )
+    with _ray_session(ray, num_cpus) as ray_mod:
+        task = _one_core_task(ray_mod, _ptsa_hidden_part)
         refs = [task.remote(key, p, tasks) for p in range(tasks)]
         _wait(ray_mod, refs, "shards", progress)
         shards = ray_mod.get(refs)
-    finally:
-        if started:
-            ray_mod.shutdown()
     return _hidden_run(_ptsa.hidden_gather(*key, shards, time.perf_counter() - t0))
 
 

@@ -85,22 +85,36 @@ fn parse(args: &[String]) -> Result<(bool, Option<&[String]>), Error> {
 
 /// `python -m ptsa.campaign bench ARGS` on the package in `site`.
 fn run_bench(root: &Path, python: &str, site: &Path, args: &[String]) -> Result<(), Error> {
+    let mut argv = vec!["-m", "ptsa.campaign", "bench"];
+    argv.extend(args.iter().map(String::as_str));
+    run_python(root, python, site, &argv, &[])
+        .map_err(|status| format!("the Ray benchmark failed ({status})").into())
+}
+
+/// `python ARGV` with the package in `site` first on the path and `env` set, echoed first.
+fn run_python(
+    root: &Path,
+    python: &str,
+    site: &Path,
+    argv: &[&str],
+    env: &[(&str, &Path)],
+) -> Result<(), String> {
     eprintln!(
-        "+ PYTHONPATH={} {python} -m ptsa.campaign bench {}",
+        "+ PYTHONPATH={} {python} {}",
         site.display(),
-        args.join(" ")
+        argv.join(" ")
     );
     let status = Command::new(python)
-        .args(["-m", "ptsa.campaign", "bench"])
-        .args(args)
+        .args(argv)
         .env("PYTHONPATH", site)
+        .envs(env.iter().copied())
         .current_dir(root)
         .status()
         .map_err(|e| format!("cannot start `{python}`: {e}"))?;
     if status.success() {
         Ok(())
     } else {
-        Err(format!("the Ray benchmark failed ({status})").into())
+        Err(status.to_string())
     }
 }
 
@@ -238,27 +252,14 @@ fn build_and_unpack(root: &Path, python: &str, target: &Path, site: &Path) -> Re
 
 /// pytest on python/tests with the unpacked package first on the path.
 fn test(root: &Path, python: &str, site: &Path, ptsa: &Path) -> Result<(), Error> {
-    eprintln!(
-        "+ PYTHONPATH={} {python} -m pytest python/tests",
-        site.display()
-    );
-    let status = Command::new(python)
-        .args([
-            "-m",
-            "pytest",
-            "-q",
-            "-p",
-            "no:cacheprovider",
-            "python/tests",
-        ])
-        .env("PYTHONPATH", site)
-        .env("PTSA_BIN", ptsa)
-        .current_dir(root)
-        .status()
-        .map_err(|e| format!("cannot start `{python}`: {e}"))?;
-    if status.success() {
-        Ok(())
-    } else {
-        Err(format!("the Python package's tests failed ({status})").into())
-    }
+    let argv = [
+        "-m",
+        "pytest",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "python/tests",
+    ];
+    run_python(root, python, site, &argv, &[("PTSA_BIN", ptsa)])
+        .map_err(|status| format!("the Python package's tests failed ({status})").into())
 }
