@@ -7,13 +7,16 @@
 //! ```
 //!
 //! A run is a list of pieces, each made from the spec and its index alone: a set and its
-//! analysis, scored. Shard `p` of `n` is the pieces at positions `p`, `p + n`, `p + 2n`, …
-//! (so every shard has its share of every kind), and [`gather`] puts them back in order
-//! and makes the run from them as [`whole`] does in one process: the same JSON, byte for
-//! byte, whatever the number of shards or of the workers that ran them. What travels
-//! between processes is the spec (five small values) and each shard's pieces with their
-//! indices, in `postcard`'s binary form (it keeps every `f64` bit for bit, NaN included,
-//! where JSON would turn a NaN into `null`).
+//! analysis, scored. Shard `p` of `n` is the pieces at positions `p`, `p + n`, `p + 2n`, …,
+//! so every shard has its share of every kind. [`gather`] puts them back in order and
+//! makes the run from them as [`whole`] does in one process. So the JSON is the same, byte
+//! for byte, whatever the number of shards or workers; only wall times differ (the
+//! table's, and the triad's fit times in its JSON).
+//!
+//! What travels between processes: the spec (five small values) out, and back each shard
+//! with its spec, its place and its pieces with their indices, checked on gathering. They
+//! travel in `postcard`'s binary form, which keeps every `f64` bit for bit (JSON would turn
+//! a NaN into `null`).
 
 use std::fmt;
 
@@ -170,7 +173,7 @@ pub struct Gathered {
     pub json: String,
     /// The sets that matter for the rates, one line each (as `cargo xtask hidden` logs them).
     pub notable: String,
-    /// The campaign's table, with `seconds` in its first line.
+    /// The campaign's table (the naming and triad campaigns' first line gives `seconds`).
     pub table: String,
     /// The asserted rates not met (empty: the campaign passes), as in `json`.
     pub failures: Vec<String>,
@@ -283,7 +286,7 @@ impl Sharded for TriadCoverage {
         TriadKind::ALL.len() * self.0
     }
     fn piece(&self, i: usize) -> Self::Piece {
-        triad::piece(self.1, i / self.0, i % self.0)
+        triad::piece_at(self.1, self.0, i)
     }
     fn finish(self, pieces: Vec<Self::Piece>, seconds: f64) -> Finished {
         let json = serde_json::to_value(&pieces).unwrap_or_default();
@@ -345,7 +348,7 @@ pub fn part(spec: &Spec, part: usize, parts: usize) -> Result<Vec<u8>, String> {
     }
     with_run!(spec, r => {
         let mine: Vec<usize> = (part..r.count()).step_by(parts).collect();
-        encode(&make(&r, &mine))
+        encode(spec, part, parts, make(&r, &mine))
     })
 }
 
@@ -356,7 +359,7 @@ pub fn part(spec: &Spec, part: usize, parts: usize) -> Result<Vec<u8>, String> {
 /// If a shard's bytes cannot be read or do not hold the pieces its place says.
 pub fn gather(spec: &Spec, shards: &[Vec<u8>], seconds: f64) -> Result<Gathered, String> {
     with_run!(spec, r => {
-        let pieces = put_in_order(r.count(), shards)?;
+        let pieces = put_in_order(spec, r.count(), shards)?;
         Ok(gathered(spec, r.finish(pieces, seconds)))
     })
 }
@@ -372,28 +375,72 @@ pub fn whole(spec: &Spec) -> Gathered {
     })
 }
 
-/// Pieces `indices` of `r`, each with its index.
+/// Pieces `indices` of `r`, each with its index; before each, a point where a host's
+/// Ctrl-C may stop the work (`work::checkpoint`).
 fn make<R: Sharded>(r: &R, indices: &[usize]) -> Vec<(usize, R::Piece)> {
+    let one = |i: usize| {
+        ptsa_host_sim::simulation::work::checkpoint();
+        (i, r.piece(i))
+    };
     if r.parallel() {
-        indices.par_iter().map(|&i| (i, r.piece(i))).collect()
+        indices.par_iter().map(|&i| one(i)).collect()
     } else {
-        indices.iter().map(|&i| (i, r.piece(i))).collect()
+        indices.iter().map(|&i| one(i)).collect()
     }
 }
 
-fn encode<P: Serialize>(pieces: &[(usize, P)]) -> Result<Vec<u8>, String> {
-    postcard::to_stdvec(pieces).map_err(|e| format!("a shard's outcomes: {e}"))
+/// A shard as it travels: the run it belongs to, its place, its pieces.
+#[derive(Serialize, Deserialize)]
+struct Shard<P> {
+    spec: Spec,
+    part: usize,
+    parts: usize,
+    pieces: Vec<(usize, P)>,
 }
 
-/// The `count` pieces of a run from its shards, in order.
-fn put_in_order<P: DeserializeOwned>(count: usize, shards: &[Vec<u8>]) -> Result<Vec<P>, String> {
+fn encode<P: Serialize>(
+    spec: &Spec,
+    part: usize,
+    parts: usize,
+    pieces: Vec<(usize, P)>,
+) -> Result<Vec<u8>, String> {
+    let shard = Shard {
+        spec: *spec,
+        part,
+        parts,
+        pieces,
+    };
+    postcard::to_stdvec(&shard).map_err(|e| format!("a shard's outcomes: {e}"))
+}
+
+/// The `count` pieces of `spec`'s run from its shards, in order.
+fn put_in_order<P: DeserializeOwned>(
+    spec: &Spec,
+    count: usize,
+    shards: &[Vec<u8>],
+) -> Result<Vec<P>, String> {
     let parts = shards.len();
+    if parts == 0 {
+        return Err("no shards: expected shards 0 to n - 1 of the run, in order".into());
+    }
     let mut slots: Vec<Option<P>> = std::iter::repeat_with(|| None).take(count).collect();
     for (p, bytes) in shards.iter().enumerate() {
-        let pieces: Vec<(usize, P)> = postcard::from_bytes(bytes).map_err(|e| {
-            format!("shard {p} of {parts}: its bytes are not this campaign's outcomes: {e}")
-        })?;
-        for (i, piece) in pieces {
+        let shard: Shard<P> = match postcard::take_from_bytes(bytes) {
+            Ok((shard, [])) => shard,
+            Ok(_) | Err(_) => {
+                return Err(format!(
+                    "shard {p} of {parts}: its bytes are not a shard of a {} campaign",
+                    spec.name
+                ));
+            }
+        };
+        if shard.spec != *spec || (shard.part, shard.parts) != (p, parts) {
+            return Err(format!(
+                "shard {p} of {parts}: it is shard {} of {} of another run ({:?}), not of {:?}",
+                shard.part, shard.parts, shard.spec, spec
+            ));
+        }
+        for (i, piece) in shard.pieces {
             if i >= count || i % parts != p || slots[i].is_some() {
                 return Err(format!(
                     "shard {p} of {parts}: set {i} is not this shard's (a run of {count} sets)"
@@ -506,12 +553,21 @@ mod tests {
         let s = spec();
         let a = part(&s, 0, 2).unwrap();
         let b = part(&s, 1, 2).unwrap();
-        let e = gather(&s, &[b, a.clone()], 0.0).unwrap_err();
-        assert!(e.contains("shard 0 of 2: set"), "{e}");
+        let e = gather(&s, &[b.clone(), a.clone()], 0.0).unwrap_err();
+        assert!(e.contains("shard 0 of 2: it is shard 1 of 2"), "{e}");
         let e = gather(&s, std::slice::from_ref(&a), 0.0).unwrap_err();
-        assert!(e.contains("shard 0 of 1"), "{e}");
-        let e = gather(&s, &[a, vec![1, 2, 3]], 0.0).unwrap_err();
-        assert!(e.contains("shard 1 of 2: its bytes"), "{e}");
+        assert!(e.contains("shard 0 of 1: it is shard 0 of 2"), "{e}");
+        let e = gather(&s, &[a.clone(), vec![1, 2, 3]], 0.0).unwrap_err();
+        assert!(e.contains("shard 1 of 2: its bytes are not"), "{e}");
+        let other = Spec { seed: 8, ..s };
+        let c = part(&other, 1, 2).unwrap();
+        let e = gather(&s, &[a.clone(), c], 0.0).unwrap_err();
+        assert!(e.contains("of another run"), "{e}");
+        let mut longer = a.clone();
+        longer.push(0);
+        let e = gather(&s, &[longer, b], 0.0).unwrap_err();
+        assert!(e.contains("shard 0 of 2: its bytes are not"), "{e}");
+        assert!(gather(&s, &[], 0.0).unwrap_err().contains("no shards"));
     }
 
     #[test]

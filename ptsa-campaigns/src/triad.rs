@@ -375,13 +375,20 @@ pub fn piece(seed: u64, kind_index: usize, s: usize) -> SetScore {
     }
 }
 
+/// Set `i` of a run of `sets` per kind, kind by kind in [`TriadKind::ALL`]'s order
+/// ([`piece`]).
+#[must_use]
+pub fn piece_at(seed: u64, sets: usize, i: usize) -> SetScore {
+    piece(seed, i / sets, i % sets)
+}
+
 /// Make and fit `sets` sets of every kind.
 #[must_use]
 pub fn run(sets: usize, seed: u64) -> TriadRun {
     let t0 = Instant::now();
     let pieces: Vec<SetScore> = (0..TriadKind::ALL.len() * sets)
         .into_par_iter()
-        .map(|i| piece(seed, i / sets, i % sets))
+        .map(|i| piece_at(seed, sets, i))
         .collect();
     from_pieces(sets, seed, pieces, t0.elapsed().as_secs_f64())
 }

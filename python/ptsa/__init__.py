@@ -264,6 +264,13 @@ def _noise_json(name: str, text: str, **o: Any) -> str:
     )
 
 
+def _seed_checked(seed: int) -> int:
+    """``seed``, refused unless the library can take it."""
+    if not 0 <= seed < 2**64:
+        raise PtsaError(f"seed {seed}: expected a whole number from 0 to 2^64 - 1")
+    return int(seed)
+
+
 def _noise_check(
     *,
     unit: str | None = None,
@@ -278,8 +285,8 @@ def _noise_check(
 ) -> None:
     """:func:`noise_text`'s options checked without a record (a campaign, before its
     tasks); ``spacing_tol`` is checked with each record of readings."""
-    if seed is not None and not 0 <= seed < 2**64:
-        raise PtsaError(f"seed {seed}: expected a whole number from 0 to 2^64 - 1")
+    if seed is not None:
+        _seed_checked(seed)
     _ptsa.noise_check(
         _instrument(instrument), unit, _taus(taus), float(confidence), bool(compare), bool(identify),
         warmup_s,

@@ -16,10 +16,11 @@ printed. A record travels to its task as its bytes.
 ``python -m ptsa.campaign hidden NAME --sets N --seed S``: a hidden-effect or coverage
 campaign of the analyses (``cargo xtask hidden``'s: ``effects``, ``statics``, ``params``,
 ``lab``, ``sigma``, ``calibration``, ``triad``, ``stability``), cut into ``--tasks``
-shards. Shard ``p`` is the sets at positions ``p``, ``p + tasks``, ... in table order; each
-set depends on the seed, its kind and its index only, so the table and the ``--json`` line
-are the same whatever the number of tasks or workers (but for the triad's fit times). What
-travels is five small values out and each shard's outcomes back, as bytes.
+shards. Shard ``p`` is the sets at positions ``p``, ``p + tasks``, ... in table order. Each
+set depends on the seed, its kind and its index only. So the table and the ``--json`` line
+are the same whatever the number of tasks or workers, but for wall times (the table's, the
+triad's fits). What travels is five small values out and each shard's outcomes back, as
+bytes.
 
 ``--ray none`` (the default) runs the tasks one after another in this process, without
 Ray, and opens no port. ``--ray local`` starts a new Ray on this machine: its processes
@@ -240,11 +241,12 @@ def _noise_task(name: str, data: bytes | ptsa.PtsaError, options: dict[str, Any]
 
 
 class HiddenRun(dict):
-    """A campaign put together: ``json`` (the dict the ``--json`` line holds: every
-    set's outcome in table order and the ``failures``), ``text`` (that line),
-    ``notable`` (the sets that matter for the rates), ``table`` (the campaign's table, its
-    wall time in the first line) and ``failures`` (the asserted rates not met; empty: the
-    campaign passes)."""
+    """A campaign put together, as a dict.
+
+    ``json`` is the dict the ``--json`` line holds (every set's outcome in table order, and
+    the ``failures``); ``text`` is that line. ``notable`` lists the sets that matter for the
+    rates (naming campaigns only). ``table`` is the campaign's table, and ``failures`` the
+    asserted rates not met (empty: the campaign passes)."""
 
 
 def hidden(
@@ -269,7 +271,8 @@ def hidden(
         additive: ``statics``: the loop's parameters left out of the vocabulary.
         ray: as :func:`yield_study`'s; ``"none"`` runs the whole campaign in this process
             on every core.
-        tasks: shards, one Ray task each (a shard beyond the campaign's sets is empty).
+        tasks: shards, one Ray task each (a shard beyond the campaign's sets is empty); not
+            used with ``ray="none"``.
         progress: a line on standard error as each shard ends.
     """
     import time
@@ -277,16 +280,20 @@ def hidden(
     _ptsa = ptsa._ptsa
     if tasks < 1:
         raise ptsa.PtsaError(f"tasks {tasks}: expected 1 or more")
-    key = (name, int(sets), int(seed), bool(analytic), bool(additive))
+    # Any count below 1 is refused as 0 is, by the library.
+    key = (name, max(int(sets), 0), ptsa._seed_checked(seed), bool(analytic), bool(additive))
     _ptsa.hidden_check(*key)  # one refusal for all, before Ray starts
-    t0 = time.perf_counter()
     if ray == "none":
         return _hidden_run(_ptsa.hidden_whole(*key))
+    t0 = time.perf_counter()
     with _ray_session(ray, num_cpus) as ray_mod:
         task = _one_core_task(ray_mod, _ptsa_hidden_part)
         refs = [task.remote(key, p, tasks) for p in range(tasks)]
-        _wait(ray_mod, refs, "shards", progress)
-        shards = ray_mod.get(refs)
+        try:
+            _wait(ray_mod, refs, "shards", progress)
+            shards = ray_mod.get(refs)
+        except Exception as e:  # noqa: BLE001  (a task failed or its worker was lost)
+            raise ptsa.PtsaError(f"{name}: a shard's task failed: {type(e).__name__}: {e}") from None
     return _hidden_run(_ptsa.hidden_gather(*key, shards, time.perf_counter() - t0))
 
 
@@ -406,13 +413,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="effects (xtask hidden), statics (--statics), params (--parameters), lab (--lab), "
                          "sigma (--sigma), calibration (--calibration), triad (--triad), stability (--stability)")
     hd.add_argument("--sets", type=int, required=True,
-                    help="sets per kind; calibration and stability: sets in all (xtask's defaults: effects 50, "
-                         "statics 200, params 10, lab 140, sigma 600, calibration 2000, triad 600, stability 2000)")
+                    help="sets per kind; calibration and stability: sets in all (cargo xtask help hidden "
+                         "gives each campaign's published size)")
     hd.add_argument("--seed", type=int, required=True, help="the campaign's seed")
     hd.add_argument("--analytic", action="store_true",
                     help="effects, lab: data from the quasi-static model, analysed with the analytic simulator")
     hd.add_argument("--additive", action="store_true", help="statics: the loop's parameters out of the vocabulary")
-    hd.add_argument("--tasks", type=int, default=64, help="shards, one task each (default 64)")
+    hd.add_argument("--tasks", type=int, default=64, help="with --ray: shards, one task each (default 64)")
     hd.add_argument("--json", action="store_true", help="print the JSON line (every set, the failures), not the table")
     for q in (mc, nz, hd):
         q.add_argument("--ray", default="none",

@@ -37,6 +37,15 @@ pub fn interruptible<T: Send>(
     what: &str,
     f: impl FnOnce() -> T + Send,
 ) -> PyResult<T> {
+    // The stage is the process's: one call's last stage is not the next one's.
+    work::set_stage("");
+    let r = run_and_watch(py, what, f);
+    work::set_stage("");
+    r
+}
+
+/// [`interruptible`] without its stage reset.
+fn run_and_watch<T: Send>(py: Python<'_>, what: &str, f: impl FnOnce() -> T + Send) -> PyResult<T> {
     let finished = (Mutex::new(false), Condvar::new());
     let (start, mut lines) = (Instant::now(), Lines::new(work::progress_s()));
     std::thread::scope(|s| {

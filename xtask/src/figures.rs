@@ -288,7 +288,7 @@ const FIGURES: &[Figure] = &[
     Figure {
         id: "bench-ray",
         title: "speed: the yield study as Ray tasks on 1 and on 2 workers (the Python package, built as `pip install ./python` builds it)",
-        claim: "2 workers run the study at least 1.5 times as fast as 1 (median of 3 runs each), its JSON the same on both (checked in CI)",
+        claim: "2 workers run the study at least 1.5 times as fast as 1 (median of 3 runs each)",
         quoted_in: "docs/method/host-sim.md",
         measure: Measure::Bench {
             command: &["xtask", "python", "--bench"],

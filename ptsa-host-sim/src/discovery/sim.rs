@@ -243,10 +243,14 @@ impl Simulator for AnalyticSimulator {
     }
 
     fn difference_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        // The analytic model runs no closed loop, so each row is where a host's Ctrl-C may
+        // stop it (one atomic load).
+        crate::simulation::work::checkpoint();
         effect_cm_s2(cond, &self.total(effects), self.g_cm_s2)
     }
 
     fn absolute_cm_s2(&self, cond: &Condition, effects: &Effects) -> f64 {
+        crate::simulation::work::checkpoint();
         // Every oscillation averages to zero in the specific force; the mean is gravity
         // plus a centrifuge arm's push.
         let m = cond.prepare(self.g_cm_s2).mean_inputs();

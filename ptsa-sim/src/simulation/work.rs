@@ -14,8 +14,9 @@
 //!   computation before such a stage.
 //! * Cancellation, for a host whose user pressed Ctrl-C while a call runs (Python's):
 //!   [`cancel`], checked at every [`checkpoint`] (the end of each closed-loop run and of
-//!   each step of the batch engine; the analysis adds its own, such as each averaging time
-//!   of an Allan analysis), and [`resume`].
+//!   each step of the batch engine; the analysis adds its own: each row of the analytic
+//!   model, each averaging time of an Allan analysis, each set of a campaign), and
+//!   [`resume`].
 
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};

@@ -1,6 +1,7 @@
 //! Work that is estimated before it runs (refused beyond a limit without `--no-limit`, and
 //! announced when it is long), and shown while it runs: a progress bar on stderr when it is
-//! a terminal; otherwise (a log, a pipe) a plain line every [`PROGRESS_S`] seconds (the
+//! a terminal; otherwise (a log, a pipe) a plain line every
+//! [`PROGRESS_S`](ptsa_host_sim::simulation::work::PROGRESS_S) seconds (the
 //! environment variable `PTSA_PROGRESS_S` sets another) once the
 //! work has run that long, so that a short run stays quiet.
 //!
