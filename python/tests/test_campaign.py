@@ -137,3 +137,7 @@ def test_a_naming_campaign_refuses_what_it_does_not_have_before_any_task():
         campaign.hidden("sigma", sets=0, seed=1)
     with pytest.raises(ptsa.PtsaError, match="tasks 0"):
         campaign.hidden("sigma", sets=1, seed=1, tasks=0)
+    with pytest.raises(ptsa.PtsaError, match="at least 1 set"):
+        campaign.hidden("sigma", sets=-3, seed=1)
+    with pytest.raises(ptsa.PtsaError, match=r"seed -1: expected a whole number from 0 to 2\^64 - 1"):
+        campaign.hidden("sigma", sets=1, seed=-1)
