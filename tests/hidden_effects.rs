@@ -20,17 +20,13 @@
 
 use ptsa_campaigns::Run;
 use ptsa_campaigns::campaign::{assert_met, env, env_flag};
-use ptsa_campaigns::effects::Effects;
+use ptsa_campaigns::effects::{self, Effects};
 
 /// Sets of every kind in the CI test: 19 kinds × 35 = 665 sets, about 25 s on two cores.
 /// A null or misnaming kind fails when its count k has `P(X ≥ k | 35, 5 %) < 1 %`, i.e. at
 /// 6 or more of 35: a kind whose true rate is exactly 5 % fails with probability 0.7 %, one
 /// at 20 % with probability 73 % (`campaign::RATE_TEST_LEVEL`).
 const CI_SETS: usize = 35;
-
-fn campaign() -> Effects {
-    Effects::of(env_flag("PTSA_HIDDEN_ANALYTIC"))
-}
 
 fn check(c: &Run<Effects>, ci: bool) {
     use std::io::Write as _;
@@ -50,7 +46,10 @@ fn check(c: &Run<Effects>, ci: bool) {
 
 #[test]
 fn hidden_effects_ci() {
-    check(&Run::new(campaign(), CI_SETS, 2026), true);
+    check(
+        &effects::run(CI_SETS, 2026, env_flag("PTSA_HIDDEN_ANALYTIC")),
+        true,
+    );
 }
 
 #[test]
@@ -58,5 +57,8 @@ fn hidden_effects_ci() {
 fn hidden_effects_campaign() {
     let n: usize = env("PTSA_HIDDEN_SETS", 50);
     let seed: u64 = env("PTSA_HIDDEN_SEED", 4242);
-    check(&Run::new(campaign(), n, seed), false);
+    check(
+        &effects::run(n, seed, env_flag("PTSA_HIDDEN_ANALYTIC")),
+        false,
+    );
 }

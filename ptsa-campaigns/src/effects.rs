@@ -86,15 +86,10 @@ impl Effects {
     }
 }
 
-/// `sets_per_kind` sets of every kind.
+/// `sets_per_kind` sets of every kind, as [`Effects::of`] makes and analyses them.
 #[must_use]
-pub fn run(
-    sets_per_kind: usize,
-    seed: u64,
-    source: Generator,
-    fit: Box<dyn Simulator>,
-) -> Run<Effects> {
-    Run::new(Effects::new(source, fit), sets_per_kind, seed)
+pub fn run(sets_per_kind: usize, seed: u64, analytic: bool) -> Run<Effects> {
+    Run::new(Effects::of(analytic), sets_per_kind, seed)
 }
 
 /// The figures of one table row.
